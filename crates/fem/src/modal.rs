@@ -1,0 +1,107 @@
+//! The reduced (component-mode-synthesis) description of a flexible body, handed to `mbs`.
+
+use nalgebra::{DMatrix, Vector3};
+use sens::Scalar;
+
+/// Degrees of freedom per node in [`ModalBody::modes`]: three translations then three rotations
+/// (small rotation vector), all in the body frame.
+pub const NODE_DOFS: usize = 6;
+
+/// A flexible body reduced to a few vibration modes, in its body (floating) frame.
+///
+/// Conventions (paper §2.1–2.3, Eqs. 2, 11, 12):
+/// - the body frame is the one the modes were computed in: for the paper's default reference
+///   condition it sits at the node at the centre of mass, whose six dof were clamped;
+/// - `modes` has `6 · n_nodes` rows ordered node by node as `[u_x, u_y, u_z, θ_x, θ_y, θ_z]`
+///   and one column per retained mode, so the nodal displacements are `u' = X w` (Eq. 11);
+/// - the lumped (diagonalised) nodal masses `m_k` and rotary inertias `μ_k` are those of Eq. (2);
+///   the modes are mass-normalised with respect to that lumped mass matrix, so `XᵀMX = I`;
+/// - `eigenvalues` are `ω_i²` (rad²/s²), `modal_damping` is the diagonal of `XᵀCX`,
+///   `2 ζ_i ω_i` (1/s) for proportional damping.
+///
+/// With `S = Dual<N>` the entries of `modes`, `eigenvalues` and `modal_damping` carry their
+/// derivatives with respect to the design variables (zero mode tangents for the fixed-mode
+/// approach, Eq. 47; Nelson's derivatives for the updated-mode approach, Eq. 46).
+#[derive(Clone, Debug)]
+pub struct ModalBody<S: Scalar> {
+    /// Undeformed node positions in the body frame (m).
+    pub node_positions: Vec<Vector3<f64>>,
+    /// Lumped nodal masses `m_k` (kg).
+    pub node_masses: Vec<f64>,
+    /// Lumped nodal rotary inertias `μ_k` about the body axes through the node (kg·m²).
+    pub node_inertias: Vec<Vector3<f64>>,
+    /// Mode shapes `X`, `6 · n_nodes × n_modes`.
+    pub modes: DMatrix<S>,
+    /// `ω_i²` for each retained mode (rad²/s²).
+    pub eigenvalues: Vec<S>,
+    /// Diagonal modal damping `2 ζ_i ω_i` for each retained mode (1/s).
+    pub modal_damping: Vec<S>,
+}
+
+/// Why a [`ModalBody`] is inconsistent.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ModalBodyError {
+    #[error("modal body has {positions} node positions but {masses} masses and {inertias} inertias")]
+    NodeCount { positions: usize, masses: usize, inertias: usize },
+    #[error("mode matrix has {rows} rows, expected 6 × {nodes} nodes = {expected}")]
+    ModeRows { rows: usize, nodes: usize, expected: usize },
+    #[error("{modes} modes but {eigenvalues} eigenvalues and {damping} damping values")]
+    ModeCount { modes: usize, eigenvalues: usize, damping: usize },
+    #[error("node {node}: {what} = {value} must be finite and non-negative")]
+    BadMass { node: usize, what: &'static str, value: f64 },
+}
+
+impl<S: Scalar> ModalBody<S> {
+    /// Number of FE nodes.
+    pub fn n_nodes(&self) -> usize {
+        self.node_positions.len()
+    }
+
+    /// Number of retained modes.
+    pub fn n_modes(&self) -> usize {
+        self.modes.ncols()
+    }
+
+    /// Total mass `Σ m_k` (kg).
+    pub fn total_mass(&self) -> f64 {
+        self.node_masses.iter().sum()
+    }
+
+    /// Check that the sizes agree and the masses are physical.
+    pub fn validate(&self) -> Result<(), ModalBodyError> {
+        let n = self.n_nodes();
+        if self.node_masses.len() != n || self.node_inertias.len() != n {
+            return Err(ModalBodyError::NodeCount {
+                positions: n,
+                masses: self.node_masses.len(),
+                inertias: self.node_inertias.len(),
+            });
+        }
+        if self.modes.nrows() != NODE_DOFS * n {
+            return Err(ModalBodyError::ModeRows {
+                rows: self.modes.nrows(),
+                nodes: n,
+                expected: NODE_DOFS * n,
+            });
+        }
+        let m = self.n_modes();
+        if self.eigenvalues.len() != m || self.modal_damping.len() != m {
+            return Err(ModalBodyError::ModeCount {
+                modes: m,
+                eigenvalues: self.eigenvalues.len(),
+                damping: self.modal_damping.len(),
+            });
+        }
+        for (k, (&mk, mu)) in self.node_masses.iter().zip(&self.node_inertias).enumerate() {
+            if !(mk.is_finite() && mk >= 0.0) {
+                return Err(ModalBodyError::BadMass { node: k, what: "mass", value: mk });
+            }
+            for &v in mu.iter() {
+                if !(v.is_finite() && v >= 0.0) {
+                    return Err(ModalBodyError::BadMass { node: k, what: "inertia", value: v });
+                }
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,1 @@
+//! Rigid–flexible multibody dynamics and the BDF integrator (placeholder; filled by a later issue).

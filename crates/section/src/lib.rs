@@ -1,0 +1,1 @@
+//! Finite-element cross-section analysis of composite beams (placeholder; filled by a later issue).

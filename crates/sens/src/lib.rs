@@ -1,0 +1,22 @@
+//! `sens` — the bottom layer of flexsens: exact first-order derivatives.
+//!
+//! It owns
+//! - the [`Scalar`] trait, the one numeric generic of the project, implemented for `f64`
+//!   (plain analysis) and for [`Dual<N>`] (a value plus `N` tangent components, hand-written
+//!   forward-mode automatic differentiation);
+//! - seeding of design variables and the evaluation of a function of many design variables in
+//!   chunks of a compile-time width `N` ([`seed`], [`jacobian`]);
+//! - pushing tangents through a linear solve whose matrix was factorised once in `f64`
+//!   ([`solve`]): DESIGN.md §1, the pattern of the paper's Eq. (40).
+//!
+//! It knows nothing about laminates, finite elements, multibody systems or decks.
+
+mod dual;
+mod scalar;
+pub mod seed;
+pub mod solve;
+
+pub use dual::Dual;
+pub use scalar::Scalar;
+pub use seed::{Jacobian, chunk_ranges, gradient, jacobian, seed_chunk};
+pub use solve::{LinearSolver, solve_tangents};

@@ -1,0 +1,178 @@
+//! The [`Scalar`] trait: the one numeric generic of flexsens.
+
+use std::fmt::{Debug, Display};
+use std::iter::Sum;
+use std::ops::{
+    Add, AddAssign, Div, DivAssign, Mul, MulAssign, Neg, Sub, SubAssign,
+};
+
+use num_traits::{One, Zero};
+
+/// Real arithmetic that every numerical routine of flexsens is generic over.
+///
+/// Implemented for `f64` (plain analysis) and for [`crate::Dual<N>`] (value plus `N` tangents).
+/// Comparisons (`==`, `<`, …) look at the value only, so that branches take the same path for a
+/// dual number as for its value. Mixed arithmetic with `f64` on the right (`x * 2.0`) is
+/// available; write constants on the left as `S::from_f64(2.0) * x`.
+///
+/// The supertraits make the type usable inside nalgebra matrices for products (`Zero`, `One`,
+/// closed `+`/`*`), which is all the design needs: decompositions are done in `f64` and tangents
+/// pushed through them with [`crate::solve_tangents`].
+pub trait Scalar:
+    Copy
+    + Debug
+    + Display
+    + Default
+    + PartialEq
+    + PartialOrd
+    + Send
+    + Sync
+    + 'static
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+    + AddAssign
+    + SubAssign
+    + MulAssign
+    + DivAssign
+    + Add<f64, Output = Self>
+    + Sub<f64, Output = Self>
+    + Mul<f64, Output = Self>
+    + Div<f64, Output = Self>
+    + AddAssign<f64>
+    + SubAssign<f64>
+    + MulAssign<f64>
+    + DivAssign<f64>
+    + From<f64>
+    + Zero
+    + One
+    + Sum
+{
+    /// Number of tangent components carried (0 for `f64`).
+    const TANGENTS: usize;
+
+    /// A constant (all tangents zero).
+    fn from_f64(x: f64) -> Self;
+    /// The value, without tangents.
+    fn value(self) -> f64;
+    /// The tangent components (empty for `f64`).
+    fn tangents(&self) -> &[f64];
+    /// Tangent component `k`, 0 when `k` is beyond [`Scalar::TANGENTS`].
+    fn tangent(&self, k: usize) -> f64 {
+        self.tangents().get(k).copied().unwrap_or(0.0)
+    }
+
+    fn sqrt(self) -> Self;
+    fn sin(self) -> Self;
+    fn cos(self) -> Self;
+    fn tan(self) -> Self;
+    fn asin(self) -> Self;
+    fn acos(self) -> Self;
+    fn atan(self) -> Self;
+    /// Four-quadrant arctangent of `self / x` (`self` is `y`).
+    fn atan2(self, x: Self) -> Self;
+    fn exp(self) -> Self;
+    /// Natural logarithm.
+    fn ln(self) -> Self;
+    fn powi(self, n: i32) -> Self;
+    fn powf(self, p: Self) -> Self;
+    fn abs(self) -> Self;
+    /// `sqrt(self² + other²)` without needless overflow.
+    fn hypot(self, other: Self) -> Self;
+
+    /// `sin` and `cos` together.
+    fn sin_cos(self) -> (Self, Self) {
+        (self.sin(), self.cos())
+    }
+    /// The larger by value (the first on a tie).
+    fn max(self, other: Self) -> Self {
+        if other.value() > self.value() { other } else { self }
+    }
+    /// The smaller by value (the first on a tie).
+    fn min(self, other: Self) -> Self {
+        if other.value() < self.value() { other } else { self }
+    }
+    /// Whether the value and every tangent are finite.
+    fn is_finite(self) -> bool {
+        self.value().is_finite() && self.tangents().iter().all(|t| t.is_finite())
+    }
+}
+
+impl Scalar for f64 {
+    const TANGENTS: usize = 0;
+
+    #[inline]
+    fn from_f64(x: f64) -> Self {
+        x
+    }
+    #[inline]
+    fn value(self) -> f64 {
+        self
+    }
+    #[inline]
+    fn tangents(&self) -> &[f64] {
+        &[]
+    }
+    #[inline]
+    fn sqrt(self) -> Self {
+        f64::sqrt(self)
+    }
+    #[inline]
+    fn sin(self) -> Self {
+        f64::sin(self)
+    }
+    #[inline]
+    fn cos(self) -> Self {
+        f64::cos(self)
+    }
+    #[inline]
+    fn tan(self) -> Self {
+        f64::tan(self)
+    }
+    #[inline]
+    fn asin(self) -> Self {
+        f64::asin(self)
+    }
+    #[inline]
+    fn acos(self) -> Self {
+        f64::acos(self)
+    }
+    #[inline]
+    fn atan(self) -> Self {
+        f64::atan(self)
+    }
+    #[inline]
+    fn atan2(self, x: Self) -> Self {
+        f64::atan2(self, x)
+    }
+    #[inline]
+    fn exp(self) -> Self {
+        f64::exp(self)
+    }
+    #[inline]
+    fn ln(self) -> Self {
+        f64::ln(self)
+    }
+    #[inline]
+    fn powi(self, n: i32) -> Self {
+        f64::powi(self, n)
+    }
+    #[inline]
+    fn powf(self, p: Self) -> Self {
+        f64::powf(self, p)
+    }
+    #[inline]
+    fn abs(self) -> Self {
+        f64::abs(self)
+    }
+    #[inline]
+    fn hypot(self, other: Self) -> Self {
+        f64::hypot(self, other)
+    }
+    #[inline]
+    fn sin_cos(self) -> (Self, Self) {
+        f64::sin_cos(self)
+    }
+}
