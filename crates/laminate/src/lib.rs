@@ -24,4 +24,4 @@ pub use rotation::{
     bond_stress_matrix, plane_stress, rotate_stiffness, rotated_stiffness_angle_derivative,
     rotation_about_normal, transverse_shear,
 };
-pub use stack::{LaminateStiffness, Ply, PlyStack, ReferenceSurface, DEFAULT_SHEAR_CORRECTION};
+pub use stack::{DEFAULT_SHEAR_CORRECTION, LaminateStiffness, Ply, PlyStack, ReferenceSurface};

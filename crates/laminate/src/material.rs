@@ -68,7 +68,10 @@ impl OrthotropicMaterial {
         if normal.cholesky().is_none() {
             let d1 = s[(0, 0)] * s[(1, 1)] - s[(0, 1)] * s[(0, 1)];
             let reason = if d1 <= 0.0 {
-                format!("nu12 = {nu12} exceeds sqrt(E1/E2) = {:.6}", (e1 / e2).sqrt())
+                format!(
+                    "nu12 = {nu12} exceeds sqrt(E1/E2) = {:.6}",
+                    (e1 / e2).sqrt()
+                )
             } else {
                 format!(
                     "1 − ν12ν21 − ν23ν32 − ν13ν31 − 2ν21ν32ν13 ≤ 0 with nu12 = {nu12}, \

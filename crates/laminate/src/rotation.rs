@@ -53,10 +53,12 @@ pub fn rotated_stiffness_angle_derivative(c_bar: &Matrix6<f64>, theta: f64) -> M
     let mut dt = Matrix6::zeros();
     for (a, &(i, j)) in PAIRS.iter().enumerate() {
         for (b, &(k, l)) in PAIRS.iter().enumerate() {
-            let term = |p: usize, q: usize| {
-                dr[(i, p)] * r[(j, q)] + r[(i, p)] * dr[(j, q)]
+            let term = |p: usize, q: usize| dr[(i, p)] * r[(j, q)] + r[(i, p)] * dr[(j, q)];
+            dt[(a, b)] = if k == l {
+                term(k, l)
+            } else {
+                term(k, l) + term(l, k)
             };
-            dt[(a, b)] = if k == l { term(k, l) } else { term(k, l) + term(l, k) };
         }
     }
     let t = bond_stress_matrix(&r);

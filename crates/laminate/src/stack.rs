@@ -24,7 +24,10 @@ pub struct Ply<S: Scalar> {
 impl<S: Scalar> Ply<S> {
     /// The ply's 3-D stiffness in laminate axes, `C = T(θ) C̄ T(θ)ᵀ` (Pa).
     pub fn stiffness(&self) -> Matrix6<S> {
-        rotate_stiffness(&self.material.stiffness(), &rotation_about_normal(self.angle))
+        rotate_stiffness(
+            &self.material.stiffness(),
+            &rotation_about_normal(self.angle),
+        )
     }
 }
 
@@ -138,18 +141,27 @@ impl<S: Scalar> PlyStack<S> {
                 return Err(LaminateError::PlyThickness { ply: k, value: t });
             }
             if !p.angle.value().is_finite() {
-                return Err(LaminateError::PlyAngle { ply: k, value: p.angle.value() });
+                return Err(LaminateError::PlyAngle {
+                    ply: k,
+                    value: p.angle.value(),
+                });
             }
         }
         if !(shear_correction > 0.0 && shear_correction <= 1.0) {
-            return Err(LaminateError::ShearCorrection { value: shear_correction });
+            return Err(LaminateError::ShearCorrection {
+                value: shear_correction,
+            });
         }
         if let ReferenceSurface::Offset(e) = reference
             && !e.is_finite()
         {
             return Err(LaminateError::ReferenceOffset { value: e });
         }
-        Ok(Self { plies, reference, shear_correction })
+        Ok(Self {
+            plies,
+            reference,
+            shear_correction,
+        })
     }
 
     /// The plies, bottom first.

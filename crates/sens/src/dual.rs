@@ -173,10 +173,10 @@ impl<const N: usize> Div for Dual<N> {
 impl<const N: usize> DivAssign for Dual<N> {
     #[inline]
     fn div_assign(&mut self, rhs: Self) {
-        let inv = 1.0 / rhs.v;
-        let q = self.v * inv;
+        // the value is divided exactly as f64 would, so both paths give identical values
+        let q = self.v / rhs.v;
         for (a, b) in self.d.iter_mut().zip(rhs.d) {
-            *a = (*a - q * b) * inv;
+            *a = (*a - q * b) / rhs.v;
         }
         self.v = q;
     }
@@ -251,8 +251,10 @@ impl<const N: usize> Div<f64> for Dual<N> {
 impl<const N: usize> DivAssign<f64> for Dual<N> {
     #[inline]
     fn div_assign(&mut self, rhs: f64) {
-        let inv = 1.0 / rhs;
-        *self *= inv;
+        self.v /= rhs;
+        for a in &mut self.d {
+            *a /= rhs;
+        }
     }
 }
 impl<const N: usize> Add<Dual<N>> for f64 {
@@ -369,7 +371,10 @@ impl<const N: usize> Scalar for Dual<N> {
                 d[k] = (x.v * y.d[k] - y.v * x.d[k]) / r2;
             }
         }
-        Self { v: y.v.atan2(x.v), d }
+        Self {
+            v: y.v.atan2(x.v),
+            d,
+        }
     }
     #[inline]
     fn exp(self) -> Self {
@@ -402,7 +407,11 @@ impl<const N: usize> Scalar for Dual<N> {
         let ln_a = self.v.ln();
         let mut d = [0.0; N];
         for k in 0..N {
-            let base = if self.d[k] == 0.0 { 0.0 } else { p.v * self.d[k] / self.v };
+            let base = if self.d[k] == 0.0 {
+                0.0
+            } else {
+                p.v * self.d[k] / self.v
+            };
             d[k] = f * (p.d[k] * ln_a + base);
         }
         Self { v: f, d }

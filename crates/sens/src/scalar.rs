@@ -2,9 +2,7 @@
 
 use std::fmt::{Debug, Display};
 use std::iter::Sum;
-use std::ops::{
-    Add, AddAssign, Div, DivAssign, Mul, MulAssign, Neg, Sub, SubAssign,
-};
+use std::ops::{Add, AddAssign, Div, DivAssign, Mul, MulAssign, Neg, Sub, SubAssign};
 
 use num_traits::{One, Zero};
 
@@ -88,11 +86,19 @@ pub trait Scalar:
     }
     /// The larger by value (the first on a tie).
     fn max(self, other: Self) -> Self {
-        if other.value() > self.value() { other } else { self }
+        if other.value() > self.value() {
+            other
+        } else {
+            self
+        }
     }
     /// The smaller by value (the first on a tie).
     fn min(self, other: Self) -> Self {
-        if other.value() < self.value() { other } else { self }
+        if other.value() < self.value() {
+            other
+        } else {
+            self
+        }
     }
     /// Whether the value and every tangent are finite.
     fn is_finite(self) -> bool {

@@ -59,7 +59,10 @@ where
     if m == 0 {
         let value: Vec<f64> = f(&seed_chunk::<N>(b, 0)).iter().map(|x| x.v).collect();
         let rows = value.len();
-        return Jacobian { value, jacobian: DMatrix::zeros(rows, 0) };
+        return Jacobian {
+            value,
+            jacobian: DMatrix::zeros(rows, 0),
+        };
     }
     let mut value = Vec::new();
     let mut jac = DMatrix::zeros(0, m);
@@ -69,14 +72,21 @@ where
             value = out.iter().map(|x| x.v).collect();
             jac = DMatrix::zeros(out.len(), m);
         }
-        assert_eq!(out.len(), value.len(), "function output length changed between chunks");
+        assert_eq!(
+            out.len(),
+            value.len(),
+            "function output length changed between chunks"
+        );
         for (i, y) in out.iter().enumerate() {
             for (k, j) in range.clone().enumerate() {
                 jac[(i, j)] = y.d[k];
             }
         }
     }
-    Jacobian { value, jacobian: jac }
+    Jacobian {
+        value,
+        jacobian: jac,
+    }
 }
 
 /// Value and gradient of a scalar function, evaluated in chunks of `N` design variables.
