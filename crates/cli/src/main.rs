@@ -1,1 +1,61 @@
-fn main() {}
+//! The `flexsens` binary: command line → commands → exit codes (see the library docs).
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+use flexsens::commands::{self, Format};
+
+#[derive(Parser)]
+#[command(
+    name = "flexsens",
+    version,
+    about = "Flexible multibody dynamics of composite mechanisms with exact design sensitivities"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Plate stiffness (A, B, D, transverse shear) and inertia of the deck's laminates.
+    Laminate {
+        /// The deck (TOML).
+        deck: PathBuf,
+        /// Only this laminate (default: all).
+        #[arg(long, value_name = "NAME")]
+        laminate: Option<String>,
+        /// Output format.
+        #[arg(long, value_enum, default_value_t = Format::Table)]
+        format: Format,
+        /// Also print the derivatives with respect to each ply angle (per radian).
+        #[arg(long)]
+        derivatives: bool,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match &cli.command {
+        Command::Laminate {
+            deck,
+            laminate,
+            format,
+            derivatives,
+        } => commands::laminate::run(deck, laminate.as_deref(), *format, *derivatives),
+    };
+    match result {
+        Ok(text) => {
+            // a closed pipe (e.g. `| head`) is not an error worth a panic
+            let _ = std::io::stdout().write_all(text.as_bytes());
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        }
+    }
+}

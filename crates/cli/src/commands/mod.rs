@@ -1,0 +1,14 @@
+//! The subcommands of `flexsens`.
+
+pub mod laminate;
+
+/// How results are printed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Format {
+    /// Aligned, human-readable tables.
+    Table,
+    /// One JSON document.
+    Json,
+    /// Long-format CSV: one value per row.
+    Csv,
+}

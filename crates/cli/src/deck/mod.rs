@@ -1,0 +1,149 @@
+//! Decks: TOML input files, read in two stages.
+//!
+//! 1. [`raw`]: serde structs that mirror the file (`deny_unknown_fields`, values wrapped in
+//!    `Spanned` so that validation can point at them);
+//! 2. validation into the engine's types (`laminate::PlyStack`, …), where every error becomes a
+//!    [`DeckError`] naming the file, line, column and dotted key.
+//!
+//! Only this module knows TOML; the engine crates never see it.
+
+pub mod laminates;
+pub mod raw;
+
+use std::fmt;
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+pub use raw::RawDeck;
+
+/// An error in a deck, located in its file.
+#[derive(Debug, Clone)]
+pub struct DeckError {
+    pub file: PathBuf,
+    /// 1-based line and column, when the error has a place in the file.
+    pub line: Option<(usize, usize)>,
+    /// The dotted key, e.g. `laminate.rod.plies[2].thickness`.
+    pub key: Option<String>,
+    pub message: String,
+    /// The offending source line, for display.
+    pub snippet: Option<String>,
+}
+
+impl fmt::Display for DeckError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.file.display())?;
+        if let Some((l, c)) = self.line {
+            write!(f, ":{l}:{c}")?;
+        }
+        write!(f, ": ")?;
+        if let Some(k) = &self.key {
+            write!(f, "key `{k}`: ")?;
+        }
+        write!(f, "{}", self.message)?;
+        if let (Some(s), Some((l, c))) = (&self.snippet, self.line) {
+            let gutter = l.to_string().len();
+            write!(
+                f,
+                "\n{:gutter$} |\n{l} | {s}\n{:gutter$} | {:>c$}",
+                "", "", "^"
+            )?;
+        }
+        Ok(())
+    }
+}
+
+impl std::error::Error for DeckError {}
+
+/// The text of a deck and where it came from, for locating errors.
+pub struct Source {
+    pub file: PathBuf,
+    pub text: String,
+}
+
+impl Source {
+    /// Read a deck file.
+    pub fn read(path: &Path) -> Result<Self, DeckError> {
+        let text = std::fs::read_to_string(path).map_err(|e| DeckError {
+            file: path.to_path_buf(),
+            line: None,
+            key: None,
+            message: format!("cannot read the deck: {e}"),
+            snippet: None,
+        })?;
+        Ok(Self {
+            file: path.to_path_buf(),
+            text,
+        })
+    }
+
+    /// 1-based line and column of a byte offset.
+    fn line_col(&self, offset: usize) -> (usize, usize) {
+        let offset = offset.min(self.text.len());
+        let before = &self.text[..offset];
+        let line = before.matches('\n').count() + 1;
+        let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+        (line, col)
+    }
+
+    /// An error at a span of the file.
+    pub fn error(
+        &self,
+        span: Option<Range<usize>>,
+        key: Option<String>,
+        message: impl Into<String>,
+    ) -> DeckError {
+        let line = span.as_ref().map(|s| self.line_col(s.start));
+        let snippet = line.and_then(|(l, _)| self.text.lines().nth(l - 1).map(str::to_string));
+        DeckError {
+            file: self.file.clone(),
+            line,
+            key,
+            message: message.into(),
+            snippet,
+        }
+    }
+
+    /// The bare key assigned at a value's position (`thickness` in `thickness = "x"`), for errors
+    /// whose message does not name it.
+    fn key_before(&self, offset: usize) -> Option<String> {
+        let line_start = self.text[..offset.min(self.text.len())]
+            .rfind('\n')
+            .map_or(0, |i| i + 1);
+        let head = &self.text[line_start..offset.min(self.text.len())];
+        let eq = head.rfind('=')?;
+        let key: String = head[..eq]
+            .trim_end()
+            .chars()
+            .rev()
+            .take_while(|c| c.is_alphanumeric() || *c == '_' || *c == '-' || *c == '.')
+            .collect::<Vec<_>>()
+            .into_iter()
+            .rev()
+            .collect();
+        (!key.is_empty()).then_some(key)
+    }
+
+    /// Parse the raw deck; TOML syntax errors, type errors and unknown keys carry their place.
+    pub fn parse(&self) -> Result<RawDeck, DeckError> {
+        toml::from_str::<RawDeck>(&self.text).map_err(|e| {
+            let message = e.message().trim_end().to_string();
+            let key = key_from_message(&message)
+                .or_else(|| e.span().and_then(|s| self.key_before(s.start)));
+            self.error(e.span(), key, message)
+        })
+    }
+}
+
+/// The key named in a serde message such as "unknown field `E4`, expected …".
+fn key_from_message(message: &str) -> Option<String> {
+    let start = message.find('`')? + 1;
+    let len = message[start..].find('`')?;
+    Some(message[start..start + len].to_string())
+}
+
+/// Read and parse a deck file.
+pub fn load(path: &Path) -> Result<(Source, RawDeck), DeckError> {
+    let source = Source::read(path)?;
+    let raw = source.parse()?;
+    Ok((source, raw))
+}

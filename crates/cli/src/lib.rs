@@ -1,0 +1,9 @@
+//! `flexsens` — the command-line front end: decks, commands and outputs.
+//!
+//! This is the only crate that reads or writes files or knows about decks. The binary
+//! (`src/main.rs`) parses the command line and maps results to exit codes: 0 success,
+//! 1 runtime failure, 2 bad input (deck or command line). The library half exists so that tests
+//! can drive decks and commands in-process.
+
+pub mod commands;
+pub mod deck;
