@@ -1,0 +1,841 @@
+//! A variable-order (1–5), variable-step BDF integrator in variable-coefficient form.
+//!
+//! Step `n → n+1` of order `k` solves `Σ_{j=0..k} c_j y_{n+1−j} = f(t_{n+1}, y_{n+1})`, where
+//! `c_j = ℓ_j'(t_{n+1})` are the derivatives of the Lagrange basis through
+//! `t_{n+1}, t_n, …, t_{n+1−k}`, by Newton's method with the matrix `c_0 I − J` (`J = f_y`,
+//! kept and reused while Newton converges). The local error of order `j` is estimated from
+//! the divided difference of order `j+1` through the new point and the history,
+//! `err_j ≈ |y[t_{n+1}, …, t_{n−j}]| Π_{i=1..j} h_i / Σ_{i=1..j} 1/h_i` with
+//! `h_i = t_{n+1} − t_{n+1−i}` (exact leading term of the variable-grid local error).
+//!
+//! After every accepted step [`Bdf::last_step`] describes it (order, step, coefficients, the
+//! times and states of the formula, the Jacobian and the factorised Newton matrix): the
+//! sensitivity integration of the next issue solves
+//! `(c_0 I − f_y) s_{n+1} = −Σ_{j≥1} c_j s_{n+1−j} + f_b` on exactly this step sequence.
+
+use std::collections::VecDeque;
+
+use nalgebra::{DMatrix, DVector, Dyn, LU};
+
+/// An ODE `y' = f(t, y)` with an exact Jacobian.
+pub trait OdeSystem {
+    fn dim(&self) -> usize;
+    /// `dy = f(t, y)`.
+    fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), RhsError>;
+    /// `jac = ∂f/∂y (t, y)`.
+    fn jacobian(&mut self, t: f64, y: &[f64], jac: &mut DMatrix<f64>) -> Result<(), RhsError>;
+}
+
+/// A right-hand side that could not be evaluated.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{0}")]
+pub struct RhsError(pub String);
+
+/// How steps are chosen.
+#[derive(Clone, Debug, PartialEq)]
+pub enum StepControl {
+    /// Local error control with `rtol`, `atol` of [`BdfOptions`], orders `1..=max_order`.
+    Adaptive {
+        max_order: usize,
+        /// First step (s); estimated when `None`.
+        initial_step: Option<f64>,
+        min_step: f64,
+        max_step: f64,
+    },
+    /// Constant step `step` (s) and order `order` (lower orders while the history fills,
+    /// unless a history is supplied with [`Bdf::init_with_history`]). `rtol`/`atol` only
+    /// set the Newton convergence test.
+    Fixed { step: f64, order: usize },
+}
+
+/// Integrator settings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BdfOptions {
+    pub rtol: f64,
+    /// Absolute tolerance per component (one value is broadcast to all components).
+    pub atol: Vec<f64>,
+    pub control: StepControl,
+    /// Maximum number of step attempts.
+    pub max_steps: usize,
+    /// Newton iterations per attempt.
+    pub max_newton_iterations: usize,
+    /// Recompute the Jacobian after this many steps even if Newton converges.
+    pub jacobian_age: usize,
+}
+
+impl BdfOptions {
+    /// Adaptive control with the given tolerances.
+    pub fn adaptive(rtol: f64, atol: f64) -> Self {
+        Self {
+            rtol,
+            atol: vec![atol],
+            control: StepControl::Adaptive {
+                max_order: 5,
+                initial_step: None,
+                min_step: 1e-14,
+                max_step: f64::INFINITY,
+            },
+            max_steps: 1_000_000,
+            max_newton_iterations: 4,
+            jacobian_age: 50,
+        }
+    }
+
+    /// Fixed step and order; Newton tolerances `rtol = 1e-10`, `atol = 1e-12`.
+    pub fn fixed(step: f64, order: usize) -> Self {
+        Self {
+            rtol: 1e-10,
+            atol: vec![1e-12],
+            control: StepControl::Fixed { step, order },
+            max_steps: 10_000_000,
+            max_newton_iterations: 8,
+            jacobian_age: 50,
+        }
+    }
+}
+
+/// Work counters.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Statistics {
+    /// Accepted steps.
+    pub steps: usize,
+    /// Steps rejected by the error test.
+    pub rejected_steps: usize,
+    /// Step attempts abandoned because Newton did not converge.
+    pub newton_failures: usize,
+    pub newton_iterations: usize,
+    pub rhs_evaluations: usize,
+    pub jacobians: usize,
+    pub factorizations: usize,
+}
+
+/// Why integration stopped.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum IntegrationFailure {
+    #[error("step size fell below the minimum {min_step:e} s")]
+    StepTooSmall { min_step: f64 },
+    #[error("Newton iteration failed to converge {attempts} times in a row")]
+    NewtonFailed { attempts: usize },
+    #[error("error test failed {attempts} times in a row")]
+    ErrorTestFailed { attempts: usize },
+    #[error("more than {max_steps} step attempts")]
+    TooManySteps { max_steps: usize },
+    #[error("the Newton matrix c0·I − J is singular")]
+    SingularNewtonMatrix,
+    #[error("non-finite solution")]
+    NonFinite,
+    #[error("right-hand side failed: {0}")]
+    Rhs(#[from] RhsError),
+    #[error("invalid settings: {0}")]
+    Settings(&'static str),
+}
+
+/// Integration failure with the time and step size where it happened.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("integration failed at t = {t} s with step h = {h:e} s: {reason}")]
+pub struct IntegrationError {
+    pub t: f64,
+    pub h: f64,
+    pub reason: IntegrationFailure,
+}
+
+/// One accepted step: what a sensitivity integrator needs to follow it.
+#[derive(Debug)]
+pub struct AcceptedStep<'a> {
+    /// Order `k` of the formula used.
+    pub order: usize,
+    /// Step `h = t_{n+1} − t_n` (s).
+    pub step: f64,
+    /// `t_{n+1}, t_n, …, t_{n+1−k}` (most recent first).
+    pub times: &'a [f64],
+    /// `c_0 … c_k` of `Σ c_j y_{n+1−j} = f(t_{n+1}, y_{n+1})`.
+    pub coefficients: &'a [f64],
+    /// `y_{n+1}, y_n, …` (most recent first; at least `k+1` entries).
+    pub states: Vec<&'a [f64]>,
+    /// The Jacobian the Newton matrix was built from (evaluated at an earlier state when
+    /// reused).
+    pub jacobian: &'a DMatrix<f64>,
+    /// LU of `newton_c0 · I − jacobian`.
+    pub newton_matrix: &'a LU<f64, Dyn, Dyn>,
+    pub newton_c0: f64,
+}
+
+/// Lagrange interpolation weights through `nodes` at `t`: `p(t) = Σ w_i y_i`.
+pub fn lagrange_weights(nodes: &[f64], t: f64) -> Vec<f64> {
+    (0..nodes.len())
+        .map(|i| {
+            let mut w = 1.0;
+            for (m, &x) in nodes.iter().enumerate() {
+                if m != i {
+                    w *= (t - x) / (nodes[i] - x);
+                }
+            }
+            w
+        })
+        .collect()
+}
+
+/// Derivatives at `nodes[0]` of the Lagrange basis through `nodes`.
+fn bdf_coefficients(nodes: &[f64]) -> Vec<f64> {
+    let x0 = nodes[0];
+    let mut c = vec![0.0; nodes.len()];
+    c[0] = nodes[1..].iter().map(|&x| 1.0 / (x0 - x)).sum();
+    for j in 1..nodes.len() {
+        let mut num = 1.0;
+        let mut den = 1.0;
+        for (m, &x) in nodes.iter().enumerate() {
+            if m != j {
+                den *= nodes[j] - x;
+                if m != 0 {
+                    num *= x0 - x;
+                }
+            }
+        }
+        c[j] = num / den;
+    }
+    c
+}
+
+/// Weights of the divided difference of top order through `nodes`.
+fn divided_difference_weights(nodes: &[f64]) -> Vec<f64> {
+    (0..nodes.len())
+        .map(|i| {
+            let mut p = 1.0;
+            for (m, &x) in nodes.iter().enumerate() {
+                if m != i {
+                    p *= nodes[i] - x;
+                }
+            }
+            1.0 / p
+        })
+        .collect()
+}
+
+const HISTORY: usize = 8;
+
+/// The BDF integrator. See the module documentation.
+pub struct Bdf {
+    opts: BdfOptions,
+    stats: Statistics,
+    /// `(t, y)` most recent first.
+    hist: VecDeque<(f64, Vec<f64>)>,
+    /// `f(t0, y0)` for the start-up predictor.
+    f0: Vec<f64>,
+    order: usize,
+    h: f64,
+    steps_at_order: usize,
+    jac: DMatrix<f64>,
+    jac_age: Option<usize>,
+    lu: Option<LU<f64, Dyn, Dyn>>,
+    lu_c0: f64,
+    last_times: Vec<f64>,
+    last_coeffs: Vec<f64>,
+    last_order: usize,
+    n: usize,
+    atol: Vec<f64>,
+}
+
+impl Bdf {
+    pub fn new(opts: BdfOptions) -> Self {
+        Self {
+            opts,
+            stats: Statistics::default(),
+            hist: VecDeque::new(),
+            f0: Vec::new(),
+            order: 1,
+            h: 0.0,
+            steps_at_order: 0,
+            jac: DMatrix::zeros(0, 0),
+            jac_age: None,
+            lu: None,
+            lu_c0: 0.0,
+            last_times: Vec::new(),
+            last_coeffs: Vec::new(),
+            last_order: 0,
+            n: 0,
+            atol: Vec::new(),
+        }
+    }
+
+    pub fn statistics(&self) -> Statistics {
+        self.stats
+    }
+
+    /// Current time and state.
+    pub fn current(&self) -> (f64, &[f64]) {
+        let (t, y) = &self.hist[0];
+        (*t, y)
+    }
+
+    /// Order and step size planned for the next step.
+    pub fn next_order_and_step(&self) -> (usize, f64) {
+        (self.order, self.h)
+    }
+
+    fn fail(&self, reason: IntegrationFailure) -> IntegrationError {
+        IntegrationError {
+            t: self.hist.front().map_or(f64::NAN, |x| x.0),
+            h: self.h,
+            reason,
+        }
+    }
+
+    fn check_options(&self) -> Result<(), IntegrationError> {
+        let o = &self.opts;
+        let bad = |s| {
+            Err(IntegrationError {
+                t: f64::NAN,
+                h: 0.0,
+                reason: IntegrationFailure::Settings(s),
+            })
+        };
+        if !(o.rtol >= 0.0) || o.atol.iter().any(|&a| !(a >= 0.0)) {
+            return bad("tolerances must be non-negative");
+        }
+        if o.rtol == 0.0 && o.atol.contains(&0.0) {
+            return bad("rtol and atol must not both be zero");
+        }
+        if o.atol.len() != 1 && o.atol.len() != self.n {
+            return bad("atol must have one entry or one per component");
+        }
+        match o.control {
+            StepControl::Adaptive {
+                max_order,
+                min_step,
+                max_step,
+                ..
+            } => {
+                if !(1..=5).contains(&max_order) {
+                    return bad("order must be 1..=5");
+                }
+                if !(min_step > 0.0 && max_step > min_step) {
+                    return bad("need 0 < min_step < max_step");
+                }
+            }
+            StepControl::Fixed { step, order } => {
+                if !(1..=5).contains(&order) {
+                    return bad("order must be 1..=5");
+                }
+                if !(step > 0.0 && step.is_finite()) {
+                    return bad("step must be positive");
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Start at `(t0, y0)`.
+    pub fn init(
+        &mut self,
+        sys: &mut impl OdeSystem,
+        t0: f64,
+        y0: &[f64],
+    ) -> Result<(), IntegrationError> {
+        self.init_with_history(sys, &[t0], &[y0.to_vec()])
+    }
+
+    /// Start from a history `(times[i], states[i])` in increasing time (the last one is the
+    /// current state): BDF of order up to `times.len()` can be used from the first step.
+    pub fn init_with_history(
+        &mut self,
+        sys: &mut impl OdeSystem,
+        times: &[f64],
+        states: &[Vec<f64>],
+    ) -> Result<(), IntegrationError> {
+        self.n = sys.dim();
+        self.check_options()?;
+        self.hist.clear();
+        for (t, y) in times.iter().zip(states).rev().take(HISTORY) {
+            self.hist.push_back((*t, y.clone()));
+        }
+        self.atol = if self.opts.atol.len() == 1 {
+            vec![self.opts.atol[0]; self.n]
+        } else {
+            self.opts.atol.clone()
+        };
+        let (t0, y0) = self.hist[0].clone();
+        let mut f0 = vec![0.0; self.n];
+        sys.rhs(t0, &y0, &mut f0).map_err(|e| self.fail(e.into()))?;
+        self.stats.rhs_evaluations += 1;
+        self.f0 = f0;
+        self.steps_at_order = 0;
+        self.lu = None;
+        self.jac_age = None;
+        match self.opts.control {
+            StepControl::Fixed { step, order } => {
+                self.h = step;
+                self.order = order.min(self.hist.len());
+            }
+            StepControl::Adaptive {
+                initial_step,
+                max_step,
+                min_step,
+                ..
+            } => {
+                self.order = 1.min(self.hist.len());
+                if self.hist.len() > 1 {
+                    self.order = (self.hist.len() - 1).clamp(1, 5);
+                }
+                self.h = match initial_step {
+                    Some(h) => h,
+                    None => {
+                        let fn_ = self.wrms(&self.f0.clone(), &y0);
+                        let h = if fn_ > 0.0 { 0.01 / fn_ } else { 1e-3 };
+                        h.min(1e-2)
+                    }
+                }
+                .clamp(min_step, max_step);
+                if self.hist.len() > 1 {
+                    self.h = self.hist[0].0 - self.hist[1].0;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn wrms(&self, e: &[f64], y: &[f64]) -> f64 {
+        let s: f64 = e
+            .iter()
+            .zip(y)
+            .zip(&self.atol)
+            .map(|((&e, &y), &a)| {
+                let w = self.opts.rtol * y.abs() + a;
+                (e / w) * (e / w)
+            })
+            .sum();
+        (s / e.len().max(1) as f64).sqrt()
+    }
+
+    fn refresh_jacobian(
+        &mut self,
+        sys: &mut impl OdeSystem,
+        t: f64,
+        y: &[f64],
+    ) -> Result<(), IntegrationError> {
+        if self.jac.nrows() != self.n {
+            self.jac = DMatrix::zeros(self.n, self.n);
+        }
+        sys.jacobian(t, y, &mut self.jac)
+            .map_err(|e| self.fail(e.into()))?;
+        self.stats.jacobians += 1;
+        self.jac_age = Some(0);
+        self.lu = None;
+        Ok(())
+    }
+
+    fn factorize(&mut self, c0: f64) -> Result<(), IntegrationError> {
+        let mut m = -self.jac.clone();
+        for i in 0..self.n {
+            m[(i, i)] += c0;
+        }
+        let lu = m.lu();
+        self.stats.factorizations += 1;
+        if !lu.is_invertible() {
+            return Err(self.fail(IntegrationFailure::SingularNewtonMatrix));
+        }
+        self.lu = Some(lu);
+        self.lu_c0 = c0;
+        Ok(())
+    }
+
+    /// Take one accepted step (retrying with smaller steps as needed), not beyond `t_stop`.
+    pub fn step(&mut self, sys: &mut impl OdeSystem, t_stop: f64) -> Result<(), IntegrationError> {
+        let fixed = matches!(self.opts.control, StepControl::Fixed { .. });
+        let (max_order, min_step, max_step) = match self.opts.control {
+            StepControl::Adaptive {
+                max_order,
+                min_step,
+                max_step,
+                ..
+            } => (max_order, min_step, max_step),
+            StepControl::Fixed { order, step } => (order, step * 1e-12, f64::INFINITY),
+        };
+        let mut newton_fails = 0;
+        let mut error_fails = 0;
+        loop {
+            if self.stats.steps + self.stats.rejected_steps + self.stats.newton_failures
+                >= self.opts.max_steps
+            {
+                return Err(self.fail(IntegrationFailure::TooManySteps {
+                    max_steps: self.opts.max_steps,
+                }));
+            }
+            let (tn, _) = self.current();
+            let mut h = self.h;
+            let remaining = t_stop - tn;
+            if remaining <= 0.0 {
+                return Ok(());
+            }
+            if h >= remaining * (1.0 - 1e-12) {
+                h = remaining;
+            } else if !fixed && h > 0.5 * remaining && h < remaining {
+                // avoid a sliver step before t_stop
+                h = 0.5 * remaining;
+            }
+            if h < min_step && h < remaining {
+                return Err(self.fail(IntegrationFailure::StepTooSmall { min_step }));
+            }
+            let t_new = tn + h;
+            let k = self.order.min(self.hist.len()).max(1);
+            let mut nodes = Vec::with_capacity(k + 1);
+            nodes.push(t_new);
+            nodes.extend(self.hist.iter().take(k).map(|x| x.0));
+            let coeffs = bdf_coefficients(&nodes);
+            // predictor: interpolant through up to k+1 past points, or explicit Euler at start
+            let y_pred: Vec<f64> = if self.hist.len() >= 2 {
+                let np = (k + 1).min(self.hist.len());
+                let pn: Vec<f64> = self.hist.iter().take(np).map(|x| x.0).collect();
+                let w = lagrange_weights(&pn, t_new);
+                let mut y = vec![0.0; self.n];
+                for (wi, (_, yi)) in w.iter().zip(&self.hist) {
+                    for (a, b) in y.iter_mut().zip(yi) {
+                        *a += wi * b;
+                    }
+                }
+                y
+            } else {
+                self.hist[0]
+                    .1
+                    .iter()
+                    .zip(&self.f0)
+                    .map(|(y, f)| y + h * f)
+                    .collect()
+            };
+            // constant part of the formula
+            let mut psi = vec![0.0; self.n];
+            for j in 1..=k {
+                for (a, b) in psi.iter_mut().zip(&self.hist[j - 1].1) {
+                    *a += coeffs[j] * b;
+                }
+            }
+            let c0 = coeffs[0];
+            if self.jac_age.is_none() || self.jac_age.unwrap() >= self.opts.jacobian_age {
+                let y = y_pred.clone();
+                self.refresh_jacobian(sys, t_new, &y)?;
+            }
+            let mut jac_fresh = self.jac_age == Some(0);
+            let mut result = None;
+            for _attempt in 0..2 {
+                if self.lu.is_none() || ((c0 / self.lu_c0) - 1.0).abs() > 0.2 {
+                    self.factorize(c0)?;
+                }
+                match self.newton(sys, t_new, &y_pred, &psi, c0)? {
+                    Some(y) => {
+                        result = Some(y);
+                        break;
+                    }
+                    None if !jac_fresh => {
+                        let y = y_pred.clone();
+                        self.refresh_jacobian(sys, t_new, &y)?;
+                        jac_fresh = true;
+                    }
+                    None => break,
+                }
+            }
+            let Some(y_new) = result else {
+                self.stats.newton_failures += 1;
+                newton_fails += 1;
+                if fixed || newton_fails >= 10 {
+                    return Err(self.fail(IntegrationFailure::NewtonFailed {
+                        attempts: newton_fails,
+                    }));
+                }
+                self.h = h * 0.25;
+                if self.h < min_step {
+                    return Err(self.fail(IntegrationFailure::StepTooSmall { min_step }));
+                }
+                continue;
+            };
+            // local error estimates
+            let y_ref = self.hist[0].1.clone();
+            let est = |order: usize, this: &Self| -> Option<f64> {
+                // needs order+1 past points
+                if order == 0 || this.hist.len() < order + 1 {
+                    return None;
+                }
+                let mut pn = vec![t_new];
+                pn.extend(this.hist.iter().take(order + 1).map(|x| x.0));
+                let w = divided_difference_weights(&pn);
+                let mut dd = y_new.iter().map(|y| w[0] * y).collect::<Vec<_>>();
+                for (wi, (_, yi)) in w[1..].iter().zip(&this.hist) {
+                    for (a, b) in dd.iter_mut().zip(yi) {
+                        *a += wi * b;
+                    }
+                }
+                let mut prod = 1.0;
+                let mut sum = 0.0;
+                for x in &pn[1..=order] {
+                    prod *= t_new - x;
+                    sum += 1.0 / (t_new - x);
+                }
+                let scale = prod / sum;
+                let e: Vec<f64> = dd.iter().map(|d| d * scale).collect();
+                Some(this.wrms(&e, &y_ref))
+            };
+            let err = if fixed {
+                0.0
+            } else if let Some(e) = est(k, self) {
+                e
+            } else {
+                // start-up: backward vs explicit Euler, LTE ≈ ½ |difference|
+                let d: Vec<f64> = y_new
+                    .iter()
+                    .zip(&y_pred)
+                    .map(|(a, b)| 0.5 * (a - b))
+                    .collect();
+                self.wrms(&d, &y_ref)
+            };
+            if !err.is_finite() {
+                return Err(self.fail(IntegrationFailure::NonFinite));
+            }
+            if err > 1.0 {
+                self.stats.rejected_steps += 1;
+                error_fails += 1;
+                if error_fails >= 12 {
+                    return Err(self.fail(IntegrationFailure::ErrorTestFailed {
+                        attempts: error_fails,
+                    }));
+                }
+                let factor = (0.9 * err.powf(-1.0 / (k as f64 + 1.0))).clamp(0.1, 0.9);
+                self.h = h * if error_fails >= 3 {
+                    factor.min(0.25)
+                } else {
+                    factor
+                };
+                if error_fails >= 3 {
+                    self.order = 1;
+                    self.steps_at_order = 0;
+                }
+                if self.h < min_step {
+                    return Err(self.fail(IntegrationFailure::StepTooSmall { min_step }));
+                }
+                continue;
+            }
+            // accept
+            self.stats.steps += 1;
+            if let Some(a) = self.jac_age.as_mut() {
+                *a += 1;
+            }
+            self.hist.push_front((t_new, y_new));
+            if self.hist.len() > HISTORY {
+                self.hist.pop_back();
+            }
+            self.last_times = nodes;
+            self.last_coeffs = coeffs;
+            self.last_order = k;
+            self.steps_at_order += 1;
+            if fixed {
+                let StepControl::Fixed { order, step } = self.opts.control else {
+                    unreachable!()
+                };
+                self.order = order.min(self.hist.len());
+                self.h = step;
+                return Ok(());
+            }
+            // order and step for the next step (estimates relative to the accepted step)
+            let safety = |e: f64, q: usize, s: f64| {
+                if e <= 0.0 {
+                    10.0
+                } else {
+                    (e.powf(-1.0 / (q as f64 + 1.0))) / s
+                }
+            };
+            let mut best_order = k;
+            let mut best = safety(err, k, 1.2);
+            if self.steps_at_order > k {
+                // the estimates need the previous state set; recompute on the shifted history
+                let (t_acc, y_acc) = self.hist.pop_front().unwrap();
+                let y_hold = y_acc.clone();
+                let lower = if k > 1 {
+                    est_shift(self, t_acc, &y_hold, k - 1)
+                } else {
+                    None
+                };
+                let higher = if k < max_order {
+                    est_shift(self, t_acc, &y_hold, k + 1)
+                } else {
+                    None
+                };
+                self.hist.push_front((t_acc, y_acc));
+                if let Some(e) = lower {
+                    let f = safety(e, k - 1, 1.3);
+                    if f > best {
+                        best = f;
+                        best_order = k - 1;
+                    }
+                }
+                if let Some(e) = higher {
+                    let f = safety(e, k + 1, 1.4);
+                    if f > best {
+                        best = f;
+                        best_order = k + 1;
+                    }
+                }
+            }
+            if best_order != k {
+                self.order = best_order;
+                self.steps_at_order = 0;
+            }
+            let mut factor = best.min(if self.stats.steps < 5 { 10.0 } else { 5.0 });
+            if (1.0..1.2).contains(&factor) {
+                factor = 1.0;
+            }
+            factor = factor.max(0.2);
+            self.h = (h * factor).clamp(min_step, max_step);
+            return Ok(());
+        }
+
+        /// Error estimate of order `q` for the just-accepted point `(t_new, y_new)`, with the
+        /// history (without it) in `this`.
+        fn est_shift(this: &Bdf, t_new: f64, y_new: &[f64], q: usize) -> Option<f64> {
+            if this.hist.len() < q + 1 {
+                return None;
+            }
+            let mut pn = vec![t_new];
+            pn.extend(this.hist.iter().take(q + 1).map(|x| x.0));
+            let w = divided_difference_weights(&pn);
+            let mut dd: Vec<f64> = y_new.iter().map(|y| w[0] * y).collect();
+            for (wi, (_, yi)) in w[1..].iter().zip(&this.hist) {
+                for (a, b) in dd.iter_mut().zip(yi) {
+                    *a += wi * b;
+                }
+            }
+            let mut prod = 1.0;
+            let mut sum = 0.0;
+            for x in &pn[1..=q] {
+                prod *= t_new - x;
+                sum += 1.0 / (t_new - x);
+            }
+            let e: Vec<f64> = dd.iter().map(|d| d * prod / sum).collect();
+            Some(this.wrms(&e, &this.hist[0].1))
+        }
+    }
+
+    /// Newton iteration for `c0 y + ψ = f(t, y)`; `None` if it does not converge.
+    fn newton(
+        &mut self,
+        sys: &mut impl OdeSystem,
+        t: f64,
+        y_pred: &[f64],
+        psi: &[f64],
+        c0: f64,
+    ) -> Result<Option<Vec<f64>>, IntegrationError> {
+        let mut y = y_pred.to_vec();
+        let mut f = vec![0.0; self.n];
+        let mut prev_norm = f64::INFINITY;
+        let y_ref = self.hist[0].1.clone();
+        let tol = if matches!(self.opts.control, StepControl::Fixed { .. }) {
+            1.0
+        } else {
+            0.05
+        };
+        for it in 0..self.opts.max_newton_iterations {
+            self.stats.newton_iterations += 1;
+            if let Err(e) = sys.rhs(t, &y, &mut f) {
+                // treat as a convergence failure (the step will be reduced), unless repeated
+                let _ = e;
+                return Ok(None);
+            }
+            self.stats.rhs_evaluations += 1;
+            let mut r =
+                DVector::from_iterator(self.n, (0..self.n).map(|i| f[i] - c0 * y[i] - psi[i]));
+            let lu = self.lu.as_ref().expect("factorised");
+            if !lu.solve_mut(&mut r) {
+                return Err(self.fail(IntegrationFailure::SingularNewtonMatrix));
+            }
+            for i in 0..self.n {
+                y[i] += r[i];
+            }
+            let norm = self.wrms(r.as_slice(), &y_ref);
+            if !norm.is_finite() {
+                return Ok(None);
+            }
+            if it > 0 {
+                let rate = norm / prev_norm;
+                if rate > 0.9 {
+                    return Ok(None);
+                }
+                if norm * rate / (1.0 - rate) < tol || norm < 1e-3 * tol {
+                    return Ok(Some(y));
+                }
+            } else if norm < 1e-3 * tol {
+                return Ok(Some(y));
+            }
+            prev_norm = norm;
+        }
+        Ok(None)
+    }
+
+    /// The last accepted step (see [`AcceptedStep`]).
+    ///
+    /// # Panics
+    /// Before the first accepted step.
+    pub fn last_step(&self) -> AcceptedStep<'_> {
+        assert!(self.last_order > 0, "no accepted step yet");
+        AcceptedStep {
+            order: self.last_order,
+            step: self.last_times[0] - self.last_times[1],
+            times: &self.last_times,
+            coefficients: &self.last_coeffs,
+            states: self
+                .hist
+                .iter()
+                .take(self.last_order + 1)
+                .map(|x| x.1.as_slice())
+                .collect(),
+            jacobian: &self.jac,
+            newton_matrix: self.lu.as_ref().expect("factorised"),
+            newton_c0: self.lu_c0,
+        }
+    }
+
+    /// Dense output at `t` within the last step: the interpolant of the last formula.
+    pub fn interpolate(&self, t: f64) -> Vec<f64> {
+        let k = self.last_order.max(1).min(self.hist.len() - 1);
+        if self.hist.len() == 1 {
+            return self.hist[0].1.clone();
+        }
+        let nodes: Vec<f64> = self.hist.iter().take(k + 1).map(|x| x.0).collect();
+        let w = lagrange_weights(&nodes, t);
+        let mut y = vec![0.0; self.n];
+        for (wi, (_, yi)) in w.iter().zip(&self.hist) {
+            for (a, b) in y.iter_mut().zip(yi) {
+                *a += wi * b;
+            }
+        }
+        y
+    }
+
+    /// Integrate from the current state to `t_end`, returning the states at `t_out` (which must
+    /// be non-decreasing and within the range) and calling `observer` after every accepted
+    /// step.
+    pub fn integrate_to(
+        &mut self,
+        sys: &mut impl OdeSystem,
+        t_end: f64,
+        t_out: &[f64],
+        mut observer: impl FnMut(&Bdf),
+    ) -> Result<Vec<Vec<f64>>, IntegrationError> {
+        let mut out = Vec::with_capacity(t_out.len());
+        let mut next = 0;
+        let t0 = self.current().0;
+        while next < t_out.len() && t_out[next] <= t0 {
+            out.push(self.current().1.to_vec());
+            next += 1;
+        }
+        while self.current().0 < t_end {
+            self.step(sys, t_end)?;
+            observer(self);
+            let t = self.current().0;
+            while next < t_out.len() && t_out[next] <= t * (1.0 + 1e-15) + 1e-300 {
+                out.push(if (t_out[next] - t).abs() <= 1e-14 * t.abs().max(1.0) {
+                    self.current().1.to_vec()
+                } else {
+                    self.interpolate(t_out[next])
+                });
+                next += 1;
+            }
+        }
+        Ok(out)
+    }
+}

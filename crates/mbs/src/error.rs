@@ -1,0 +1,43 @@
+//! Errors of model building, constraint handling and time integration.
+
+use fem::ModalBodyError;
+
+/// An inconsistent model.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ModelError {
+    #[error("body `{name}`: {reason}")]
+    BadBody { name: String, reason: &'static str },
+    #[error("flexible body `{name}`: {source}")]
+    BadModalBody {
+        name: String,
+        #[source]
+        source: ModalBodyError,
+    },
+    #[error("{owner}: {reason}")]
+    BadMarker { owner: String, reason: &'static str },
+}
+
+/// Failure of the constraint machinery (redundancy, assembly, initial conditions, solve).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ConstraintError {
+    #[error("redundant constraint equations: {}", describe(.equations))]
+    Redundant {
+        /// `(joint name, equation index within the joint)` of each dependent equation.
+        equations: Vec<(String, usize)>,
+    },
+    #[error(
+        "position assembly did not converge: |Φ| = {residual:.3e} after {iterations} iterations"
+    )]
+    AssemblyFailed { residual: f64, iterations: usize },
+    #[error("the augmented matrix of Eq. (12) is singular at t = {t} s")]
+    Singular { t: f64 },
+    #[error("non-finite accelerations at t = {t} s")]
+    NonFinite { t: f64 },
+}
+
+fn describe(eqs: &[(String, usize)]) -> String {
+    eqs.iter()
+        .map(|(j, i)| format!("joint `{j}` equation {i}"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}

@@ -1,0 +1,208 @@
+//! Markers: points with an attached orthonormal triad, on the ground, on a body, or at an FE
+//! node of a flexible body (which then follows the node's translation and rotation through the
+//! mode shapes).
+
+use nalgebra::{Matrix3, Vector3};
+use sens::Scalar;
+
+use crate::body::{Body, BodyId, mode_vec, pose, vec3, vec3f};
+use crate::kin::{Kin3, skew};
+
+/// Where a marker sits on its body.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Site {
+    /// A point fixed in the body frame (m). On a flexible body it follows the floating frame,
+    /// not the deformation.
+    Point(Vector3<f64>),
+    /// FE node `k` of a flexible body: follows the nodal translations and rotations `u' = X w`.
+    Node(usize),
+}
+
+/// A point and a triad `(e1, e2, e3)` (columns of `axes`, body components) used by joints and
+/// forces. For joints, `e3` is the joint axis.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Marker {
+    /// `None`: the ground (global frame).
+    pub body: Option<BodyId>,
+    pub site: Site,
+    /// Columns `e1, e2, e3`, orthonormal, in body (or global for ground) components.
+    pub axes: Matrix3<f64>,
+}
+
+impl Marker {
+    /// A ground point with axes aligned with the global axes.
+    pub fn ground(point: Vector3<f64>) -> Self {
+        Self {
+            body: None,
+            site: Site::Point(point),
+            axes: Matrix3::identity(),
+        }
+    }
+
+    /// A point fixed in the frame of `body`, axes aligned with the body axes.
+    pub fn on(body: BodyId, point: Vector3<f64>) -> Self {
+        Self {
+            body: Some(body),
+            site: Site::Point(point),
+            axes: Matrix3::identity(),
+        }
+    }
+
+    /// FE node `node` of flexible body `body`, axes aligned with the body axes.
+    pub fn node(body: BodyId, node: usize) -> Self {
+        Self {
+            body: Some(body),
+            site: Site::Node(node),
+            axes: Matrix3::identity(),
+        }
+    }
+
+    /// The same marker with joint axis `e3` along `axis` (any length), `e1`, `e2` completing a
+    /// right-handed orthonormal triad.
+    pub fn with_axis(mut self, axis: Vector3<f64>) -> Self {
+        let e3 = axis.normalize();
+        let trial = if e3.x.abs() < 0.9 {
+            Vector3::x()
+        } else {
+            Vector3::y()
+        };
+        let e1 = (trial - e3 * trial.dot(&e3)).normalize();
+        let e2 = e3.cross(&e1);
+        self.axes = Matrix3::from_columns(&[e1, e2, e3]);
+        self
+    }
+
+    /// The same marker with explicit axes `e1, e2` (`e3 = e1 × e2`); orthonormalised.
+    pub fn with_axes(mut self, e1: Vector3<f64>, e2: Vector3<f64>) -> Self {
+        let e1 = e1.normalize();
+        let e2 = (e2 - e1 * e2.dot(&e1)).normalize();
+        self.axes = Matrix3::from_columns(&[e1, e2, e1.cross(&e2)]);
+        self
+    }
+}
+
+/// Kinematics of a marker: global point and axes with rates, quadratic terms, Jacobians.
+pub(crate) struct MarkerKin<S: Scalar> {
+    pub point: Kin3<S>,
+    pub axes: [Kin3<S>; 3],
+    /// Rotation body → global of the body (identity for ground).
+    pub a: Matrix3<S>,
+    /// Velocity offset of the body, modal rotation columns of the node (body components).
+    pub v_off: usize,
+    pub node_rot_modes: Vec<Vector3<S>>,
+}
+
+fn constant<S: Scalar>(x: Vector3<S>, n_v: usize) -> Kin3<S> {
+    Kin3 {
+        val: x,
+        rate: Vector3::zeros(),
+        quad: Vector3::zeros(),
+        jac: vec![Vector3::zeros(); n_v],
+    }
+}
+
+/// Marker kinematics at the state `(q, v)`. `body` is the marker's body with its coordinate
+/// and velocity offsets (`None` for ground).
+pub(crate) fn marker_kin<P: Scalar, S: Scalar + From<P>>(
+    marker: &Marker,
+    body: Option<(&Body<P>, usize, usize)>,
+    q: &[S],
+    v: &[S],
+    n_v: usize,
+    with_axes: bool,
+) -> MarkerKin<S> {
+    let axes0: [Vector3<S>; 3] =
+        std::array::from_fn(|i| vec3f(&marker.axes.column(i).into_owned()));
+    let Some((body, qo, vo)) = body else {
+        let p = match &marker.site {
+            Site::Point(p) => vec3f(p),
+            Site::Node(_) => unreachable!("validated: ground markers are points"),
+        };
+        return MarkerKin {
+            point: constant(p, n_v),
+            axes: axes0.map(|e| constant(e, n_v)),
+            a: Matrix3::identity(),
+            v_off: 0,
+            node_rot_modes: Vec::new(),
+        };
+    };
+    let ps = pose(&q[qo..]);
+    let a = ps.a;
+    let om = vec3(&v[vo + 3..vo + 6]);
+    let rd = vec3(&v[vo..vo + 3]);
+    let nm = body.n_modes();
+    // body-frame position u, deformation rate, rotation θ and its rate, mode columns
+    let mut u;
+    let mut ud = Vector3::<S>::zeros();
+    let mut th = Vector3::<S>::zeros();
+    let mut thd = Vector3::<S>::zeros();
+    let mut xd = Vec::new();
+    let mut xt = Vec::new();
+    match (&marker.site, body) {
+        (Site::Point(p), _) => u = vec3f(p),
+        (Site::Node(k), Body::Flexible(fb)) => {
+            u = vec3f(&fb.modal.node_positions[*k]);
+            for j in 0..nm {
+                let d: Vector3<S> = mode_vec(&fb.modal, *k, j, false);
+                let t: Vector3<S> = mode_vec(&fb.modal, *k, j, true);
+                u += d * q[qo + 7 + j];
+                ud += d * v[vo + 6 + j];
+                th += t * q[qo + 7 + j];
+                thd += t * v[vo + 6 + j];
+                xd.push(d);
+                xt.push(t);
+            }
+        }
+        (Site::Node(_), Body::Rigid(_)) => unreachable!("validated: nodes only on flexible bodies"),
+    }
+    let two = S::from_f64(2.0);
+    let mut jac = vec![Vector3::zeros(); n_v];
+    for i in 0..3 {
+        let mut e = Vector3::zeros();
+        e[i] = S::one();
+        jac[vo + i] = e;
+        // ω column i: A (e_i × u)
+        jac[vo + 3 + i] = a * e.cross(&u);
+    }
+    for j in 0..xd.len() {
+        jac[vo + 6 + j] = a * xd[j];
+    }
+    let point = Kin3 {
+        val: ps.r + a * u,
+        rate: rd + a * (om.cross(&u) + ud),
+        quad: a * (om.cross(&om.cross(&u)) + om.cross(&ud) * two),
+        jac,
+    };
+    let axes = if with_axes {
+        axes0.map(|e0| {
+            // e' = e0 + θ × e0 (small nodal rotation)
+            let ep = e0 + th.cross(&e0);
+            let epd = thd.cross(&e0);
+            let mut jac = vec![Vector3::zeros(); n_v];
+            let ept = skew(&ep);
+            for i in 0..3 {
+                // ω column i: A (e_i × e')
+                let col = -ept.column(i).into_owned();
+                jac[vo + 3 + i] = a * col;
+            }
+            for j in 0..xt.len() {
+                jac[vo + 6 + j] = a * xt[j].cross(&e0);
+            }
+            Kin3 {
+                val: a * ep,
+                rate: a * (om.cross(&ep) + epd),
+                quad: a * (om.cross(&om.cross(&ep)) + om.cross(&epd) * two),
+                jac,
+            }
+        })
+    } else {
+        axes0.map(|e| constant(e, 0))
+    };
+    MarkerKin {
+        point,
+        axes,
+        a,
+        v_off: vo,
+        node_rot_modes: xt,
+    }
+}

@@ -1,0 +1,705 @@
+//! The multibody model and its equations of motion (Eq. 12), written once, generic over the
+//! parameter scalar `P` (the model's data) and the evaluation scalar `S` (the state).
+
+use std::ops::Range;
+
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3, Vector4};
+use sens::Scalar;
+
+use crate::body::{Body, BodyId, FlexibleBody, RigidBody, body_dynamics, lift, pose, vec3, vec3f};
+use crate::error::ModelError;
+use crate::force::{Force, ForceId, LoadFrame};
+use crate::joint::{JointId, JointKind, joint_equations};
+use crate::kin::{Kin, l_matrix, quat_from_matrix};
+use crate::marker::{Marker, MarkerKin, Site, marker_kin};
+
+/// Baumgarte stabilisation constants of Eq. (10a): `γ − 2αΦ̇ − β²Φ`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Baumgarte {
+    /// Velocity feedback α (1/s).
+    pub alpha: f64,
+    /// Position feedback β (1/s).
+    pub beta: f64,
+}
+
+impl Default for Baumgarte {
+    fn default() -> Self {
+        Self {
+            alpha: 1.0,
+            beta: 1.0,
+        }
+    }
+}
+
+impl Baumgarte {
+    /// No stabilisation (α = β = 0).
+    pub fn off() -> Self {
+        Self {
+            alpha: 0.0,
+            beta: 0.0,
+        }
+    }
+}
+
+/// A joint between markers `a` and `b`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Joint {
+    pub name: String,
+    pub a: Marker,
+    pub b: Marker,
+    pub kind: JointKind,
+}
+
+impl Joint {
+    pub fn new(name: impl Into<String>, kind: JointKind, a: Marker, b: Marker) -> Self {
+        Self {
+            name: name.into(),
+            a,
+            b,
+            kind,
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+struct BodySlot<P: Scalar> {
+    body: Body<P>,
+    q_off: usize,
+    v_off: usize,
+}
+
+/// Bodies, joints, forces, gravity and Baumgarte constants.
+///
+/// The state is `q` (per body `r`, Euler parameters `p`, modal coordinates `w`) and `v` (per
+/// body `ṙ`, body-frame `ω'`, `ẇ`). `P` is the scalar of the model data (`f64`, or `Dual<N>`
+/// when the modal data carry design derivatives).
+#[derive(Clone, Debug)]
+pub struct Model<P: Scalar> {
+    bodies: Vec<BodySlot<P>>,
+    joints: Vec<Joint>,
+    joint_rows: Vec<Range<usize>>,
+    forces: Vec<Force>,
+    /// Gravitational acceleration, global (m/s²).
+    pub gravity: Vector3<f64>,
+    pub baumgarte: Baumgarte,
+    n_q: usize,
+    n_v: usize,
+    n_c: usize,
+}
+
+/// Constraint values at a state (all rows).
+#[derive(Clone, Debug)]
+pub struct ConstraintValues<S: Scalar> {
+    /// `Φ`.
+    pub phi: Vec<S>,
+    /// `Φ̇ = Φ_v v + Φ_t`.
+    pub phi_dot: Vec<S>,
+    /// `γ = −(Φ̈ − Φ_v v̇)`.
+    pub gamma: Vec<S>,
+    /// `Φ_v`, `n_c × n_v`.
+    pub jacobian: DMatrix<S>,
+}
+
+/// The augmented system of Eq. (12): `matrix · [v̇; λ] = rhs` with
+/// `matrix = [[M, Φ_vᵀ], [Φ_v, 0]]`, `rhs = [g + s − Λw − Dẇ; γ − 2αΦ̇ − β²Φ]`, restricted to
+/// the selected constraint rows.
+#[derive(Clone, Debug)]
+pub struct Equations<S: Scalar> {
+    pub matrix: DMatrix<S>,
+    pub rhs: DVector<S>,
+}
+
+/// Energies at a state (J).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Energy {
+    pub kinetic: f64,
+    pub gravity: f64,
+    pub elastic: f64,
+    pub spring: f64,
+}
+
+impl Energy {
+    pub fn total(&self) -> f64 {
+        self.kinetic + self.gravity + self.elastic + self.spring
+    }
+}
+
+impl<P: Scalar> Default for Model<P> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<P: Scalar> Model<P> {
+    pub fn new() -> Self {
+        Self {
+            bodies: Vec::new(),
+            joints: Vec::new(),
+            joint_rows: Vec::new(),
+            forces: Vec::new(),
+            gravity: Vector3::zeros(),
+            baumgarte: Baumgarte::default(),
+            n_q: 0,
+            n_v: 0,
+            n_c: 0,
+        }
+    }
+
+    fn push_body(&mut self, body: Body<P>) -> BodyId {
+        let nm = body.n_modes();
+        self.bodies.push(BodySlot {
+            body,
+            q_off: self.n_q,
+            v_off: self.n_v,
+        });
+        self.n_q += 7 + nm;
+        self.n_v += 6 + nm;
+        BodyId(self.bodies.len() - 1)
+    }
+
+    pub fn add_rigid_body(&mut self, body: RigidBody<P>) -> Result<BodyId, ModelError> {
+        if !(body.mass.value() > 0.0) {
+            return Err(ModelError::BadBody {
+                name: body.name,
+                reason: "mass must be positive",
+            });
+        }
+        Ok(self.push_body(Body::Rigid(body)))
+    }
+
+    pub fn add_flexible_body(&mut self, body: FlexibleBody<P>) -> Result<BodyId, ModelError> {
+        body.modal
+            .validate()
+            .map_err(|e| ModelError::BadModalBody {
+                name: body.name.clone(),
+                source: e,
+            })?;
+        if !(body.modal.total_mass() > 0.0) {
+            return Err(ModelError::BadBody {
+                name: body.name,
+                reason: "mass must be positive",
+            });
+        }
+        Ok(self.push_body(Body::Flexible(body)))
+    }
+
+    fn check_marker(&self, m: &Marker, owner: &str) -> Result<(), ModelError> {
+        let bad = |reason: &'static str| ModelError::BadMarker {
+            owner: owner.to_string(),
+            reason,
+        };
+        let ortho = m.axes.transpose() * m.axes - Matrix3::identity();
+        if ortho.amax() > 1e-9 || m.axes.determinant() < 0.0 {
+            return Err(bad("marker axes are not a right-handed orthonormal triad"));
+        }
+        match (m.body, &m.site) {
+            (None, Site::Node(_)) => Err(bad("a ground marker cannot sit at an FE node")),
+            (None, Site::Point(_)) => Ok(()),
+            (Some(b), site) => {
+                let slot = self.bodies.get(b.0).ok_or(bad("unknown body"))?;
+                match (site, &slot.body) {
+                    (Site::Point(_), _) => Ok(()),
+                    (Site::Node(_), Body::Rigid(_)) => {
+                        Err(bad("FE nodes exist only on flexible bodies"))
+                    }
+                    (Site::Node(k), Body::Flexible(f)) => {
+                        if *k < f.modal.n_nodes() {
+                            Ok(())
+                        } else {
+                            Err(bad("node index out of range"))
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    pub fn add_joint(&mut self, joint: Joint) -> Result<JointId, ModelError> {
+        self.check_marker(&joint.a, &joint.name)?;
+        self.check_marker(&joint.b, &joint.name)?;
+        if joint.a.body.is_some() && joint.a.body == joint.b.body {
+            return Err(ModelError::BadMarker {
+                owner: joint.name,
+                reason: "a joint must connect two different bodies",
+            });
+        }
+        let n = joint.kind.n_equations();
+        self.joint_rows.push(self.n_c..self.n_c + n);
+        self.n_c += n;
+        self.joints.push(joint);
+        Ok(JointId(self.joints.len() - 1))
+    }
+
+    pub fn add_force(&mut self, force: Force) -> Result<ForceId, ModelError> {
+        for m in force.markers() {
+            self.check_marker(m, "force")?;
+        }
+        if let Force::PointForce {
+            load: crate::Load::Table { times, values },
+            ..
+        }
+        | Force::PointTorque {
+            load: crate::Load::Table { times, values },
+            ..
+        } = &force
+            && (times.is_empty()
+                || times.len() != values.len()
+                || times.windows(2).any(|w| !(w[1] > w[0])))
+        {
+            return Err(ModelError::BadMarker {
+                owner: "force".into(),
+                reason: "load table needs strictly increasing times, one value per time",
+            });
+        }
+        self.forces.push(force);
+        Ok(ForceId(self.forces.len() - 1))
+    }
+
+    pub fn n_bodies(&self) -> usize {
+        self.bodies.len()
+    }
+    pub fn body(&self, id: BodyId) -> &Body<P> {
+        &self.bodies[id.0].body
+    }
+    pub fn body_ids(&self) -> impl Iterator<Item = BodyId> + use<P> {
+        (0..self.bodies.len()).map(BodyId)
+    }
+    pub fn joints(&self) -> &[Joint] {
+        &self.joints
+    }
+    pub fn joint(&self, id: JointId) -> &Joint {
+        &self.joints[id.0]
+    }
+    /// Rows of joint `id` in the constraint vector.
+    pub fn joint_rows(&self, id: JointId) -> Range<usize> {
+        self.joint_rows[id.0].clone()
+    }
+    /// The joint that owns constraint row `row`.
+    pub fn joint_of_row(&self, row: usize) -> JointId {
+        JointId(
+            self.joint_rows
+                .iter()
+                .position(|r| r.contains(&row))
+                .expect("row in range"),
+        )
+    }
+    /// Number of position coordinates.
+    pub fn n_q(&self) -> usize {
+        self.n_q
+    }
+    /// Number of velocity variables.
+    pub fn n_v(&self) -> usize {
+        self.n_v
+    }
+    /// Number of constraint equations.
+    pub fn n_constraints(&self) -> usize {
+        self.n_c
+    }
+    /// Coordinates `(r, p, w)` of body `id` within `q`.
+    pub fn q_range(&self, id: BodyId) -> Range<usize> {
+        let s = &self.bodies[id.0];
+        s.q_off..s.q_off + 7 + s.body.n_modes()
+    }
+    /// Velocity variables `(ṙ, ω', ẇ)` of body `id` within `v`.
+    pub fn v_range(&self, id: BodyId) -> Range<usize> {
+        let s = &self.bodies[id.0];
+        s.v_off..s.v_off + 6 + s.body.n_modes()
+    }
+
+    /// The same model with its parameters converted (e.g. `Dual<N>` → `f64` by value).
+    pub fn map<Q: Scalar>(&self, f: impl Fn(P) -> Q) -> Model<Q> {
+        Model {
+            bodies: self
+                .bodies
+                .iter()
+                .map(|s| BodySlot {
+                    body: s.body.map(&f),
+                    q_off: s.q_off,
+                    v_off: s.v_off,
+                })
+                .collect(),
+            joints: self.joints.clone(),
+            joint_rows: self.joint_rows.clone(),
+            forces: self.forces.clone(),
+            gravity: self.gravity,
+            baumgarte: self.baumgarte,
+            n_q: self.n_q,
+            n_v: self.n_v,
+            n_c: self.n_c,
+        }
+    }
+
+    /// The model with its parameters as plain values.
+    pub fn values(&self) -> Model<f64> {
+        self.map(|x| x.value())
+    }
+
+    /// A state at rest: every body frame at the origin with identity orientation.
+    pub fn rest_state(&self) -> State {
+        let mut q = vec![0.0; self.n_q];
+        for s in &self.bodies {
+            q[s.q_off + 3] = 1.0;
+        }
+        State {
+            q,
+            v: vec![0.0; self.n_v],
+        }
+    }
+
+    /// Set the pose of body `id`: origin `r` (m) and rotation `a` (body → global).
+    pub fn set_pose(&self, state: &mut State, id: BodyId, r: Vector3<f64>, a: &Matrix3<f64>) {
+        let o = self.bodies[id.0].q_off;
+        state.q[o..o + 3].copy_from_slice(r.as_slice());
+        state.q[o + 3..o + 7].copy_from_slice(quat_from_matrix(a).as_slice());
+    }
+
+    /// Set the velocity of body `id`: `ṙ` (global, m/s) and `ω'` (body components, rad/s).
+    pub fn set_velocity(
+        &self,
+        state: &mut State,
+        id: BodyId,
+        rd: Vector3<f64>,
+        omega: Vector3<f64>,
+    ) {
+        let o = self.bodies[id.0].v_off;
+        state.v[o..o + 3].copy_from_slice(rd.as_slice());
+        state.v[o + 3..o + 6].copy_from_slice(omega.as_slice());
+    }
+
+    /// Set the modal coordinates and velocities of flexible body `id`.
+    pub fn set_modal(&self, state: &mut State, id: BodyId, w: &[f64], wd: &[f64]) {
+        let s = &self.bodies[id.0];
+        let m = s.body.n_modes();
+        state.q[s.q_off + 7..s.q_off + 7 + m].copy_from_slice(w);
+        state.v[s.v_off + 6..s.v_off + 6 + m].copy_from_slice(wd);
+    }
+
+    fn slot_of(&self, m: &Marker) -> Option<(&Body<P>, usize, usize)> {
+        m.body.map(|b| {
+            let s = &self.bodies[b.0];
+            (&s.body, s.q_off, s.v_off)
+        })
+    }
+
+    pub(crate) fn marker<S: Scalar + From<P>>(
+        &self,
+        m: &Marker,
+        q: &[S],
+        v: &[S],
+        with_axes: bool,
+    ) -> MarkerKin<S> {
+        marker_kin(m, self.slot_of(m), q, v, self.n_v, with_axes)
+    }
+
+    /// `q̇` from `(q, v)`: `ṙ`, `ṗ = ½ L(p)ᵀ ω'`, `ẇ`.
+    pub fn kinematic_rates<S: Scalar + From<P>>(&self, q: &[S], v: &[S], qdot: &mut [S]) {
+        for s in &self.bodies {
+            let (qo, vo) = (s.q_off, s.v_off);
+            qdot[qo..qo + 3].copy_from_slice(&v[vo..vo + 3]);
+            let p = Vector4::new(q[qo + 3], q[qo + 4], q[qo + 5], q[qo + 6]);
+            let pd = l_matrix(&p).transpose() * vec3(&v[vo + 3..vo + 6]) * S::from_f64(0.5);
+            for i in 0..4 {
+                qdot[qo + 3 + i] = pd[i];
+            }
+            for j in 0..s.body.n_modes() {
+                qdot[qo + 7 + j] = v[vo + 6 + j];
+            }
+        }
+    }
+
+    /// Constraint equations of all joints at `(t, q, v)`, as kinematic quantities.
+    fn constraint_kin<S: Scalar + From<P>>(&self, t: f64, q: &[S], v: &[S]) -> Vec<Kin<S>> {
+        let mut out = Vec::with_capacity(self.n_c);
+        for j in &self.joints {
+            let axes = j.kind.needs_axes();
+            let a = self.marker(&j.a, q, v, axes);
+            let b = self.marker(&j.b, q, v, axes);
+            joint_equations(&j.kind, &a, &b, t, self.n_v, &mut out);
+        }
+        out
+    }
+
+    /// `Φ`, `Φ̇`, `γ` and `Φ_v` of all constraint rows.
+    pub fn constraints<S: Scalar + From<P>>(
+        &self,
+        t: f64,
+        q: &[S],
+        v: &[S],
+    ) -> ConstraintValues<S> {
+        let k = self.constraint_kin(t, q, v);
+        let mut jac = DMatrix::zeros(self.n_c, self.n_v);
+        for (i, row) in k.iter().enumerate() {
+            for (c, &x) in row.jac.iter().enumerate() {
+                jac[(i, c)] = x;
+            }
+        }
+        ConstraintValues {
+            phi: k.iter().map(|x| x.val).collect(),
+            phi_dot: k.iter().map(|x| x.rate).collect(),
+            gamma: k.iter().map(|x| -x.quad).collect(),
+            jacobian: jac,
+        }
+    }
+
+    /// Mass matrix `M` (`n_v × n_v`) and generalised forces `g + s − Λw − Dẇ` (applied forces,
+    /// gravity, quadratic-velocity terms, modal stiffness and damping).
+    pub fn mass_and_forces<S: Scalar + From<P>>(
+        &self,
+        t: f64,
+        q: &[S],
+        v: &[S],
+    ) -> (DMatrix<S>, Vec<S>) {
+        let mut m = DMatrix::zeros(self.n_v, self.n_v);
+        let mut f = vec![S::zero(); self.n_v];
+        for s in &self.bodies {
+            body_dynamics(
+                &s.body,
+                &q[s.q_off..],
+                &v[s.v_off..],
+                &self.gravity,
+                &mut m,
+                s.v_off,
+                &mut f,
+            );
+        }
+        for force in &self.forces {
+            self.apply_force(force, t, q, v, &mut f);
+        }
+        (m, f)
+    }
+
+    fn apply_force<S: Scalar + From<P>>(
+        &self,
+        force: &Force,
+        t: f64,
+        q: &[S],
+        v: &[S],
+        f: &mut [S],
+    ) {
+        match force {
+            Force::PointForce {
+                marker,
+                load,
+                frame,
+            } => {
+                let k = self.marker(marker, q, v, false);
+                let l: Vector3<S> = vec3f(&load.at(t));
+                let fg = match frame {
+                    LoadFrame::Global => l,
+                    LoadFrame::Body => k.a * l,
+                };
+                for (i, j) in k.point.jac.iter().enumerate() {
+                    f[i] += j.dot(&fg);
+                }
+            }
+            Force::PointTorque {
+                marker,
+                load,
+                frame,
+            } => {
+                let Some(_) = marker.body else { return };
+                let k = self.marker(marker, q, v, false);
+                let l: Vector3<S> = vec3f(&load.at(t));
+                let tb = match frame {
+                    LoadFrame::Global => k.a.transpose() * l,
+                    LoadFrame::Body => l,
+                };
+                for i in 0..3 {
+                    f[k.v_off + 3 + i] += tb[i];
+                }
+                for (j, x) in k.node_rot_modes.iter().enumerate() {
+                    f[k.v_off + 6 + j] += x.dot(&tb);
+                }
+            }
+            Force::SpringDamper {
+                a,
+                b,
+                stiffness,
+                damping,
+                free_length,
+            } => {
+                let ka = self.marker(a, q, v, false);
+                let kb = self.marker(b, q, v, false);
+                let d = kb.point.sub(&ka.point);
+                let l = d.val.dot(&d.val).sqrt();
+                let ld = d.val.dot(&d.rate) / l;
+                let tension = (l - S::from_f64(*free_length)) * *stiffness + ld * *damping;
+                let dir = d.val / l;
+                for (i, j) in d.jac.iter().enumerate() {
+                    f[i] -= tension * j.dot(&dir);
+                }
+            }
+        }
+    }
+
+    /// The augmented system of Eq. (12) at `(t, q, v)` for constraint rows `rows`.
+    pub fn equations<S: Scalar + From<P>>(
+        &self,
+        t: f64,
+        q: &[S],
+        v: &[S],
+        rows: &[usize],
+    ) -> Equations<S> {
+        let nv = self.n_v;
+        let n = nv + rows.len();
+        let (m, f) = self.mass_and_forces(t, q, v);
+        let k = self.constraint_kin(t, q, v);
+        let mut matrix = DMatrix::zeros(n, n);
+        matrix.view_mut((0, 0), (nv, nv)).copy_from(&m);
+        let mut rhs = DVector::zeros(n);
+        for i in 0..nv {
+            rhs[i] = f[i];
+        }
+        let two_alpha = S::from_f64(2.0 * self.baumgarte.alpha);
+        let beta2 = S::from_f64(self.baumgarte.beta * self.baumgarte.beta);
+        for (r, &row) in rows.iter().enumerate() {
+            let c = &k[row];
+            for (col, &x) in c.jac.iter().enumerate() {
+                matrix[(nv + r, col)] = x;
+                matrix[(col, nv + r)] = x;
+            }
+            rhs[nv + r] = -c.quad - two_alpha * c.rate - beta2 * c.val;
+        }
+        Equations { matrix, rhs }
+    }
+
+    /// The residual `rhs − matrix · x̂` of Eq. (12) with `x̂ = [v̇; λ]` held fixed: evaluated on
+    /// `Dual<N>` its tangents are the right-hand side of Eq. (40) (see [`sens::solve_tangents`]).
+    pub fn residual<S: Scalar + From<P>>(
+        &self,
+        t: f64,
+        q: &[S],
+        v: &[S],
+        rows: &[usize],
+        x_hat: &[f64],
+    ) -> Vec<S> {
+        let e = self.equations(t, q, v, rows);
+        let n = e.rhs.len();
+        (0..n)
+            .map(|i| {
+                let mut r = e.rhs[i];
+                for j in 0..n {
+                    if x_hat[j] != 0.0 {
+                        r -= e.matrix[(i, j)] * x_hat[j];
+                    }
+                }
+                r
+            })
+            .collect()
+    }
+}
+
+impl Model<f64> {
+    /// Kinetic, gravitational, elastic and spring energies at `(t, q, v)`.
+    pub fn energy(&self, t: f64, q: &[f64], v: &[f64]) -> Energy {
+        let (m, _) = self.mass_and_forces(t, q, v);
+        let vv = DVector::from_column_slice(v);
+        let kinetic = 0.5 * vv.dot(&(&m * &vv));
+        let mut gravity = 0.0;
+        let mut elastic = 0.0;
+        for s in &self.bodies {
+            let ps = pose(&q[s.q_off..]);
+            match &s.body {
+                Body::Rigid(b) => gravity -= b.mass * self.gravity.dot(&ps.r),
+                Body::Flexible(b) => {
+                    let nm = b.modal.n_modes();
+                    let w = &q[s.q_off + 7..s.q_off + 7 + nm];
+                    for k in 0..b.modal.n_nodes() {
+                        let mut u = b.modal.node_positions[k];
+                        for j in 0..nm {
+                            u += crate::body::mode_vec::<f64, f64>(&b.modal, k, j, false) * w[j];
+                        }
+                        let x = ps.r + ps.a * u;
+                        gravity -= b.modal.node_masses[k] * self.gravity.dot(&x);
+                    }
+                    for j in 0..nm {
+                        elastic += 0.5 * lift::<f64, f64>(b.modal.eigenvalues[j]) * w[j] * w[j];
+                    }
+                }
+            }
+        }
+        let mut spring = 0.0;
+        for force in &self.forces {
+            if let Force::SpringDamper {
+                a,
+                b,
+                stiffness,
+                free_length,
+                ..
+            } = force
+            {
+                let ka = self.marker(a, q, v, false);
+                let kb = self.marker(b, q, v, false);
+                let l = (kb.point.val - ka.point.val).norm();
+                spring += 0.5 * stiffness * (l - free_length).powi(2);
+            }
+        }
+        Energy {
+            kinetic,
+            gravity,
+            elastic,
+            spring,
+        }
+    }
+
+    /// Global position of a marker point (m).
+    pub fn marker_position(&self, m: &Marker, q: &[f64]) -> Vector3<f64> {
+        let v = vec![0.0; self.n_v];
+        self.marker(m, q, &v, false).point.val
+    }
+
+    /// Global position, velocity of a marker point (m, m/s).
+    pub fn marker_velocity(
+        &self,
+        m: &Marker,
+        q: &[f64],
+        v: &[f64],
+    ) -> (Vector3<f64>, Vector3<f64>) {
+        let k = self.marker(m, q, v, false);
+        (k.point.val, k.point.rate)
+    }
+
+    /// Nodal displacements `u' = X w` of flexible body `id` (body frame; per node translation
+    /// and rotation). Empty for rigid bodies.
+    pub fn nodal_displacements(&self, id: BodyId, q: &[f64]) -> Vec<[f64; 6]> {
+        let s = &self.bodies[id.0];
+        let Body::Flexible(b) = &s.body else {
+            return Vec::new();
+        };
+        let nm = b.modal.n_modes();
+        let w = &q[s.q_off + 7..s.q_off + 7 + nm];
+        (0..b.modal.n_nodes())
+            .map(|k| {
+                std::array::from_fn(|i| (0..nm).map(|j| b.modal.modes[(6 * k + i, j)] * w[j]).sum())
+            })
+            .collect()
+    }
+
+    /// Orientation (body → global) of body `id`.
+    pub fn rotation_of(&self, id: BodyId, q: &[f64]) -> Matrix3<f64> {
+        pose(&q[self.bodies[id.0].q_off..]).a
+    }
+}
+
+/// Positions and velocities of a model.
+#[derive(Clone, Debug, PartialEq)]
+pub struct State {
+    pub q: Vec<f64>,
+    pub v: Vec<f64>,
+}
+
+impl State {
+    /// `y = [q; v]`.
+    pub fn to_vec(&self) -> Vec<f64> {
+        let mut y = self.q.clone();
+        y.extend_from_slice(&self.v);
+        y
+    }
+    /// Split `y = [q; v]` after `n_q` entries.
+    pub fn from_vec(y: &[f64], n_q: usize) -> Self {
+        Self {
+            q: y[..n_q].to_vec(),
+            v: y[n_q..].to_vec(),
+        }
+    }
+}

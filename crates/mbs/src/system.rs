@@ -1,0 +1,434 @@
+//! The `f64` solver around a [`Model`]: redundant-constraint handling, consistent initial
+//! conditions, the LU solution of Eq. (12), the exact state Jacobian from the dual path, and
+//! the outputs per time.
+
+use nalgebra::{DMatrix, DVector, Dyn, LU, Matrix3, Vector3};
+use sens::{Dual, Scalar, chunk_ranges, solve_tangents};
+
+use crate::bdf::{Bdf, BdfOptions, IntegrationError, OdeSystem, RhsError, Statistics};
+use crate::body::BodyId;
+use crate::error::ConstraintError;
+use crate::joint::JointId;
+use crate::kin::{quat_from_rotation_vector, quat_mul};
+use crate::model::{Energy, Model, State};
+use nalgebra::Vector4;
+
+/// What to do with redundant constraint equations.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum RedundancyPolicy {
+    /// Drop the dependent equations (their multipliers are reported as zero).
+    #[default]
+    Remove,
+    /// Fail with [`ConstraintError::Redundant`] naming the joints.
+    Error,
+}
+
+/// Reaction of a joint (from its multipliers), global components.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct JointReaction {
+    /// Force on the body of marker B (N); zero for ground.
+    pub force_on_b: Vector3<f64>,
+    /// Moment on the body of marker B about B's marker point (N·m).
+    pub moment_on_b: Vector3<f64>,
+    pub force_on_a: Vector3<f64>,
+    pub moment_on_a: Vector3<f64>,
+}
+
+/// Results at one output time.
+#[derive(Clone, Debug)]
+pub struct Output {
+    pub t: f64,
+    pub q: Vec<f64>,
+    pub v: Vec<f64>,
+    /// `v̇`.
+    pub accelerations: Vec<f64>,
+    /// Multipliers per constraint row (zero for removed rows).
+    pub lambda: Vec<f64>,
+    /// Body frame origins (m).
+    pub positions: Vec<Vector3<f64>>,
+    /// Body rotations (body → global).
+    pub orientations: Vec<Matrix3<f64>>,
+    /// Modal coordinates per body (empty for rigid bodies).
+    pub modal: Vec<Vec<f64>>,
+    /// Nodal displacements `X w` per flexible body and node (body frame).
+    pub nodal_displacements: Vec<Vec<[f64; 6]>>,
+    pub reactions: Vec<JointReaction>,
+    /// `max |Φ|` and `max |Φ̇|` over all rows.
+    pub position_violation: f64,
+    pub velocity_violation: f64,
+    pub energy: Energy,
+}
+
+/// Accelerations and multipliers at one state, with the factorisation of Eq. (12).
+pub struct Solution {
+    /// `[v̇; λ_active]`.
+    pub x: Vec<f64>,
+    pub lu: LU<f64, Dyn, Dyn>,
+}
+
+/// The multibody system as an ODE `y' = f(t, y)`, `y = [q; v]`.
+pub struct MultibodySystem {
+    model: Model<f64>,
+    rows: Vec<usize>,
+    removed: Vec<usize>,
+}
+
+/// Width of the dual chunks used for the state Jacobian.
+const CHUNK: usize = 8;
+
+impl MultibodySystem {
+    /// Wrap `model`, checking the constraint Jacobian at `state` for redundant equations.
+    pub fn new(
+        model: Model<f64>,
+        state: &State,
+        policy: RedundancyPolicy,
+    ) -> Result<Self, ConstraintError> {
+        let c = model.constraints(0.0, &state.q, &state.v);
+        let (rows, removed) = independent_rows(&c.jacobian);
+        if !removed.is_empty() && policy == RedundancyPolicy::Error {
+            return Err(ConstraintError::Redundant {
+                equations: describe_rows(&model, &removed),
+            });
+        }
+        Ok(Self {
+            model,
+            rows,
+            removed,
+        })
+    }
+
+    pub fn model(&self) -> &Model<f64> {
+        &self.model
+    }
+    /// Constraint rows kept in Eq. (12).
+    pub fn active_rows(&self) -> &[usize] {
+        &self.rows
+    }
+    /// Dependent equations that were dropped: `(joint, equation index within the joint)`.
+    pub fn removed_equations(&self) -> Vec<(JointId, usize)> {
+        self.removed
+            .iter()
+            .map(|&r| {
+                let j = self.model.joint_of_row(r);
+                (j, r - self.model.joint_rows(j).start)
+            })
+            .collect()
+    }
+
+    /// Solve Eq. (12) at `(t, q, v)`.
+    pub fn solve(&self, t: f64, q: &[f64], v: &[f64]) -> Result<Solution, ConstraintError> {
+        let e = self.model.equations(t, q, v, &self.rows);
+        let lu = e.matrix.lu();
+        let mut x = e.rhs;
+        if !lu.solve_mut(&mut x) {
+            return Err(ConstraintError::Singular { t });
+        }
+        if x.iter().any(|a| !a.is_finite()) {
+            return Err(ConstraintError::NonFinite { t });
+        }
+        Ok(Solution {
+            x: x.as_slice().to_vec(),
+            lu,
+        })
+    }
+
+    /// Project `state` onto the position and velocity constraints (minimum-norm Gauss–Newton
+    /// in the velocity variables), to `tol` in `max |Φ|` and `max |Φ̇|`.
+    pub fn assemble(&self, t: f64, state: &mut State, tol: f64) -> Result<(), ConstraintError> {
+        let max_it = 50;
+        let mut res = f64::INFINITY;
+        for it in 0..=max_it {
+            let c = self.model.constraints(t, &state.q, &state.v);
+            let phi: Vec<f64> = self.rows.iter().map(|&r| c.phi[r]).collect();
+            res = phi.iter().fold(0.0, |m, x| m.max(x.abs()));
+            if res <= tol {
+                break;
+            }
+            if it == max_it {
+                return Err(ConstraintError::AssemblyFailed {
+                    residual: res,
+                    iterations: it,
+                });
+            }
+            let d = self
+                .min_norm(&c.jacobian, &phi)
+                .ok_or(ConstraintError::Singular { t })?;
+            self.apply_increment(&mut state.q, &d);
+        }
+        if !res.is_finite() {
+            return Err(ConstraintError::AssemblyFailed {
+                residual: res,
+                iterations: max_it,
+            });
+        }
+        let c = self.model.constraints(t, &state.q, &state.v);
+        let rate: Vec<f64> = self.rows.iter().map(|&r| c.phi_dot[r]).collect();
+        let d = self
+            .min_norm(&c.jacobian, &rate)
+            .ok_or(ConstraintError::Singular { t })?;
+        for (a, b) in state.v.iter_mut().zip(&d) {
+            *a += b;
+        }
+        Ok(())
+    }
+
+    /// `−Jᵀ (J Jᵀ)⁻¹ r` over the active rows.
+    fn min_norm(&self, jac: &DMatrix<f64>, r: &[f64]) -> Option<Vec<f64>> {
+        let j = DMatrix::from_fn(self.rows.len(), jac.ncols(), |i, c| jac[(self.rows[i], c)]);
+        let jjt = &j * j.transpose();
+        let y = jjt.lu().solve(&DVector::from_column_slice(r))?;
+        Some((-(j.transpose() * y)).as_slice().to_vec())
+    }
+
+    /// `q ← q ⊕ Δ` for an increment `Δ` in the velocity variables (rotations exact).
+    pub fn apply_increment(&self, q: &mut [f64], d: &[f64]) {
+        for id in self.model.body_ids() {
+            let qr = self.model.q_range(id);
+            let vr = self.model.v_range(id);
+            for i in 0..3 {
+                q[qr.start + i] += d[vr.start + i];
+            }
+            let p = Vector4::new(
+                q[qr.start + 3],
+                q[qr.start + 4],
+                q[qr.start + 5],
+                q[qr.start + 6],
+            );
+            let dq = quat_from_rotation_vector(&Vector3::new(
+                d[vr.start + 3],
+                d[vr.start + 4],
+                d[vr.start + 5],
+            ));
+            let pn = quat_mul(&p, &dq).normalize();
+            q[qr.start + 3..qr.start + 7].copy_from_slice(pn.as_slice());
+            for j in 6..vr.len() {
+                q[qr.start + 1 + j] += d[vr.start + j];
+            }
+        }
+    }
+
+    /// Full-length multipliers from the active ones.
+    fn full_lambda(&self, x: &[f64]) -> Vec<f64> {
+        let nv = self.model.n_v();
+        let mut l = vec![0.0; self.model.n_constraints()];
+        for (i, &r) in self.rows.iter().enumerate() {
+            l[r] = x[nv + i];
+        }
+        l
+    }
+
+    /// Joint reactions from the multipliers `lambda` (all rows).
+    pub fn reactions(&self, t: f64, q: &[f64], v: &[f64], lambda: &[f64]) -> Vec<JointReaction> {
+        let c = self.model.constraints(t, q, v);
+        (0..self.model.joints().len())
+            .map(|ji| {
+                let id = JointId(ji);
+                let rows = self.model.joint_rows(id);
+                let joint = self.model.joint(id);
+                let generalized: Vec<f64> = (0..self.model.n_v())
+                    .map(|col| {
+                        -rows
+                            .clone()
+                            .map(|r| c.jacobian[(r, col)] * lambda[r])
+                            .sum::<f64>()
+                    })
+                    .collect();
+                let on = |m: &crate::Marker| -> (Vector3<f64>, Vector3<f64>) {
+                    let Some(b) = m.body else {
+                        return (Vector3::zeros(), Vector3::zeros());
+                    };
+                    let vr = self.model.v_range(b);
+                    let f = Vector3::new(
+                        generalized[vr.start],
+                        generalized[vr.start + 1],
+                        generalized[vr.start + 2],
+                    );
+                    let mb = Vector3::new(
+                        generalized[vr.start + 3],
+                        generalized[vr.start + 4],
+                        generalized[vr.start + 5],
+                    );
+                    let qr = self.model.q_range(b);
+                    let r = Vector3::new(q[qr.start], q[qr.start + 1], q[qr.start + 2]);
+                    let a = self.model.rotation_of(b, q);
+                    let x = self.model.marker_position(m, q);
+                    (f, a * mb - (x - r).cross(&f))
+                };
+                let (fb, mb) = on(&joint.b);
+                let (fa, ma) = on(&joint.a);
+                JointReaction {
+                    force_on_b: fb,
+                    moment_on_b: mb,
+                    force_on_a: fa,
+                    moment_on_a: ma,
+                }
+            })
+            .collect()
+    }
+
+    /// Outputs at `(t, y)`.
+    pub fn output(&self, t: f64, y: &[f64]) -> Result<Output, ConstraintError> {
+        let nq = self.model.n_q();
+        let (q, v) = y.split_at(nq);
+        let sol = self.solve(t, q, v)?;
+        let nv = self.model.n_v();
+        let lambda = self.full_lambda(&sol.x);
+        let c = self.model.constraints(t, q, v);
+        let ids: Vec<BodyId> = self.model.body_ids().collect();
+        Ok(Output {
+            t,
+            q: q.to_vec(),
+            v: v.to_vec(),
+            accelerations: sol.x[..nv].to_vec(),
+            reactions: self.reactions(t, q, v, &lambda),
+            lambda,
+            positions: ids
+                .iter()
+                .map(|&b| {
+                    let r = self.model.q_range(b).start;
+                    Vector3::new(q[r], q[r + 1], q[r + 2])
+                })
+                .collect(),
+            orientations: ids.iter().map(|&b| self.model.rotation_of(b, q)).collect(),
+            modal: ids
+                .iter()
+                .map(|&b| {
+                    let r = self.model.q_range(b);
+                    q[r.start + 7..r.end].to_vec()
+                })
+                .collect(),
+            nodal_displacements: ids
+                .iter()
+                .map(|&b| self.model.nodal_displacements(b, q))
+                .collect(),
+            position_violation: c.phi.iter().fold(0.0, |m, x| m.max(x.abs())),
+            velocity_violation: c.phi_dot.iter().fold(0.0, |m, x| m.max(x.abs())),
+            energy: self.model.energy(t, q, v),
+        })
+    }
+}
+
+/// Greedy modified Gram–Schmidt on the rows of `jac`: `(independent, dependent)` row indices.
+fn independent_rows(jac: &DMatrix<f64>) -> (Vec<usize>, Vec<usize>) {
+    let mut basis: Vec<DVector<f64>> = Vec::new();
+    let (mut keep, mut drop) = (Vec::new(), Vec::new());
+    for r in 0..jac.nrows() {
+        let row = jac.row(r).transpose();
+        let norm0 = row.norm();
+        let mut x = row.clone();
+        for b in &basis {
+            let p = b.dot(&x);
+            x -= b * p;
+        }
+        let n = x.norm();
+        if n > 1e-8 * norm0.max(1e-300) && norm0 > 0.0 {
+            basis.push(x / n);
+            keep.push(r);
+        } else {
+            drop.push(r);
+        }
+    }
+    (keep, drop)
+}
+
+fn describe_rows(model: &Model<f64>, rows: &[usize]) -> Vec<(String, usize)> {
+    rows.iter()
+        .map(|&r| {
+            let j = model.joint_of_row(r);
+            (model.joint(j).name.clone(), r - model.joint_rows(j).start)
+        })
+        .collect()
+}
+
+impl OdeSystem for MultibodySystem {
+    fn dim(&self) -> usize {
+        self.model.n_q() + self.model.n_v()
+    }
+
+    fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), RhsError> {
+        let nq = self.model.n_q();
+        let (q, v) = y.split_at(nq);
+        let sol = self.solve(t, q, v).map_err(|e| RhsError(e.to_string()))?;
+        self.model.kinematic_rates(q, v, &mut dy[..nq]);
+        dy[nq..].copy_from_slice(&sol.x[..self.model.n_v()]);
+        Ok(())
+    }
+
+    /// Exact `∂f/∂y`: the residual of Eq. (12) in `Dual<8>` seeded with chunks of the state,
+    /// its tangents pushed through the `f64` LU ([`sens::solve_tangents`]).
+    fn jacobian(&mut self, t: f64, y: &[f64], jac: &mut DMatrix<f64>) -> Result<(), RhsError> {
+        let nq = self.model.n_q();
+        let nv = self.model.n_v();
+        let n = nq + nv;
+        let (q, v) = y.split_at(nq);
+        let sol = self.solve(t, q, v).map_err(|e| RhsError(e.to_string()))?;
+        for range in chunk_ranges(n, CHUNK) {
+            let seed = |i: usize, x: f64| -> Dual<CHUNK> {
+                if range.contains(&i) {
+                    Dual::variable(x, i - range.start)
+                } else {
+                    Dual::constant(x)
+                }
+            };
+            let qd: Vec<Dual<CHUNK>> = q.iter().enumerate().map(|(i, &x)| seed(i, x)).collect();
+            let vd: Vec<Dual<CHUNK>> = v
+                .iter()
+                .enumerate()
+                .map(|(i, &x)| seed(nq + i, x))
+                .collect();
+            let res = self.model.residual(t, &qd, &vd, &self.rows, &sol.x);
+            let x = solve_tangents(&sol.lu, &sol.x, &res);
+            let mut qdot = vec![Dual::<CHUNK>::constant(0.0); nq];
+            self.model.kinematic_rates(&qd, &vd, &mut qdot);
+            for (k, col) in range.clone().enumerate() {
+                for i in 0..nq {
+                    jac[(i, col)] = qdot[i].tangent(k);
+                }
+                for i in 0..nv {
+                    jac[(nq + i, col)] = x[i].tangent(k);
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Failure of a simulation.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SimulationError {
+    #[error(transparent)]
+    Constraint(#[from] ConstraintError),
+    #[error(transparent)]
+    Integration(#[from] IntegrationError),
+}
+
+/// Outputs and work statistics of a run.
+#[derive(Clone, Debug)]
+pub struct Simulation {
+    pub outputs: Vec<Output>,
+    pub statistics: Statistics,
+}
+
+/// Integrate `system` from `state` at `t_out[0]` to the last output time, returning the
+/// outputs at every `t_out` (dense output between steps).
+pub fn simulate(
+    system: &mut MultibodySystem,
+    state: &State,
+    t_out: &[f64],
+    options: BdfOptions,
+) -> Result<Simulation, SimulationError> {
+    let t0 = t_out[0];
+    let t_end = *t_out.last().expect("at least one output time");
+    let mut bdf = Bdf::new(options);
+    bdf.init(system, t0, &state.to_vec())?;
+    let ys = bdf.integrate_to(system, t_end, t_out, |_| {})?;
+    let outputs = t_out
+        .iter()
+        .zip(&ys)
+        .map(|(&t, y)| system.output(t, y))
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(Simulation {
+        outputs,
+        statistics: bdf.statistics(),
+    })
+}
