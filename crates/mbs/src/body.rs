@@ -15,6 +15,13 @@ use crate::kin::{rotation, skew};
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct BodyId(pub(crate) usize);
 
+impl From<usize> for BodyId {
+    /// The body at position `i` in the order of creation.
+    fn from(i: usize) -> Self {
+        Self(i)
+    }
+}
+
 impl BodyId {
     /// Position of the body in the model's body list.
     pub fn index(self) -> usize {

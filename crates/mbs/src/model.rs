@@ -261,6 +261,11 @@ impl<P: Scalar> Model<P> {
     pub fn body(&self, id: BodyId) -> &Body<P> {
         &self.bodies[id.0].body
     }
+    /// Mutable access to a body's parameters (e.g. to seed design tangents in the modal data).
+    /// The number of modes must not change: it fixes the state layout.
+    pub fn body_mut(&mut self, id: BodyId) -> &mut Body<P> {
+        &mut self.bodies[id.0].body
+    }
     pub fn body_ids(&self) -> impl Iterator<Item = BodyId> + use<P> {
         (0..self.bodies.len()).map(BodyId)
     }

@@ -97,6 +97,22 @@ impl MultibodySystem {
         })
     }
 
+    /// The same system (same active constraint rows) with other model parameters, e.g. a
+    /// perturbed design for finite-difference checks. The layout must be unchanged.
+    pub fn with_model(&self, model: Model<f64>) -> Self {
+        assert_eq!(
+            model.n_constraints(),
+            self.model.n_constraints(),
+            "constraint layout changed"
+        );
+        assert_eq!(model.n_v(), self.model.n_v(), "state layout changed");
+        Self {
+            model,
+            rows: self.rows.clone(),
+            removed: self.removed.clone(),
+        }
+    }
+
     pub fn model(&self) -> &Model<f64> {
         &self.model
     }

@@ -178,7 +178,7 @@ impl Beam {
 /// Slender-rod inertia about the centre (rod along x).
 pub fn rod_inertia(m: f64, l: f64) -> Matrix3<f64> {
     let t = m * l * l / 12.0;
-    Matrix3::from_diagonal(&Vector3::new(1e-3 * t, t, t))
+    Matrix3::from_diagonal(&Vector3::new(0.05 * t, t, t))
 }
 
 pub const CRANK: f64 = 0.152;
