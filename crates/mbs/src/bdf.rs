@@ -466,7 +466,7 @@ impl Bdf {
             if remaining <= 0.0 {
                 return Ok(());
             }
-            if h >= remaining * (1.0 - 1e-12) {
+            if h >= remaining - 1e-8 * h {
                 h = remaining;
             } else if !fixed && h > 0.5 * remaining && h < remaining {
                 // avoid a sliver step before t_stop
