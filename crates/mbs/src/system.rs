@@ -190,6 +190,9 @@ impl MultibodySystem {
 
     /// `−Jᵀ (J Jᵀ)⁻¹ r` over the active rows.
     fn min_norm(&self, jac: &DMatrix<f64>, r: &[f64]) -> Option<Vec<f64>> {
+        if self.rows.is_empty() {
+            return Some(vec![0.0; jac.ncols()]);
+        }
         let j = DMatrix::from_fn(self.rows.len(), jac.ncols(), |i, c| jac[(self.rows[i], c)]);
         let jjt = &j * j.transpose();
         let y = jjt.lu().solve(&DVector::from_column_slice(r))?;
