@@ -1,1 +1,55 @@
-//! Finite-element cross-section analysis of composite beams (placeholder; filled by a later issue).
+//! `section` — finite-element cross-section analysis of composite beams (paper §3.3 and §4.6,
+//! Eqs. 24–34 and 52–61; DESIGN.md §3).
+//!
+//! It owns the 2-D section mesh ([`SectionMesh`]: quadratic elements, each in a [`Region`] with
+//! a material, a ply angle and a local wall frame), its generators ([`rectangle`], [`tube`],
+//! [`thin_walled_box`]) and text parsers ([`parse_gmsh`], [`parse_simple`]), the warping
+//! analysis that yields the 6×6 Timoshenko stiffness with all couplings, the 4×4 classical
+//! stiffness, mass properties and the mass, tension and shear centres ([`SectionProperties`]),
+//! and their exact derivatives with respect to ply-angle design variables ([`DesignMap`],
+//! [`SectionSensitivities`]). It knows nothing about beam elements, multibody systems, decks or
+//! files: text comes in as `&str`.
+//!
+//! # Conventions
+//! - Beam axis `x₁`; section plane `(x₂, x₃)`; right-handed. SI units, radians.
+//! - Generalised strains `ψ = [ε, γ₂, γ₃, κ₁, κ₂, κ₃]` (axial strain, shear strains in `x₂` and
+//!   `x₃`, twist, bending curvatures about `x₂` and `x₃`) and section forces
+//!   `θ = [F₁, F₂, F₃, M₁, M₂, M₃]`, `θ = K ψ`, both referred to the origin of the section
+//!   coordinates ([`SectionProperties::stiffness_at`] refers them to any point).
+//! - With `t(x₁)` the displacement and `φ(x₁)` the rotation vector of the reference axis:
+//!   `ε = t₁'`, `γ₂ = t₂' − φ₃`, `γ₃ = t₃' + φ₂`, `κ = φ'`. The axial strain of the fibre at
+//!   `(x₂, x₃)` is `ε + x₃ κ₂ − x₂ κ₃`; so for bending in the `x₁x₂` plane with deflection
+//!   `v(x₁)`, `κ₃ = v''` (positive `κ₃` shortens fibres at positive `x₂`), and in the `x₁x₃`
+//!   plane with deflection `w`, `κ₂ = −w''`.
+//! - Forces are the resultants of the axial stresses `(σ₁₁, σ₁₂, σ₁₃)`: `F = ∫σ₁ⱼ`,
+//!   `M₁ = ∫(x₂σ₁₃ − x₃σ₁₂)`, `M₂ = ∫x₃σ₁₁`, `M₃ = −∫x₂σ₁₁` (`M = ∫ p × σ₁`). An isotropic
+//!   section about its centroid has `K = diag(EA, k₂GA, k₃GA, GJ, EI₂₂, EI₃₃)` with
+//!   `I₂₂ = ∫x₃²`, `I₃₃ = ∫x₂²`.
+//! - Voigt order of 3-D stresses and strains `[11, 22, 33, 23, 13, 12]`, engineering shears (as
+//!   in `laminate`).
+//! - Ply angle `θ`: fibre direction from the beam axis, rotated about the wall normal `n` of
+//!   the region's [`WallFrame`] (`(x₁, t, n)` right-handed); the element stiffness in section
+//!   axes is `rotate_stiffness(C̄, R_wall · R_ply(θ))`.
+//!
+//! # Formulation
+//! Giavotto et al. (1983) / BECAS (Blasques 2012): two linear systems with one sparse matrix,
+//! factorised once by sparse Cholesky; see the docs of [`SectionAnalysis`] and of the
+//! `analysis` module source for the equations. Derivatives follow DESIGN.md §1.
+
+mod analysis;
+mod design;
+mod element;
+mod error;
+mod generate;
+mod mesh;
+mod parse;
+mod properties;
+
+pub use analysis::{SectionAnalysis, analyse, analyse_with_derivatives};
+pub use design::{DesignMap, DesignVariable};
+pub use element::ElementKind;
+pub use error::SectionError;
+pub use generate::{BoxWalls, PlySpec, rectangle, thin_walled_box, tube};
+pub use mesh::{Element, Region, SectionMesh, WallFrame};
+pub use parse::{RegionSpec, parse_gmsh, parse_simple};
+pub use properties::{SectionProperties, SectionSensitivities};

@@ -1,0 +1,848 @@
+//! The Giavotto/BECAS warping analysis: assembly, the two solves with one factorisation, the
+//! compliance from the strain energy, and tangents through the same factorisation.
+//!
+//! # Formulation
+//! The displacement of a prismatic beam is a rigid section motion plus a warping field
+//! `w(x₂, x₃, x₁) = N(x₂, x₃) u(x₁)` (three components per node). With the generalised strains
+//! `ψ = [ε, γ₂, γ₃, κ₁, κ₂, κ₃]` the 3-D strain (Voigt `[11, 22, 33, 23, 13, 12]`) is
+//!
+//! `ε = Z ψ + B N u + S N u'`,
+//!
+//! where `Z` carries the rigid-section strains (`ε₁₁ = ε + x₃κ₂ − x₂κ₃`, `γ₁₂ = γ₂ − x₃κ₁`,
+//! `γ₁₃ = γ₃ + x₂κ₁`), `B` the in-plane derivatives and `S` the axial derivative of the warping.
+//! Under end loads the section forces `θ = [F₁, F₂, F₃, M₁, M₂, M₃]` vary as `θ' = T θ`
+//! (`M₂' = F₃`, `M₃' = −F₂`), and the central (Saint-Venant) solution is `u = X θ`, `ψ = Y θ`,
+//! `u' = X₁ θ`, `ψ' = Y₁ θ` with `X₁ = X T`. Equilibrium of the section gives two linear systems
+//! with the same symmetric matrix `K = ∫[BN Z]ᵀ Q [BN Z]` (Giavotto et al. 1983; Blasques 2012):
+//!
+//! 1. `∫[BN Z]ᵀ Q (BN X₁ + Z Y₁) = [0; T]`,
+//! 2. `∫[BN Z]ᵀ Q (BN X + Z Y + SN X₁) = [∫(SN)ᵀ Q (BN X₁ + Z Y₁); I]`,
+//!
+//! and the compliance is the strain energy per unit length, `F = ∫ εᵀ Q ε` with
+//! `ε = Z Y + BN X + SN X₁` per unit force. The stiffness is `F⁻¹`.
+//!
+//! The six rigid-body modes of the warping are removed by pinning six nodal components
+//! (`w₁` at three non-collinear nodes, `w₂, w₃` at one node and one more in-plane component at
+//! the node farthest from it). The right-hand sides are self-equilibrated, so the reactions at
+//! the pins vanish and the compliance does not depend on the choice; the pinned `K` is
+//! symmetric positive definite and factorised once by sparse Cholesky (faer).
+//!
+//! Derivatives: with `X̂₁, Ŷ₁, X̂, Ŷ` fixed, the residuals of systems 1 and 2 are evaluated with
+//! dual-number ply angles (only `Q` depends on them) and pushed through the same factorisation
+//! by [`sens::solve_tangents`] (DESIGN.md §1); the compliance is then evaluated in duals.
+
+use faer::Side;
+use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
+use faer::sparse::{SparseColMat, Triplet};
+use laminate::{bond_stress_matrix, rotate_stiffness};
+use nalgebra::{Matrix6, SMatrix};
+use sens::{Dual, LinearSolver, Scalar, chunk_ranges, solve_tangents};
+
+use crate::element::MAX_NODES;
+use crate::mesh::{Region, SectionMesh, jacobian};
+use crate::properties::{MassProperties, Props, SectionProperties, SectionSensitivities};
+use crate::{DesignMap, SectionError};
+
+/// Geometry of one integration point.
+#[derive(Clone, Copy, Debug)]
+struct GaussPoint {
+    /// Weight × Jacobian determinant (m²).
+    w: f64,
+    /// Position `(x₂, x₃)`.
+    x: [f64; 2],
+    /// Shape functions.
+    n: [f64; MAX_NODES],
+    /// Their derivatives `[∂/∂x₂, ∂/∂x₃]`.
+    dx: [[f64; 2]; MAX_NODES],
+}
+
+const NONE: usize = usize::MAX;
+
+/// A section whose warping system has been assembled, factorised and solved: values are
+/// available at once, derivatives for any design map on request (reusing the factorisation).
+pub struct SectionAnalysis {
+    model: Model,
+    llt: Llt<usize, f64>,
+    /// Solutions per unit section force, node-dof-major: `x[(3·node + k)·6 + column]`.
+    x1: Vec<f64>,
+    y1: [f64; 36],
+    x: Vec<f64>,
+    y: [f64; 36],
+    properties: SectionProperties,
+}
+
+/// The discretised section: geometry at the integration points and the dof numbering.
+struct Model {
+    mesh: SectionMesh,
+    gps: Vec<GaussPoint>,
+    /// Offsets of each element's integration points in `gps`.
+    gp_start: Vec<usize>,
+    /// Free-dof index of each nodal component `3·node + k`, or `NONE` (pinned or unused).
+    dof: Vec<usize>,
+    n_free: usize,
+    /// Material stiffness of each region in its principal axes.
+    c_bar: Vec<Matrix6<f64>>,
+}
+
+/// Analyse a section: the 6×6 stiffness and everything derived from it (see
+/// [`SectionProperties`]).
+pub fn analyse(mesh: &SectionMesh) -> Result<SectionProperties, SectionError> {
+    Ok(SectionAnalysis::new(mesh)?.properties().clone())
+}
+
+/// Analyse a section and differentiate every result with respect to the design variables of
+/// `design`, `N` variables at a time (the result does not depend on `N`).
+pub fn analyse_with_derivatives<const N: usize>(
+    mesh: &SectionMesh,
+    design: &DesignMap,
+) -> Result<SectionSensitivities, SectionError> {
+    SectionAnalysis::new(mesh)?.sensitivities::<N>(design)
+}
+
+/// Fields of the kernel, per column (6 columns), node-dof-major.
+#[derive(Clone, Copy)]
+struct Fields<'a, S> {
+    u: Option<&'a [S]>,
+    u1: Option<&'a [S]>,
+    psi: Option<&'a [S; 36]>,
+}
+
+/// Outputs of the kernel, all accumulated.
+struct Outputs<'a, S> {
+    /// `∫ (BN)ᵀ σ`, node-dof-major × 6 columns.
+    b: Option<&'a mut [S]>,
+    /// `∫ (SN)ᵀ σ`.
+    s: Option<&'a mut [S]>,
+    /// `∫ Zᵀ σ`, `z[i·6 + c]`.
+    z: Option<&'a mut [S; 36]>,
+    /// `∫ ε_cᵀ σ_d`, `energy[c·6 + d]`.
+    energy: Option<&'a mut [S; 36]>,
+}
+
+/// `T Q Tᵀ` for an `f64` Bond matrix and a generic stiffness.
+fn congruence<S: Scalar>(t: &Matrix6<f64>, q: &Matrix6<S>) -> Matrix6<S> {
+    let mut tq = [[S::zero(); 6]; 6];
+    for i in 0..6 {
+        for j in 0..6 {
+            let mut acc = S::zero();
+            for k in 0..6 {
+                if t[(i, k)] != 0.0 {
+                    acc += q[(k, j)] * t[(i, k)];
+                }
+            }
+            tq[i][j] = acc;
+        }
+    }
+    let mut out = Matrix6::zeros();
+    for i in 0..6 {
+        for j in 0..6 {
+            let mut acc = S::zero();
+            for k in 0..6 {
+                if t[(j, k)] != 0.0 {
+                    acc += tq[i][k] * t[(j, k)];
+                }
+            }
+            out[(i, j)] = acc;
+        }
+    }
+    out
+}
+
+impl SectionAnalysis {
+    /// Validate the mesh, assemble and factorise the warping system, solve it and compute the
+    /// section properties.
+    pub fn new(mesh: &SectionMesh) -> Result<Self, SectionError> {
+        mesh.validate()?;
+        let mesh = mesh.clone();
+        let (gps, gp_start) = geometry(&mesh);
+        let (dof, n_free) = dof_map(&mesh);
+        let c_bar: Vec<Matrix6<f64>> = mesh
+            .regions
+            .iter()
+            .map(|r| r.material.stiffness())
+            .collect();
+        let n_tot = n_free + 6;
+
+        let m = Model {
+            mesh,
+            gps,
+            gp_start,
+            dof,
+            n_free,
+            c_bar,
+        };
+        let llt = m.factorise()?;
+        let q_ply: Vec<Matrix6<f64>> = m
+            .mesh
+            .regions
+            .iter()
+            .zip(&m.c_bar)
+            .map(|(r, c)| rotate_stiffness(c, &Region::ply_rotation(r.ply_angle)))
+            .collect();
+        let nd = 3 * m.mesh.nodes.len();
+
+        // System 1: K [X₁; Y₁] = [0; T].
+        let mut rhs = vec![0.0; n_tot * 6];
+        let t = force_derivative_map();
+        for c in 0..6 {
+            for i in 0..6 {
+                rhs[c * n_tot + n_free + i] = t[i * 6 + c];
+            }
+        }
+        llt.solve_columns(&mut rhs, 6);
+        let (x1, y1) = m.unpack(&rhs);
+
+        // System 2: K [X; Y] = [∫(SN)ᵀσ₁ − ∫(BN)ᵀ Q SN X₁; I − ∫Zᵀ Q SN X₁].
+        let mut s1 = vec![0.0; nd * 6];
+        m.kernel(
+            &q_ply,
+            Fields {
+                u: Some(&x1),
+                u1: None,
+                psi: Some(&y1),
+            },
+            Outputs {
+                b: None,
+                s: Some(&mut s1),
+                z: None,
+                energy: None,
+            },
+        );
+        let mut b2 = vec![0.0; nd * 6];
+        let mut z2 = [0.0; 36];
+        m.kernel(
+            &q_ply,
+            Fields {
+                u: None,
+                u1: Some(&x1),
+                psi: None,
+            },
+            Outputs {
+                b: Some(&mut b2),
+                s: None,
+                z: Some(&mut z2),
+                energy: None,
+            },
+        );
+        let mut rhs = vec![0.0; n_tot * 6];
+        for (g, &f) in m.dof.iter().enumerate() {
+            if f != NONE {
+                for c in 0..6 {
+                    rhs[c * n_tot + f] = s1[g * 6 + c] - b2[g * 6 + c];
+                }
+            }
+        }
+        for c in 0..6 {
+            for i in 0..6 {
+                let id = if i == c { 1.0 } else { 0.0 };
+                rhs[c * n_tot + n_free + i] = id - z2[i * 6 + c];
+            }
+        }
+        llt.solve_columns(&mut rhs, 6);
+        let (x, y) = m.unpack(&rhs);
+
+        // Compliance: the strain energy of the central solution per unit force.
+        let mut f = [0.0; 36];
+        m.kernel(
+            &q_ply,
+            Fields {
+                u: Some(&x),
+                u1: Some(&x1),
+                psi: Some(&y),
+            },
+            Outputs {
+                b: None,
+                s: None,
+                z: None,
+                energy: Some(&mut f),
+            },
+        );
+        let compliance = symmetric(&f);
+        let mass = m.mass_properties();
+        let props = Props::from_compliance(compliance).ok_or(SectionError::SingularCompliance)?;
+        let properties = SectionProperties::from_props(&props, &mass, |s| s);
+        Ok(SectionAnalysis {
+            model: m,
+            llt,
+            x1,
+            y1,
+            x,
+            y,
+            properties,
+        })
+    }
+
+    /// The section properties.
+    pub fn properties(&self) -> &SectionProperties {
+        &self.properties
+    }
+
+    /// The mesh analysed.
+    pub fn mesh(&self) -> &SectionMesh {
+        &self.model.mesh
+    }
+
+    /// Number of equations of the warping system (free warping components plus the six
+    /// generalised strains).
+    pub fn equation_count(&self) -> usize {
+        self.model.n_free + 6
+    }
+
+    /// The warping displacements `[w₁, w₂, w₃]` at each node for the generalised strains
+    /// `strains` (order `[ε, γ₂, γ₃, κ₁, κ₂, κ₃]`), i.e. for the section forces
+    /// `θ = K strains` of the central solution. Defined up to the rigid modes removed by the
+    /// pins (see the module docs).
+    pub fn warping(&self, strains: [f64; 6]) -> Vec<[f64; 3]> {
+        let theta = self.properties.stiffness * nalgebra::Vector6::from(strains);
+        (0..self.model.mesh.nodes.len())
+            .map(|n| {
+                let mut w = [0.0; 3];
+                for (k, wk) in w.iter_mut().enumerate() {
+                    *wk = (0..6).map(|c| self.x[(3 * n + k) * 6 + c] * theta[c]).sum();
+                }
+                w
+            })
+            .collect()
+    }
+
+    /// Values and derivatives of every result with respect to the design variables of
+    /// `design`, evaluated `N` variables at a time through the stored factorisation.
+    pub fn sensitivities<const N: usize>(
+        &self,
+        design: &DesignMap,
+    ) -> Result<SectionSensitivities, SectionError> {
+        assert!(N > 0, "Dual<0> carries no tangents");
+        design.validate(&self.model.mesh)?;
+        let m = design.variables.len();
+        let mass = self.model.mass_properties();
+        let mut derivatives = vec![SectionProperties::default(); m];
+        for range in chunk_ranges(m, N) {
+            // Dual ply angles: tangent k of region r is dθ_r/db_{start+k}.
+            let mut angles: Vec<Dual<N>> = self
+                .model
+                .mesh
+                .regions
+                .iter()
+                .map(|r| Dual::constant(r.ply_angle))
+                .collect();
+            for (k, v) in range.clone().enumerate() {
+                for &(r, factor) in &design.variables[v].links {
+                    angles[r].d[k] += factor;
+                }
+            }
+            let compliance = self.compliance_dual(&angles);
+            let props =
+                Props::from_compliance(compliance).ok_or(SectionError::SingularCompliance)?;
+            for (k, v) in range.enumerate() {
+                derivatives[v] = SectionProperties::from_props(&props, &mass.zero(), |s| s.d[k]);
+            }
+        }
+        Ok(SectionSensitivities {
+            properties: self.properties.clone(),
+            variables: design.variables.iter().map(|v| v.name.clone()).collect(),
+            derivatives,
+        })
+    }
+
+    /// The compliance with dual ply angles: tangents of both solves through the factorisation.
+    fn compliance_dual<const N: usize>(&self, angles: &[Dual<N>]) -> Matrix6<Dual<N>> {
+        let q_ply: Vec<Matrix6<Dual<N>>> = angles
+            .iter()
+            .zip(&self.model.c_bar)
+            .map(|(&a, c)| rotate_stiffness(c, &Region::ply_rotation(a)))
+            .collect();
+        let nd = 3 * self.model.mesh.nodes.len();
+        let c = |v: &[f64]| -> Vec<Dual<N>> { v.iter().map(|&x| Dual::constant(x)).collect() };
+        let c36 = |v: &[f64; 36]| -> [Dual<N>; 36] { v.map(Dual::constant) };
+        let t = force_derivative_map();
+
+        // System 1 residual: [0; T] − K(b) [X̂₁; Ŷ₁].
+        let (x1h, y1h) = (c(&self.x1), c36(&self.y1));
+        let mut b = vec![Dual::<N>::constant(0.0); nd * 6];
+        let mut z = [Dual::<N>::constant(0.0); 36];
+        self.model.kernel(
+            &q_ply,
+            Fields {
+                u: Some(&x1h),
+                u1: None,
+                psi: Some(&y1h),
+            },
+            Outputs {
+                b: Some(&mut b),
+                s: None,
+                z: Some(&mut z),
+                energy: None,
+            },
+        );
+        let (x1, y1) = self.tangent_solve(
+            &self.x1,
+            &self.y1,
+            |g, col| -b[g * 6 + col],
+            |i, col| Dual::constant(t[i * 6 + col]) - z[i * 6 + col],
+        );
+
+        // System 2 residual: [∫(SN)ᵀσ₁; I] − ∫[BN Z]ᵀ Q (BN X̂ + Z Ŷ + SN X₁), with X₁ dual.
+        let mut s1 = vec![Dual::<N>::constant(0.0); nd * 6];
+        self.model.kernel(
+            &q_ply,
+            Fields {
+                u: Some(&x1),
+                u1: None,
+                psi: Some(&y1),
+            },
+            Outputs {
+                b: None,
+                s: Some(&mut s1),
+                z: None,
+                energy: None,
+            },
+        );
+        let (xh, yh) = (c(&self.x), c36(&self.y));
+        let mut b = vec![Dual::<N>::constant(0.0); nd * 6];
+        let mut z = [Dual::<N>::constant(0.0); 36];
+        self.model.kernel(
+            &q_ply,
+            Fields {
+                u: Some(&xh),
+                u1: Some(&x1),
+                psi: Some(&yh),
+            },
+            Outputs {
+                b: Some(&mut b),
+                s: None,
+                z: Some(&mut z),
+                energy: None,
+            },
+        );
+        let (x, y) = self.tangent_solve(
+            &self.x,
+            &self.y,
+            |g, col| s1[g * 6 + col] - b[g * 6 + col],
+            |i, col| Dual::constant(if i == col { 1.0 } else { 0.0 }) - z[i * 6 + col],
+        );
+
+        let mut f = [Dual::<N>::constant(0.0); 36];
+        self.model.kernel(
+            &q_ply,
+            Fields {
+                u: Some(&x),
+                u1: Some(&x1),
+                psi: Some(&y),
+            },
+            Outputs {
+                b: None,
+                s: None,
+                z: None,
+                energy: Some(&mut f),
+            },
+        );
+        symmetric(&f)
+    }
+
+    /// Push the residual tangents of one system through the factorisation: returns the dual
+    /// solution in node-dof-major layout. `res_u(g, col)` is the residual of nodal component
+    /// `g`, `res_psi(i, col)` that of generalised strain `i`.
+    fn tangent_solve<const N: usize>(
+        &self,
+        x_hat: &[f64],
+        y_hat: &[f64; 36],
+        res_u: impl Fn(usize, usize) -> Dual<N>,
+        res_psi: impl Fn(usize, usize) -> Dual<N>,
+    ) -> (Vec<Dual<N>>, [Dual<N>; 36]) {
+        let n_tot = self.model.n_free + 6;
+        let nd = 3 * self.model.mesh.nodes.len();
+        let mut x = vec![Dual::<N>::constant(0.0); nd * 6];
+        let mut y = [Dual::<N>::constant(0.0); 36];
+        let mut xh = vec![0.0; n_tot];
+        let mut res = vec![Dual::<N>::constant(0.0); n_tot];
+        for col in 0..6 {
+            for (g, &f) in self.model.dof.iter().enumerate() {
+                if f != NONE {
+                    xh[f] = x_hat[g * 6 + col];
+                    res[f] = res_u(g, col);
+                }
+            }
+            for i in 0..6 {
+                xh[self.model.n_free + i] = y_hat[i * 6 + col];
+                res[self.model.n_free + i] = res_psi(i, col);
+            }
+            let sol = solve_tangents(&self.llt, &xh, &res);
+            for (g, &f) in self.model.dof.iter().enumerate() {
+                if f != NONE {
+                    x[g * 6 + col] = sol[f];
+                }
+            }
+            for i in 0..6 {
+                y[i * 6 + col] = sol[self.model.n_free + i];
+            }
+        }
+        (x, y)
+    }
+}
+
+impl Model {
+    /// Split a column-major solution (`n_free + 6` rows × 6) into node-dof-major warping and
+    /// the 6×6 generalised-strain block.
+    fn unpack(&self, sol: &[f64]) -> (Vec<f64>, [f64; 36]) {
+        let n_tot = self.n_free + 6;
+        let mut x = vec![0.0; self.dof.len() * 6];
+        for (g, &f) in self.dof.iter().enumerate() {
+            if f != NONE {
+                for c in 0..6 {
+                    x[g * 6 + c] = sol[c * n_tot + f];
+                }
+            }
+        }
+        let mut y = [0.0; 36];
+        for i in 0..6 {
+            for c in 0..6 {
+                y[i * 6 + c] = sol[c * n_tot + self.n_free + i];
+            }
+        }
+        (x, y)
+    }
+
+    /// The material stiffness in section axes at integration point `gp` of an element of
+    /// region `r`: `T_wall Q_ply T_wallᵀ`.
+    fn stiffness_at<S: Scalar>(
+        &self,
+        region: usize,
+        gp: &GaussPoint,
+        q_ply: &Matrix6<S>,
+    ) -> Matrix6<S> {
+        let r = self.mesh.regions[region].frame.rotation_at(gp.x);
+        congruence(&bond_stress_matrix(&r), q_ply)
+    }
+
+    /// Assemble the lower triangle of `K = ∫[BN Z]ᵀ Q [BN Z]` (pinned components removed) and
+    /// factorise it.
+    fn factorise(&self) -> Result<Llt<usize, f64>, SectionError> {
+        let n_tot = self.n_free + 6;
+        let q_ply: Vec<Matrix6<f64>> = self
+            .mesh
+            .regions
+            .iter()
+            .zip(&self.c_bar)
+            .map(|(r, c)| rotate_stiffness(c, &Region::ply_rotation(r.ply_angle)))
+            .collect();
+        let mut triplets: Vec<Triplet<usize, usize, f64>> = Vec::new();
+        let mut a_block = [[0.0; 6]; 6];
+        const M: usize = 3 * MAX_NODES + 6;
+        for (e, el) in self.mesh.elements.iter().enumerate() {
+            let nn = el.kind.node_count();
+            let m = 3 * nn + 6;
+            let mut ke = [[0.0; M]; M];
+            for gp in &self.gps[self.gp_start[e]..self.gp_start[e + 1]] {
+                let q = self.stiffness_at(el.region, gp, &q_ply[el.region]);
+                // G = [B₁ … B_nn Z] (6 × m).
+                let mut g = [[0.0; M]; 6];
+                for a in 0..nn {
+                    let [d2, d3] = gp.dx[a];
+                    let c = 3 * a;
+                    g[1][c + 1] = d2;
+                    g[2][c + 2] = d3;
+                    g[3][c + 1] = d3;
+                    g[3][c + 2] = d2;
+                    g[4][c] = d3;
+                    g[5][c] = d2;
+                }
+                let [x2, x3] = gp.x;
+                let z = 3 * nn;
+                g[0][z] = 1.0;
+                g[0][z + 4] = x3;
+                g[0][z + 5] = -x2;
+                g[4][z + 2] = 1.0;
+                g[4][z + 3] = x2;
+                g[5][z + 1] = 1.0;
+                g[5][z + 3] = -x3;
+                // QG (6 × m), then Gᵀ(QG), lower triangle.
+                let mut qg = [[0.0; M]; 6];
+                for i in 0..6 {
+                    for k in 0..6 {
+                        let qik = q[(i, k)] * gp.w;
+                        if qik != 0.0 {
+                            for j in 0..m {
+                                qg[i][j] += qik * g[k][j];
+                            }
+                        }
+                    }
+                }
+                for i in 0..m {
+                    for k in 0..6 {
+                        let gki = g[k][i];
+                        if gki != 0.0 {
+                            for j in 0..=i {
+                                ke[i][j] += gki * qg[k][j];
+                            }
+                        }
+                    }
+                }
+            }
+            let global = |i: usize| -> usize {
+                if i < 3 * nn {
+                    self.dof[3 * el.nodes[i / 3] + i % 3]
+                } else {
+                    self.n_free + i - 3 * nn
+                }
+            };
+            for i in 0..m {
+                let gi = global(i);
+                if gi == NONE {
+                    continue;
+                }
+                for j in 0..=i {
+                    let gj = global(j);
+                    if gj == NONE {
+                        continue;
+                    }
+                    if i >= 3 * nn && j >= 3 * nn {
+                        a_block[i - 3 * nn][j - 3 * nn] += ke[i][j];
+                        continue;
+                    }
+                    let (r, c) = if gi >= gj { (gi, gj) } else { (gj, gi) };
+                    triplets.push(Triplet::new(r, c, ke[i][j]));
+                }
+            }
+        }
+        for i in 0..6 {
+            for j in 0..=i {
+                triplets.push(Triplet::new(
+                    self.n_free + i,
+                    self.n_free + j,
+                    a_block[i][j],
+                ));
+            }
+        }
+        let k = SparseColMat::<usize, f64>::try_new_from_triplets(n_tot, n_tot, &triplets)
+            .map_err(|e| SectionError::Factorisation(format!("{e:?}")))?;
+        drop(triplets);
+        let symbolic = SymbolicLlt::try_new(k.symbolic(), Side::Lower)
+            .map_err(|e| SectionError::Factorisation(format!("{e:?}")))?;
+        Llt::try_new_with_symbolic(symbolic, k.as_ref(), Side::Lower).map_err(|e| {
+            SectionError::Factorisation(format!(
+                "{e:?} (the pinned warping matrix should be positive definite: check for \
+                 elements with a non-positive-definite material)"
+            ))
+        })
+    }
+
+    /// The section kernel: at every integration point, the strain
+    /// `ε_c = Z ψ_c + BN u_c + SN u1_c` of each of the 6 columns, the stress `σ_c = Q ε_c`, and
+    /// the requested projections of `σ`.
+    fn kernel<S: Scalar>(&self, q_ply: &[Matrix6<S>], f: Fields<'_, S>, mut out: Outputs<'_, S>) {
+        for (e, el) in self.mesh.elements.iter().enumerate() {
+            let nn = el.kind.node_count();
+            for gp in &self.gps[self.gp_start[e]..self.gp_start[e + 1]] {
+                let q = self.stiffness_at(el.region, gp, &q_ply[el.region]);
+                let [x2, x3] = gp.x;
+                let mut eps = [[S::zero(); 6]; 6];
+                for (c, ec) in eps.iter_mut().enumerate() {
+                    if let Some(psi) = f.psi {
+                        let p = |i: usize| psi[i * 6 + c];
+                        ec[0] += p(0) + p(4) * x3 - p(5) * x2;
+                        ec[4] += p(2) + p(3) * x2;
+                        ec[5] += p(1) - p(3) * x3;
+                    }
+                    if let Some(u) = f.u {
+                        for a in 0..nn {
+                            let g = 3 * el.nodes[a];
+                            let [d2, d3] = gp.dx[a];
+                            let (u0, u1, u2) =
+                                (u[g * 6 + c], u[(g + 1) * 6 + c], u[(g + 2) * 6 + c]);
+                            ec[1] += u1 * d2;
+                            ec[2] += u2 * d3;
+                            ec[3] += u1 * d3 + u2 * d2;
+                            ec[4] += u0 * d3;
+                            ec[5] += u0 * d2;
+                        }
+                    }
+                    if let Some(u1) = f.u1 {
+                        for a in 0..nn {
+                            let g = 3 * el.nodes[a];
+                            let na = gp.n[a];
+                            ec[0] += u1[g * 6 + c] * na;
+                            ec[5] += u1[(g + 1) * 6 + c] * na;
+                            ec[4] += u1[(g + 2) * 6 + c] * na;
+                        }
+                    }
+                }
+                let mut sig = [[S::zero(); 6]; 6];
+                for c in 0..6 {
+                    for i in 0..6 {
+                        let mut acc = S::zero();
+                        for k in 0..6 {
+                            acc += q[(i, k)] * eps[c][k];
+                        }
+                        sig[c][i] = acc * gp.w;
+                    }
+                }
+                if let Some(b) = out.b.as_deref_mut() {
+                    for a in 0..nn {
+                        let g = 3 * el.nodes[a];
+                        let [d2, d3] = gp.dx[a];
+                        for (c, s) in sig.iter().enumerate() {
+                            b[g * 6 + c] += s[5] * d2 + s[4] * d3;
+                            b[(g + 1) * 6 + c] += s[1] * d2 + s[3] * d3;
+                            b[(g + 2) * 6 + c] += s[2] * d3 + s[3] * d2;
+                        }
+                    }
+                }
+                if let Some(sn) = out.s.as_deref_mut() {
+                    for a in 0..nn {
+                        let g = 3 * el.nodes[a];
+                        let na = gp.n[a];
+                        for (c, s) in sig.iter().enumerate() {
+                            sn[g * 6 + c] += s[0] * na;
+                            sn[(g + 1) * 6 + c] += s[5] * na;
+                            sn[(g + 2) * 6 + c] += s[4] * na;
+                        }
+                    }
+                }
+                if let Some(z) = out.z.as_deref_mut() {
+                    for (c, s) in sig.iter().enumerate() {
+                        z[c] += s[0];
+                        z[6 + c] += s[5];
+                        z[12 + c] += s[4];
+                        z[18 + c] += s[4] * x2 - s[5] * x3;
+                        z[24 + c] += s[0] * x3;
+                        z[30 + c] -= s[0] * x2;
+                    }
+                }
+                if let Some(en) = out.energy.as_deref_mut() {
+                    for c in 0..6 {
+                        for d in 0..6 {
+                            let mut acc = S::zero();
+                            for i in 0..6 {
+                                acc += eps[c][i] * sig[d][i];
+                            }
+                            en[c * 6 + d] += acc;
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    fn mass_properties(&self) -> MassProperties {
+        let mut mp = MassProperties::default();
+        for (e, el) in self.mesh.elements.iter().enumerate() {
+            let rho = self.mesh.regions[el.region].material.density();
+            for gp in &self.gps[self.gp_start[e]..self.gp_start[e + 1]] {
+                let [x2, x3] = gp.x;
+                mp.area += gp.w;
+                mp.m += rho * gp.w;
+                mp.m2 += rho * gp.w * x2;
+                mp.m3 += rho * gp.w * x3;
+                mp.m22 += rho * gp.w * x2 * x2;
+                mp.m33 += rho * gp.w * x3 * x3;
+                mp.m23 += rho * gp.w * x2 * x3;
+            }
+        }
+        mp
+    }
+}
+
+/// `θ' = T θ` for a beam without distributed load: `M₂' = F₃`, `M₃' = −F₂`; `t[i·6 + j]`.
+fn force_derivative_map() -> [f64; 36] {
+    let mut t = [0.0; 36];
+    t[4 * 6 + 2] = 1.0;
+    t[5 * 6 + 1] = -1.0;
+    t
+}
+
+/// `(A + Aᵀ)/2` as a matrix (removes round-off asymmetry).
+fn symmetric<S: Scalar>(a: &[S; 36]) -> Matrix6<S> {
+    SMatrix::from_fn(|i, j| (a[i * 6 + j] + a[j * 6 + i]) * 0.5)
+}
+
+/// Integration-point geometry of every element (the mesh has been validated).
+fn geometry(mesh: &SectionMesh) -> (Vec<GaussPoint>, Vec<usize>) {
+    let mut gps = Vec::new();
+    let mut start = Vec::with_capacity(mesh.elements.len() + 1);
+    let mut n = [0.0; MAX_NODES];
+    let mut dn = [[0.0; 2]; MAX_NODES];
+    for el in &mesh.elements {
+        start.push(gps.len());
+        let xs: Vec<[f64; 2]> = el.nodes.iter().map(|&i| mesh.nodes[i]).collect();
+        let nn = el.kind.node_count();
+        for &(xi, eta, w) in el.kind.rule() {
+            el.kind.shape(xi, eta, &mut n, &mut dn);
+            let j = jacobian(&xs, &dn[..nn]);
+            let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
+            // ∂ξ/∂x = J⁻¹.
+            let inv = [
+                [j[1][1] / det, -j[0][1] / det],
+                [-j[1][0] / det, j[0][0] / det],
+            ];
+            let mut gp = GaussPoint {
+                w: w * det,
+                x: [0.0; 2],
+                n: [0.0; MAX_NODES],
+                dx: [[0.0; 2]; MAX_NODES],
+            };
+            for a in 0..nn {
+                gp.n[a] = n[a];
+                gp.x[0] += n[a] * xs[a][0];
+                gp.x[1] += n[a] * xs[a][1];
+                for i in 0..2 {
+                    gp.dx[a][i] = dn[a][0] * inv[0][i] + dn[a][1] * inv[1][i];
+                }
+            }
+            gps.push(gp);
+        }
+    }
+    start.push(gps.len());
+    (gps, start)
+}
+
+/// Free-dof numbering with six pinned components that remove the rigid modes of the warping.
+fn dof_map(mesh: &SectionMesh) -> (Vec<usize>, usize) {
+    let nn = mesh.nodes.len();
+    let mut used = vec![false; nn];
+    for el in &mesh.elements {
+        for &n in &el.nodes {
+            used[n] = true;
+        }
+    }
+    let used_nodes: Vec<usize> = (0..nn).filter(|&i| used[i]).collect();
+    let p = |i: usize| mesh.nodes[i];
+    let a = used_nodes[0];
+    let dist2 = |i: usize, j: usize| (p(i)[0] - p(j)[0]).powi(2) + (p(i)[1] - p(j)[1]).powi(2);
+    let b = *used_nodes
+        .iter()
+        .max_by(|&&i, &&j| dist2(a, i).total_cmp(&dist2(a, j)))
+        .expect("validated mesh has nodes");
+    let area = |i: usize| {
+        let (u, v) = (
+            [p(b)[0] - p(a)[0], p(b)[1] - p(a)[1]],
+            [p(i)[0] - p(a)[0], p(i)[1] - p(a)[1]],
+        );
+        (u[0] * v[1] - u[1] * v[0]).abs()
+    };
+    let c = *used_nodes
+        .iter()
+        .max_by(|&&i, &&j| area(i).total_cmp(&area(j)))
+        .expect("validated mesh has nodes");
+    let mut pinned = vec![false; 3 * nn];
+    for n in [a, b, c] {
+        pinned[3 * n] = true;
+    }
+    pinned[3 * a + 1] = true;
+    pinned[3 * a + 2] = true;
+    if (p(b)[0] - p(a)[0]).abs() >= (p(b)[1] - p(a)[1]).abs() {
+        pinned[3 * b + 2] = true;
+    } else {
+        pinned[3 * b + 1] = true;
+    }
+    let mut dof = vec![NONE; 3 * nn];
+    let mut n_free = 0;
+    for &n in &used_nodes {
+        for k in 0..3 {
+            if !pinned[3 * n + k] {
+                dof[3 * n + k] = n_free;
+                n_free += 1;
+            }
+        }
+    }
+    (dof, n_free)
+}

@@ -1,0 +1,389 @@
+//! Mesh generators: solid rectangle, layered circular tube, thin-walled box. All produce
+//! 8-node quadrilaterals, centred on the origin.
+
+use std::collections::HashMap;
+use std::f64::consts::{FRAC_PI_2, PI};
+
+use laminate::OrthotropicMaterial;
+
+use crate::SectionError;
+use crate::element::ElementKind;
+use crate::mesh::{Element, Region, SectionMesh, WallFrame};
+
+/// One ply of a wall: material, fibre angle (radians, from the beam axis about the wall
+/// normal), thickness (m) and number of elements through its thickness.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlySpec {
+    pub name: String,
+    pub material: OrthotropicMaterial,
+    pub angle: f64,
+    pub thickness: f64,
+    pub elements: usize,
+}
+
+impl PlySpec {
+    pub fn new(
+        name: impl Into<String>,
+        material: OrthotropicMaterial,
+        angle: f64,
+        thickness: f64,
+        elements: usize,
+    ) -> Self {
+        Self {
+            name: name.into(),
+            material,
+            angle,
+            thickness,
+            elements,
+        }
+    }
+
+    fn check(&self) -> Result<(), SectionError> {
+        if !(self.thickness.is_finite() && self.thickness > 0.0) {
+            return Err(SectionError::InvalidInput(format!(
+                "ply '{}': thickness {} must be positive and finite (m)",
+                self.name, self.thickness
+            )));
+        }
+        if !self.angle.is_finite() {
+            return Err(SectionError::InvalidInput(format!(
+                "ply '{}': angle {} must be finite (radians)",
+                self.name, self.angle
+            )));
+        }
+        if self.elements == 0 {
+            return Err(SectionError::InvalidInput(format!(
+                "ply '{}': needs at least one element through the thickness",
+                self.name
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// Nodes of a structured Q8 grid addressed by half-indices `(i2, j2)`.
+struct Grid<F: Fn(usize, usize) -> [f64; 2]> {
+    coord: F,
+    map: HashMap<(usize, usize), usize>,
+    nodes: Vec<[f64; 2]>,
+    /// Period of `j2` (tubes), if any.
+    wrap_j: Option<usize>,
+}
+
+impl<F: Fn(usize, usize) -> [f64; 2]> Grid<F> {
+    fn new(coord: F, wrap_j: Option<usize>) -> Self {
+        Self {
+            coord,
+            map: HashMap::new(),
+            nodes: Vec::new(),
+            wrap_j,
+        }
+    }
+
+    fn node(&mut self, i2: usize, j2: usize) -> usize {
+        let j2 = self.wrap_j.map_or(j2, |p| j2 % p);
+        if let Some(&n) = self.map.get(&(i2, j2)) {
+            return n;
+        }
+        let n = self.nodes.len();
+        self.nodes.push((self.coord)(i2, j2));
+        self.map.insert((i2, j2), n);
+        n
+    }
+
+    /// The Q8 element of cell `(i, j)`; `ξ` runs along `i`, `η` along `j`.
+    fn quad8(&mut self, i: usize, j: usize) -> Vec<usize> {
+        let (a, b) = (2 * i, 2 * j);
+        vec![
+            self.node(a, b),
+            self.node(a + 2, b),
+            self.node(a + 2, b + 2),
+            self.node(a, b + 2),
+            self.node(a + 1, b),
+            self.node(a + 2, b + 1),
+            self.node(a + 1, b + 2),
+            self.node(a, b + 1),
+        ]
+    }
+}
+
+fn positive(what: &str, v: f64) -> Result<(), SectionError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(SectionError::InvalidInput(format!(
+            "{what} = {v} must be positive and finite"
+        )))
+    }
+}
+
+fn at_least(what: &str, v: usize, min: usize) -> Result<(), SectionError> {
+    if v >= min {
+        Ok(())
+    } else {
+        Err(SectionError::InvalidInput(format!(
+            "{what} = {v} must be at least {min}"
+        )))
+    }
+}
+
+/// A solid rectangle `width` (along `x₂`) × `height` (along `x₃`), centred on the origin,
+/// `n2 × n3` elements, one region `"solid"` with the material axes along `(x₁, x₂, x₃)`
+/// rotated by `ply_angle` about `x₃` (0 for an isotropic section).
+pub fn rectangle(
+    width: f64,
+    height: f64,
+    n2: usize,
+    n3: usize,
+    material: OrthotropicMaterial,
+    ply_angle: f64,
+) -> Result<SectionMesh, SectionError> {
+    positive("rectangle width", width)?;
+    positive("rectangle height", height)?;
+    at_least("elements along the width", n2, 1)?;
+    at_least("elements along the height", n3, 1)?;
+    let coord = |i2: usize, j2: usize| {
+        [
+            -0.5 * width + width * i2 as f64 / (2 * n2) as f64,
+            -0.5 * height + height * j2 as f64 / (2 * n3) as f64,
+        ]
+    };
+    let mut grid = Grid::new(coord, None);
+    let mut elements = Vec::with_capacity(n2 * n3);
+    for j in 0..n3 {
+        for i in 0..n2 {
+            elements.push(Element {
+                kind: ElementKind::Quad8,
+                nodes: grid.quad8(i, j),
+                region: 0,
+            });
+        }
+    }
+    Ok(SectionMesh {
+        nodes: grid.nodes,
+        elements,
+        regions: vec![Region::new(
+            "solid",
+            material,
+            ply_angle,
+            WallFrame::Tangent(0.0),
+        )],
+    })
+}
+
+/// A circular tube centred on the origin: `plies` stacked outwards from `inner_radius` (the
+/// first ply is innermost), each with its own thickness, angle and elements through its
+/// thickness, and `circumferential` elements around. Mid-side nodes lie on the exact circles.
+/// Region `k` is ply `k` (named after it) with a [`WallFrame::Radial`] frame: normal outward.
+pub fn tube(
+    inner_radius: f64,
+    plies: &[PlySpec],
+    circumferential: usize,
+) -> Result<SectionMesh, SectionError> {
+    positive("tube inner radius", inner_radius)?;
+    at_least("elements around the tube", circumferential, 3)?;
+    if plies.is_empty() {
+        return Err(SectionError::InvalidInput(
+            "a tube needs at least one ply".into(),
+        ));
+    }
+    // Radii of the element layers at half-index steps, and the region of each layer.
+    let mut radii2 = vec![inner_radius];
+    let mut layer_region = Vec::new();
+    for (k, p) in plies.iter().enumerate() {
+        p.check()?;
+        let r0 = *radii2.last().expect("non-empty");
+        for e in 0..p.elements {
+            let h = p.thickness / p.elements as f64;
+            radii2.push(r0 + h * (e as f64 + 0.5));
+            radii2.push(r0 + h * (e as f64 + 1.0));
+            layer_region.push(k);
+        }
+    }
+    let nc = circumferential;
+    let coord = |i2: usize, j2: usize| {
+        let phi = 2.0 * PI * j2 as f64 / (2 * nc) as f64;
+        let r = radii2[i2];
+        [r * phi.cos(), r * phi.sin()]
+    };
+    let mut grid = Grid::new(coord, Some(2 * nc));
+    let mut elements = Vec::with_capacity(nc * layer_region.len());
+    for j in 0..nc {
+        for (i, &region) in layer_region.iter().enumerate() {
+            elements.push(Element {
+                kind: ElementKind::Quad8,
+                nodes: grid.quad8(i, j),
+                region,
+            });
+        }
+    }
+    let regions = plies
+        .iter()
+        .map(|p| {
+            Region::new(
+                p.name.clone(),
+                p.material,
+                p.angle,
+                WallFrame::Radial { centre: [0.0, 0.0] },
+            )
+        })
+        .collect();
+    Ok(SectionMesh {
+        nodes: grid.nodes,
+        elements,
+        regions,
+    })
+}
+
+/// Ply stacks of the four walls of a box, each listed along the outward wall normal (first ply
+/// innermost).
+#[derive(Clone, Debug, PartialEq)]
+pub struct BoxWalls {
+    pub top: Vec<PlySpec>,
+    pub bottom: Vec<PlySpec>,
+    pub left: Vec<PlySpec>,
+    pub right: Vec<PlySpec>,
+}
+
+impl BoxWalls {
+    /// The same stack on all four walls.
+    pub fn uniform(plies: Vec<PlySpec>) -> Self {
+        Self {
+            top: plies.clone(),
+            bottom: plies.clone(),
+            left: plies.clone(),
+            right: plies,
+        }
+    }
+}
+
+/// Position of a cell along one axis of the box grid.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Band {
+    Low(usize),
+    Mid,
+    High(usize),
+}
+
+/// Grid breaks along one axis: low wall (plies outermost first), `n_mid` cells, high wall.
+fn box_axis(
+    extent: f64,
+    low: &[PlySpec],
+    high: &[PlySpec],
+    n_mid: usize,
+) -> Result<(Vec<f64>, Vec<Band>), SectionError> {
+    let tl: f64 = low.iter().map(|p| p.thickness).sum();
+    let th: f64 = high.iter().map(|p| p.thickness).sum();
+    if tl + th >= extent {
+        return Err(SectionError::InvalidInput(format!(
+            "box walls of thickness {tl} and {th} m do not fit in an outer size of {extent} m"
+        )));
+    }
+    let mut x = vec![-0.5 * extent];
+    let mut bands = Vec::new();
+    for (k, p) in low.iter().enumerate().rev() {
+        let x0 = *x.last().expect("non-empty");
+        for e in 0..p.elements {
+            x.push(x0 + p.thickness * (e + 1) as f64 / p.elements as f64);
+            bands.push(Band::Low(k));
+        }
+    }
+    let x0 = *x.last().expect("non-empty");
+    let inner = extent - tl - th;
+    for e in 0..n_mid {
+        x.push(x0 + inner * (e + 1) as f64 / n_mid as f64);
+        bands.push(Band::Mid);
+    }
+    for (k, p) in high.iter().enumerate() {
+        let x0 = *x.last().expect("non-empty");
+        for e in 0..p.elements {
+            x.push(x0 + p.thickness * (e + 1) as f64 / p.elements as f64);
+            bands.push(Band::High(k));
+        }
+    }
+    Ok((x, bands))
+}
+
+/// A thin-walled rectangular box, outer size `width` (along `x₂`) × `height` (along `x₃`),
+/// centred on the origin, with a ply stack per wall and `n_width`, `n_height` elements along
+/// the flat part of the horizontal and vertical walls. The top and bottom walls (flanges) own
+/// the corners. Regions are named `"top/<ply>"`, `"bottom/<ply>"`, `"left/<ply>"`,
+/// `"right/<ply>"`; wall frames have outward normals (tangents run clockwise).
+pub fn thin_walled_box(
+    width: f64,
+    height: f64,
+    walls: &BoxWalls,
+    n_width: usize,
+    n_height: usize,
+) -> Result<SectionMesh, SectionError> {
+    positive("box width", width)?;
+    positive("box height", height)?;
+    at_least("elements along the box width", n_width, 1)?;
+    at_least("elements along the box height", n_height, 1)?;
+    for (name, stack) in [
+        ("top", &walls.top),
+        ("bottom", &walls.bottom),
+        ("left", &walls.left),
+        ("right", &walls.right),
+    ] {
+        if stack.is_empty() {
+            return Err(SectionError::InvalidInput(format!(
+                "the {name} wall has no plies"
+            )));
+        }
+        for p in stack {
+            p.check()?;
+        }
+    }
+    let (xs, cols) = box_axis(width, &walls.left, &walls.right, n_width)?;
+    let (ys, rows) = box_axis(height, &walls.bottom, &walls.top, n_height)?;
+    let interp = |v: &[f64], i2: usize| {
+        if i2.is_multiple_of(2) {
+            v[i2 / 2]
+        } else {
+            0.5 * (v[i2 / 2] + v[i2 / 2 + 1])
+        }
+    };
+    let coord = |i2: usize, j2: usize| [interp(&xs, i2), interp(&ys, j2)];
+    let mut grid = Grid::new(coord, None);
+    let mut regions = Vec::new();
+    let mut region_of: HashMap<(&str, usize), usize> = HashMap::new();
+    let mut region = |wall: &'static str, k: usize, stack: &[PlySpec], frame: WallFrame| {
+        *region_of.entry((wall, k)).or_insert_with(|| {
+            let p = &stack[k];
+            regions.push(Region::new(
+                format!("{wall}/{}", p.name),
+                p.material,
+                p.angle,
+                frame,
+            ));
+            regions.len() - 1
+        })
+    };
+    let mut elements = Vec::new();
+    for (j, &row) in rows.iter().enumerate() {
+        for (i, &col) in cols.iter().enumerate() {
+            let r = match (row, col) {
+                (Band::Low(k), _) => region("bottom", k, &walls.bottom, WallFrame::Tangent(PI)),
+                (Band::High(k), _) => region("top", k, &walls.top, WallFrame::Tangent(0.0)),
+                (Band::Mid, Band::Low(k)) => {
+                    region("left", k, &walls.left, WallFrame::Tangent(FRAC_PI_2))
+                }
+                (Band::Mid, Band::High(k)) => {
+                    region("right", k, &walls.right, WallFrame::Tangent(-FRAC_PI_2))
+                }
+                (Band::Mid, Band::Mid) => continue,
+            };
+            elements.push(Element {
+                kind: ElementKind::Quad8,
+                nodes: grid.quad8(i, j),
+                region: r,
+            });
+        }
+    }
+    Ok(SectionMesh {
+        nodes: grid.nodes,
+        elements,
+        regions,
+    })
+}

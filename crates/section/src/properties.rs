@@ -1,0 +1,203 @@
+//! Section results: stiffness, compliance, classical stiffness, mass properties and centres.
+
+use nalgebra::{Matrix4, Matrix6, SMatrix};
+use sens::Scalar;
+
+/// Everything the analysis gives about a section (SI units).
+///
+/// Ordering of generalised strains `[ε, γ₂, γ₃, κ₁, κ₂, κ₃]` and section forces
+/// `[F₁, F₂, F₃, M₁, M₂, M₃]`, all referred to the origin of the section coordinates unless
+/// stated otherwise (see the crate docs for the sign conventions). In the derivative entries
+/// of [`SectionSensitivities`] every field holds the derivative of the corresponding value
+/// (mass properties do not depend on ply angles: their derivatives are zero).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SectionProperties {
+    /// 6×6 Timoshenko stiffness `K`, `θ = K ψ` (N, N·m, N·m²), about the origin.
+    pub stiffness: Matrix6<f64>,
+    /// Its inverse, the compliance `F = K⁻¹`, `ψ = F θ`.
+    pub compliance: Matrix6<f64>,
+    /// 4×4 classical (Euler–Bernoulli) stiffness, order `[ε, κ₁, κ₂, κ₃]` ↔ `[F₁, M₁, M₂, M₃]`,
+    /// about the origin (the shear strains are left free: `F₂ = F₃ = 0`).
+    pub classical_stiffness: Matrix4<f64>,
+    /// Area of the section (m²).
+    pub area: f64,
+    /// Mass per unit length (kg/m).
+    pub mass_per_length: f64,
+    /// Mass centre `(x₂, x₃)` (m).
+    pub mass_centre: [f64; 2],
+    /// Mass moments of inertia per unit length about the mass centre (kg·m):
+    /// `[I₂₂, I₃₃, I₂₃] = [∫ρ x̃₃², ∫ρ x̃₂², ∫ρ x̃₂x̃₃]` with `x̃ = x − mass centre`
+    /// (`I₂₂` about the `x₂` axis; the polar inertia is `I₂₂ + I₃₃`).
+    pub mass_inertia: [f64; 3],
+    /// Tension (elastic) centre: where an axial force causes no bending curvature.
+    pub tension_centre: [f64; 2],
+    /// Shear centre: where a transverse shear force causes no twist (at a section free of
+    /// bending moments).
+    pub shear_centre: [f64; 2],
+}
+
+/// Values and derivatives with respect to design variables.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SectionSensitivities {
+    /// The values.
+    pub properties: SectionProperties,
+    /// Names of the design variables, in the order of `derivatives`.
+    pub variables: Vec<String>,
+    /// `derivatives[k]`: every field differentiated with respect to design variable `k`
+    /// (per radian).
+    pub derivatives: Vec<SectionProperties>,
+}
+
+/// The 6×6 map `θ_P = H θ_O` of section forces about the origin to forces about `p`.
+fn force_shift(p: [f64; 2]) -> Matrix6<f64> {
+    let [y, z] = p;
+    let mut h = Matrix6::identity();
+    // M^P = M^O − p × F with p = (0, y, z).
+    h[(3, 1)] = z;
+    h[(3, 2)] = -y;
+    h[(4, 0)] = -z;
+    h[(5, 0)] = y;
+    h
+}
+
+impl SectionProperties {
+    /// The 6×6 stiffness referred to the point `p` (generalised strains and forces of a beam
+    /// whose reference axis passes through `p`): `K_P = H K Hᵀ`.
+    pub fn stiffness_at(&self, p: [f64; 2]) -> Matrix6<f64> {
+        let h = force_shift(p);
+        h * self.stiffness * h.transpose()
+    }
+
+    /// The 4×4 classical stiffness referred to the point `p`.
+    pub fn classical_stiffness_at(&self, p: [f64; 2]) -> Matrix4<f64> {
+        let [y, z] = p;
+        let mut h = Matrix4::identity();
+        h[(2, 0)] = -z;
+        h[(3, 0)] = y;
+        h * self.classical_stiffness * h.transpose()
+    }
+
+    /// Polar mass moment of inertia per unit length about the mass centre (kg·m).
+    pub fn polar_mass_inertia(&self) -> f64 {
+        self.mass_inertia[0] + self.mass_inertia[1]
+    }
+
+    /// The 6×6 mass matrix per unit length about the origin, conjugate to the velocities
+    /// `[u̇₁, u̇₂, u̇₃, φ̇₁, φ̇₂, φ̇₃]` of the section's rigid motion.
+    pub fn mass_matrix(&self) -> Matrix6<f64> {
+        let m = self.mass_per_length;
+        let [c2, c3] = self.mass_centre;
+        let [i22, i33, i23] = self.mass_inertia;
+        // Inertia about the origin: parallel axes.
+        let (j22, j33, j23) = (i22 + m * c3 * c3, i33 + m * c2 * c2, i23 + m * c2 * c3);
+        let mut mm = Matrix6::zeros();
+        for i in 0..3 {
+            mm[(i, i)] = m;
+        }
+        // Kinetic energy of u = t + φ × p: the coupling block is m [c]ₓᵀ.
+        let s = nalgebra::Matrix3::new(0.0, -c3, c2, c3, 0.0, 0.0, -c2, 0.0, 0.0) * m;
+        mm.fixed_view_mut::<3, 3>(0, 3).copy_from(&s.transpose());
+        mm.fixed_view_mut::<3, 3>(3, 0).copy_from(&s);
+        mm[(3, 3)] = j22 + j33;
+        mm[(4, 4)] = j22;
+        mm[(5, 5)] = j33;
+        mm[(4, 5)] = -j23;
+        mm[(5, 4)] = -j23;
+        mm
+    }
+
+    pub(crate) fn from_props<S: Scalar>(
+        p: &Props<S>,
+        mass: &MassProperties,
+        f: impl Fn(S) -> f64,
+    ) -> Self {
+        let (c2, c3) = if mass.m > 0.0 {
+            (mass.m2 / mass.m, mass.m3 / mass.m)
+        } else {
+            (0.0, 0.0)
+        };
+        SectionProperties {
+            stiffness: p.stiffness.map(&f),
+            compliance: p.compliance.map(&f),
+            classical_stiffness: p.classical.map(&f),
+            area: mass.area,
+            mass_per_length: mass.m,
+            mass_centre: [c2, c3],
+            mass_inertia: [
+                mass.m33 - mass.m * c3 * c3,
+                mass.m22 - mass.m * c2 * c2,
+                mass.m23 - mass.m * c2 * c3,
+            ],
+            tension_centre: p.tension_centre.map(&f),
+            shear_centre: p.shear_centre.map(&f),
+        }
+    }
+}
+
+/// Integrals `∫ρ`, `∫ρx₂`, … over the section.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct MassProperties {
+    pub area: f64,
+    pub m: f64,
+    pub m2: f64,
+    pub m3: f64,
+    pub m22: f64,
+    pub m33: f64,
+    pub m23: f64,
+}
+
+impl MassProperties {
+    /// All zero: the derivative of the mass properties with respect to a ply angle.
+    pub fn zero(&self) -> MassProperties {
+        MassProperties::default()
+    }
+}
+
+/// The stiffness-derived results, generic so that duals carry their derivatives.
+pub(crate) struct Props<S: Scalar> {
+    pub stiffness: Matrix6<S>,
+    pub compliance: Matrix6<S>,
+    pub classical: Matrix4<S>,
+    pub tension_centre: [S; 2],
+    pub shear_centre: [S; 2],
+}
+
+/// Inverse of a small matrix of `Scalar`s: the `f64` inverse of the value, refined by one
+/// Newton step `K₀(2I − A K₀)`, which is exact to first order in the tangents.
+pub(crate) fn inverse<S: Scalar, const D: usize>(a: &SMatrix<S, D, D>) -> Option<SMatrix<S, D, D>> {
+    let a0: SMatrix<f64, D, D> = a.map(|x| x.value());
+    let k0 = a0.try_inverse()?;
+    if !k0.iter().all(|x| x.is_finite()) {
+        return None;
+    }
+    let k = k0.map(S::from_f64);
+    let two_i: SMatrix<S, D, D> =
+        SMatrix::from_fn(|i, j| S::from_f64(if i == j { 2.0 } else { 0.0 }));
+    Some(k * (two_i - a * k))
+}
+
+impl<S: Scalar> Props<S> {
+    pub fn from_compliance(f: Matrix6<S>) -> Option<Self> {
+        let k = inverse(&f)?;
+        const CL: [usize; 4] = [0, 3, 4, 5];
+        let fc: Matrix4<S> = SMatrix::from_fn(|i, j| f[(CL[i], CL[j])]);
+        let classical = inverse(&fc)?;
+        // Tension centre: F₁ applied at (y, z) gives M₂ = z F₁, M₃ = −y F₁; no κ₂, κ₃:
+        //   F₄₀ + F₄₄ z − F₄₅ y = 0,  F₅₀ + F₅₄ z − F₅₅ y = 0.
+        let (a11, a12, b1) = (-f[(4, 5)], f[(4, 4)], -f[(4, 0)]);
+        let (a21, a22, b2) = (-f[(5, 5)], f[(5, 4)], -f[(5, 0)]);
+        let det = a11 * a22 - a12 * a21;
+        let yt = (b1 * a22 - a12 * b2) / det;
+        let zt = (a11 * b2 - b1 * a21) / det;
+        // Shear centre: (F₂, F₃) at (y, z) gives M₁ = y F₃ − z F₂; no κ₁.
+        let ys = -f[(3, 2)] / f[(3, 3)];
+        let zs = f[(3, 1)] / f[(3, 3)];
+        Some(Props {
+            stiffness: k,
+            compliance: f,
+            classical,
+            tension_centre: [yt, zt],
+            shear_centre: [ys, zs],
+        })
+    }
+}
