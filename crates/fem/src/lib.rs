@@ -1,11 +1,41 @@
 //! `fem` — composite beam and shell finite elements, assembly, vibration modes, proportional
 //! damping and mode sensitivities (paper §2.3, §3.2–3.3, §4.4–4.6).
 //!
-//! Its output to the multibody layer is the [`ModalBody`]: everything a floating-frame flexible
-//! body needs (lumped nodal masses and inertias, mode shapes, eigenvalues, modal damping), generic
-//! over [`sens::Scalar`] so that design derivatives travel as dual tangents.
-//! It knows nothing about joints, time integration or decks.
+//! It owns the element formulations ([`beam`]: exact-flexibility 3-D Timoshenko beam with a
+//! fully coupled 6×6 section; [`shell`]: flat MITC3 laminated triangle with drilling dof),
+//! meshes ([`Mesh`], Gmsh v4 text), sparse assembly on a fixed pattern ([`Assembly`]), the
+//! lowest modes ([`eigen`]), Rayleigh damping, mode derivatives by Nelson/Dailey
+//! ([`sensitivity`]) and the reduced body handed to the multibody layer ([`ModalBody`]),
+//! generic over [`sens::Scalar`] so that design derivatives travel as dual tangents.
+//! Element matrices are written once over `Scalar`: evaluating them on `Dual<N>` gives `K_b`.
+//! It knows nothing about joints, time integration, files or decks.
 
+// `!(x > 0.0)` is used on purpose: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+pub mod assembly;
+pub mod beam;
+pub mod body;
+pub mod eigen;
+pub mod mesh;
 mod modal;
+pub mod sensitivity;
+pub mod shell;
+mod small;
 
+pub use assembly::{
+    Assembly, Constraints, ElementOptions, FemError, MassKind, Properties, dof, element_matrices,
+    lumped_nodal_masses,
+};
+pub use beam::BeamSection;
+pub use body::{
+    ModalAnalysis, ModalOptions, ModeUpdate, RayleighDamping, ReferenceCondition,
+    analysis_derivatives, design_matrices, modal_analysis, modal_body, modal_body_dual,
+    reference_constraints,
+};
+pub use eigen::{EigenMethod, EigenOptions, Eigenpairs, lowest_modes};
+pub use mesh::{Element, GmshTriangles, Mesh, MeshError, NodeId, parse_gmsh_v4};
 pub use modal::{ModalBody, ModalBodyError, NODE_DOFS};
+pub use sensitivity::{
+    DesignMatrices, ModeDerivatives, directional_eigenvalue_derivatives, mode_derivatives,
+};

@@ -41,14 +41,32 @@ pub struct ModalBody<S: Scalar> {
 /// Why a [`ModalBody`] is inconsistent.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ModalBodyError {
-    #[error("modal body has {positions} node positions but {masses} masses and {inertias} inertias")]
-    NodeCount { positions: usize, masses: usize, inertias: usize },
+    #[error(
+        "modal body has {positions} node positions but {masses} masses and {inertias} inertias"
+    )]
+    NodeCount {
+        positions: usize,
+        masses: usize,
+        inertias: usize,
+    },
     #[error("mode matrix has {rows} rows, expected 6 × {nodes} nodes = {expected}")]
-    ModeRows { rows: usize, nodes: usize, expected: usize },
+    ModeRows {
+        rows: usize,
+        nodes: usize,
+        expected: usize,
+    },
     #[error("{modes} modes but {eigenvalues} eigenvalues and {damping} damping values")]
-    ModeCount { modes: usize, eigenvalues: usize, damping: usize },
+    ModeCount {
+        modes: usize,
+        eigenvalues: usize,
+        damping: usize,
+    },
     #[error("node {node}: {what} = {value} must be finite and non-negative")]
-    BadMass { node: usize, what: &'static str, value: f64 },
+    BadMass {
+        node: usize,
+        what: &'static str,
+        value: f64,
+    },
 }
 
 impl<S: Scalar> ModalBody<S> {
@@ -94,11 +112,19 @@ impl<S: Scalar> ModalBody<S> {
         }
         for (k, (&mk, mu)) in self.node_masses.iter().zip(&self.node_inertias).enumerate() {
             if !(mk.is_finite() && mk >= 0.0) {
-                return Err(ModalBodyError::BadMass { node: k, what: "mass", value: mk });
+                return Err(ModalBodyError::BadMass {
+                    node: k,
+                    what: "mass",
+                    value: mk,
+                });
             }
             for &v in mu.iter() {
                 if !(v.is_finite() && v >= 0.0) {
-                    return Err(ModalBodyError::BadMass { node: k, what: "inertia", value: v });
+                    return Err(ModalBodyError::BadMass {
+                        node: k,
+                        what: "inertia",
+                        value: v,
+                    });
                 }
             }
         }

@@ -1,0 +1,457 @@
+//! Element matrices in global axes, boundary conditions and sparse assembly on a fixed pattern.
+//!
+//! Dof numbering: node-major, six per node, `6 k + [u_x, u_y, u_z, θ_x, θ_y, θ_z]`. Constrained
+//! dof are eliminated: the assembled matrices act on the *free* dof only ([`Assembly::free_dofs`]
+//! maps back). Values are assembled generically over [`Scalar`], in the fixed CSC order of the
+//! pattern, so that a dual evaluation yields `K_b`, `M_b` on the same pattern (one code path).
+
+use std::collections::BTreeSet;
+
+use faer::sparse::{SparseColMat, SymbolicSparseColMat};
+use laminate::LaminateStiffness;
+use nalgebra::{DMatrix, Vector3};
+use sens::Scalar;
+
+use crate::beam::{BeamError, BeamSection, beam_frame, beam_local, to_global};
+use crate::mesh::{Element, Mesh, MeshError, NodeId};
+use crate::shell::{
+    DEFAULT_DRILLING, ShellError, TriGeometry, shell_lumped, shell_mass_local,
+    shell_stiffness_local,
+};
+
+/// Section and laminate properties referenced by the elements, generic over the scalar so that
+/// ply angles can be seeded as dual numbers.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Properties<S: Scalar> {
+    /// Beam sections (indexed by [`Element::Beam`]'s `property`).
+    pub sections: Vec<BeamSection<S>>,
+    /// Laminates (indexed by [`Element::Shell`]'s `property`).
+    pub laminates: Vec<LaminateStiffness<S>>,
+}
+
+impl<S: Scalar> Default for Properties<S> {
+    fn default() -> Self {
+        Self {
+            sections: Vec::new(),
+            laminates: Vec::new(),
+        }
+    }
+}
+
+/// Consistent or lumped (diagonal) mass matrix.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum MassKind {
+    #[default]
+    Consistent,
+    /// Diagonal: per node `[m, m, m, μ_x, μ_y, μ_z]` ([`lumped_nodal_masses`]).
+    Lumped,
+}
+
+/// Element options.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ElementOptions {
+    /// Drilling penalty factor of the shell triangle (× A₆₆ × area).
+    pub drilling: f64,
+}
+
+impl Default for ElementOptions {
+    fn default() -> Self {
+        Self {
+            drilling: DEFAULT_DRILLING,
+        }
+    }
+}
+
+/// Every way the finite-element layer can fail.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum FemError {
+    #[error(transparent)]
+    Mesh(#[from] MeshError),
+    #[error(transparent)]
+    Beam(#[from] BeamError),
+    #[error(transparent)]
+    Shell(#[from] ShellError),
+    #[error("element {element} uses {kind} property {property}, but only {available} are defined")]
+    MissingProperty {
+        element: usize,
+        kind: &'static str,
+        property: usize,
+        available: usize,
+    },
+    #[error("dof {dof} is out of range ({n_dofs} dof)")]
+    BadDof { dof: usize, n_dofs: usize },
+    #[error("every dof is constrained")]
+    NoFreeDof,
+    #[error("eigen solver: {0}")]
+    Eigen(String),
+    #[error("invalid request: {0}")]
+    Invalid(String),
+}
+
+/// Local dof index within a node.
+pub mod dof {
+    pub const UX: usize = 0;
+    pub const UY: usize = 1;
+    pub const UZ: usize = 2;
+    pub const RX: usize = 3;
+    pub const RY: usize = 4;
+    pub const RZ: usize = 5;
+    pub const TRANSLATIONS: [usize; 3] = [UX, UY, UZ];
+    pub const ROTATIONS: [usize; 3] = [RX, RY, RZ];
+    pub const ALL: [usize; 6] = [UX, UY, UZ, RX, RY, RZ];
+}
+
+/// A set of fixed (zero) dof.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Constraints {
+    fixed: BTreeSet<usize>,
+}
+
+impl Constraints {
+    /// No constraints.
+    pub fn new() -> Self {
+        Self::default()
+    }
+    /// Fix dof `d` (0..6, see [`dof`]) of `node`.
+    pub fn fix(&mut self, node: NodeId, d: usize) -> &mut Self {
+        assert!(d < 6, "dof index {d} out of range");
+        self.fixed.insert(6 * node + d);
+        self
+    }
+    /// Fix the listed dof of every listed node.
+    pub fn fix_nodes(&mut self, nodes: &[NodeId], dofs: &[usize]) -> &mut Self {
+        for &n in nodes {
+            for &d in dofs {
+                self.fix(n, d);
+            }
+        }
+        self
+    }
+    /// Clamp a node (all six dof).
+    pub fn clamp(&mut self, node: NodeId) -> &mut Self {
+        self.fix_nodes(&[node], &dof::ALL)
+    }
+    /// Simply supported (pinned) line of a plate along global `axis` (a unit vector in the
+    /// plate plane, one of x or y): transverse displacement `u_z` and the rotation about the
+    /// in-plane normal to the line fixed (the "hard" support of Mindlin plates); the rotation
+    /// about the line stays free. `in_plane`: also fix the in-plane displacements listed.
+    pub fn pinned_line(
+        &mut self,
+        nodes: &[NodeId],
+        along_x: bool,
+        in_plane: &[usize],
+    ) -> &mut Self {
+        // a line along x hinges about x: θ_x free, θ_y (rotation about the normal to the line) fixed
+        let rot = if along_x { dof::RY } else { dof::RX };
+        self.fix_nodes(nodes, &[dof::UZ, rot]);
+        self.fix_nodes(nodes, in_plane)
+    }
+    /// Whether a global dof is fixed.
+    pub fn is_fixed(&self, global_dof: usize) -> bool {
+        self.fixed.contains(&global_dof)
+    }
+    /// The fixed global dof, ascending.
+    pub fn fixed(&self) -> impl Iterator<Item = usize> + '_ {
+        self.fixed.iter().copied()
+    }
+}
+
+/// Global dof indices of an element's nodes.
+fn element_dofs(el: &Element) -> Vec<usize> {
+    el.nodes()
+        .iter()
+        .flat_map(|&n| (0..6).map(move |d| 6 * n + d))
+        .collect()
+}
+
+/// Element stiffness and mass in global axes, as dense row-major `nd × nd` (nd = 12 or 18).
+pub fn element_matrices<S: Scalar>(
+    mesh: &Mesh,
+    e: usize,
+    props: &Properties<S>,
+    opts: &ElementOptions,
+    mass: MassKind,
+) -> Result<(DMatrix<S>, DMatrix<S>), FemError> {
+    let el = &mesh.elements[e];
+    match *el {
+        Element::Beam {
+            nodes,
+            property,
+            orientation,
+        } => {
+            let sec = props
+                .sections
+                .get(property)
+                .ok_or(FemError::MissingProperty {
+                    element: e,
+                    kind: "beam section",
+                    property,
+                    available: props.sections.len(),
+                })?;
+            let (l, lam) = beam_frame(&mesh.nodes[nodes[0]], &mesh.nodes[nodes[1]], &orientation);
+            let loc = beam_local(sec, l, e)?;
+            let k = to_global(&loc.stiffness, &lam);
+            let m = match mass {
+                MassKind::Consistent => {
+                    DMatrix::from_iterator(12, 12, to_global(&loc.mass, &lam).iter().copied())
+                }
+                MassKind::Lumped => {
+                    let (mk, mu) = beam_lumped(sec, l, &lam);
+                    let mut m = DMatrix::zeros(12, 12);
+                    for n in 0..2 {
+                        for d in 0..3 {
+                            m[(6 * n + d, 6 * n + d)] = mk;
+                            m[(6 * n + 3 + d, 6 * n + 3 + d)] = mu[d];
+                        }
+                    }
+                    m
+                }
+            };
+            Ok((DMatrix::from_iterator(12, 12, k.iter().copied()), m))
+        }
+        Element::Shell {
+            nodes,
+            property,
+            material_axis,
+        } => {
+            let lam = props
+                .laminates
+                .get(property)
+                .ok_or(FemError::MissingProperty {
+                    element: e,
+                    kind: "laminate",
+                    property,
+                    available: props.laminates.len(),
+                })?;
+            let p = nodes.map(|n| mesh.nodes[n]);
+            let g = TriGeometry::new(p, &material_axis, e)?;
+            let k = to_global(&shell_stiffness_local(&g, lam, opts.drilling), &g.frame);
+            let m = match mass {
+                MassKind::Consistent => DMatrix::from_iterator(
+                    18,
+                    18,
+                    to_global(&shell_mass_local(&g, lam), &g.frame)
+                        .iter()
+                        .copied(),
+                ),
+                MassKind::Lumped => {
+                    let (mk, mu) = shell_lumped(&g, lam);
+                    let mut m = DMatrix::zeros(18, 18);
+                    for n in 0..3 {
+                        for d in 0..3 {
+                            m[(6 * n + d, 6 * n + d)] = mk;
+                            m[(6 * n + 3 + d, 6 * n + 3 + d)] = mu;
+                        }
+                    }
+                    m
+                }
+            };
+            Ok((DMatrix::from_iterator(18, 18, k.iter().copied()), m))
+        }
+    }
+}
+
+/// Lumped share of a beam element at each node: `(mL/2, diag(Λᵀ J_ref Λ) L/2)`.
+fn beam_lumped<S: Scalar>(
+    sec: &BeamSection<S>,
+    l: f64,
+    lam: &nalgebra::Matrix3<f64>,
+) -> (S, [S; 3]) {
+    let half = S::from_f64(0.5 * l);
+    let j = sec.rotary_inertia();
+    let lm = lam.map(S::from_f64);
+    let jg = lm.transpose() * j * lm;
+    (
+        sec.mass_per_length * half,
+        [jg[(0, 0)] * half, jg[(1, 1)] * half, jg[(2, 2)] * half],
+    )
+}
+
+/// Lumped nodal masses `m_k` and rotary inertias `μ_k` (diagonal, global axes) of the whole
+/// mesh: the diagonal of the [`MassKind::Lumped`] mass matrix (Eq. 2).
+pub fn lumped_nodal_masses<S: Scalar>(
+    mesh: &Mesh,
+    props: &Properties<S>,
+) -> Result<(Vec<S>, Vec<[S; 3]>), FemError> {
+    let n = mesh.nodes.len();
+    let mut m = vec![S::zero(); n];
+    let mut mu = vec![[S::zero(); 3]; n];
+    let opts = ElementOptions::default();
+    for e in 0..mesh.elements.len() {
+        let (_, me) = element_matrices(mesh, e, props, &opts, MassKind::Lumped)?;
+        for (a, &node) in mesh.elements[e].nodes().iter().enumerate() {
+            m[node] += me[(6 * a, 6 * a)];
+            for d in 0..3 {
+                mu[node][d] += me[(6 * a + 3 + d, 6 * a + 3 + d)];
+            }
+        }
+    }
+    Ok((m, mu))
+}
+
+/// The fixed sparsity pattern of the free-dof matrices of a mesh under given constraints.
+#[derive(Clone, Debug)]
+pub struct Assembly {
+    n_full: usize,
+    free_index: Vec<Option<usize>>,
+    free_dofs: Vec<usize>,
+    symbolic: SymbolicSparseColMat<usize>,
+    /// Per element, for each (a, b) local pair (row-major), the slot in the CSC values, or
+    /// `usize::MAX` when a dof is constrained.
+    slots: Vec<Vec<usize>>,
+}
+
+impl Assembly {
+    /// Pattern of the free dof of `mesh` with `constraints` eliminated.
+    pub fn new(mesh: &Mesh, constraints: &Constraints) -> Result<Self, FemError> {
+        mesh.validate()?;
+        let n_full = mesh.n_dofs();
+        if let Some(d) = constraints.fixed().find(|&d| d >= n_full) {
+            return Err(FemError::BadDof {
+                dof: d,
+                n_dofs: n_full,
+            });
+        }
+        let mut free_index = vec![None; n_full];
+        let mut free_dofs = Vec::new();
+        for d in 0..n_full {
+            if !constraints.is_fixed(d) {
+                free_index[d] = Some(free_dofs.len());
+                free_dofs.push(d);
+            }
+        }
+        let n = free_dofs.len();
+        if n == 0 {
+            return Err(FemError::NoFreeDof);
+        }
+        // columns: sorted unique rows; always include the diagonal
+        let mut cols: Vec<Vec<usize>> = (0..n).map(|j| vec![j]).collect();
+        for el in &mesh.elements {
+            let dofs: Vec<usize> = element_dofs(el)
+                .iter()
+                .filter_map(|&d| free_index[d])
+                .collect();
+            for &c in &dofs {
+                cols[c].extend_from_slice(&dofs);
+            }
+        }
+        let mut col_ptr = Vec::with_capacity(n + 1);
+        let mut row_idx = Vec::new();
+        col_ptr.push(0);
+        for c in cols.iter_mut() {
+            c.sort_unstable();
+            c.dedup();
+            row_idx.extend_from_slice(c);
+            col_ptr.push(row_idx.len());
+        }
+        drop(cols);
+        let slots = mesh
+            .elements
+            .iter()
+            .map(|el| {
+                let dofs: Vec<Option<usize>> =
+                    element_dofs(el).iter().map(|&d| free_index[d]).collect();
+                let mut s = Vec::with_capacity(dofs.len() * dofs.len());
+                for &r in &dofs {
+                    for &c in &dofs {
+                        s.push(match (r, c) {
+                            (Some(r), Some(c)) => {
+                                col_ptr[c]
+                                    + row_idx[col_ptr[c]..col_ptr[c + 1]]
+                                        .binary_search(&r)
+                                        .expect("in pattern")
+                            }
+                            _ => usize::MAX,
+                        });
+                    }
+                }
+                s
+            })
+            .collect();
+        let symbolic = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
+        Ok(Self {
+            n_full,
+            free_index,
+            free_dofs,
+            symbolic,
+            slots,
+        })
+    }
+
+    /// Number of free dof.
+    pub fn n_free(&self) -> usize {
+        self.free_dofs.len()
+    }
+    /// Number of dof before elimination (6 × nodes).
+    pub fn n_full(&self) -> usize {
+        self.n_full
+    }
+    /// Global dof of each free dof.
+    pub fn free_dofs(&self) -> &[usize] {
+        &self.free_dofs
+    }
+    /// Free index of a global dof (`None` when constrained).
+    pub fn free_index(&self, global_dof: usize) -> Option<usize> {
+        self.free_index[global_dof]
+    }
+    /// The sparsity pattern.
+    pub fn symbolic(&self) -> &SymbolicSparseColMat<usize> {
+        &self.symbolic
+    }
+    /// Number of stored entries.
+    pub fn nnz(&self) -> usize {
+        self.symbolic.row_idx().len()
+    }
+
+    /// Stiffness and mass values (CSC order of [`Self::symbolic`]) for the given properties.
+    pub fn values<S: Scalar>(
+        &self,
+        mesh: &Mesh,
+        props: &Properties<S>,
+        opts: &ElementOptions,
+        mass: MassKind,
+    ) -> Result<(Vec<S>, Vec<S>), FemError> {
+        let nnz = self.nnz();
+        let mut k = vec![S::zero(); nnz];
+        let mut m = vec![S::zero(); nnz];
+        for e in 0..mesh.elements.len() {
+            let (ke, me) = element_matrices(mesh, e, props, opts, mass)?;
+            let nd = ke.nrows();
+            let slots = &self.slots[e];
+            for a in 0..nd {
+                for b in 0..nd {
+                    let s = slots[a * nd + b];
+                    if s != usize::MAX {
+                        k[s] += ke[(a, b)];
+                        m[s] += me[(a, b)];
+                    }
+                }
+            }
+        }
+        Ok((k, m))
+    }
+
+    /// A sparse matrix on the pattern from values.
+    pub fn matrix(&self, values: Vec<f64>) -> SparseColMat<usize, f64> {
+        SparseColMat::new(self.symbolic.clone(), values)
+    }
+
+    /// Tangent `k` of dual values as a sparse matrix on the pattern.
+    pub fn tangent_matrix<S: Scalar>(&self, values: &[S], k: usize) -> SparseColMat<usize, f64> {
+        self.matrix(values.iter().map(|x| x.tangent(k)).collect())
+    }
+
+    /// Expand a free-dof vector to all dof (zeros at constrained dof).
+    pub fn expand(&self, x: &[f64]) -> Vec<f64> {
+        let mut out = vec![0.0; self.n_full];
+        for (i, &d) in self.free_dofs.iter().enumerate() {
+            out[d] = x[i];
+        }
+        out
+    }
+}
+
+/// Node positions as a convenience for callers building [`crate::ModalBody`].
+pub fn node_positions(mesh: &Mesh) -> Vec<Vector3<f64>> {
+    mesh.nodes.clone()
+}

@@ -1,0 +1,413 @@
+//! Modal analysis of one flexible body: reference conditions (paper §2.3), Rayleigh damping,
+//! design derivatives through dual numbers, and the [`ModalBody`] handed to `mbs`.
+
+use nalgebra::{DMatrix, Vector3};
+use sens::{Dual, Scalar, seed_chunk};
+
+use crate::assembly::{
+    Assembly, Constraints, ElementOptions, FemError, MassKind, Properties, dof, lumped_nodal_masses,
+};
+use crate::eigen::{EigenOptions, Eigenpairs, lowest_modes};
+use crate::mesh::{Mesh, NodeId};
+use crate::modal::ModalBody;
+use crate::sensitivity::{DesignMatrices, ModeDerivatives, mode_derivatives};
+
+/// How the body frame is attached for the modal analysis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ReferenceCondition {
+    /// The paper's default: the node nearest the centre of mass is clamped (all six dof) and the
+    /// body frame sits there, parallel to the mesh axes.
+    ClampedAtCentreOfMass,
+    /// Free-free: the six rigid-body modes are computed and discarded; the frame sits at the
+    /// centre of mass.
+    FreeFree,
+    /// Pinned ends: node `a` has its translations and the rotation about the a–b axis fixed,
+    /// node `b` its translations normal to the a–b axis. The axis must be parallel to a global
+    /// axis. The frame sits at node `a`.
+    PinnedEnds { a: NodeId, b: NodeId },
+}
+
+/// Proportional damping `C = αM + βK` fitted to two modal damping ratios.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayleighDamping {
+    /// Zero-based indices of the two (elastic, retained) modes.
+    pub modes: [usize; 2],
+    /// The damping ratios `ζ` at those modes.
+    pub ratios: [f64; 2],
+}
+
+impl RayleighDamping {
+    /// `(α, β)` from the two eigenvalues `λ = ω²`: `ζ = α/(2ω) + βω/2` at both modes.
+    pub fn coefficients<S: Scalar>(&self, lambda_i: S, lambda_j: S) -> Result<(S, S), FemError> {
+        let (wi, wj) = (lambda_i.sqrt(), lambda_j.sqrt());
+        let den = lambda_j - lambda_i;
+        if !(den.value().abs() > 1e-12 * lambda_j.value().abs()) || !(wi.value() > 0.0) {
+            return Err(FemError::Invalid(
+                "Rayleigh damping needs two distinct, non-zero frequencies".into(),
+            ));
+        }
+        let [zi, zj] = self.ratios;
+        let alpha = wi * wj * (wj * zi - wi * zj) * 2.0 / den;
+        let beta = (wj * zj - wi * zi) * 2.0 / den;
+        Ok((alpha, beta))
+    }
+
+    /// Modal damping `2ζ_k ω_k = α + β λ_k` of every mode.
+    pub fn modal_damping<S: Scalar>(&self, lambdas: &[S]) -> Result<Vec<S>, FemError> {
+        let [i, j] = self.modes;
+        if i >= lambdas.len() || j >= lambdas.len() {
+            return Err(FemError::Invalid(format!(
+                "Rayleigh damping refers to modes {} and {}, only {} retained",
+                i + 1,
+                j + 1,
+                lambdas.len()
+            )));
+        }
+        let (a, b) = self.coefficients(lambdas[i], lambdas[j])?;
+        Ok(lambdas.iter().map(|&l| a + b * l).collect())
+    }
+}
+
+/// Options of a body modal analysis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ModalOptions {
+    pub reference: ReferenceCondition,
+    /// Number of (elastic) modes retained.
+    pub n_modes: usize,
+    pub damping: Option<RayleighDamping>,
+    /// Consistent or lumped mass; `ModalBody` requires lumped (the paper's diagonalised mass).
+    pub mass: MassKind,
+    pub element: ElementOptions,
+    pub eigen: EigenOptions,
+}
+
+impl ModalOptions {
+    /// The paper's setting: clamped at the centre of mass, lumped mass, no damping.
+    pub fn new(n_modes: usize) -> Self {
+        Self {
+            reference: ReferenceCondition::ClampedAtCentreOfMass,
+            n_modes,
+            damping: None,
+            mass: MassKind::Lumped,
+            element: ElementOptions::default(),
+            eigen: EigenOptions::default(),
+        }
+    }
+}
+
+/// Result of a body modal analysis in `f64`.
+#[derive(Clone, Debug)]
+pub struct ModalAnalysis {
+    pub assembly: Assembly,
+    /// Free-dof stiffness and mass.
+    pub k: faer::sparse::SparseColMat<usize, f64>,
+    pub m: faer::sparse::SparseColMat<usize, f64>,
+    /// Retained elastic eigenpairs on the free dof (plus guard modes beyond `n_modes`, kept so
+    /// that clusters are complete: use [`Self::n_modes`]).
+    pub pairs: Eigenpairs,
+    /// Number of retained modes.
+    pub n_modes: usize,
+    /// Rigid-body modes discarded (free-free).
+    pub n_rigid: usize,
+    /// Body-frame origin (mesh coordinates).
+    pub origin: Vector3<f64>,
+    pub constraints: Constraints,
+    pub options: ModalOptions,
+}
+
+impl ModalAnalysis {
+    /// Eigenvalues `ω²` of the retained modes.
+    pub fn eigenvalues(&self) -> &[f64] {
+        &self.pairs.values[..self.n_modes]
+    }
+    /// Natural frequencies in Hz.
+    pub fn frequencies_hz(&self) -> Vec<f64> {
+        self.eigenvalues()
+            .iter()
+            .map(|l| l.max(0.0).sqrt() / (2.0 * std::f64::consts::PI))
+            .collect()
+    }
+    /// Modal masses `xᵢᵀ M xᵢ` (1 for mass-normalised modes; kept for reporting).
+    pub fn modal_masses(&self) -> Vec<f64> {
+        let p = self.n_modes;
+        let x = self.pairs.vectors.columns(0, p).into_owned();
+        let mm = crate::eigen::project(&self.m, &x, &x);
+        (0..p).map(|i| mm[(i, i)]).collect()
+    }
+    /// Mode shapes on all dof, `6 n_nodes × n_modes`, node by node `[u, θ]`.
+    pub fn mode_shapes(&self) -> DMatrix<f64> {
+        self.expand(&self.pairs.vectors.columns(0, self.n_modes).into_owned())
+    }
+    /// Expand free-dof columns to all dof.
+    pub fn expand(&self, x: &DMatrix<f64>) -> DMatrix<f64> {
+        let mut out = DMatrix::zeros(self.assembly.n_full(), x.ncols());
+        for (i, &d) in self.assembly.free_dofs().iter().enumerate() {
+            for j in 0..x.ncols() {
+                out[(d, j)] = x[(i, j)];
+            }
+        }
+        out
+    }
+}
+
+/// The constraints and frame origin of a reference condition.
+pub fn reference_constraints(
+    mesh: &Mesh,
+    props: &Properties<f64>,
+    rc: ReferenceCondition,
+) -> Result<(Constraints, Vector3<f64>), FemError> {
+    let (masses, _) = lumped_nodal_masses(mesh, props)?;
+    let total: f64 = masses.iter().sum();
+    if !(total > 0.0) {
+        return Err(FemError::Invalid("the body has no mass".into()));
+    }
+    let com = mesh
+        .nodes
+        .iter()
+        .zip(&masses)
+        .fold(Vector3::zeros(), |a, (p, m)| a + p * *m)
+        / total;
+    let mut c = Constraints::new();
+    match rc {
+        ReferenceCondition::ClampedAtCentreOfMass => {
+            let node = mesh
+                .closest_node(&com)
+                .ok_or(FemError::Invalid("empty mesh".into()))?;
+            c.clamp(node);
+            Ok((c, mesh.nodes[node]))
+        }
+        ReferenceCondition::FreeFree => Ok((c, com)),
+        ReferenceCondition::PinnedEnds { a, b } => {
+            let n = mesh.nodes.len();
+            if a >= n || b >= n || a == b {
+                return Err(FemError::Invalid(format!(
+                    "pinned ends {a}, {b} are not two nodes of the mesh"
+                )));
+            }
+            let d = mesh.nodes[b] - mesh.nodes[a];
+            let axis = d.iamax();
+            if (d.norm() - d[axis].abs()) > 1e-9 * d.norm() {
+                return Err(FemError::Invalid(
+                    "pinned ends must lie on a line parallel to a global axis".into(),
+                ));
+            }
+            c.fix_nodes(&[a], &dof::TRANSLATIONS);
+            c.fix(a, 3 + axis);
+            for t in 0..3 {
+                if t != axis {
+                    c.fix(b, t);
+                }
+            }
+            Ok((c, mesh.nodes[a]))
+        }
+    }
+}
+
+/// Number of extra modes computed beyond those requested, so that a cluster of repeated
+/// eigenvalues straddling the last retained mode is seen whole.
+pub const GUARD_MODES: usize = 4;
+
+/// Modal analysis of a body in `f64`.
+pub fn modal_analysis(
+    mesh: &Mesh,
+    props: &Properties<f64>,
+    opts: &ModalOptions,
+) -> Result<ModalAnalysis, FemError> {
+    let (constraints, origin) = reference_constraints(mesh, props, opts.reference)?;
+    let assembly = Assembly::new(mesh, &constraints)?;
+    let (kv, mv) = assembly.values(mesh, props, &opts.element, opts.mass)?;
+    let k = assembly.matrix(kv);
+    let m = assembly.matrix(mv);
+    let rigid = if opts.reference == ReferenceCondition::FreeFree {
+        6
+    } else {
+        0
+    };
+    let want = (opts.n_modes + rigid + GUARD_MODES).min(assembly.n_free());
+    if opts.n_modes + rigid > assembly.n_free() {
+        return Err(FemError::Invalid(format!(
+            "{} modes requested, {} free dof",
+            opts.n_modes,
+            assembly.n_free()
+        )));
+    }
+    let mut pairs = lowest_modes(&k, &m, want, &opts.eigen)?;
+    let mut n_rigid = 0;
+    if rigid > 0 {
+        let lmax = pairs.values.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+        n_rigid = pairs
+            .values
+            .iter()
+            .take_while(|l| l.abs() <= 1e-8 * lmax)
+            .count();
+        if n_rigid != 6 {
+            return Err(FemError::Eigen(format!(
+                "free-free body has {n_rigid} rigid-body modes, expected 6"
+            )));
+        }
+        pairs.values.drain(..n_rigid);
+        pairs.vectors = pairs
+            .vectors
+            .columns(n_rigid, pairs.vectors.ncols() - n_rigid)
+            .into_owned();
+    }
+    Ok(ModalAnalysis {
+        assembly,
+        k,
+        m,
+        pairs,
+        n_modes: opts.n_modes,
+        n_rigid,
+        origin,
+        constraints,
+        options: *opts,
+    })
+}
+
+/// `K_b`, `M_b` of the free dof for every design variable, evaluating the element matrices on
+/// `Dual<N>` numbers in chunks of `N` variables: `props(b)` builds the properties from the
+/// (dual) design vector.
+pub fn design_matrices<const N: usize, F>(
+    mesh: &Mesh,
+    assembly: &Assembly,
+    b: &[f64],
+    mut props: F,
+    element: &ElementOptions,
+    mass: MassKind,
+) -> Result<Vec<DesignMatrices>, FemError>
+where
+    F: FnMut(&[Dual<N>]) -> Properties<Dual<N>>,
+{
+    let mut out = Vec::with_capacity(b.len());
+    for range in sens::chunk_ranges(b.len(), N) {
+        let seeded = seed_chunk::<N>(b, range.start);
+        let p = props(&seeded);
+        let (kv, mv) = assembly.values(mesh, &p, element, mass)?;
+        for t in 0..range.len() {
+            out.push(DesignMatrices {
+                k: assembly.tangent_matrix(&kv, t),
+                m: assembly.tangent_matrix(&mv, t),
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// Fixed-mode (`X_b = 0`, Eq. 47) or updated-mode (Nelson's `X_b`, Eq. 46) derivatives.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum ModeUpdate {
+    #[default]
+    Fixed,
+    Updated,
+}
+
+/// The f64 [`ModalBody`] of an analysis (requires lumped mass).
+pub fn modal_body(
+    mesh: &Mesh,
+    props: &Properties<f64>,
+    analysis: &ModalAnalysis,
+) -> Result<ModalBody<f64>, FemError> {
+    let lam: Vec<f64> = analysis.eigenvalues().to_vec();
+    let damping = match analysis.options.damping {
+        Some(d) => d.modal_damping(&lam)?,
+        None => vec![0.0; lam.len()],
+    };
+    let (masses, inertias) = lumped_nodal_masses(mesh, props)?;
+    Ok(ModalBody {
+        node_positions: mesh.nodes.iter().map(|p| p - analysis.origin).collect(),
+        node_masses: masses,
+        node_inertias: inertias
+            .iter()
+            .map(|m| Vector3::new(m[0], m[1], m[2]))
+            .collect(),
+        modes: analysis.mode_shapes(),
+        eigenvalues: lam,
+        modal_damping: damping,
+    })
+}
+
+/// The dual [`ModalBody`] whose tangents are the derivatives with respect to design variables
+/// `chunk_start .. chunk_start + N` of `derivs`: eigenvalues always, mode shapes for
+/// [`ModeUpdate::Updated`] (zero for fixed-mode), modal damping through the eigenvalues.
+///
+/// Within clusters of repeated eigenvalues the derivatives are directional (one rotation of the
+/// cluster basis per variable, [`ModeDerivatives::rotations`]); the mode values stay those of
+/// `analysis`.
+pub fn modal_body_dual<const N: usize>(
+    mesh: &Mesh,
+    props: &Properties<f64>,
+    analysis: &ModalAnalysis,
+    derivs: &ModeDerivatives,
+    chunk_start: usize,
+    update: ModeUpdate,
+) -> Result<ModalBody<Dual<N>>, FemError> {
+    let base = modal_body(mesh, props, analysis)?;
+    let p = analysis.n_modes;
+    let nvar = derivs.eigenvalues.len();
+    let vars: Vec<usize> = (chunk_start..(chunk_start + N).min(nvar)).collect();
+    let lam: Vec<Dual<N>> = (0..p)
+        .map(|i| {
+            let mut d = [0.0; N];
+            for (t, &v) in vars.iter().enumerate() {
+                d[t] = derivs.eigenvalues[v][i];
+            }
+            Dual::new(analysis.pairs.values[i], d)
+        })
+        .collect();
+    let mut modes = base.modes.map(Dual::<N>::constant);
+    if update == ModeUpdate::Updated {
+        let xb = derivs.eigenvectors.as_ref().ok_or_else(|| {
+            FemError::Invalid("updated-mode needs eigenvector derivatives".into())
+        })?;
+        for (t, &v) in vars.iter().enumerate() {
+            let full = analysis.expand(&xb[v].columns(0, p).into_owned());
+            for i in 0..full.nrows() {
+                for j in 0..p {
+                    modes[(i, j)].d[t] = full[(i, j)];
+                }
+            }
+        }
+    }
+    let damping = match analysis.options.damping {
+        Some(d) => d.modal_damping(&lam)?,
+        None => vec![Dual::constant(0.0); p],
+    };
+    Ok(ModalBody {
+        node_positions: base.node_positions,
+        node_masses: base.node_masses,
+        node_inertias: base.node_inertias,
+        modes,
+        eigenvalues: lam,
+        modal_damping: damping,
+    })
+}
+
+/// Convenience: derivatives of the retained modes (and guard modes) for all design variables.
+pub fn analysis_derivatives<const N: usize, F>(
+    mesh: &Mesh,
+    analysis: &ModalAnalysis,
+    b: &[f64],
+    props: F,
+    update: ModeUpdate,
+) -> Result<(Vec<DesignMatrices>, ModeDerivatives), FemError>
+where
+    F: FnMut(&[Dual<N>]) -> Properties<Dual<N>>,
+{
+    let dm = design_matrices::<N, F>(
+        mesh,
+        &analysis.assembly,
+        b,
+        props,
+        &analysis.options.element,
+        analysis.options.mass,
+    )?;
+    let d = mode_derivatives(
+        &analysis.k,
+        &analysis.m,
+        &analysis.pairs,
+        &dm,
+        update == ModeUpdate::Updated,
+        None,
+    )?;
+    Ok((dm, d))
+}

@@ -1,0 +1,338 @@
+//! Derivatives of eigenvalues and mass-normalised eigenvectors (paper §4.4).
+//!
+//! For a design variable `b` with `K_b`, `M_b` (assembled from dual numbers, [`crate::Assembly`]):
+//! - distinct eigenvalue: `λ_b = xᵀ(K_b − λM_b)x`; Nelson's method (1976): the particular
+//!   solution `v` of `(K − λM)v = −(K_b − λM_b − λ_b M)x` with the component of largest `|x_k|`
+//!   set to zero (row and column `k` of `K − λM` replaced by the identity, which keeps the sparse
+//!   pattern), then `x_b = v + c x`, `c = −xᵀMv − ½ xᵀM_b x`;
+//! - repeated eigenvalues (a cluster of `r`): only directional derivatives exist. The cluster
+//!   basis `Z` is rotated to `ZΓ`, the eigenvectors of `D = Zᵀ(K_b − λM_b)Z` (Dailey 1989); the
+//!   `λ_b` are the eigenvalues of `D`; the eigenvector derivatives use `r` removed components
+//!   and the coupling coefficients `c_ij` of Dailey, which need second derivatives
+//!   `Zᵀ(K_bb − λ M_bb)Z` ([`SecondDerivatives`]); without them those terms are omitted.
+
+use faer::Mat;
+use faer::sparse::SparseColMat;
+use faer::sparse::linalg::solvers::{Lu, SymbolicLu};
+use nalgebra::DMatrix;
+use sens::LinearSolver;
+
+use crate::assembly::FemError;
+use crate::eigen::{Eigenpairs, project, spmv};
+
+/// Derivative matrices for one design variable.
+#[derive(Clone, Debug)]
+pub struct DesignMatrices {
+    /// `∂K/∂b` on the assembly pattern.
+    pub k: SparseColMat<usize, f64>,
+    /// `∂M/∂b` on the assembly pattern (zero for ply angles).
+    pub m: SparseColMat<usize, f64>,
+}
+
+/// Projected second derivatives `Zᵀ(K_bb − λ M_bb)Z` of a cluster, for Dailey's coupling terms.
+pub type SecondDerivatives = DMatrix<f64>;
+
+/// Groups of (nearly) equal eigenvalues: `|λ_i − λ_j| ≤ rtol·max(|λ_i|, |λ_j|) + atol`.
+pub fn clusters(values: &[f64], rtol: f64) -> Vec<Vec<usize>> {
+    let scale = values.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+    let atol = 1e-9 * scale;
+    let mut out: Vec<Vec<usize>> = Vec::new();
+    for (i, &v) in values.iter().enumerate() {
+        if let Some(last) = out.last_mut() {
+            let j = *last.last().unwrap();
+            if (v - values[j]).abs() <= rtol * v.abs().max(values[j].abs()) + atol {
+                last.push(i);
+                continue;
+            }
+        }
+        out.push(vec![i]);
+    }
+    out
+}
+
+/// Default relative tolerance below which eigenvalues count as repeated.
+pub const CLUSTER_RTOL: f64 = 1e-6;
+
+/// Eigenvalue (and optionally eigenvector) derivatives for every design variable.
+#[derive(Clone, Debug)]
+pub struct ModeDerivatives {
+    /// `λ_b[var][mode]`.
+    pub eigenvalues: Vec<Vec<f64>>,
+    /// `X_b[var]` (`n × p`), when eigenvector derivatives were requested. Within a cluster of
+    /// repeated eigenvalues these belong to the rotated basis [`Self::rotations`].
+    pub eigenvectors: Option<Vec<DMatrix<f64>>>,
+    /// For each variable, the `p × p` block-diagonal rotation `Γ` of the mode basis (identity
+    /// outside clusters): the derivatives refer to the modes `X Γ`.
+    pub rotations: Vec<DMatrix<f64>>,
+    /// The clusters of repeated eigenvalues (indices into the modes).
+    pub clusters: Vec<Vec<usize>>,
+}
+
+enum Factor {
+    Dense(faer::linalg::solvers::PartialPivLu<f64>),
+    Sparse(Lu<usize, f64>),
+}
+
+impl Factor {
+    fn solve(&self, rhs: &mut [f64]) {
+        match self {
+            Factor::Dense(f) => f.solve_columns(rhs, 1),
+            Factor::Sparse(f) => f.solve_columns(rhs, 1),
+        }
+    }
+}
+
+/// `K − λM` with rows and columns `removed` replaced by the identity.
+fn nelson_matrix(
+    k: &SparseColMat<usize, f64>,
+    m: &SparseColMat<usize, f64>,
+    lambda: f64,
+    removed: &[usize],
+) -> SparseColMat<usize, f64> {
+    let cp = k.symbolic().col_ptr();
+    let ri = k.symbolic().row_idx();
+    let mut val: Vec<f64> = k
+        .val()
+        .iter()
+        .zip(m.val())
+        .map(|(a, b)| a - lambda * b)
+        .collect();
+    let mut is_removed = vec![false; k.nrows()];
+    for &r in removed {
+        is_removed[r] = true;
+    }
+    for j in 0..k.ncols() {
+        for p in cp[j]..cp[j + 1] {
+            let i = ri[p];
+            if is_removed[i] || is_removed[j] {
+                val[p] = if i == j { 1.0 } else { 0.0 };
+            }
+        }
+    }
+    SparseColMat::new(k.symbolic().to_owned().expect("pattern copy"), val)
+}
+
+/// `r` rows of `z` (n × r) forming a well-conditioned `r × r` block (greedy pivoting).
+fn pivot_rows(z: &DMatrix<f64>) -> Vec<usize> {
+    let mut a = z.clone();
+    let r = a.ncols();
+    let mut rows = Vec::with_capacity(r);
+    for c in 0..r {
+        // pick the largest remaining entry over columns c.. and all unused rows
+        let mut best = (0, c, -1.0);
+        for j in c..r {
+            for i in 0..a.nrows() {
+                if rows.contains(&i) {
+                    continue;
+                }
+                if a[(i, j)].abs() > best.2 {
+                    best = (i, j, a[(i, j)].abs());
+                }
+            }
+        }
+        let (i, j, _) = best;
+        a.swap_columns(c, j);
+        rows.push(i);
+        // eliminate row i from the other columns
+        let piv = a[(i, c)];
+        for jj in c + 1..r {
+            let f = a[(i, jj)] / piv;
+            for ii in 0..a.nrows() {
+                let t = a[(ii, c)];
+                a[(ii, jj)] -= f * t;
+            }
+        }
+    }
+    rows
+}
+
+/// Derivatives of the eigenpairs `modes` of `(k, m)` for each design variable in `design`.
+///
+/// `eigenvectors`: also compute `X_b` (Nelson / Dailey); `dense`: factorise `K − λM` densely
+/// (small models) instead of with faer's sparse LU. `second[var][cluster]`, when given,
+/// supplies Dailey's second-derivative terms for clusters.
+pub fn mode_derivatives(
+    k: &SparseColMat<usize, f64>,
+    m: &SparseColMat<usize, f64>,
+    modes: &Eigenpairs,
+    design: &[DesignMatrices],
+    eigenvectors: bool,
+    second: Option<&[Vec<SecondDerivatives>]>,
+) -> Result<ModeDerivatives, FemError> {
+    let n = k.nrows();
+    let p = modes.values.len();
+    let groups = clusters(&modes.values, CLUSTER_RTOL);
+    let x = &modes.vectors;
+    let nvar = design.len();
+    let mut lam_b = vec![vec![0.0; p]; nvar];
+    let mut rot = vec![DMatrix::<f64>::identity(p, p); nvar];
+    let mut x_b = if eigenvectors {
+        Some(vec![DMatrix::<f64>::zeros(n, p); nvar])
+    } else {
+        None
+    };
+    let dense = n <= crate::eigen::DENSE_LIMIT;
+    let symbolic = if eigenvectors && !dense {
+        Some(SymbolicLu::try_new(k.symbolic()).map_err(|e| FemError::Eigen(format!("{e:?}")))?)
+    } else {
+        None
+    };
+    let mut tmp = vec![0.0; n];
+    for (gi, g) in groups.iter().enumerate() {
+        let r = g.len();
+        let lambda = g.iter().map(|&i| modes.values[i]).sum::<f64>() / r as f64;
+        let z = DMatrix::from_fn(n, r, |i, j| x[(i, g[j])]);
+        // per-variable projected derivative and rotation
+        let mut per_var = Vec::with_capacity(nvar);
+        for (v, dm) in design.iter().enumerate() {
+            let kb = project(&dm.k, &z, &z);
+            let mb = project(&dm.m, &z, &z);
+            let d = &kb - &mb * lambda;
+            let d = (&d + d.transpose()) * 0.5;
+            let (vals, gam) = if r == 1 {
+                (vec![d[(0, 0)]], DMatrix::identity(1, 1))
+            } else {
+                let e = d.symmetric_eigen();
+                let mut order: Vec<usize> = (0..r).collect();
+                order.sort_by(|&a, &b| e.eigenvalues[a].total_cmp(&e.eigenvalues[b]));
+                (
+                    order.iter().map(|&i| e.eigenvalues[i]).collect(),
+                    DMatrix::from_fn(r, r, |i, j| e.eigenvectors[(i, order[j])]),
+                )
+            };
+            for (a, &i) in g.iter().enumerate() {
+                lam_b[v][i] = vals[a];
+                for (b, &j) in g.iter().enumerate() {
+                    rot[v][(i, j)] = gam[(a, b)];
+                }
+            }
+            per_var.push((vals, gam, mb));
+        }
+        let Some(xb) = x_b.as_mut() else { continue };
+        let removed = pivot_rows(&z);
+        let a = nelson_matrix(k, m, lambda, &removed);
+        let factor = if dense {
+            let ad = Mat::from_fn(n, n, |_, _| 0.0);
+            let mut ad = ad;
+            let cp = a.symbolic().col_ptr();
+            let ri = a.symbolic().row_idx();
+            for j in 0..n {
+                for q in cp[j]..cp[j + 1] {
+                    ad[(ri[q], j)] += a.val()[q];
+                }
+            }
+            Factor::Dense(ad.partial_piv_lu())
+        } else {
+            Factor::Sparse(
+                Lu::try_new_with_symbolic(symbolic.clone().expect("symbolic LU"), a.as_ref())
+                    .map_err(|e| FemError::Eigen(format!("Nelson factorisation: {e:?}")))?,
+            )
+        };
+        for (v, dm) in design.iter().enumerate() {
+            let (vals, gam, mb) = &per_var[v];
+            let zr = &z * gam;
+            let mut vs = DMatrix::<f64>::zeros(n, r);
+            for j in 0..r {
+                // f = −(K_b − λ M_b − λ_b M) z_j
+                let zj = zr.column(j);
+                let mut f = vec![0.0; n];
+                spmv(&dm.k, zj.as_slice(), &mut tmp);
+                axpy(-1.0, &tmp, &mut f);
+                spmv(&dm.m, zj.as_slice(), &mut tmp);
+                axpy(lambda, &tmp, &mut f);
+                spmv(m, zj.as_slice(), &mut tmp);
+                axpy(vals[j], &tmp, &mut f);
+                for &q in &removed {
+                    f[q] = 0.0;
+                }
+                factor.solve(&mut f);
+                vs.column_mut(j).copy_from_slice(&f);
+            }
+            // coefficients c (r × r): x_b = V + Z c
+            let mv = project(m, &zr, &vs); // Zᵀ M V
+            let mbr = gam.transpose() * mb * gam; // Zᵀ M_b Z (rotated)
+            let mut c = DMatrix::<f64>::zeros(r, r);
+            for j in 0..r {
+                c[(j, j)] = -mv[(j, j)] - 0.5 * mbr[(j, j)];
+            }
+            if r > 1 {
+                let kbv = project(&dm.k, &zr, &vs);
+                let mbv = project(&dm.m, &zr, &vs);
+                let sec = second
+                    .and_then(|s| s.get(v))
+                    .and_then(|s| s.get(gi))
+                    .map(|s| gam.transpose() * s * gam);
+                for i in 0..r {
+                    for j in 0..r {
+                        if i == j {
+                            continue;
+                        }
+                        let gap = vals[j] - vals[i];
+                        if gap.abs()
+                            <= 1e-12 * vals.iter().fold(0.0f64, |a, b| a.max(b.abs())).max(1e-300)
+                        {
+                            // c_ij = −½ (z_iᵀ M_b z_j + z_jᵀ M_b z_i) − … : symmetric part from normalisation
+                            c[(i, j)] = -0.5 * (mv[(i, j)] + mv[(j, i)]) - 0.5 * mbr[(i, j)];
+                            continue;
+                        }
+                        let mut num = kbv[(i, j)] - vals[j] * mv[(i, j)] - lambda * mbv[(i, j)];
+                        num -= vals[j] * mbr[(i, j)];
+                        if let Some(s) = &sec {
+                            num += 0.5 * s[(i, j)];
+                        }
+                        c[(i, j)] = num / gap;
+                    }
+                }
+            }
+            let xv = vs + &zr * c;
+            for (a, &i) in g.iter().enumerate() {
+                xb[v].column_mut(i).copy_from(&xv.column(a));
+            }
+        }
+    }
+    Ok(ModeDerivatives {
+        eigenvalues: lam_b,
+        eigenvectors: x_b,
+        rotations: rot,
+        clusters: groups,
+    })
+}
+
+fn axpy(a: f64, x: &[f64], y: &mut [f64]) {
+    y.iter_mut().zip(x).for_each(|(yi, xi)| *yi += a * xi);
+}
+
+/// Directional derivative of the eigenvalues along `direction` (one weight per design
+/// variable): within clusters, the eigenvalues of `Σ_k d_k Zᵀ(K_{b_k} − λM_{b_k})Z`, ascending
+/// (the one-sided derivatives of the sorted eigenvalues for a step along `+direction`).
+pub fn directional_eigenvalue_derivatives(
+    modes: &Eigenpairs,
+    design: &[DesignMatrices],
+    direction: &[f64],
+) -> Vec<f64> {
+    assert_eq!(
+        design.len(),
+        direction.len(),
+        "one weight per design variable"
+    );
+    let n = modes.vectors.nrows();
+    let mut out = vec![0.0; modes.values.len()];
+    for g in clusters(&modes.values, CLUSTER_RTOL) {
+        let r = g.len();
+        let lambda = g.iter().map(|&i| modes.values[i]).sum::<f64>() / r as f64;
+        let z = DMatrix::from_fn(n, r, |i, j| modes.vectors[(i, g[j])]);
+        let mut d = DMatrix::<f64>::zeros(r, r);
+        for (dm, &w) in design.iter().zip(direction) {
+            if w != 0.0 {
+                d += (project(&dm.k, &z, &z) - project(&dm.m, &z, &z) * lambda) * w;
+            }
+        }
+        let d = (&d + d.transpose()) * 0.5;
+        let mut e: Vec<f64> = d.symmetric_eigen().eigenvalues.iter().copied().collect();
+        e.sort_by(f64::total_cmp);
+        for (a, &i) in g.iter().enumerate() {
+            out[i] = e[a];
+        }
+    }
+    out
+}
