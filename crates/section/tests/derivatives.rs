@@ -1,0 +1,145 @@
+//! Ply-angle derivatives of every section result against central differences, and their
+//! independence of the chunk width.
+
+mod common;
+use common::*;
+use section::{
+    BoxWalls, DesignMap, PlySpec, SectionMesh, SectionProperties, analyse,
+    analyse_with_derivatives, thin_walled_box, tube,
+};
+
+const DEG: f64 = std::f64::consts::PI / 180.0;
+
+fn layered_tube() -> (SectionMesh, DesignMap) {
+    let plies = [
+        PlySpec::new("p0", composite(), 30.0 * DEG, 0.0005, 1),
+        PlySpec::new("p1", composite(), -45.0 * DEG, 0.0005, 1),
+        PlySpec::new("p2", composite(), 60.0 * DEG, 0.0005, 1),
+    ];
+    let mesh = tube(0.01, &plies, 24).unwrap().translated([0.002, 0.001]);
+    let design = DesignMap::new()
+        .with_named_variable(&mesh, "inner", &[("p0", 1.0)])
+        .unwrap()
+        .with_named_variable(&mesh, "balanced", &[("p1", 1.0), ("p2", -1.0)])
+        .unwrap()
+        .with_named_variable(&mesh, "double", &[("p2", 2.0)])
+        .unwrap();
+    (mesh, design)
+}
+
+fn unsymmetric_box() -> (SectionMesh, DesignMap) {
+    let ply = |n: &str, a: f64, t: f64| PlySpec::new(n, composite(), a * DEG, t, 1);
+    let walls = BoxWalls {
+        top: vec![ply("a", 30.0, 0.001), ply("b", -10.0, 0.0005)],
+        bottom: vec![ply("a", 60.0, 0.0008)],
+        left: vec![ply("a", 0.0, 0.001), ply("b", 45.0, 0.001)],
+        right: vec![ply("a", -20.0, 0.0006)],
+    };
+    let mesh = thin_walled_box(0.03, 0.02, &walls, 6, 4).unwrap();
+    let design = DesignMap::each_region(&mesh);
+    (mesh, design)
+}
+
+/// All results as one vector, with a natural scale for each.
+fn flatten(p: &SectionProperties, scale: &SectionProperties) -> Vec<(f64, f64, String)> {
+    let mut v = Vec::new();
+    for i in 0..6 {
+        for j in 0..6 {
+            let s = (scale.stiffness[(i, i)] * scale.stiffness[(j, j)]).sqrt();
+            v.push((p.stiffness[(i, j)], s, format!("K[{i}][{j}]")));
+            let s = (scale.compliance[(i, i)] * scale.compliance[(j, j)]).sqrt();
+            v.push((p.compliance[(i, j)], s, format!("F[{i}][{j}]")));
+        }
+    }
+    for i in 0..4 {
+        for j in 0..4 {
+            let c = &scale.classical_stiffness;
+            let s = (c[(i, i)] * c[(j, j)]).sqrt();
+            v.push((p.classical_stiffness[(i, j)], s, format!("Kc[{i}][{j}]")));
+        }
+    }
+    // Centres: scale by the section size (~1 cm).
+    for k in 0..2 {
+        v.push((p.tension_centre[k], 0.01, format!("tension centre {k}")));
+        v.push((p.shear_centre[k], 0.01, format!("shear centre {k}")));
+    }
+    v
+}
+
+fn check_against_central_differences(mesh: &SectionMesh, design: &DesignMap) {
+    let s = analyse_with_derivatives::<2>(mesh, design).unwrap();
+    let h = 1e-5;
+    let mut worst: f64 = 0.0;
+    for (k, d) in s.derivatives.iter().enumerate() {
+        let plus = analyse(&design.step(mesh, k, h)).unwrap();
+        let minus = analyse(&design.step(mesh, k, -h)).unwrap();
+        let (fp, fm, fd) = (
+            flatten(&plus, &s.properties),
+            flatten(&minus, &s.properties),
+            flatten(d, &s.properties),
+        );
+        let mut nonzero = false;
+        for ((p, m), (a, scale, name)) in fp.iter().zip(&fm).zip(&fd) {
+            let cd = (p.0 - m.0) / (2.0 * h);
+            let err = (a - cd).abs() / scale;
+            worst = worst.max(err);
+            assert!(
+                err < 1e-6,
+                "variable {k}, {name}: dual {a:e}, central difference {cd:e}"
+            );
+            nonzero |= a.abs() > 1e-3 * scale;
+        }
+        assert!(
+            nonzero,
+            "variable {k}: all derivatives vanish, the check is empty"
+        );
+        // Ply angles do not change the mass.
+        assert_eq!(d.mass_per_length, 0.0);
+    }
+    println!("worst scaled error {worst:e}");
+}
+
+#[test]
+fn tube_derivatives_match_central_differences() {
+    let (mesh, design) = layered_tube();
+    check_against_central_differences(&mesh, &design);
+}
+
+#[test]
+fn box_derivatives_match_central_differences() {
+    let (mesh, design) = unsymmetric_box();
+    check_against_central_differences(&mesh, &design);
+}
+
+#[test]
+fn derivatives_do_not_depend_on_chunk_width() {
+    let (mesh, design) = unsymmetric_box();
+    let a = analyse_with_derivatives::<1>(&mesh, &design).unwrap();
+    let b = analyse_with_derivatives::<2>(&mesh, &design).unwrap();
+    let c = analyse_with_derivatives::<4>(&mesh, &design).unwrap();
+    assert_eq!(a.variables, c.variables);
+    assert_eq!(a.derivatives.len(), design.variables.len());
+    for k in 0..design.variables.len() {
+        let (fa, fb, fc) = (
+            flatten(&a.derivatives[k], &a.properties),
+            flatten(&b.derivatives[k], &a.properties),
+            flatten(&c.derivatives[k], &a.properties),
+        );
+        for ((x, y), z) in fa.iter().zip(&fb).zip(&fc) {
+            assert!(
+                (x.0 - y.0).abs() <= 1e-12 * x.1,
+                "{}: {} vs {}",
+                x.2,
+                x.0,
+                y.0
+            );
+            assert!(
+                (x.0 - z.0).abs() <= 1e-12 * x.1,
+                "{}: {} vs {}",
+                x.2,
+                x.0,
+                z.0
+            );
+        }
+    }
+}
