@@ -51,5 +51,5 @@ pub use element::ElementKind;
 pub use error::SectionError;
 pub use generate::{BoxWalls, PlySpec, rectangle, thin_walled_box, tube};
 pub use mesh::{Element, Region, SectionMesh, WallFrame};
-pub use parse::{RegionSpec, parse_gmsh, parse_simple};
+pub use parse::{RegionSpec, parse_gmsh, parse_simple, write_simple};
 pub use properties::{SectionProperties, SectionSensitivities};

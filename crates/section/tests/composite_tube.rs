@@ -74,3 +74,51 @@ fn balanced_tube_coupling_vanishes_with_wall_thickness() {
         );
     }
 }
+
+/// A thin single-ply tube against thin-walled laminate theory: with `κ₁ = 0` and free hoop
+/// stress, `EA = 2πR(A₁₁ − A₁₂²/A₂₂)`, `GJ = 2πR³(A₆₆ − A₂₆²/A₂₂)` and, with the wall frame's
+/// tangent `t = n × x₁` (`γ_xt = −R κ₁`), `K₁₄ = −2πR²(A₁₆ − A₁₂A₂₆/A₂₂)`. Checks the material
+/// rotation, the wall frames and the sign conventions together.
+#[test]
+fn thin_tube_matches_laminate_theory() {
+    use laminate::{plane_stress, rotate_stiffness, rotation_about_normal};
+    let (rm, t) = (0.05, 0.0005);
+    for deg in [0.0_f64, 30.0, -30.0, 60.0] {
+        let a = deg.to_radians();
+        let plies = [PlySpec::new("p", composite(), a, t, 2)];
+        let p = analyse(&tube(rm - 0.5 * t, &plies, 96).unwrap()).unwrap();
+        let q = plane_stress(&rotate_stiffness(
+            &composite().stiffness(),
+            &rotation_about_normal(a),
+        )) * t;
+        let (a11, a12, a22, a16, a26, a66) = (
+            q[(0, 0)],
+            q[(0, 1)],
+            q[(1, 1)],
+            q[(0, 2)],
+            q[(1, 2)],
+            q[(2, 2)],
+        );
+        let two_pi = 2.0 * std::f64::consts::PI;
+        let ea = two_pi * rm * (a11 - a12 * a12 / a22);
+        let gj = two_pi * rm.powi(3) * (a66 - a26 * a26 / a22);
+        let k14 = -two_pi * rm * rm * (a16 - a12 * a26 / a22);
+        let k = p.stiffness;
+        assert!(
+            rel(k[(0, 0)], ea) < 1e-2,
+            "{deg}°: EA {} vs {ea}",
+            k[(0, 0)]
+        );
+        assert!(
+            rel(k[(3, 3)], gj) < 1e-2,
+            "{deg}°: GJ {} vs {gj}",
+            k[(3, 3)]
+        );
+        let scale = (ea * gj).sqrt();
+        assert!(
+            (k[(0, 3)] - k14).abs() < 1e-2 * scale,
+            "{deg}°: K14 {} vs {k14}",
+            k[(0, 3)]
+        );
+    }
+}

@@ -1,0 +1,316 @@
+//! Mesh input: the simple text format, Gmsh 4.1 ASCII, 6-node triangles and 9-node
+//! quadrilaterals, and the errors for bad meshes and bad text.
+
+mod common;
+use common::*;
+use section::{
+    Element, ElementKind, Region, RegionSpec, SectionError, SectionMesh, WallFrame, analyse,
+    parse_gmsh, parse_simple, rectangle, write_simple,
+};
+
+/// A `b × h` rectangle on a Lagrange grid, as 9-node quadrilaterals or pairs of 6-node
+/// triangles.
+fn lagrange_rectangle(b: f64, h: f64, n: usize, m: usize, kind: ElementKind) -> SectionMesh {
+    let (cols, rows) = (2 * n + 1, 2 * m + 1);
+    let id = |i: usize, j: usize| j * cols + i;
+    let mut nodes = Vec::new();
+    for j in 0..rows {
+        for i in 0..cols {
+            nodes.push([
+                -0.5 * b + b * i as f64 / (2 * n) as f64,
+                -0.5 * h + h * j as f64 / (2 * m) as f64,
+            ]);
+        }
+    }
+    let mut elements = Vec::new();
+    for cj in 0..m {
+        for ci in 0..n {
+            let (i, j) = (2 * ci, 2 * cj);
+            match kind {
+                ElementKind::Quad9 => elements.push(Element {
+                    kind,
+                    nodes: vec![
+                        id(i, j),
+                        id(i + 2, j),
+                        id(i + 2, j + 2),
+                        id(i, j + 2),
+                        id(i + 1, j),
+                        id(i + 2, j + 1),
+                        id(i + 1, j + 2),
+                        id(i, j + 1),
+                        id(i + 1, j + 1),
+                    ],
+                    region: 0,
+                }),
+                _ => {
+                    elements.push(Element {
+                        kind: ElementKind::Tri6,
+                        nodes: vec![
+                            id(i, j),
+                            id(i + 2, j),
+                            id(i + 2, j + 2),
+                            id(i + 1, j),
+                            id(i + 2, j + 1),
+                            id(i + 1, j + 1),
+                        ],
+                        region: 0,
+                    });
+                    elements.push(Element {
+                        kind: ElementKind::Tri6,
+                        nodes: vec![
+                            id(i, j),
+                            id(i + 2, j + 2),
+                            id(i, j + 2),
+                            id(i + 1, j + 1),
+                            id(i + 1, j + 2),
+                            id(i, j + 1),
+                        ],
+                        region: 0,
+                    });
+                }
+            }
+        }
+    }
+    let regions = vec![Region::new(
+        "solid",
+        isotropic(70e9, 0.3),
+        0.0,
+        WallFrame::Tangent(0.0),
+    )];
+    SectionMesh {
+        nodes,
+        elements,
+        regions,
+    }
+}
+
+#[test]
+fn triangles_and_nine_node_quads_agree_with_eight_node_quads() {
+    let (b, h) = (0.02, 0.01);
+    let q8 = analyse(&rectangle(b, h, 16, 8, isotropic(70e9, 0.3), 0.0).unwrap()).unwrap();
+    for kind in [ElementKind::Quad9, ElementKind::Tri6] {
+        let p = analyse(&lagrange_rectangle(b, h, 16, 8, kind)).unwrap();
+        for i in [0, 4, 5] {
+            assert!(
+                rel(p.stiffness[(i, i)], q8.stiffness[(i, i)]) < 1e-10,
+                "{kind:?} K[{i}][{i}]"
+            );
+        }
+        for i in [1, 2, 3] {
+            assert!(
+                rel(p.stiffness[(i, i)], q8.stiffness[(i, i)]) < 2e-3,
+                "{kind:?} K[{i}][{i}]"
+            );
+        }
+    }
+}
+
+#[test]
+fn simple_format_round_trip() {
+    let deg = std::f64::consts::PI / 180.0;
+    let plies = [
+        section::PlySpec::new("in", composite(), 20.0 * deg, 0.0005, 1),
+        section::PlySpec::new("out", composite(), -50.0 * deg, 0.0005, 1),
+    ];
+    let mesh = section::tube(0.01, &plies, 16).unwrap();
+    let text = write_simple(&mesh);
+    let back = parse_simple(&text, &[]).unwrap();
+    assert_eq!(back.elements, mesh.elements);
+    let (p, q) = (analyse(&mesh).unwrap(), analyse(&back).unwrap());
+    assert!(scaled_diff(&p.stiffness, &q.stiffness, &p.stiffness) < 1e-12);
+}
+
+#[test]
+fn simple_format_errors_name_the_line() {
+    let base = "material al isotropic 70e9 0.3 2700\nregion solid al 0 tangent 0\n\
+                node 1 0 0\nnode 2 1 0\nnode 3 0 1\nnode 4 0.5 0\nnode 5 0.5 0.5\nnode 6 0 0.5\n";
+    let ok = format!("{base}element tri6 solid 1 2 3 4 5 6\n");
+    let mesh = parse_simple(&ok, &[]).unwrap();
+    assert_eq!(mesh.elements.len(), 1);
+    let err = parse_simple(&ok.replace("region solid al", "region solid steel"), &[]).unwrap_err();
+    assert_eq!(
+        err,
+        SectionError::UnknownMaterial {
+            name: "steel".into(),
+            line: Some(2)
+        }
+    );
+    // A material supplied by the caller is found.
+    let steel = isotropic(210e9, 0.3);
+    assert!(
+        parse_simple(
+            &ok.replace("region solid al", "region solid steel"),
+            &[("steel", steel)]
+        )
+        .is_ok()
+    );
+    let err = parse_simple(&format!("{base}element tri6 skin 1 2 3 4 5 6\n"), &[]).unwrap_err();
+    assert_eq!(
+        err,
+        SectionError::UnknownRegion {
+            name: "skin".into(),
+            line: Some(9)
+        }
+    );
+    let err = parse_simple(&format!("{base}element tri3 solid 1 2 3\n"), &[]).unwrap_err();
+    assert!(matches!(err, SectionError::Parse { line: 9, .. }), "{err}");
+    let err = parse_simple(&format!("{base}element tri6 solid 1 2 3 4 5 7\n"), &[]).unwrap_err();
+    assert!(err.to_string().contains("node 7 is not defined"), "{err}");
+}
+
+/// The rectangle mesh written as Gmsh 4.1 text (one surface in physical group "web").
+fn gmsh_text(mesh: &SectionMesh) -> String {
+    let mut s = String::from("$MeshFormat\n4.1 0 8\n$EndMeshFormat\n");
+    s += "$PhysicalNames\n1\n2 7 \"web\"\n$EndPhysicalNames\n";
+    s += "$Entities\n0 0 1 0\n3 -1 -1 0 1 1 0 1 7 0\n$EndEntities\n";
+    let n = mesh.nodes.len();
+    s += &format!("$Nodes\n1 {n} 1 {n}\n2 3 0 {n}\n");
+    for i in 0..n {
+        s += &format!("{}\n", i + 1);
+    }
+    for p in &mesh.nodes {
+        s += &format!("{:e} {:e} 0\n", p[0], p[1]);
+    }
+    s += "$EndNodes\n";
+    let m = mesh.elements.len();
+    s += &format!(
+        "$Elements\n2 {} 1 {}\n1 5 1 1\n1 1 2\n2 3 16 {m}\n",
+        m + 1,
+        m + 1
+    );
+    for (k, e) in mesh.elements.iter().enumerate() {
+        let ids: Vec<String> = e.nodes.iter().map(|i| (i + 1).to_string()).collect();
+        s += &format!("{} {}\n", k + 2, ids.join(" "));
+    }
+    s + "$EndElements\n"
+}
+
+#[test]
+fn gmsh_mesh_gives_the_same_section() {
+    let mesh = rectangle(0.02, 0.01, 8, 4, isotropic(70e9, 0.3), 0.0).unwrap();
+    let text = gmsh_text(&mesh);
+    let spec = RegionSpec {
+        name: "web".into(),
+        material: isotropic(70e9, 0.3),
+        ply_angle: 0.0,
+        frame: WallFrame::Tangent(0.0),
+    };
+    let parsed = parse_gmsh(&text, std::slice::from_ref(&spec)).unwrap();
+    assert_eq!(parsed.elements.len(), mesh.elements.len());
+    let (p, q) = (analyse(&mesh).unwrap(), analyse(&parsed).unwrap());
+    assert!(scaled_diff(&p.stiffness, &q.stiffness, &p.stiffness) < 1e-12);
+
+    let other = RegionSpec {
+        name: "flange".into(),
+        ..spec
+    };
+    let err = parse_gmsh(&text, &[other]).unwrap_err();
+    assert!(
+        matches!(err, SectionError::UnknownRegion { ref name, .. } if name == "web"),
+        "{err}"
+    );
+    let linear = text.replace("2 3 16 ", "2 3 3 ");
+    assert!(
+        parse_gmsh(&linear, &[])
+            .unwrap_err()
+            .to_string()
+            .contains("second-order")
+    );
+    let old = text.replace("4.1 0 8", "2.2 0 8");
+    assert!(
+        parse_gmsh(&old, &[])
+            .unwrap_err()
+            .to_string()
+            .contains("need 4.1")
+    );
+}
+
+#[test]
+fn bad_meshes_give_clear_errors() {
+    let good = rectangle(0.02, 0.01, 2, 2, isotropic(70e9, 0.3), 0.0).unwrap();
+    assert!(good.validate().is_ok());
+
+    // Clockwise element.
+    let mut m = good.clone();
+    let n = m.elements[1].nodes.clone();
+    m.elements[1].nodes = vec![n[0], n[3], n[2], n[1], n[7], n[6], n[5], n[4]];
+    assert!(matches!(
+        analyse(&m),
+        Err(SectionError::InvertedElement { element: 1, .. })
+    ));
+
+    // Zero area: all nodes of element 0 moved onto a line.
+    let mut m = good.clone();
+    for &k in &m.elements[0].nodes.clone() {
+        m.nodes[k][1] = -0.005;
+    }
+    let err = analyse(&m).unwrap_err();
+    assert!(
+        matches!(err, SectionError::DegenerateElement { element: 0, .. }),
+        "{err}"
+    );
+
+    // Two pieces.
+    let mut m = good.clone();
+    let shifted = good.translated([0.05, 0.0]);
+    let off = m.nodes.len();
+    m.nodes.extend(shifted.nodes);
+    for e in shifted.elements {
+        m.elements.push(Element {
+            nodes: e.nodes.iter().map(|i| i + off).collect(),
+            ..e
+        });
+    }
+    let err = analyse(&m).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            SectionError::Disconnected {
+                parts: 2,
+                element: 4
+            }
+        ),
+        "{err}"
+    );
+    assert!(err.to_string().contains("not connected"));
+
+    // Dangling indices.
+    let mut m = good.clone();
+    m.elements[2].nodes[3] = 999;
+    assert!(matches!(
+        analyse(&m),
+        Err(SectionError::NodeOutOfRange {
+            element: 2,
+            node: 999,
+            ..
+        })
+    ));
+    let mut m = good.clone();
+    m.elements[3].region = 4;
+    assert!(matches!(
+        analyse(&m),
+        Err(SectionError::RegionOutOfRange { element: 3, .. })
+    ));
+    let mut m = good.clone();
+    m.elements[0].nodes.pop();
+    assert!(matches!(
+        analyse(&m),
+        Err(SectionError::WrongNodeCount { element: 0, .. })
+    ));
+    assert!(matches!(
+        analyse(&SectionMesh::default()),
+        Err(SectionError::Empty)
+    ));
+
+    // A design map naming an unknown ply.
+    let err = section::DesignMap::new()
+        .with_named_variable(&good, "t", &[("skin", 1.0)])
+        .unwrap_err();
+    assert_eq!(
+        err,
+        SectionError::UnknownRegion {
+            name: "skin".into(),
+            line: None
+        }
+    );
+}
