@@ -230,17 +230,17 @@ pub fn element_matrices<S: Scalar>(
                 MassKind::Consistent => DMatrix::from_iterator(
                     18,
                     18,
-                    to_global(&shell_mass_local(&g, lam), &g.frame)
+                    to_global(&shell_mass_local(&g, lam, opts.drilling), &g.frame)
                         .iter()
                         .copied(),
                 ),
                 MassKind::Lumped => {
-                    let (mk, mu) = shell_lumped(&g, lam);
+                    let (mk, mu) = shell_lumped(&g, lam, opts.drilling);
                     let mut m = DMatrix::zeros(18, 18);
                     for n in 0..3 {
                         for d in 0..3 {
                             m[(6 * n + d, 6 * n + d)] = mk;
-                            m[(6 * n + 3 + d, 6 * n + 3 + d)] = mu;
+                            m[(6 * n + 3 + d, 6 * n + 3 + d)] = mu[d];
                         }
                     }
                     m
@@ -272,13 +272,13 @@ fn beam_lumped<S: Scalar>(
 pub fn lumped_nodal_masses<S: Scalar>(
     mesh: &Mesh,
     props: &Properties<S>,
+    opts: &ElementOptions,
 ) -> Result<(Vec<S>, Vec<[S; 3]>), FemError> {
     let n = mesh.nodes.len();
     let mut m = vec![S::zero(); n];
     let mut mu = vec![[S::zero(); 3]; n];
-    let opts = ElementOptions::default();
     for e in 0..mesh.elements.len() {
-        let (_, me) = element_matrices(mesh, e, props, &opts, MassKind::Lumped)?;
+        let (_, me) = element_matrices(mesh, e, props, opts, MassKind::Lumped)?;
         for (a, &node) in mesh.elements[e].nodes().iter().enumerate() {
             m[node] += me[(6 * a, 6 * a)];
             for d in 0..3 {

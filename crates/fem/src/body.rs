@@ -155,8 +155,9 @@ pub fn reference_constraints(
     mesh: &Mesh,
     props: &Properties<f64>,
     rc: ReferenceCondition,
+    element: &ElementOptions,
 ) -> Result<(Constraints, Vector3<f64>), FemError> {
-    let (masses, _) = lumped_nodal_masses(mesh, props)?;
+    let (masses, _) = lumped_nodal_masses(mesh, props, element)?;
     let total: f64 = masses.iter().sum();
     if !(total > 0.0) {
         return Err(FemError::Invalid("the body has no mass".into()));
@@ -213,7 +214,7 @@ pub fn modal_analysis(
     props: &Properties<f64>,
     opts: &ModalOptions,
 ) -> Result<ModalAnalysis, FemError> {
-    let (constraints, origin) = reference_constraints(mesh, props, opts.reference)?;
+    let (constraints, origin) = reference_constraints(mesh, props, opts.reference, &opts.element)?;
     let assembly = Assembly::new(mesh, &constraints)?;
     let (kv, mv) = assembly.values(mesh, props, &opts.element, opts.mass)?;
     let k = assembly.matrix(kv);
@@ -312,7 +313,7 @@ pub fn modal_body(
         Some(d) => d.modal_damping(&lam)?,
         None => vec![0.0; lam.len()],
     };
-    let (masses, inertias) = lumped_nodal_masses(mesh, props)?;
+    let (masses, inertias) = lumped_nodal_masses(mesh, props, &analysis.options.element)?;
     Ok(ModalBody {
         node_positions: mesh.nodes.iter().map(|p| p - analysis.origin).collect(),
         node_masses: masses,

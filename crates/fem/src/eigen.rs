@@ -1,7 +1,7 @@
 //! The generalised symmetric eigenproblem `K x = λ M x` for the lowest modes, mass-normalised.
 //!
 //! Two paths:
-//! - dense (small models): Cholesky `M = LLᵀ`, symmetric eigen of `L⁻¹KL⁻ᵀ` (faer);
+//! - dense (small models): Cholesky `K − σM = LLᵀ`, symmetric eigen of `L⁻¹ML⁻ᵀ` (faer);
 //! - sparse (large models): shift-invert Lanczos in the `M` inner product with full
 //!   re-orthogonalisation and thick restarts (Krylov–Schur for symmetric problems), on a faer
 //!   sparse Cholesky factorisation of `K − σM` with a shift `σ` just below zero, so rigid
@@ -195,13 +195,25 @@ fn dense_modes(
     m: &SparseColMat<usize, f64>,
     p: usize,
 ) -> Result<DMatrix<f64>, FemError> {
-    let kd = dense(k);
+    // shift-invert in dense form: A = K − σM = LLᵀ, C = L⁻¹ M L⁻ᵀ, μ = 1/(λ − σ); the largest μ
+    // are the lowest λ and carry relative accuracy even when λ_max/λ_1 is huge (stiff drilling
+    // or membrane dof with tiny inertia), unlike a Cholesky of M.
+    let n = k.nrows();
     let md = dense(m);
-    let llt = md
-        .llt(Side::Lower)
-        .map_err(|_| FemError::Eigen("mass matrix is not positive definite".into()))?;
-    let l = llt.L().to_owned();
-    let mut x1 = kd;
+    let mut s = shift_scale(k, m)?;
+    let l = loop {
+        let a = dense(&combine(k, s, m));
+        if let Ok(llt) = a.llt(Side::Lower) {
+            break llt.L().to_owned();
+        }
+        s *= 100.0;
+        if s > 1e-2 * shift_scale(k, m)? * 1e10 {
+            return Err(FemError::Eigen(
+                "K − σM is not positive definite (is K indefinite?)".into(),
+            ));
+        }
+    };
+    let mut x1 = md;
     l.solve_lower_triangular_in_place(&mut x1);
     let mut c = x1.transpose().to_owned();
     l.solve_lower_triangular_in_place(&mut c);
@@ -209,9 +221,43 @@ fn dense_modes(
         .self_adjoint_eigen(Side::Lower)
         .map_err(|e| FemError::Eigen(format!("{e:?}")))?;
     let u = eig.U();
-    let mut y = Mat::from_fn(u.nrows(), p, |i, j| u[(i, j)]);
+    // eigenvalues ascending: the largest μ are the last columns
+    let mut y = Mat::from_fn(n, p, |i, j| u[(i, n - 1 - j)]);
     l.transpose().solve_upper_triangular_in_place(&mut y);
-    Ok(DMatrix::from_fn(y.nrows(), p, |i, j| y[(i, j)]))
+    Ok(DMatrix::from_fn(n, p, |i, j| y[(i, j)]))
+}
+
+/// The initial shift magnitude `s` (σ = −s): `10⁻¹²` of the largest `K_ii/M_ii`.
+fn shift_scale(
+    k: &SparseColMat<usize, f64>,
+    m: &SparseColMat<usize, f64>,
+) -> Result<f64, FemError> {
+    let diag = |a: &SparseColMat<usize, f64>| -> Vec<f64> {
+        let mut d = vec![0.0; a.nrows()];
+        let cp = a.symbolic().col_ptr();
+        let ri = a.symbolic().row_idx();
+        for j in 0..a.ncols() {
+            for p in cp[j]..cp[j + 1] {
+                if ri[p] == j {
+                    d[j] += a.val()[p];
+                }
+            }
+        }
+        d
+    };
+    let (kd, md) = (diag(k), diag(m));
+    let scale = kd
+        .iter()
+        .zip(&md)
+        .filter(|(_, m)| **m > 0.0)
+        .map(|(k, m)| k / m)
+        .fold(0.0, f64::max);
+    if !(scale > 0.0 && scale.is_finite()) {
+        return Err(FemError::Eigen(
+            "stiffness or mass diagonal is not positive".into(),
+        ));
+    }
+    Ok(1e-12 * scale)
 }
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
@@ -237,34 +283,10 @@ impl<'a> ShiftInvert<'a> {
         k: &SparseColMat<usize, f64>,
         m: &'a SparseColMat<usize, f64>,
     ) -> Result<Self, FemError> {
-        let diag = |a: &SparseColMat<usize, f64>| -> Vec<f64> {
-            let mut d = vec![0.0; a.nrows()];
-            let cp = a.symbolic().col_ptr();
-            let ri = a.symbolic().row_idx();
-            for j in 0..a.ncols() {
-                for p in cp[j]..cp[j + 1] {
-                    if ri[p] == j {
-                        d[j] += a.val()[p];
-                    }
-                }
-            }
-            d
-        };
-        let (kd, md) = (diag(k), diag(m));
-        let scale = kd
-            .iter()
-            .zip(&md)
-            .filter(|(_, m)| **m > 0.0)
-            .map(|(k, m)| k / m)
-            .fold(0.0, f64::max);
-        if !(scale > 0.0 && scale.is_finite()) {
-            return Err(FemError::Eigen(
-                "stiffness or mass diagonal is not positive".into(),
-            ));
-        }
+        let s0 = shift_scale(k, m)?;
         let symbolic = SymbolicLlt::try_new(k.symbolic(), Side::Lower)
             .map_err(|e| FemError::Eigen(format!("{e:?}")))?;
-        let mut s = 1e-12 * scale;
+        let mut s = s0;
         for _ in 0..6 {
             let a = combine(k, s, m);
             if let Ok(llt) = Llt::try_new_with_symbolic(symbolic.clone(), a.as_ref(), Side::Lower) {

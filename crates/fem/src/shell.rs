@@ -9,8 +9,11 @@
 //!   Raviart–Thomas (Nédélec) field `γ = a + b(−y, x)` whose tangential component on each edge
 //!   equals the displacement-based tangential shear at the edge midpoint (the MITC3 tying
 //!   points), which removes shear locking.
-//! - Mass: consistent (linear interpolation, `I₀, I₁, I₂` of the laminate, a drilling inertia
-//!   `I₂`) and lumped (`I₀A/3` per translation, `I₂A/3` per rotation).
+//! - Mass: consistent (linear interpolation, `I₀, I₁, I₂` of the laminate) and lumped (`I₀A/3`
+//!   per translation, `I₂A/3` per in-plane rotation). The drilling rotation has no inertia in
+//!   Mindlin theory; it gets `α I₂` (α the drilling penalty factor), which keeps the drilling
+//!   modes at `ω² = A₆₆/I₂ ≈ 12 G/(ρh²)`, the thickness-shear level, far above the modes of
+//!   interest, while the mass matrix stays positive definite.
 //!
 //! Local axes: `e₁` = the material reference axis projected on the element plane (ply angles
 //! are measured from it), `e₃` = the normal `(p₂−p₁)×(p₃−p₁)`, `e₂ = e₃ × e₁`. Rotations are a
@@ -192,7 +195,11 @@ pub fn shell_stiffness_local<S: Scalar>(
 }
 
 /// Local-frame consistent mass (18×18).
-pub fn shell_mass_local<S: Scalar>(g: &TriGeometry, lam: &LaminateStiffness<S>) -> M18<S> {
+pub fn shell_mass_local<S: Scalar>(
+    g: &TriGeometry,
+    lam: &LaminateStiffness<S>,
+    drilling: f64,
+) -> M18<S> {
     let mut m = M18::<S>::zeros();
     let (i0, i1, i2) = (lam.mass_per_area, lam.first_moment, lam.rotary_inertia);
     for i in 0..3 {
@@ -204,7 +211,7 @@ pub fn shell_mass_local<S: Scalar>(g: &TriGeometry, lam: &LaminateStiffness<S>) 
             // rotary: β_x = θ_y, β_y = −θ_x
             m[(dof(i, TX), dof(j, TX))] += i2 * nn;
             m[(dof(i, TY), dof(j, TY))] += i2 * nn;
-            m[(dof(i, TZ), dof(j, TZ))] += i2 * nn;
+            m[(dof(i, TZ), dof(j, TZ))] += i2 * nn * drilling;
             // coupling I₁ (u β_x + v β_y)
             m[(dof(i, U), dof(j, TY))] += i1 * nn;
             m[(dof(j, TY), dof(i, U))] += i1 * nn;
@@ -215,8 +222,21 @@ pub fn shell_mass_local<S: Scalar>(g: &TriGeometry, lam: &LaminateStiffness<S>) 
     m
 }
 
-/// Lumped nodal mass and rotary inertia of one node's share of the element: `(I₀A/3, I₂A/3)`.
-pub fn shell_lumped<S: Scalar>(g: &TriGeometry, lam: &LaminateStiffness<S>) -> (S, S) {
+/// Lumped nodal mass and rotary inertia (global axes, diagonal) of one node's share of the
+/// element: `I₀A/3` and the diagonal of `R diag(I₂, I₂, α I₂) Rᵀ A/3`.
+pub fn shell_lumped<S: Scalar>(
+    g: &TriGeometry,
+    lam: &LaminateStiffness<S>,
+    drilling: f64,
+) -> (S, [S; 3]) {
     let a3 = S::from_f64(g.area / 3.0);
-    (lam.mass_per_area * a3, lam.rotary_inertia * a3)
+    let mu = lam.rotary_inertia * a3;
+    let local = [1.0, 1.0, drilling];
+    let mut out = [S::zero(); 3];
+    for (d, o) in out.iter_mut().enumerate() {
+        // (Rᵀ diag Λ R)_dd with frame rows e_k: Σ_k e_k[d]² local_k
+        let w: f64 = (0..3).map(|k| g.frame[(k, d)].powi(2) * local[k]).sum();
+        *o = mu * w;
+    }
+    (lam.mass_per_area * a3, out)
 }

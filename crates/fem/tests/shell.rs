@@ -1,0 +1,371 @@
+//! Shell triangle: patch tests, thin-plate limit, laminated plates against Navier FSDT,
+//! orthonormality of modes, dense vs Lanczos.
+
+mod common;
+
+use common::{navier_fsdt, paper_material, rel, stack};
+use fem::{
+    Assembly, Constraints, EigenMethod, EigenOptions, ElementOptions, MassKind, Mesh, Properties,
+    dof, lowest_modes,
+};
+use laminate::{LaminateStiffness, OrthotropicMaterial};
+use nalgebra::{DMatrix, DVector, Vector3};
+
+fn iso_plate(h: f64) -> LaminateStiffness<f64> {
+    let m = OrthotropicMaterial::isotropic(70e9, 0.3, 2700.0).unwrap();
+    stack(m, h, &[0.0]).stiffness()
+}
+
+/// A distorted patch: 5 × 5 nodes on [0, 1] × [0, 0.8], interior nodes moved irregularly.
+fn distorted_patch() -> (Mesh, Vec<usize>) {
+    let mut mesh = Mesh::rectangle(1.0, 0.8, 4, 4, 0).unwrap();
+    let mut boundary = Vec::new();
+    for (k, p) in mesh.nodes.iter_mut().enumerate() {
+        let (i, j) = (k % 5, k / 5);
+        if i == 0 || i == 4 || j == 0 || j == 4 {
+            boundary.push(k);
+        } else {
+            p.x += 0.07 * ((3 * k) as f64).sin();
+            p.y += 0.06 * ((5 * k + 1) as f64).cos();
+        }
+    }
+    (mesh, boundary)
+}
+
+/// Impose `exact` (6 values per node) on the boundary nodes, solve for the interior, and return
+/// the largest interior error relative to the largest exact value.
+fn patch_error(
+    mesh: &Mesh,
+    boundary: &[usize],
+    lam: &LaminateStiffness<f64>,
+    exact: impl Fn(&Vector3<f64>) -> [f64; 6],
+) -> f64 {
+    let asm = Assembly::new(mesh, &Constraints::new()).unwrap();
+    let props = Properties {
+        sections: vec![],
+        laminates: vec![lam.clone()],
+    };
+    let (kv, _) = asm
+        .values(
+            mesh,
+            &props,
+            &ElementOptions::default(),
+            MassKind::Consistent,
+        )
+        .unwrap();
+    let k = asm.matrix(kv);
+    let n = asm.n_free();
+    let mut kd = DMatrix::<f64>::zeros(n, n);
+    let cp = k.symbolic().col_ptr();
+    let ri = k.symbolic().row_idx();
+    for j in 0..n {
+        for p in cp[j]..cp[j + 1] {
+            kd[(ri[p], j)] = k.val()[p];
+        }
+    }
+    let q_exact: Vec<f64> = mesh.nodes.iter().flat_map(exact).collect();
+    let is_b: Vec<bool> = (0..n).map(|d| boundary.contains(&(d / 6))).collect();
+    let free: Vec<usize> = (0..n).filter(|&d| !is_b[d]).collect();
+    let fixed: Vec<usize> = (0..n).filter(|&d| is_b[d]).collect();
+    let kff = DMatrix::from_fn(free.len(), free.len(), |i, j| kd[(free[i], free[j])]);
+    let kfb = DMatrix::from_fn(free.len(), fixed.len(), |i, j| kd[(free[i], fixed[j])]);
+    let qb = DVector::from_iterator(fixed.len(), fixed.iter().map(|&d| q_exact[d]));
+    let qf = kff.lu().solve(&(-(kfb * qb))).unwrap();
+    let scale = q_exact.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+    free.iter()
+        .enumerate()
+        .map(|(i, &d)| (qf[i] - q_exact[d]).abs())
+        .fold(0.0, f64::max)
+        / scale
+}
+
+fn unsymmetric_laminate() -> LaminateStiffness<f64> {
+    stack(paper_material(), 0.004, &[0.0, 30.0, -60.0]).stiffness()
+}
+
+#[test]
+fn membrane_patch_test_on_distorted_mesh() {
+    let (mesh, boundary) = distorted_patch();
+    for lam in [iso_plate(0.01), unsymmetric_laminate()] {
+        // u = 1e-3 (1 + 2x + 3y), v = 1e-3 (−1 + 0.5x − 4y); drilling = in-plane rotation
+        let err = patch_error(&mesh, &boundary, &lam, |p| {
+            let (u, v) = (
+                1e-3 * (1.0 + 2.0 * p.x + 3.0 * p.y),
+                1e-3 * (-1.0 + 0.5 * p.x - 4.0 * p.y),
+            );
+            let omega = 0.5 * 1e-3 * (0.5 - 3.0);
+            [u, v, 0.0, 0.0, 0.0, omega]
+        });
+        assert!(err < 1e-10, "membrane patch error {err:e}");
+    }
+}
+
+#[test]
+fn constant_curvature_patch_test_on_distorted_mesh() {
+    let (mesh, boundary) = distorted_patch();
+    for lam in [iso_plate(0.01), iso_plate(0.0001), unsymmetric_laminate()] {
+        // β = ∇φ, φ = ½kx x² + kxy xy + ½ky y², w = −φ: constant curvature, zero shear
+        let (kx, ky, kxy) = (2e-3, -1e-3, 1.5e-3);
+        let err = patch_error(&mesh, &boundary, &lam, |p| {
+            let phi = 0.5 * kx * p.x * p.x + kxy * p.x * p.y + 0.5 * ky * p.y * p.y;
+            let (bx, by) = (kx * p.x + kxy * p.y, kxy * p.x + ky * p.y);
+            // β_x = θ_y, β_y = −θ_x
+            [0.0, 0.0, -phi, -by, bx, 0.0]
+        });
+        assert!(err < 1e-9, "bending patch error {err:e}");
+    }
+}
+
+#[test]
+fn patch_test_fails_for_a_wrong_field() {
+    // guard: a non-equilibrium field (quadratic membrane) is not reproduced
+    let (mesh, boundary) = distorted_patch();
+    let err = patch_error(&mesh, &boundary, &iso_plate(0.01), |p| {
+        [1e-3 * p.x * p.x, 0.0, 0.0, 0.0, 0.0, 0.0]
+    });
+    assert!(err > 1e-6, "{err}");
+}
+
+/// Simply supported rectangular plate model: hard supports on all four edges.
+/// `in_plane`: "ss1" fixes the tangential in-plane displacement on each edge, "ss2" the
+/// normal one, "all" both.
+fn ss_plate(
+    a: f64,
+    b: f64,
+    n: usize,
+    lam: LaminateStiffness<f64>,
+    in_plane: &str,
+) -> (Mesh, Assembly, Properties<f64>) {
+    let mesh = Mesh::rectangle(a, b, n, n, 0).unwrap();
+    let tol = 1e-9 * a;
+    let y0 = mesh.nodes_on_segment(Vector3::zeros(), Vector3::new(a, 0.0, 0.0), tol);
+    let y1 = mesh.nodes_on_segment(Vector3::new(0.0, b, 0.0), Vector3::new(a, b, 0.0), tol);
+    let x0 = mesh.nodes_on_segment(Vector3::zeros(), Vector3::new(0.0, b, 0.0), tol);
+    let x1 = mesh.nodes_on_segment(Vector3::new(a, 0.0, 0.0), Vector3::new(a, b, 0.0), tol);
+    let mut c = Constraints::new();
+    let (on_x_edges, on_y_edges): (&[usize], &[usize]) = match in_plane {
+        "ss1" => (&[dof::UY], &[dof::UX]),
+        "ss2" => (&[dof::UX], &[dof::UY]),
+        _ => (&[dof::UX, dof::UY], &[dof::UX, dof::UY]),
+    };
+    for line in [&y0, &y1] {
+        c.pinned_line(line, true, on_y_edges);
+    }
+    for line in [&x0, &x1] {
+        c.pinned_line(line, false, on_x_edges);
+    }
+    let asm = Assembly::new(&mesh, &c).unwrap();
+    (
+        mesh,
+        asm,
+        Properties {
+            sections: vec![],
+            laminates: vec![lam],
+        },
+    )
+}
+
+fn first_eigenvalue(
+    mesh: &Mesh,
+    asm: &Assembly,
+    props: &Properties<f64>,
+    count: usize,
+) -> Vec<f64> {
+    let (k, m) = asm
+        .values(
+            mesh,
+            props,
+            &ElementOptions::default(),
+            MassKind::Consistent,
+        )
+        .unwrap();
+    lowest_modes(
+        &asm.matrix(k),
+        &asm.matrix(m),
+        count,
+        &EigenOptions::default(),
+    )
+    .unwrap()
+    .values
+}
+
+#[test]
+fn thin_isotropic_plate_matches_kirchhoff_without_locking() {
+    let (a, h) = (1.0f64, 1e-3f64); // a/h = 1000
+    let lam = iso_plate(h);
+    let d = 70e9 * h.powi(3) / (12.0 * (1.0 - 0.09));
+    let kirchhoff = std::f64::consts::PI.powi(4) * 4.0 / a.powi(4) * d / (2700.0 * h);
+    let (mesh, asm, props) = ss_plate(a, a, 24, lam, "all");
+    let l = first_eigenvalue(&mesh, &asm, &props, 1);
+    let err = rel(l[0].sqrt(), kirchhoff.sqrt());
+    eprintln!("thin plate: ω₁ error {err:.3e}");
+    assert!(
+        err < 0.01,
+        "ω₁² = {} vs Kirchhoff {kirchhoff}: {err:.2e}",
+        l[0]
+    );
+}
+
+fn laminated_case(angles: &[f64], a_over_h: f64, ss: &str, n: usize) -> (f64, f64) {
+    let a = 1.0;
+    let h = a / a_over_h;
+    let st = stack(paper_material(), h, angles);
+    let lam = st.stiffness();
+    let navier = navier_fsdt(&lam, a, a, 3, ss == "ss2");
+    let (mesh, asm, props) = ss_plate(a, a, n, lam, ss);
+    let l = first_eigenvalue(&mesh, &asm, &props, 1);
+    (l[0], navier)
+}
+
+#[test]
+fn cross_ply_plates_match_navier_fsdt() {
+    for a_over_h in [10.0, 100.0] {
+        let (fe, navier) = laminated_case(&[0.0, 90.0, 90.0, 0.0], a_over_h, "ss1", 16);
+        let err = rel(fe.sqrt(), navier.sqrt());
+        eprintln!("[0/90/90/0] a/h = {a_over_h}: error {err:.3e}");
+        assert!(
+            err < 0.02,
+            "a/h = {a_over_h}: ω₁² {fe} vs Navier {navier}: {err:.2e}"
+        );
+    }
+}
+
+#[test]
+fn antisymmetric_angle_ply_plates_match_navier_fsdt() {
+    for a_over_h in [10.0, 100.0] {
+        let (fe, navier) = laminated_case(&[45.0, -45.0, 45.0, -45.0], a_over_h, "ss2", 16);
+        let err = rel(fe.sqrt(), navier.sqrt());
+        eprintln!("[45/-45/45/-45] a/h = {a_over_h}: error {err:.3e}");
+        assert!(
+            err < 0.02,
+            "a/h = {a_over_h}: ω₁² {fe} vs Navier {navier}: {err:.2e}"
+        );
+    }
+}
+
+#[test]
+fn navier_oracle_reduces_to_kirchhoff_for_thin_isotropic_plates() {
+    let h = 1e-3;
+    let l = navier_fsdt(&iso_plate(h), 1.0, 1.0, 2, false);
+    let d = 70e9 * h.powi(3) / (12.0 * (1.0 - 0.09));
+    let kirchhoff = std::f64::consts::PI.powi(4) * 4.0 * d / (2700.0 * h);
+    assert!(rel(l, kirchhoff) < 1e-5, "{l} vs {kirchhoff}");
+}
+
+#[test]
+fn modes_are_mass_orthonormal_dense_and_lanczos_agree() {
+    let lam = stack(paper_material(), 0.002, &[30.0, -45.0]).stiffness();
+    let (mesh, asm, props) = ss_plate(0.3, 0.2, 8, lam, "all");
+    for mass in [MassKind::Consistent, MassKind::Lumped] {
+        let (k, m) = asm
+            .values(&mesh, &props, &ElementOptions::default(), mass)
+            .unwrap();
+        let (k, m) = (asm.matrix(k), asm.matrix(m));
+        let mut results = Vec::new();
+        for method in [EigenMethod::Dense, EigenMethod::Lanczos] {
+            let pairs = lowest_modes(
+                &k,
+                &m,
+                10,
+                &EigenOptions {
+                    method,
+                    ..Default::default()
+                },
+            )
+            .unwrap();
+            let x = &pairs.vectors;
+            let xmx = fem::eigen::project(&m, x, x);
+            let xkx = fem::eigen::project(&k, x, x);
+            let lmax = pairs.values[9];
+            let ortho = (xmx - DMatrix::<f64>::identity(10, 10)).abs().max();
+            let stiff = (xkx - DMatrix::from_diagonal(&DVector::from_vec(pairs.values.clone())))
+                .abs()
+                .max()
+                / lmax;
+            assert!(ortho < 1e-10, "{method:?} {mass:?}: |XᵀMX − I| = {ortho:e}");
+            assert!(
+                stiff < 1e-10,
+                "{method:?} {mass:?}: |XᵀKX − Λ|/λmax = {stiff:e}"
+            );
+            // residual of the eigen-equation
+            let mut r = 0.0f64;
+            for i in 0..10 {
+                let xi = x.column(i).into_owned();
+                let mut kx = vec![0.0; xi.len()];
+                let mut mx = vec![0.0; xi.len()];
+                fem::eigen::spmv(&k, xi.as_slice(), &mut kx);
+                fem::eigen::spmv(&m, xi.as_slice(), &mut mx);
+                let res: f64 = kx
+                    .iter()
+                    .zip(&mx)
+                    .map(|(a, b)| (a - pairs.values[i] * b).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                let nk: f64 = kx.iter().map(|a| a * a).sum::<f64>().sqrt();
+                r = r.max(res / nk);
+            }
+            assert!(r < 1e-7, "{method:?}: eigen residual {r:e}");
+            results.push(pairs.values);
+        }
+        for i in 0..10 {
+            assert!(
+                rel(results[1][i], results[0][i]) < 1e-9,
+                "{mass:?} mode {i}: {} vs {}",
+                results[1][i],
+                results[0][i]
+            );
+        }
+    }
+}
+
+#[test]
+fn free_free_plate_has_six_rigid_modes_and_no_spurious_ones() {
+    let lam = iso_plate(0.01);
+    let mesh = Mesh::rectangle(1.0, 0.5, 6, 3, 0).unwrap();
+    let asm = Assembly::new(&mesh, &Constraints::new()).unwrap();
+    let props = Properties {
+        sections: vec![],
+        laminates: vec![lam],
+    };
+    let (k, m) = asm
+        .values(&mesh, &props, &ElementOptions::default(), MassKind::Lumped)
+        .unwrap();
+    let pairs = lowest_modes(
+        &asm.matrix(k),
+        &asm.matrix(m),
+        8,
+        &EigenOptions {
+            method: EigenMethod::Lanczos,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let l7 = pairs.values[6];
+    assert!(
+        pairs.values[..6].iter().all(|l| l.abs() < 1e-8 * l7),
+        "{:?}",
+        pairs.values
+    );
+    assert!(
+        pairs.values[6] > 1e-3 * pairs.values[7],
+        "{:?}",
+        pairs.values
+    );
+}
+
+#[test]
+fn gmsh_v4_text_is_parsed() {
+    let text = "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 4 1 4\n2 1 0 4\n1\n2\n3\n4\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n$EndNodes\n$Elements\n2 3 1 3\n1 1 1 1\n1 1 2\n2 1 2 2\n2 1 2 3\n3 1 3 4\n$EndElements\n";
+    let g = fem::parse_gmsh_v4(text).unwrap();
+    assert_eq!(g.nodes.len(), 4);
+    assert_eq!(g.triangles, vec![[0, 1, 2], [0, 2, 3]]);
+    assert_eq!(g.entity, vec![1, 1]);
+    let mesh = g.to_mesh(0, Vector3::x());
+    assert_eq!(mesh.elements.len(), 2);
+    // errors carry the line number
+    let bad = text.replace("1 1 0\n0 1 0", "1 x 0\n0 1 0");
+    match fem::parse_gmsh_v4(&bad) {
+        Err(fem::MeshError::Gmsh { line, .. }) => assert_eq!(line, 13),
+        other => panic!("{other:?}"),
+    }
+}
