@@ -17,6 +17,10 @@ use flexsens::commands::{self, Format};
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Override a deck value by its dotted path before reading it, e.g.
+    /// `--set laminate.rod.plies.0.angle=30` (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE", global = true)]
+    set: Vec<String>,
 }
 
 #[derive(Subcommand)]
@@ -45,7 +49,7 @@ fn main() -> ExitCode {
             laminate,
             format,
             derivatives,
-        } => commands::laminate::run(deck, laminate.as_deref(), *format, *derivatives),
+        } => commands::laminate::run(deck, &cli.set, laminate.as_deref(), *format, *derivatives),
     };
     match result {
         Ok(text) => {

@@ -279,6 +279,7 @@ mod no_panic {
         let src = Source {
             file: "fuzz.toml".into(),
             text,
+            overrides: Vec::new(),
         };
         if let Ok(raw) = src.parse() {
             let _ = validate(&src, &raw);

@@ -76,11 +76,12 @@ pub fn ply_angle_derivatives(stack: &PlyStack<f64>) -> Vec<LaminateStiffness<f64
 /// Run the command; the returned text goes to stdout.
 pub fn run(
     path: &Path,
+    overrides: &[String],
     only: Option<&str>,
     format: Format,
     derivatives: bool,
 ) -> Result<String, DeckError> {
-    let (src, raw) = deck::load(path)?;
+    let (src, raw) = deck::load(path, overrides)?;
     let model = validate(&src, &raw)?;
     let selected: Vec<(&String, &LaminateDef)> = match only {
         Some(name) => {

@@ -8,6 +8,7 @@
 //! Only this module knows TOML; the engine crates never see it.
 
 pub mod laminates;
+pub mod overrides;
 pub mod raw;
 
 use std::fmt;
@@ -27,6 +28,8 @@ pub struct DeckError {
     pub message: String,
     /// The offending source line, for display.
     pub snippet: Option<String>,
+    /// A closing remark (e.g. that `--set` edited the deck).
+    pub note: Option<String>,
 }
 
 impl fmt::Display for DeckError {
@@ -48,6 +51,9 @@ impl fmt::Display for DeckError {
                 "", "", "^"
             )?;
         }
+        if let Some(n) = &self.note {
+            write!(f, "\nnote: {n}")?;
+        }
         Ok(())
     }
 }
@@ -58,6 +64,8 @@ impl std::error::Error for DeckError {}
 pub struct Source {
     pub file: PathBuf,
     pub text: String,
+    /// The `--set` arguments applied to `text`, if any.
+    pub overrides: Vec<String>,
 }
 
 impl Source {
@@ -69,11 +77,37 @@ impl Source {
             key: None,
             message: format!("cannot read the deck: {e}"),
             snippet: None,
+            note: None,
         })?;
         Ok(Self {
             file: path.to_path_buf(),
             text,
+            overrides: Vec::new(),
         })
+    }
+
+    /// Apply `--set KEY=VALUE` overrides to the text (see [`overrides`]).
+    pub fn with_overrides(mut self, args: &[String]) -> Result<Self, DeckError> {
+        if args.is_empty() {
+            return Ok(self);
+        }
+        let bad = |e: overrides::OverrideError| DeckError {
+            file: self.file.clone(),
+            line: None,
+            key: None,
+            message: e.to_string(),
+            snippet: None,
+            note: None,
+        };
+        let parsed = args
+            .iter()
+            .map(|a| overrides::Override::parse(a))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(bad)?;
+        let text = overrides::apply(&self.text, &parsed).map_err(bad)?;
+        self.text = text;
+        self.overrides = args.to_vec();
+        Ok(self)
     }
 
     /// 1-based line and column of a byte offset.
@@ -94,12 +128,19 @@ impl Source {
     ) -> DeckError {
         let line = span.as_ref().map(|s| self.line_col(s.start));
         let snippet = line.and_then(|(l, _)| self.text.lines().nth(l - 1).map(str::to_string));
+        let note = (!self.overrides.is_empty()).then(|| {
+            format!(
+                "the deck was edited by --set {} before it was read",
+                self.overrides.join(" --set ")
+            )
+        });
         DeckError {
             file: self.file.clone(),
             line,
             key,
             message: message.into(),
             snippet,
+            note,
         }
     }
 
@@ -141,9 +182,9 @@ fn key_from_message(message: &str) -> Option<String> {
     Some(message[start..start + len].to_string())
 }
 
-/// Read and parse a deck file.
-pub fn load(path: &Path) -> Result<(Source, RawDeck), DeckError> {
-    let source = Source::read(path)?;
+/// Read a deck file, apply `--set` overrides and parse it.
+pub fn load(path: &Path, overrides: &[String]) -> Result<(Source, RawDeck), DeckError> {
+    let source = Source::read(path)?.with_overrides(overrides)?;
     let raw = source.parse()?;
     Ok((source, raw))
 }
