@@ -1,0 +1,477 @@
+//! Design derivatives through dual numbers: K_b, eigenvalue and eigenvector derivatives
+//! (Nelson), repeated eigenvalues (Dailey), the dual ModalBody.
+
+mod common;
+
+use common::{paper_material, rel};
+use fem::{
+    Assembly, Constraints, ElementOptions, MassKind, Mesh, ModalOptions, ModeUpdate, Properties,
+    RayleighDamping, ReferenceCondition, analysis_derivatives, design_matrices, dof, lowest_modes,
+    modal_analysis, modal_body, modal_body_dual,
+};
+use laminate::{OrthotropicMaterial, Ply, PlyStack};
+use nalgebra::{DMatrix, Vector3};
+use sens::{Dual, Scalar};
+
+/// A stack with the given angles (radians), generic over the scalar.
+fn plies<S: Scalar>(mat: OrthotropicMaterial, total: f64, angles: &[S]) -> PlyStack<S> {
+    let t = S::from_f64(total / angles.len() as f64);
+    PlyStack::new(
+        angles
+            .iter()
+            .map(|&angle| Ply {
+                material: mat,
+                thickness: t,
+                angle,
+            })
+            .collect(),
+    )
+    .unwrap()
+}
+
+fn strip_props<S: Scalar>(b: &[S]) -> Properties<S> {
+    Properties {
+        sections: vec![],
+        laminates: vec![plies(paper_material(), 0.01, b).stiffness()],
+    }
+}
+
+fn strip() -> Mesh {
+    Mesh::rectangle(0.3, 0.04, 12, 2, 0).unwrap()
+}
+
+const B0: [f64; 3] = [0.5, -0.8, 1.1];
+
+#[test]
+fn stiffness_derivative_matches_closed_form_laminate_derivative() {
+    let mesh = strip();
+    let asm = Assembly::new(&mesh, &Constraints::new()).unwrap();
+    let opts = ElementOptions::default();
+    let dm = design_matrices::<2, _>(
+        &mesh,
+        &asm,
+        &B0,
+        |b| strip_props(b),
+        &opts,
+        MassKind::Consistent,
+    )
+    .unwrap();
+    assert_eq!(dm.len(), 3);
+    let stack = plies(paper_material(), 0.01, &B0);
+    for k in 0..3 {
+        // K is linear in (A, B, D, A_s): K evaluated on the Eq. (50) derivative laminate is K_b
+        let d = stack.angle_derivative(&[k]);
+        let props = Properties {
+            sections: vec![],
+            laminates: vec![d],
+        };
+        let (kv, mv) = asm
+            .values(&mesh, &props, &opts, MassKind::Consistent)
+            .unwrap();
+        let scale = kv.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+        let err = kv
+            .iter()
+            .zip(dm[k].k.val())
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max)
+            / scale;
+        assert!(
+            err < 1e-12,
+            "variable {k}: K_b differs from the closed form by {err:e}"
+        );
+        assert!(scale > 0.0);
+        // mass does not depend on ply angles
+        assert!(dm[k].m.val().iter().all(|&x| x == 0.0));
+        assert!(mv.iter().all(|&x| x == 0.0));
+    }
+}
+
+fn strip_analysis(b: &[f64], mass: MassKind) -> fem::ModalAnalysis {
+    let mut o = ModalOptions::new(5);
+    o.mass = mass;
+    o.damping = Some(RayleighDamping {
+        modes: [0, 3],
+        ratios: [0.01, 0.03],
+    });
+    modal_analysis(&strip(), &strip_props(b), &o).unwrap()
+}
+
+/// Align the sign of `x` with `reference`.
+fn aligned(x: &DMatrix<f64>, reference: &DMatrix<f64>) -> DMatrix<f64> {
+    let mut out = x.clone();
+    for j in 0..x.ncols() {
+        if x.column(j).dot(&reference.column(j)) < 0.0 {
+            out.column_mut(j).neg_mut();
+        }
+    }
+    out
+}
+
+#[test]
+fn eigenvalue_and_eigenvector_derivatives_match_central_differences() {
+    for mass in [MassKind::Lumped, MassKind::Consistent] {
+        let an = strip_analysis(&B0, mass);
+        let (_, d) = analysis_derivatives::<2, _>(
+            &strip(),
+            &an,
+            &B0,
+            |b| strip_props(b),
+            ModeUpdate::Updated,
+        )
+        .unwrap();
+        let xb = d.eigenvectors.as_ref().unwrap();
+        let p = an.n_modes;
+        let x0 = an.pairs.vectors.columns(0, p).into_owned();
+        let h = 1e-3;
+        for k in 0..3 {
+            let mut bp = B0;
+            let mut bm = B0;
+            bp[k] += h;
+            bm[k] -= h;
+            // central differences at h and 2h, Richardson-extrapolated (truncation O(h⁴))
+            let (ap, am) = (strip_analysis(&bp, mass), strip_analysis(&bm, mass));
+            bp[k] += h;
+            bm[k] -= h;
+            let (ap2, am2) = (strip_analysis(&bp, mass), strip_analysis(&bm, mass));
+            let rich = |a: f64, b: f64, a2: f64, b2: f64| {
+                (4.0 * (a - b) / (2.0 * h) - (a2 - b2) / (4.0 * h)) / 3.0
+            };
+            for i in 0..p {
+                let fd = rich(
+                    ap.pairs.values[i],
+                    am.pairs.values[i],
+                    ap2.pairs.values[i],
+                    am2.pairs.values[i],
+                );
+                let got = d.eigenvalues[k][i];
+                eprintln!(
+                    "{mass:?} var {k} mode {i}: λ_b {got} vs FD {fd}: {:e}",
+                    (got - fd).abs() / got.abs()
+                );
+                let scale = (0..3)
+                    .map(|v| d.eigenvalues[v][i].abs())
+                    .fold(0.0, f64::max);
+                assert!(
+                    (got - fd).abs() <= 1e-6 * scale,
+                    "{mass:?} var {k} mode {i}: λ_b {got} vs FD {fd}"
+                );
+            }
+            let xp = aligned(&ap.pairs.vectors.columns(0, p).into_owned(), &x0);
+            let xm = aligned(&am.pairs.vectors.columns(0, p).into_owned(), &x0);
+            let xp2 = aligned(&ap2.pairs.vectors.columns(0, p).into_owned(), &x0);
+            let xm2 = aligned(&am2.pairs.vectors.columns(0, p).into_owned(), &x0);
+            let fd = ((xp - xm) / (2.0 * h) * 4.0 - (xp2 - xm2) / (4.0 * h)) / 3.0;
+            for i in 0..p {
+                let got = xb[k].column(i);
+                // relative to the largest derivative of this mode over the design variables
+                let scale = (0..3).map(|v| xb[v].column(i).norm()).fold(0.0, f64::max);
+                let err = (got - fd.column(i)).norm() / scale;
+                eprintln!("  vector: {err:e}");
+                assert!(
+                    err < 1e-6,
+                    "{mass:?} var {k} mode {i}: |x_b − FD|/max|x_b| = {err:e}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn dual_modal_body_carries_the_derivatives_and_is_chunk_independent() {
+    let mesh = strip();
+    let an = strip_analysis(&B0, MassKind::Lumped);
+    let props = strip_props(&B0);
+    let body = modal_body(&mesh, &props, &an).unwrap();
+    body.validate().unwrap();
+    // lumped-mass orthonormality of the full-size modes: Xᵀ diag(m, μ) X = I
+    let mut mdiag = vec![0.0; 6 * body.n_nodes()];
+    for k in 0..body.n_nodes() {
+        for d in 0..3 {
+            mdiag[6 * k + d] = body.node_masses[k];
+            mdiag[6 * k + 3 + d] = body.node_inertias[k][d];
+        }
+    }
+    let x = &body.modes;
+    let xmx = x.transpose() * DMatrix::from_diagonal(&nalgebra::DVector::from_vec(mdiag)) * x;
+    assert!((xmx - DMatrix::<f64>::identity(5, 5)).abs().max() < 1e-10);
+    // total mass = ρ h A
+    assert!(rel(body.total_mass(), 1586.0 * 0.01 * 0.3 * 0.04) < 1e-12);
+    // the clamped node is the one at the centre of mass, at the body origin
+    let origin_node = body
+        .node_positions
+        .iter()
+        .position(|p| p.norm() < 1e-12)
+        .unwrap();
+    assert!(x.rows(6 * origin_node, 6).iter().all(|&v| v == 0.0));
+
+    let (_, d) =
+        analysis_derivatives::<3, _>(&mesh, &an, &B0, |b| strip_props(b), ModeUpdate::Updated)
+            .unwrap();
+    let d2 = analysis_derivatives::<1, _>(&mesh, &an, &B0, |b| strip_props(b), ModeUpdate::Updated)
+        .unwrap()
+        .1;
+    for k in 0..3 {
+        for i in 0..5 {
+            assert_eq!(
+                d.eigenvalues[k][i], d2.eigenvalues[k][i],
+                "chunk width changes λ_b"
+            );
+        }
+    }
+    let fixed = modal_body_dual::<3>(&mesh, &props, &an, &d, 0, ModeUpdate::Fixed).unwrap();
+    let updated = modal_body_dual::<3>(&mesh, &props, &an, &d, 0, ModeUpdate::Updated).unwrap();
+    for i in 0..5 {
+        for k in 0..3 {
+            assert_eq!(fixed.eigenvalues[i].d[k], d.eigenvalues[k][i]);
+        }
+        assert_eq!(fixed.eigenvalues[i].v, an.pairs.values[i]);
+    }
+    assert!(fixed.modes.iter().all(|m: &Dual<3>| m.d == [0.0; 3]));
+    assert!(updated.modes.iter().any(|m: &Dual<3>| m.d != [0.0; 3]));
+    // modal damping: ζ = 1 % and 3 % at modes 1 and 4, and its derivative by central differences
+    let w = |i: usize| an.pairs.values[i].sqrt();
+    assert!(rel(updated.modal_damping[0].v, 2.0 * 0.01 * w(0)) < 1e-12);
+    assert!(rel(updated.modal_damping[3].v, 2.0 * 0.03 * w(3)) < 1e-12);
+    let c = |b: &[f64]| {
+        let a = strip_analysis(b, MassKind::Lumped);
+        modal_body(&mesh, &strip_props(b), &a)
+            .unwrap()
+            .modal_damping
+    };
+    for i in 0..5 {
+        let grad: Vec<f64> = (0..3).map(|k| updated.modal_damping[i].d[k]).collect();
+        let scale = grad.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+        for k in 0..3 {
+            let fd = richardson(&c, &B0, k, 1e-3)[i];
+            assert!(
+                (grad[k] - fd).abs() < 1e-6 * scale,
+                "damping {i} var {k}: {} vs {fd}",
+                grad[k]
+            );
+        }
+    }
+}
+
+/// Central differences at `h` and `2h`, Richardson-extrapolated (truncation O(h⁴)).
+fn richardson(f: &dyn Fn(&[f64]) -> Vec<f64>, b: &[f64], k: usize, h: f64) -> Vec<f64> {
+    let at = |s: f64| {
+        let mut x = b.to_vec();
+        x[k] += s;
+        f(&x)
+    };
+    let (p1, m1, p2, m2) = (at(h), at(-h), at(2.0 * h), at(-2.0 * h));
+    (0..p1.len())
+        .map(|i| (4.0 * (p1[i] - m1[i]) / (2.0 * h) - (p2[i] - m2[i]) / (4.0 * h)) / 3.0)
+        .collect()
+}
+
+#[test]
+fn beam_with_coupled_section_derivatives_match_central_differences() {
+    // a section whose extension–twist and bending–twist couplings depend on a "ply angle"
+    fn section<S: Scalar>(t: S) -> fem::BeamSection<S> {
+        let (s, c) = t.sin_cos();
+        let mut k = nalgebra::Matrix6::<S>::zeros();
+        let base = [2e7, 6e5, 4e5, 3e2, 9e2, 4e3];
+        for i in 0..6 {
+            k[(i, i)] = S::from_f64(base[i]) * (S::one() + c * c * 0.3);
+        }
+        let ct = s * c * 0.25;
+        k[(0, 3)] = ct * (base[0] * base[3]).sqrt();
+        k[(3, 0)] = k[(0, 3)];
+        k[(3, 4)] = ct * (base[3] * base[4]).sqrt() * 0.8;
+        k[(4, 3)] = k[(3, 4)];
+        k[(1, 5)] = s * s * 0.1 * (base[1] * base[5]).sqrt();
+        k[(5, 1)] = k[(1, 5)];
+        fem::BeamSection {
+            stiffness: k,
+            mass_per_length: S::from_f64(0.05),
+            mass_centre: [S::from_f64(0.001), S::from_f64(-0.0005)],
+            inertia: [S::from_f64(2e-6), S::from_f64(5e-6), S::from_f64(1e-7)],
+        }
+    }
+    let props = |b: &[Dual<1>]| Properties {
+        sections: vec![section(b[0])],
+        laminates: vec![],
+    };
+    let mesh = Mesh::straight_beam(
+        Vector3::zeros(),
+        Vector3::new(0.304, 0.0, 0.0),
+        16,
+        0,
+        Vector3::y(),
+    )
+    .unwrap();
+    let modes_at = |t: f64| {
+        let p = Properties {
+            sections: vec![section(t)],
+            laminates: vec![],
+        };
+        let mut o = ModalOptions::new(6);
+        o.reference = ReferenceCondition::PinnedEnds { a: 0, b: 16 };
+        modal_analysis(&mesh, &p, &o).unwrap()
+    };
+    let t0 = 0.4;
+    let an = modes_at(t0);
+    let (_, d) =
+        analysis_derivatives::<1, _>(&mesh, &an, &[t0], props, ModeUpdate::Updated).unwrap();
+    let h = 1e-5;
+    let (ap, am) = (modes_at(t0 + h), modes_at(t0 - h));
+    let x0 = an.pairs.vectors.columns(0, 6).into_owned();
+    let xp = aligned(&ap.pairs.vectors.columns(0, 6).into_owned(), &x0);
+    let xm = aligned(&am.pairs.vectors.columns(0, 6).into_owned(), &x0);
+    for i in 0..6 {
+        let fd = (ap.pairs.values[i] - am.pairs.values[i]) / (2.0 * h);
+        let got = d.eigenvalues[0][i];
+        assert!(
+            (got - fd).abs() <= 1e-6 * got.abs(),
+            "mode {i}: {got} vs {fd}"
+        );
+        let xb = d.eigenvectors.as_ref().unwrap()[0].column(i).into_owned();
+        let fdx = (xp.column(i) - xm.column(i)) / (2.0 * h);
+        assert!((&xb - fdx).norm() < 1e-6 * xb.norm(), "mode {i} vector");
+    }
+}
+
+/// A tetragonal material (E1 = E2): a 0° ply is invariant under 90° rotations, so a square plate
+/// has repeated eigenvalue pairs.
+fn tetragonal() -> OrthotropicMaterial {
+    OrthotropicMaterial::new(
+        [50e9, 50e9, 10e9],
+        [5e9, 4e9, 4e9],
+        [0.25, 0.3, 0.3],
+        1800.0,
+    )
+    .unwrap()
+}
+
+fn square_props<S: Scalar>(b: &[S]) -> Properties<S> {
+    // laminate 0 with angle b[0] (one quadrant), laminate 1 with angle b[1] (the rest)
+    let lam = |t: S| plies(tetragonal(), 0.004, &[t, -t * 0.5, t]).stiffness();
+    Properties {
+        sections: vec![],
+        laminates: vec![lam(b[0]), lam(b[1])],
+    }
+}
+
+fn square_model() -> (Mesh, Assembly) {
+    // laminate 0 on the quadrant x, y < a/2, laminate 1 elsewhere. (A half-plate region would
+    // not do: it is the 180° image of its complement, which acts as −I on the pair, so its
+    // first-order perturbation of the pair is a multiple of the identity and cannot split it.)
+    let n = 10;
+    let mut mesh = Mesh::rectangle(0.5, 0.5, n, n, 0).unwrap();
+    let nodes = mesh.nodes.clone();
+    for el in mesh.elements.iter_mut() {
+        if let fem::Element::Shell {
+            nodes: en,
+            property,
+            ..
+        } = el
+        {
+            let cx = en.iter().map(|&k| nodes[k].x).sum::<f64>() / 3.0;
+            let cy = en.iter().map(|&k| nodes[k].y).sum::<f64>() / 3.0;
+            *property = if cx < 0.25 && cy < 0.25 { 0 } else { 1 };
+        }
+    }
+    let mut c = Constraints::new();
+    let tol = 1e-9;
+    let edges = [
+        (
+            Vector3::new(0.0, 0.0, 0.0),
+            Vector3::new(0.5, 0.0, 0.0),
+            true,
+        ),
+        (
+            Vector3::new(0.0, 0.5, 0.0),
+            Vector3::new(0.5, 0.5, 0.0),
+            true,
+        ),
+        (
+            Vector3::new(0.0, 0.0, 0.0),
+            Vector3::new(0.0, 0.5, 0.0),
+            false,
+        ),
+        (
+            Vector3::new(0.5, 0.0, 0.0),
+            Vector3::new(0.5, 0.5, 0.0),
+            false,
+        ),
+    ];
+    for (a, b, along_x) in edges {
+        let line = mesh.nodes_on_segment(a, b, tol);
+        c.pinned_line(&line, along_x, &[dof::UX, dof::UY]);
+    }
+    let asm = Assembly::new(&mesh, &c).unwrap();
+    (mesh, asm)
+}
+
+fn square_values(mesh: &Mesh, asm: &Assembly, b: &[f64], count: usize) -> fem::Eigenpairs {
+    let (k, m) = asm
+        .values(
+            mesh,
+            &square_props(b),
+            &ElementOptions::default(),
+            MassKind::Consistent,
+        )
+        .unwrap();
+    lowest_modes(&asm.matrix(k), &asm.matrix(m), count, &Default::default()).unwrap()
+}
+
+#[test]
+fn repeated_pair_directional_derivatives_match_sorted_eigenvalue_differences() {
+    let (mesh, asm) = square_model();
+    // both halves at the same angle: a uniform tetragonal plate, symmetric under 90° rotations
+    let b0 = [0.3, 0.3];
+    let pairs = square_values(&mesh, &asm, &b0, 4);
+    // modes 2 and 3 are a repeated pair (1,2)/(2,1)
+    assert!(
+        rel(pairs.values[2], pairs.values[1]) < 1e-9,
+        "{:?}",
+        pairs.values
+    );
+    assert!(rel(pairs.values[1], pairs.values[0]) > 0.5);
+    let design = design_matrices::<2, _>(
+        &mesh,
+        &asm,
+        &b0,
+        |b| square_props(b),
+        &ElementOptions::default(),
+        MassKind::Consistent,
+    )
+    .unwrap();
+    for direction in [[1.0, 0.0], [0.3, -1.0], [1.0, 1.0]] {
+        let dd = fem::directional_eigenvalue_derivatives(&pairs, &design, &direction);
+        // one-sided differences of the sorted eigenvalues, Richardson-extrapolated
+        let h = 1e-4;
+        let at = |s: f64| {
+            square_values(
+                &mesh,
+                &asm,
+                &[b0[0] + s * direction[0], b0[1] + s * direction[1]],
+                4,
+            )
+            .values
+        };
+        let (l1, l2) = (at(h), at(2.0 * h));
+        let scale = dd.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+        eprintln!("λ = {:?}, dd = {dd:?}", pairs.values);
+        for i in 0..4 {
+            let fd = 2.0 * (l1[i] - pairs.values[i]) / h - (l2[i] - pairs.values[i]) / (2.0 * h);
+            eprintln!("  mode {i}: {} vs {fd}", dd[i]);
+            assert!(
+                (dd[i] - fd).abs() < 1e-6 * scale,
+                "direction {direction:?} mode {i}: {} vs FD {fd}",
+                dd[i]
+            );
+        }
+        if direction == [1.0, 1.0] {
+            // the same change everywhere keeps the 90° symmetry: the pair stays together
+            assert!((dd[2] - dd[1]).abs() < 1e-9 * scale, "{dd:?}");
+        } else {
+            // the pair genuinely splits (the test would be vacuous otherwise)
+            assert!(
+                (dd[2] - dd[1]).abs() > 0.1 * scale,
+                "direction {direction:?}: pair does not split: {dd:?}"
+            );
+        }
+    }
+}
