@@ -47,15 +47,8 @@ fn stiffness_derivative_matches_closed_form_laminate_derivative() {
     let mesh = strip();
     let asm = Assembly::new(&mesh, &Constraints::new()).unwrap();
     let opts = ElementOptions::default();
-    let dm = design_matrices::<2, _>(
-        &mesh,
-        &asm,
-        &B0,
-        |b| strip_props(b),
-        &opts,
-        MassKind::Consistent,
-    )
-    .unwrap();
+    let dm = design_matrices::<2, _>(&mesh, &asm, &B0, strip_props, &opts, MassKind::Consistent)
+        .unwrap();
     assert_eq!(dm.len(), 3);
     let stack = plies(paper_material(), 0.01, &B0);
     for k in 0..3 {
@@ -111,14 +104,9 @@ fn aligned(x: &DMatrix<f64>, reference: &DMatrix<f64>) -> DMatrix<f64> {
 fn eigenvalue_and_eigenvector_derivatives_match_central_differences() {
     for mass in [MassKind::Lumped, MassKind::Consistent] {
         let an = strip_analysis(&B0, mass);
-        let (_, d) = analysis_derivatives::<2, _>(
-            &strip(),
-            &an,
-            &B0,
-            |b| strip_props(b),
-            ModeUpdate::Updated,
-        )
-        .unwrap();
+        let (_, d) =
+            analysis_derivatives::<2, _>(&strip(), &an, &B0, strip_props, ModeUpdate::Updated)
+                .unwrap();
         let xb = d.eigenvectors.as_ref().unwrap();
         let p = an.n_modes;
         let x0 = an.pairs.vectors.columns(0, p).into_owned();
@@ -205,9 +193,8 @@ fn dual_modal_body_carries_the_derivatives_and_is_chunk_independent() {
     assert!(x.rows(6 * origin_node, 6).iter().all(|&v| v == 0.0));
 
     let (_, d) =
-        analysis_derivatives::<3, _>(&mesh, &an, &B0, |b| strip_props(b), ModeUpdate::Updated)
-            .unwrap();
-    let d2 = analysis_derivatives::<1, _>(&mesh, &an, &B0, |b| strip_props(b), ModeUpdate::Updated)
+        analysis_derivatives::<3, _>(&mesh, &an, &B0, strip_props, ModeUpdate::Updated).unwrap();
+    let d2 = analysis_derivatives::<1, _>(&mesh, &an, &B0, strip_props, ModeUpdate::Updated)
         .unwrap()
         .1;
     for k in 0..3 {
@@ -433,7 +420,7 @@ fn repeated_pair_directional_derivatives_match_sorted_eigenvalue_differences() {
         &mesh,
         &asm,
         &b0,
-        |b| square_props(b),
+        square_props,
         &ElementOptions::default(),
         MassKind::Consistent,
     )
