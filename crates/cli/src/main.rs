@@ -39,6 +39,21 @@ enum Command {
         #[arg(long)]
         derivatives: bool,
     },
+    /// Cross-section analysis of the deck's beam sections: 6×6 Timoshenko stiffness, classical
+    /// stiffness, mass properties, tension and shear centres.
+    Section {
+        /// The deck (TOML).
+        deck: PathBuf,
+        /// Only this section (default: all).
+        #[arg(long, value_name = "NAME")]
+        section: Option<String>,
+        /// Output format.
+        #[arg(long, value_enum, default_value_t = Format::Table)]
+        format: Format,
+        /// Also print the derivatives with respect to each ply (region) angle, per radian.
+        #[arg(long)]
+        derivatives: bool,
+    },
 }
 
 fn main() -> ExitCode {
@@ -50,6 +65,12 @@ fn main() -> ExitCode {
             format,
             derivatives,
         } => commands::laminate::run(deck, &cli.set, laminate.as_deref(), *format, *derivatives),
+        Command::Section {
+            deck,
+            section,
+            format,
+            derivatives,
+        } => commands::section::run(deck, &cli.set, section.as_deref(), *format, *derivatives),
     };
     match result {
         Ok(text) => {

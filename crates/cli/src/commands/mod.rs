@@ -1,6 +1,8 @@
 //! The subcommands of `flexsens`.
 
 pub mod laminate;
+pub mod output;
+pub mod section;
 
 /// How results are printed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]

@@ -7,9 +7,11 @@
 //!
 //! Only this module knows TOML; the engine crates never see it.
 
+pub mod check;
 pub mod laminates;
 pub mod overrides;
 pub mod raw;
+pub mod sections;
 
 use std::fmt;
 use std::ops::Range;

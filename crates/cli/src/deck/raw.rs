@@ -18,6 +18,9 @@ pub struct RawDeck {
     /// Ply stacks by name.
     #[serde(default)]
     pub laminate: BTreeMap<String, Spanned<RawLaminate>>,
+    /// Beam cross-sections by name.
+    #[serde(default)]
+    pub section: BTreeMap<String, Spanned<super::sections::RawSection>>,
 }
 
 /// A material: isotropic (`E`, `nu`) or orthotropic (the nine constants), with `density`.

@@ -1,0 +1,137 @@
+//! `flexsens section`: cross-section stiffness, mass properties and centres of the deck's beam
+//! sections, with their ply-angle derivatives.
+
+use std::path::Path;
+
+use section::{DesignMap, SectionProperties};
+use serde_json::json;
+
+use super::Format;
+use super::output::{self, Quantity, Report};
+use crate::deck::laminates::{suggestion, validate as validate_laminates};
+use crate::deck::sections::{SectionDef, validate_one};
+use crate::deck::{self, DeckError};
+
+/// Width of the dual-number chunks (results do not depend on it).
+const CHUNK: usize = 8;
+
+/// Unit of entry (r, c) of a stiffness relating `[ε, γ₂, γ₃ | κ₁, κ₂, κ₃]` to
+/// `[F₁, F₂, F₃ | M₁, M₂, M₃]`: force rows and strain columns carry N, moments and curvatures
+/// one metre more each.
+fn stiffness_unit(split: usize) -> impl Fn(usize, usize) -> String {
+    move |r, c| match (r >= split) as u8 + (c >= split) as u8 {
+        0 => "N".into(),
+        1 => "N*m".into(),
+        _ => "N*m^2".into(),
+    }
+}
+
+fn quantities(p: &SectionProperties) -> Vec<Quantity> {
+    vec![
+        Quantity::scalar("area", "m^2", p.area),
+        Quantity::scalar("mass_per_length", "kg/m", p.mass_per_length),
+        Quantity::vector("mass_centre", "m", &p.mass_centre),
+        Quantity::vector("mass_inertia", "kg*m", &p.mass_inertia),
+        Quantity::vector("tension_centre", "m", &p.tension_centre),
+        Quantity::vector("shear_centre", "m", &p.shear_centre),
+        Quantity::matrix("stiffness", "", 6, 6, |r, c| p.stiffness[(r, c)])
+            .with_units(stiffness_unit(3)),
+        Quantity::matrix("classical_stiffness", "", 4, 4, |r, c| {
+            p.classical_stiffness[(r, c)]
+        })
+        .with_units(stiffness_unit(1)),
+    ]
+}
+
+fn report(name: &str, def: &SectionDef, derivatives: bool) -> Result<Report, String> {
+    let mesh = &def.mesh;
+    let (values, derivs) = if derivatives {
+        let design = DesignMap::each_region(mesh);
+        let s =
+            section::analyse_with_derivatives::<CHUNK>(mesh, &design).map_err(|e| e.to_string())?;
+        let d = s
+            .variables
+            .iter()
+            .zip(&s.derivatives)
+            .map(|(v, d)| (format!("{v}.angle"), quantities(d)))
+            .collect();
+        (s.properties, d)
+    } else {
+        (
+            section::analyse(mesh).map_err(|e| e.to_string())?,
+            Vec::new(),
+        )
+    };
+    let mut preamble = vec![
+        format!("shape {}, {} nodes, {} elements", def.shape, mesh.nodes.len(), mesh.elements.len()),
+        "strains [eps, gamma2, gamma3, kappa1, kappa2, kappa3], forces [F1, F2, F3, M1, M2, M3], about the origin"
+            .to_string(),
+        format!("{:<28} {:>10}", "region", "angle/deg"),
+    ];
+    let mut regions = Vec::new();
+    for r in &mesh.regions {
+        preamble.push(format!("{:<28} {:>10.3}", r.name, r.ply_angle.to_degrees()));
+        regions.push(json!({"name": r.name, "angle_deg": r.ply_angle.to_degrees()}));
+    }
+    let mut info = serde_json::Map::new();
+    info.insert("shape".into(), json!(def.shape));
+    info.insert("nodes".into(), json!(mesh.nodes.len()));
+    info.insert("elements".into(), json!(mesh.elements.len()));
+    info.insert("regions".into(), json!(regions));
+    Ok(Report {
+        kind: "section",
+        name: name.into(),
+        preamble,
+        info,
+        values: quantities(&values),
+        derivatives: derivs,
+    })
+}
+
+/// Run the command; the returned text goes to stdout.
+pub fn run(
+    path: &Path,
+    overrides: &[String],
+    only: Option<&str>,
+    format: Format,
+    derivatives: bool,
+) -> Result<String, DeckError> {
+    let (src, raw) = deck::load(path, overrides)?;
+    let model = validate_laminates(&src, &raw)?;
+    let selected: Vec<_> = match only {
+        Some(name) => {
+            let s = raw.section.get_key_value(name).ok_or_else(|| {
+                let known: Vec<&str> = raw.section.keys().map(String::as_str).collect();
+                src.error(
+                    None,
+                    None,
+                    format!(
+                        "no section `{name}` in this deck{}",
+                        suggestion(name, &known)
+                    ),
+                )
+            })?;
+            vec![s]
+        }
+        None => raw.section.iter().collect(),
+    };
+    if selected.is_empty() {
+        return Err(src.error(
+            None,
+            Some("section".into()),
+            "the deck defines no [section.*] table",
+        ));
+    }
+    let mut reports = Vec::new();
+    for (name, s) in selected {
+        let def = validate_one(&src, name, s, &model)?;
+        let r = report(name, &def, derivatives)
+            .map_err(|e| src.error(Some(s.span()), Some(format!("section.{name}")), e))?;
+        reports.push(r);
+    }
+    Ok(match format {
+        Format::Table => output::table(raw.title.as_deref(), &reports),
+        Format::Json => output::json_doc("sections", &reports),
+        Format::Csv => output::csv("section", &reports),
+    })
+}

@@ -1,0 +1,89 @@
+//! Small validation helpers shared by the deck tables: required keys, positive numbers, counts.
+
+use std::ops::Range;
+
+use toml::Spanned;
+
+use super::{DeckError, Source};
+
+/// The span of a spanned value.
+pub fn span<T>(s: &Spanned<T>) -> Option<Range<usize>> {
+    Some(s.span())
+}
+
+/// A required key of a table spanning `table`.
+pub fn required<'a, T>(
+    src: &Source,
+    table: Option<Range<usize>>,
+    key: &str,
+    field: &'a Option<Spanned<T>>,
+    what: &str,
+) -> Result<&'a Spanned<T>, DeckError> {
+    field.as_ref().ok_or_else(|| {
+        src.error(
+            table,
+            Some(key.to_string()),
+            format!("missing value: {what}"),
+        )
+    })
+}
+
+/// A positive, finite number (with its unit for the message).
+pub fn positive(src: &Source, key: &str, v: &Spanned<f64>, unit: &str) -> Result<f64, DeckError> {
+    let x = *v.get_ref();
+    if x.is_finite() && x > 0.0 {
+        Ok(x)
+    } else {
+        Err(src.error(
+            span(v),
+            Some(key.to_string()),
+            format!("{x} must be a positive, finite number ({unit})"),
+        ))
+    }
+}
+
+/// A finite number.
+pub fn finite(src: &Source, key: &str, v: &Spanned<f64>, unit: &str) -> Result<f64, DeckError> {
+    let x = *v.get_ref();
+    if x.is_finite() {
+        Ok(x)
+    } else {
+        Err(src.error(
+            span(v),
+            Some(key.to_string()),
+            format!("{x} must be a finite number ({unit})"),
+        ))
+    }
+}
+
+/// A count of at least `min`.
+pub fn count(src: &Source, key: &str, v: &Spanned<i64>, min: i64) -> Result<usize, DeckError> {
+    let x = *v.get_ref();
+    if x >= min {
+        usize::try_from(x)
+            .map_err(|_| src.error(span(v), Some(key.to_string()), format!("{x} is too large")))
+    } else {
+        Err(src.error(
+            span(v),
+            Some(key.to_string()),
+            format!("{x} must be a whole number of at least {min}"),
+        ))
+    }
+}
+
+/// A key that does not apply in this context (e.g. `inner_radius` of a rectangle).
+pub fn not_applicable<T>(
+    src: &Source,
+    key: &str,
+    field: &Option<Spanned<T>>,
+    context: &str,
+) -> Result<(), DeckError> {
+    match field {
+        Some(f) => Err(src.error(
+            span(f),
+            Some(key.to_string()),
+            format!("this key does not apply to {context}"),
+        )),
+        None => Ok(()),
+    }
+}

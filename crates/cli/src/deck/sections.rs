@@ -1,0 +1,610 @@
+//! Validation of `[section.*]` into `section` meshes.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use laminate::OrthotropicMaterial;
+use section::{BoxWalls, PlySpec, RegionSpec, SectionMesh, WallFrame};
+use serde::Deserialize;
+use toml::Spanned;
+
+use super::check::{count, finite, not_applicable, positive, required, span};
+use super::laminates::{LaminateModel, suggestion};
+use super::{DeckError, Source};
+
+/// A beam cross-section: a generated shape or a mesh file.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawSection {
+    /// `"rectangle"`, `"tube"`, `"box"` or `"mesh"`.
+    pub shape: Option<Spanned<String>>,
+    /// Rectangle and box: width along x₂ (m).
+    pub width: Option<Spanned<f64>>,
+    /// Rectangle and box: height along x₃ (m).
+    pub height: Option<Spanned<f64>>,
+    /// Rectangle: material name.
+    pub material: Option<Spanned<String>>,
+    /// Rectangle: fibre angle from the beam axis about x₃ (degrees, default 0).
+    pub angle: Option<Spanned<f64>>,
+    /// Rectangle and box: elements `[along the width, along the height]`.
+    pub elements: Option<Spanned<Vec<Spanned<i64>>>>,
+    /// Tube: inner radius (m).
+    pub inner_radius: Option<Spanned<f64>>,
+    /// Tube: elements around the circumference (default 48).
+    pub elements_around: Option<Spanned<i64>>,
+    /// Tube: plies from the inside out.
+    pub plies: Option<Spanned<Vec<Spanned<RawSectionPly>>>>,
+    /// Tube (instead of `plies`) and box (all four walls): a `[laminate.*]` name, bottom ply
+    /// innermost.
+    pub laminate: Option<Spanned<String>>,
+    /// Tube with `laminate`, and box: elements through each ply's thickness (default 2 / 1).
+    pub elements_per_ply: Option<Spanned<i64>>,
+    /// Box: a laminate name per wall (`top`, `bottom`, `left`, `right`), innermost ply first.
+    pub walls: Option<Spanned<RawWalls>>,
+    /// Mesh: path of a Gmsh `.msh` (v4.1 ASCII) or simple-format file, relative to the deck.
+    pub file: Option<Spanned<String>>,
+    /// Mesh: `"gmsh"` or `"simple"` (default from the extension: `.msh` is Gmsh).
+    pub format: Option<Spanned<String>>,
+    /// Mesh (Gmsh): the properties of each physical surface group, by name.
+    pub regions: Option<Spanned<BTreeMap<String, Spanned<RawRegion>>>>,
+}
+
+/// A ply of a tube wall.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawSectionPly {
+    pub material: Option<Spanned<String>>,
+    pub thickness: Option<Spanned<f64>>,
+    /// Fibre angle from the beam axis about the wall normal (degrees).
+    pub angle: Option<Spanned<f64>>,
+    /// Elements through the thickness (default 2).
+    pub elements: Option<Spanned<i64>>,
+}
+
+/// Laminates of the four walls of a box.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawWalls {
+    pub top: Option<Spanned<String>>,
+    pub bottom: Option<Spanned<String>>,
+    pub left: Option<Spanned<String>>,
+    pub right: Option<Spanned<String>>,
+}
+
+/// A Gmsh physical group's material, ply angle and wall frame.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawRegion {
+    pub material: Option<Spanned<String>>,
+    /// Ply angle (degrees, default 0).
+    pub angle: Option<Spanned<f64>>,
+    /// `"tangent"` (straight wall, default) or `"radial"` (wall curved around `centre`).
+    pub frame: Option<Spanned<String>>,
+    /// With `frame = "tangent"`: angle of the wall tangent from x₂ towards x₃ (degrees, default 0).
+    pub tangent_angle: Option<Spanned<f64>>,
+    /// With `frame = "radial"`: the centre `[x₂, x₃]` (m, default `[0, 0]`).
+    pub centre: Option<Spanned<[f64; 2]>>,
+}
+
+/// A validated section.
+#[derive(Debug, Clone)]
+pub struct SectionDef {
+    pub shape: String,
+    pub mesh: SectionMesh,
+}
+
+fn material<'m>(
+    src: &Source,
+    key: &str,
+    name: &Spanned<String>,
+    model: &'m LaminateModel,
+) -> Result<&'m OrthotropicMaterial, DeckError> {
+    model.materials.get(name.get_ref()).ok_or_else(|| {
+        let known: Vec<&str> = model.materials.keys().map(String::as_str).collect();
+        src.error(
+            span(name),
+            Some(key.into()),
+            format!(
+                "undefined material `{}`{}",
+                name.get_ref(),
+                suggestion(name.get_ref(), &known)
+            ),
+        )
+    })
+}
+
+/// The plies of a named laminate as section plies (`elements` through each).
+fn laminate_plies(
+    src: &Source,
+    key: &str,
+    name: &Spanned<String>,
+    model: &LaminateModel,
+    elements: usize,
+) -> Result<Vec<PlySpec>, DeckError> {
+    let def = model.laminates.get(name.get_ref()).ok_or_else(|| {
+        let known: Vec<&str> = model.laminates.keys().map(String::as_str).collect();
+        src.error(
+            span(name),
+            Some(key.into()),
+            format!(
+                "undefined laminate `{}`{}",
+                name.get_ref(),
+                suggestion(name.get_ref(), &known)
+            ),
+        )
+    })?;
+    Ok(def
+        .stack
+        .plies()
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            PlySpec::new(
+                format!("{}.plies[{i}]", name.get_ref()),
+                p.material,
+                p.angle,
+                p.thickness,
+                elements,
+            )
+        })
+        .collect())
+}
+
+/// Validate one section (building its mesh; mesh files are read relative to the deck).
+pub fn validate_one(
+    src: &Source,
+    name: &str,
+    s: &Spanned<RawSection>,
+    model: &LaminateModel,
+) -> Result<SectionDef, DeckError> {
+    let deck_dir = src.file.parent().unwrap_or(Path::new("."));
+    let k = |key: &str| format!("section.{name}.{key}");
+    let raw = s.get_ref();
+    let table = span(s);
+    let shape = required(
+        src,
+        table.clone(),
+        &k("shape"),
+        &raw.shape,
+        "shape (\"rectangle\", \"tube\", \"box\" or \"mesh\")",
+    )?;
+    let shape_name = shape.get_ref().as_str();
+    // keys that belong to some shapes only
+    let sp = |x: Option<std::ops::Range<usize>>| x;
+    let specific = [
+        ("width", sp(raw.width.as_ref().map(|x| x.span()))),
+        ("height", raw.height.as_ref().map(|x| x.span())),
+        ("material", raw.material.as_ref().map(|x| x.span())),
+        ("angle", raw.angle.as_ref().map(|x| x.span())),
+        ("elements", raw.elements.as_ref().map(|x| x.span())),
+        ("inner_radius", raw.inner_radius.as_ref().map(|x| x.span())),
+        (
+            "elements_around",
+            raw.elements_around.as_ref().map(|x| x.span()),
+        ),
+        ("plies", raw.plies.as_ref().map(|x| x.span())),
+        ("laminate", raw.laminate.as_ref().map(|x| x.span())),
+        (
+            "elements_per_ply",
+            raw.elements_per_ply.as_ref().map(|x| x.span()),
+        ),
+        ("walls", raw.walls.as_ref().map(|x| x.span())),
+        ("file", raw.file.as_ref().map(|x| x.span())),
+        ("format", raw.format.as_ref().map(|x| x.span())),
+        ("regions", raw.regions.as_ref().map(|x| x.span())),
+    ];
+    let allowed: &[&str] = match shape_name {
+        "rectangle" => &["width", "height", "material", "angle", "elements"],
+        "tube" => &[
+            "inner_radius",
+            "elements_around",
+            "plies",
+            "laminate",
+            "elements_per_ply",
+        ],
+        "box" => &[
+            "width",
+            "height",
+            "laminate",
+            "walls",
+            "elements",
+            "elements_per_ply",
+        ],
+        "mesh" => &["file", "format", "regions"],
+        _ => &[],
+    };
+    if !allowed.is_empty() {
+        for (key, at) in specific {
+            if at.is_some() && !allowed.contains(&key) {
+                return Err(src.error(
+                    at,
+                    Some(k(key)),
+                    format!("this key does not apply to shape = \"{shape_name}\""),
+                ));
+            }
+        }
+    }
+    let elements_pair = |default: [usize; 2]| -> Result<[usize; 2], DeckError> {
+        match &raw.elements {
+            None => Ok(default),
+            Some(e) if e.get_ref().len() == 2 => Ok([
+                count(src, &k("elements[0]"), &e.get_ref()[0], 1)?,
+                count(src, &k("elements[1]"), &e.get_ref()[1], 1)?,
+            ]),
+            Some(e) => Err(src.error(
+                span(e),
+                Some(k("elements")),
+                "expected two counts: [along the width, along the height]",
+            )),
+        }
+    };
+    let bad = |e: section::SectionError| {
+        src.error(
+            table.clone(),
+            Some(format!("section.{name}")),
+            e.to_string(),
+        )
+    };
+    let mesh = match shape_name {
+        "rectangle" => {
+            let w = positive(
+                src,
+                &k("width"),
+                required(src, table.clone(), &k("width"), &raw.width, "width (m)")?,
+                "m",
+            )?;
+            let h = positive(
+                src,
+                &k("height"),
+                required(src, table.clone(), &k("height"), &raw.height, "height (m)")?,
+                "m",
+            )?;
+            let m = material(
+                src,
+                &k("material"),
+                required(
+                    src,
+                    table.clone(),
+                    &k("material"),
+                    &raw.material,
+                    "material",
+                )?,
+                model,
+            )?;
+            let angle = raw
+                .angle
+                .as_ref()
+                .map(|a| finite(src, &k("angle"), a, "degrees"))
+                .transpose()?
+                .unwrap_or(0.0);
+            // default: about square elements, 8 along the longer side
+            let (n2, n3) = if w >= h {
+                (8, ((8.0 * h / w).round() as usize).max(2))
+            } else {
+                (((8.0 * w / h).round() as usize).max(2), 8)
+            };
+            let [n2, n3] = elements_pair([n2, n3])?;
+            section::rectangle(w, h, n2, n3, *m, angle.to_radians()).map_err(bad)?
+        }
+        "tube" => {
+            let r = positive(
+                src,
+                &k("inner_radius"),
+                required(
+                    src,
+                    table.clone(),
+                    &k("inner_radius"),
+                    &raw.inner_radius,
+                    "inner_radius (m)",
+                )?,
+                "m",
+            )?;
+            let around = raw
+                .elements_around
+                .as_ref()
+                .map(|n| count(src, &k("elements_around"), n, 3))
+                .transpose()?
+                .unwrap_or(48);
+            let plies = match (&raw.plies, &raw.laminate) {
+                (Some(_), Some(l)) => {
+                    return Err(src.error(
+                        span(l),
+                        Some(k("laminate")),
+                        "give either plies or laminate, not both",
+                    ));
+                }
+                (None, Some(l)) => {
+                    let n = raw
+                        .elements_per_ply
+                        .as_ref()
+                        .map(|n| count(src, &k("elements_per_ply"), n, 1))
+                        .transpose()?
+                        .unwrap_or(2);
+                    laminate_plies(src, &k("laminate"), l, model, n)?
+                }
+                (Some(plies), None) => {
+                    not_applicable(
+                        src,
+                        &k("elements_per_ply"),
+                        &raw.elements_per_ply,
+                        "a tube with plies (use plies[i].elements)",
+                    )?;
+                    if plies.get_ref().is_empty() {
+                        return Err(src.error(
+                            span(plies),
+                            Some(k("plies")),
+                            "a tube needs at least one ply",
+                        ));
+                    }
+                    let mut out = Vec::new();
+                    for (i, p) in plies.get_ref().iter().enumerate() {
+                        let pk = |key: &str| format!("section.{name}.plies[{i}].{key}");
+                        let r = p.get_ref();
+                        let m = material(
+                            src,
+                            &pk("material"),
+                            required(src, span(p), &pk("material"), &r.material, "material")?,
+                            model,
+                        )?;
+                        let t = positive(
+                            src,
+                            &pk("thickness"),
+                            required(
+                                src,
+                                span(p),
+                                &pk("thickness"),
+                                &r.thickness,
+                                "thickness (m)",
+                            )?,
+                            "m",
+                        )?;
+                        let a = finite(
+                            src,
+                            &pk("angle"),
+                            required(src, span(p), &pk("angle"), &r.angle, "angle (degrees)")?,
+                            "degrees",
+                        )?;
+                        let n = r
+                            .elements
+                            .as_ref()
+                            .map(|n| count(src, &pk("elements"), n, 1))
+                            .transpose()?
+                            .unwrap_or(2);
+                        out.push(PlySpec::new(
+                            format!("plies[{i}]"),
+                            *m,
+                            a.to_radians(),
+                            t,
+                            n,
+                        ));
+                    }
+                    out
+                }
+                (None, None) => {
+                    return Err(src.error(
+                        table.clone(),
+                        Some(k("plies")),
+                        "missing value: plies (or laminate) for a tube",
+                    ));
+                }
+            };
+            section::tube(r, &plies, around).map_err(bad)?
+        }
+        "box" => {
+            let w = positive(
+                src,
+                &k("width"),
+                required(
+                    src,
+                    table.clone(),
+                    &k("width"),
+                    &raw.width,
+                    "width (m), outer",
+                )?,
+                "m",
+            )?;
+            let h = positive(
+                src,
+                &k("height"),
+                required(
+                    src,
+                    table.clone(),
+                    &k("height"),
+                    &raw.height,
+                    "height (m), outer",
+                )?,
+                "m",
+            )?;
+            let n = raw
+                .elements_per_ply
+                .as_ref()
+                .map(|n| count(src, &k("elements_per_ply"), n, 1))
+                .transpose()?
+                .unwrap_or(1);
+            let walls = match (&raw.walls, &raw.laminate) {
+                (Some(_), Some(l)) => {
+                    return Err(src.error(
+                        span(l),
+                        Some(k("laminate")),
+                        "give either walls or laminate, not both",
+                    ));
+                }
+                (None, Some(l)) => {
+                    BoxWalls::uniform(laminate_plies(src, &k("laminate"), l, model, n)?)
+                }
+                (Some(wt), None) => {
+                    let wr = wt.get_ref();
+                    let wall = |key: &str,
+                                f: &Option<Spanned<String>>|
+                     -> Result<Vec<PlySpec>, DeckError> {
+                        let wk = format!("section.{name}.walls.{key}");
+                        let l = required(src, span(wt), &wk, f, "a laminate name")?;
+                        laminate_plies(src, &wk, l, model, n)
+                    };
+                    BoxWalls {
+                        top: wall("top", &wr.top)?,
+                        bottom: wall("bottom", &wr.bottom)?,
+                        left: wall("left", &wr.left)?,
+                        right: wall("right", &wr.right)?,
+                    }
+                }
+                (None, None) => {
+                    return Err(src.error(
+                        table.clone(),
+                        Some(k("walls")),
+                        "missing value: walls (or laminate) for a box",
+                    ));
+                }
+            };
+            let [nw, nh] = elements_pair([8, 8])?;
+            section::thin_walled_box(w, h, &walls, nw, nh).map_err(bad)?
+        }
+        "mesh" => {
+            let file = required(
+                src,
+                table.clone(),
+                &k("file"),
+                &raw.file,
+                "file (path of the mesh, relative to the deck)",
+            )?;
+            let path = deck_dir.join(file.get_ref());
+            let text = std::fs::read_to_string(&path).map_err(|e| {
+                src.error(
+                    span(file),
+                    Some(k("file")),
+                    format!("cannot read the mesh {}: {e}", path.display()),
+                )
+            })?;
+            let format = match &raw.format {
+                Some(f) => match f.get_ref().as_str() {
+                    "gmsh" | "simple" => f.get_ref().clone(),
+                    other => {
+                        return Err(src.error(
+                            span(f),
+                            Some(k("format")),
+                            format!(
+                                "unknown mesh format `{other}`: expected \"gmsh\" or \"simple\""
+                            ),
+                        ));
+                    }
+                },
+                None if file.get_ref().ends_with(".msh") => "gmsh".into(),
+                None => "simple".into(),
+            };
+            let in_mesh = |e: section::SectionError| {
+                let where_ = match &e {
+                    section::SectionError::Parse { line, .. } => {
+                        format!("{}:{line}", path.display())
+                    }
+                    _ => path.display().to_string(),
+                };
+                src.error(
+                    span(file),
+                    Some(k("file")),
+                    format!("in the mesh {where_}: {e}"),
+                )
+            };
+            if format == "gmsh" {
+                let regions = raw.regions.as_ref().ok_or_else(|| {
+                    src.error(
+                        table.clone(),
+                        Some(k("regions")),
+                        "missing value: regions (material and angle of each physical group)",
+                    )
+                })?;
+                let mut specs = Vec::new();
+                for (rname, r) in regions.get_ref() {
+                    let rk = |key: &str| format!("section.{name}.regions.{rname}.{key}");
+                    let rr = r.get_ref();
+                    let m = material(
+                        src,
+                        &rk("material"),
+                        required(src, span(r), &rk("material"), &rr.material, "material")?,
+                        model,
+                    )?;
+                    let angle = rr
+                        .angle
+                        .as_ref()
+                        .map(|a| finite(src, &rk("angle"), a, "degrees"))
+                        .transpose()?
+                        .unwrap_or(0.0);
+                    let frame = match rr.frame.as_ref().map(|f| f.get_ref().as_str()) {
+                        None | Some("tangent") => {
+                            not_applicable(src, &rk("centre"), &rr.centre, "frame = \"tangent\"")?;
+                            let b = rr
+                                .tangent_angle
+                                .as_ref()
+                                .map(|a| finite(src, &rk("tangent_angle"), a, "degrees"))
+                                .transpose()?
+                                .unwrap_or(0.0);
+                            WallFrame::Tangent(b.to_radians())
+                        }
+                        Some("radial") => {
+                            not_applicable(
+                                src,
+                                &rk("tangent_angle"),
+                                &rr.tangent_angle,
+                                "frame = \"radial\"",
+                            )?;
+                            WallFrame::Radial {
+                                centre: rr.centre.as_ref().map_or([0.0, 0.0], |c| *c.get_ref()),
+                            }
+                        }
+                        Some(other) => {
+                            let f = rr.frame.as_ref().expect("matched Some");
+                            return Err(src.error(span(f), Some(rk("frame")), format!("unknown wall frame `{other}`: expected \"tangent\" or \"radial\"")));
+                        }
+                    };
+                    specs.push(RegionSpec {
+                        name: rname.clone(),
+                        material: *m,
+                        ply_angle: angle.to_radians(),
+                        frame,
+                    });
+                }
+                section::parse_gmsh(&text, &specs).map_err(in_mesh)?
+            } else {
+                if let Some(r) = &raw.regions {
+                    return Err(src.error(
+                        span(r),
+                        Some(k("regions")),
+                        "a simple-format mesh defines its regions itself",
+                    ));
+                }
+                let mats: Vec<(&str, OrthotropicMaterial)> = model
+                    .materials
+                    .iter()
+                    .map(|(n, m)| (n.as_str(), *m))
+                    .collect();
+                section::parse_simple(&text, &mats).map_err(in_mesh)?
+            }
+        }
+        other => {
+            return Err(src.error(
+                span(shape),
+                Some(k("shape")),
+                format!(
+                    "unknown shape `{other}`: expected \"rectangle\", \"tube\", \"box\" or \"mesh\"{}",
+                    suggestion(other, &["rectangle", "tube", "box", "mesh"])
+                ),
+            ));
+        }
+    };
+    mesh.validate().map_err(bad)?;
+    Ok(SectionDef {
+        shape: shape_name.to_string(),
+        mesh,
+    })
+}
+
+/// Validate the sections of a deck.
+pub fn validate(
+    src: &Source,
+    sections: &BTreeMap<String, Spanned<RawSection>>,
+    model: &LaminateModel,
+) -> Result<BTreeMap<String, SectionDef>, DeckError> {
+    sections
+        .iter()
+        .map(|(n, s)| Ok((n.clone(), validate_one(src, n, s, model)?)))
+        .collect()
+}

@@ -1,0 +1,241 @@
+//! `flexsens section` end to end: shipped decks, closed forms through the command line,
+//! derivatives against central differences, bad input.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn deck(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../decks")
+        .join(name)
+}
+
+fn run(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_flexsens"))
+        .args(args)
+        .output()
+        .expect("flexsens runs")
+}
+
+fn json(args: &[&str]) -> serde_json::Value {
+    let o = run(args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    serde_json::from_slice(&o.stdout).unwrap()
+}
+
+#[test]
+fn shipped_section_decks_run_in_every_format() {
+    for name in [
+        "section_composite_tube.toml",
+        "section_isotropic_rectangle.toml",
+    ] {
+        let p = deck(name);
+        for format in ["table", "json", "csv"] {
+            let o = run(&[
+                "section",
+                p.to_str().unwrap(),
+                "--format",
+                format,
+                "--derivatives",
+            ]);
+            assert!(
+                o.status.success(),
+                "{name} {format}: {}",
+                String::from_utf8_lossy(&o.stderr)
+            );
+            assert!(!o.stdout.is_empty());
+        }
+    }
+}
+
+#[test]
+fn isotropic_rectangle_through_the_command_line_matches_beam_theory() {
+    let p = deck("section_isotropic_rectangle.toml");
+    let doc = json(&["section", p.to_str().unwrap(), "--format", "json"]);
+    let v = &doc["sections"]["bar"]["values"];
+    let k = |i: usize, j: usize| v["stiffness"][i][j].as_f64().unwrap();
+    let (e, b, h) = (70e9, 0.04, 0.0075);
+    let rel = |a: f64, b: f64| ((a - b) / b).abs();
+    assert!(rel(k(0, 0), e * b * h) < 1e-8);
+    assert!(
+        rel(k(4, 4), e * b * h.powi(3) / 12.0) < 1e-8,
+        "EI22 about x2 uses the height"
+    );
+    assert!(rel(k(5, 5), e * h * b.powi(3) / 12.0) < 1e-8);
+    // Saint-Venant torsion constant J = b h³ (1/3 − 0.21 (h/b)(1 − (h/b)⁴/12)) (Roark), ~0.5 %
+    let g = e / (2.0 * 1.33);
+    let r = h / b;
+    let j = b * h.powi(3) * (1.0 / 3.0 - 0.21 * r * (1.0 - r.powi(4) / 12.0));
+    assert!(rel(k(3, 3), g * j) < 5e-3, "GJ {} vs {}", k(3, 3), g * j);
+    assert!(rel(v["mass_per_length"].as_f64().unwrap(), 2700.0 * b * h) < 1e-12);
+    assert_eq!(doc["sections"]["bar"]["units"]["stiffness"][3][5], "N*m^2");
+    assert_eq!(doc["sections"]["bar"]["units"]["stiffness"][0][3], "N*m");
+}
+
+#[test]
+fn composite_tube_has_the_papers_area_and_extension_twist_coupling() {
+    let p = deck("section_composite_tube.toml");
+    let doc = json(&["section", p.to_str().unwrap(), "--format", "json"]);
+    let v = &doc["sections"]["rod"]["values"];
+    let area = v["area"].as_f64().unwrap();
+    assert!((area - 3.16e-5).abs() < 0.01 * 3.16e-5, "area {area}");
+    // 15° plies: the extension–twist coupling K14 is nonzero; at 0° it vanishes
+    let k14 = v["stiffness"][0][3].as_f64().unwrap();
+    assert!(k14.abs() > 1e-4 * v["stiffness"][0][0].as_f64().unwrap() * 1e-3);
+    let mut args = vec![
+        "section".to_string(),
+        p.to_str().unwrap().to_string(),
+        "--format".into(),
+        "json".into(),
+    ];
+    for i in 0..4 {
+        args.push("--set".into());
+        args.push(format!("laminate.tube_wall.plies.{i}.angle=0"));
+    }
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let zero = json(&args);
+    let z = &zero["sections"]["rod"]["values"]["stiffness"];
+    assert!(z[0][3].as_f64().unwrap().abs() < 1e-9 * z[0][0].as_f64().unwrap());
+}
+
+#[test]
+fn command_line_derivatives_match_central_differences_of_command_line_runs() {
+    let p = deck("section_composite_tube.toml");
+    let p = p.to_str().unwrap();
+    let doc = json(&["section", p, "--format", "json", "--derivatives"]);
+    let d = &doc["sections"]["rod"]["derivatives"];
+    assert_eq!(d.as_array().unwrap().len(), 4, "one derivative per ply");
+    assert_eq!(d[2]["wrt"], "tube_wall.plies[2].angle");
+    // central difference in degrees on ply 2, converted to per radian
+    let h = 1e-3;
+    let at = |angle: f64| {
+        json(&[
+            "section",
+            p,
+            "--format",
+            "json",
+            "--set",
+            &format!("laminate.tube_wall.plies.2.angle={angle}"),
+        ])
+    };
+    let (plus, minus) = (at(15.0 + h), at(15.0 - h));
+    for (i, j) in [(0, 0), (0, 3), (3, 3), (1, 1), (4, 4), (1, 4), (2, 5)] {
+        let kp = plus["sections"]["rod"]["values"]["stiffness"][i][j]
+            .as_f64()
+            .unwrap();
+        let km = minus["sections"]["rod"]["values"]["stiffness"][i][j]
+            .as_f64()
+            .unwrap();
+        let fd = (kp - km) / (2.0 * h.to_radians());
+        let exact = d[2]["values"]["stiffness"][i][j].as_f64().unwrap();
+        assert!(
+            (exact - fd).abs() <= 1e-6 * exact.abs(),
+            "K{i}{j}: {exact} vs {fd}"
+        );
+    }
+}
+
+fn expect_bad(text: &str, line: usize, key: &str, words: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bad.toml");
+    std::fs::write(&path, text).unwrap();
+    let o = run(&["section", path.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains(&format!("bad.toml:{line}:")),
+        "line {line} in: {err}"
+    );
+    assert!(err.contains(key), "key {key} in: {err}");
+    assert!(err.contains(words), "'{words}' in: {err}");
+}
+
+const ALU: &str = "[material.alu]\nE = 70e9\nnu = 0.33\ndensity = 2700\n\n";
+
+#[test]
+fn bad_sections_are_located() {
+    expect_bad(
+        &format!("{ALU}[section.s]\nshape = \"rectangel\"\n"),
+        7,
+        "section.s.shape",
+        "did you mean `rectangle`",
+    );
+    expect_bad(
+        &format!(
+            "{ALU}[section.s]\nshape = \"rectangle\"\nwidth = 0.01\nheight = -0.01\nmaterial = \"alu\"\n"
+        ),
+        9,
+        "section.s.height",
+        "positive",
+    );
+    expect_bad(
+        &format!(
+            "{ALU}[section.s]\nshape = \"rectangle\"\nwidth = 0.01\nheight = 0.01\nmaterial = \"steel\"\n"
+        ),
+        10,
+        "section.s.material",
+        "undefined material `steel`",
+    );
+    expect_bad(
+        &format!(
+            "{ALU}[section.s]\nshape = \"rectangle\"\nwidth = 0.01\nheight = 0.01\nmaterial = \"alu\"\ninner_radius = 0.1\n"
+        ),
+        11,
+        "section.s.inner_radius",
+        "does not apply to shape = \"rectangle\"",
+    );
+    expect_bad(
+        &format!("{ALU}[section.s]\nshape = \"tube\"\ninner_radius = 0.01\nlaminate = \"skin\"\n"),
+        9,
+        "section.s.laminate",
+        "undefined laminate `skin`",
+    );
+    expect_bad(
+        &format!(
+            "{ALU}[section.s]\nshape = \"tube\"\ninner_radius = 0.01\nplies = [{{ material = \"alu\", thickness = 1e-3, angle = 0, elements = 0 }}]\n"
+        ),
+        9,
+        "section.s.plies[0].elements",
+        "at least 1",
+    );
+    expect_bad(
+        &format!("{ALU}[section.s]\nshape = \"mesh\"\nfile = \"missing.msh\"\nregions = {{}}\n"),
+        8,
+        "section.s.file",
+        "cannot read the mesh",
+    );
+}
+
+#[test]
+fn a_mesh_file_is_read_relative_to_the_deck_and_its_errors_name_the_mesh_line() {
+    let dir = tempfile::tempdir().unwrap();
+    // one 8-node quadrilateral, 10 mm square, in the simple format
+    let mesh = "region solid alu 0 tangent 0\n\
+                node 1 -0.005 -0.005\nnode 2 0.005 -0.005\nnode 3 0.005 0.005\nnode 4 -0.005 0.005\n\
+                node 5 0 -0.005\nnode 6 0.005 0\nnode 7 0 0.005\nnode 8 -0.005 0\n\
+                element quad8 solid 1 2 3 4 5 6 7 8\n";
+    std::fs::write(dir.path().join("square.txt"), mesh).unwrap();
+    let deck = format!("{ALU}[section.s]\nshape = \"mesh\"\nfile = \"square.txt\"\n");
+    std::fs::write(dir.path().join("d.toml"), &deck).unwrap();
+    let o = run(&[
+        "section",
+        dir.path().join("d.toml").to_str().unwrap(),
+        "--format",
+        "json",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let doc: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let ea = doc["sections"]["s"]["values"]["stiffness"][0][0]
+        .as_f64()
+        .unwrap();
+    assert!((ea - 70e9 * 1e-4).abs() < 1e-8 * ea);
+    std::fs::write(
+        dir.path().join("square.txt"),
+        mesh.replace("node 6 0.005 0", "node 6 0.005 zero"),
+    )
+    .unwrap();
+    let o = run(&["section", dir.path().join("d.toml").to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("square.txt:7"), "{err}");
+}
