@@ -677,7 +677,8 @@ impl Bdf {
                 self.steps_at_order = 0;
             }
             let mut factor = best.min(if self.stats.steps < 5 { 10.0 } else { 5.0 });
-            if (1.0..1.2).contains(&factor) {
+            if (1.0..1.5).contains(&factor) || (error_fails > 0 && factor > 1.0) {
+                // no growth right after a rejection; small growth is not worth a new matrix
                 factor = 1.0;
             }
             factor = factor.max(0.2);
