@@ -292,3 +292,28 @@ pub fn slider_exact(th: f64, omega: f64) -> [f64; 3] {
     let ddx = -r * c - r * r * (c * c - s * s) / d - r.powi(4) * s * s * c * c / d.powi(3);
     [x, omega * dx, omega * omega * ddx]
 }
+
+/// Advance `q` along `q' = rates(q, v)` with `v` fixed, by `s` (RK4, 20 sub-steps).
+pub fn flow(model: &Model<f64>, q: &[f64], v: &[f64], s: f64) -> Vec<f64> {
+    let n = 20;
+    let h = s / n as f64;
+    let mut q = q.to_vec();
+    let f = |q: &[f64]| {
+        let mut d = vec![0.0; q.len()];
+        model.kinematic_rates(q, v, &mut d);
+        d
+    };
+    for _ in 0..n {
+        let k1 = f(&q);
+        let q2: Vec<f64> = q.iter().zip(&k1).map(|(a, b)| a + 0.5 * h * b).collect();
+        let k2 = f(&q2);
+        let q3: Vec<f64> = q.iter().zip(&k2).map(|(a, b)| a + 0.5 * h * b).collect();
+        let k3 = f(&q3);
+        let q4: Vec<f64> = q.iter().zip(&k3).map(|(a, b)| a + h * b).collect();
+        let k4 = f(&q4);
+        for i in 0..q.len() {
+            q[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+        }
+    }
+    q
+}

@@ -1,0 +1,204 @@
+//! Every joint kind and driver, between rigid bodies, the ground and FE nodes of a flexible
+//! body in general (inconsistent) poses: `Φ̇` and `γ` against central differences along the
+//! motion, and the prescribed time functions against differences of their values.
+
+mod common;
+
+use common::{Beam, flow};
+use mbs::{FlexibleBody, Joint, JointKind, Marker, Model, RigidBody, TimeFunction};
+use nalgebra::{Matrix3, Rotation3, Vector3};
+
+fn model_with_every_joint() -> (Model<f64>, Vec<f64>, Vec<f64>) {
+    let mut model = Model::new();
+    let r1 = model
+        .add_rigid_body(RigidBody::new("r1", 1.0, Matrix3::identity()))
+        .unwrap();
+    let r2 = model
+        .add_rigid_body(RigidBody::new("r2", 2.0, Matrix3::identity() * 0.1))
+        .unwrap();
+    let beam = Beam::slider_crank_rod(8);
+    let f = model
+        .add_flexible_body(FlexibleBody::new("f", beam.modal_body(-0.152, 4, 4, 0.01)))
+        .unwrap();
+    let p = |x: f64, y: f64, z: f64| Vector3::new(x, y, z);
+    let joints = vec![
+        (
+            JointKind::Spherical,
+            Marker::ground(p(0.1, 0.0, 0.0)),
+            Marker::on(r1, p(0.0, 0.2, 0.0)),
+        ),
+        (
+            JointKind::Revolute,
+            Marker::on(r1, p(0.1, 0.0, 0.1)).with_axis(p(1.0, 1.0, 0.0)),
+            Marker::node(f, 0).with_axis(p(0.0, 1.0, 1.0)),
+        ),
+        (
+            JointKind::Universal,
+            Marker::node(f, 8).with_axis(p(0.0, 0.0, 1.0)),
+            Marker::on(r2, p(0.05, 0.0, 0.0)).with_axis(p(0.0, 1.0, 0.0)),
+        ),
+        (
+            JointKind::Cylindrical,
+            Marker::on(r1, p(0.0, 0.0, 0.0)).with_axis(p(0.2, 0.3, 1.0)),
+            Marker::on(r2, p(0.0, 0.1, 0.0)).with_axis(p(0.0, 0.0, 1.0)),
+        ),
+        (
+            JointKind::Translational,
+            Marker::ground(p(0.0, 0.0, 0.0)).with_axis(p(1.0, 0.0, 0.0)),
+            Marker::node(f, 3).with_axes(p(0.0, 1.0, 0.0), p(0.0, 0.0, 1.0)),
+        ),
+        (
+            JointKind::Fixed,
+            Marker::on(r2, p(0.0, 0.0, 0.1)),
+            Marker::on(f, p(0.02, 0.0, 0.0)),
+        ),
+        (
+            JointKind::AngleDriver(TimeFunction::Polynomial(vec![0.1, 2.0, -3.0, 0.5])),
+            Marker::on(r1, p(0.0, 0.0, 0.0)).with_axis(p(0.0, 0.0, 1.0)),
+            Marker::on(r2, p(0.0, 0.0, 0.0)),
+        ),
+        (
+            JointKind::DistanceDriver(TimeFunction::SmoothRamp {
+                from: 0.1,
+                to: 0.4,
+                t0: 0.0,
+                t1: 1.0,
+            }),
+            Marker::ground(p(0.0, 0.0, 0.0)).with_axis(p(0.0, 1.0, 0.0)),
+            Marker::node(f, 5),
+        ),
+    ];
+    for (i, (kind, a, b)) in joints.into_iter().enumerate() {
+        model
+            .add_joint(Joint::new(format!("joint {i}"), kind, a, b))
+            .unwrap();
+    }
+    let mut state = model.rest_state();
+    model.set_pose(
+        &mut state,
+        r1,
+        p(0.1, 0.2, 0.0),
+        Rotation3::from_euler_angles(0.1, 0.2, 0.3).matrix(),
+    );
+    model.set_pose(
+        &mut state,
+        r2,
+        p(0.3, -0.1, 0.2),
+        Rotation3::from_euler_angles(-0.4, 0.1, 1.3).matrix(),
+    );
+    model.set_pose(
+        &mut state,
+        f,
+        p(0.0, 0.1, -0.1),
+        Rotation3::from_euler_angles(0.5, -0.3, 0.2).matrix(),
+    );
+    model.set_velocity(&mut state, r1, p(1.0, -2.0, 0.5), p(3.0, -1.0, 2.0));
+    model.set_velocity(&mut state, r2, p(-1.0, 0.5, 2.0), p(-2.0, 4.0, 1.0));
+    model.set_velocity(&mut state, f, p(0.3, 0.2, -0.5), p(1.0, 2.0, -3.0));
+    model.set_modal(
+        &mut state,
+        f,
+        &[1e-3, -2e-3, 5e-4, 1e-3],
+        &[0.5, 0.3, -0.8, 0.2],
+    );
+    (model, state.q, state.v)
+}
+
+#[test]
+fn every_joint_kind_has_rates_and_gamma_consistent_with_its_constraint() {
+    let (model, q, v) = model_with_every_joint();
+    assert_eq!(model.n_constraints(), 3 + 5 + 4 + 4 + 5 + 6 + 1 + 1);
+    let t = 0.3;
+    let h = 1e-5;
+    let c0 = model.constraints(t, &q, &v);
+    let cp = model.constraints(t + h, &flow(&model, &q, &v, h), &v);
+    let cm = model.constraints(t - h, &flow(&model, &q, &v, -h), &v);
+    for i in 0..model.n_constraints() {
+        let joint = &model.joint(model.joint_of_row(i)).name;
+        let d1 = (cp.phi[i] - cm.phi[i]) / (2.0 * h);
+        let d2 = (cp.phi[i] - 2.0 * c0.phi[i] + cm.phi[i]) / (h * h);
+        let s1 = c0.phi_dot[i].abs().max(1.0);
+        let s2 = c0.gamma[i].abs().max(1.0);
+        assert!(
+            (d1 - c0.phi_dot[i]).abs() < 1e-7 * s1,
+            "{joint} row {i}: Φ̇ {} vs {d1}",
+            c0.phi_dot[i]
+        );
+        assert!(
+            (d2 + c0.gamma[i]).abs() < 1e-4 * s2,
+            "{joint} row {i}: −γ {} vs {d2}",
+            -c0.gamma[i]
+        );
+        assert!(
+            c0.phi[i].abs() > 0.0 || c0.phi_dot[i].abs() > 0.0 || i < 3,
+            "{joint} row {i} is trivially zero"
+        );
+    }
+}
+
+#[test]
+fn time_functions_have_consistent_derivatives() {
+    let fs = [
+        TimeFunction::ConstantSpeed {
+            initial: 0.3,
+            rate: 150.0,
+        },
+        TimeFunction::Polynomial(vec![0.1, 2.0, -3.0, 0.5]),
+        TimeFunction::SmoothRamp {
+            from: -1.0,
+            to: 2.0,
+            t0: 0.2,
+            t1: 0.7,
+        },
+    ];
+    let h = 1e-5;
+    for f in &fs {
+        for &t in &[0.0, 0.25, 0.45, 0.6, 1.0] {
+            let [_, d, dd] = f.eval(t);
+            let (p, m) = (f.eval(t + h), f.eval(t - h));
+            assert!(
+                (d - (p[0] - m[0]) / (2.0 * h)).abs() < 1e-6 * d.abs().max(1.0),
+                "{f:?} at {t}"
+            );
+            assert!(
+                (dd - (p[1] - m[1]) / (2.0 * h)).abs() < 1e-5 * dd.abs().max(1.0),
+                "{f:?} at {t}"
+            );
+        }
+    }
+    let ramp = &fs[2];
+    assert_eq!(ramp.eval(0.1), [-1.0, 0.0, 0.0]);
+    assert_eq!(ramp.eval(0.8), [2.0, 0.0, 0.0]);
+    assert!((ramp.eval(0.45)[0] - 0.5).abs() < 1e-12);
+}
+
+#[test]
+fn invalid_markers_are_rejected_with_the_joint_name() {
+    let mut model = Model::<f64>::new();
+    let r = model
+        .add_rigid_body(RigidBody::new("r", 1.0, Matrix3::identity()))
+        .unwrap();
+    let err = model
+        .add_joint(Joint::new(
+            "bad node",
+            JointKind::Spherical,
+            Marker::ground(Vector3::zeros()),
+            Marker::node(r, 0),
+        ))
+        .unwrap_err();
+    assert!(err.to_string().contains("bad node"), "{err}");
+    let err = model
+        .add_joint(Joint::new(
+            "self",
+            JointKind::Spherical,
+            Marker::on(r, Vector3::zeros()),
+            Marker::on(r, Vector3::x()),
+        ))
+        .unwrap_err();
+    assert!(err.to_string().contains("self"), "{err}");
+    assert!(
+        model
+            .add_rigid_body(RigidBody::new("massless", 0.0, Matrix3::identity()))
+            .is_err()
+    );
+}
