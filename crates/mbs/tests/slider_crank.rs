@@ -33,3 +33,27 @@ fn rigid_slider_crank_matches_closed_form_kinematics_over_two_revolutions() {
         "x {ex:e} v {ev:e} a {ea:e}"
     );
 }
+
+#[test]
+fn redundant_constraints_are_reported_with_their_joints_or_removed() {
+    let (model, state, _) = slider_crank(150.0, None);
+    let err = mbs::MultibodySystem::new(model.clone(), &state, mbs::RedundancyPolicy::Error)
+        .err()
+        .expect("a planar slider-crank in 3-D is over-constrained");
+    let msg = err.to_string();
+    assert!(msg.contains("redundant"), "{msg}");
+    let mbs::ConstraintError::Redundant { equations } = err else {
+        panic!("{err}")
+    };
+    assert_eq!(equations.len(), 3);
+    for (joint, _) in &equations {
+        assert!(
+            model.joints().iter().any(|j| &j.name == joint),
+            "unknown joint {joint}"
+        );
+        assert!(msg.contains(joint.as_str()));
+    }
+    let sys = mbs::MultibodySystem::new(model, &state, mbs::RedundancyPolicy::Remove).unwrap();
+    assert_eq!(sys.removed_equations().len(), 3);
+    assert_eq!(sys.active_rows().len(), 18);
+}
