@@ -228,6 +228,8 @@ pub struct Bdf {
     jac_age: Option<usize>,
     lu: Option<LU<f64, Dyn, Dyn>>,
     lu_c0: f64,
+    /// Newton convergence-rate estimate (reset to 1 with every new matrix).
+    newton_rate: f64,
     last_times: Vec<f64>,
     last_coeffs: Vec<f64>,
     last_order: usize,
@@ -249,6 +251,7 @@ impl Bdf {
             jac_age: None,
             lu: None,
             lu_c0: 0.0,
+            newton_rate: 1.0,
             last_times: Vec::new(),
             last_coeffs: Vec::new(),
             last_order: 0,
@@ -373,8 +376,10 @@ impl Bdf {
                 ..
             } => {
                 self.order = 1.min(self.hist.len());
-                if self.hist.len() > 1 {
-                    self.order = (self.hist.len() - 1).clamp(1, 5);
+                if let StepControl::Adaptive { max_order, .. } = self.opts.control
+                    && self.hist.len() > 1
+                {
+                    self.order = (self.hist.len() - 1).clamp(1, max_order);
                 }
                 self.h = match initial_step {
                     Some(h) => h,
@@ -435,6 +440,7 @@ impl Bdf {
         }
         self.lu = Some(lu);
         self.lu_c0 = c0;
+        self.newton_rate = 1.0;
         Ok(())
     }
 
@@ -744,6 +750,10 @@ impl Bdf {
             if !lu.solve_mut(&mut r) {
                 return Err(self.fail(IntegrationFailure::SingularNewtonMatrix));
             }
+            // a matrix factorised with another c0: scale the chord step (CVODE's 2/(1+γ ratio))
+            if self.lu_c0 != c0 {
+                r *= 2.0 * self.lu_c0 / (c0 + self.lu_c0);
+            }
             for i in 0..self.n {
                 y[i] += r[i];
             }
@@ -751,15 +761,15 @@ impl Bdf {
             if !norm.is_finite() {
                 return Ok(None);
             }
+            // convergence-rate estimate, carried over from earlier steps for the first iterate
             if it > 0 {
-                let rate = norm / prev_norm;
-                if rate > 0.9 {
+                let ratio = norm / prev_norm;
+                if ratio > 0.9 {
                     return Ok(None);
                 }
-                if norm * rate / (1.0 - rate) < tol || norm < 1e-3 * tol {
-                    return Ok(Some(y));
-                }
-            } else if norm < 1e-3 * tol {
+                self.newton_rate = ratio.max(0.3 * self.newton_rate);
+            }
+            if norm * self.newton_rate.min(1.0) < tol || norm < 1e-3 * tol {
                 return Ok(Some(y));
             }
             prev_norm = norm;

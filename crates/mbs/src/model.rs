@@ -234,6 +234,14 @@ impl<P: Scalar> Model<P> {
         for m in force.markers() {
             self.check_marker(m, "force")?;
         }
+        if let Force::PointForce { marker, .. } | Force::PointTorque { marker, .. } = &force
+            && marker.body.is_none()
+        {
+            return Err(ModelError::BadMarker {
+                owner: "force".into(),
+                reason: "a point force or torque must act on a body, not the ground",
+            });
+        }
         if let Force::PointForce {
             load: crate::Load::Table { times, values },
             ..
@@ -502,7 +510,6 @@ impl<P: Scalar> Model<P> {
                 load,
                 frame,
             } => {
-                let Some(_) = marker.body else { return };
                 let k = self.marker(marker, q, v, false);
                 let l: Vector3<S> = vec3f(&load.at(t));
                 let tb = match frame {
