@@ -838,7 +838,7 @@ impl Bdf {
             self.step(sys, t_end)?;
             observer(self);
             let t = self.current().0;
-            while next < t_out.len() && t_out[next] <= t * (1.0 + 1e-15) + 1e-300 {
+            while next < t_out.len() && t_out[next] <= t + 1e-14 * t.abs().max(1.0) {
                 out.push(if (t_out[next] - t).abs() <= 1e-14 * t.abs().max(1.0) {
                     self.current().1.to_vec()
                 } else {

@@ -150,3 +150,57 @@ fn tabulated_force_and_constant_torque_change_the_momenta_by_their_impulses() {
         );
     }
 }
+
+#[test]
+fn joint_reactions_of_a_hanging_double_pendulum_carry_the_weights() {
+    use mbs::{Joint, JointKind};
+    let mut model = Model::new();
+    let g = 9.81;
+    model.gravity = Vector3::new(0.0, -g, 0.0);
+    let (m1, m2) = (1.5, 0.5);
+    let upper = model
+        .add_rigid_body(RigidBody::new("upper", m1, common::rod_inertia(m1, 1.0)))
+        .unwrap();
+    let lower = model
+        .add_rigid_body(RigidBody::new("lower", m2, common::rod_inertia(m2, 1.0)))
+        .unwrap();
+    let half = Vector3::new(0.0, 0.5, 0.0);
+    model
+        .add_joint(Joint::new(
+            "pivot",
+            JointKind::Revolute,
+            Marker::ground(Vector3::zeros()),
+            Marker::on(upper, half),
+        ))
+        .unwrap();
+    model
+        .add_joint(Joint::new(
+            "elbow",
+            JointKind::Spherical,
+            Marker::on(upper, -half),
+            Marker::on(lower, half),
+        ))
+        .unwrap();
+    let mut state = model.rest_state();
+    model.set_pose(&mut state, upper, -half, &Matrix3::identity());
+    model.set_pose(&mut state, lower, -half * 3.0, &Matrix3::identity());
+    let (sys, state) = assembled(model, state);
+    let o = sys.output(0.0, &state.to_vec()).unwrap();
+    let up = Vector3::new(0.0, 1.0, 0.0);
+    let (pivot, elbow) = (&o.reactions[0], &o.reactions[1]);
+    assert!(
+        (pivot.force_on_b - up * (m1 + m2) * g).norm() < 1e-10,
+        "{pivot:?}"
+    );
+    assert!(pivot.force_on_a.norm() == 0.0, "the ground has no body");
+    assert!((elbow.force_on_b - up * m2 * g).norm() < 1e-10, "{elbow:?}");
+    assert!(
+        (elbow.force_on_a + elbow.force_on_b).norm() < 1e-10,
+        "action and reaction"
+    );
+    assert!(pivot.moment_on_b.norm() < 1e-10 && elbow.moment_on_b.norm() < 1e-10);
+    assert!(
+        o.accelerations.iter().all(|a| a.abs() < 1e-10),
+        "equilibrium"
+    );
+}
