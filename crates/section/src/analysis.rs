@@ -35,8 +35,10 @@
 
 use faer::Side;
 use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
-use faer::sparse::{SparseColMat, Triplet};
+use faer::sparse::{SparseColMat, SymbolicSparseColMat};
 use laminate::{bond_stress_matrix, rotate_stiffness};
+use std::ops::Mul;
+
 use nalgebra::{Matrix6, SMatrix};
 use sens::{Dual, LinearSolver, Scalar, chunk_ranges};
 
@@ -354,74 +356,89 @@ impl SectionAnalysis {
             .map(|(&a, c)| rotate_stiffness(c, &Region::ply_rotation(a)))
             .collect();
         let nd = 3 * self.model.mesh.nodes.len();
-        let c = |v: &[f64]| -> Vec<Dual<N>> { v.iter().map(|&x| Dual::constant(x)).collect() };
-        let c36 = |v: &[f64; 36]| -> [Dual<N>; 36] { v.map(Dual::constant) };
+        let zero = Dual::<N>::constant(0.0);
         let t = force_derivative_map();
 
-        // System 1 residual: [0; T] − K(b) [X̂₁; Ŷ₁].
-        let (x1h, y1h) = (c(&self.x1), c36(&self.y1));
-        let mut b = vec![Dual::<N>::constant(0.0); nd * 6];
-        let mut z = [Dual::<N>::constant(0.0); 36];
-        self.model.kernel(
-            &q_ply,
-            Fields {
-                u: Some(&x1h),
-                u1: None,
-                psi: Some(&y1h),
-            },
-            Outputs {
-                b: Some(&mut b),
-                s: None,
-                z: Some(&mut z),
-                energy: None,
-            },
-        );
-        let (x1, y1) = self.tangent_solve(
-            &self.x1,
-            &self.y1,
-            |g, col| -b[g * 6 + col],
-            |i, col| Dual::constant(t[i * 6 + col]) - z[i * 6 + col],
-        );
+        // System 1 residual: [0; T] − K(b) [X̂₁; Ŷ₁] (f64 fields, dual stiffness).
+        let (x1, y1) = {
+            let mut b = vec![zero; nd * 6];
+            let mut z = [zero; 36];
+            self.model.kernel(
+                &q_ply,
+                Fields {
+                    u: Some(&self.x1),
+                    u1: None,
+                    psi: Some(&self.y1),
+                },
+                Outputs {
+                    b: Some(&mut b),
+                    s: None,
+                    z: Some(&mut z),
+                    energy: None,
+                },
+            );
+            self.tangent_solve(
+                &self.x1,
+                &self.y1,
+                |g, col| -b[g * 6 + col],
+                |i, col| Dual::constant(t[i * 6 + col]) - z[i * 6 + col],
+            )
+        };
 
-        // System 2 residual: [∫(SN)ᵀσ₁; I] − ∫[BN Z]ᵀ Q (BN X̂ + Z Ŷ + SN X₁), with X₁ dual.
-        let mut s1 = vec![Dual::<N>::constant(0.0); nd * 6];
-        self.model.kernel(
-            &q_ply,
-            Fields {
-                u: Some(&x1),
-                u1: None,
-                psi: Some(&y1),
-            },
-            Outputs {
-                b: None,
-                s: Some(&mut s1),
-                z: None,
-                energy: None,
-            },
-        );
-        let (xh, yh) = (c(&self.x), c36(&self.y));
-        let mut b = vec![Dual::<N>::constant(0.0); nd * 6];
-        let mut z = [Dual::<N>::constant(0.0); 36];
-        self.model.kernel(
-            &q_ply,
-            Fields {
-                u: Some(&xh),
-                u1: Some(&x1),
-                psi: Some(&yh),
-            },
-            Outputs {
-                b: Some(&mut b),
-                s: None,
-                z: Some(&mut z),
-                energy: None,
-            },
-        );
-        let (x, y) = self.tangent_solve(
-            &self.x,
-            &self.y,
-            |g, col| s1[g * 6 + col] - b[g * 6 + col],
-            |i, col| Dual::constant(if i == col { 1.0 } else { 0.0 }) - z[i * 6 + col],
-        );
+        // System 2 residual: [∫(SN)ᵀσ₁; I] − ∫[BN Z]ᵀ Q (BN X̂ + Z Ŷ + SN X₁), with X₁, Y₁ dual.
+        let (x, y) = {
+            let mut s1 = vec![zero; nd * 6];
+            self.model.kernel(
+                &q_ply,
+                Fields {
+                    u: Some(&x1),
+                    u1: None,
+                    psi: Some(&y1),
+                },
+                Outputs {
+                    b: None,
+                    s: Some(&mut s1),
+                    z: None,
+                    energy: None,
+                },
+            );
+            let mut b = vec![zero; nd * 6];
+            let mut z = [zero; 36];
+            self.model.kernel(
+                &q_ply,
+                Fields {
+                    u: Some(&self.x),
+                    u1: None,
+                    psi: Some(&self.y),
+                },
+                Outputs {
+                    b: Some(&mut b),
+                    s: None,
+                    z: Some(&mut z),
+                    energy: None,
+                },
+            );
+            self.model.kernel(
+                &q_ply,
+                Fields {
+                    u: None,
+                    u1: Some(&x1),
+                    psi: None,
+                },
+                Outputs {
+                    b: Some(&mut b),
+                    s: None,
+                    z: Some(&mut z),
+                    energy: None,
+                },
+            );
+            self.tangent_solve(
+                &self.x,
+                &self.y,
+                |g, col| s1[g * 6 + col] - b[g * 6 + col],
+                |i, col| Dual::constant(if i == col { 1.0 } else { 0.0 }) - z[i * 6 + col],
+            )
+        };
 
         let mut f = [Dual::<N>::constant(0.0); 36];
         self.model.kernel(
@@ -534,6 +551,51 @@ impl Model {
         congruence(&bond_stress_matrix(&r), q_ply)
     }
 
+    /// The sparsity pattern (lower triangle, sorted CSC) of the warping matrix: nodal
+    /// components couple when their nodes share an element; every warping component couples
+    /// with the six generalised strains.
+    fn pattern(&self) -> (Vec<usize>, Vec<usize>) {
+        let nn = self.mesh.nodes.len();
+        let mut adj: Vec<Vec<usize>> = vec![Vec::new(); nn];
+        for el in &self.mesh.elements {
+            for &a in &el.nodes {
+                adj[a].extend_from_slice(&el.nodes);
+            }
+        }
+        for v in &mut adj {
+            v.sort_unstable();
+            v.dedup();
+        }
+        // Free dofs are numbered node by node in increasing node order, so the rows below come
+        // out sorted.
+        let mut owner = vec![0; self.n_free];
+        for (g, &f) in self.dof.iter().enumerate() {
+            if f != NONE {
+                owner[f] = g;
+            }
+        }
+        let mut col_ptr = Vec::with_capacity(self.n_free + 7);
+        let mut row_idx = Vec::new();
+        col_ptr.push(0);
+        for (j, &g) in owner.iter().enumerate() {
+            for &nb in &adj[g / 3] {
+                for k in 0..3 {
+                    let i = self.dof[3 * nb + k];
+                    if i != NONE && i >= j {
+                        row_idx.push(i);
+                    }
+                }
+            }
+            row_idx.extend(self.n_free..self.n_free + 6);
+            col_ptr.push(row_idx.len());
+        }
+        for j in 0..6 {
+            row_idx.extend(self.n_free + j..self.n_free + 6);
+            col_ptr.push(row_idx.len());
+        }
+        (col_ptr, row_idx)
+    }
+
     /// Assemble the lower triangle of `K = ∫[BN Z]ᵀ Q [BN Z]` (pinned components removed) and
     /// factorise it.
     fn factorise(&self) -> Result<Llt<usize, f64>, SectionError> {
@@ -545,7 +607,15 @@ impl Model {
             .zip(&self.c_bar)
             .map(|(r, c)| rotate_stiffness(c, &Region::ply_rotation(r.ply_angle)))
             .collect();
-        let mut triplets: Vec<Triplet<usize, usize, f64>> = Vec::new();
+        let (col_ptr, row_idx) = self.pattern();
+        let mut values = vec![0.0; row_idx.len()];
+        let mut add = |r: usize, c: usize, v: f64| {
+            let col = &row_idx[col_ptr[c]..col_ptr[c + 1]];
+            let k = col
+                .binary_search(&r)
+                .expect("entry in the assembled pattern");
+            values[col_ptr[c] + k] += v;
+        };
         let mut a_block = [[0.0; 6]; 6];
         const M: usize = 3 * MAX_NODES + 6;
         for (e, el) in self.mesh.elements.iter().enumerate() {
@@ -620,22 +690,19 @@ impl Model {
                         continue;
                     }
                     let (r, c) = if gi >= gj { (gi, gj) } else { (gj, gi) };
-                    triplets.push(Triplet::new(r, c, ke[i][j]));
+                    add(r, c, ke[i][j]);
                 }
             }
         }
         for i in 0..6 {
             for j in 0..=i {
-                triplets.push(Triplet::new(
-                    self.n_free + i,
-                    self.n_free + j,
-                    a_block[i][j],
-                ));
+                add(self.n_free + i, self.n_free + j, a_block[i][j]);
             }
         }
-        let k = SparseColMat::<usize, f64>::try_new_from_triplets(n_tot, n_tot, &triplets)
-            .map_err(|e| SectionError::Factorisation(format!("{e:?}")))?;
-        drop(triplets);
+        let k = SparseColMat::new(
+            SymbolicSparseColMat::new_checked(n_tot, n_tot, col_ptr, None, row_idx),
+            values,
+        );
         let symbolic = SymbolicLlt::try_new(k.symbolic(), Side::Lower)
             .map_err(|e| SectionError::Factorisation(format!("{e:?}")))?;
         Llt::try_new_with_symbolic(symbolic, k.as_ref(), Side::Lower).map_err(|e| {
@@ -649,13 +716,20 @@ impl Model {
     /// The section kernel: at every integration point, the strain
     /// `ε_c = Z ψ_c + BN u_c + SN u1_c` of each of the 6 columns, the stress `σ_c = Q ε_c`, and
     /// the requested projections of `σ`.
-    fn kernel<S: Scalar>(&self, q_ply: &[Matrix6<S>], f: Fields<'_, S>, mut out: Outputs<'_, S>) {
+    ///
+    /// The fields may be plain `f64` while the stiffness carries tangents (`S = Dual`,
+    /// `F = f64`): then only the stiffness is differentiated, at half the cost.
+    fn kernel<S, F>(&self, q_ply: &[Matrix6<S>], f: Fields<'_, F>, mut out: Outputs<'_, S>)
+    where
+        S: Scalar + Mul<F, Output = S>,
+        F: Scalar,
+    {
         for (e, el) in self.mesh.elements.iter().enumerate() {
             let nn = el.kind.node_count();
             for gp in &self.gps[self.gp_start[e]..self.gp_start[e + 1]] {
                 let q = self.stiffness_at(el.region, gp, &q_ply[el.region]);
                 let [x2, x3] = gp.x;
-                let mut eps = [[S::zero(); 6]; 6];
+                let mut eps = [[F::zero(); 6]; 6];
                 for (c, ec) in eps.iter_mut().enumerate() {
                     if let Some(psi) = f.psi {
                         let p = |i: usize| psi[i * 6 + c];
@@ -733,7 +807,7 @@ impl Model {
                         for d in 0..6 {
                             let mut acc = S::zero();
                             for i in 0..6 {
-                                acc += eps[c][i] * sig[d][i];
+                                acc += sig[d][i] * eps[c][i];
                             }
                             en[c * 6 + d] += acc;
                         }
