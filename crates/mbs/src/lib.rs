@@ -14,6 +14,53 @@
 //!
 //! It knows nothing about laminates, cross-sections, finite elements beyond the modal body,
 //! decks or files.
+//!
+//! # Layers
+//! - [`Model<P>`]: bodies ([`RigidBody`], [`FlexibleBody`] around a [`fem::ModalBody`]),
+//!   [`Joint`]s between [`Marker`]s, [`Force`]s, gravity, [`Baumgarte`] constants. `P` is the
+//!   scalar of the model data. State: `q = (r, p, w)` and `v = (ṙ, ω', ẇ)` per body
+//!   ([`Model::q_range`], [`Model::v_range`]).
+//! - Generic evaluation, any `S: Scalar + From<P>`: [`Model::kinematic_rates`] (`q̇`),
+//!   [`Model::mass_and_forces`], [`Model::constraints`] (`Φ`, `Φ̇`, `γ`, `Φ_v`),
+//!   [`Model::equations`] (the matrix and right-hand side of Eq. 12) and [`Model::residual`]
+//!   (`rhs − matrix · x̂` with `x̂ = [v̇; λ]` fixed: on `Dual<N>` its tangents are the right-hand
+//!   side of Eq. 40).
+//! - [`MultibodySystem`]: the `f64` side — redundant rows ([`RedundancyPolicy`]), consistent
+//!   initial conditions ([`MultibodySystem::assemble`]), the LU solve ([`MultibodySystem::solve`]
+//!   returns `x̂` and the factorisation, a [`sens::LinearSolver`]), outputs, and the
+//!   [`OdeSystem`] `y' = f(t, y)`, `y = [q; v]`, whose Jacobian comes from the dual path.
+//! - [`Bdf`]: the integrator. After each accepted step [`Bdf::last_step`] gives the order, step,
+//!   coefficients `c_j` of `Σ c_j y_{n+1−j} = f(y_{n+1})`, the states of the formula and the
+//!   Newton matrix; [`Bdf::integrate_to`] calls an observer after every accepted step.
+//!
+//! # Sensitivities (the next layer, sketched)
+//! For design variables `b` carried by `Model<Dual<N>>` (e.g. from `fem`'s dual modal body)
+//! and state tangents `s = ∂y/∂b`: on each accepted step, evaluate `f_y s + f_b` as one dual
+//! evaluation — `q̇` from [`Model::kinematic_rates`] and the accelerations from
+//! [`sens::solve_tangents`] applied to [`Model::residual`] with `q, v` seeded with `s` — and
+//! solve `(c_0 I − f_y) s_{n+1} = −Σ_{j≥1} c_j s_{n+1−j} + f_b` (linear in `s_{n+1}`; see
+//! `tests/staggered_sensitivity.rs`).
+//!
+//! ```
+//! use mbs::{BdfOptions, Joint, JointKind, Marker, Model, MultibodySystem, RedundancyPolicy,
+//!           RigidBody, simulate};
+//! use nalgebra::{Matrix3, Vector3};
+//!
+//! // a rod of 1 kg, 1 m hanging from a revolute joint, released horizontally
+//! let mut model = Model::new();
+//! model.gravity = Vector3::new(0.0, -9.81, 0.0);
+//! let inertia = Matrix3::from_diagonal(&Vector3::new(1e-4, 1.0 / 12.0, 1.0 / 12.0));
+//! let rod = model.add_rigid_body(RigidBody::new("rod", 1.0, inertia)).unwrap();
+//! model.add_joint(Joint::new("pin", JointKind::Revolute,
+//!     Marker::ground(Vector3::zeros()), Marker::on(rod, Vector3::new(-0.5, 0.0, 0.0)))).unwrap();
+//! let mut state = model.rest_state();
+//! model.set_pose(&mut state, rod, Vector3::new(0.5, 0.0, 0.0), &Matrix3::identity());
+//! let mut sys = MultibodySystem::new(model, &state, RedundancyPolicy::Remove).unwrap();
+//! sys.assemble(0.0, &mut state, 1e-12).unwrap();
+//! let sim = simulate(&mut sys, &state, &[0.0, 0.5, 1.0], BdfOptions::adaptive(1e-8, 1e-10)).unwrap();
+//! let e = |i: usize| sim.outputs[i].energy.total();
+//! assert!((e(2) - e(0)).abs() < 1e-6);
+//! ```
 
 // Checks that must also reject NaN are written `!(x > 0.0)` on purpose.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
