@@ -11,3 +11,5 @@
 
 pub mod commands;
 pub mod deck;
+pub mod error;
+pub mod files;

@@ -7,6 +7,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 use flexsens::commands::{self, Format};
+use flexsens::error::CliError;
 
 #[derive(Parser)]
 #[command(
@@ -54,23 +55,64 @@ enum Command {
         #[arg(long)]
         derivatives: bool,
     },
+    /// Vibration modes of the deck's flexible bodies: frequencies, modal masses, damping, and
+    /// their ply-angle derivatives (updated-mode, Nelson's method).
+    Modes {
+        /// The deck (TOML).
+        deck: PathBuf,
+        /// Only this body (default: all).
+        #[arg(long, value_name = "NAME")]
+        body: Option<String>,
+        /// Output format.
+        #[arg(long, value_enum, default_value_t = Format::Table)]
+        format: Format,
+        /// Also print the derivatives of the frequencies with respect to each ply angle.
+        #[arg(long)]
+        derivatives: bool,
+        /// Write the mesh and mode shapes as a legacy VTK file (ParaView); needs one body.
+        #[arg(long, value_name = "FILE")]
+        vtk: Option<PathBuf>,
+        /// Write K, M (and dK per design variable with --derivatives) in Matrix Market format,
+        /// with the dof map, into this directory.
+        #[arg(long, value_name = "DIR")]
+        export_matrices: Option<PathBuf>,
+    },
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let result = match &cli.command {
+    let result: Result<String, CliError> = match &cli.command {
         Command::Laminate {
             deck,
             laminate,
             format,
             derivatives,
-        } => commands::laminate::run(deck, &cli.set, laminate.as_deref(), *format, *derivatives),
+        } => commands::laminate::run(deck, &cli.set, laminate.as_deref(), *format, *derivatives)
+            .map_err(CliError::from),
         Command::Section {
             deck,
             section,
             format,
             derivatives,
-        } => commands::section::run(deck, &cli.set, section.as_deref(), *format, *derivatives),
+        } => commands::section::run(deck, &cli.set, section.as_deref(), *format, *derivatives)
+            .map_err(CliError::from),
+        Command::Modes {
+            deck,
+            body,
+            format,
+            derivatives,
+            vtk,
+            export_matrices,
+        } => {
+            let req = commands::modes::ModesRequest {
+                only: body.as_deref(),
+                format: *format,
+                derivatives: *derivatives,
+                vtk: vtk.as_deref(),
+                export_matrices: export_matrices.as_deref(),
+            };
+            commands::modes::run(deck, &cli.set, &req)
+        }
     };
     match result {
         Ok(text) => {
@@ -80,7 +122,7 @@ fn main() -> ExitCode {
         }
         Err(e) => {
             eprintln!("error: {e}");
-            ExitCode::from(2)
+            ExitCode::from(e.exit_code())
         }
     }
 }

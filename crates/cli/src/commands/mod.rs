@@ -1,6 +1,7 @@
 //! The subcommands of `flexsens`.
 
 pub mod laminate;
+pub mod modes;
 pub mod output;
 pub mod section;
 

@@ -7,6 +7,7 @@
 //!
 //! Only this module knows TOML; the engine crates never see it.
 
+pub mod bodies;
 pub mod check;
 pub mod laminates;
 pub mod overrides;

@@ -21,6 +21,9 @@ pub struct RawDeck {
     /// Beam cross-sections by name.
     #[serde(default)]
     pub section: BTreeMap<String, Spanned<super::sections::RawSection>>,
+    /// Flexible bodies by name.
+    #[serde(default)]
+    pub body: BTreeMap<String, Spanned<super::bodies::RawBody>>,
 }
 
 /// A material: isotropic (`E`, `nu`) or orthotropic (the nine constants), with `density`.

@@ -1,0 +1,585 @@
+//! `flexsens modes`: vibration modes of the deck's flexible bodies (the component modes of the
+//! multibody model), their design derivatives, mode shapes for ParaView and the assembled
+//! matrices for other tools.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use fem::{
+    BeamSection, ModalAnalysis, ModalOptions, ModeDerivatives, ModeUpdate, Properties,
+    RayleighDamping, ReferenceCondition,
+};
+use laminate::PlyStack;
+use nalgebra::Matrix6;
+use section::{DesignMap, SectionProperties};
+use sens::Dual;
+use serde_json::json;
+
+use super::Format;
+use super::output::{self, Quantity, Report};
+use crate::deck::bodies::{BodyDef, BodyShape, Reference, validate_one};
+use crate::deck::laminates::{suggestion, validate as validate_laminates};
+use crate::deck::{self, Source};
+use crate::error::CliError;
+use crate::files::write_atomic;
+
+/// Width of the dual-number chunks (results do not depend on it).
+const CHUNK: usize = 8;
+
+/// What the command should write besides the report.
+pub struct ModesRequest<'a> {
+    pub only: Option<&'a str>,
+    pub format: Format,
+    pub derivatives: bool,
+    pub vtk: Option<&'a Path>,
+    pub export_matrices: Option<&'a Path>,
+}
+
+/// The design of a body: the ply angles its stiffness depends on.
+enum Design {
+    /// A beam: the section's values and its derivatives with respect to each region's angle.
+    Beam {
+        values: Box<SectionProperties>,
+        derivatives: Vec<SectionProperties>,
+        names: Vec<String>,
+    },
+    /// A shell: the laminate's ply angles, seeded directly.
+    Shell {
+        stack: PlyStack<f64>,
+        laminate: String,
+    },
+}
+
+impl Design {
+    fn names(&self) -> Vec<String> {
+        match self {
+            Design::Beam { names, .. } => names.iter().map(|n| format!("{n}.angle")).collect(),
+            Design::Shell { stack, laminate } => (0..stack.plies().len())
+                .map(|i| format!("{laminate}.plies[{i}].angle"))
+                .collect(),
+        }
+    }
+
+    fn values(&self) -> Vec<f64> {
+        match self {
+            // the section's variables are offsets of its regions' angles: their values do not
+            // enter (the chain rule only uses the tangents)
+            Design::Beam { derivatives, .. } => vec![0.0; derivatives.len()],
+            Design::Shell { stack, .. } => stack.plies().iter().map(|p| p.angle).collect(),
+        }
+    }
+
+    /// Element properties on dual numbers seeded with the design variables `b`.
+    fn properties<const N: usize>(&self, b: &[Dual<N>]) -> Properties<Dual<N>> {
+        match self {
+            Design::Beam {
+                values,
+                derivatives,
+                ..
+            } => {
+                // chain rule through the section's exact Jacobian: tangent k of an entry is
+                // Σ_v ∂entry/∂b_v · (b_v)_k
+                let chain = |v: f64, d: &dyn Fn(&SectionProperties) -> f64| {
+                    let mut t = [0.0; N];
+                    for (dv, bv) in derivatives.iter().zip(b) {
+                        let s = d(dv);
+                        for k in 0..N {
+                            t[k] += s * bv.d[k];
+                        }
+                    }
+                    Dual::new(v, t)
+                };
+                let section = BeamSection {
+                    stiffness: Matrix6::from_fn(|i, j| {
+                        chain(values.stiffness[(i, j)], &|p| p.stiffness[(i, j)])
+                    }),
+                    mass_per_length: chain(values.mass_per_length, &|p| p.mass_per_length),
+                    mass_centre: [
+                        chain(values.mass_centre[0], &|p| p.mass_centre[0]),
+                        chain(values.mass_centre[1], &|p| p.mass_centre[1]),
+                    ],
+                    inertia: [
+                        chain(values.mass_inertia[0], &|p| p.mass_inertia[0]),
+                        chain(values.mass_inertia[1], &|p| p.mass_inertia[1]),
+                        chain(values.mass_inertia[2], &|p| p.mass_inertia[2]),
+                    ],
+                };
+                Properties {
+                    sections: vec![section],
+                    laminates: Vec::new(),
+                }
+            }
+            Design::Shell { stack, .. } => {
+                let dual = stack
+                    .with_angles(b)
+                    .expect("angles of a validated stack stay valid");
+                Properties {
+                    sections: Vec::new(),
+                    laminates: vec![dual.stiffness()],
+                }
+            }
+        }
+    }
+}
+
+/// A body ready for the finite-element analysis.
+struct Built {
+    mesh: fem::Mesh,
+    props: Properties<f64>,
+    options: ModalOptions,
+    design: Design,
+    kind: &'static str,
+}
+
+fn beam_section(p: &SectionProperties) -> BeamSection<f64> {
+    BeamSection {
+        stiffness: p.stiffness,
+        mass_per_length: p.mass_per_length,
+        mass_centre: p.mass_centre,
+        inertia: p.mass_inertia,
+    }
+}
+
+fn build(src: &Source, name: &str, def: &BodyDef, derivatives: bool) -> Result<Built, CliError> {
+    let input = |key: &str, m: String| {
+        CliError::Input(src.error(None, Some(format!("body.{name}{key}")), m))
+    };
+    let (mesh, props, design, kind) = match &def.shape {
+        BodyShape::Beam {
+            section_name,
+            section,
+            start,
+            end,
+            orientation,
+            elements,
+        } => {
+            let mesh = fem::Mesh::straight_beam(*start, *end, *elements, 0, *orientation)
+                .map_err(|e| input(".elements", e.to_string()))?;
+            let (values, derivs, names) = if derivatives {
+                let design = DesignMap::each_region(&section.mesh);
+                let s = section::analyse_with_derivatives::<CHUNK>(&section.mesh, &design)
+                    .map_err(|e| input("", format!("section `{section_name}`: {e}")))?;
+                (s.properties, s.derivatives, s.variables)
+            } else {
+                let p = section::analyse(&section.mesh)
+                    .map_err(|e| input("", format!("section `{section_name}`: {e}")))?;
+                (p, Vec::new(), Vec::new())
+            };
+            let props = Properties {
+                sections: vec![beam_section(&values)],
+                laminates: Vec::new(),
+            };
+            (
+                mesh,
+                props,
+                Design::Beam {
+                    values: Box::new(values),
+                    derivatives: derivs,
+                    names,
+                },
+                "beam",
+            )
+        }
+        BodyShape::ShellRectangle {
+            laminate,
+            stack,
+            length,
+            width,
+            elements,
+            axis,
+        } => {
+            let mut mesh = fem::Mesh::rectangle(*length, *width, elements[0], elements[1], 0)
+                .map_err(|e| input(".elements", e.to_string()))?;
+            for e in &mut mesh.elements {
+                if let fem::Element::Shell { material_axis, .. } = e {
+                    *material_axis = *axis;
+                }
+            }
+            let props = Properties {
+                sections: Vec::new(),
+                laminates: vec![stack.stiffness()],
+            };
+            (
+                mesh,
+                props,
+                Design::Shell {
+                    stack: stack.clone(),
+                    laminate: laminate.clone(),
+                },
+                "shell",
+            )
+        }
+        BodyShape::ShellMesh {
+            laminate,
+            stack,
+            mesh_text,
+            file,
+            axis,
+        } => {
+            let tri = fem::parse_gmsh_v4(mesh_text)
+                .map_err(|e| input(".file", format!("in the mesh {file}: {e}")))?;
+            let mesh = tri.to_mesh(0, *axis);
+            let props = Properties {
+                sections: Vec::new(),
+                laminates: vec![stack.stiffness()],
+            };
+            (
+                mesh,
+                props,
+                Design::Shell {
+                    stack: stack.clone(),
+                    laminate: laminate.clone(),
+                },
+                "shell",
+            )
+        }
+    };
+    let reference = match def.reference {
+        Reference::CentreOfMass => ReferenceCondition::ClampedAtCentreOfMass,
+        Reference::FreeFree => ReferenceCondition::FreeFree,
+        Reference::PinnedEnds(Some([a, b])) => {
+            if a.max(b) >= mesh.nodes.len() {
+                return Err(input(
+                    ".pinned",
+                    format!(
+                        "node {} does not exist (the mesh has {} nodes)",
+                        a.max(b),
+                        mesh.nodes.len()
+                    ),
+                ));
+            }
+            ReferenceCondition::PinnedEnds { a, b }
+        }
+        Reference::PinnedEnds(None) => match &def.shape {
+            BodyShape::Beam { elements, .. } => {
+                ReferenceCondition::PinnedEnds { a: 0, b: *elements }
+            }
+            _ => {
+                return Err(input(
+                    ".pinned",
+                    "a shell with reference = \"pinned-ends\" needs pinned = [node a, node b]"
+                        .into(),
+                ));
+            }
+        },
+    };
+    let mut options = ModalOptions::new(def.modes);
+    options.reference = reference;
+    options.damping = def
+        .damping
+        .map(|(modes, ratios)| RayleighDamping { modes, ratios });
+    options.mass = if def.lumped {
+        fem::MassKind::Lumped
+    } else {
+        fem::MassKind::Consistent
+    };
+    Ok(Built {
+        mesh,
+        props,
+        options,
+        design,
+        kind,
+    })
+}
+
+fn frequency_derivative(lambda: f64, d_lambda: f64) -> f64 {
+    // f = √λ / 2π ⇒ df = dλ / (4π √λ)
+    d_lambda / (4.0 * std::f64::consts::PI * lambda.max(0.0).sqrt())
+}
+
+fn report(name: &str, b: &Built, a: &ModalAnalysis, d: Option<&ModeDerivatives>) -> Report {
+    let lam = a.eigenvalues();
+    let f = a.frequencies_hz();
+    let mut values = vec![
+        Quantity::vector("frequencies", "Hz", &f),
+        Quantity::vector("eigenvalues", "rad^2/s^2", lam),
+        Quantity::vector("modal_masses", "1", &a.modal_masses()),
+    ];
+    if let Some(damping) = a.options.damping
+        && let Ok(c) = damping.modal_damping(lam)
+    {
+        let zeta: Vec<f64> = c
+            .iter()
+            .zip(lam)
+            .map(|(c, l)| c / (2.0 * l.sqrt()))
+            .collect();
+        values.push(Quantity::vector("damping_ratios", "1", &zeta));
+    }
+    let mut preamble = vec![
+        format!(
+            "{} body: {} nodes, {} elements, {} free dof, reference {:?}, {} mass",
+            b.kind,
+            b.mesh.nodes.len(),
+            b.mesh.elements.len(),
+            a.assembly.n_free(),
+            a.options.reference,
+            if a.options.mass == fem::MassKind::Lumped {
+                "lumped"
+            } else {
+                "consistent"
+            }
+        ),
+        format!("{:>4} {:>14} {:>14}", "mode", "f/Hz", "omega/(rad/s)"),
+    ];
+    for (i, (fi, l)) in f.iter().zip(lam).enumerate() {
+        preamble.push(format!(
+            "{:>4} {:>14.6} {:>14.6}",
+            i + 1,
+            fi,
+            l.max(0.0).sqrt()
+        ));
+    }
+    let mut derivatives = Vec::new();
+    if let Some(d) = d {
+        let repeated: Vec<String> = d
+            .clusters
+            .iter()
+            .filter(|c| c.len() > 1 && c[0] < a.n_modes)
+            .map(|c| {
+                c.iter()
+                    .map(|i| (i + 1).to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            })
+            .collect();
+        if !repeated.is_empty() {
+            preamble.push(format!(
+                "repeated eigenvalues (modes {}): their derivatives are directional, per design variable",
+                repeated.join("; ")
+            ));
+        }
+        for (var, name) in b.design.names().iter().enumerate() {
+            let dl: Vec<f64> = d.eigenvalues[var][..a.n_modes].to_vec();
+            let df: Vec<f64> = dl
+                .iter()
+                .zip(lam)
+                .map(|(&x, &l)| frequency_derivative(l, x))
+                .collect();
+            derivatives.push((
+                name.clone(),
+                vec![
+                    Quantity::vector("frequencies", "Hz", &df),
+                    Quantity::vector("eigenvalues", "rad^2/s^2", &dl),
+                ],
+            ));
+        }
+    }
+    let mut info = serde_json::Map::new();
+    info.insert("kind".into(), json!(b.kind));
+    info.insert("nodes".into(), json!(b.mesh.nodes.len()));
+    info.insert("elements".into(), json!(b.mesh.elements.len()));
+    info.insert("free_dofs".into(), json!(a.assembly.n_free()));
+    Report {
+        kind: "body",
+        name: name.into(),
+        preamble,
+        info,
+        values,
+        derivatives,
+    }
+}
+
+/// Legacy ASCII VTK of the mesh with every mode's nodal translations and rotations.
+fn vtk(name: &str, b: &Built, a: &ModalAnalysis) -> String {
+    let x = a.mode_shapes();
+    let f = a.frequencies_hz();
+    let mut s = String::new();
+    let _ = writeln!(s, "# vtk DataFile Version 3.0");
+    let freqs: Vec<String> = f.iter().map(|v| format!("{v:.6e}")).collect();
+    let _ = writeln!(
+        s,
+        "flexsens modes of body {name}; frequencies/Hz {}",
+        freqs.join(" ")
+    );
+    let _ = writeln!(s, "ASCII\nDATASET UNSTRUCTURED_GRID");
+    let _ = writeln!(s, "POINTS {} double", b.mesh.nodes.len());
+    for p in &b.mesh.nodes {
+        let _ = writeln!(s, "{:e} {:e} {:e}", p.x, p.y, p.z);
+    }
+    let size: usize = b.mesh.elements.iter().map(|e| e.nodes().len() + 1).sum();
+    let _ = writeln!(s, "CELLS {} {size}", b.mesh.elements.len());
+    for e in &b.mesh.elements {
+        let n = e.nodes();
+        let ids: Vec<String> = n.iter().map(|i| i.to_string()).collect();
+        let _ = writeln!(s, "{} {}", n.len(), ids.join(" "));
+    }
+    let _ = writeln!(s, "CELL_TYPES {}", b.mesh.elements.len());
+    for e in &b.mesh.elements {
+        let _ = writeln!(s, "{}", if e.nodes().len() == 2 { 3 } else { 5 });
+    }
+    let _ = writeln!(s, "POINT_DATA {}", b.mesh.nodes.len());
+    for m in 0..x.ncols() {
+        for (what, off) in [("translation", 0), ("rotation", 3)] {
+            let _ = writeln!(s, "VECTORS mode_{}_{what} double", m + 1);
+            for n in 0..b.mesh.nodes.len() {
+                let r = n * fem::NODE_DOFS + off;
+                let _ = writeln!(s, "{:e} {:e} {:e}", x[(r, m)], x[(r + 1, m)], x[(r + 2, m)]);
+            }
+        }
+    }
+    s
+}
+
+/// A sparse matrix in Matrix Market coordinate format (1-based, all stored entries).
+fn matrix_market(m: &faer::sparse::SparseColMat<usize, f64>, comment: &str) -> String {
+    let cp = m.symbolic().col_ptr();
+    let ri = m.symbolic().row_idx();
+    let val = m.val();
+    let mut s = String::from("%%MatrixMarket matrix coordinate real general\n");
+    let _ = writeln!(s, "% {comment}");
+    let _ = writeln!(s, "{} {} {}", m.nrows(), m.ncols(), val.len());
+    for j in 0..m.ncols() {
+        for p in cp[j]..cp[j + 1] {
+            let _ = writeln!(s, "{} {} {:e}", ri[p] + 1, j + 1, val[p]);
+        }
+    }
+    s
+}
+
+fn export(
+    dir: &Path,
+    name: &str,
+    b: &Built,
+    a: &ModalAnalysis,
+    dm: Option<&[fem::DesignMatrices]>,
+) -> Result<(), CliError> {
+    const DOF: [&str; 6] = ["ux", "uy", "uz", "rx", "ry", "rz"];
+    let mut dofs = String::from("row,node,dof\n");
+    for (i, &g) in a.assembly.free_dofs().iter().enumerate() {
+        let _ = writeln!(
+            dofs,
+            "{},{},{}",
+            i + 1,
+            g / fem::NODE_DOFS,
+            DOF[g % fem::NODE_DOFS]
+        );
+    }
+    write_atomic(&dir.join(format!("{name}.dofs.csv")), dofs.as_bytes())?;
+    let what = "rows and columns are the free dof listed in the .dofs.csv file";
+    write_atomic(
+        &dir.join(format!("{name}.K.mtx")),
+        matrix_market(
+            &a.k,
+            &format!("flexsens: stiffness K of body {name} (N/m, N, N*m); {what}"),
+        )
+        .as_bytes(),
+    )?;
+    write_atomic(
+        &dir.join(format!("{name}.M.mtx")),
+        matrix_market(
+            &a.m,
+            &format!("flexsens: mass M of body {name} (kg, kg*m, kg*m^2); {what}"),
+        )
+        .as_bytes(),
+    )?;
+    if let Some(dm) = dm {
+        for (var, (d, vname)) in dm.iter().zip(b.design.names()).enumerate() {
+            let text = matrix_market(
+                &d.k,
+                &format!("flexsens: dK/d({vname}) of body {name}, per radian; {what}"),
+            );
+            write_atomic(&dir.join(format!("{name}.dK_{var}.mtx")), text.as_bytes())?;
+        }
+    }
+    Ok(())
+}
+
+/// Run the command; the returned text goes to stdout.
+pub fn run(path: &Path, overrides: &[String], req: &ModesRequest) -> Result<String, CliError> {
+    let (src, raw) = deck::load(path, overrides)?;
+    let model = validate_laminates(&src, &raw)?;
+    let selected: Vec<_> = match req.only {
+        Some(name) => {
+            let s = raw.body.get_key_value(name).ok_or_else(|| {
+                let known: Vec<&str> = raw.body.keys().map(String::as_str).collect();
+                src.error(
+                    None,
+                    None,
+                    format!("no body `{name}` in this deck{}", suggestion(name, &known)),
+                )
+            })?;
+            vec![s]
+        }
+        None => raw.body.iter().collect(),
+    };
+    if selected.is_empty() {
+        return Err(src
+            .error(
+                None,
+                Some("body".into()),
+                "the deck defines no [body.*] table",
+            )
+            .into());
+    }
+    if req.vtk.is_some() && selected.len() > 1 {
+        let names: Vec<&str> = selected.iter().map(|(n, _)| n.as_str()).collect();
+        return Err(src
+            .error(
+                None,
+                None,
+                format!(
+                    "--vtk writes one body: choose one with --body ({})",
+                    names.join(", ")
+                ),
+            )
+            .into());
+    }
+    let mut reports = Vec::new();
+    for (name, b) in selected {
+        let def = validate_one(&src, &raw, name, b, &model)?;
+        let built = build(&src, name, &def, req.derivatives)?;
+        let analysis = fem::modal_analysis(&built.mesh, &built.props, &built.options)
+            .map_err(|e| fem_error(&src, name, b.span(), e))?;
+        let derivs = if req.derivatives {
+            let values = built.design.values();
+            let (dm, d) = fem::analysis_derivatives::<CHUNK, _>(
+                &built.mesh,
+                &analysis,
+                &values,
+                |bd| built.design.properties(bd),
+                ModeUpdate::Updated,
+            )
+            .map_err(|e| fem_error(&src, name, b.span(), e))?;
+            Some((dm, d))
+        } else {
+            None
+        };
+        if let Some(path) = req.vtk {
+            write_atomic(path, vtk(name, &built, &analysis).as_bytes())?;
+        }
+        if let Some(dir) = req.export_matrices {
+            export(
+                dir,
+                name,
+                &built,
+                &analysis,
+                derivs.as_ref().map(|(dm, _)| dm.as_slice()),
+            )?;
+        }
+        reports.push(report(
+            name,
+            &built,
+            &analysis,
+            derivs.as_ref().map(|(_, d)| d),
+        ));
+    }
+    Ok(match req.format {
+        Format::Table => output::table(raw.title.as_deref(), &reports),
+        Format::Json => output::json_doc("bodies", &reports),
+        Format::Csv => output::csv("body", &reports),
+    })
+}
+
+/// A failed eigen solution is a runtime failure; every other error of the finite-element layer
+/// (too many modes, a degenerate element, a bad mesh, …) is bad input.
+fn fem_error(src: &Source, name: &str, span: std::ops::Range<usize>, e: fem::FemError) -> CliError {
+    match e {
+        fem::FemError::Eigen(m) => CliError::Runtime(format!(
+            "{}: body `{name}`: the eigen solution failed: {m}",
+            src.file.display()
+        )),
+        other => {
+            CliError::Input(src.error(Some(span), Some(format!("body.{name}")), other.to_string()))
+        }
+    }
+}

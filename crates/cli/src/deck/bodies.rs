@@ -1,0 +1,506 @@
+//! Validation of `[body.*]`: flexible bodies meshed with beams or shells, and their modal
+//! reduction settings.
+
+use laminate::PlyStack;
+use nalgebra::Vector3;
+use serde::Deserialize;
+use toml::Spanned;
+
+use super::check::{count, positive, required, span};
+use super::laminates::{LaminateModel, suggestion};
+use super::raw::RawDeck;
+use super::sections::{self, SectionDef};
+use super::{DeckError, Source};
+
+/// A flexible body as written.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawBody {
+    /// `"beam"` or `"shell"`.
+    pub kind: Option<Spanned<String>>,
+    /// Beam: a `[section.*]` name.
+    pub section: Option<Spanned<String>>,
+    /// Beam: first end (m).
+    pub start: Option<Spanned<[f64; 3]>>,
+    /// Beam: second end (m).
+    pub end: Option<Spanned<[f64; 3]>>,
+    /// Beam: direction of the section's x₂ axis (its part normal to the beam is used).
+    pub orientation: Option<Spanned<[f64; 3]>>,
+    /// Shell: a `[laminate.*]` name.
+    pub laminate: Option<Spanned<String>>,
+    /// Shell rectangle: extent along x (m).
+    pub length: Option<Spanned<f64>>,
+    /// Shell rectangle: extent along y (m).
+    pub width: Option<Spanned<f64>>,
+    /// Shell: a Gmsh `.msh` v4 triangle mesh, relative to the deck (instead of length/width).
+    pub file: Option<Spanned<String>>,
+    /// Shell: the laminate's reference axis (ply angles are measured from it), default x.
+    pub material_axis: Option<Spanned<[f64; 3]>>,
+    /// Beam: number of elements; shell rectangle: `[along x, along y]`.
+    pub elements: Option<Spanned<toml::Value>>,
+    /// Number of elastic modes retained.
+    pub modes: Option<Spanned<i64>>,
+    /// `"centre-of-mass"` (default), `"free-free"` or `"pinned-ends"`.
+    pub reference: Option<Spanned<String>>,
+    /// Pinned ends: the two node indices (default: the beam's end nodes).
+    pub pinned: Option<Spanned<[i64; 2]>>,
+    /// Rayleigh damping from two modal damping ratios.
+    pub damping: Option<Spanned<RawDamping>>,
+    /// `"lumped"` (default; the floating frame needs it) or `"consistent"`.
+    pub mass: Option<Spanned<String>>,
+}
+
+/// `{ modes = [i, j], ratios = [ζi, ζj] }`, modes counted from 1.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawDamping {
+    pub modes: Option<Spanned<[i64; 2]>>,
+    pub ratios: Option<Spanned<[f64; 2]>>,
+}
+
+/// How a body is meshed.
+#[derive(Debug, Clone)]
+pub enum BodyShape {
+    Beam {
+        section_name: String,
+        section: SectionDef,
+        start: Vector3<f64>,
+        end: Vector3<f64>,
+        orientation: Vector3<f64>,
+        elements: usize,
+    },
+    ShellRectangle {
+        laminate: String,
+        stack: PlyStack<f64>,
+        length: f64,
+        width: f64,
+        elements: [usize; 2],
+        axis: Vector3<f64>,
+    },
+    ShellMesh {
+        laminate: String,
+        stack: PlyStack<f64>,
+        mesh_text: String,
+        file: String,
+        axis: Vector3<f64>,
+    },
+}
+
+/// A validated flexible body.
+#[derive(Debug, Clone)]
+pub struct BodyDef {
+    pub shape: BodyShape,
+    pub modes: usize,
+    pub reference: Reference,
+    /// Zero-based mode indices and ratios.
+    pub damping: Option<([usize; 2], [f64; 2])>,
+    pub lumped: bool,
+}
+
+/// Reference condition as written.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Reference {
+    CentreOfMass,
+    FreeFree,
+    PinnedEnds(Option<[usize; 2]>),
+}
+
+fn vector(
+    src: &Source,
+    key: &str,
+    v: &Spanned<[f64; 3]>,
+    nonzero: bool,
+) -> Result<Vector3<f64>, DeckError> {
+    let a = *v.get_ref();
+    if a.iter().any(|x| !x.is_finite()) {
+        return Err(src.error(
+            span(v),
+            Some(key.into()),
+            format!("{a:?} must have finite components"),
+        ));
+    }
+    let out = Vector3::from(a);
+    if nonzero && out.norm() == 0.0 {
+        return Err(src.error(span(v), Some(key.into()), "must not be the zero vector"));
+    }
+    Ok(out)
+}
+
+/// Validate one body.
+pub fn validate_one(
+    src: &Source,
+    deck: &RawDeck,
+    name: &str,
+    b: &Spanned<RawBody>,
+    model: &LaminateModel,
+) -> Result<BodyDef, DeckError> {
+    let k = |key: &str| format!("body.{name}.{key}");
+    let raw = b.get_ref();
+    let table = span(b);
+    let kind = required(
+        src,
+        table.clone(),
+        &k("kind"),
+        &raw.kind,
+        "kind (\"beam\" or \"shell\")",
+    )?;
+    let specific = [
+        ("section", raw.section.as_ref().map(|x| x.span())),
+        ("start", raw.start.as_ref().map(|x| x.span())),
+        ("end", raw.end.as_ref().map(|x| x.span())),
+        ("orientation", raw.orientation.as_ref().map(|x| x.span())),
+        ("laminate", raw.laminate.as_ref().map(|x| x.span())),
+        ("length", raw.length.as_ref().map(|x| x.span())),
+        ("width", raw.width.as_ref().map(|x| x.span())),
+        ("file", raw.file.as_ref().map(|x| x.span())),
+        (
+            "material_axis",
+            raw.material_axis.as_ref().map(|x| x.span()),
+        ),
+    ];
+    let allowed: &[&str] = match kind.get_ref().as_str() {
+        "beam" => &["section", "start", "end", "orientation"],
+        "shell" => &["laminate", "length", "width", "file", "material_axis"],
+        other => {
+            return Err(src.error(
+                span(kind),
+                Some(k("kind")),
+                format!(
+                    "unknown body kind `{other}`: expected \"beam\" or \"shell\"{}",
+                    suggestion(other, &["beam", "shell"])
+                ),
+            ));
+        }
+    };
+    for (key, at) in specific {
+        if at.is_some() && !allowed.contains(&key) {
+            return Err(src.error(
+                at,
+                Some(k(key)),
+                format!("this key does not apply to kind = \"{}\"", kind.get_ref()),
+            ));
+        }
+    }
+    let elements_value = raw.elements.as_ref();
+    let elements_error = |what: &str| {
+        src.error(
+            elements_value.map(|e| e.span()),
+            Some(k("elements")),
+            format!("expected {what}"),
+        )
+    };
+    let int = |v: &toml::Value, min: i64| -> Option<usize> {
+        v.as_integer().filter(|&n| n >= min).map(|n| n as usize)
+    };
+    let shape = match kind.get_ref().as_str() {
+        "beam" => {
+            let sname = required(
+                src,
+                table.clone(),
+                &k("section"),
+                &raw.section,
+                "section (a [section.*] name)",
+            )?;
+            let s = deck.section.get(sname.get_ref()).ok_or_else(|| {
+                let known: Vec<&str> = deck.section.keys().map(String::as_str).collect();
+                src.error(
+                    span(sname),
+                    Some(k("section")),
+                    format!(
+                        "undefined section `{}`{}",
+                        sname.get_ref(),
+                        suggestion(sname.get_ref(), &known)
+                    ),
+                )
+            })?;
+            let section = sections::validate_one(src, sname.get_ref(), s, model)?;
+            let start = vector(
+                src,
+                &k("start"),
+                required(
+                    src,
+                    table.clone(),
+                    &k("start"),
+                    &raw.start,
+                    "start [x, y, z] (m)",
+                )?,
+                false,
+            )?;
+            let end = vector(
+                src,
+                &k("end"),
+                required(src, table.clone(), &k("end"), &raw.end, "end [x, y, z] (m)")?,
+                false,
+            )?;
+            let axis = end - start;
+            if axis.norm() == 0.0 {
+                return Err(src.error(
+                    raw.end.as_ref().map(|e| e.span()),
+                    Some(k("end")),
+                    "the beam has zero length (start = end)",
+                ));
+            }
+            let orientation = match &raw.orientation {
+                Some(o) => vector(src, &k("orientation"), o, true)?,
+                None if axis.normalize().cross(&Vector3::y()).norm() > 1e-6 => Vector3::y(),
+                None => Vector3::z(),
+            };
+            if orientation.normalize().cross(&axis.normalize()).norm() < 1e-6 {
+                return Err(src.error(
+                    raw.orientation.as_ref().map(|o| o.span()),
+                    Some(k("orientation")),
+                    "must not be parallel to the beam axis",
+                ));
+            }
+            let elements = match elements_value {
+                None => 10,
+                Some(e) => int(e.get_ref(), 1)
+                    .ok_or_else(|| elements_error("a whole number of beam elements, at least 1"))?,
+            };
+            BodyShape::Beam {
+                section_name: sname.get_ref().clone(),
+                section,
+                start,
+                end,
+                orientation,
+                elements,
+            }
+        }
+        _ => {
+            let lname = required(
+                src,
+                table.clone(),
+                &k("laminate"),
+                &raw.laminate,
+                "laminate (a [laminate.*] name)",
+            )?;
+            let stack = model
+                .laminates
+                .get(lname.get_ref())
+                .ok_or_else(|| {
+                    let known: Vec<&str> = model.laminates.keys().map(String::as_str).collect();
+                    src.error(
+                        span(lname),
+                        Some(k("laminate")),
+                        format!(
+                            "undefined laminate `{}`{}",
+                            lname.get_ref(),
+                            suggestion(lname.get_ref(), &known)
+                        ),
+                    )
+                })?
+                .stack
+                .clone();
+            let axis = raw
+                .material_axis
+                .as_ref()
+                .map(|a| vector(src, &k("material_axis"), a, true))
+                .transpose()?
+                .unwrap_or(Vector3::x());
+            match &raw.file {
+                Some(f) => {
+                    for (key, v) in [("length", &raw.length), ("width", &raw.width)] {
+                        if let Some(v) = v {
+                            return Err(src.error(
+                                span(v),
+                                Some(k(key)),
+                                "a shell read from a file takes its size from the mesh",
+                            ));
+                        }
+                    }
+                    if let Some(e) = elements_value {
+                        return Err(src.error(
+                            span(e),
+                            Some(k("elements")),
+                            "a shell read from a file takes its elements from the mesh",
+                        ));
+                    }
+                    let path = src
+                        .file
+                        .parent()
+                        .unwrap_or(std::path::Path::new("."))
+                        .join(f.get_ref());
+                    let mesh_text = std::fs::read_to_string(&path).map_err(|e| {
+                        src.error(
+                            span(f),
+                            Some(k("file")),
+                            format!("cannot read the mesh {}: {e}", path.display()),
+                        )
+                    })?;
+                    BodyShape::ShellMesh {
+                        laminate: lname.get_ref().clone(),
+                        stack,
+                        mesh_text,
+                        file: path.display().to_string(),
+                        axis,
+                    }
+                }
+                None => {
+                    let length = positive(
+                        src,
+                        &k("length"),
+                        required(
+                            src,
+                            table.clone(),
+                            &k("length"),
+                            &raw.length,
+                            "length along x (m), or file",
+                        )?,
+                        "m",
+                    )?;
+                    let width = positive(
+                        src,
+                        &k("width"),
+                        required(
+                            src,
+                            table.clone(),
+                            &k("width"),
+                            &raw.width,
+                            "width along y (m)",
+                        )?,
+                        "m",
+                    )?;
+                    let elements = match elements_value {
+                        None => {
+                            let nx = 16usize;
+                            [nx, ((nx as f64 * width / length).round() as usize).max(2)]
+                        }
+                        Some(e) => match e.get_ref().as_array().map(|a| a.as_slice()) {
+                            Some([a, b]) => [
+                                int(a, 1).ok_or_else(|| {
+                                    elements_error(
+                                        "[along x, along y], whole numbers of at least 1",
+                                    )
+                                })?,
+                                int(b, 1).ok_or_else(|| {
+                                    elements_error(
+                                        "[along x, along y], whole numbers of at least 1",
+                                    )
+                                })?,
+                            ],
+                            _ => {
+                                return Err(elements_error(
+                                    "[along x, along y] for a shell rectangle",
+                                ));
+                            }
+                        },
+                    };
+                    BodyShape::ShellRectangle {
+                        laminate: lname.get_ref().clone(),
+                        stack,
+                        length,
+                        width,
+                        elements,
+                        axis,
+                    }
+                }
+            }
+        }
+    };
+    let modes = count(
+        src,
+        &k("modes"),
+        required(
+            src,
+            table.clone(),
+            &k("modes"),
+            &raw.modes,
+            "modes (number of elastic modes retained)",
+        )?,
+        1,
+    )?;
+    let reference = match raw.reference.as_ref().map(|r| (r, r.get_ref().as_str())) {
+        None | Some((_, "centre-of-mass")) => Reference::CentreOfMass,
+        Some((_, "free-free")) => Reference::FreeFree,
+        Some((_, "pinned-ends")) => Reference::PinnedEnds(match &raw.pinned {
+            None => None,
+            Some(p) => {
+                let [a, b] = *p.get_ref();
+                if a < 0 || b < 0 || a == b {
+                    return Err(src.error(
+                        span(p),
+                        Some(k("pinned")),
+                        "two different node indices (from 0) are needed",
+                    ));
+                }
+                Some([a as usize, b as usize])
+            }
+        }),
+        Some((r, other)) => {
+            let choices = ["centre-of-mass", "free-free", "pinned-ends"];
+            return Err(src.error(
+                span(r),
+                Some(k("reference")),
+                format!(
+                    "unknown reference condition `{other}`: expected one of {}{}",
+                    choices.join(", "),
+                    suggestion(other, &choices)
+                ),
+            ));
+        }
+    };
+    if let (Some(p), false) = (&raw.pinned, matches!(reference, Reference::PinnedEnds(_))) {
+        return Err(src.error(
+            span(p),
+            Some(k("pinned")),
+            "pinned is only used with reference = \"pinned-ends\"",
+        ));
+    }
+    let damping = match &raw.damping {
+        None => None,
+        Some(d) => {
+            let dk = |key: &str| format!("body.{name}.damping.{key}");
+            let m = required(
+                src,
+                span(d),
+                &dk("modes"),
+                &d.get_ref().modes,
+                "modes = [i, j] (counted from 1)",
+            )?;
+            let r = required(
+                src,
+                span(d),
+                &dk("ratios"),
+                &d.get_ref().ratios,
+                "ratios = [ζi, ζj]",
+            )?;
+            let [i, j] = *m.get_ref();
+            if i < 1 || j < 1 || i == j || i as usize > modes || j as usize > modes {
+                return Err(src.error(
+                    span(m),
+                    Some(dk("modes")),
+                    format!("two different retained modes, between 1 and {modes}, are needed"),
+                ));
+            }
+            let ratios = *r.get_ref();
+            for (n, z) in ratios.iter().enumerate() {
+                if !(z.is_finite() && *z >= 0.0) {
+                    return Err(src.error(
+                        span(r),
+                        Some(format!("{}[{n}]", dk("ratios"))),
+                        format!("{z} must be a finite damping ratio ≥ 0"),
+                    ));
+                }
+            }
+            Some(([i as usize - 1, j as usize - 1], ratios))
+        }
+    };
+    let lumped = match raw.mass.as_ref().map(|m| (m, m.get_ref().as_str())) {
+        None | Some((_, "lumped")) => true,
+        Some((_, "consistent")) => false,
+        Some((m, other)) => {
+            return Err(src.error(
+                span(m),
+                Some(k("mass")),
+                format!("unknown mass matrix `{other}`: expected \"lumped\" or \"consistent\""),
+            ));
+        }
+    };
+    Ok(BodyDef {
+        shape,
+        modes,
+        reference,
+        damping,
+        lumped,
+    })
+}
