@@ -36,6 +36,25 @@ pub struct SectionProperties {
     pub shear_centre: [f64; 2],
 }
 
+/// One named scalar result (see [`SectionProperties::entries`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Entry {
+    pub name: String,
+    pub value: f64,
+    /// SI unit of the value.
+    pub unit: &'static str,
+}
+
+impl Entry {
+    fn new(name: impl Into<String>, value: f64, unit: &'static str) -> Self {
+        Self {
+            name: name.into(),
+            value,
+            unit,
+        }
+    }
+}
+
 /// Values and derivatives with respect to design variables.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct SectionSensitivities {
@@ -104,6 +123,47 @@ impl SectionProperties {
         mm[(4, 5)] = -j23;
         mm[(5, 4)] = -j23;
         mm
+    }
+
+    /// Every scalar result with a stable name and its SI unit, in a fixed order: `K11 … K66`
+    /// (row-major, 1-based, all 36), `Kc11 … Kc44`, area, mass per length, mass centre,
+    /// mass inertias, tension centre, shear centre. For tables, JSON and CSV; for a derivative
+    /// entry of [`SectionSensitivities`] append "/rad" to the unit.
+    pub fn entries(&self) -> Vec<Entry> {
+        const UNIT: [&str; 3] = ["N", "N*m", "N*m^2"];
+        let mut v = Vec::with_capacity(36 + 16 + 12);
+        for i in 0..6 {
+            for j in 0..6 {
+                let u = UNIT[usize::from(i >= 3) + usize::from(j >= 3)];
+                v.push(Entry::new(
+                    format!("K{}{}", i + 1, j + 1),
+                    self.stiffness[(i, j)],
+                    u,
+                ));
+            }
+        }
+        for i in 0..4 {
+            for j in 0..4 {
+                let u = UNIT[usize::from(i >= 1) + usize::from(j >= 1)];
+                v.push(Entry::new(
+                    format!("Kc{}{}", i + 1, j + 1),
+                    self.classical_stiffness[(i, j)],
+                    u,
+                ));
+            }
+        }
+        v.push(Entry::new("area", self.area, "m^2"));
+        v.push(Entry::new("mass_per_length", self.mass_per_length, "kg/m"));
+        v.push(Entry::new("mass_centre_x2", self.mass_centre[0], "m"));
+        v.push(Entry::new("mass_centre_x3", self.mass_centre[1], "m"));
+        v.push(Entry::new("mass_inertia_22", self.mass_inertia[0], "kg*m"));
+        v.push(Entry::new("mass_inertia_33", self.mass_inertia[1], "kg*m"));
+        v.push(Entry::new("mass_inertia_23", self.mass_inertia[2], "kg*m"));
+        v.push(Entry::new("tension_centre_x2", self.tension_centre[0], "m"));
+        v.push(Entry::new("tension_centre_x3", self.tension_centre[1], "m"));
+        v.push(Entry::new("shear_centre_x2", self.shear_centre[0], "m"));
+        v.push(Entry::new("shear_centre_x3", self.shear_centre[1], "m"));
+        v
     }
 
     pub(crate) fn from_props<S: Scalar>(

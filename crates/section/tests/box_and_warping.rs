@@ -116,3 +116,18 @@ fn results_do_not_depend_on_the_pinned_nodes() {
         assert!((a[0] - b[0]).abs() < 1e-12 && (a[1] - b[1]).abs() < 1e-12);
     }
 }
+
+#[test]
+fn entries_name_every_result_once() {
+    let p = analyse(&rectangle(0.02, 0.01, 4, 2, isotropic(E, NU), 0.0).unwrap()).unwrap();
+    let e = p.entries();
+    assert_eq!(e.len(), 36 + 16 + 11);
+    let k23 = e.iter().find(|x| x.name == "K45").unwrap();
+    assert_eq!((k23.value, k23.unit), (p.stiffness[(3, 4)], "N*m^2"));
+    let k14 = e.iter().find(|x| x.name == "K14").unwrap();
+    assert_eq!(k14.unit, "N*m");
+    let mut names: Vec<&str> = e.iter().map(|x| x.name.as_str()).collect();
+    names.sort();
+    names.dedup();
+    assert_eq!(names.len(), e.len());
+}
