@@ -230,6 +230,7 @@ pub struct Bdf {
     lu_c0: f64,
     /// Newton convergence-rate estimate (reset to 1 with every new matrix).
     newton_rate: f64,
+    last_rhs_error: Option<RhsError>,
     last_times: Vec<f64>,
     last_coeffs: Vec<f64>,
     last_order: usize,
@@ -252,6 +253,7 @@ impl Bdf {
             lu: None,
             lu_c0: 0.0,
             newton_rate: 1.0,
+            last_rhs_error: None,
             last_times: Vec::new(),
             last_coeffs: Vec::new(),
             last_order: 0,
@@ -538,18 +540,25 @@ impl Bdf {
                     None => break,
                 }
             }
+            if result.is_some() {
+                self.last_rhs_error = None;
+            }
             let Some(y_new) = result else {
                 self.stats.newton_failures += 1;
                 newton_fails += 1;
-                if fixed || newton_fails >= 10 {
-                    return Err(self.fail(IntegrationFailure::NewtonFailed {
+                let reason = match self.last_rhs_error.take() {
+                    Some(e) => IntegrationFailure::Rhs(e),
+                    None if self.h * 0.25 < min_step => {
+                        IntegrationFailure::StepTooSmall { min_step }
+                    }
+                    None => IntegrationFailure::NewtonFailed {
                         attempts: newton_fails,
-                    }));
+                    },
+                };
+                if fixed || newton_fails >= 10 || h * 0.25 < min_step {
+                    return Err(self.fail(reason));
                 }
                 self.h = h * 0.25;
-                if self.h < min_step {
-                    return Err(self.fail(IntegrationFailure::StepTooSmall { min_step }));
-                }
                 continue;
             };
             // local error estimates
@@ -739,8 +748,8 @@ impl Bdf {
         for it in 0..self.opts.max_newton_iterations {
             self.stats.newton_iterations += 1;
             if let Err(e) = sys.rhs(t, &y, &mut f) {
-                // treat as a convergence failure (the step will be reduced), unless repeated
-                let _ = e;
+                // a convergence failure (the step will be reduced); reported if it persists
+                self.last_rhs_error = Some(e);
                 return Ok(None);
             }
             self.stats.rhs_evaluations += 1;

@@ -167,3 +167,32 @@ fn fixed_step_mode_without_history_ramps_the_order_up() {
         .unwrap();
     assert_eq!(&orders[..5], &[1, 2, 3, 4, 4]);
 }
+
+/// A right-hand side that fails beyond t = 0.5.
+struct Fails;
+
+impl OdeSystem for Fails {
+    fn dim(&self) -> usize {
+        1
+    }
+    fn rhs(&mut self, t: f64, _y: &[f64], dy: &mut [f64]) -> Result<(), RhsError> {
+        if t > 0.5 {
+            return Err(RhsError("the augmented matrix is singular".into()));
+        }
+        dy[0] = 1.0;
+        Ok(())
+    }
+    fn jacobian(&mut self, _t: f64, _y: &[f64], j: &mut DMatrix<f64>) -> Result<(), RhsError> {
+        j[(0, 0)] = 0.0;
+        Ok(())
+    }
+}
+
+#[test]
+fn a_failing_right_hand_side_is_reported_with_its_message() {
+    let mut bdf = Bdf::new(BdfOptions::adaptive(1e-6, 1e-8));
+    bdf.init(&mut Fails, 0.0, &[0.0]).unwrap();
+    let err = bdf.integrate_to(&mut Fails, 1.0, &[], |_| {}).unwrap_err();
+    assert!(err.t <= 0.5 && err.t > 0.49, "{err}");
+    assert!(err.to_string().contains("singular"), "{err}");
+}
