@@ -23,6 +23,8 @@ fn cowper(nu: f64) -> f64 {
 }
 
 const E: f64 = 70e9;
+const K2_FROZEN: f64 = 0.832_941_850_3;
+const K3_FROZEN: f64 = 0.784_443_298_9;
 
 #[test]
 fn axial_bending_exact_and_torsion_within_half_percent() {
@@ -120,4 +122,23 @@ fn shear_stiffness_converges_and_stays_near_cowper() {
         // Displacement-based FE is stiff: refinement lowers the shear stiffness.
         assert!(ks[2][i] <= ks[0][i] * (1.0 + 1e-12));
     }
+}
+
+/// Frozen reference (2026-11-21, this implementation, 32×16 Q8): the energy-consistent shear
+/// coefficient of a 2:1 rectangle with ν = 0.3. Along the long side it is within 2 % of
+/// Cowper; across the wide direction the anticlastic effect puts it 7.7 % below Cowper's
+/// aspect-ratio-blind formula (expected: Cowper is exact only for ν = 0).
+#[test]
+fn wide_rectangle_shear_coefficients_frozen() {
+    let nu = 0.3;
+    let g = E / (2.0 * (1.0 + nu));
+    let (b, h) = (0.02, 0.01);
+    let p = analyse(&rectangle(b, h, 32, 16, isotropic(E, nu), 0.0).unwrap()).unwrap();
+    let (k2, k3) = (
+        p.stiffness[(1, 1)] / (g * b * h),
+        p.stiffness[(2, 2)] / (g * b * h),
+    );
+    assert!(rel(k2, cowper(nu)) < 0.02, "k2 = {k2}");
+    assert!((k2 - K2_FROZEN).abs() < 1e-6, "k2 = {k2}");
+    assert!((k3 - K3_FROZEN).abs() < 1e-6, "k3 = {k3}");
 }
