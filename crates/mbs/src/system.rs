@@ -77,13 +77,28 @@ pub struct MultibodySystem {
 const CHUNK: usize = 8;
 
 impl MultibodySystem {
-    /// Wrap `model`, checking the constraint Jacobian at `state` for redundant equations.
+    /// Wrap `model`, checking the constraint Jacobian at `state` (t = 0) for redundant
+    /// equations.
     pub fn new(
         model: Model<f64>,
         state: &State,
         policy: RedundancyPolicy,
     ) -> Result<Self, ConstraintError> {
-        let c = model.constraints(0.0, &state.q, &state.v);
+        Self::new_at(model, 0.0, state, policy)
+    }
+
+    /// As [`MultibodySystem::new`], with the redundancy check at time `t` (drivers).
+    ///
+    /// On flexible bodies redundancy can depend on the deformation: equations dependent in the
+    /// undeformed state may become (weakly) independent as the body deforms. The rows chosen
+    /// here are kept for the whole run.
+    pub fn new_at(
+        model: Model<f64>,
+        t: f64,
+        state: &State,
+        policy: RedundancyPolicy,
+    ) -> Result<Self, ConstraintError> {
+        let c = model.constraints(t, &state.q, &state.v);
         let (rows, removed) = independent_rows(&c.jacobian);
         if !removed.is_empty() && policy == RedundancyPolicy::Error {
             return Err(ConstraintError::Redundant {
