@@ -1,37 +1,8 @@
 //! The Giavotto/BECAS warping analysis: assembly, the two solves with one factorisation, the
 //! compliance from the strain energy, and tangents through the same factorisation.
 //!
-//! # Formulation
-//! The displacement of a prismatic beam is a rigid section motion plus a warping field
-//! `w(x₂, x₃, x₁) = N(x₂, x₃) u(x₁)` (three components per node). With the generalised strains
-//! `ψ = [ε, γ₂, γ₃, κ₁, κ₂, κ₃]` the 3-D strain (Voigt `[11, 22, 33, 23, 13, 12]`) is
 //!
-//! `ε = Z ψ + B N u + S N u'`,
-//!
-//! where `Z` carries the rigid-section strains (`ε₁₁ = ε + x₃κ₂ − x₂κ₃`, `γ₁₂ = γ₂ − x₃κ₁`,
-//! `γ₁₃ = γ₃ + x₂κ₁`), `B` the in-plane derivatives and `S` the axial derivative of the warping.
-//! Under end loads the section forces `θ = [F₁, F₂, F₃, M₁, M₂, M₃]` vary as `θ' = T θ`
-//! (`M₂' = F₃`, `M₃' = −F₂`), and the central (Saint-Venant) solution is `u = X θ`, `ψ = Y θ`,
-//! `u' = X₁ θ`, `ψ' = Y₁ θ` with `X₁ = X T`. Equilibrium of the section gives two linear systems
-//! with the same symmetric matrix `K = ∫[BN Z]ᵀ Q [BN Z]` (Giavotto et al. 1983; Blasques 2012):
-//!
-//! 1. `∫[BN Z]ᵀ Q (BN X₁ + Z Y₁) = [0; T]`,
-//! 2. `∫[BN Z]ᵀ Q (BN X + Z Y + SN X₁) = [∫(SN)ᵀ Q (BN X₁ + Z Y₁); I]`,
-//!
-//! and the compliance is the strain energy per unit length, `F = ∫ εᵀ Q ε` with
-//! `ε = Z Y + BN X + SN X₁` per unit force. The stiffness is `F⁻¹`.
-//!
-//! The six rigid-body modes of the warping are removed by pinning six nodal components
-//! (`w₁` at three non-collinear nodes, `w₂, w₃` at one node and one more in-plane component at
-//! the node farthest from it). The right-hand sides are self-equilibrated, so the reactions at
-//! the pins vanish and the compliance does not depend on the choice; the pinned `K` is
-//! symmetric positive definite and factorised once by sparse Cholesky (faer).
-//!
-//! Derivatives: with `X̂₁, Ŷ₁, X̂, Ŷ` fixed, the residuals of systems 1 and 2 are evaluated with
-//! dual-number ply angles (only `Q` depends on them) and their tangents pushed through the same
-//! factorisation (DESIGN.md §1; the pattern of [`sens::solve_tangents`], batched so that the
-//! `6 N` tangent columns of a system go through one multi-column solve of
-//! [`sens::LinearSolver`]); the compliance is then evaluated in duals.
+//! The formulation is documented on [`SectionAnalysis`].
 
 use faer::Side;
 use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
@@ -64,6 +35,38 @@ const NONE: usize = usize::MAX;
 
 /// A section whose warping system has been assembled, factorised and solved: values are
 /// available at once, derivatives for any design map on request (reusing the factorisation).
+///
+/// # Formulation
+/// The displacement of a prismatic beam is a rigid section motion plus a warping field
+/// `w(x₂, x₃, x₁) = N(x₂, x₃) u(x₁)` (three components per node). With the generalised strains
+/// `ψ = [ε, γ₂, γ₃, κ₁, κ₂, κ₃]` the 3-D strain (Voigt `[11, 22, 33, 23, 13, 12]`) is
+///
+/// `ε = Z ψ + B N u + S N u'`,
+///
+/// where `Z` carries the rigid-section strains (`ε₁₁ = ε + x₃κ₂ − x₂κ₃`, `γ₁₂ = γ₂ − x₃κ₁`,
+/// `γ₁₃ = γ₃ + x₂κ₁`), `B` the in-plane derivatives and `S` the axial derivative of the warping.
+/// Under end loads the section forces `θ = [F₁, F₂, F₃, M₁, M₂, M₃]` vary as `θ' = T θ`
+/// (`M₂' = F₃`, `M₃' = −F₂`), and the central (Saint-Venant) solution is `u = X θ`, `ψ = Y θ`,
+/// `u' = X₁ θ`, `ψ' = Y₁ θ` with `X₁ = X T`. Equilibrium of the section gives two linear systems
+/// with the same symmetric matrix `K = ∫[BN Z]ᵀ Q [BN Z]` (Giavotto et al. 1983; Blasques 2012):
+///
+/// 1. `∫[BN Z]ᵀ Q (BN X₁ + Z Y₁) = [0; T]`,
+/// 2. `∫[BN Z]ᵀ Q (BN X + Z Y + SN X₁) = [∫(SN)ᵀ Q (BN X₁ + Z Y₁); I]`,
+///
+/// and the compliance is the strain energy per unit length, `F = ∫ εᵀ Q ε` with
+/// `ε = Z Y + BN X + SN X₁` per unit force. The stiffness is `F⁻¹`.
+///
+/// The six rigid-body modes of the warping are removed by pinning six nodal components
+/// (`w₁` at three non-collinear nodes, `w₂, w₃` at one node and one more in-plane component at
+/// the node farthest from it). The right-hand sides are self-equilibrated, so the reactions at
+/// the pins vanish and the compliance does not depend on the choice; the pinned `K` is
+/// symmetric positive definite and factorised once by sparse Cholesky (faer).
+///
+/// Derivatives: with `X̂₁, Ŷ₁, X̂, Ŷ` fixed, the residuals of systems 1 and 2 are evaluated with
+/// dual-number ply angles (only `Q` depends on them) and their tangents pushed through the same
+/// factorisation (DESIGN.md §1; the pattern of [`sens::solve_tangents`], batched so that the
+/// `6 N` tangent columns of a system go through one multi-column solve of
+/// [`sens::LinearSolver`]); the compliance is then evaluated in duals.
 pub struct SectionAnalysis {
     model: Model,
     llt: Llt<usize, f64>,

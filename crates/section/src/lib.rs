@@ -33,8 +33,31 @@
 //!
 //! # Formulation
 //! Giavotto et al. (1983) / BECAS (Blasques 2012): two linear systems with one sparse matrix,
-//! factorised once by sparse Cholesky; see the docs of [`SectionAnalysis`] and of the
-//! `analysis` module source for the equations. Derivatives follow DESIGN.md §1.
+//! factorised once by sparse Cholesky; the equations are on [`SectionAnalysis`]. Derivatives
+//! follow DESIGN.md §1.
+//!
+//! # Use
+//! ```
+//! use section::{DesignMap, PlySpec, analyse_with_derivatives, tube};
+//! let cfrp = laminate::OrthotropicMaterial::new(
+//!     [128e9, 10.1e9, 10.1e9], [5.36e9; 3], [0.23; 3], 1586.0).unwrap();
+//! let deg = std::f64::consts::PI / 180.0;
+//! let plies = [
+//!     PlySpec::new("inner", cfrp, 30.0 * deg, 0.0005, 1),
+//!     PlySpec::new("outer", cfrp, -30.0 * deg, 0.0005, 1),
+//! ];
+//! let mesh = tube(0.01, &plies, 32)?;
+//! // One design variable θ drives the lay-up [θ/−θ].
+//! let design = DesignMap::new().with_named_variable(&mesh, "theta", &[("inner", 1.0), ("outer", -1.0)])?;
+//! let s = analyse_with_derivatives::<4>(&mesh, &design)?;
+//! let ea = s.properties.stiffness[(0, 0)];
+//! let dea_dtheta = s.derivatives[0].stiffness[(0, 0)]; // per radian
+//! assert!(ea > 0.0 && dea_dtheta < 0.0); // turning the fibres away from the axis softens it
+//! # Ok::<(), section::SectionError>(())
+//! ```
+//!
+//! Errors are [`SectionError`] values whose messages name the element, node, region or text
+//! line at fault.
 
 mod analysis;
 mod design;
