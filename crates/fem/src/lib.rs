@@ -38,4 +38,5 @@ pub use mesh::{Element, GmshTriangles, Mesh, MeshError, NodeId, parse_gmsh_v4};
 pub use modal::{ModalBody, ModalBodyError, NODE_DOFS};
 pub use sensitivity::{
     DesignMatrices, ModeDerivatives, directional_eigenvalue_derivatives, mode_derivatives,
+    mode_derivatives_with,
 };

@@ -71,6 +71,7 @@ pub struct ModeDerivatives {
 enum Factor {
     Dense(faer::linalg::solvers::PartialPivLu<f64>),
     Sparse(Lu<usize, f64>),
+    Ldlt(SparseLdlt),
 }
 
 impl Factor {
@@ -78,7 +79,74 @@ impl Factor {
         match self {
             Factor::Dense(f) => f.solve_columns(rhs, 1),
             Factor::Sparse(f) => f.solve_columns(rhs, 1),
+            Factor::Ldlt(f) => f.solve(rhs),
         }
+    }
+}
+
+/// Sparse symmetric `LDLᵀ` (faer's supernodal factorisation, no pivoting) of the symmetric
+/// indefinite Nelson matrix: about as fast as a Cholesky factorisation and several times faster
+/// than a sparse LU. Without pivoting it can meet a tiny pivot; every solve is therefore
+/// checked by its residual and the caller falls back to LU when it is poor.
+struct SparseLdlt {
+    symbolic: std::sync::Arc<faer::sparse::linalg::cholesky::SymbolicCholesky<usize>>,
+    values: Vec<f64>,
+}
+
+impl SparseLdlt {
+    fn symbolic(
+        a: &SparseColMat<usize, f64>,
+    ) -> Result<std::sync::Arc<faer::sparse::linalg::cholesky::SymbolicCholesky<usize>>, FemError>
+    {
+        faer::sparse::linalg::cholesky::factorize_symbolic_cholesky(
+            a.symbolic(),
+            faer::Side::Lower,
+            Default::default(),
+            Default::default(),
+        )
+        .map(std::sync::Arc::new)
+        .map_err(|e| FemError::Eigen(format!("symbolic LDLᵀ: {e:?}")))
+    }
+
+    fn new(
+        symbolic: std::sync::Arc<faer::sparse::linalg::cholesky::SymbolicCholesky<usize>>,
+        a: &SparseColMat<usize, f64>,
+    ) -> Option<Self> {
+        let par = faer::Par::Seq;
+        let mut values = vec![0.0; symbolic.len_val()];
+        let req = symbolic.factorize_numeric_ldlt_scratch::<f64>(par, Default::default());
+        let mut mem = faer::dyn_stack::MemBuffer::new(req);
+        let stack = faer::dyn_stack::MemStack::new(&mut mem);
+        symbolic
+            .factorize_numeric_ldlt(
+                &mut values,
+                a.as_ref(),
+                faer::Side::Lower,
+                Default::default(),
+                par,
+                stack,
+                Default::default(),
+            )
+            .ok()?;
+        if values.iter().any(|v| !v.is_finite()) {
+            return None;
+        }
+        Some(Self { symbolic, values })
+    }
+
+    fn solve(&self, rhs: &mut [f64]) {
+        let par = faer::Par::Seq;
+        let n = rhs.len();
+        let req = self.symbolic.solve_in_place_scratch::<f64>(1, par);
+        let mut mem = faer::dyn_stack::MemBuffer::new(req);
+        let stack = faer::dyn_stack::MemStack::new(&mut mem);
+        let ldlt = faer::sparse::linalg::cholesky::LdltRef::new(&self.symbolic, &self.values);
+        ldlt.solve_in_place_with_conj(
+            faer::Conj::No,
+            faer::MatMut::from_column_major_slice_mut(rhs, n, 1),
+            par,
+            stack,
+        );
     }
 }
 
@@ -159,6 +227,22 @@ pub fn mode_derivatives(
     eigenvectors: bool,
     second: Option<&[Vec<SecondDerivatives>]>,
 ) -> Result<ModeDerivatives, FemError> {
+    let dense = k.nrows() <= crate::eigen::DENSE_LIMIT;
+    mode_derivatives_with(k, m, modes, design, eigenvectors, second, dense)
+}
+
+/// [`mode_derivatives`] with the factorisation of the Nelson matrices chosen explicitly:
+/// `dense` (faer dense LU) or sparse (faer supernodal `LDLᵀ`, residual-checked, sparse LU as
+/// fallback).
+pub fn mode_derivatives_with(
+    k: &SparseColMat<usize, f64>,
+    m: &SparseColMat<usize, f64>,
+    modes: &Eigenpairs,
+    design: &[DesignMatrices],
+    eigenvectors: bool,
+    second: Option<&[Vec<SecondDerivatives>]>,
+    dense: bool,
+) -> Result<ModeDerivatives, FemError> {
     let n = k.nrows();
     let p = modes.values.len();
     let groups = clusters(&modes.values, CLUSTER_RTOL);
@@ -171,12 +255,12 @@ pub fn mode_derivatives(
     } else {
         None
     };
-    let dense = n <= crate::eigen::DENSE_LIMIT;
-    let symbolic = if eigenvectors && !dense {
-        Some(SymbolicLu::try_new(k.symbolic()).map_err(|e| FemError::Eigen(format!("{e:?}")))?)
+    let symbolic_ldlt = if eigenvectors && !dense {
+        Some(SparseLdlt::symbolic(k)?)
     } else {
         None
     };
+    let mut symbolic_lu: Option<SymbolicLu<usize>> = None;
     let mut tmp = vec![0.0; n];
     for (gi, g) in groups.iter().enumerate() {
         let r = g.len();
@@ -223,11 +307,14 @@ pub fn mode_derivatives(
             }
             Factor::Dense(ad.partial_piv_lu())
         } else {
-            Factor::Sparse(
-                Lu::try_new_with_symbolic(symbolic.clone().expect("symbolic LU"), a.as_ref())
-                    .map_err(|e| FemError::Eigen(format!("Nelson factorisation: {e:?}")))?,
-            )
+            match SparseLdlt::new(symbolic_ldlt.clone().expect("symbolic LDLᵀ"), &a) {
+                Some(f) => Factor::Ldlt(f),
+                None => sparse_lu(&a, &mut symbolic_lu)?,
+            }
         };
+        // residual-checked solve, with an LU fallback for a poorly pivoted LDLᵀ
+        let mut factor = factor;
+        let mut checked = false;
         for (v, dm) in design.iter().enumerate() {
             let (vals, gam, mb) = &per_var[v];
             let zr = &z * gam;
@@ -245,7 +332,24 @@ pub fn mode_derivatives(
                 for &q in &removed {
                     f[q] = 0.0;
                 }
+                let rhs = f.clone();
                 factor.solve(&mut f);
+                if !checked && matches!(factor, Factor::Ldlt(_)) {
+                    checked = true;
+                    spmv(&a, &f, &mut tmp);
+                    let num: f64 = tmp
+                        .iter()
+                        .zip(&rhs)
+                        .map(|(x, y)| (x - y).powi(2))
+                        .sum::<f64>()
+                        .sqrt();
+                    let den: f64 = rhs.iter().map(|y| y * y).sum::<f64>().sqrt();
+                    if !(num <= 1e-8 * den) {
+                        factor = sparse_lu(&a, &mut symbolic_lu)?;
+                        f.copy_from_slice(&rhs);
+                        factor.solve(&mut f);
+                    }
+                }
                 vs.column_mut(j).copy_from_slice(&f);
             }
             // coefficients c (r × r): x_b = V + Z c
@@ -296,6 +400,19 @@ pub fn mode_derivatives(
         rotations: rot,
         clusters: groups,
     })
+}
+
+fn sparse_lu(
+    a: &SparseColMat<usize, f64>,
+    symbolic: &mut Option<SymbolicLu<usize>>,
+) -> Result<Factor, FemError> {
+    if symbolic.is_none() {
+        *symbolic =
+            Some(SymbolicLu::try_new(a.symbolic()).map_err(|e| FemError::Eigen(format!("{e:?}")))?);
+    }
+    let lu = Lu::try_new_with_symbolic(symbolic.clone().expect("set above"), a.as_ref())
+        .map_err(|e| FemError::Eigen(format!("Nelson factorisation: {e:?}")))?;
+    Ok(Factor::Sparse(lu))
 }
 
 fn axpy(a: f64, x: &[f64], y: &mut [f64]) {
