@@ -71,6 +71,7 @@ pub struct MultibodySystem {
     model: Model<f64>,
     rows: Vec<usize>,
     removed: Vec<usize>,
+    policy: RedundancyPolicy,
 }
 
 /// Width of the dual chunks used for the state Jacobian.
@@ -109,6 +110,7 @@ impl MultibodySystem {
             model,
             rows,
             removed,
+            policy,
         })
     }
 
@@ -125,6 +127,7 @@ impl MultibodySystem {
             model,
             rows: self.rows.clone(),
             removed: self.removed.clone(),
+            policy: self.policy,
         }
     }
 
@@ -163,55 +166,43 @@ impl MultibodySystem {
         })
     }
 
-    /// Project `state` onto the position and velocity constraints (minimum-norm Gauss–Newton
-    /// in the velocity variables), to `tol` in `max |Φ|` and `max |Φ̇|`.
-    pub fn assemble(&self, t: f64, state: &mut State, tol: f64) -> Result<(), ConstraintError> {
+    /// Project `state` onto the position and velocity constraints, to `tol` in `max |Φ|` and
+    /// `max |Φ̇|`: Gauss–Newton steps `Δ = −Φ_v⁺ Φ` (minimum norm in the velocity variables,
+    /// pseudo-inverse over all rows, so redundant equations are satisfied too), then
+    /// `v ← v − Φ_v⁺ Φ̇`. Redundancy is then re-checked at the assembled state (with the policy
+    /// given at construction), since rows dependent there may differ from those at an
+    /// inconsistent starting guess.
+    pub fn assemble(&mut self, t: f64, state: &mut State, tol: f64) -> Result<(), ConstraintError> {
         let max_it = 50;
-        let mut res = f64::INFINITY;
         for it in 0..=max_it {
             let c = self.model.constraints(t, &state.q, &state.v);
-            let phi: Vec<f64> = self.rows.iter().map(|&r| c.phi[r]).collect();
-            res = phi.iter().fold(0.0, |m, x| m.max(x.abs()));
+            let res = c.phi.iter().fold(0.0, |m: f64, x| m.max(x.abs()));
             if res <= tol {
                 break;
             }
-            if it == max_it {
+            if it == max_it || !res.is_finite() {
                 return Err(ConstraintError::AssemblyFailed {
                     residual: res,
                     iterations: it,
                 });
             }
-            let d = self
-                .min_norm(&c.jacobian, &phi)
-                .ok_or(ConstraintError::Singular { t })?;
+            let d = min_norm(&c.jacobian, &c.phi);
             self.apply_increment(&mut state.q, &d);
         }
-        if !res.is_finite() {
-            return Err(ConstraintError::AssemblyFailed {
-                residual: res,
-                iterations: max_it,
+        let c = self.model.constraints(t, &state.q, &state.v);
+        let (rows, removed) = independent_rows(&c.jacobian);
+        if !removed.is_empty() && self.policy == RedundancyPolicy::Error {
+            return Err(ConstraintError::Redundant {
+                equations: describe_rows(&self.model, &removed),
             });
         }
-        let c = self.model.constraints(t, &state.q, &state.v);
-        let rate: Vec<f64> = self.rows.iter().map(|&r| c.phi_dot[r]).collect();
-        let d = self
-            .min_norm(&c.jacobian, &rate)
-            .ok_or(ConstraintError::Singular { t })?;
+        self.rows = rows;
+        self.removed = removed;
+        let d = min_norm(&c.jacobian, &c.phi_dot);
         for (a, b) in state.v.iter_mut().zip(&d) {
             *a += b;
         }
         Ok(())
-    }
-
-    /// `−Jᵀ (J Jᵀ)⁻¹ r` over the active rows.
-    fn min_norm(&self, jac: &DMatrix<f64>, r: &[f64]) -> Option<Vec<f64>> {
-        if self.rows.is_empty() {
-            return Some(vec![0.0; jac.ncols()]);
-        }
-        let j = DMatrix::from_fn(self.rows.len(), jac.ncols(), |i, c| jac[(self.rows[i], c)]);
-        let jjt = &j * j.transpose();
-        let y = jjt.lu().solve(&DVector::from_column_slice(r))?;
-        Some((-(j.transpose() * y)).as_slice().to_vec())
     }
 
     /// `q ← q ⊕ Δ` for an increment `Δ` in the velocity variables (rotations exact).
@@ -340,6 +331,19 @@ impl MultibodySystem {
             energy: self.model.energy(t, q, v),
         })
     }
+}
+
+/// `−J⁺ r` (minimum-norm least squares; tolerant of dependent rows).
+fn min_norm(jac: &DMatrix<f64>, r: &[f64]) -> Vec<f64> {
+    if jac.nrows() == 0 {
+        return vec![0.0; jac.ncols()];
+    }
+    let svd = jac.clone().svd(true, true);
+    let eps = 1e-10 * svd.singular_values.max();
+    let x = svd
+        .solve(&DVector::from_column_slice(r), eps)
+        .expect("u and vᵀ were computed");
+    (-x).as_slice().to_vec()
 }
 
 /// Greedy modified Gram–Schmidt on the rows of `jac`: `(independent, dependent)` row indices.

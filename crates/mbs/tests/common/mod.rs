@@ -277,7 +277,7 @@ pub fn slider_crank(omega: f64, flexible_rod: Option<usize>) -> (Model<f64>, Sta
 
 /// System with redundant equations removed and a consistent initial state.
 pub fn assembled(model: Model<f64>, mut state: State) -> (MultibodySystem, State) {
-    let sys = MultibodySystem::new(model, &state, RedundancyPolicy::Remove).unwrap();
+    let mut sys = MultibodySystem::new(model, &state, RedundancyPolicy::Remove).unwrap();
     sys.assemble(0.0, &mut state, 1e-13).unwrap();
     (sys, state)
 }
