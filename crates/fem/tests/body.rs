@@ -1,0 +1,109 @@
+//! Reference conditions of floating-frame bodies and the f64 ModalBody.
+
+mod common;
+
+use common::{Rect, rel};
+use fem::{Mesh, ModalOptions, ReferenceCondition, modal_analysis, modal_body};
+use nalgebra::Vector3;
+
+fn slender() -> Rect {
+    // weak axis: bending in x–z (about x₂ = y), hz < hy
+    Rect {
+        e: 70e9,
+        nu: 0.3,
+        rho: 2700.0,
+        hy: 0.02,
+        hz: 0.01,
+        kappa: 5.0 / 6.0,
+    }
+}
+
+fn beam(n: usize) -> Mesh {
+    Mesh::straight_beam(
+        Vector3::new(0.2, 0.0, 0.0),
+        Vector3::new(1.2, 0.0, 0.0),
+        n,
+        0,
+        Vector3::y(),
+    )
+    .unwrap()
+}
+
+fn eb(r: &Rect, beta_l: f64, l: f64) -> f64 {
+    // weak-axis Euler–Bernoulli eigenvalue (βL)⁴ EI/(ρA L⁴)
+    beta_l.powi(4) * r.e * r.i2() / (r.rho * r.area() * l.powi(4))
+}
+
+#[test]
+fn free_free_beam_drops_six_rigid_modes() {
+    let r = slender();
+    let mesh = beam(40);
+    let mut o = ModalOptions::new(3);
+    o.reference = ReferenceCondition::FreeFree;
+    let an = modal_analysis(&mesh, &r.props(), &o).unwrap();
+    assert_eq!(an.n_rigid, 6);
+    let exact = eb(&r, 4.730_040_744_862_704, 1.0);
+    assert!(
+        rel(an.eigenvalues()[0].sqrt(), exact.sqrt()) < 5e-3,
+        "{} vs {exact}",
+        an.eigenvalues()[0]
+    );
+    let body = modal_body(&mesh, &r.props(), &an).unwrap();
+    body.validate().unwrap();
+    // frame at the centre of mass
+    let first_moment = body
+        .node_positions
+        .iter()
+        .zip(&body.node_masses)
+        .fold(Vector3::zeros(), |a, (p, m)| a + p * *m);
+    assert!(first_moment.norm() < 1e-12 * body.total_mass());
+    assert!(rel(body.total_mass(), r.rho * r.area()) < 1e-12);
+}
+
+#[test]
+fn clamped_at_centre_of_mass_gives_two_half_cantilevers() {
+    let r = slender();
+    let mesh = beam(40);
+    let an = modal_analysis(&mesh, &r.props(), &ModalOptions::new(2)).unwrap();
+    // node 20 (x = 0.7) is clamped: both halves are cantilevers of length 0.5, a repeated pair
+    assert!(an.constraints.is_fixed(6 * 20) && an.constraints.is_fixed(6 * 20 + 5));
+    let exact = eb(&r, 1.875_104_068_711_961, 0.5);
+    for i in 0..2 {
+        assert!(
+            rel(an.eigenvalues()[i].sqrt(), exact.sqrt()) < 5e-3,
+            "{} vs {exact}",
+            an.eigenvalues()[i]
+        );
+    }
+    let body = modal_body(&mesh, &r.props(), &an).unwrap();
+    assert!(body.node_positions[20].norm() < 1e-15);
+    assert!((body.node_positions[0] - Vector3::new(-0.5, 0.0, 0.0)).norm() < 1e-12);
+    // the clamped node does not move in any mode
+    assert!(body.modes.rows(6 * 20, 6).iter().all(|&v| v == 0.0));
+}
+
+#[test]
+fn pinned_ends_give_the_simply_supported_beam() {
+    let r = slender();
+    let mesh = beam(40);
+    let mut o = ModalOptions::new(2);
+    o.reference = ReferenceCondition::PinnedEnds { a: 0, b: 40 };
+    let an = modal_analysis(&mesh, &r.props(), &o).unwrap();
+    let exact = eb(&r, std::f64::consts::PI, 1.0);
+    assert!(
+        rel(an.eigenvalues()[0].sqrt(), exact.sqrt()) < 5e-3,
+        "{} vs {exact}",
+        an.eigenvalues()[0]
+    );
+    // strong-axis bending is the second mode, four times stiffer (hy = 2 hz)
+    assert!(rel(an.eigenvalues()[1], 4.0 * an.eigenvalues()[0]) < 1e-2);
+    let body = modal_body(&mesh, &r.props(), &an).unwrap();
+    assert!(body.node_positions[0].norm() < 1e-15);
+    // frequencies in Hz and unit modal masses for reporting
+    let f = an.frequencies_hz();
+    assert!(rel(f[0], exact.sqrt() / (2.0 * std::f64::consts::PI)) < 5e-3);
+    assert!(an.modal_masses().iter().all(|m| (m - 1.0).abs() < 1e-10));
+    // invalid reference conditions are reported
+    o.reference = ReferenceCondition::PinnedEnds { a: 0, b: 0 };
+    assert!(modal_analysis(&mesh, &r.props(), &o).is_err());
+}
