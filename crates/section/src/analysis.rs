@@ -29,6 +29,8 @@ struct GaussPoint {
     n: [f64; MAX_NODES],
     /// Their derivatives `[∂/∂x₂, ∂/∂x₃]`.
     dx: [[f64; 2]; MAX_NODES],
+    /// The parametric directions `[∂x/∂ξ, ∂x/∂η]`.
+    dx_dxi: [[f64; 2]; 2],
 }
 
 const NONE: usize = usize::MAX;
@@ -550,7 +552,7 @@ impl Model {
         gp: &GaussPoint,
         q_ply: &Matrix6<S>,
     ) -> Matrix6<S> {
-        let r = self.mesh.regions[region].frame.rotation_at(gp.x);
+        let r = self.mesh.regions[region].frame.rotation_at(gp.x, gp.dx_dxi);
         congruence(&bond_stress_matrix(&r), q_ply)
     }
 
@@ -876,6 +878,7 @@ fn geometry(mesh: &SectionMesh) -> (Vec<GaussPoint>, Vec<usize>) {
                 x: [0.0; 2],
                 n: [0.0; MAX_NODES],
                 dx: [[0.0; 2]; MAX_NODES],
+                dx_dxi: [[j[0][0], j[1][0]], [j[0][1], j[1][1]]],
             };
             for a in 0..nn {
                 gp.n[a] = n[a];

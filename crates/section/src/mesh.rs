@@ -24,12 +24,35 @@ pub enum WallFrame {
     /// from the centre, `n = (p − c)/|p − c|`, and `t = n × x₁ = (n₃, −n₂)` (clockwise when
     /// `x₁` points at the viewer).
     Radial { centre: [f64; 2] },
+    /// A wall whose tangent follows each element's own parametric direction (at every
+    /// integration point `t = ∂x/∂ξ / |∂x/∂ξ|`, or `∂x/∂η` for [`ElementDirection::Eta`]), so
+    /// curved walls of any shape meshed with elements aligned with the wall (e.g. structured
+    /// Gmsh meshes) get their local frame without per-element input. For quadrilaterals `ξ`
+    /// runs from the edge 3–0 to the edge 1–2 (along the edge 0→1), `η` along the edge 0→3;
+    /// for triangles along the edges 0→1 and 0→2.
+    AlongElement(ElementDirection),
+}
+
+/// A parametric direction of an element (see [`WallFrame::AlongElement`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ElementDirection {
+    Xi,
+    Eta,
 }
 
 impl WallFrame {
-    /// The in-plane tangent `t` at the point `p`.
-    pub fn tangent_at(&self, p: [f64; 2]) -> [f64; 2] {
+    /// The in-plane tangent `t` at the point `p`, where the element's parametric directions
+    /// are `dx_dxi = [∂x/∂ξ, ∂x/∂η]` (used only by [`WallFrame::AlongElement`]).
+    pub fn tangent_at(&self, p: [f64; 2], dx_dxi: [[f64; 2]; 2]) -> [f64; 2] {
         match *self {
+            WallFrame::AlongElement(dir) => {
+                let v = dx_dxi[match dir {
+                    ElementDirection::Xi => 0,
+                    ElementDirection::Eta => 1,
+                }];
+                let l = v[0].hypot(v[1]);
+                [v[0] / l, v[1] / l]
+            }
             WallFrame::Tangent(beta) => [beta.cos(), beta.sin()],
             WallFrame::Radial { centre } => {
                 let (d2, d3) = (p[0] - centre[0], p[1] - centre[1]);
@@ -44,9 +67,9 @@ impl WallFrame {
     }
 
     /// The rotation whose columns are the wall axes `(x₁, t, n)` in section axes
-    /// `(x₁, x₂, x₃)`, at the point `p`.
-    pub fn rotation_at(&self, p: [f64; 2]) -> Matrix3<f64> {
-        let [t2, t3] = self.tangent_at(p);
+    /// `(x₁, x₂, x₃)`, at the point `p` (see [`WallFrame::tangent_at`]).
+    pub fn rotation_at(&self, p: [f64; 2], dx_dxi: [[f64; 2]; 2]) -> Matrix3<f64> {
+        let [t2, t3] = self.tangent_at(p, dx_dxi);
         // n = x₁ × t = (0, −t₃, t₂).
         Matrix3::new(1.0, 0.0, 0.0, 0.0, t2, -t3, 0.0, t3, t2)
     }
@@ -57,6 +80,7 @@ impl WallFrame {
             WallFrame::Radial { centre } => WallFrame::Radial {
                 centre: rotate2(centre, alpha),
             },
+            WallFrame::AlongElement(d) => WallFrame::AlongElement(d),
         }
     }
 
@@ -66,6 +90,7 @@ impl WallFrame {
             WallFrame::Radial { centre } => WallFrame::Radial {
                 centre: [centre[0] + d[0], centre[1] + d[1]],
             },
+            WallFrame::AlongElement(dir) => WallFrame::AlongElement(dir),
         }
     }
 }

@@ -8,7 +8,7 @@ use laminate::OrthotropicMaterial;
 
 use crate::SectionError;
 use crate::element::ElementKind;
-use crate::mesh::{Element, Region, SectionMesh, WallFrame};
+use crate::mesh::{Element, ElementDirection, Region, SectionMesh, WallFrame};
 
 /// Properties of a named region: a Gmsh physical surface group, or a ply.
 #[derive(Clone, Debug, PartialEq)]
@@ -302,6 +302,8 @@ pub fn parse_gmsh(text: &str, regions: &[RegionSpec]) -> Result<SectionMesh, Sec
 /// material <name> orthotropic <E1> <E2> <E3> <G12> <G13> <G23> <nu12> <nu13> <nu23> <rho>
 /// region <name> <material> <ply angle> tangent <beta>       # straight wall, tangent at beta
 /// region <name> <material> <ply angle> radial <c2> <c3>     # curved wall around (c2, c3)
+/// region <name> <material> <ply angle> xi                    # tangent along each element's ξ
+/// region <name> <material> <ply angle> eta                   # … or η (see WallFrame)
 /// node <id> <x2> <x3>
 /// element <tri6|quad8|quad9> <region> <node id> ...         # Gmsh node order
 /// ```
@@ -408,7 +410,7 @@ pub fn parse_simple(
             other => {
                 return Err(parse_err(
                     line,
-                    format!("frame '{other}': expected 'tangent' or 'radial'"),
+                    format!("frame '{other}': expected 'tangent', 'radial', 'xi' or 'eta'"),
                 ));
             }
         };
@@ -492,6 +494,8 @@ pub fn write_simple(mesh: &SectionMesh) -> String {
         let frame = match r.frame {
             WallFrame::Tangent(b) => format!("tangent {:e}", b.to_degrees()),
             WallFrame::Radial { centre } => format!("radial {:e} {:e}", centre[0], centre[1]),
+            WallFrame::AlongElement(ElementDirection::Xi) => "xi".to_string(),
+            WallFrame::AlongElement(ElementDirection::Eta) => "eta".to_string(),
         };
         let _ = writeln!(
             s,
