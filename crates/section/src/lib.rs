@@ -75,4 +75,4 @@ pub use error::SectionError;
 pub use generate::{BoxWalls, PlySpec, rectangle, thin_walled_box, tube};
 pub use mesh::{Element, ElementDirection, Region, SectionMesh, WallFrame};
 pub use parse::{RegionSpec, parse_gmsh, parse_simple, write_simple};
-pub use properties::{Entry, SectionProperties, SectionSensitivities};
+pub use properties::{Entry, ReferencePoint, SectionProperties, SectionSensitivities};

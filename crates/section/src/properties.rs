@@ -67,6 +67,56 @@ pub struct SectionSensitivities {
     pub derivatives: Vec<SectionProperties>,
 }
 
+/// A point of the section to which the stiffness may be referred.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ReferencePoint {
+    Origin,
+    /// A fixed point `(x₂, x₃)`.
+    Point([f64; 2]),
+    TensionCentre,
+    ShearCentre,
+    MassCentre,
+}
+
+impl ReferencePoint {
+    fn of(&self, p: &SectionProperties) -> [f64; 2] {
+        match *self {
+            ReferencePoint::Origin => [0.0, 0.0],
+            ReferencePoint::Point(q) => q,
+            ReferencePoint::TensionCentre => p.tension_centre,
+            ReferencePoint::ShearCentre => p.shear_centre,
+            ReferencePoint::MassCentre => p.mass_centre,
+        }
+    }
+}
+
+impl SectionSensitivities {
+    /// The 6×6 stiffness referred to `at` and its derivatives, including the motion of the
+    /// point itself when it is a centre that moves with the design: with `H(p)` of
+    /// [`SectionProperties::stiffness_at`] (affine in `p`),
+    /// `d(H K Hᵀ) = H dK Hᵀ + dH K Hᵀ + H K dHᵀ`, `dH = H(dp) − I`.
+    pub fn stiffness_about(&self, at: ReferencePoint) -> (Matrix6<f64>, Vec<Matrix6<f64>>) {
+        let p = at.of(&self.properties);
+        let h = force_shift(p);
+        let k = self.properties.stiffness;
+        let derivatives = self
+            .derivatives
+            .iter()
+            .map(|d| {
+                let dp = match at {
+                    ReferencePoint::Origin
+                    | ReferencePoint::Point(_)
+                    | ReferencePoint::MassCentre => [0.0, 0.0],
+                    _ => at.of(d),
+                };
+                let dh = force_shift(dp) - Matrix6::identity();
+                h * d.stiffness * h.transpose() + dh * k * h.transpose() + h * k * dh.transpose()
+            })
+            .collect();
+        (h * k * h.transpose(), derivatives)
+    }
+}
+
 /// The 6×6 map `θ_P = H θ_O` of section forces about the origin to forces about `p`.
 fn force_shift(p: [f64; 2]) -> Matrix6<f64> {
     let [y, z] = p;

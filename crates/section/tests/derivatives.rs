@@ -143,3 +143,38 @@ fn derivatives_do_not_depend_on_chunk_width() {
         }
     }
 }
+
+/// The stiffness about a centre that moves with the design: its derivative includes the
+/// centre's motion.
+#[test]
+fn stiffness_about_moving_centres_matches_central_differences() {
+    use section::ReferencePoint;
+    let (mesh, design) = unsymmetric_box();
+    let s = analyse_with_derivatives::<4>(&mesh, &design).unwrap();
+    let h = 1e-5;
+    for at in [ReferencePoint::TensionCentre, ReferencePoint::ShearCentre] {
+        let (k, dk) = s.stiffness_about(at);
+        for (v, d) in dk.iter().enumerate().take(3) {
+            let sp = section::SectionSensitivities {
+                properties: analyse(&design.step(&mesh, v, h)).unwrap(),
+                ..Default::default()
+            };
+            let sm = section::SectionSensitivities {
+                properties: analyse(&design.step(&mesh, v, -h)).unwrap(),
+                ..Default::default()
+            };
+            let cd = (sp.stiffness_about(at).0 - sm.stiffness_about(at).0) / (2.0 * h);
+            let err = scaled_diff(d, &cd, &k);
+            assert!(err < 1e-6, "{at:?}, variable {v}: error {err:e}");
+            // The centre's motion matters: the fixed-point derivative is different.
+            let fixed = s.stiffness_about(ReferencePoint::Point(match at {
+                ReferencePoint::TensionCentre => s.properties.tension_centre,
+                _ => s.properties.shear_centre,
+            }));
+            assert!(
+                scaled_diff(&fixed.1[v], &cd, &k) > 1e-4,
+                "{at:?}, variable {v}"
+            );
+        }
+    }
+}
