@@ -10,7 +10,9 @@ use crate::assembly::{
 use crate::eigen::{EigenOptions, Eigenpairs, lowest_modes};
 use crate::mesh::{Mesh, NodeId};
 use crate::modal::ModalBody;
-use crate::sensitivity::{DesignMatrices, ModeDerivatives, mode_derivatives};
+use crate::sensitivity::{
+    DesignMatrices, ModeDerivatives, cluster_second_derivatives, has_repeated, mode_derivatives,
+};
 
 /// How the body frame is attached for the modal analysis.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -383,32 +385,82 @@ pub fn modal_body_dual<const N: usize>(
     })
 }
 
-/// Convenience: derivatives of the retained modes (and guard modes) for all design variables.
+/// Derivatives of the retained (and guard) modes of an analysis for all design variables.
+///
+/// For [`ModeUpdate::Updated`] and clusters of repeated eigenvalues, Dailey's second-derivative
+/// terms are obtained by central differences (step [`SECOND_DERIVATIVE_STEP`]) of the exact dual
+/// `K_b` ([`second_derivative_terms`]).
 pub fn analysis_derivatives<const N: usize, F>(
     mesh: &Mesh,
     analysis: &ModalAnalysis,
     b: &[f64],
-    props: F,
+    mut props: F,
     update: ModeUpdate,
 ) -> Result<(Vec<DesignMatrices>, ModeDerivatives), FemError>
 where
     F: FnMut(&[Dual<N>]) -> Properties<Dual<N>>,
 {
-    let dm = design_matrices::<N, F>(
-        mesh,
-        &analysis.assembly,
-        b,
-        props,
-        &analysis.options.element,
-        analysis.options.mass,
-    )?;
+    let (el, mass) = (&analysis.options.element, analysis.options.mass);
+    let dm = design_matrices::<N, _>(mesh, &analysis.assembly, b, &mut props, el, mass)?;
+    let updated = update == ModeUpdate::Updated;
+    let second = if updated && has_repeated(&analysis.pairs) {
+        Some(second_derivative_terms::<N, _>(
+            mesh,
+            &analysis.assembly,
+            b,
+            &mut props,
+            el,
+            mass,
+            &analysis.pairs,
+        )?)
+    } else {
+        None
+    };
     let d = mode_derivatives(
         &analysis.k,
         &analysis.m,
         &analysis.pairs,
         &dm,
-        update == ModeUpdate::Updated,
-        None,
+        updated,
+        second.as_deref(),
     )?;
     Ok((dm, d))
+}
+
+/// Step (in design-variable units) of the central differences of `K_b` for Dailey's terms.
+pub const SECOND_DERIVATIVE_STEP: f64 = 1e-4;
+
+/// `Zᵀ(K_bb − λM_bb)Z` for every cluster and design variable (`[var][cluster]`), from the dual
+/// `K_b` of variable `v` at `b ± h e_v` ([`cluster_second_derivatives`]).
+pub fn second_derivative_terms<const N: usize, F>(
+    mesh: &Mesh,
+    assembly: &Assembly,
+    b: &[f64],
+    mut props: F,
+    element: &ElementOptions,
+    mass: MassKind,
+    pairs: &Eigenpairs,
+) -> Result<Vec<Vec<crate::sensitivity::SecondDerivatives>>, FemError>
+where
+    F: FnMut(&[Dual<N>]) -> Properties<Dual<N>>,
+{
+    let h = SECOND_DERIVATIVE_STEP;
+    let mut plus = Vec::with_capacity(b.len());
+    let mut minus = Vec::with_capacity(b.len());
+    for v in 0..b.len() {
+        for (sign, out) in [(1.0, &mut plus), (-1.0, &mut minus)] {
+            let mut bb = b.to_vec();
+            bb[v] += sign * h;
+            // seed the chunk that contains v
+            let start = v - v % N;
+            let seeded = seed_chunk::<N>(&bb, start);
+            let p = props(&seeded);
+            let (kv, mv) = assembly.values(mesh, &p, element, mass)?;
+            out.push(DesignMatrices {
+                k: assembly.tangent_matrix(&kv, v - start),
+                m: assembly.tangent_matrix(&mv, v - start),
+            });
+        }
+    }
+    Ok(cluster_second_derivatives(pairs, &plus, &minus, h))
 }

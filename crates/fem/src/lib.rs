@@ -31,12 +31,12 @@ pub use beam::BeamSection;
 pub use body::{
     ModalAnalysis, ModalOptions, ModeUpdate, RayleighDamping, ReferenceCondition,
     analysis_derivatives, design_matrices, modal_analysis, modal_body, modal_body_dual,
-    reference_constraints,
+    reference_constraints, second_derivative_terms,
 };
 pub use eigen::{EigenMethod, EigenOptions, Eigenpairs, lowest_modes};
 pub use mesh::{Element, GmshTriangles, Mesh, MeshError, NodeId, parse_gmsh_v4};
 pub use modal::{ModalBody, ModalBodyError, NODE_DOFS};
 pub use sensitivity::{
-    DesignMatrices, ModeDerivatives, directional_eigenvalue_derivatives, mode_derivatives,
-    mode_derivatives_with,
+    DesignMatrices, ModeDerivatives, cluster_second_derivatives,
+    directional_eigenvalue_derivatives, mode_derivatives, mode_derivatives_with,
 };

@@ -453,3 +453,44 @@ pub fn directional_eigenvalue_derivatives(
     }
     out
 }
+
+/// Dailey's second-derivative terms `Zᵀ(K_bb − λM_bb)Z` of every cluster of repeated
+/// eigenvalues (`[var][cluster]`, 0×0 for distinct eigenvalues), by central differences of the
+/// exact first derivatives: `plus[v]`, `minus[v]` are `K_b`, `M_b` of variable `v` evaluated at
+/// `b ± h e_v`. Truncation error O(h²) on top of the exact first derivatives.
+pub fn cluster_second_derivatives(
+    modes: &Eigenpairs,
+    plus: &[DesignMatrices],
+    minus: &[DesignMatrices],
+    h: f64,
+) -> Vec<Vec<SecondDerivatives>> {
+    let n = modes.vectors.nrows();
+    let groups = clusters(&modes.values, CLUSTER_RTOL);
+    plus.iter()
+        .zip(minus)
+        .map(|(p, q)| {
+            groups
+                .iter()
+                .map(|g| {
+                    let r = g.len();
+                    if r == 1 {
+                        return DMatrix::zeros(0, 0);
+                    }
+                    let lambda = g.iter().map(|&i| modes.values[i]).sum::<f64>() / r as f64;
+                    let z = DMatrix::from_fn(n, r, |i, j| modes.vectors[(i, g[j])]);
+                    let dk = project(&p.k, &z, &z) - project(&q.k, &z, &z);
+                    let dm = project(&p.m, &z, &z) - project(&q.m, &z, &z);
+                    let s = (dk - dm * lambda) / (2.0 * h);
+                    (&s + s.transpose()) * 0.5
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Whether any cluster of repeated eigenvalues has more than one member.
+pub fn has_repeated(modes: &Eigenpairs) -> bool {
+    clusters(&modes.values, CLUSTER_RTOL)
+        .iter()
+        .any(|g| g.len() > 1)
+}
