@@ -7,6 +7,7 @@ use section::{
     Element, ElementKind, Region, RegionSpec, SectionError, SectionMesh, WallFrame, analyse,
     parse_gmsh, parse_simple, rectangle, write_simple,
 };
+use std::f64::consts::PI;
 
 /// A `b × h` rectangle on a Lagrange grid, as 9-node quadrilaterals or pairs of 6-node
 /// triangles.
@@ -313,4 +314,61 @@ fn bad_meshes_give_clear_errors() {
             line: None
         }
     );
+}
+
+/// Real Gmsh 4.1 output (tests/data/make_tube_meshes.py): a two-ply tube meshed with curved
+/// 6-node triangles, and with mixed 8-node quadrilaterals and 6-node triangles.
+#[test]
+fn real_gmsh_tube_meshes() {
+    let deg = std::f64::consts::PI / 180.0;
+    let radial = WallFrame::Radial { centre: [0.0, 0.0] };
+    let specs = |mat: laminate::OrthotropicMaterial, a: f64| {
+        [
+            RegionSpec {
+                name: "inner".into(),
+                material: mat,
+                ply_angle: a,
+                frame: radial,
+            },
+            RegionSpec {
+                name: "outer".into(),
+                material: mat,
+                ply_angle: -a,
+                frame: radial,
+            },
+        ]
+    };
+    let (ri, ro) = (0.010_f64, 0.011_f64);
+    let (area, i) = (
+        PI * (ro * ro - ri * ri),
+        PI * (ro.powi(4) - ri.powi(4)) / 4.0,
+    );
+    let reference = section::tube(
+        ri,
+        &[
+            section::PlySpec::new("inner", composite(), 30.0 * deg, 0.0005, 2),
+            section::PlySpec::new("outer", composite(), -30.0 * deg, 0.0005, 2),
+        ],
+        96,
+    )
+    .unwrap();
+    let reference = analyse(&reference).unwrap();
+    for text in [
+        include_str!("data/tube_t6.msh"),
+        include_str!("data/tube_q8.msh"),
+    ] {
+        // Isotropic: closed forms.
+        let mesh = parse_gmsh(text, &specs(isotropic(70e9, 0.3), 0.0)).unwrap();
+        assert_eq!(mesh.regions.len(), 2);
+        let p = analyse(&mesh).unwrap();
+        let g = 70e9 / 2.6;
+        assert!(rel(p.stiffness[(0, 0)], 70e9 * area) < 1e-3);
+        assert!(rel(p.stiffness[(4, 4)], 70e9 * i) < 1e-3);
+        assert!(rel(p.stiffness[(3, 3)], g * 2.0 * i) < 1e-3);
+        // Composite [30/−30]: the generator's structured mesh.
+        let mesh = parse_gmsh(text, &specs(composite(), 30.0 * deg)).unwrap();
+        let p = analyse(&mesh).unwrap();
+        let d = scaled_diff(&p.stiffness, &reference.stiffness, &reference.stiffness);
+        assert!(d < 2e-3, "Gmsh vs generated tube: {d:e}");
+    }
 }

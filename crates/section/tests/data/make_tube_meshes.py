@@ -1,0 +1,31 @@
+# Generates tube_t6.msh and tube_q8.msh (Gmsh 4.15.2 Python API, `pip install gmsh`):
+# a two-ply tube, r = 10 / 10.5 / 11 mm, physical groups "inner" and "outer", second order.
+import gmsh, math
+gmsh.initialize()
+gmsh.option.setNumber("General.Terminal", 0)
+gmsh.model.add("tube")
+occ = gmsh.model.occ
+# two-ply tube: inner ply r 0.010..0.0105, outer 0.0105..0.011
+c0 = occ.addDisk(0,0,0,0.010,0.010)
+c1 = occ.addDisk(0,0,0,0.0105,0.0105)
+c2 = occ.addDisk(0,0,0,0.011,0.011)
+inner, _ = occ.cut([(2,c1)], [(2,c0)], removeTool=False)
+outer, _ = occ.cut([(2,c2)], [(2,c1)], removeTool=False)
+occ.remove([(2,c0)])
+occ.synchronize()
+surfs = gmsh.model.getEntities(2)
+print(surfs)
+gmsh.model.addPhysicalGroup(2, [inner[0][1]], name="inner")
+gmsh.model.addPhysicalGroup(2, [outer[0][1]], name="outer")
+gmsh.option.setNumber("Mesh.MeshSizeMax", 0.001)
+gmsh.option.setNumber("Mesh.ElementOrder", 2)
+gmsh.option.setNumber("Mesh.HighOrderOptimize", 0)
+gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
+gmsh.model.mesh.generate(2)
+gmsh.write("/tmp/tube_t6.msh")
+gmsh.option.setNumber("Mesh.RecombineAll", 1)
+gmsh.option.setNumber("Mesh.SecondOrderIncomplete", 1)
+gmsh.model.mesh.clear()
+gmsh.model.mesh.generate(2)
+gmsh.write("/tmp/tube_q8.msh")
+gmsh.finalize()
