@@ -656,7 +656,7 @@ impl Bdf {
                 }
             };
             let mut best_order = k;
-            let mut best = safety(err, k, 1.2);
+            let mut best = safety(err, k, 1.4);
             if self.steps_at_order > k {
                 // the estimates need the previous state set; recompute on the shifted history
                 let (t_acc, y_acc) = self.hist.pop_front().unwrap();
@@ -673,14 +673,14 @@ impl Bdf {
                 };
                 self.hist.push_front((t_acc, y_acc));
                 if let Some(e) = lower {
-                    let f = safety(e, k - 1, 1.3);
+                    let f = safety(e, k - 1, 1.5);
                     if f > best {
                         best = f;
                         best_order = k - 1;
                     }
                 }
                 if let Some(e) = higher {
-                    let f = safety(e, k + 1, 1.4);
+                    let f = safety(e, k + 1, 1.7);
                     if f > best {
                         best = f;
                         best_order = k + 1;
