@@ -9,15 +9,17 @@ use crate::deck::DeckError;
 pub enum CliError {
     /// The deck or the command line is wrong.
     Input(DeckError),
-    /// The computation or writing the results failed.
+    /// The computation or writing the results failed, or a comparison found differences.
     Runtime(String),
+    /// A command-line value is wrong (not tied to a deck).
+    Usage(String),
 }
 
 impl CliError {
     /// The process exit code.
     pub fn exit_code(&self) -> u8 {
         match self {
-            CliError::Input(_) => 2,
+            CliError::Input(_) | CliError::Usage(_) => 2,
             CliError::Runtime(_) => 1,
         }
     }
@@ -27,7 +29,7 @@ impl fmt::Display for CliError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             CliError::Input(e) => e.fmt(f),
-            CliError::Runtime(m) => f.write_str(m),
+            CliError::Runtime(m) | CliError::Usage(m) => f.write_str(m),
         }
     }
 }

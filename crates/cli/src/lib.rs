@@ -13,3 +13,4 @@ pub mod commands;
 pub mod deck;
 pub mod error;
 pub mod files;
+pub mod results;

@@ -77,17 +77,33 @@ enum Command {
         #[arg(long, value_name = "DIR")]
         export_matrices: Option<PathBuf>,
     },
+    /// Compare two result files dataset by dataset (golden-file checks): exit code 1 on a
+    /// mismatch, listing the largest differences with their dataset and time.
+    Compare {
+        /// The result file to check.
+        a: PathBuf,
+        /// The reference result file.
+        b: PathBuf,
+        /// Relative tolerance: |a − b| ≤ atol + rtol |b|.
+        #[arg(long, default_value_t = 1e-6)]
+        rtol: f64,
+        /// Absolute tolerance.
+        #[arg(long, default_value_t = 1e-12)]
+        atol: f64,
+    },
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let result: Result<String, CliError> = match &cli.command {
+    // text for stdout and the exit code, or an error
+    let result: Result<(String, u8), CliError> = match &cli.command {
         Command::Laminate {
             deck,
             laminate,
             format,
             derivatives,
         } => commands::laminate::run(deck, &cli.set, laminate.as_deref(), *format, *derivatives)
+            .map(|t| (t, 0))
             .map_err(CliError::from),
         Command::Section {
             deck,
@@ -95,6 +111,7 @@ fn main() -> ExitCode {
             format,
             derivatives,
         } => commands::section::run(deck, &cli.set, section.as_deref(), *format, *derivatives)
+            .map(|t| (t, 0))
             .map_err(CliError::from),
         Command::Modes {
             deck,
@@ -111,14 +128,16 @@ fn main() -> ExitCode {
                 vtk: vtk.as_deref(),
                 export_matrices: export_matrices.as_deref(),
             };
-            commands::modes::run(deck, &cli.set, &req)
+            commands::modes::run(deck, &cli.set, &req).map(|t| (t, 0))
         }
+        Command::Compare { a, b, rtol, atol } => commands::compare::run(a, b, *rtol, *atol)
+            .map(|(text, same)| (text, if same { 0 } else { 1 })),
     };
     match result {
-        Ok(text) => {
+        Ok((text, code)) => {
             // a closed pipe (e.g. `| head`) is not an error worth a panic
             let _ = std::io::stdout().write_all(text.as_bytes());
-            ExitCode::SUCCESS
+            ExitCode::from(code)
         }
         Err(e) => {
             eprintln!("error: {e}");
