@@ -300,7 +300,8 @@ impl SectionAnalysis {
     /// The warping displacements `[w₁, w₂, w₃]` at each node for the generalised strains
     /// `strains` (order `[ε, γ₂, γ₃, κ₁, κ₂, κ₃]`), i.e. for the section forces
     /// `θ = K strains` of the central solution. Defined up to the rigid modes removed by the
-    /// pins (see the module docs).
+    /// pins (see the formulation above). Under shear forces the warping also changes along
+    /// the beam, at the rate `X₁ θ`.
     pub fn warping(&self, strains: [f64; 6]) -> Vec<[f64; 3]> {
         let theta = self.properties.stiffness * nalgebra::Vector6::from(strains);
         (0..self.model.mesh.nodes.len())
