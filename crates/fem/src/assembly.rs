@@ -9,7 +9,7 @@ use std::collections::BTreeSet;
 
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
 use laminate::LaminateStiffness;
-use nalgebra::{DMatrix, Vector3};
+use nalgebra::DMatrix;
 use sens::Scalar;
 
 use crate::beam::{BeamError, BeamSection, beam_frame, beam_local, to_global};
@@ -449,9 +449,4 @@ impl Assembly {
         }
         out
     }
-}
-
-/// Node positions as a convenience for callers building [`crate::ModalBody`].
-pub fn node_positions(mesh: &Mesh) -> Vec<Vector3<f64>> {
-    mesh.nodes.clone()
 }

@@ -279,10 +279,20 @@ pub fn mode_derivatives_with(
                 let e = d.symmetric_eigen();
                 let mut order: Vec<usize> = (0..r).collect();
                 order.sort_by(|&a, &b| e.eigenvalues[a].total_cmp(&e.eigenvalues[b]));
-                (
-                    order.iter().map(|&i| e.eigenvalues[i]).collect(),
-                    DMatrix::from_fn(r, r, |i, j| e.eigenvectors[(i, order[j])]),
-                )
+                let vals: Vec<f64> = order.iter().map(|&i| e.eigenvalues[i]).collect();
+                let spread = vals[r - 1] - vals[0];
+                let scale = vals.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+                if spread <= 1e-9 * scale + 1e-14 * lambda.abs() {
+                    // the change keeps the cluster together (e.g. a symmetric design change of
+                    // a symmetric body): no rotation is singled out, keep the basis as it is
+                    let mean = vals.iter().sum::<f64>() / r as f64;
+                    (vec![mean; r], DMatrix::identity(r, r))
+                } else {
+                    (
+                        vals,
+                        DMatrix::from_fn(r, r, |i, j| e.eigenvectors[(i, order[j])]),
+                    )
+                }
             };
             for (a, &i) in g.iter().enumerate() {
                 lam_b[v][i] = vals[a];
@@ -375,7 +385,9 @@ pub fn mode_derivatives_with(
                         if gap.abs()
                             <= 1e-12 * vals.iter().fold(0.0f64, |a, b| a.max(b.abs())).max(1e-300)
                         {
-                            // c_ij = −½ (z_iᵀ M_b z_j + z_jᵀ M_b z_i) − … : symmetric part from normalisation
+                            // the cluster stays together: the first-order equations leave the
+                            // rotation within it free; keep only the symmetric part that the
+                            // normalisation fixes (no rotation of the basis)
                             c[(i, j)] = -0.5 * (mv[(i, j)] + mv[(j, i)]) - 0.5 * mbr[(i, j)];
                             continue;
                         }

@@ -369,3 +369,82 @@ fn gmsh_v4_text_is_parsed() {
         other => panic!("{other:?}"),
     }
 }
+
+#[test]
+fn frequencies_do_not_depend_on_the_orientation_in_space() {
+    // a free-free laminated plate and a free-free beam, rotated arbitrarily in space (consistent
+    // mass): same spectrum as in the reference position
+    let r = nalgebra::Rotation3::from_euler_angles(0.4, -0.7, 1.1);
+    let lam = stack(paper_material(), 0.003, &[30.0, -45.0, 10.0]).stiffness();
+    let plate = Mesh::rectangle(0.3, 0.1, 6, 3, 0).unwrap();
+    let mut rotated = plate.clone();
+    for p in rotated.nodes.iter_mut() {
+        *p = r * *p + Vector3::new(0.3, -0.2, 0.5);
+    }
+    for el in rotated.elements.iter_mut() {
+        if let fem::Element::Shell { material_axis, .. } = el {
+            *material_axis = r * *material_axis;
+        }
+    }
+    let props = Properties {
+        sections: vec![],
+        laminates: vec![lam],
+    };
+    let spectrum = |mesh: &Mesh, props: &Properties<f64>| {
+        let asm = Assembly::new(mesh, &Constraints::new()).unwrap();
+        let (k, m) = asm
+            .values(
+                mesh,
+                props,
+                &ElementOptions::default(),
+                MassKind::Consistent,
+            )
+            .unwrap();
+        lowest_modes(&asm.matrix(k), &asm.matrix(m), 12, &EigenOptions::default())
+            .unwrap()
+            .values
+    };
+    let (a, b) = (spectrum(&plate, &props), spectrum(&rotated, &props));
+    for i in 6..12 {
+        assert!(
+            rel(b[i], a[i]) < 1e-9,
+            "plate mode {i}: {} vs {}",
+            b[i],
+            a[i]
+        );
+    }
+    let rect = common::Rect {
+        e: 70e9,
+        nu: 0.3,
+        rho: 2700.0,
+        hy: 0.02,
+        hz: 0.01,
+        kappa: 5.0 / 6.0,
+    };
+    let beam = Mesh::straight_beam(
+        Vector3::zeros(),
+        Vector3::new(1.0, 0.0, 0.0),
+        10,
+        0,
+        Vector3::y(),
+    )
+    .unwrap();
+    let mut rb = beam.clone();
+    for p in rb.nodes.iter_mut() {
+        *p = r * *p;
+    }
+    for el in rb.elements.iter_mut() {
+        if let fem::Element::Beam { orientation, .. } = el {
+            *orientation = r * *orientation;
+        }
+    }
+    let (a, b) = (spectrum(&beam, &rect.props()), spectrum(&rb, &rect.props()));
+    for i in 6..12 {
+        assert!(
+            rel(b[i], a[i]) < 1e-9,
+            "beam mode {i}: {} vs {}",
+            b[i],
+            a[i]
+        );
+    }
+}
