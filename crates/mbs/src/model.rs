@@ -9,7 +9,7 @@ use sens::Scalar;
 use crate::body::{Body, BodyId, FlexibleBody, RigidBody, body_dynamics, lift, pose, vec3, vec3f};
 use crate::error::ModelError;
 use crate::force::{Force, ForceId, LoadFrame};
-use crate::joint::{JointId, JointKind, joint_equations};
+use crate::joint::{JointId, JointKind, TimeFunction, joint_equations};
 use crate::kin::{Kin, l_matrix, quat_from_matrix};
 use crate::marker::{Marker, MarkerKin, Site, marker_kin};
 
@@ -217,6 +217,15 @@ impl<P: Scalar> Model<P> {
     pub fn add_joint(&mut self, joint: Joint) -> Result<JointId, ModelError> {
         self.check_marker(&joint.a, &joint.name)?;
         self.check_marker(&joint.b, &joint.name)?;
+        if let JointKind::AngleDriver(TimeFunction::SmoothRamp { t0, t1, .. })
+        | JointKind::DistanceDriver(TimeFunction::SmoothRamp { t0, t1, .. }) = &joint.kind
+            && !(t1 > t0)
+        {
+            return Err(ModelError::BadMarker {
+                owner: joint.name,
+                reason: "a smooth ramp needs t1 > t0",
+            });
+        }
         if joint.a.body.is_some() && joint.a.body == joint.b.body {
             return Err(ModelError::BadMarker {
                 owner: joint.name,
