@@ -201,4 +201,19 @@ fn invalid_markers_are_rejected_with_the_joint_name() {
             .add_rigid_body(RigidBody::new("massless", 0.0, Matrix3::identity()))
             .is_err()
     );
+    let ramp = TimeFunction::SmoothRamp {
+        from: 0.0,
+        to: 1.0,
+        t0: 1.0,
+        t1: 1.0,
+    };
+    let err = model
+        .add_joint(Joint::new(
+            "ramp",
+            JointKind::AngleDriver(ramp),
+            Marker::ground(Vector3::zeros()),
+            Marker::on(r, Vector3::zeros()),
+        ))
+        .unwrap_err();
+    assert!(err.to_string().contains("t1 > t0"), "{err}");
 }
