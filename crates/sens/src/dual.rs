@@ -321,6 +321,14 @@ impl<const N: usize> Scalar for Dual<N> {
         Self::constant(x)
     }
     #[inline]
+    fn from_parts(value: f64, tangents: &[f64]) -> Self {
+        let mut d = [0.0; N];
+        for (a, b) in d.iter_mut().zip(tangents) {
+            *a = *b;
+        }
+        Self { v: value, d }
+    }
+    #[inline]
     fn value(self) -> f64 {
         self.v
     }

@@ -53,6 +53,10 @@ pub trait Scalar:
 
     /// A constant (all tangents zero).
     fn from_f64(x: f64) -> Self;
+    /// A value with given tangents, e.g. a result whose derivatives were computed elsewhere
+    /// (chain rule through a precomputed Jacobian). Tangents beyond [`Scalar::TANGENTS`] are
+    /// ignored, missing ones are zero; `f64` keeps the value only.
+    fn from_parts(value: f64, tangents: &[f64]) -> Self;
     /// The value, without tangents.
     fn value(self) -> f64;
     /// The tangent components (empty for `f64`).
@@ -112,6 +116,10 @@ impl Scalar for f64 {
     #[inline]
     fn from_f64(x: f64) -> Self {
         x
+    }
+    #[inline]
+    fn from_parts(value: f64, _tangents: &[f64]) -> Self {
+        value
     }
     #[inline]
     fn value(self) -> f64 {

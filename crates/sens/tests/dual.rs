@@ -203,3 +203,17 @@ fn f64_implements_scalar_consistently() {
     let c = central(generic::<f64>, x);
     assert!((d.d[0] - c).abs() < 1e-8);
 }
+
+#[test]
+fn from_parts_builds_values_with_given_tangents() {
+    let x = <Dual<3> as Scalar>::from_parts(2.0, &[1.0, -4.0]);
+    assert_eq!((x.v, x.d), (2.0, [1.0, -4.0, 0.0]));
+    let y = <Dual<1> as Scalar>::from_parts(2.0, &[1.0, -4.0]);
+    assert_eq!(y.d, [1.0], "extra tangents are ignored");
+    assert_eq!(<f64 as Scalar>::from_parts(2.0, &[1.0]), 2.0);
+    // chain rule: g(f(b)) with f's Jacobian precomputed equals the direct evaluation
+    let b = Dual::<2>::variable(0.3, 0);
+    let direct = (b * 3.0).sin();
+    let f = Dual::<2>::from_parts(0.9, &[3.0, 0.0]);
+    assert_eq!(direct.d, f.sin().d);
+}
