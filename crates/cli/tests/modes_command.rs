@@ -1,27 +1,10 @@
 //! `flexsens modes` end to end: closed-form frequencies, derivatives against central differences
 //! of whole command-line runs, VTK and Matrix Market outputs, bad input.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
 
-fn deck(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../decks")
-        .join(name)
-}
-
-fn run(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_flexsens"))
-        .args(args)
-        .output()
-        .expect("flexsens runs")
-}
-
-fn json(args: &[&str]) -> serde_json::Value {
-    let o = run(args);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    serde_json::from_slice(&o.stdout).unwrap()
-}
+mod common;
+use common::*;
 
 fn floats(v: &serde_json::Value) -> Vec<f64> {
     v.as_array()
@@ -264,14 +247,6 @@ fn vtk_file_holds_the_mesh_and_every_mode() {
     // no temporary file left behind
     let left: Vec<_> = std::fs::read_dir(dir.path().join("out")).unwrap().collect();
     assert_eq!(left.len(), 1);
-}
-
-/// The 1-based line of the first occurrence of `needle`.
-fn line_of(text: &str, needle: &str) -> usize {
-    text.lines()
-        .position(|l| l.contains(needle))
-        .expect("needle in text")
-        + 1
 }
 
 fn expect_bad(text: &str, extra: &[&str], line: Option<usize>, words: &str) {

@@ -1,27 +1,8 @@
 //! `flexsens section` end to end: shipped decks, closed forms through the command line,
 //! derivatives against central differences, bad input.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn deck(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../decks")
-        .join(name)
-}
-
-fn run(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_flexsens"))
-        .args(args)
-        .output()
-        .expect("flexsens runs")
-}
-
-fn json(args: &[&str]) -> serde_json::Value {
-    let o = run(args);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    serde_json::from_slice(&o.stdout).unwrap()
-}
+mod common;
+use common::*;
 
 #[test]
 fn shipped_section_decks_run_in_every_format() {

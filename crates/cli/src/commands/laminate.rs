@@ -8,7 +8,7 @@ use serde_json::json;
 
 use super::Format;
 use super::output::{self, Quantity, Report};
-use crate::deck::laminates::{LaminateDef, suggestion, validate};
+use crate::deck::laminates::{LaminateDef, validate};
 use crate::deck::{self, DeckError};
 
 /// Width of the dual-number chunks (results do not depend on it).
@@ -106,30 +106,7 @@ pub fn run(
 ) -> Result<String, DeckError> {
     let (src, raw) = deck::load(path, overrides)?;
     let model = validate(&src, &raw)?;
-    let selected: Vec<(&String, &LaminateDef)> = match only {
-        Some(name) => {
-            let def = model.laminates.get_key_value(name).ok_or_else(|| {
-                let known: Vec<&str> = model.laminates.keys().map(String::as_str).collect();
-                src.error(
-                    None,
-                    None,
-                    format!(
-                        "no laminate `{name}` in this deck{}",
-                        suggestion(name, &known)
-                    ),
-                )
-            })?;
-            vec![def]
-        }
-        None => model.laminates.iter().collect(),
-    };
-    if selected.is_empty() {
-        return Err(src.error(
-            None,
-            Some("laminate".into()),
-            "the deck defines no [laminate.*] table",
-        ));
-    }
+    let selected = deck::select(&src, &model.laminates, only, "laminate")?;
     let reports: Vec<Report> = selected
         .iter()
         .map(|(name, def)| report(name, def, derivatives))

@@ -18,7 +18,7 @@ use serde_json::json;
 use super::Format;
 use super::output::{self, Quantity, Report};
 use crate::deck::bodies::{BodyDef, BodyShape, Reference, validate_one};
-use crate::deck::laminates::{suggestion, validate as validate_laminates};
+use crate::deck::laminates::validate as validate_laminates;
 use crate::deck::{self, Source};
 use crate::error::CliError;
 use crate::files::write_atomic;
@@ -140,6 +140,27 @@ fn beam_section(p: &SectionProperties) -> BeamSection<f64> {
     }
 }
 
+/// A shell body's mesh, properties and design from its laminate.
+fn shell(
+    mesh: fem::Mesh,
+    stack: &PlyStack<f64>,
+    laminate: &str,
+) -> (fem::Mesh, Properties<f64>, Design, &'static str) {
+    let props = Properties {
+        sections: Vec::new(),
+        laminates: vec![stack.stiffness()],
+    };
+    (
+        mesh,
+        props,
+        Design::Shell {
+            stack: stack.clone(),
+            laminate: laminate.to_string(),
+        },
+        "shell",
+    )
+}
+
 fn build(src: &Source, name: &str, def: &BodyDef, derivatives: bool) -> Result<Built, CliError> {
     let input = |key: &str, m: String| {
         CliError::Input(src.error(None, Some(format!("body.{name}{key}")), m))
@@ -195,19 +216,7 @@ fn build(src: &Source, name: &str, def: &BodyDef, derivatives: bool) -> Result<B
                     *material_axis = *axis;
                 }
             }
-            let props = Properties {
-                sections: Vec::new(),
-                laminates: vec![stack.stiffness()],
-            };
-            (
-                mesh,
-                props,
-                Design::Shell {
-                    stack: stack.clone(),
-                    laminate: laminate.clone(),
-                },
-                "shell",
-            )
+            shell(mesh, stack, laminate)
         }
         BodyShape::ShellMesh {
             laminate,
@@ -218,20 +227,7 @@ fn build(src: &Source, name: &str, def: &BodyDef, derivatives: bool) -> Result<B
         } => {
             let tri = fem::parse_gmsh_v4(mesh_text)
                 .map_err(|e| input(".file", format!("in the mesh {file}: {e}")))?;
-            let mesh = tri.to_mesh(0, *axis);
-            let props = Properties {
-                sections: Vec::new(),
-                laminates: vec![stack.stiffness()],
-            };
-            (
-                mesh,
-                props,
-                Design::Shell {
-                    stack: stack.clone(),
-                    laminate: laminate.clone(),
-                },
-                "shell",
-            )
+            shell(tri.to_mesh(0, *axis), stack, laminate)
         }
     };
     let reference = match def.reference {
@@ -488,29 +484,8 @@ fn export(
 pub fn run(path: &Path, overrides: &[String], req: &ModesRequest) -> Result<String, CliError> {
     let (src, raw) = deck::load(path, overrides)?;
     let model = validate_laminates(&src, &raw)?;
-    let selected: Vec<_> = match req.only {
-        Some(name) => {
-            let s = raw.body.get_key_value(name).ok_or_else(|| {
-                let known: Vec<&str> = raw.body.keys().map(String::as_str).collect();
-                src.error(
-                    None,
-                    None,
-                    format!("no body `{name}` in this deck{}", suggestion(name, &known)),
-                )
-            })?;
-            vec![s]
-        }
-        None => raw.body.iter().collect(),
-    };
-    if selected.is_empty() {
-        return Err(src
-            .error(
-                None,
-                Some("body".into()),
-                "the deck defines no [body.*] table",
-            )
-            .into());
-    }
+    let only = req.only;
+    let selected = deck::select(&src, &raw.body, only, "body")?;
     if req.vtk.is_some() && selected.len() > 1 {
         let names: Vec<&str> = selected.iter().map(|(n, _)| n.as_str()).collect();
         return Err(src

@@ -8,7 +8,7 @@ use serde_json::json;
 
 use super::Format;
 use super::output::{self, Quantity, Report};
-use crate::deck::laminates::{suggestion, validate as validate_laminates};
+use crate::deck::laminates::validate as validate_laminates;
 use crate::deck::sections::{SectionDef, validate_one};
 use crate::deck::{self, DeckError};
 
@@ -98,30 +98,7 @@ pub fn run(
 ) -> Result<String, DeckError> {
     let (src, raw) = deck::load(path, overrides)?;
     let model = validate_laminates(&src, &raw)?;
-    let selected: Vec<_> = match only {
-        Some(name) => {
-            let s = raw.section.get_key_value(name).ok_or_else(|| {
-                let known: Vec<&str> = raw.section.keys().map(String::as_str).collect();
-                src.error(
-                    None,
-                    None,
-                    format!(
-                        "no section `{name}` in this deck{}",
-                        suggestion(name, &known)
-                    ),
-                )
-            })?;
-            vec![s]
-        }
-        None => raw.section.iter().collect(),
-    };
-    if selected.is_empty() {
-        return Err(src.error(
-            None,
-            Some("section".into()),
-            "the deck defines no [section.*] table",
-        ));
-    }
+    let selected = deck::select(&src, &raw.section, only, "section")?;
     let mut reports = Vec::new();
     for (name, s) in selected {
         let def = validate_one(&src, name, s, &model)?;

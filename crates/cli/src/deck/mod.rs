@@ -185,6 +185,41 @@ fn key_from_message(message: &str) -> Option<String> {
     Some(message[start..start + len].to_string())
 }
 
+/// The named tables of one kind to work on: `only` (with a "did you mean" when it is not
+/// there), or all of them; an error when the deck has none.
+pub fn select<'a, T>(
+    src: &Source,
+    tables: &'a std::collections::BTreeMap<String, T>,
+    only: Option<&str>,
+    kind: &str,
+) -> Result<Vec<(&'a String, &'a T)>, DeckError> {
+    let selected: Vec<_> = match only {
+        Some(name) => {
+            let found = tables.get_key_value(name).ok_or_else(|| {
+                let known: Vec<&str> = tables.keys().map(String::as_str).collect();
+                src.error(
+                    None,
+                    None,
+                    format!(
+                        "no {kind} `{name}` in this deck{}",
+                        laminates::suggestion(name, &known)
+                    ),
+                )
+            })?;
+            vec![found]
+        }
+        None => tables.iter().collect(),
+    };
+    if selected.is_empty() {
+        return Err(src.error(
+            None,
+            Some(kind.to_string()),
+            format!("the deck defines no [{kind}.*] table"),
+        ));
+    }
+    Ok(selected)
+}
+
 /// Read a deck file, apply `--set` overrides and parse it.
 pub fn load(path: &Path, overrides: &[String]) -> Result<(Source, RawDeck), DeckError> {
     let source = Source::read(path)?.with_overrides(overrides)?;
