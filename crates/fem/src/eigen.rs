@@ -201,18 +201,17 @@ fn dense_modes(
     let n = k.nrows();
     let md = dense(m);
     let mut s = shift_scale(k, m)?;
-    let l = loop {
-        let a = dense(&combine(k, s, m));
-        if let Ok(llt) = a.llt(Side::Lower) {
-            break llt.L().to_owned();
+    let mut factor = None;
+    for _ in 0..6 {
+        if let Ok(llt) = dense(&combine(k, s, m)).llt(Side::Lower) {
+            factor = Some(llt.L().to_owned());
+            break;
         }
         s *= 100.0;
-        if s > 1e-2 * shift_scale(k, m)? * 1e10 {
-            return Err(FemError::Eigen(
-                "K − σM is not positive definite (is K indefinite?)".into(),
-            ));
-        }
-    };
+    }
+    let l = factor.ok_or_else(|| {
+        FemError::Eigen("K − σM is not positive definite (is K indefinite?)".into())
+    })?;
     let mut x1 = md;
     l.solve_lower_triangular_in_place(&mut x1);
     let mut c = x1.transpose().to_owned();
@@ -300,7 +299,7 @@ impl<'a> ShiftInvert<'a> {
         ))
     }
 
-    /// `y = (K − σM)⁻¹ M x`; also returns nothing else.
+    /// `y = (K − σM)⁻¹ M x`.
     pub fn apply(&self, x: &[f64], y: &mut [f64]) {
         spmv(self.m, x, y);
         let n = y.len();
@@ -378,9 +377,7 @@ fn lanczos(
                 w.iter_mut().for_each(|x| *x /= beta);
                 mw.iter_mut().for_each(|x| *x /= beta);
             }
-            if j + 1 < mdim {
-                // subdiagonal is recovered from the next column's Gram–Schmidt coefficients
-            }
+            // the subdiagonal is recovered from the next column's Gram–Schmidt coefficients
             beta_last = beta;
             if v.len() > j + 1 {
                 v[j + 1] = w;

@@ -9,6 +9,19 @@
 //! generic over [`sens::Scalar`] so that design derivatives travel as dual tangents.
 //! Element matrices are written once over `Scalar`: evaluating them on `Dual<N>` gives `K_b`.
 //! It knows nothing about joints, time integration, files or decks.
+//!
+//! Typical use: build a [`Mesh`] (generators, or [`parse_gmsh_v4`] on text) and
+//! [`Properties`] (beam sections, laminates from `laminate::PlyStack::stiffness`); run
+//! [`modal_analysis`] with [`ModalOptions`] (reference condition, number of modes, Rayleigh
+//! damping, lumped or consistent mass); [`modal_body`] gives the `ModalBody<f64>`;
+//! [`analysis_derivatives`] evaluates the properties on `Dual<N>` numbers seeded with the design
+//! variables (in chunks of `N`), assembles `K_b`, `M_b` on the same sparse pattern and returns
+//! eigenvalue and (Nelson/Dailey) eigenvector derivatives; [`modal_body_dual`] packs them into a
+//! `ModalBody<Dual<N>>` (fixed-mode or updated-mode).
+//!
+//! Conventions: dof node by node `[u_x, u_y, u_z, θ_x, θ_y, θ_z]` (small rotation vector),
+//! global axes; matrices act on the free dof of an [`Assembly`] (constrained dof eliminated);
+//! eigenvalues are `ω²` ascending, modes `M`-normalised; angles in radians.
 
 // `!(x > 0.0)` is used on purpose: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
