@@ -15,7 +15,7 @@ use sens::Scalar;
 use crate::beam::{BeamError, BeamSection, beam_frame, beam_local, to_global};
 use crate::mesh::{Element, Mesh, MeshError, NodeId};
 use crate::shell::{
-    DEFAULT_DRILLING, ShellError, TriGeometry, shell_lumped, shell_mass_local,
+    DEFAULT_DRILLING, Membrane, ShellError, TriGeometry, shell_lumped, shell_mass_local,
     shell_stiffness_local,
 };
 
@@ -52,12 +52,15 @@ pub enum MassKind {
 pub struct ElementOptions {
     /// Drilling penalty factor of the shell triangle (× A₆₆ × area).
     pub drilling: f64,
+    /// Membrane formulation of the shell triangle.
+    pub membrane: Membrane,
 }
 
 impl Default for ElementOptions {
     fn default() -> Self {
         Self {
             drilling: DEFAULT_DRILLING,
+            membrane: Membrane::default(),
         }
     }
 }
@@ -225,7 +228,10 @@ pub fn element_matrices<S: Scalar>(
                 })?;
             let p = nodes.map(|n| mesh.nodes[n]);
             let g = TriGeometry::new(p, &material_axis, e)?;
-            let k = to_global(&shell_stiffness_local(&g, lam, opts.drilling), &g.frame);
+            let k = to_global(
+                &shell_stiffness_local(&g, lam, opts.drilling, opts.membrane),
+                &g.frame,
+            );
             let m = match mass {
                 MassKind::Consistent => DMatrix::from_iterator(
                     18,

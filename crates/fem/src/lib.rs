@@ -53,3 +53,4 @@ pub use sensitivity::{
     DesignMatrices, ModeDerivatives, cluster_second_derivatives,
     directional_eigenvalue_derivatives, mode_derivatives, mode_derivatives_with,
 };
+pub use shell::Membrane;

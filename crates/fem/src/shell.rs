@@ -1,8 +1,10 @@
 //! Flat three-node laminated shell triangle with six dof per node (paper §3.2, Eqs. 17–22).
 //!
-//! - Membrane: constant-strain triangle, with a drilling rotation tied to the in-plane rotation
-//!   `ω = ½(v,ₓ − u,ᵧ)` by a small penalty (`α · A₆₆ · area`, Hughes–Brezzi style), so that rigid
-//!   rotations cost nothing and no spurious drilling mechanism exists.
+//! - Membrane: Allman's (1984) triangle, whose drilling rotations add quadratic edge-normal
+//!   displacements (linear strain: good in in-plane bending), or the constant-strain triangle
+//!   ([`Membrane`]); the drilling rotation is also tied to the element's in-plane rotation
+//!   `ω = ½(v,ₓ − u,ᵧ)` by a small penalty (`α · A₆₆ · area`, Hughes–Brezzi style), which removes
+//!   Allman's spurious equal-rotation mode while rigid rotations cost nothing.
 //! - Bending: Reissner–Mindlin with linear rotations (constant curvature), coupled to the
 //!   membrane through `B`.
 //! - Transverse shear: MITC3 (Lee & Bathe 2004). The assumed shear field is the rotated lowest
@@ -176,15 +178,28 @@ pub fn shell_stiffness_local<S: Scalar>(
     g: &TriGeometry,
     lam: &LaminateStiffness<S>,
     drilling: f64,
+    membrane: Membrane,
 ) -> M18<S> {
     let b = shell_b(g);
     let cast3 = |m: &SMatrix<f64, 3, 18>| m.map(S::from_f64);
-    let bm = cast3(&b.bm);
     let bb = cast3(&b.bb);
     let a = S::from_f64(g.area);
-    let bmt = bm.transpose();
     let bbt = bb.transpose();
-    let mut k = (bmt * lam.a * bm + bmt * lam.b * bb + bbt * lam.b * bm + bbt * lam.d * bb) * a;
+    let mut k = bbt * lam.d * bb * a;
+    // membrane and membrane–bending coupling: linear membrane strain (Allman), three-point rule
+    const PTS: [[f64; 3]; 3] = [
+        [2.0 / 3.0, 1.0 / 6.0, 1.0 / 6.0],
+        [1.0 / 6.0, 2.0 / 3.0, 1.0 / 6.0],
+        [1.0 / 6.0, 1.0 / 6.0, 2.0 / 3.0],
+    ];
+    for l in PTS {
+        let bm = match membrane {
+            Membrane::Allman => cast3(&(b.bm + allman_b(g, l))),
+            Membrane::Cst => cast3(&b.bm),
+        };
+        let bmt = bm.transpose();
+        k += (bmt * lam.a * bm + bmt * lam.b * bb + bbt * lam.b * bm) * (a * (1.0 / 3.0));
+    }
     for bs in &b.bs {
         let bs = bs.map(S::from_f64);
         k += bs.transpose() * lam.shear * bs * (a * (1.0 / 3.0));
@@ -192,6 +207,41 @@ pub fn shell_stiffness_local<S: Scalar>(
     let bd = cast3(&b.bd);
     k += bd.transpose() * bd * (lam.a[(2, 2)] * a * (drilling / 3.0));
     (k + k.transpose()) * S::from_f64(0.5)
+}
+
+/// Membrane formulation of the triangle.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Membrane {
+    /// Allman (1984) triangle: the drilling rotations add quadratic edge-normal displacements
+    /// `(L/8)(θ_j − θ_i) n` at the edge midpoints (linear strain); far better in in-plane bending.
+    #[default]
+    Allman,
+    /// Constant-strain triangle (drilling rotation only through the penalty).
+    Cst,
+}
+
+/// The drilling-rotation part of the Allman membrane strain at area coordinates `l`
+/// (`u = Σ Lᵢuᵢ + Σ_edges 4LᵢLⱼ (ℓ/8)(θⱼ − θᵢ) n`, `n` the outward edge normal).
+fn allman_b(g: &TriGeometry, l: [f64; 3]) -> SMatrix<f64, 3, 18> {
+    let mut out = SMatrix::<f64, 3, 18>::zeros();
+    for (i, j) in [(0usize, 1usize), (1, 2), (2, 0)] {
+        let dx = g.xy[j][0] - g.xy[i][0];
+        let dy = g.xy[j][1] - g.xy[i][1];
+        let len = (dx * dx + dy * dy).sqrt();
+        // outward normal of a counter-clockwise triangle: the tangent turned by −90°
+        let (nx, ny) = (dy / len, -dx / len);
+        // N_e = 4 L_i L_j and its derivatives
+        let nex = 4.0 * (l[j] * g.dn[i][0] + l[i] * g.dn[j][0]);
+        let ney = 4.0 * (l[j] * g.dn[i][1] + l[i] * g.dn[j][1]);
+        let c = len / 8.0;
+        for (node, sign) in [(j, 1.0), (i, -1.0)] {
+            let col = dof(node, TZ);
+            out[(0, col)] += sign * c * nx * nex;
+            out[(1, col)] += sign * c * ny * ney;
+            out[(2, col)] += sign * c * (nx * ney + ny * nex);
+        }
+    }
+    out
 }
 
 /// Local-frame consistent mass (18×18).

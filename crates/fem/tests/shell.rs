@@ -86,9 +86,17 @@ fn unsymmetric_laminate() -> LaminateStiffness<f64> {
 #[test]
 fn membrane_patch_test_on_distorted_mesh() {
     let (mesh, boundary) = distorted_patch();
-    for lam in [iso_plate(0.01), unsymmetric_laminate()] {
+    for (lam, membrane) in [
+        (iso_plate(0.01), fem::Membrane::Allman),
+        (unsymmetric_laminate(), fem::Membrane::Allman),
+        (unsymmetric_laminate(), fem::Membrane::Cst),
+    ] {
         // u = 1e-3 (1 + 2x + 3y), v = 1e-3 (−1 + 0.5x − 4y); drilling = in-plane rotation
-        let err = patch_error(&mesh, &boundary, &lam, |p| {
+        let opts = ElementOptions {
+            membrane,
+            ..Default::default()
+        };
+        let err = patch_error_with(&mesh, &boundary, &lam, &opts, |p| {
             let (u, v) = (
                 1e-3 * (1.0 + 2.0 * p.x + 3.0 * p.y),
                 1e-3 * (-1.0 + 0.5 * p.x - 4.0 * p.y),
@@ -447,4 +455,62 @@ fn frequencies_do_not_depend_on_the_orientation_in_space() {
             a[i]
         );
     }
+}
+
+#[test]
+fn in_plane_bending_of_a_strip_converges_with_the_allman_membrane() {
+    // cantilever strip bending in its own plane (membrane only): the first frequency against the
+    // Timoshenko beam of the same depth (κ = 5/6, a close but not exact plane-stress reference)
+    let (l, d, t) = (0.304f64, 0.04f64, 0.0075f64);
+    let (e, nu, rho) = (70e9, 0.3, 2700.0);
+    let lam = stack(
+        OrthotropicMaterial::isotropic(e, nu, rho).unwrap(),
+        t,
+        &[0.0],
+    )
+    .stiffness();
+    let g = e / (2.0 * (1.0 + nu));
+    let exact = common::timoshenko_cantilever(
+        e * t * d.powi(3) / 12.0,
+        5.0 / 6.0 * g * t * d,
+        rho * t * d,
+        rho * t * d.powi(3) / 12.0,
+        l,
+        1,
+    )[0];
+    let ratio = |nx: usize, ny: usize, membrane: fem::Membrane| {
+        let mesh = Mesh::rectangle(l, d, nx, ny, 0).unwrap();
+        let mut c = Constraints::new();
+        let all: Vec<usize> = (0..mesh.nodes.len()).collect();
+        c.fix_nodes(&all, &[dof::UZ, dof::RX, dof::RY]);
+        let left = mesh.nodes_on_segment(Vector3::zeros(), Vector3::new(0.0, d, 0.0), 1e-9);
+        c.fix_nodes(&left, &dof::ALL);
+        let asm = Assembly::new(&mesh, &c).unwrap();
+        let props = Properties {
+            sections: vec![],
+            laminates: vec![lam.clone()],
+        };
+        let opts = ElementOptions {
+            membrane,
+            ..Default::default()
+        };
+        let (k, m) = asm
+            .values(&mesh, &props, &opts, MassKind::Consistent)
+            .unwrap();
+        let p = lowest_modes(&asm.matrix(k), &asm.matrix(m), 1, &EigenOptions::default()).unwrap();
+        (p.values[0] / exact).sqrt()
+    };
+    let (coarse, fine) = (
+        ratio(16, 2, fem::Membrane::Allman),
+        ratio(32, 4, fem::Membrane::Allman),
+    );
+    eprintln!("Allman 16×2: {coarse:.4}, 32×4: {fine:.4}");
+    assert!(
+        (coarse - 1.0).abs() < 0.06 && (fine - 1.0).abs() < 0.02,
+        "{coarse} {fine}"
+    );
+    assert!(fine < coarse);
+    // the constant-strain membrane locks in in-plane bending (kept as an option)
+    let cst = ratio(16, 2, fem::Membrane::Cst);
+    assert!(cst > 1.2, "{cst}");
 }
