@@ -40,18 +40,23 @@ fn patch_error(
     lam: &LaminateStiffness<f64>,
     exact: impl Fn(&Vector3<f64>) -> [f64; 6],
 ) -> f64 {
+    patch_error_with(mesh, boundary, lam, &ElementOptions::default(), exact)
+}
+
+fn patch_error_with(
+    mesh: &Mesh,
+    boundary: &[usize],
+    lam: &LaminateStiffness<f64>,
+    opts: &ElementOptions,
+    exact: impl Fn(&Vector3<f64>) -> [f64; 6],
+) -> f64 {
     let asm = Assembly::new(mesh, &Constraints::new()).unwrap();
     let props = Properties {
         sections: vec![],
         laminates: vec![lam.clone()],
     };
     let (kv, _) = asm
-        .values(
-            mesh,
-            &props,
-            &ElementOptions::default(),
-            MassKind::Consistent,
-        )
+        .values(mesh, &props, opts, MassKind::Consistent)
         .unwrap();
     let k = asm.matrix(kv);
     let n = asm.n_free();
