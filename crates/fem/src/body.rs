@@ -140,6 +140,31 @@ impl ModalAnalysis {
     pub fn mode_shapes(&self) -> DMatrix<f64> {
         self.expand(&self.pairs.vectors.columns(0, self.n_modes).into_owned())
     }
+    /// The Rayleigh damping matrix `C = αM + βK` on the free dof (`None` without damping).
+    pub fn damping_matrix(
+        &self,
+    ) -> Result<Option<faer::sparse::SparseColMat<usize, f64>>, FemError> {
+        let Some(d) = self.options.damping else {
+            return Ok(None);
+        };
+        let [i, j] = d.modes;
+        let lam = self.eigenvalues();
+        if i >= lam.len() || j >= lam.len() {
+            return Err(FemError::Invalid(
+                "Rayleigh damping refers to modes that were not retained".into(),
+            ));
+        }
+        let (alpha, beta) = d.coefficients(lam[i], lam[j])?;
+        let v = self
+            .m
+            .val()
+            .iter()
+            .zip(self.k.val())
+            .map(|(m, k)| alpha * m + beta * k)
+            .collect();
+        Ok(Some(self.assembly.matrix(v)))
+    }
+
     /// Expand free-dof columns to all dof.
     pub fn expand(&self, x: &DMatrix<f64>) -> DMatrix<f64> {
         let mut out = DMatrix::zeros(self.assembly.n_full(), x.ncols());

@@ -210,6 +210,25 @@ impl GmshTriangles {
     }
 }
 
+impl GmshTriangles {
+    /// Shell mesh with the property of each triangle chosen from its Gmsh entity tag.
+    pub fn to_mesh_by_entity(&self, property: impl Fn(i64) -> usize, axis: Vector3<f64>) -> Mesh {
+        Mesh {
+            nodes: self.nodes.clone(),
+            elements: self
+                .triangles
+                .iter()
+                .zip(&self.entity)
+                .map(|(&nodes, &e)| Element::Shell {
+                    nodes,
+                    property: property(e),
+                    material_axis: axis,
+                })
+                .collect(),
+        }
+    }
+}
+
 /// Parse the `$Nodes` and `$Elements` sections of a Gmsh `.msh` version 4 ASCII text. Node tags
 /// are mapped to consecutive indices; 3-node triangles (type 2) are kept, other element types
 /// (points, lines, …) ignored.

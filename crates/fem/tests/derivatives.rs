@@ -215,6 +215,13 @@ fn dual_modal_body_carries_the_derivatives_and_is_chunk_independent() {
     }
     assert!(fixed.modes.iter().all(|m: &Dual<3>| m.d == [0.0; 3]));
     assert!(updated.modes.iter().any(|m: &Dual<3>| m.d != [0.0; 3]));
+    // the damping matrix reproduces the modal damping: xᵢᵀ C xᵢ = 2 ζᵢ ωᵢ
+    let cmat = an.damping_matrix().unwrap().unwrap();
+    let x5 = an.pairs.vectors.columns(0, 5).into_owned();
+    let xcx = fem::eigen::project(&cmat, &x5, &x5);
+    for i in 0..5 {
+        assert!(rel(xcx[(i, i)], updated.modal_damping[i].v) < 1e-9);
+    }
     // modal damping: ζ = 1 % and 3 % at modes 1 and 4, and its derivative by central differences
     let w = |i: usize| an.pairs.values[i].sqrt();
     assert!(rel(updated.modal_damping[0].v, 2.0 * 0.01 * w(0)) < 1e-12);

@@ -375,6 +375,11 @@ fn gmsh_v4_text_is_parsed() {
     assert_eq!(g.entity, vec![1, 1]);
     let mesh = g.to_mesh(0, Vector3::x());
     assert_eq!(mesh.elements.len(), 2);
+    let by = g.to_mesh_by_entity(|e| if e == 1 { 3 } else { 0 }, Vector3::x());
+    assert!(matches!(
+        by.elements[1],
+        fem::Element::Shell { property: 3, .. }
+    ));
     // errors carry the line number
     let bad = text.replace("1 1 0\n0 1 0", "1 x 0\n0 1 0");
     match fem::parse_gmsh_v4(&bad) {
