@@ -524,3 +524,58 @@ fn in_plane_bending_of_a_strip_converges_with_the_allman_membrane() {
     let cst = ratio(16, 2, fem::Membrane::Cst);
     assert!(cst > 1.2, "{cst}");
 }
+
+#[test]
+fn reference_surface_offset_is_an_exact_reparametrisation() {
+    // the same free laminate described about its mid-plane or its bottom face (B and I₁ ≠ 0):
+    // the FSDT kinematics are related by u_bottom = u_mid − (h/2) β, so the spectra agree (up to
+    // the small drilling penalty, which sees the in-plane rotation of the reference surface)
+    let plies = |reference| {
+        let t = 0.002;
+        let ps: Vec<laminate::Ply<f64>> = [0.0f64, 90.0, 30.0]
+            .iter()
+            .map(|a| laminate::Ply {
+                material: paper_material(),
+                thickness: t,
+                angle: a.to_radians(),
+            })
+            .collect();
+        laminate::PlyStack::with_options(ps, reference, 5.0 / 6.0)
+            .unwrap()
+            .stiffness()
+    };
+    let mesh = Mesh::rectangle(0.2, 0.1, 8, 4, 0).unwrap();
+    let asm = Assembly::new(&mesh, &Constraints::new()).unwrap();
+    let spectrum = |lam: LaminateStiffness<f64>| {
+        let props = Properties {
+            sections: vec![],
+            laminates: vec![lam],
+        };
+        let (k, m) = asm
+            .values(
+                &mesh,
+                &props,
+                &ElementOptions::default(),
+                MassKind::Consistent,
+            )
+            .unwrap();
+        lowest_modes(&asm.matrix(k), &asm.matrix(m), 14, &EigenOptions::default())
+            .unwrap()
+            .values
+    };
+    let mid = spectrum(plies(laminate::ReferenceSurface::MidPlane));
+    let bottom = spectrum(plies(laminate::ReferenceSurface::Bottom));
+    assert!(
+        plies(laminate::ReferenceSurface::Bottom).b.norm()
+            > 1e-3 * plies(laminate::ReferenceSurface::MidPlane).d.norm()
+    );
+    for i in 6..14 {
+        eprintln!("mode {i}: {:e}", rel(bottom[i], mid[i]));
+        assert!(
+            rel(bottom[i], mid[i]) < 1e-4,
+            "mode {i}: {} vs {}",
+            bottom[i],
+            mid[i]
+        );
+    }
+}
