@@ -77,6 +77,17 @@ enum Command {
         #[arg(long, value_name = "DIR")]
         export_matrices: Option<PathBuf>,
     },
+    /// Simulate the deck's mechanism and write `results.h5` and `history.csv`.
+    Run {
+        /// The deck (TOML).
+        deck: PathBuf,
+        /// Output directory (default: `<deck name>.out` beside the deck).
+        #[arg(short = 'o', long = "output", value_name = "DIR")]
+        output: Option<PathBuf>,
+        /// Print a one-line JSON summary (for scripts) instead of the table.
+        #[arg(long)]
+        json: bool,
+    },
     /// Compare two result files dataset by dataset (golden-file checks): exit code 1 on a
     /// mismatch, listing the largest differences with their dataset and time.
     Compare {
@@ -129,6 +140,13 @@ fn main() -> ExitCode {
                 export_matrices: export_matrices.as_deref(),
             };
             commands::modes::run(deck, &cli.set, &req).map(|t| (t, 0))
+        }
+        Command::Run { deck, output, json } => {
+            let req = commands::run::RunRequest {
+                out: output.as_deref(),
+                json: *json,
+            };
+            commands::run::run(deck, &cli.set, &req).map(|t| (t, 0))
         }
         Command::Compare { a, b, rtol, atol } => commands::compare::run(a, b, *rtol, *atol)
             .map(|(text, same)| (text, if same { 0 } else { 1 })),

@@ -4,6 +4,7 @@ pub mod compare;
 pub mod laminate;
 pub mod modes;
 pub mod output;
+pub mod run;
 pub mod section;
 
 /// How results are printed.

@@ -123,12 +123,12 @@ impl Design {
 }
 
 /// A body ready for the finite-element analysis.
-struct Built {
-    mesh: fem::Mesh,
-    props: Properties<f64>,
-    options: ModalOptions,
+pub(crate) struct Built {
+    pub(crate) mesh: fem::Mesh,
+    pub(crate) props: Properties<f64>,
+    pub(crate) options: ModalOptions,
     design: Design,
-    kind: &'static str,
+    pub(crate) kind: &'static str,
 }
 
 fn beam_section(p: &SectionProperties) -> BeamSection<f64> {
@@ -161,7 +161,12 @@ fn shell(
     )
 }
 
-fn build(src: &Source, name: &str, def: &BodyDef, derivatives: bool) -> Result<Built, CliError> {
+pub(crate) fn build(
+    src: &Source,
+    name: &str,
+    def: &BodyDef,
+    derivatives: bool,
+) -> Result<Built, CliError> {
     let input = |key: &str, m: String| {
         CliError::Input(src.error(None, Some(format!("body.{name}{key}")), m))
     };
@@ -547,7 +552,12 @@ pub fn run(path: &Path, overrides: &[String], req: &ModesRequest) -> Result<Stri
 
 /// A failed eigen solution is a runtime failure; every other error of the finite-element layer
 /// (too many modes, a degenerate element, a bad mesh, …) is bad input.
-fn fem_error(src: &Source, name: &str, span: std::ops::Range<usize>, e: fem::FemError) -> CliError {
+pub(crate) fn fem_error(
+    src: &Source,
+    name: &str,
+    span: std::ops::Range<usize>,
+    e: fem::FemError,
+) -> CliError {
     match e {
         fem::FemError::Eigen(m) => CliError::Runtime(format!(
             "{}: body `{name}`: the eigen solution failed: {m}",

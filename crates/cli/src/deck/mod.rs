@@ -10,6 +10,7 @@
 pub mod bodies;
 pub mod check;
 pub mod laminates;
+pub mod mechanism;
 pub mod overrides;
 pub mod raw;
 pub mod sections;

@@ -24,6 +24,20 @@ pub struct RawDeck {
     /// Flexible bodies by name.
     #[serde(default)]
     pub body: BTreeMap<String, Spanned<super::bodies::RawBody>>,
+    /// Rigid bodies by name.
+    #[serde(default)]
+    pub rigid: BTreeMap<String, Spanned<super::mechanism::RawRigid>>,
+    /// Joints and drivers by name.
+    #[serde(default)]
+    pub joint: BTreeMap<String, Spanned<super::mechanism::RawJoint>>,
+    /// Force elements by name.
+    #[serde(default)]
+    pub force: BTreeMap<String, Spanned<super::mechanism::RawForce>>,
+    /// Requested responses by name.
+    #[serde(default)]
+    pub response: BTreeMap<String, Spanned<super::mechanism::RawResponse>>,
+    /// Time integration settings of `flexsens run`.
+    pub analysis: Option<Spanned<super::mechanism::RawAnalysis>>,
 }
 
 /// A material: isotropic (`E`, `nu`) or orthotropic (the nine constants), with `density`.

@@ -1,0 +1,1577 @@
+//! `flexsens run`: the dynamic analysis of the deck's mechanism, written as a result file
+//! (HDF5) and CSV tables.
+//!
+//! Design sensitivities are not computed by this command yet; `flexsens modes --derivatives`
+//! and `flexsens section --derivatives` give those of the components.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+use mbs::{
+    Baumgarte, BdfOptions, BodyId, FlexibleBody, Force, Joint, JointKind, Load, LoadFrame, Marker,
+    Model, MultibodySystem, Output, RedundancyPolicy, RigidBody, State, StepControl, TimeFunction,
+};
+use nalgebra::{Matrix3, Rotation3, Unit, Vector3};
+use toml::Spanned;
+
+use crate::deck::bodies::validate_one as validate_body;
+use crate::deck::check::{count, finite, positive, required, span};
+use crate::deck::laminates::{suggestion, validate as validate_laminates};
+use crate::deck::mechanism::{RawAnalysis, RawMarker, RawMotion, RawResponse, RawRotation};
+use crate::deck::{self, DeckError, RawDeck, Source};
+use crate::error::CliError;
+use crate::files::write_atomic;
+use crate::results::{Attr, Group};
+
+/// What `flexsens run` was asked for.
+pub struct RunRequest<'a> {
+    /// Output directory (default: `<deck stem>.out` beside the deck).
+    pub out: Option<&'a Path>,
+    /// A one-line JSON summary on stdout instead of the table.
+    pub json: bool,
+}
+
+/// A body of the mechanism: where it is in the model and what the responses need of it.
+struct BodyInfo {
+    id: BodyId,
+    /// Initial frame origin and orientation.
+    position: Vector3<f64>,
+    rotation: Matrix3<f64>,
+    /// Flexible bodies: node positions in the body frame.
+    nodes: Option<Vec<Vector3<f64>>>,
+    /// Natural frequencies (Hz), flexible bodies.
+    frequencies: Vec<f64>,
+}
+
+/// A response to evaluate at every output time.
+enum Response {
+    Position {
+        body: BodyId,
+        component: usize,
+    },
+    Velocity {
+        component: usize,
+        nv: Range<usize>,
+    },
+    NodalDisplacement {
+        body: usize,
+        node: usize,
+        component: usize,
+    },
+    MidNodeDeflection {
+        body: usize,
+        nodes: [usize; 3],
+        normal: Vector3<f64>,
+        length: f64,
+    },
+    Reaction {
+        joint: usize,
+        component: usize,
+    },
+    Modal {
+        body: usize,
+        mode: usize,
+    },
+    Energy,
+    ConstraintViolation,
+}
+
+/// A body's initial state: id, frame origin, orientation (body → global), velocity of the
+/// origin, angular velocity (global components).
+type Placement = (
+    BodyId,
+    Vector3<f64>,
+    Matrix3<f64>,
+    Vector3<f64>,
+    Vector3<f64>,
+);
+
+/// The validated mechanism.
+struct Mechanism {
+    model: Model<f64>,
+    state: State,
+    bodies: BTreeMap<String, BodyInfo>,
+    body_order: Vec<String>,
+    joint_names: Vec<String>,
+    responses: Vec<(String, Response, &'static str)>,
+    times: Vec<f64>,
+    options: BdfOptions,
+    policy: RedundancyPolicy,
+}
+
+/// An angle: a number in degrees, or a string `"<number> deg|rad"`; radians out.
+fn angle(src: &Source, key: &str, v: &Spanned<toml::Value>) -> Result<f64, DeckError> {
+    quantity(
+        src,
+        key,
+        v,
+        &[("deg", std::f64::consts::PI / 180.0), ("rad", 1.0)],
+        "degrees",
+    )
+}
+
+/// An angular rate: a number in deg/s, or a string `"<number> deg/s|rad/s|rpm"`; rad/s out.
+fn angular_rate(src: &Source, key: &str, v: &Spanned<toml::Value>) -> Result<f64, DeckError> {
+    let deg = std::f64::consts::PI / 180.0;
+    quantity(
+        src,
+        key,
+        v,
+        &[
+            ("deg/s", deg),
+            ("rad/s", 1.0),
+            ("rpm", std::f64::consts::PI / 30.0),
+        ],
+        "deg/s",
+    )
+}
+
+fn quantity(
+    src: &Source,
+    key: &str,
+    v: &Spanned<toml::Value>,
+    units: &[(&str, f64)],
+    default: &str,
+) -> Result<f64, DeckError> {
+    let bad = |m: String| src.error(span(v), Some(key.to_string()), m);
+    let x = match v.get_ref() {
+        toml::Value::Float(x) => *x * units[0].1,
+        toml::Value::Integer(i) => *i as f64 * units[0].1,
+        toml::Value::String(s) => {
+            let (num, unit) = s
+                .trim()
+                .split_once(char::is_whitespace)
+                .unwrap_or((s.as_str(), ""));
+            let factor = units.iter().find(|(u, _)| *u == unit.trim()).map(|(_, f)| *f).ok_or_else(|| {
+                let known: Vec<&str> = units.iter().map(|(u, _)| *u).collect();
+                bad(format!("`{s}`: expected a number ({default}) or \"<number> <unit>\" with a unit of {}", known.join(", ")))
+            })?;
+            num.parse::<f64>()
+                .map_err(|_| bad(format!("`{num}` is not a number")))?
+                * factor
+        }
+        other => {
+            return Err(bad(format!(
+                "expected a number ({default}) or a string with a unit, found {}",
+                other.type_str()
+            )));
+        }
+    };
+    if x.is_finite() {
+        Ok(x)
+    } else {
+        Err(bad(format!("{x} must be finite")))
+    }
+}
+
+fn vector(src: &Source, key: &str, v: &Spanned<[f64; 3]>) -> Result<Vector3<f64>, DeckError> {
+    let a = *v.get_ref();
+    if a.iter().all(|x| x.is_finite()) {
+        Ok(Vector3::from(a))
+    } else {
+        Err(src.error(
+            span(v),
+            Some(key.into()),
+            format!("{a:?} must have finite components"),
+        ))
+    }
+}
+
+fn direction(src: &Source, key: &str, v: &Spanned<[f64; 3]>) -> Result<Vector3<f64>, DeckError> {
+    let d = vector(src, key, v)?;
+    if d.norm() > 0.0 {
+        Ok(d / d.norm())
+    } else {
+        Err(src.error(span(v), Some(key.into()), "must not be the zero vector"))
+    }
+}
+
+fn rotation(src: &Source, key: &str, r: &Spanned<RawRotation>) -> Result<Matrix3<f64>, DeckError> {
+    let raw = r.get_ref();
+    let axis = direction(
+        src,
+        &format!("{key}.axis"),
+        required(
+            src,
+            span(r),
+            &format!("{key}.axis"),
+            &raw.axis,
+            "axis [x, y, z]",
+        )?,
+    )?;
+    let a = angle(
+        src,
+        &format!("{key}.angle"),
+        required(
+            src,
+            span(r),
+            &format!("{key}.angle"),
+            &raw.angle,
+            "angle (degrees)",
+        )?,
+    )?;
+    Ok(*Rotation3::from_axis_angle(&Unit::new_normalize(axis), a).matrix())
+}
+
+fn inertia(src: &Source, key: &str, v: &Spanned<toml::Value>) -> Result<Matrix3<f64>, DeckError> {
+    let bad = || {
+        src.error(
+            span(v),
+            Some(key.into()),
+            "expected [Ixx, Iyy, Izz] or a 3×3 matrix [[…], […], […]] (kg·m²)",
+        )
+    };
+    let num = |x: &toml::Value| x.as_float().or_else(|| x.as_integer().map(|i| i as f64));
+    let arr = v.get_ref().as_array().ok_or_else(bad)?;
+    let m = if arr.len() == 3 && arr.iter().all(|x| num(x).is_some()) {
+        Matrix3::from_diagonal(&Vector3::new(
+            num(&arr[0]).unwrap_or(0.0),
+            num(&arr[1]).unwrap_or(0.0),
+            num(&arr[2]).unwrap_or(0.0),
+        ))
+    } else if arr.len() == 3 {
+        let mut m = Matrix3::zeros();
+        for (i, row) in arr.iter().enumerate() {
+            let row = row.as_array().filter(|r| r.len() == 3).ok_or_else(bad)?;
+            for (j, x) in row.iter().enumerate() {
+                m[(i, j)] = num(x).ok_or_else(bad)?;
+            }
+        }
+        m
+    } else {
+        return Err(bad());
+    };
+    let symmetric = (m - m.transpose()).abs().max() <= 1e-12 * m.abs().max();
+    let pd = m.cholesky().is_some();
+    if !(m.iter().all(|x| x.is_finite()) && symmetric && pd) {
+        return Err(src.error(
+            span(v),
+            Some(key.into()),
+            "the inertia must be symmetric positive definite",
+        ));
+    }
+    Ok(m)
+}
+
+/// A marker from its deck description (global point and axes in the initial configuration).
+fn marker(
+    src: &Source,
+    key: &str,
+    m: &Spanned<RawMarker>,
+    bodies: &BTreeMap<String, BodyInfo>,
+) -> Result<Marker, DeckError> {
+    let raw = m.get_ref();
+    let k = |s: &str| format!("{key}.{s}");
+    let body = required(
+        src,
+        span(m),
+        &k("body"),
+        &raw.body,
+        "body (a body name or \"ground\")",
+    )?;
+    let axis = raw
+        .axis
+        .as_ref()
+        .map(|a| direction(src, &k("axis"), a))
+        .transpose()?
+        .unwrap_or(Vector3::z());
+    let reference = raw
+        .reference
+        .as_ref()
+        .map(|r| direction(src, &k("reference"), r))
+        .transpose()?;
+    if let Some(r) = reference
+        && r.cross(&axis).norm() < 1e-6
+    {
+        return Err(src.error(
+            raw.reference.as_ref().map(|x| x.span()),
+            Some(k("reference")),
+            "must not be parallel to the axis",
+        ));
+    }
+    // axes in the body's (or global) components
+    let with_axes = |mk: Marker, rot: &Matrix3<f64>| {
+        let a = rot.transpose() * axis;
+        match reference {
+            Some(r) => {
+                let e1 = rot.transpose() * r;
+                mk.with_axes(e1, a.cross(&e1))
+            }
+            None => mk.with_axis(a),
+        }
+    };
+    if body.get_ref() == "ground" {
+        if let Some(n) = &raw.node {
+            return Err(src.error(span(n), Some(k("node")), "the ground has no nodes"));
+        }
+        let p = vector(
+            src,
+            &k("point"),
+            required(src, span(m), &k("point"), &raw.point, "point [x, y, z] (m)")?,
+        )?;
+        return Ok(with_axes(Marker::ground(p), &Matrix3::identity()));
+    }
+    let info = bodies.get(body.get_ref()).ok_or_else(|| {
+        let mut known: Vec<&str> = bodies.keys().map(String::as_str).collect();
+        known.push("ground");
+        src.error(
+            span(body),
+            Some(k("body")),
+            format!(
+                "undefined body `{}`{}",
+                body.get_ref(),
+                suggestion(body.get_ref(), &known)
+            ),
+        )
+    })?;
+    match (&raw.point, &raw.node) {
+        (Some(p), None) => {
+            let p = vector(src, &k("point"), p)?;
+            Ok(with_axes(
+                Marker::on(info.id, info.rotation.transpose() * (p - info.position)),
+                &info.rotation,
+            ))
+        }
+        (None, Some(n)) => {
+            let count = info.nodes.as_ref().map(Vec::len).ok_or_else(|| {
+                src.error(
+                    span(n),
+                    Some(k("node")),
+                    format!("`{}` is a rigid body: give a point", body.get_ref()),
+                )
+            })?;
+            let node = *n.get_ref();
+            if node < 0 || node as usize >= count {
+                return Err(src.error(
+                    span(n),
+                    Some(k("node")),
+                    format!(
+                        "node {node} does not exist (the body has nodes 0 to {})",
+                        count - 1
+                    ),
+                ));
+            }
+            Ok(with_axes(
+                Marker::node(info.id, node as usize),
+                &info.rotation,
+            ))
+        }
+        (Some(_), Some(n)) => Err(src.error(
+            span(n),
+            Some(k("node")),
+            "give either point or node, not both",
+        )),
+        (None, None) => Err(src.error(
+            span(m),
+            Some(k("point")),
+            "missing value: point [x, y, z] or node",
+        )),
+    }
+}
+
+fn motion(
+    src: &Source,
+    key: &str,
+    m: &Spanned<RawMotion>,
+    angular: bool,
+) -> Result<TimeFunction, DeckError> {
+    let raw = m.get_ref();
+    let k = |s: &str| format!("{key}.{s}");
+    let kind = required(
+        src,
+        span(m),
+        &k("kind"),
+        &raw.kind,
+        "kind (\"constant-speed\", \"polynomial\" or \"ramp\")",
+    )?;
+    let value = |key: &str, v: &Spanned<toml::Value>| -> Result<f64, DeckError> {
+        if angular {
+            angle(src, key, v)
+        } else {
+            quantity(src, key, v, &[("m", 1.0)], "m")
+        }
+    };
+    let rate = |key: &str, v: &Spanned<toml::Value>| -> Result<f64, DeckError> {
+        if angular {
+            angular_rate(src, key, v)
+        } else {
+            quantity(src, key, v, &[("m/s", 1.0)], "m/s")
+        }
+    };
+    Ok(match kind.get_ref().as_str() {
+        "constant-speed" => TimeFunction::ConstantSpeed {
+            initial: raw
+                .initial
+                .as_ref()
+                .map(|v| value(&k("initial"), v))
+                .transpose()?
+                .unwrap_or(0.0),
+            rate: rate(
+                &k("rate"),
+                required(src, span(m), &k("rate"), &raw.rate, "rate")?,
+            )?,
+        },
+        "polynomial" => {
+            let c = required(
+                src,
+                span(m),
+                &k("coefficients"),
+                &raw.coefficients,
+                "coefficients [c0, c1, …]",
+            )?;
+            let scale = if angular {
+                std::f64::consts::PI / 180.0
+            } else {
+                1.0
+            };
+            if c.get_ref().iter().any(|x| !x.is_finite()) {
+                return Err(src.error(
+                    span(c),
+                    Some(k("coefficients")),
+                    "coefficients must be finite",
+                ));
+            }
+            TimeFunction::Polynomial(c.get_ref().iter().map(|x| x * scale).collect())
+        }
+        "ramp" => {
+            let t0 = finite(
+                src,
+                &k("t0"),
+                required(src, span(m), &k("t0"), &raw.t0, "t0 (s)")?,
+                "s",
+            )?;
+            let t1v = required(src, span(m), &k("t1"), &raw.t1, "t1 (s)")?;
+            let t1 = finite(src, &k("t1"), t1v, "s")?;
+            if t1 <= t0 {
+                return Err(src.error(
+                    span(t1v),
+                    Some(k("t1")),
+                    format!("t1 = {t1} must be later than t0 = {t0}"),
+                ));
+            }
+            TimeFunction::SmoothRamp {
+                from: value(
+                    &k("from"),
+                    required(src, span(m), &k("from"), &raw.from, "from")?,
+                )?,
+                to: value(&k("to"), required(src, span(m), &k("to"), &raw.to, "to")?)?,
+                t0,
+                t1,
+            }
+        }
+        other => {
+            let c = ["constant-speed", "polynomial", "ramp"];
+            return Err(src.error(
+                span(kind),
+                Some(k("kind")),
+                format!(
+                    "unknown motion `{other}`: expected one of {}{}",
+                    c.join(", "),
+                    suggestion(other, &c)
+                ),
+            ));
+        }
+    })
+}
+
+fn analysis(
+    src: &Source,
+    a: Option<&Spanned<RawAnalysis>>,
+) -> Result<(Vec<f64>, BdfOptions, Baumgarte, RedundancyPolicy), DeckError> {
+    let a = a.ok_or_else(|| {
+        src.error(
+            None,
+            Some("analysis".into()),
+            "missing table [analysis] (at least t_end)",
+        )
+    })?;
+    let raw = a.get_ref();
+    let k = |s: &str| format!("analysis.{s}");
+    let t0 = raw
+        .t_start
+        .as_ref()
+        .map(|t| finite(src, &k("t_start"), t, "s"))
+        .transpose()?
+        .unwrap_or(0.0);
+    let t_end_v = required(src, span(a), &k("t_end"), &raw.t_end, "t_end (s)")?;
+    let t_end = finite(src, &k("t_end"), t_end_v, "s")?;
+    if t_end <= t0 {
+        return Err(src.error(
+            span(t_end_v),
+            Some(k("t_end")),
+            format!("t_end = {t_end} must be later than t_start = {t0}"),
+        ));
+    }
+    let dt = raw
+        .output_step
+        .as_ref()
+        .map(|d| positive(src, &k("output_step"), d, "s"))
+        .transpose()?
+        .unwrap_or((t_end - t0) / 500.0);
+    let n = ((t_end - t0) / dt).round().max(1.0) as usize;
+    if n > 10_000_000 {
+        return Err(src.error(
+            raw.output_step.as_ref().map(|d| d.span()),
+            Some(k("output_step")),
+            format!("{n} output times: choose a larger output_step"),
+        ));
+    }
+    let times: Vec<f64> = (0..=n)
+        .map(|i| {
+            if i == n {
+                t_end
+            } else {
+                t0 + i as f64 * (t_end - t0) / n as f64
+            }
+        })
+        .collect();
+    let rtol = raw
+        .rtol
+        .as_ref()
+        .map(|r| positive(src, &k("rtol"), r, "1"))
+        .transpose()?
+        .unwrap_or(1e-6);
+    let atol = raw
+        .atol
+        .as_ref()
+        .map(|r| positive(src, &k("atol"), r, "state units"))
+        .transpose()?
+        .unwrap_or(1e-8);
+    let order = raw
+        .order
+        .as_ref()
+        .map(|o| count(src, &k("order"), o, 1))
+        .transpose()?;
+    if let (Some(o), Some(ov)) = (order, &raw.order)
+        && o > 5
+    {
+        return Err(src.error(
+            span(ov),
+            Some(k("order")),
+            format!("{o}: BDF orders are 1 to 5"),
+        ));
+    }
+    let options = match raw.integrator.as_ref().map(|i| (i, i.get_ref().as_str())) {
+        None | Some((_, "adaptive")) => {
+            if let Some(s) = &raw.step {
+                return Err(src.error(
+                    span(s),
+                    Some(k("step")),
+                    "step is for integrator = \"fixed\"",
+                ));
+            }
+            let mut o = BdfOptions::adaptive(rtol, atol);
+            if let StepControl::Adaptive { max_order, .. } = &mut o.control {
+                *max_order = order.unwrap_or(5);
+            }
+            o
+        }
+        Some((_, "fixed")) => {
+            let h = positive(
+                src,
+                &k("step"),
+                required(
+                    src,
+                    span(a),
+                    &k("step"),
+                    &raw.step,
+                    "step (s) for a fixed-step run",
+                )?,
+                "s",
+            )?;
+            let mut o = BdfOptions::fixed(h, order.unwrap_or(2));
+            o.rtol = rtol.min(1e-10);
+            o
+        }
+        Some((i, other)) => {
+            return Err(src.error(
+                span(i),
+                Some(k("integrator")),
+                format!("unknown integrator `{other}`: expected \"adaptive\" or \"fixed\""),
+            ));
+        }
+    };
+    let baumgarte = match raw.baumgarte.as_ref().map(|b| (b, b.get_ref())) {
+        None => Baumgarte::default(),
+        Some((_, toml::Value::Boolean(false))) => Baumgarte::off(),
+        Some((_, toml::Value::Boolean(true))) => Baumgarte::default(),
+        Some((b, toml::Value::Table(t))) => {
+            let get = |name: &str| -> Result<f64, DeckError> {
+                match t.get(name) {
+                    None => Ok(1.0),
+                    Some(v) => v
+                        .as_float()
+                        .or_else(|| v.as_integer().map(|i| i as f64))
+                        .filter(|x| x.is_finite() && *x >= 0.0)
+                        .ok_or_else(|| {
+                            src.error(
+                                span(b),
+                                Some(k(&format!("baumgarte.{name}"))),
+                                "must be a finite number ≥ 0 (1/s)",
+                            )
+                        }),
+                }
+            };
+            if let Some(extra) = t.keys().find(|n| *n != "alpha" && *n != "beta") {
+                return Err(src.error(
+                    span(b),
+                    Some(k(&format!("baumgarte.{extra}"))),
+                    "unknown key: expected alpha and beta",
+                ));
+            }
+            Baumgarte {
+                alpha: get("alpha")?,
+                beta: get("beta")?,
+            }
+        }
+        Some((b, _)) => {
+            return Err(src.error(
+                span(b),
+                Some(k("baumgarte")),
+                "expected { alpha, beta } or false",
+            ));
+        }
+    };
+    let policy = match raw.redundant.as_ref().map(|r| (r, r.get_ref().as_str())) {
+        None | Some((_, "remove")) => RedundancyPolicy::Remove,
+        Some((_, "error")) => RedundancyPolicy::Error,
+        Some((r, other)) => {
+            return Err(src.error(
+                span(r),
+                Some(k("redundant")),
+                format!("unknown policy `{other}`: expected \"remove\" or \"error\""),
+            ));
+        }
+    };
+    Ok((times, options, baumgarte, policy))
+}
+
+const XYZ: [&str; 3] = ["x", "y", "z"];
+const NODE_DOF: [&str; 6] = ["ux", "uy", "uz", "rx", "ry", "rz"];
+const REACTION: [&str; 6] = ["fx", "fy", "fz", "mx", "my", "mz"];
+
+fn component(
+    src: &Source,
+    key: &str,
+    c: Option<&Spanned<String>>,
+    table: Option<Range<usize>>,
+    names: &[&str],
+) -> Result<usize, DeckError> {
+    let c = c.ok_or_else(|| {
+        src.error(
+            table,
+            Some(key.into()),
+            format!("missing value: component ({})", names.join(", ")),
+        )
+    })?;
+    names.iter().position(|n| *n == c.get_ref()).ok_or_else(|| {
+        src.error(
+            span(c),
+            Some(key.into()),
+            format!(
+                "unknown component `{}`: expected one of {}{}",
+                c.get_ref(),
+                names.join(", "),
+                suggestion(c.get_ref(), names)
+            ),
+        )
+    })
+}
+
+fn build_mechanism(src: &Source, raw: &RawDeck) -> Result<Mechanism, CliError> {
+    let lam = validate_laminates(src, raw)?;
+    let mut model = Model::<f64>::new();
+    let mut bodies = BTreeMap::new();
+    let mut body_order = Vec::new();
+    let mut placements = Vec::new();
+    let mut flexible_index = BTreeMap::new();
+    // flexible bodies: modes of the mesh as given (global coordinates at t = 0)
+    for (name, b) in &raw.body {
+        let def = validate_body(src, raw, name, b, &lam)?;
+        let built = super::modes::build(src, name, &def, false)?;
+        if built.options.mass != fem::MassKind::Lumped {
+            return Err(CliError::Input(src.error(
+                Some(b.span()),
+                Some(format!("body.{name}.mass")),
+                "the floating frame of reference needs mass = \"lumped\"",
+            )));
+        }
+        let analysis = fem::modal_analysis(&built.mesh, &built.props, &built.options)
+            .map_err(|e| super::modes::fem_error(src, name, b.span(), e))?;
+        let modal = fem::modal_body(&built.mesh, &built.props, &analysis)
+            .map_err(|e| super::modes::fem_error(src, name, b.span(), e))?;
+        let nodes = modal.node_positions.clone();
+        let id = model
+            .add_flexible_body(FlexibleBody::new(name.clone(), modal))
+            .map_err(|e| {
+                CliError::Input(src.error(
+                    Some(b.span()),
+                    Some(format!("body.{name}")),
+                    e.to_string(),
+                ))
+            })?;
+        flexible_index.insert(name.clone(), body_order.len());
+        placements.push((
+            id,
+            analysis.origin,
+            Matrix3::identity(),
+            Vector3::zeros(),
+            Vector3::zeros(),
+        ));
+        bodies.insert(
+            name.clone(),
+            BodyInfo {
+                id,
+                position: analysis.origin,
+                rotation: Matrix3::identity(),
+                nodes: Some(nodes),
+                frequencies: analysis.frequencies_hz(),
+            },
+        );
+        body_order.push(name.clone());
+    }
+    for (name, r) in &raw.rigid {
+        let k = |s: &str| format!("rigid.{name}.{s}");
+        if raw.body.contains_key(name) || name == "ground" {
+            return Err(CliError::Input(src.error(Some(r.span()), Some(format!("rigid.{name}")), "this name is already used (bodies and rigid bodies share names; `ground` is reserved)")));
+        }
+        let rr = r.get_ref();
+        let mass = positive(
+            src,
+            &k("mass"),
+            required(src, span(r), &k("mass"), &rr.mass, "mass (kg)")?,
+            "kg",
+        )?;
+        let j = inertia(
+            src,
+            &k("inertia"),
+            required(src, span(r), &k("inertia"), &rr.inertia, "inertia (kg·m²)")?,
+        )?;
+        let p = rr
+            .position
+            .as_ref()
+            .map(|p| vector(src, &k("position"), p))
+            .transpose()?
+            .unwrap_or_else(Vector3::zeros);
+        let a = rr
+            .orientation
+            .as_ref()
+            .map(|o| rotation(src, &k("orientation"), o))
+            .transpose()?
+            .unwrap_or_else(Matrix3::identity);
+        let v = rr
+            .velocity
+            .as_ref()
+            .map(|v| vector(src, &k("velocity"), v))
+            .transpose()?
+            .unwrap_or_else(Vector3::zeros);
+        let w = match &rr.angular_velocity {
+            None => Vector3::zeros(),
+            Some(w) => {
+                let mut out = Vector3::zeros();
+                for i in 0..3 {
+                    let item = Spanned::new(w.span(), w.get_ref()[i].clone());
+                    out[i] = angular_rate(src, &format!("{}[{i}]", k("angular_velocity")), &item)?;
+                }
+                out
+            }
+        };
+        let id = model
+            .add_rigid_body(RigidBody::new(name.clone(), mass, j))
+            .map_err(|e| {
+                CliError::Input(src.error(
+                    Some(r.span()),
+                    Some(format!("rigid.{name}")),
+                    e.to_string(),
+                ))
+            })?;
+        placements.push((id, p, a, v, w));
+        bodies.insert(
+            name.clone(),
+            BodyInfo {
+                id,
+                position: p,
+                rotation: a,
+                nodes: None,
+                frequencies: Vec::new(),
+            },
+        );
+        body_order.push(name.clone());
+    }
+    let (times, options, baumgarte, policy) = analysis(src, raw.analysis.as_ref())?;
+    model.baumgarte = baumgarte;
+    let mut joint_names = Vec::new();
+    for (name, j) in &raw.joint {
+        let k = |s: &str| format!("joint.{name}.{s}");
+        let rj = j.get_ref();
+        let kind_v = required(src, span(j), &k("kind"), &rj.kind, "kind")?;
+        let kinds = [
+            "spherical",
+            "revolute",
+            "universal",
+            "cylindrical",
+            "translational",
+            "fixed",
+            "angle-driver",
+            "distance-driver",
+        ];
+        let driver = matches!(
+            kind_v.get_ref().as_str(),
+            "angle-driver" | "distance-driver"
+        );
+        if !driver && let Some(m) = &rj.motion {
+            return Err(CliError::Input(src.error(
+                span(m),
+                Some(k("motion")),
+                "motion is only used by drivers",
+            )));
+        }
+        let kind = match kind_v.get_ref().as_str() {
+            "spherical" => JointKind::Spherical,
+            "revolute" => JointKind::Revolute,
+            "universal" => JointKind::Universal,
+            "cylindrical" => JointKind::Cylindrical,
+            "translational" => JointKind::Translational,
+            "fixed" => JointKind::Fixed,
+            "angle-driver" => JointKind::AngleDriver(motion(
+                src,
+                &k("motion"),
+                required(src, span(j), &k("motion"), &rj.motion, "motion")?,
+                true,
+            )?),
+            "distance-driver" => JointKind::DistanceDriver(motion(
+                src,
+                &k("motion"),
+                required(src, span(j), &k("motion"), &rj.motion, "motion")?,
+                false,
+            )?),
+            other => {
+                return Err(CliError::Input(src.error(
+                    span(kind_v),
+                    Some(k("kind")),
+                    format!("unknown joint kind `{other}`{}", suggestion(other, &kinds)),
+                )));
+            }
+        };
+        let a = marker(
+            src,
+            &k("a"),
+            required(
+                src,
+                span(j),
+                &k("a"),
+                &rj.a,
+                "a (a marker: { body, point | node, axis })",
+            )?,
+            &bodies,
+        )?;
+        let b = marker(
+            src,
+            &k("b"),
+            required(
+                src,
+                span(j),
+                &k("b"),
+                &rj.b,
+                "b (a marker: { body, point | node, axis })",
+            )?,
+            &bodies,
+        )?;
+        model
+            .add_joint(Joint::new(name.clone(), kind, a, b))
+            .map_err(|e| {
+                CliError::Input(src.error(
+                    Some(j.span()),
+                    Some(format!("joint.{name}")),
+                    e.to_string(),
+                ))
+            })?;
+        joint_names.push(name.clone());
+    }
+    for (name, f) in &raw.force {
+        let k = |s: &str| format!("force.{name}.{s}");
+        let rf = f.get_ref();
+        let kind = required(
+            src,
+            span(f),
+            &k("kind"),
+            &rf.kind,
+            "kind (\"gravity\", \"point-force\", \"point-torque\" or \"spring-damper\")",
+        )?;
+        let force = match kind.get_ref().as_str() {
+            "gravity" => {
+                model.gravity += vector(
+                    src,
+                    &k("acceleration"),
+                    required(
+                        src,
+                        span(f),
+                        &k("acceleration"),
+                        &rf.acceleration,
+                        "acceleration [x, y, z] (m/s²)",
+                    )?,
+                )?;
+                continue;
+            }
+            "point-force" | "point-torque" => {
+                let at = marker(
+                    src,
+                    &k("at"),
+                    required(src, span(f), &k("at"), &rf.at, "at (a marker)")?,
+                    &bodies,
+                )?;
+                let load = match (&rf.value, &rf.table) {
+                    (Some(v), None) => Load::Constant(vector(src, &k("value"), v)?),
+                    (None, Some(t)) => {
+                        let times = required(
+                            src,
+                            span(t),
+                            &k("table.times"),
+                            &t.get_ref().times,
+                            "times [s]",
+                        )?;
+                        let values = required(
+                            src,
+                            span(t),
+                            &k("table.values"),
+                            &t.get_ref().values,
+                            "values [[x, y, z], …]",
+                        )?;
+                        let ts = times.get_ref().clone();
+                        if ts.is_empty()
+                            || ts.windows(2).any(|w| w[1] <= w[0])
+                            || ts.iter().any(|x| !x.is_finite())
+                        {
+                            return Err(CliError::Input(src.error(
+                                span(times),
+                                Some(k("table.times")),
+                                "times must be finite and strictly increasing",
+                            )));
+                        }
+                        if values.get_ref().len() != ts.len() {
+                            return Err(CliError::Input(src.error(
+                                span(values),
+                                Some(k("table.values")),
+                                format!("{} values for {} times", values.get_ref().len(), ts.len()),
+                            )));
+                        }
+                        Load::Table {
+                            times: ts,
+                            values: values.get_ref().iter().map(|v| Vector3::from(*v)).collect(),
+                        }
+                    }
+                    (Some(_), Some(t)) => {
+                        return Err(CliError::Input(src.error(
+                            span(t),
+                            Some(k("table")),
+                            "give either value or table",
+                        )));
+                    }
+                    (None, None) => {
+                        return Err(CliError::Input(src.error(
+                            span(f),
+                            Some(k("value")),
+                            "missing value: value [x, y, z] or table",
+                        )));
+                    }
+                };
+                let frame = match rf.frame.as_ref().map(|x| (x, x.get_ref().as_str())) {
+                    None | Some((_, "global")) => LoadFrame::Global,
+                    Some((_, "body")) => LoadFrame::Body,
+                    Some((x, other)) => {
+                        return Err(CliError::Input(src.error(
+                            span(x),
+                            Some(k("frame")),
+                            format!("unknown frame `{other}`: expected \"global\" or \"body\""),
+                        )));
+                    }
+                };
+                if kind.get_ref() == "point-force" {
+                    Force::PointForce {
+                        marker: at,
+                        load,
+                        frame,
+                    }
+                } else {
+                    Force::PointTorque {
+                        marker: at,
+                        load,
+                        frame,
+                    }
+                }
+            }
+            "spring-damper" => {
+                let a = marker(
+                    src,
+                    &k("a"),
+                    required(src, span(f), &k("a"), &rf.a, "a (a marker)")?,
+                    &bodies,
+                )?;
+                let b = marker(
+                    src,
+                    &k("b"),
+                    required(src, span(f), &k("b"), &rf.b, "b (a marker)")?,
+                    &bodies,
+                )?;
+                let stiffness = rf
+                    .stiffness
+                    .as_ref()
+                    .map(|s| finite(src, &k("stiffness"), s, "N/m"))
+                    .transpose()?
+                    .unwrap_or(0.0);
+                let damping = rf
+                    .damping
+                    .as_ref()
+                    .map(|s| finite(src, &k("damping"), s, "N·s/m"))
+                    .transpose()?
+                    .unwrap_or(0.0);
+                let free_length = match &rf.free_length {
+                    Some(l) => finite(src, &k("free_length"), l, "m")?,
+                    None => {
+                        let q = initial_state(&model, &placements).q;
+                        (model.marker_position(&a, &q) - model.marker_position(&b, &q)).norm()
+                    }
+                };
+                Force::SpringDamper {
+                    a,
+                    b,
+                    stiffness,
+                    damping,
+                    free_length,
+                }
+            }
+            other => {
+                let c = ["gravity", "point-force", "point-torque", "spring-damper"];
+                return Err(CliError::Input(src.error(
+                    span(kind),
+                    Some(k("kind")),
+                    format!("unknown force kind `{other}`{}", suggestion(other, &c)),
+                )));
+            }
+        };
+        model.add_force(force).map_err(|e| {
+            CliError::Input(src.error(Some(f.span()), Some(format!("force.{name}")), e.to_string()))
+        })?;
+    }
+    let state = initial_state(&model, &placements);
+    let responses = responses(src, raw, &model, &bodies, &flexible_index, &joint_names)?;
+    Ok(Mechanism {
+        model,
+        state,
+        bodies,
+        body_order,
+        joint_names,
+        responses,
+        times,
+        options,
+        policy,
+    })
+}
+
+fn initial_state(model: &Model<f64>, placements: &[Placement]) -> State {
+    let mut s = model.rest_state();
+    for (id, p, a, v, w) in placements {
+        model.set_pose(&mut s, *id, *p, a);
+        // ω' in body components from the global angular velocity
+        model.set_velocity(&mut s, *id, *v, a.transpose() * w);
+    }
+    s
+}
+
+fn responses(
+    src: &Source,
+    raw: &RawDeck,
+    model: &Model<f64>,
+    bodies: &BTreeMap<String, BodyInfo>,
+    flexible_index: &BTreeMap<String, usize>,
+    joints: &[String],
+) -> Result<Vec<(String, Response, &'static str)>, DeckError> {
+    let mut out = Vec::new();
+    for (name, r) in &raw.response {
+        let k = |s: &str| format!("response.{name}.{s}");
+        let rr: &RawResponse = r.get_ref();
+        let kind = required(src, span(r), &k("kind"), &rr.kind, "kind")?;
+        let body = |flexible: bool| -> Result<(&String, &BodyInfo), DeckError> {
+            let b = required(src, span(r), &k("body"), &rr.body, "body")?;
+            let (n, info) = bodies.get_key_value(b.get_ref()).ok_or_else(|| {
+                let known: Vec<&str> = bodies.keys().map(String::as_str).collect();
+                src.error(
+                    span(b),
+                    Some(k("body")),
+                    format!(
+                        "undefined body `{}`{}",
+                        b.get_ref(),
+                        suggestion(b.get_ref(), &known)
+                    ),
+                )
+            })?;
+            if flexible && info.nodes.is_none() {
+                return Err(src.error(
+                    span(b),
+                    Some(k("body")),
+                    format!("`{n}` is a rigid body; this response needs a flexible one"),
+                ));
+            }
+            Ok((n, info))
+        };
+        let node_index =
+            |info: &BodyInfo, v: &Spanned<i64>, key: &str| -> Result<usize, DeckError> {
+                let n = info.nodes.as_ref().map_or(0, Vec::len);
+                let x = *v.get_ref();
+                if x < 0 || x as usize >= n {
+                    return Err(src.error(
+                        span(v),
+                        Some(k(key)),
+                        format!(
+                            "node {x} does not exist (nodes 0 to {})",
+                            n.saturating_sub(1)
+                        ),
+                    ));
+                }
+                Ok(x as usize)
+            };
+        let (resp, unit) = match kind.get_ref().as_str() {
+            "position" | "velocity" => {
+                let (_, info) = body(false)?;
+                let c = component(src, &k("component"), rr.component.as_ref(), span(r), &XYZ)?;
+                if kind.get_ref() == "position" {
+                    (
+                        Response::Position {
+                            body: info.id,
+                            component: c,
+                        },
+                        "m",
+                    )
+                } else {
+                    (
+                        Response::Velocity {
+                            component: c,
+                            nv: model.v_range(info.id),
+                        },
+                        "m/s",
+                    )
+                }
+            }
+            "nodal-displacement" => {
+                let (n, info) = body(true)?;
+                let node = node_index(
+                    info,
+                    required(src, span(r), &k("node"), &rr.node, "node")?,
+                    "node",
+                )?;
+                let c = component(
+                    src,
+                    &k("component"),
+                    rr.component.as_ref(),
+                    span(r),
+                    &NODE_DOF,
+                )?;
+                (
+                    Response::NodalDisplacement {
+                        body: flexible_index[n],
+                        node,
+                        component: c,
+                    },
+                    if c < 3 { "m" } else { "rad" },
+                )
+            }
+            "mid-node-deflection" => {
+                let (n, info) = body(true)?;
+                let count = info.nodes.as_ref().map_or(0, Vec::len);
+                let nodes = match &rr.nodes {
+                    Some(v) => {
+                        let mut out = [0; 3];
+                        for i in 0..3 {
+                            out[i] =
+                                node_index(info, &Spanned::new(v.span(), v.get_ref()[i]), "nodes")?;
+                        }
+                        out
+                    }
+                    None => [0, (count - 1) / 2, count - 1],
+                };
+                let x = info.nodes.as_ref().expect("flexible");
+                let length = (x[nodes[2]] - x[nodes[0]]).norm();
+                if length == 0.0 {
+                    return Err(src.error(
+                        span(r),
+                        Some(k("nodes")),
+                        "the first and last nodes coincide",
+                    ));
+                }
+                let normal = rr
+                    .normal
+                    .as_ref()
+                    .map(|v| direction(src, &k("normal"), v))
+                    .transpose()?
+                    .unwrap_or(Vector3::z());
+                (
+                    Response::MidNodeDeflection {
+                        body: flexible_index[n],
+                        nodes,
+                        normal,
+                        length,
+                    },
+                    "1",
+                )
+            }
+            "reaction" => {
+                let j = required(src, span(r), &k("joint"), &rr.joint, "joint")?;
+                let idx = joints
+                    .iter()
+                    .position(|x| x == j.get_ref())
+                    .ok_or_else(|| {
+                        let known: Vec<&str> = joints.iter().map(String::as_str).collect();
+                        src.error(
+                            span(j),
+                            Some(k("joint")),
+                            format!(
+                                "undefined joint `{}`{}",
+                                j.get_ref(),
+                                suggestion(j.get_ref(), &known)
+                            ),
+                        )
+                    })?;
+                let c = component(
+                    src,
+                    &k("component"),
+                    rr.component.as_ref(),
+                    span(r),
+                    &REACTION,
+                )?;
+                (
+                    Response::Reaction {
+                        joint: idx,
+                        component: c,
+                    },
+                    if c < 3 { "N" } else { "N*m" },
+                )
+            }
+            "modal" => {
+                let (n, info) = body(true)?;
+                let _ = info;
+                let m = required(src, span(r), &k("mode"), &rr.mode, "mode (from 1)")?;
+                let nm = model.body(bodies[n].id).n_modes();
+                let mode = *m.get_ref();
+                if mode < 1 || mode as usize > nm {
+                    return Err(src.error(
+                        span(m),
+                        Some(k("mode")),
+                        format!("mode {mode}: the body keeps modes 1 to {nm}"),
+                    ));
+                }
+                (
+                    Response::Modal {
+                        body: flexible_index[n],
+                        mode: mode as usize - 1,
+                    },
+                    "1",
+                )
+            }
+            "energy" => (Response::Energy, "J"),
+            "constraint-violation" => (Response::ConstraintViolation, "1"),
+            other => {
+                let c = [
+                    "position",
+                    "velocity",
+                    "nodal-displacement",
+                    "mid-node-deflection",
+                    "reaction",
+                    "modal",
+                    "energy",
+                    "constraint-violation",
+                ];
+                return Err(src.error(
+                    span(kind),
+                    Some(k("kind")),
+                    format!("unknown response `{other}`{}", suggestion(other, &c)),
+                ));
+            }
+        };
+        out.push((name.clone(), resp, unit));
+    }
+    Ok(out)
+}
+
+/// The value of a response at one output.
+fn evaluate(r: &Response, o: &Output, mech: &Mechanism) -> f64 {
+    let flexible: Vec<&BodyInfo> = mech
+        .body_order
+        .iter()
+        .map(|n| &mech.bodies[n])
+        .filter(|b| b.nodes.is_some())
+        .collect();
+    match r {
+        Response::Position { body, component } => o.positions[body.index()][*component],
+        Response::Velocity { nv, component } => o.v[nv.start + component],
+        Response::NodalDisplacement {
+            body,
+            node,
+            component,
+        } => {
+            let b = flexible[*body];
+            o.nodal_displacements[b.id.index()][*node][*component]
+        }
+        Response::MidNodeDeflection {
+            body,
+            nodes,
+            normal,
+            length,
+        } => {
+            let b = flexible[*body];
+            let i = b.id.index();
+            let x0 = b.nodes.as_ref().expect("flexible");
+            let p = |n: usize| {
+                let u = o.nodal_displacements[i][n];
+                o.positions[i] + o.orientations[i] * (x0[n] + Vector3::new(u[0], u[1], u[2]))
+            };
+            let (pa, pm, pb) = (p(nodes[0]), p(nodes[1]), p(nodes[2]));
+            let t = (pb - pa).normalize();
+            let e = normal.cross(&t);
+            (pm - pa).dot(&e) / length
+        }
+        Response::Reaction { joint, component } => {
+            let rj = &o.reactions[*joint];
+            if *component < 3 {
+                rj.force_on_b[*component]
+            } else {
+                rj.moment_on_b[*component - 3]
+            }
+        }
+        Response::Modal { body, mode } => o.modal[flexible[*body].id.index()][*mode],
+        Response::Energy => o.energy.total(),
+        Response::ConstraintViolation => o.position_violation,
+    }
+}
+
+/// The default output directory: `<deck stem>.out` beside the deck.
+fn default_out(deck: &Path) -> PathBuf {
+    let stem = deck
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "flexsens".into());
+    deck.with_file_name(format!("{stem}.out"))
+}
+
+/// Run the command; the returned text goes to stdout.
+pub fn run(path: &Path, overrides: &[String], req: &RunRequest) -> Result<String, CliError> {
+    let (src, raw) = deck::load(path, overrides)?;
+    let mech = build_mechanism(&src, &raw)?;
+    let runtime = |m: String| CliError::Runtime(format!("{}: {m}", src.file.display()));
+    let mut system =
+        MultibodySystem::new_at(mech.model.clone(), mech.times[0], &mech.state, mech.policy)
+            .map_err(|e| runtime(e.to_string()))?;
+    let mut state = mech.state.clone();
+    system
+        .assemble(mech.times[0], &mut state, 1e-10)
+        .map_err(|e| {
+            runtime(format!(
+                "the initial configuration cannot be assembled: {e}"
+            ))
+        })?;
+    let sim = mbs::simulate(&mut system, &state, &mech.times, mech.options.clone())
+        .map_err(|e| runtime(e.to_string()))?;
+    // results
+    let n = mech.times.len();
+    let mut g = Group::default();
+    g.attrs.insert(
+        "flexsens_version".into(),
+        Attr::Text(env!("CARGO_PKG_VERSION").into()),
+    );
+    g.put("time", &[n], mech.times.clone()).units("s");
+    let mut history: Vec<(String, &str, Vec<f64>)> = Vec::new();
+    for (name, r, unit) in &mech.responses {
+        let v: Vec<f64> = sim.outputs.iter().map(|o| evaluate(r, o, &mech)).collect();
+        g.put(&format!("responses/{name}"), &[n], v.clone())
+            .units(unit);
+        history.push((name.clone(), unit, v));
+    }
+    for name in &mech.body_order {
+        let b = &mech.bodies[name];
+        let i = b.id.index();
+        g.put(
+            &format!("bodies/{name}/position"),
+            &[n, 3],
+            sim.outputs
+                .iter()
+                .flat_map(|o| o.positions[i].iter().copied().collect::<Vec<_>>())
+                .collect(),
+        )
+        .units("m");
+        g.put(
+            &format!("bodies/{name}/orientation"),
+            &[n, 3, 3],
+            sim.outputs
+                .iter()
+                .flat_map(|o| {
+                    o.orientations[i]
+                        .transpose()
+                        .iter()
+                        .copied()
+                        .collect::<Vec<_>>()
+                })
+                .collect(),
+        )
+        .units("1");
+        if b.nodes.is_some() {
+            let m = sim.outputs[0].modal[i].len();
+            g.put(
+                &format!("bodies/{name}/modal_coordinates"),
+                &[n, m],
+                sim.outputs
+                    .iter()
+                    .flat_map(|o| o.modal[i].clone())
+                    .collect(),
+            )
+            .units("1");
+            g.put(
+                &format!("bodies/{name}/frequencies"),
+                &[b.frequencies.len()],
+                b.frequencies.clone(),
+            )
+            .units("Hz");
+        }
+    }
+    for (j, name) in mech.joint_names.iter().enumerate() {
+        g.put(
+            &format!("joints/{name}/reaction_on_b"),
+            &[n, 6],
+            sim.outputs
+                .iter()
+                .flat_map(|o| {
+                    let r = &o.reactions[j];
+                    [
+                        r.force_on_b[0],
+                        r.force_on_b[1],
+                        r.force_on_b[2],
+                        r.moment_on_b[0],
+                        r.moment_on_b[1],
+                        r.moment_on_b[2],
+                    ]
+                })
+                .collect(),
+        )
+        .units("N, N*m");
+    }
+    g.put(
+        "constraints/position_violation",
+        &[n],
+        sim.outputs.iter().map(|o| o.position_violation).collect(),
+    )
+    .units("m");
+    g.put(
+        "constraints/velocity_violation",
+        &[n],
+        sim.outputs.iter().map(|o| o.velocity_violation).collect(),
+    )
+    .units("m/s");
+    g.put(
+        "energy/total",
+        &[n],
+        sim.outputs.iter().map(|o| o.energy.total()).collect(),
+    )
+    .units("J");
+    let st = &sim.statistics;
+    for (k, v) in [
+        ("steps", st.steps),
+        ("rejected_steps", st.rejected_steps),
+        ("newton_failures", st.newton_failures),
+        ("newton_iterations", st.newton_iterations),
+        ("rhs_evaluations", st.rhs_evaluations),
+        ("jacobians", st.jacobians),
+        ("factorizations", st.factorizations),
+    ] {
+        g.group("statistics")
+            .attrs
+            .insert(k.into(), Attr::I64(v as i64));
+    }
+    g.put_text("meta/deck", vec![src.text.clone()]);
+    g.put_text("meta/deck_path", vec![src.file.display().to_string()]);
+    g.put_text("meta/overrides", src.overrides.clone());
+    let out = req
+        .out
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| default_out(path));
+    let bytes = g
+        .to_hdf5()
+        .map_err(|e| CliError::Runtime(format!("cannot encode the results: {e}")))?;
+    let mut csv = String::from("time");
+    for (name, unit, _) in &history {
+        let _ = write!(csv, ",{name} [{unit}]");
+    }
+    csv.push('\n');
+    for (i, t) in mech.times.iter().enumerate() {
+        let _ = write!(csv, "{t:e}");
+        for (_, _, v) in &history {
+            let _ = write!(csv, ",{:e}", v[i]);
+        }
+        csv.push('\n');
+    }
+    write_atomic(&out.join("history.csv"), csv.as_bytes())?;
+    // results.h5 last: its presence means the run completed
+    write_atomic(&out.join("results.h5"), &bytes)?;
+    let summary = serde_json::json!({
+        "deck": src.file.display().to_string(),
+        "output": out.display().to_string(),
+        "t_end": mech.times.last(),
+        "outputs": n,
+        "steps": st.steps,
+        "rejected_steps": st.rejected_steps,
+        "rhs_evaluations": st.rhs_evaluations,
+        "max_position_violation": sim.outputs.iter().map(|o| o.position_violation).fold(0.0, f64::max),
+        "responses": history.iter().map(|(name, unit, v)| (name.clone(), serde_json::json!({
+            "unit": unit, "final": v.last(), "min": v.iter().copied().fold(f64::INFINITY, f64::min), "max": v.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+        }))).collect::<serde_json::Map<_, _>>(),
+    });
+    if req.json {
+        return Ok(summary.to_string() + "\n");
+    }
+    let mut s = String::new();
+    if let Some(t) = &raw.title {
+        let _ = writeln!(s, "{t}");
+    }
+    let _ = writeln!(
+        s,
+        "{} bodies, {} joints; t = {} … {} s, {} output times",
+        mech.body_order.len(),
+        mech.joint_names.len(),
+        mech.times[0],
+        mech.times[n - 1],
+        n
+    );
+    let _ = writeln!(
+        s,
+        "integrator: {} steps ({} rejected), {} right-hand sides, {} Jacobians",
+        st.steps, st.rejected_steps, st.rhs_evaluations, st.jacobians
+    );
+    let _ = writeln!(
+        s,
+        "largest position-constraint violation: {:.3e}",
+        summary["max_position_violation"].as_f64().unwrap_or(0.0)
+    );
+    if !history.is_empty() {
+        let _ = writeln!(
+            s,
+            "{:<24} {:>14} {:>14} {:>14}  unit",
+            "response", "min", "max", "final"
+        );
+        for (name, unit, v) in &history {
+            let r = &summary["responses"][name];
+            let _ = writeln!(
+                s,
+                "{name:<24} {:>14.6e} {:>14.6e} {:>14.6e}  {unit}",
+                r["min"].as_f64().unwrap_or(0.0),
+                r["max"].as_f64().unwrap_or(0.0),
+                v.last().copied().unwrap_or(0.0)
+            );
+        }
+    }
+    let _ = writeln!(
+        s,
+        "written: {} and {}",
+        out.join("results.h5").display(),
+        out.join("history.csv").display()
+    );
+    Ok(s)
+}

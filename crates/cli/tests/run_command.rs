@@ -1,0 +1,284 @@
+//! `flexsens run` end to end: closed-form kinematics, result files (HDF5 read by h5py, CSV),
+//! golden-file comparison, bad input, failed runs.
+
+use std::process::Command;
+
+mod common;
+use common::*;
+
+fn slider_exact(t: f64) -> (f64, f64) {
+    // crank r, rod l, θ = ω t
+    let (r, l, w) = (0.152_f64, 0.304_f64, 150.0_f64);
+    let th = w * t;
+    let s = (l * l - r * r * th.sin().powi(2)).sqrt();
+    let x = r * th.cos() + s;
+    let v = -r * w * th.sin() - r * r * w * th.sin() * th.cos() / s;
+    (x, v)
+}
+
+fn read_csv(path: &std::path::Path) -> (Vec<String>, Vec<Vec<f64>>) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let head: Vec<String> = lines
+        .next()
+        .unwrap()
+        .split(',')
+        .map(str::to_string)
+        .collect();
+    let rows = lines
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    (head, rows)
+}
+
+#[test]
+fn rigid_slider_crank_follows_the_closed_form_over_two_revolutions() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let o = run(&[
+        "run",
+        deck("slider_crank_rigid.toml").to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (head, rows) = read_csv(&out.join("history.csv"));
+    assert_eq!(
+        head,
+        ["time", "slider_vx [m/s]", "slider_x [m]", "violation [1]"]
+    );
+    assert_eq!(rows.len(), 839);
+    let (mut ex, mut ev) = (0.0f64, 0.0f64);
+    for r in &rows {
+        let (x, v) = slider_exact(r[0]);
+        ex = ex.max((r[2] - x).abs());
+        ev = ev.max((r[1] - v).abs());
+    }
+    // relative to the stroke scale r + L and the speed scale r ω
+    assert!(ex / 0.456 < 1e-7, "slider position error {ex} m");
+    assert!(
+        ev / (0.152 * 150.0) < 1e-6,
+        "slider velocity error {ev} m/s"
+    );
+}
+
+#[test]
+fn json_summary_for_scripts() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("o");
+    let doc = json(&[
+        "run",
+        deck("slider_crank_rigid.toml").to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--json",
+    ]);
+    assert_eq!(doc["outputs"], 839);
+    let max = doc["responses"]["slider_x"]["max"].as_f64().unwrap();
+    assert!((max - 0.456).abs() < 1e-6);
+    assert!(doc["steps"].as_u64().unwrap() > 10);
+}
+
+#[test]
+fn results_h5_holds_every_history_with_units_readable_by_h5py() {
+    let have_h5py = Command::new("python3")
+        .args(["-c", "import h5py"])
+        .status()
+        .is_ok_and(|s| s.success());
+    if !have_h5py {
+        assert!(std::env::var_os("CI").is_none(), "CI must have h5py");
+        eprintln!("SKIPPED: h5py not installed");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let o = run(&[
+        "run",
+        deck("slider_crank_rigid.toml").to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let script = r#"
+import h5py, json, sys
+def s(v): return v.decode() if isinstance(v, bytes) else str(v)
+with h5py.File(sys.argv[1], "r") as f:
+    out = {"time": f["time"][()].tolist(), "units": s(f["time"].attrs["units"]),
+           "slider_x": f["responses/slider_x"][()].tolist(), "x_units": s(f["responses/slider_x"].attrs["units"]),
+           "pos_shape": list(f["bodies/slider/position"].shape), "steps": int(f["statistics"].attrs["steps"]),
+           "deck": f["meta/deck"].asstr()[()].tolist()[0]}
+print(json.dumps(out))
+"#;
+    let o = Command::new("python3")
+        .arg("-c")
+        .arg(script)
+        .arg(out.join("results.h5"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let doc: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(doc["units"], "s");
+    assert_eq!(doc["x_units"], "m");
+    assert_eq!(doc["pos_shape"], serde_json::json!([839, 3]));
+    assert!(doc["steps"].as_u64().unwrap() > 10);
+    assert!(
+        doc["deck"]
+            .as_str()
+            .unwrap()
+            .contains("[joint.crank_drive]")
+    );
+    // the HDF5 histories are the CSV ones, to the last bit
+    let (_, rows) = read_csv(&out.join("history.csv"));
+    let x: Vec<f64> = doc["slider_x"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    for (r, xh) in rows.iter().zip(&x) {
+        assert_eq!(r[2], *xh);
+    }
+}
+
+#[test]
+fn same_deck_same_results_and_compare_catches_a_change() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = deck("slider_crank_rigid.toml");
+    let p = p.to_str().unwrap();
+    let (a, b, c) = (
+        dir.path().join("a"),
+        dir.path().join("b"),
+        dir.path().join("c"),
+    );
+    for d in [&a, &b] {
+        assert!(
+            run(&["run", p, "-o", d.to_str().unwrap(), "--json"])
+                .status
+                .success()
+        );
+    }
+    assert_eq!(
+        std::fs::read(a.join("results.h5")).unwrap(),
+        std::fs::read(b.join("results.h5")).unwrap(),
+        "deterministic"
+    );
+    let o = run(&[
+        "compare",
+        a.join("results.h5").to_str().unwrap(),
+        b.join("results.h5").to_str().unwrap(),
+        "--rtol",
+        "0",
+        "--atol",
+        "0",
+    ]);
+    assert_eq!(o.status.code(), Some(0));
+    let o = run(&[
+        "run",
+        p,
+        "-o",
+        c.to_str().unwrap(),
+        "--json",
+        "--set",
+        "joint.crank_drive.motion.rate=\"151 rad/s\"",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = run(&[
+        "compare",
+        c.join("results.h5").to_str().unwrap(),
+        a.join("results.h5").to_str().unwrap(),
+    ]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(o.status.code(), Some(1), "{text}");
+    assert!(text.contains("/responses/slider_x: t = "), "{text}");
+}
+
+#[test]
+fn a_failed_run_leaves_no_result_file_and_exits_1() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(deck("slider_crank_rigid.toml")).unwrap();
+    // the guide 0.1 m off the line through the crank axis: the rod cannot reach it
+    let text = text.replace(
+        "a = { body = \"ground\", point = [0.456, 0.0, 0.0], axis = [1.0, 0.0, 0.0] }",
+        "a = { body = \"ground\", point = [0.456, 0.5, 0.0], axis = [1.0, 0.0, 0.0] }",
+    );
+    let p = dir.path().join("bad.toml");
+    std::fs::write(&p, text).unwrap();
+    let out = dir.path().join("out");
+    let o = run(&["run", p.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("cannot be assembled"), "{err}");
+    assert!(!out.join("results.h5").exists());
+}
+
+fn expect_bad(text: &str, at: &str, words: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("bad.toml");
+    std::fs::write(&p, text).unwrap();
+    let o = run(&[
+        "run",
+        p.to_str().unwrap(),
+        "-o",
+        dir.path().join("o").to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains(&format!("bad.toml:{}:", line_of(text, at))),
+        "line of `{at}` in: {err}"
+    );
+    assert!(err.contains(words), "'{words}' in: {err}");
+    assert!(!dir.path().join("o").exists(), "no output after bad input");
+}
+
+#[test]
+fn bad_mechanisms_are_located() {
+    let base = std::fs::read_to_string(deck("slider_crank_rigid.toml")).unwrap();
+    expect_bad(
+        &base.replace(
+            "body = \"slider\", point = [0.456, 0.0, 0.0], axis = [1.0",
+            "body = \"slidr\", point = [0.456, 0.0, 0.0], axis = [1.0",
+        ),
+        "slidr",
+        "did you mean `slider`",
+    );
+    expect_bad(
+        &base.replace("kind = \"translational\"", "kind = \"prismatic\""),
+        "prismatic",
+        "unknown joint kind",
+    );
+    expect_bad(
+        &base.replace("rate = \"150 rad/s\"", "rate = \"150 rad/min\""),
+        "rad/min",
+        "deg/s, rad/s, rpm",
+    );
+    expect_bad(
+        &base.replace(
+            "component = \"x\"\n\n[response.slider_vx]",
+            "component = \"w\"\n\n[response.slider_vx]",
+        ),
+        "component = \"w\"",
+        "unknown component `w`",
+    );
+    expect_bad(
+        &base.replace(
+            "mass = 0.0760\ninertia = [1.0e-5, 1.0e-5, 1.0e-5]",
+            "mass = 0.0760\ninertia = [1.0e-5, -1.0e-5, 1.0e-5]",
+        ),
+        "-1.0e-5",
+        "positive definite",
+    );
+    expect_bad(
+        &base.replace("t_end = 0.0838", "t_end = -1.0"),
+        "t_end = -1.0",
+        "later than t_start",
+    );
+    expect_bad(
+        &base.replace(
+            "b = { body = \"crank\", point = [0.0, 0.0, 0.0], axis = [0.0, 0.0, 1.0] }",
+            "b = { body = \"crank\", node = 3, axis = [0.0, 0.0, 1.0] }",
+        ),
+        "node = 3",
+        "rigid body",
+    );
+}
