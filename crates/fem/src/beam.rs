@@ -75,6 +75,65 @@ impl<S: Scalar> BeamSection<S> {
     }
 }
 
+impl BeamSection<f64> {
+    /// The beam section of a cross-section analysis: its 6×6 stiffness and mass properties about
+    /// the section origin, which becomes the beam's reference line (the conventions of `section`
+    /// and of this element are the same).
+    pub fn from_section(p: &section::SectionProperties) -> Self {
+        Self {
+            stiffness: p.stiffness,
+            mass_per_length: p.mass_per_length,
+            mass_centre: p.mass_centre,
+            inertia: p.mass_inertia,
+        }
+    }
+}
+
+impl<S: Scalar> BeamSection<S> {
+    /// The beam section of a cross-section analysis with its derivatives with respect to the
+    /// section's design variables, pushed through the chain rule: `b[v]` is design variable `v`
+    /// of `s` as a scalar whose tangents are its derivatives with respect to the caller's
+    /// variables, so tangent `k` of every entry is `Σ_v ∂entry/∂b_v · ∂b_v/∂(variable k)`.
+    ///
+    /// # Panics
+    /// If `b` does not have one entry per design variable of `s` (a programming error).
+    pub fn from_sensitivities(s: &section::SectionSensitivities, b: &[S]) -> Self {
+        assert_eq!(
+            b.len(),
+            s.derivatives.len(),
+            "one scalar per design variable of the section"
+        );
+        let chain = |value: f64, d: &dyn Fn(&section::SectionProperties) -> f64| {
+            let mut t = vec![0.0; S::TANGENTS];
+            for (dv, bv) in s.derivatives.iter().zip(b) {
+                let g = d(dv);
+                if g != 0.0 {
+                    for (k, tk) in t.iter_mut().enumerate() {
+                        *tk += g * bv.tangent(k);
+                    }
+                }
+            }
+            S::from_parts(value, &t)
+        };
+        let p = &s.properties;
+        Self {
+            stiffness: Matrix6::from_fn(|i, j| {
+                chain(p.stiffness[(i, j)], &|q| q.stiffness[(i, j)])
+            }),
+            mass_per_length: chain(p.mass_per_length, &|q| q.mass_per_length),
+            mass_centre: [
+                chain(p.mass_centre[0], &|q| q.mass_centre[0]),
+                chain(p.mass_centre[1], &|q| q.mass_centre[1]),
+            ],
+            inertia: [
+                chain(p.mass_inertia[0], &|q| q.mass_inertia[0]),
+                chain(p.mass_inertia[1], &|q| q.mass_inertia[1]),
+                chain(p.mass_inertia[2], &|q| q.mass_inertia[2]),
+            ],
+        }
+    }
+}
+
 /// The element frame: rows are the local axes `e₁` (node 1 → node 2), `e₂`, `e₃` in global
 /// coordinates; `e₂` is the part of `orientation` normal to `e₁`.
 pub fn beam_frame(

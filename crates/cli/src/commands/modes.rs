@@ -10,8 +10,7 @@ use fem::{
     RayleighDamping, ReferenceCondition,
 };
 use laminate::PlyStack;
-use nalgebra::Matrix6;
-use section::{DesignMap, SectionProperties};
+use section::{DesignMap, SectionSensitivities};
 use sens::Dual;
 use serde_json::json;
 
@@ -37,12 +36,8 @@ pub struct ModesRequest<'a> {
 
 /// The design of a body: the ply angles its stiffness depends on.
 enum Design {
-    /// A beam: the section's values and its derivatives with respect to each region's angle.
-    Beam {
-        values: Box<SectionProperties>,
-        derivatives: Vec<SectionProperties>,
-        names: Vec<String>,
-    },
+    /// A beam: the section's values and derivatives with respect to each region's angle.
+    Beam(Box<SectionSensitivities>),
     /// A shell: the laminate's ply angles, seeded directly.
     Shell {
         stack: PlyStack<f64>,
@@ -53,7 +48,7 @@ enum Design {
 impl Design {
     fn names(&self) -> Vec<String> {
         match self {
-            Design::Beam { names, .. } => names.iter().map(|n| format!("{n}.angle")).collect(),
+            Design::Beam(s) => s.variables.iter().map(|n| format!("{n}.angle")).collect(),
             Design::Shell { stack, laminate } => (0..stack.plies().len())
                 .map(|i| format!("{laminate}.plies[{i}].angle"))
                 .collect(),
@@ -64,7 +59,7 @@ impl Design {
         match self {
             // the section's variables are offsets of its regions' angles: their values do not
             // enter (the chain rule only uses the tangents)
-            Design::Beam { derivatives, .. } => vec![0.0; derivatives.len()],
+            Design::Beam(s) => vec![0.0; s.derivatives.len()],
             Design::Shell { stack, .. } => stack.plies().iter().map(|p| p.angle).collect(),
         }
     }
@@ -72,43 +67,10 @@ impl Design {
     /// Element properties on dual numbers seeded with the design variables `b`.
     fn properties<const N: usize>(&self, b: &[Dual<N>]) -> Properties<Dual<N>> {
         match self {
-            Design::Beam {
-                values,
-                derivatives,
-                ..
-            } => {
-                // chain rule through the section's exact Jacobian: tangent k of an entry is
-                // Σ_v ∂entry/∂b_v · (b_v)_k
-                let chain = |v: f64, d: &dyn Fn(&SectionProperties) -> f64| {
-                    let mut t = [0.0; N];
-                    for (dv, bv) in derivatives.iter().zip(b) {
-                        let s = d(dv);
-                        for k in 0..N {
-                            t[k] += s * bv.d[k];
-                        }
-                    }
-                    Dual::new(v, t)
-                };
-                let section = BeamSection {
-                    stiffness: Matrix6::from_fn(|i, j| {
-                        chain(values.stiffness[(i, j)], &|p| p.stiffness[(i, j)])
-                    }),
-                    mass_per_length: chain(values.mass_per_length, &|p| p.mass_per_length),
-                    mass_centre: [
-                        chain(values.mass_centre[0], &|p| p.mass_centre[0]),
-                        chain(values.mass_centre[1], &|p| p.mass_centre[1]),
-                    ],
-                    inertia: [
-                        chain(values.mass_inertia[0], &|p| p.mass_inertia[0]),
-                        chain(values.mass_inertia[1], &|p| p.mass_inertia[1]),
-                        chain(values.mass_inertia[2], &|p| p.mass_inertia[2]),
-                    ],
-                };
-                Properties {
-                    sections: vec![section],
-                    laminates: Vec::new(),
-                }
-            }
+            Design::Beam(s) => Properties {
+                sections: vec![BeamSection::from_sensitivities(s, b)],
+                laminates: Vec::new(),
+            },
             Design::Shell { stack, .. } => {
                 let dual = stack
                     .with_angles(b)
@@ -129,15 +91,6 @@ pub(crate) struct Built {
     pub(crate) options: ModalOptions,
     design: Design,
     pub(crate) kind: &'static str,
-}
-
-fn beam_section(p: &SectionProperties) -> BeamSection<f64> {
-    BeamSection {
-        stiffness: p.stiffness,
-        mass_per_length: p.mass_per_length,
-        mass_centre: p.mass_centre,
-        inertia: p.mass_inertia,
-    }
 }
 
 /// A shell body's mesh, properties and design from its laminate.
@@ -181,30 +134,21 @@ pub(crate) fn build(
         } => {
             let mesh = fem::Mesh::straight_beam(*start, *end, *elements, 0, *orientation)
                 .map_err(|e| input(".elements", e.to_string()))?;
-            let (values, derivs, names) = if derivatives {
+            let s = if derivatives {
                 let design = DesignMap::each_region(&section.mesh);
-                let s = section::analyse_with_derivatives::<CHUNK>(&section.mesh, &design)
-                    .map_err(|e| input("", format!("section `{section_name}`: {e}")))?;
-                (s.properties, s.derivatives, s.variables)
+                section::analyse_with_derivatives::<CHUNK>(&section.mesh, &design)
             } else {
-                let p = section::analyse(&section.mesh)
-                    .map_err(|e| input("", format!("section `{section_name}`: {e}")))?;
-                (p, Vec::new(), Vec::new())
-            };
+                section::analyse(&section.mesh).map(|p| SectionSensitivities {
+                    properties: p,
+                    ..Default::default()
+                })
+            }
+            .map_err(|e| input("", format!("section `{section_name}`: {e}")))?;
             let props = Properties {
-                sections: vec![beam_section(&values)],
+                sections: vec![BeamSection::from_section(&s.properties)],
                 laminates: Vec::new(),
             };
-            (
-                mesh,
-                props,
-                Design::Beam {
-                    values: Box::new(values),
-                    derivatives: derivs,
-                    names,
-                },
-                "beam",
-            )
+            (mesh, props, Design::Beam(Box::new(s)), "beam")
         }
         BodyShape::ShellRectangle {
             laminate,
