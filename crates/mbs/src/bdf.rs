@@ -46,6 +46,16 @@ pub enum StepControl {
     /// unless a history is supplied with [`Bdf::init_with_history`]). `rtol`/`atol` only
     /// set the Newton convergence test.
     Fixed { step: f64, order: usize },
+    /// Replay a recorded step sequence: step `i` ends at `times[i]` and uses the BDF formula of
+    /// order `orders[i]` (e.g. those of a nominal run, [`AcceptedStep`]), with no error test.
+    /// Newton iterates until its weighted update norm is below `newton_tol` (with `rtol`,
+    /// `atol` as weights), so that runs of perturbed designs on the same steps differ only by
+    /// the design (finite differences of the discrete solution).
+    Replay {
+        times: Vec<f64>,
+        orders: Vec<usize>,
+        newton_tol: f64,
+    },
 }
 
 /// Integrator settings.
@@ -77,6 +87,29 @@ impl BdfOptions {
             },
             max_steps: 1_000_000,
             max_newton_iterations: 4,
+            jacobian_age: 50,
+        }
+    }
+
+    /// Replay of a recorded step sequence (see [`StepControl::Replay`]); `rtol`, `atol` weigh
+    /// the Newton test `‖Δy‖ < newton_tol`.
+    pub fn replay(
+        times: Vec<f64>,
+        orders: Vec<usize>,
+        rtol: f64,
+        atol: f64,
+        newton_tol: f64,
+    ) -> Self {
+        Self {
+            rtol,
+            atol: vec![atol],
+            control: StepControl::Replay {
+                times,
+                orders,
+                newton_tol,
+            },
+            max_steps: 10_000_000,
+            max_newton_iterations: 30,
             jacobian_age: 50,
         }
     }
@@ -160,6 +193,75 @@ pub struct AcceptedStep<'a> {
     pub newton_c0: f64,
 }
 
+/// A trial step whose Newton iteration converged: what variables integrated alongside the
+/// state (sensitivities) need to take the same step with the same formula.
+#[derive(Debug)]
+pub struct TrialStep<'a> {
+    /// Order `k` of the formula.
+    pub order: usize,
+    /// `t_{n+1}, t_n, …, t_{n+1−k}`.
+    pub times: Vec<f64>,
+    /// `c_0 … c_k` of `Σ c_j y_{n+1−j} = f(t_{n+1}, y_{n+1})`.
+    pub coefficients: Vec<f64>,
+    /// The converged `y_{n+1}`.
+    pub y_new: Vec<f64>,
+    /// Accepted states `y_n, y_{n−1}, …` (most recent first) and their times.
+    pub history: Vec<&'a [f64]>,
+    pub history_times: Vec<f64>,
+    /// The Jacobian the Newton matrix was built from (possibly evaluated at an older state).
+    pub jacobian: &'a DMatrix<f64>,
+    /// LU of `newton_c0 · I − jacobian`.
+    pub newton_matrix: &'a LU<f64, Dyn, Dyn>,
+    pub newton_c0: f64,
+    /// Error weights of the state: `rtol·|y| + atol_i`.
+    pub rtol: f64,
+    pub atol: &'a [f64],
+}
+
+/// Variables integrated alongside the state on the same steps ([`Bdf::step_with`]), e.g.
+/// forward sensitivities.
+pub trait StepExtension<Sys: ?Sized> {
+    /// Whether the extension's error estimate joins the step-size control (then
+    /// [`StepExtension::trial`] is called for every trial step before the error test).
+    fn controls_error(&self) -> bool {
+        false
+    }
+    /// Solve the extension's variables on the trial step; return their weighted RMS local error
+    /// estimate (used only when [`StepExtension::controls_error`]).
+    fn trial(&mut self, sys: &mut Sys, step: &TrialStep<'_>) -> Result<f64, IntegrationFailure>;
+    /// The last trial step was accepted.
+    fn accept(&mut self);
+}
+
+/// No extension.
+pub struct NoExtension;
+
+impl<Sys: ?Sized> StepExtension<Sys> for NoExtension {
+    fn trial(&mut self, _sys: &mut Sys, _step: &TrialStep<'_>) -> Result<f64, IntegrationFailure> {
+        Ok(0.0)
+    }
+    fn accept(&mut self) {}
+}
+
+/// Weights `w_i` of the local error estimate of order `order` for the new point at `t_new` and
+/// the past points at `past` (most recent first): `err ≈ w_0 y_{n+1} + Σ_{i≥1} w_i y_{n+1−i}`
+/// (the integrator's own estimate). `None` without enough history.
+pub fn error_estimate_weights(t_new: f64, past: &[f64], order: usize) -> Option<Vec<f64>> {
+    if order == 0 || past.len() < order + 1 {
+        return None;
+    }
+    let mut pn = vec![t_new];
+    pn.extend(past.iter().take(order + 1));
+    let w = divided_difference_weights(&pn);
+    let mut prod = 1.0;
+    let mut sum = 0.0;
+    for x in &pn[1..=order] {
+        prod *= t_new - x;
+        sum += 1.0 / (t_new - x);
+    }
+    Some(w.iter().map(|w| w * prod / sum).collect())
+}
+
 /// Lagrange interpolation weights through `nodes` at `t`: `p(t) = Σ w_i y_i`.
 pub fn lagrange_weights(nodes: &[f64], t: f64) -> Vec<f64> {
     (0..nodes.len())
@@ -236,6 +338,8 @@ pub struct Bdf {
     last_order: usize,
     n: usize,
     atol: Vec<f64>,
+    /// Next step of a [`StepControl::Replay`] sequence.
+    replay_pos: usize,
 }
 
 impl Bdf {
@@ -259,6 +363,7 @@ impl Bdf {
             last_order: 0,
             n: 0,
             atol: Vec::new(),
+            replay_pos: 0,
         }
     }
 
@@ -325,6 +430,24 @@ impl Bdf {
                     return bad("step must be positive");
                 }
             }
+            StepControl::Replay {
+                ref times,
+                ref orders,
+                newton_tol,
+            } => {
+                if times.len() != orders.len() {
+                    return bad("replay needs one order per step");
+                }
+                if orders.iter().any(|o| !(1..=5).contains(o)) {
+                    return bad("order must be 1..=5");
+                }
+                if times.windows(2).any(|w| !(w[1] > w[0])) {
+                    return bad("replay times must increase");
+                }
+                if !(newton_tol > 0.0) {
+                    return bad("newton_tol must be positive");
+                }
+            }
         }
         Ok(())
     }
@@ -366,10 +489,25 @@ impl Bdf {
         self.steps_at_order = 0;
         self.lu = None;
         self.jac_age = None;
+        self.replay_pos = 0;
         match self.opts.control {
             StepControl::Fixed { step, order } => {
                 self.h = step;
                 self.order = order.min(self.hist.len());
+            }
+            StepControl::Replay {
+                ref times,
+                ref orders,
+                ..
+            } => {
+                // skip recorded steps at or before the start
+                while self.replay_pos < times.len() && times[self.replay_pos] <= t0 {
+                    self.replay_pos += 1;
+                }
+                if let Some(&t1) = times.get(self.replay_pos) {
+                    self.h = t1 - t0;
+                    self.order = orders[self.replay_pos];
+                }
             }
             StepControl::Adaptive {
                 initial_step,
@@ -446,9 +584,40 @@ impl Bdf {
         Ok(())
     }
 
+    fn trial_info(&self, k: usize, nodes: &[f64], coeffs: &[f64], y_new: &[f64]) -> TrialStep<'_> {
+        TrialStep {
+            order: k,
+            times: nodes.to_vec(),
+            coefficients: coeffs.to_vec(),
+            y_new: y_new.to_vec(),
+            history: self.hist.iter().map(|x| x.1.as_slice()).collect(),
+            history_times: self.hist.iter().map(|x| x.0).collect(),
+            jacobian: &self.jac,
+            newton_matrix: self.lu.as_ref().expect("factorised"),
+            newton_c0: self.lu_c0,
+            rtol: self.opts.rtol,
+            atol: &self.atol,
+        }
+    }
+
     /// Take one accepted step (retrying with smaller steps as needed), not beyond `t_stop`.
     pub fn step(&mut self, sys: &mut impl OdeSystem, t_stop: f64) -> Result<(), IntegrationError> {
-        let fixed = matches!(self.opts.control, StepControl::Fixed { .. });
+        self.step_with(sys, t_stop, &mut NoExtension)
+    }
+
+    /// [`Bdf::step`] with variables integrated alongside on the same steps (see
+    /// [`StepExtension`]): `ext.trial` is called for every trial step that Newton solved, before
+    /// the error test when `ext.controls_error()` (its error norm then joins the test as
+    /// `max(err_state, err_ext)`), otherwise once the step is accepted; `ext.accept` follows
+    /// every accepted step.
+    pub fn step_with<Sys: OdeSystem, E: StepExtension<Sys>>(
+        &mut self,
+        sys: &mut Sys,
+        t_stop: f64,
+        ext: &mut E,
+    ) -> Result<(), IntegrationError> {
+        let replay = matches!(self.opts.control, StepControl::Replay { .. });
+        let fixed = replay || matches!(self.opts.control, StepControl::Fixed { .. });
         let (max_order, min_step, max_step) = match self.opts.control {
             StepControl::Adaptive {
                 max_order,
@@ -457,6 +626,7 @@ impl Bdf {
                 ..
             } => (max_order, min_step, max_step),
             StepControl::Fixed { order, step } => (order, step * 1e-12, f64::INFINITY),
+            StepControl::Replay { .. } => (5, 0.0, f64::INFINITY),
         };
         let mut newton_fails = 0;
         let mut error_fails = 0;
@@ -474,8 +644,24 @@ impl Bdf {
             if remaining <= 0.0 {
                 return Ok(());
             }
-            if h >= remaining - 1e-8 * h {
+            let mut t_new = tn + h;
+            if let StepControl::Replay {
+                ref times,
+                ref orders,
+                ..
+            } = self.opts.control
+            {
+                let Some(&t1) = times.get(self.replay_pos) else {
+                    return Err(self.fail(IntegrationFailure::Settings(
+                        "the replayed step sequence ends before t_stop",
+                    )));
+                };
+                t_new = t1.min(t_stop);
+                h = t_new - tn;
+                self.order = orders[self.replay_pos];
+            } else if h >= remaining - 1e-8 * h {
                 h = remaining;
+                t_new = t_stop;
             } else if !fixed && h > 0.5 * remaining && h < remaining {
                 // avoid a sliver step before t_stop
                 h = 0.5 * remaining;
@@ -483,7 +669,9 @@ impl Bdf {
             if h < min_step && h < remaining {
                 return Err(self.fail(IntegrationFailure::StepTooSmall { min_step }));
             }
-            let t_new = tn + h;
+            if !replay {
+                t_new = tn + h;
+            }
             let k = self.order.min(self.hist.len()).max(1);
             let mut nodes = Vec::with_capacity(k + 1);
             nodes.push(t_new);
@@ -603,6 +791,17 @@ impl Bdf {
             if !err.is_finite() {
                 return Err(self.fail(IntegrationFailure::NonFinite));
             }
+            let mut err = err;
+            if ext.controls_error() {
+                let info = self.trial_info(k, &nodes, &coeffs, &y_new);
+                let e = ext.trial(sys, &info).map_err(|r| self.fail(r))?;
+                if !e.is_finite() {
+                    return Err(self.fail(IntegrationFailure::NonFinite));
+                }
+                if !fixed {
+                    err = err.max(e);
+                }
+            }
             if err > 1.0 {
                 self.stats.rejected_steps += 1;
                 error_fails += 1;
@@ -627,6 +826,11 @@ impl Bdf {
                 continue;
             }
             // accept
+            if !ext.controls_error() {
+                let info = self.trial_info(k, &nodes, &coeffs, &y_new);
+                ext.trial(sys, &info).map_err(|r| self.fail(r))?;
+            }
+            ext.accept();
             self.stats.steps += 1;
             if let Some(a) = self.jac_age.as_mut() {
                 *a += 1;
@@ -639,13 +843,25 @@ impl Bdf {
             self.last_coeffs = coeffs;
             self.last_order = k;
             self.steps_at_order += 1;
-            if fixed {
-                let StepControl::Fixed { order, step } = self.opts.control else {
-                    unreachable!()
-                };
-                self.order = order.min(self.hist.len());
-                self.h = step;
-                return Ok(());
+            match self.opts.control {
+                StepControl::Fixed { order, step } => {
+                    self.order = order.min(self.hist.len());
+                    self.h = step;
+                    return Ok(());
+                }
+                StepControl::Replay {
+                    ref times,
+                    ref orders,
+                    ..
+                } => {
+                    self.replay_pos += 1;
+                    if let Some(&t1) = times.get(self.replay_pos) {
+                        self.h = t1 - self.hist[0].0;
+                        self.order = orders[self.replay_pos];
+                    }
+                    return Ok(());
+                }
+                StepControl::Adaptive { .. } => {}
             }
             // order and step for the next step (estimates relative to the accepted step)
             let safety = |e: f64, q: usize, s: f64| {
@@ -740,10 +956,10 @@ impl Bdf {
         let mut f = vec![0.0; self.n];
         let mut prev_norm = f64::INFINITY;
         let y_ref = self.hist[0].1.clone();
-        let tol = if matches!(self.opts.control, StepControl::Fixed { .. }) {
-            1.0
-        } else {
-            0.05
+        let tol = match self.opts.control {
+            StepControl::Fixed { .. } => 1.0,
+            StepControl::Replay { newton_tol, .. } => newton_tol,
+            StepControl::Adaptive { .. } => 0.05,
         };
         for it in 0..self.opts.max_newton_iterations {
             self.stats.newton_iterations += 1;

@@ -73,11 +73,14 @@ mod joint;
 pub mod kin;
 mod marker;
 mod model;
+mod response;
+mod sensitivity;
 mod system;
 
 pub use bdf::{
-    AcceptedStep, Bdf, BdfOptions, IntegrationError, IntegrationFailure, OdeSystem, RhsError,
-    Statistics, StepControl, lagrange_weights,
+    AcceptedStep, Bdf, BdfOptions, IntegrationError, IntegrationFailure, NoExtension, OdeSystem,
+    RhsError, Statistics, StepControl, StepExtension, TrialStep, error_estimate_weights,
+    lagrange_weights,
 };
 pub use body::{Body, BodyId, FlexibleBody, RigidBody};
 pub use error::{ConstraintError, ModelError};
@@ -85,6 +88,14 @@ pub use force::{Force, ForceId, Load, LoadFrame};
 pub use joint::{JointId, JointKind, TimeFunction};
 pub use marker::{Marker, Site};
 pub use model::{Baumgarte, ConstraintValues, Energy, Equations, Joint, Model, State};
+pub use response::{
+    Objective, ObjectiveValue, Response, ResponseHistory, response_history, response_values,
+};
+pub use sensitivity::{
+    DesignModel, SensitivityError, SensitivityMethod, SensitivityOptions, SensitivityRun,
+    SensitivityStatistics, initial_sensitivities, simulate_sensitivities,
+    simulate_sensitivities_from, simulate_steps, tangent_rhs,
+};
 pub use system::{
     JointReaction, MultibodySystem, Output, RedundancyPolicy, Simulation, SimulationError,
     Solution, simulate,

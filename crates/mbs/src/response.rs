@@ -1,0 +1,375 @@
+//! Responses (output time histories) with their sensitivity histories, and scalar objectives
+//! of the Eq. (35) kind with gradients by Eq. (39).
+//!
+//! A [`Response`] is written once, generic over the scalar: evaluated on the dual model of a
+//! chunk with `q`, `v` seeded with the state sensitivities and the multipliers from
+//! [`sens::solve_tangents`] (their total derivatives, Eq. 40), its tangents are
+//! `dψ/db = ∂ψ/∂b + ∂ψ/∂q q_b + ∂ψ/∂v v_b + ∂ψ/∂λ λ_b` (Eq. 39).
+//!
+//! Objectives are computed on the recorded points: integrals by the trapezoidal rule, the
+//! gradient by the same rule applied to the sensitivities (so that it is the exact derivative
+//! of the computed value); maxima and minima take the sensitivity at the point where they occur.
+
+use nalgebra::{DMatrix, Vector3};
+use sens::{Dual, Scalar, solve_tangents};
+
+use crate::body::{BodyId, mode_vec, pose};
+use crate::joint::JointId;
+use crate::model::Model;
+use crate::sensitivity::{DesignModel, SensitivityError, SensitivityRun, seeded};
+use crate::system::MultibodySystem;
+
+/// An output quantity of the model at one state.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Response {
+    /// Component `axis` (0, 1, 2) of a body frame's origin, global (m).
+    BodyPosition { body: BodyId, axis: usize },
+    /// Nodal displacement `u' = X w` of a flexible body in its body frame (Eq. 11, 45):
+    /// `dof` 0–2 translations (m), 3–5 rotations (rad).
+    NodalDisplacement {
+        body: BodyId,
+        node: usize,
+        dof: usize,
+    },
+    /// The normalised mid-node deflection of DESIGN.md §7: the distance of node `mid` from the
+    /// straight line through nodes `first` and `last` (deformed, global), signed about
+    /// `normal` (the normal of the mechanism plane: positive when `dir × (x_mid − x_first)`
+    /// points along it), divided by the undeformed distance between `first` and `last`.
+    MidNodeDeflection {
+        body: BodyId,
+        first: usize,
+        mid: usize,
+        last: usize,
+        normal: Vector3<f64>,
+    },
+    /// Component `axis` of the reaction force of a joint on the body of its marker `b`,
+    /// global (N), from the multipliers.
+    ReactionForce { joint: JointId, axis: usize },
+    /// Component `i` of the state `y = [q; v]`.
+    State(usize),
+}
+
+impl Response {
+    /// The response at `(t, q, v)` with the multipliers `lambda` (one per constraint row, zero
+    /// for removed rows).
+    pub fn evaluate<P: Scalar, S: Scalar + From<P>>(
+        &self,
+        model: &Model<P>,
+        t: f64,
+        q: &[S],
+        v: &[S],
+        lambda: &[S],
+    ) -> Result<S, SensitivityError> {
+        let bad = |m: &str| SensitivityError::Response(m.to_string());
+        let flexible = |body: BodyId| match model.body(body) {
+            crate::Body::Flexible(f) => Ok(f),
+            crate::Body::Rigid(_) => Err(bad("nodal responses need a flexible body")),
+        };
+        match *self {
+            Response::BodyPosition { body, axis } => {
+                if body.0 >= model.n_bodies() || axis > 2 {
+                    return Err(bad("body or axis out of range"));
+                }
+                Ok(q[model.q_range(body).start + axis])
+            }
+            Response::NodalDisplacement { body, node, dof } => {
+                let f = flexible(body)?;
+                if node >= f.modal.n_nodes() || dof > 5 {
+                    return Err(bad("node or dof out of range"));
+                }
+                let qr = model.q_range(body);
+                let mut u = S::zero();
+                for j in 0..f.modal.n_modes() {
+                    u += S::from(f.modal.modes[(6 * node + dof, j)]) * q[qr.start + 7 + j];
+                }
+                Ok(u)
+            }
+            Response::MidNodeDeflection {
+                body,
+                first,
+                mid,
+                last,
+                normal,
+            } => {
+                let f = flexible(body)?;
+                let nn = f.modal.n_nodes();
+                if first >= nn || mid >= nn || last >= nn || first == last {
+                    return Err(bad("nodes out of range"));
+                }
+                let qr = model.q_range(body);
+                let ps = pose(&q[qr.start..]);
+                let w = &q[qr.start + 7..qr.end];
+                let x = |k: usize| -> Vector3<S> {
+                    let p = f.modal.node_positions[k];
+                    let mut u = Vector3::new(S::from_f64(p.x), S::from_f64(p.y), S::from_f64(p.z));
+                    for (j, &wj) in w.iter().enumerate() {
+                        u += mode_vec::<P, S>(&f.modal, k, j, false) * wj;
+                    }
+                    ps.r + ps.a * u
+                };
+                let (x0, xm, x1) = (x(first), x(mid), x(last));
+                let d = x1 - x0;
+                let len = d.dot(&d).sqrt();
+                let dir = d.map(|x| x / len);
+                let c = dir.cross(&(xm - x0));
+                let nu = normal / normal.norm();
+                let n = Vector3::new(S::from_f64(nu.x), S::from_f64(nu.y), S::from_f64(nu.z));
+                let l0 = (f.modal.node_positions[last] - f.modal.node_positions[first]).norm();
+                Ok(c.dot(&n) / l0)
+            }
+            Response::ReactionForce { joint, axis } => {
+                if joint.0 >= model.joints().len() || axis > 2 {
+                    return Err(bad("joint or axis out of range"));
+                }
+                let Some(b) = model.joint(joint).b.body else {
+                    return Ok(S::zero());
+                };
+                let c = model.constraints(t, q, v);
+                let col = model.v_range(b).start + axis;
+                let mut f = S::zero();
+                for r in model.joint_rows(joint) {
+                    f -= c.jacobian[(r, col)] * lambda[r];
+                }
+                Ok(f)
+            }
+            Response::State(i) => {
+                let nq = q.len();
+                if i < nq {
+                    Ok(q[i])
+                } else if i < nq + v.len() {
+                    Ok(v[i - nq])
+                } else {
+                    Err(bad("state index out of range"))
+                }
+            }
+        }
+    }
+}
+
+/// A response history with its sensitivities.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ResponseHistory {
+    pub times: Vec<f64>,
+    pub values: Vec<f64>,
+    /// `dψ(t_i)/db_j`, one row per time, one column per design variable.
+    pub gradients: DMatrix<f64>,
+}
+
+/// The response and its sensitivities at every recorded point of a sensitivity run.
+pub fn response_history<const N: usize>(
+    sys: &MultibodySystem,
+    design: &DesignModel<N>,
+    run: &SensitivityRun,
+    response: &Response,
+) -> Result<ResponseHistory, SensitivityError> {
+    let nq = run.n_q;
+    let nv = sys.model().n_v();
+    let rows = sys.active_rows();
+    let nc = sys.model().n_constraints();
+    let m = design.n_variables();
+    let mut values = Vec::with_capacity(run.times.len());
+    let mut gradients = DMatrix::zeros(run.times.len(), m);
+    for (i, (&t, y)) in run.times.iter().zip(&run.states).enumerate() {
+        let sol = sys.solve(t, &y[..nq], &y[nq..])?;
+        let s = &run.sensitivities[i];
+        for (c, (model, range)) in design.chunk_ranges().enumerate() {
+            let yd = seeded::<N>(y, s, &range);
+            let (qd, vd) = yd.split_at(nq);
+            let res = model.residual(t, qd, vd, rows, &sol.x);
+            let x = solve_tangents(&sol.lu, &sol.x, &res);
+            let mut lambda = vec![Dual::<N>::constant(0.0); nc];
+            for (a, &r) in rows.iter().enumerate() {
+                lambda[r] = x[nv + a];
+            }
+            let val = response.evaluate(model, t, qd, vd, &lambda)?;
+            if c == 0 {
+                values.push(val.v);
+            }
+            for (k, j) in range.enumerate() {
+                gradients[(i, j)] = val.d[k];
+            }
+        }
+    }
+    Ok(ResponseHistory {
+        times: run.times.clone(),
+        values,
+        gradients,
+    })
+}
+
+/// The response (values only) at given times and states of the plain model of `sys`.
+pub fn response_values(
+    sys: &MultibodySystem,
+    times: &[f64],
+    states: &[Vec<f64>],
+    response: &Response,
+) -> Result<Vec<f64>, SensitivityError> {
+    let model = sys.model();
+    let nq = model.n_q();
+    let nc = model.n_constraints();
+    let nv = model.n_v();
+    times
+        .iter()
+        .zip(states)
+        .map(|(&t, y)| {
+            let (q, v) = y.split_at(nq);
+            let needs_lambda = matches!(response, Response::ReactionForce { .. });
+            let mut lambda = vec![0.0; nc];
+            if needs_lambda {
+                let sol = sys.solve(t, q, v)?;
+                for (a, &r) in sys.active_rows().iter().enumerate() {
+                    lambda[r] = sol.x[nv + a];
+                }
+            }
+            response.evaluate::<f64, f64>(model, t, q, v, &lambda)
+        })
+        .collect()
+}
+
+/// A scalar objective of a response history `ψ(t)` (Eq. 35 and the usual variants).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Objective {
+    /// `∫ ψ dt` over the whole history (trapezoidal rule on the recorded points).
+    Integral,
+    /// `(1/T) ∫ ψ dt`.
+    Mean,
+    /// `√((1/T) ∫ ψ² dt)`.
+    Rms,
+    /// `max ψ(t_i)`, with the time where it occurs.
+    Max,
+    /// `min ψ(t_i)`, with the time where it occurs.
+    Min,
+    /// `ψ(t)`, linear between recorded points.
+    At(f64),
+}
+
+/// Value, gradient and (for extrema) time of an objective.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ObjectiveValue {
+    pub value: f64,
+    /// `dΨ/db_j` (empty when computed without sensitivities).
+    pub gradient: Vec<f64>,
+    pub time: Option<f64>,
+}
+
+impl Objective {
+    /// The objective of `values` at `times`, with its gradient from `gradients` (rows per time)
+    /// when given.
+    pub fn evaluate(
+        &self,
+        times: &[f64],
+        values: &[f64],
+        gradients: Option<&DMatrix<f64>>,
+    ) -> Result<ObjectiveValue, SensitivityError> {
+        let n = times.len();
+        if n == 0 || values.len() != n || gradients.is_some_and(|g| g.nrows() != n) {
+            return Err(SensitivityError::Response(
+                "objective of an empty or inconsistent history".into(),
+            ));
+        }
+        let m = gradients.map_or(0, |g| g.ncols());
+        let row = |i: usize| -> Vec<f64> {
+            gradients.map_or(Vec::new(), |g| g.row(i).iter().copied().collect())
+        };
+        // trapezoidal weights
+        let weights = || -> Vec<f64> {
+            let mut w = vec![0.0; n];
+            for i in 0..n.saturating_sub(1) {
+                let h = times[i + 1] - times[i];
+                w[i] += 0.5 * h;
+                w[i + 1] += 0.5 * h;
+            }
+            w
+        };
+        let span = times[n - 1] - times[0];
+        let weighted = |w: &[f64], f: &dyn Fn(usize) -> f64, df: &dyn Fn(usize, usize) -> f64| {
+            let value: f64 = (0..n).map(|i| w[i] * f(i)).sum();
+            let gradient: Vec<f64> = (0..m)
+                .map(|j| (0..n).map(|i| w[i] * df(i, j)).sum())
+                .collect();
+            (value, gradient)
+        };
+        let g = |i: usize, j: usize| gradients.map_or(0.0, |g| g[(i, j)]);
+        Ok(match *self {
+            Objective::Integral | Objective::Mean => {
+                let mut w = weights();
+                if *self == Objective::Mean {
+                    if !(span > 0.0) {
+                        return Err(SensitivityError::Response("mean over no time".into()));
+                    }
+                    w.iter_mut().for_each(|x| *x /= span);
+                }
+                let (value, gradient) = weighted(&w, &|i| values[i], &g);
+                ObjectiveValue {
+                    value,
+                    gradient,
+                    time: None,
+                }
+            }
+            Objective::Rms => {
+                if !(span > 0.0) {
+                    return Err(SensitivityError::Response("RMS over no time".into()));
+                }
+                let w: Vec<f64> = weights().iter().map(|x| x / span).collect();
+                let (ms, dms) = weighted(&w, &|i| values[i] * values[i], &|i, j| {
+                    2.0 * values[i] * g(i, j)
+                });
+                let value = ms.sqrt();
+                let gradient = if value > 0.0 {
+                    dms.iter().map(|d| 0.5 * d / value).collect()
+                } else {
+                    vec![0.0; m]
+                };
+                ObjectiveValue {
+                    value,
+                    gradient,
+                    time: None,
+                }
+            }
+            Objective::Max | Objective::Min => {
+                let sign = if *self == Objective::Max { 1.0 } else { -1.0 };
+                let i = (0..n)
+                    .max_by(|&a, &b| (sign * values[a]).total_cmp(&(sign * values[b])))
+                    .expect("non-empty");
+                ObjectiveValue {
+                    value: values[i],
+                    gradient: row(i),
+                    time: Some(times[i]),
+                }
+            }
+            Objective::At(t) => {
+                if !(t >= times[0] && t <= times[n - 1]) {
+                    return Err(SensitivityError::Response(format!(
+                        "time {t} outside the history [{}, {}]",
+                        times[0],
+                        times[n - 1]
+                    )));
+                }
+                let i = times.partition_point(|&x| x < t).min(n - 1);
+                if times[i] == t || i == 0 {
+                    ObjectiveValue {
+                        value: values[i],
+                        gradient: row(i),
+                        time: Some(t),
+                    }
+                } else {
+                    let a = (times[i] - t) / (times[i] - times[i - 1]);
+                    ObjectiveValue {
+                        value: a * values[i - 1] + (1.0 - a) * values[i],
+                        gradient: (0..m)
+                            .map(|j| a * g(i - 1, j) + (1.0 - a) * g(i, j))
+                            .collect(),
+                        time: Some(t),
+                    }
+                }
+            }
+        })
+    }
+}
+
+impl ResponseHistory {
+    /// An objective of this history with its gradient.
+    pub fn objective(&self, objective: &Objective) -> Result<ObjectiveValue, SensitivityError> {
+        objective.evaluate(&self.times, &self.values, Some(&self.gradients))
+    }
+}

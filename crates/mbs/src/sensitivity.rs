@@ -1,0 +1,590 @@
+//! Direct (forward) design sensitivities of the dynamic response (paper §4.2–4.3, Eqs. 40–44;
+//! DESIGN.md §6).
+//!
+//! The design variables `b` live in the model parameters: a [`DesignModel`] holds one
+//! `Model<Dual<N>>` per chunk of `N` variables (e.g. flexible bodies from
+//! `fem::modal_body_dual`, whose eigenvalues, modes and damping carry `∂/∂b`). The state
+//! sensitivities `S = ∂y/∂b` (`n × m`, `y = [q; v]`) obey `S' = f_y S + f_b`, where
+//! `f_y S + f_b` is **one** dual evaluation per chunk: `q̇` from [`Model::kinematic_rates`] and
+//! `v̇` from [`sens::solve_tangents`] applied to [`Model::residual`] (the right-hand side of
+//! Eq. 40, accelerations and multipliers held fixed, `q` and `v` seeded with the columns of
+//! `S`), through the `f64` LU of Eq. (12). Baumgarte feedback on the sensitivity constraint
+//! violations is part of that residual (the tangent of `γ − 2αΦ̇ − β²Φ`).
+//!
+//! `S` is integrated on the integrator's own steps with the same BDF formula
+//! (`Σ c_j S_{n+1−j} = f_y S_{n+1} + f_b`, a linear system per step):
+//! - [`SensitivityMethod::StaggeredDirect`]: `f_y` exact at the converged state, one LU of
+//!   `c_0 I − f_y` per step: the result is the exact derivative of the discrete solution;
+//! - [`SensitivityMethod::StaggeredCorrector`]: chord iterations with the integrator's Newton
+//!   matrix, each one dual evaluation, to a tolerance in the integrator's error norm (falls
+//!   back to the direct solve if they do not converge).
+//!
+//! With [`SensitivityOptions::error_control`] the sensitivities' local error estimates join
+//! the step-size control (as in the paper, which integrates one vector of states and
+//! sensitivities); otherwise the steps are the state's alone.
+//!
+//! Initial sensitivities (Eq. 44) are consistent with the constraints
+//! ([`initial_sensitivities`]).
+
+use std::collections::VecDeque;
+
+use nalgebra::DMatrix;
+use sens::{Dual, solve_tangents};
+
+use crate::bdf::{
+    Bdf, BdfOptions, IntegrationError, IntegrationFailure, OdeSystem, RhsError, Statistics,
+    StepExtension, TrialStep, error_estimate_weights, lagrange_weights,
+};
+use crate::error::ConstraintError;
+use crate::model::{Model, State};
+use crate::system::{MultibodySystem, Solution};
+
+/// The model with design derivatives: one `Model<Dual<N>>` per chunk of `N` design variables
+/// (chunk `c` carries the tangents of variables `c·N .. min((c+1)·N, m)`; unused tangent slots of
+/// the last chunk are ignored). Every chunk has the same values.
+#[derive(Clone, Debug)]
+pub struct DesignModel<const N: usize> {
+    chunks: Vec<Model<Dual<N>>>,
+    n_variables: usize,
+}
+
+impl<const N: usize> DesignModel<N> {
+    /// Chunks for `n_variables` design variables; their number must be `⌈m / N⌉` and their
+    /// layouts equal.
+    pub fn new(chunks: Vec<Model<Dual<N>>>, n_variables: usize) -> Result<Self, SensitivityError> {
+        if N == 0 || chunks.len() != n_variables.div_ceil(N) || chunks.is_empty() {
+            return Err(SensitivityError::Layout(format!(
+                "{} design variables in chunks of {N} need {} dual models, got {}",
+                n_variables,
+                n_variables.div_ceil(N.max(1)),
+                chunks.len()
+            )));
+        }
+        let c0 = &chunks[0];
+        if chunks.iter().any(|c| {
+            c.n_q() != c0.n_q() || c.n_v() != c0.n_v() || c.n_constraints() != c0.n_constraints()
+        }) {
+            return Err(SensitivityError::Layout(
+                "the chunks' models have different layouts".into(),
+            ));
+        }
+        Ok(Self {
+            chunks,
+            n_variables,
+        })
+    }
+
+    pub fn n_variables(&self) -> usize {
+        self.n_variables
+    }
+    pub fn chunks(&self) -> &[Model<Dual<N>>] {
+        &self.chunks
+    }
+    /// The plain model (values of the first chunk).
+    pub fn values(&self) -> Model<f64> {
+        self.chunks[0].values()
+    }
+    /// `(chunk model, variable range)` pairs.
+    pub fn chunk_ranges(&self) -> impl Iterator<Item = (&Model<Dual<N>>, std::ops::Range<usize>)> {
+        let m = self.n_variables;
+        self.chunks
+            .iter()
+            .enumerate()
+            .map(move |(c, model)| (model, c * N..((c + 1) * N).min(m)))
+    }
+
+    fn check(&self, sys: &MultibodySystem) -> Result<(), SensitivityError> {
+        let m = sys.model();
+        let c = &self.chunks[0];
+        if c.n_q() != m.n_q() || c.n_v() != m.n_v() || c.n_constraints() != m.n_constraints() {
+            return Err(SensitivityError::Layout(
+                "the design model and the system have different layouts".into(),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// How the linear sensitivity system of each step is solved.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SensitivityMethod {
+    /// Exact `f_y` at the converged state and one LU per step: the exact derivative of the
+    /// discrete solution.
+    StaggeredDirect,
+    /// Chord iterations with the integrator's Newton matrix until the weighted RMS update is
+    /// below `tol` (in the integrator's error norm); direct solve after `max_iterations`.
+    StaggeredCorrector { tol: f64, max_iterations: usize },
+}
+
+/// Settings of the sensitivity integration.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SensitivityOptions {
+    pub method: SensitivityMethod,
+    /// Include the sensitivities in the local error test (`max(err_y, err_S)`).
+    pub error_control: bool,
+    /// Absolute tolerance of the sensitivities = this factor × the state's `atol` (component
+    /// by component).
+    pub atol_scale: f64,
+}
+
+impl Default for SensitivityOptions {
+    fn default() -> Self {
+        Self {
+            method: SensitivityMethod::StaggeredDirect,
+            error_control: false,
+            atol_scale: 1.0,
+        }
+    }
+}
+
+impl SensitivityOptions {
+    /// Staggered corrector with the integrator's Newton tolerance (0.05 of the error norm).
+    pub fn corrector() -> Self {
+        Self {
+            method: SensitivityMethod::StaggeredCorrector {
+                tol: 0.05,
+                max_iterations: 6,
+            },
+            ..Self::default()
+        }
+    }
+}
+
+/// Failure of a sensitivity analysis.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SensitivityError {
+    #[error(transparent)]
+    Constraint(#[from] ConstraintError),
+    #[error(transparent)]
+    Integration(#[from] IntegrationError),
+    #[error("design model: {0}")]
+    Layout(String),
+    #[error("response: {0}")]
+    Response(String),
+}
+
+/// Work counters of the sensitivity integration.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SensitivityStatistics {
+    /// Dual evaluations of `f_y S + f_b` (one per chunk each).
+    pub dual_evaluations: usize,
+    pub corrector_iterations: usize,
+    /// Exact Jacobians with an LU of `c_0 I − f_y` (direct method and corrector fallbacks).
+    pub direct_solves: usize,
+}
+
+/// State and sensitivity histories at the accepted steps (and the initial point).
+#[derive(Clone, Debug)]
+pub struct SensitivityRun {
+    pub n_q: usize,
+    /// `t_0, t_1, …` (the integrator's steps).
+    pub times: Vec<f64>,
+    /// `y_i = [q; v]`.
+    pub states: Vec<Vec<f64>>,
+    /// `S_i = ∂y_i/∂b`, `n × m`.
+    pub sensitivities: Vec<DMatrix<f64>>,
+    /// Order of the step that ended at `times[i]` (0 for the initial point).
+    pub orders: Vec<usize>,
+    pub statistics: Statistics,
+    pub sensitivity_statistics: SensitivityStatistics,
+}
+
+impl SensitivityRun {
+    /// Options that replay this run's step sequence (orders and times), e.g. for finite
+    /// differences of the discrete solution ([`StepControl::Replay`](crate::StepControl)).
+    pub fn replay_options(&self, rtol: f64, atol: f64, newton_tol: f64) -> BdfOptions {
+        BdfOptions::replay(
+            self.times[1..].to_vec(),
+            self.orders[1..].to_vec(),
+            rtol,
+            atol,
+            newton_tol,
+        )
+    }
+
+    /// The state at point `i` as `(q, v)`.
+    pub fn state(&self, i: usize) -> State {
+        State::from_vec(&self.states[i], self.n_q)
+    }
+}
+
+fn rhs_failure(e: impl std::fmt::Display) -> IntegrationFailure {
+    IntegrationFailure::Rhs(RhsError(e.to_string()))
+}
+
+/// `(q, v)` of a chunk as duals: value `y_i`, tangent `k` = `s[(i, range.start + k)]`.
+pub(crate) fn seeded<const N: usize>(
+    y: &[f64],
+    s: &DMatrix<f64>,
+    range: &std::ops::Range<usize>,
+) -> Vec<Dual<N>> {
+    y.iter()
+        .enumerate()
+        .map(|(i, &x)| {
+            let mut d = [0.0; N];
+            for (k, j) in range.clone().enumerate() {
+                d[k] = s[(i, j)];
+            }
+            Dual::new(x, d)
+        })
+        .collect()
+}
+
+/// `f_y S + f_b` at `(t, y)` for all design variables (`n × m`), one dual evaluation per
+/// chunk; `sol` is the `f64` solution of Eq. (12) at `(t, y)`.
+pub fn tangent_rhs<const N: usize>(
+    sys: &MultibodySystem,
+    design: &DesignModel<N>,
+    t: f64,
+    y: &[f64],
+    sol: &Solution,
+    s: &DMatrix<f64>,
+) -> DMatrix<f64> {
+    let nq = sys.model().n_q();
+    let nv = sys.model().n_v();
+    let mut out = DMatrix::zeros(nq + nv, design.n_variables());
+    for (model, range) in design.chunk_ranges() {
+        let yd = seeded::<N>(y, s, &range);
+        let (qd, vd) = yd.split_at(nq);
+        let res = model.residual(t, qd, vd, sys.active_rows(), &sol.x);
+        let x = solve_tangents(&sol.lu, &sol.x, &res);
+        let mut qdot = vec![Dual::<N>::constant(0.0); nq];
+        model.kinematic_rates(qd, vd, &mut qdot);
+        for (k, j) in range.enumerate() {
+            for i in 0..nq {
+                out[(i, j)] = qdot[i].d[k];
+            }
+            for i in 0..nv {
+                out[(nq + i, j)] = x[i].d[k];
+            }
+        }
+    }
+    out
+}
+
+/// Pseudo-inverse solve `−J⁺ R` column by column (minimum norm, tolerant of dependent rows).
+fn min_norm_columns(jac: &DMatrix<f64>, r: &DMatrix<f64>) -> DMatrix<f64> {
+    if jac.nrows() == 0 {
+        return DMatrix::zeros(jac.ncols(), r.ncols());
+    }
+    let svd = jac.clone().svd(true, true);
+    let eps = 1e-10 * svd.singular_values.max();
+    -svd.solve(r, eps).expect("u and vᵀ were computed")
+}
+
+/// Initial sensitivities consistent with the constraints (Eq. 44): the minimum-norm solutions
+/// of `Φ_q q_b = −Φ_b` (as increments in the velocity variables, mapped to `q` by the
+/// kinematic rates) and `Φ_v v_b = −(Φ̇_q q_b + Φ̇_b)`, which is what the assembly of
+/// [`MultibodySystem::assemble`] gives to first order when a perturbed design is assembled from
+/// the nominal state. `state` must already be assembled. Returns `n × m`.
+pub fn initial_sensitivities<const N: usize>(
+    sys: &MultibodySystem,
+    design: &DesignModel<N>,
+    t0: f64,
+    state: &State,
+) -> DMatrix<f64> {
+    let model = sys.model();
+    let (nq, nv, nc) = (model.n_q(), model.n_v(), model.n_constraints());
+    let m = design.n_variables();
+    let c = model.constraints(t0, &state.q, &state.v);
+    let jac = c.jacobian;
+    let zero = DMatrix::zeros(nq + nv, m);
+    // Φ_b
+    let mut phi_b = DMatrix::zeros(nc, m);
+    let y = state.to_vec();
+    for (dm, range) in design.chunk_ranges() {
+        let yd = seeded::<N>(&y, &zero, &range);
+        let (qd, vd) = yd.split_at(nq);
+        let cd = dm.constraints(t0, qd, vd);
+        for (k, j) in range.enumerate() {
+            for r in 0..nc {
+                phi_b[(r, j)] = cd.phi[r].d[k];
+            }
+        }
+    }
+    let d_b = min_norm_columns(&jac, &phi_b);
+    let mut s = DMatrix::zeros(nq + nv, m);
+    let mut col = vec![0.0; nq];
+    for j in 0..m {
+        let d: Vec<f64> = d_b.column(j).iter().copied().collect();
+        model.kinematic_rates(&state.q, &d, &mut col);
+        for i in 0..nq {
+            s[(i, j)] = col[i];
+        }
+    }
+    // Φ̇_q q_b + Φ̇_b
+    let mut r = DMatrix::zeros(nc, m);
+    for (dm, range) in design.chunk_ranges() {
+        let yd = seeded::<N>(&y, &s, &range);
+        let (qd, vd) = yd.split_at(nq);
+        let cd = dm.constraints(t0, qd, vd);
+        for (k, j) in range.enumerate() {
+            for row in 0..nc {
+                r[(row, j)] = cd.phi_dot[row].d[k];
+            }
+        }
+    }
+    let v_b = min_norm_columns(&jac, &r);
+    for j in 0..m {
+        for i in 0..nv {
+            s[(nq + i, j)] = v_b[(i, j)];
+        }
+    }
+    s
+}
+
+/// The sensitivities as a [`StepExtension`] of the integrator.
+struct Extension<'d, const N: usize> {
+    design: &'d DesignModel<N>,
+    options: SensitivityOptions,
+    /// `S_n, S_{n−1}, …` (most recent first).
+    hist: VecDeque<DMatrix<f64>>,
+    trial: Option<(f64, Vec<f64>, DMatrix<f64>, usize)>,
+    stats: SensitivityStatistics,
+    record: SensitivityRun,
+}
+
+fn wrms_matrix(e: &DMatrix<f64>, reference: &DMatrix<f64>, rtol: f64, atol: &[f64]) -> f64 {
+    let n = e.nrows();
+    let mut sum = 0.0;
+    for j in 0..e.ncols() {
+        for i in 0..n {
+            let w = rtol * reference[(i, j)].abs() + atol[i];
+            sum += (e[(i, j)] / w).powi(2);
+        }
+    }
+    (sum / (e.len().max(1) as f64)).sqrt()
+}
+
+impl<const N: usize> Extension<'_, N> {
+    fn direct(
+        &mut self,
+        sys: &mut MultibodySystem,
+        t: f64,
+        y: &[f64],
+        sol: &Solution,
+        c0: f64,
+        psi: &DMatrix<f64>,
+    ) -> Result<DMatrix<f64>, IntegrationFailure> {
+        let n = y.len();
+        let mut jac = DMatrix::zeros(n, n);
+        sys.jacobian(t, y, &mut jac)?;
+        let mut a = -jac;
+        for i in 0..n {
+            a[(i, i)] += c0;
+        }
+        let lu = a.lu();
+        let fb = tangent_rhs(sys, self.design, t, y, sol, &DMatrix::zeros(n, psi.ncols()));
+        self.stats.dual_evaluations += self.design.chunks.len();
+        self.stats.direct_solves += 1;
+        let mut s = fb - psi;
+        if !lu.solve_mut(&mut s) {
+            return Err(IntegrationFailure::SingularNewtonMatrix);
+        }
+        Ok(s)
+    }
+}
+
+impl<const N: usize> StepExtension<MultibodySystem> for Extension<'_, N> {
+    fn controls_error(&self) -> bool {
+        self.options.error_control
+    }
+
+    fn trial(
+        &mut self,
+        sys: &mut MultibodySystem,
+        step: &TrialStep<'_>,
+    ) -> Result<f64, IntegrationFailure> {
+        let t = step.times[0];
+        let k = step.order;
+        let c = &step.coefficients;
+        let y = &step.y_new;
+        let nq = sys.model().n_q();
+        let sol = sys.solve(t, &y[..nq], &y[nq..]).map_err(rhs_failure)?;
+        let mut psi = &self.hist[0] * c[1];
+        for j in 2..=k {
+            psi += &self.hist[j - 1] * c[j];
+        }
+        let c0 = c[0];
+        let atol: Vec<f64> = step
+            .atol
+            .iter()
+            .map(|a| a * self.options.atol_scale)
+            .collect();
+        let s = match self.options.method {
+            SensitivityMethod::StaggeredDirect => self.direct(sys, t, y, &sol, c0, &psi)?,
+            SensitivityMethod::StaggeredCorrector {
+                tol,
+                max_iterations,
+            } => {
+                // predictor: the interpolant through the past sensitivities
+                let np = (k + 1).min(self.hist.len());
+                let w = lagrange_weights(&step.history_times[..np], t);
+                let mut s = &self.hist[0] * w[0];
+                for i in 1..np {
+                    s += &self.hist[i] * w[i];
+                }
+                let scale = if step.newton_c0 != c0 {
+                    2.0 * step.newton_c0 / (c0 + step.newton_c0)
+                } else {
+                    1.0
+                };
+                let mut converged = false;
+                for _ in 0..max_iterations {
+                    let g = tangent_rhs(sys, self.design, t, y, &sol, &s);
+                    self.stats.dual_evaluations += self.design.chunks.len();
+                    self.stats.corrector_iterations += 1;
+                    let mut r = g - &s * c0 - &psi;
+                    if !step.newton_matrix.solve_mut(&mut r) {
+                        return Err(IntegrationFailure::SingularNewtonMatrix);
+                    }
+                    r *= scale;
+                    let norm = wrms_matrix(&r, &self.hist[0], step.rtol, &atol);
+                    s += r;
+                    if !norm.is_finite() {
+                        break;
+                    }
+                    if norm < tol {
+                        converged = true;
+                        break;
+                    }
+                }
+                if converged {
+                    s
+                } else {
+                    self.direct(sys, t, y, &sol, c0, &psi)?
+                }
+            }
+        };
+        if s.iter().any(|x| !x.is_finite()) {
+            return Err(IntegrationFailure::NonFinite);
+        }
+        let err = if self.options.error_control {
+            match error_estimate_weights(t, &step.history_times, k) {
+                Some(w) if self.hist.len() > k => {
+                    let mut e = &s * w[0];
+                    for i in 1..w.len() {
+                        e += &self.hist[i - 1] * w[i];
+                    }
+                    wrms_matrix(&e, &self.hist[0], step.rtol, &atol)
+                }
+                // start-up steps are controlled by the state alone
+                _ => 0.0,
+            }
+        } else {
+            0.0
+        };
+        self.trial = Some((t, y.clone(), s, k));
+        Ok(err)
+    }
+
+    fn accept(&mut self) {
+        let (t, y, s, k) = self.trial.take().expect("a trial step precedes acceptance");
+        self.hist.push_front(s.clone());
+        self.hist.truncate(8);
+        self.record.times.push(t);
+        self.record.states.push(y);
+        self.record.sensitivities.push(s);
+        self.record.orders.push(k);
+    }
+}
+
+/// Integrate the state and its sensitivities from the (assembled) `state` at `t0` to `t_end`:
+/// histories at every accepted step. The initial sensitivities are
+/// [`initial_sensitivities`].
+pub fn simulate_sensitivities<const N: usize>(
+    sys: &mut MultibodySystem,
+    design: &DesignModel<N>,
+    state: &State,
+    t0: f64,
+    t_end: f64,
+    bdf_options: BdfOptions,
+    options: &SensitivityOptions,
+) -> Result<SensitivityRun, SensitivityError> {
+    design.check(sys)?;
+    let s0 = initial_sensitivities(sys, design, t0, state);
+    simulate_sensitivities_from(sys, design, state, &s0, t0, t_end, bdf_options, options)
+}
+
+/// As [`simulate_sensitivities`] with given initial sensitivities `s0` (`n × m`).
+pub fn simulate_sensitivities_from<const N: usize>(
+    sys: &mut MultibodySystem,
+    design: &DesignModel<N>,
+    state: &State,
+    s0: &DMatrix<f64>,
+    t0: f64,
+    t_end: f64,
+    bdf_options: BdfOptions,
+    options: &SensitivityOptions,
+) -> Result<SensitivityRun, SensitivityError> {
+    design.check(sys)?;
+    let y0 = state.to_vec();
+    if s0.nrows() != y0.len() || s0.ncols() != design.n_variables() {
+        return Err(SensitivityError::Layout(format!(
+            "initial sensitivities are {}×{}, expected {}×{}",
+            s0.nrows(),
+            s0.ncols(),
+            y0.len(),
+            design.n_variables()
+        )));
+    }
+    let mut bdf = Bdf::new(bdf_options);
+    bdf.init(sys, t0, &y0)?;
+    let mut ext = Extension {
+        design,
+        options: *options,
+        hist: VecDeque::from([s0.clone()]),
+        trial: None,
+        stats: SensitivityStatistics::default(),
+        record: SensitivityRun {
+            n_q: sys.model().n_q(),
+            times: vec![t0],
+            states: vec![y0],
+            sensitivities: vec![s0.clone()],
+            orders: vec![0],
+            statistics: Statistics::default(),
+            sensitivity_statistics: SensitivityStatistics::default(),
+        },
+    };
+    while bdf.current().0 < t_end {
+        bdf.step_with(sys, t_end, &mut ext)?;
+    }
+    let mut run = ext.record;
+    run.statistics = bdf.statistics();
+    run.sensitivity_statistics = ext.stats;
+    Ok(run)
+}
+
+/// A plain run recording every accepted step (the nominal analysis, e.g. to time it or to
+/// record a step sequence for replay): times, states and orders.
+pub fn simulate_steps(
+    sys: &mut MultibodySystem,
+    state: &State,
+    t0: f64,
+    t_end: f64,
+    bdf_options: BdfOptions,
+) -> Result<SensitivityRun, SensitivityError> {
+    let y0 = state.to_vec();
+    let mut bdf = Bdf::new(bdf_options);
+    bdf.init(sys, t0, &y0)?;
+    let n = y0.len();
+    let mut run = SensitivityRun {
+        n_q: sys.model().n_q(),
+        times: vec![t0],
+        states: vec![y0],
+        sensitivities: vec![DMatrix::zeros(n, 0)],
+        orders: vec![0],
+        statistics: Statistics::default(),
+        sensitivity_statistics: SensitivityStatistics::default(),
+    };
+    while bdf.current().0 < t_end {
+        bdf.step(sys, t_end)?;
+        let st = bdf.last_step();
+        run.times.push(st.times[0]);
+        run.states.push(st.states[0].to_vec());
+        run.sensitivities.push(DMatrix::zeros(n, 0));
+        run.orders.push(st.order);
+    }
+    run.statistics = bdf.statistics();
+    Ok(run)
+}
