@@ -212,6 +212,17 @@ impl SectionMesh {
                     angle: r.ply_angle,
                 });
             }
+            let frame_ok = match r.frame {
+                WallFrame::Tangent(b) => b.is_finite(),
+                WallFrame::Radial { centre } => centre.iter().all(|c| c.is_finite()),
+                WallFrame::AlongElement(_) => true,
+            };
+            if !frame_ok {
+                return Err(SectionError::InvalidInput(format!(
+                    "region '{}': its wall frame {:?} is not finite",
+                    r.name, r.frame
+                )));
+            }
         }
         for (e, el) in self.elements.iter().enumerate() {
             let nn = el.kind.node_count();

@@ -178,7 +178,8 @@ pub fn parse_gmsh(text: &str, regions: &[RegionSpec]) -> Result<SectionMesh, Sec
                     let (n, b) = lines.numbers::<usize>()?;
                     // Parametric coordinates, if any, follow x y z on the same line.
                     let count = need(&b, 3, n, "number of nodes in the block")?;
-                    let mut tags = Vec::with_capacity(count);
+                    // the count comes from the file: no allocation before the nodes are read
+                    let mut tags = Vec::new();
                     for _ in 0..count {
                         let (n, t) = lines.numbers::<u64>()?;
                         tags.push(need(&t, 0, n, "node tag")?);
@@ -407,6 +408,8 @@ pub fn parse_simple(
             "radial" => WallFrame::Radial {
                 centre: [num(5, "centre x2")?, num(6, "centre x3")?],
             },
+            "xi" => WallFrame::AlongElement(ElementDirection::Xi),
+            "eta" => WallFrame::AlongElement(ElementDirection::Eta),
             other => {
                 return Err(parse_err(
                     line,

@@ -119,6 +119,22 @@ fn simple_format_round_trip() {
     assert_eq!(back.elements, mesh.elements);
     let (p, q) = (analyse(&mesh).unwrap(), analyse(&back).unwrap());
     assert!(scaled_diff(&p.stiffness, &q.stiffness, &p.stiffness) < 1e-12);
+    // element-aligned wall frames survive the round trip too (regression: `xi`/`eta` were
+    // written but not read)
+    let mut along = mesh.clone();
+    along.regions[0].frame = section::WallFrame::AlongElement(section::ElementDirection::Xi);
+    along.regions[1].frame = section::WallFrame::AlongElement(section::ElementDirection::Eta);
+    let back = parse_simple(&write_simple(&along), &[]).unwrap();
+    assert_eq!(
+        back.regions.iter().map(|r| r.frame).collect::<Vec<_>>(),
+        along.regions.iter().map(|r| r.frame).collect::<Vec<_>>()
+    );
+}
+
+#[test]
+fn a_gmsh_header_with_an_absurd_node_count_is_an_error_not_an_abort() {
+    let text = "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 100000000000 1 100000000000\n2 1 0 100000000000\n1\n$EndNodes\n";
+    assert!(section::parse_gmsh(text, &[]).is_err());
 }
 
 #[test]
@@ -371,4 +387,18 @@ fn real_gmsh_tube_meshes() {
         let d = scaled_diff(&p.stiffness, &reference.stiffness, &reference.stiffness);
         assert!(d < 2e-3, "Gmsh vs generated tube: {d:e}");
     }
+}
+
+#[test]
+fn a_non_finite_wall_frame_is_rejected_by_validation() {
+    let plies = [section::PlySpec::new("p", composite(), 0.3, 0.0005, 1)];
+    let mut mesh = section::tube(0.01, &plies, 8).unwrap();
+    mesh.regions[0].frame = section::WallFrame::Radial {
+        centre: [f64::NAN, 0.0],
+    };
+    let e = mesh.validate().unwrap_err();
+    assert!(
+        e.to_string().contains("region 'p'") && e.to_string().contains("not finite"),
+        "{e}"
+    );
 }
