@@ -68,6 +68,7 @@
 mod bdf;
 mod body;
 mod error;
+mod fd;
 mod force;
 mod joint;
 pub mod kin;
@@ -84,6 +85,7 @@ pub use bdf::{
 };
 pub use body::{Body, BodyId, FlexibleBody, RigidBody};
 pub use error::{ConstraintError, ModelError};
+pub use fd::{FdScheme, FiniteDifference, Perturbation, finite_differences, simulate_response};
 pub use force::{Force, ForceId, Load, LoadFrame};
 pub use joint::{JointId, JointKind, TimeFunction};
 pub use marker::{Marker, Site};
