@@ -173,7 +173,10 @@ fn modal_setup(
     sens: &SectionSensitivities,
     opts: &RodOptions,
 ) -> (Mesh, Properties<f64>, ModalAnalysis) {
-    assert!(opts.elements.is_multiple_of(2), "an even number of elements");
+    assert!(
+        opts.elements.is_multiple_of(2),
+        "an even number of elements"
+    );
     let mesh = beam_mesh(opts.elements);
     let props = Properties {
         sections: vec![BeamSection::from_section(&sens.properties)],
