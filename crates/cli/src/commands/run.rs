@@ -60,9 +60,12 @@ enum Response {
         node: usize,
         component: usize,
     },
+    /// `body` is the model's body index; `undeformed`: the three nodes' positions in the body
+    /// frame.
     MidNodeDeflection {
         body: usize,
         nodes: [usize; 3],
+        undeformed: [Vector3<f64>; 3],
         normal: Vector3<f64>,
         length: f64,
     },
@@ -686,7 +689,6 @@ fn build_mechanism(src: &Source, raw: &RawDeck) -> Result<Mechanism, CliError> {
     let mut bodies = BTreeMap::new();
     let mut body_order = Vec::new();
     let mut placements = Vec::new();
-    let mut flexible_index = BTreeMap::new();
     // flexible bodies: modes of the mesh as given (global coordinates at t = 0)
     for (name, b) in &raw.body {
         let def = validate_body(src, raw, name, b, &lam)?;
@@ -712,7 +714,6 @@ fn build_mechanism(src: &Source, raw: &RawDeck) -> Result<Mechanism, CliError> {
                     e.to_string(),
                 ))
             })?;
-        flexible_index.insert(name.clone(), body_order.len());
         placements.push((
             id,
             analysis.origin,
@@ -1056,7 +1057,7 @@ fn build_mechanism(src: &Source, raw: &RawDeck) -> Result<Mechanism, CliError> {
         })?;
     }
     let state = initial_state(&model, &placements);
-    let responses = responses(src, raw, &model, &bodies, &flexible_index, &joint_names)?;
+    let responses = responses(src, raw, &model, &bodies, &joint_names)?;
     Ok(Mechanism {
         model,
         state,
@@ -1085,7 +1086,6 @@ fn responses(
     raw: &RawDeck,
     model: &Model<f64>,
     bodies: &BTreeMap<String, BodyInfo>,
-    flexible_index: &BTreeMap<String, usize>,
     joints: &[String],
 ) -> Result<Vec<(String, Response, &'static str)>, DeckError> {
     let mut out = Vec::new();
@@ -1155,7 +1155,7 @@ fn responses(
                 }
             }
             "nodal-displacement" => {
-                let (n, info) = body(true)?;
+                let (_, info) = body(true)?;
                 let node = node_index(
                     info,
                     required(src, span(r), &k("node"), &rr.node, "node")?,
@@ -1170,7 +1170,7 @@ fn responses(
                 )?;
                 (
                     Response::NodalDisplacement {
-                        body: flexible_index[n],
+                        body: info.id.index(),
                         node,
                         component: c,
                     },
@@ -1178,7 +1178,7 @@ fn responses(
                 )
             }
             "mid-node-deflection" => {
-                let (n, info) = body(true)?;
+                let (_, info) = body(true)?;
                 let count = info.nodes.as_ref().map_or(0, Vec::len);
                 let nodes = match &rr.nodes {
                     Some(v) => {
@@ -1208,8 +1208,9 @@ fn responses(
                     .unwrap_or(Vector3::z());
                 (
                     Response::MidNodeDeflection {
-                        body: flexible_index[n],
+                        body: info.id.index(),
                         nodes,
+                        undeformed: [x[nodes[0]], x[nodes[1]], x[nodes[2]]],
                         normal,
                         length,
                     },
@@ -1249,10 +1250,9 @@ fn responses(
                 )
             }
             "modal" => {
-                let (n, info) = body(true)?;
-                let _ = info;
+                let (_, info) = body(true)?;
                 let m = required(src, span(r), &k("mode"), &rr.mode, "mode (from 1)")?;
-                let nm = model.body(bodies[n].id).n_modes();
+                let nm = model.body(info.id).n_modes();
                 let mode = *m.get_ref();
                 if mode < 1 || mode as usize > nm {
                     return Err(src.error(
@@ -1263,7 +1263,7 @@ fn responses(
                 }
                 (
                     Response::Modal {
-                        body: flexible_index[n],
+                        body: info.id.index(),
                         mode: mode as usize - 1,
                     },
                     "1",
@@ -1295,13 +1295,7 @@ fn responses(
 }
 
 /// The value of a response at one output.
-fn evaluate(r: &Response, o: &Output, mech: &Mechanism) -> f64 {
-    let flexible: Vec<&BodyInfo> = mech
-        .body_order
-        .iter()
-        .map(|n| &mech.bodies[n])
-        .filter(|b| b.nodes.is_some())
-        .collect();
+fn evaluate(r: &Response, o: &Output) -> f64 {
     match r {
         Response::Position { body, component } => o.positions[body.index()][*component],
         Response::Velocity { nv, component } => o.v[nv.start + component],
@@ -1309,24 +1303,21 @@ fn evaluate(r: &Response, o: &Output, mech: &Mechanism) -> f64 {
             body,
             node,
             component,
-        } => {
-            let b = flexible[*body];
-            o.nodal_displacements[b.id.index()][*node][*component]
-        }
+        } => o.nodal_displacements[*body][*node][*component],
         Response::MidNodeDeflection {
             body,
             nodes,
+            undeformed,
             normal,
             length,
         } => {
-            let b = flexible[*body];
-            let i = b.id.index();
-            let x0 = b.nodes.as_ref().expect("flexible");
-            let p = |n: usize| {
-                let u = o.nodal_displacements[i][n];
-                o.positions[i] + o.orientations[i] * (x0[n] + Vector3::new(u[0], u[1], u[2]))
+            let i = *body;
+            let p = |k: usize| {
+                let u = o.nodal_displacements[i][nodes[k]];
+                o.positions[i]
+                    + o.orientations[i] * (undeformed[k] + Vector3::new(u[0], u[1], u[2]))
             };
-            let (pa, pm, pb) = (p(nodes[0]), p(nodes[1]), p(nodes[2]));
+            let (pa, pm, pb) = (p(0), p(1), p(2));
             let t = (pb - pa).normalize();
             let e = normal.cross(&t);
             (pm - pa).dot(&e) / length
@@ -1339,7 +1330,7 @@ fn evaluate(r: &Response, o: &Output, mech: &Mechanism) -> f64 {
                 rj.moment_on_b[*component - 3]
             }
         }
-        Response::Modal { body, mode } => o.modal[flexible[*body].id.index()][*mode],
+        Response::Modal { body, mode } => o.modal[*body][*mode],
         Response::Energy => o.energy.total(),
         Response::ConstraintViolation => o.position_violation,
     }
@@ -1382,7 +1373,7 @@ pub fn run(path: &Path, overrides: &[String], req: &RunRequest) -> Result<String
     g.put("time", &[n], mech.times.clone()).units("s");
     let mut history: Vec<(String, &str, Vec<f64>)> = Vec::new();
     for (name, r, unit) in &mech.responses {
-        let v: Vec<f64> = sim.outputs.iter().map(|o| evaluate(r, o, &mech)).collect();
+        let v: Vec<f64> = sim.outputs.iter().map(|o| evaluate(r, o)).collect();
         g.put(&format!("responses/{name}"), &[n], v.clone())
             .units(unit);
         history.push((name.clone(), unit, v));
