@@ -29,7 +29,7 @@ use fem::{
 };
 use laminate::OrthotropicMaterial;
 use mbs::{
-    BodyId, DesignModel, FlexibleBody, Joint, JointKind, Marker, Model, MultibodySystem,
+    BodyId, DesignModel, FlexibleBody, Joint, JointId, JointKind, Marker, Model, MultibodySystem,
     RedundancyPolicy, Response, RigidBody, State, TimeFunction,
 };
 use nalgebra::{Matrix3, Vector3};
@@ -39,7 +39,9 @@ use sens::{Dual, Scalar, chunk_ranges};
 pub const CRANK: f64 = 0.152;
 pub const ROD: f64 = 0.304;
 pub const OMEGA: f64 = 150.0;
-pub const PLY_THICKNESS: f64 = 0.25e-3;
+/// Total wall thickness (four 0.25 mm plies in the paper's lay-up; a lay-up of `n` plies has
+/// plies of `WALL / n`, the same area).
+pub const WALL: f64 = 1.0e-3;
 pub const INNER_RADIUS: f64 = 4.529e-3;
 pub const CRANK_MASS: f64 = 0.38;
 pub const SLIDER_MASS: f64 = 0.1;
@@ -51,20 +53,14 @@ pub fn composite() -> OrthotropicMaterial {
         .expect("valid material")
 }
 
-/// The tube section with the given ply angles (degrees, innermost first).
+/// The tube section with the given ply angles (degrees, innermost first), each ply
+/// `WALL / angles_deg.len()` thick.
 pub fn tube_section(angles_deg: &[f64]) -> SectionMesh {
+    let thickness = WALL / angles_deg.len() as f64;
     let plies: Vec<PlySpec> = angles_deg
         .iter()
         .enumerate()
-        .map(|(i, a)| {
-            PlySpec::new(
-                format!("ply{i}"),
-                composite(),
-                a.to_radians(),
-                PLY_THICKNESS,
-                1,
-            )
-        })
+        .map(|(i, a)| PlySpec::new(format!("ply{i}"), composite(), a.to_radians(), thickness, 1))
         .collect();
     section::tube(INNER_RADIUS, &plies, 24).expect("valid tube")
 }
@@ -76,6 +72,8 @@ pub enum Design {
     Common,
     /// One variable per ply.
     PerPly,
+    /// One variable for each of the first `n` plies (the others fixed).
+    FirstPlies(usize),
 }
 
 impl Design {
@@ -88,6 +86,9 @@ impl Design {
             Design::PerPly => (0..mesh.regions.len()).fold(DesignMap::new(), |m, r| {
                 m.with_variable(format!("ply{r}"), vec![(r, deg)])
             }),
+            Design::FirstPlies(n) => (0..n).fold(DesignMap::new(), |m, r| {
+                m.with_variable(format!("ply{r}"), vec![(r, deg)])
+            }),
         }
     }
 
@@ -96,14 +97,19 @@ impl Design {
         match self {
             Design::Common => vec![angles_deg[0]],
             Design::PerPly => angles_deg.to_vec(),
+            Design::FirstPlies(n) => angles_deg[..n].to_vec(),
         }
     }
 
-    /// The lay-up of a design vector (`plies` plies).
-    pub fn layup(self, b: &[f64], plies: usize) -> Vec<f64> {
+    /// The lay-up of a design vector, the plies not in the design taken from `base`.
+    pub fn layup(self, b: &[f64], base: &[f64]) -> Vec<f64> {
         match self {
-            Design::Common => vec![b[0]; plies],
-            Design::PerPly => b.to_vec(),
+            Design::Common => vec![b[0]; base.len()],
+            Design::PerPly | Design::FirstPlies(_) => {
+                let mut l = base.to_vec();
+                l[..b.len()].copy_from_slice(b);
+                l
+            }
         }
     }
 }
@@ -136,6 +142,8 @@ pub struct Ids {
     pub rod_first: usize,
     pub rod_mid: usize,
     pub rod_last: usize,
+    /// The revolute joint between the rod's last node (marker a) and the slider (marker b).
+    pub wrist_pin: JointId,
 }
 
 impl Ids {
@@ -256,9 +264,10 @@ pub fn mechanism<P: Scalar>(rod_body: ModalBody<P>, elements: usize) -> (Model<P
             Marker::on(slider, Vector3::zeros()).with_axis(x_axis),
         ),
     ];
-    for j in joints {
-        model.add_joint(j).expect("joint");
-    }
+    let joint_ids: Vec<JointId> = joints
+        .into_iter()
+        .map(|j| model.add_joint(j).expect("joint"))
+        .collect();
     let mut state = model.rest_state();
     let id = Matrix3::identity();
     model.set_pose(&mut state, crank, Vector3::new(CRANK / 2.0, 0.0, 0.0), &id);
@@ -290,6 +299,7 @@ pub fn mechanism<P: Scalar>(rod_body: ModalBody<P>, elements: usize) -> (Model<P
         rod_first: 0,
         rod_mid: elements / 2,
         rod_last: elements,
+        wrist_pin: joint_ids[3],
     };
     (model, state, ids)
 }

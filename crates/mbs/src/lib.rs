@@ -33,13 +33,22 @@
 //!   coefficients `c_j` of `Σ c_j y_{n+1−j} = f(y_{n+1})`, the states of the formula and the
 //!   Newton matrix; [`Bdf::integrate_to`] calls an observer after every accepted step.
 //!
-//! # Sensitivities (the next layer, sketched)
-//! For design variables `b` carried by `Model<Dual<N>>` (e.g. from `fem`'s dual modal body)
-//! and state tangents `s = ∂y/∂b`: on each accepted step, evaluate `f_y s + f_b` as one dual
-//! evaluation — `q̇` from [`Model::kinematic_rates`] and the accelerations from
-//! [`sens::solve_tangents`] applied to [`Model::residual`] with `q, v` seeded with `s` — and
-//! solve `(c_0 I − f_y) s_{n+1} = −Σ_{j≥1} c_j s_{n+1−j} + f_b` (linear in `s_{n+1}`; see
-//! `tests/staggered_sensitivity.rs`).
+//! # Sensitivities (paper §4, Eqs. 35–47)
+//! - [`DesignModel<N>`]: one `Model<Dual<N>>` per chunk of `N` design variables (e.g. flexible
+//!   bodies from `fem::modal_body_dual`, fixed- or updated-mode).
+//! - [`simulate_sensitivities`]: state and `S = ∂y/∂b` on the integrator's own steps with the
+//!   same BDF formula ([`SensitivityMethod::StaggeredDirect`]: exact derivative of the discrete
+//!   solution; [`SensitivityMethod::StaggeredCorrector`]), optionally in the error control
+//!   ([`SensitivityOptions`]); `f_y S + f_b` is one dual evaluation per chunk
+//!   ([`tangent_rhs`]); initial sensitivities consistent with the constraints
+//!   ([`initial_sensitivities`], Eq. 44). Integration extensions hook into
+//!   [`Bdf::step_with`] ([`StepExtension`]).
+//! - [`Response`] (body positions, nodal displacements, the mid-node deflection, reaction
+//!   forces, state components) → [`response_history`] (values and `dψ/db`, Eq. 39) →
+//!   [`Objective`] (integral, mean, RMS, max/min with time, value at a time) with gradients.
+//! - Finite differences for comparison ([`finite_differences`], [`simulate_response`]) on
+//!   independent adaptive runs or on the nominal step sequence replayed
+//!   ([`SensitivityRun::replay_options`], [`StepControl::Replay`]).
 //!
 //! ```
 //! use mbs::{BdfOptions, Joint, JointKind, Marker, Model, MultibodySystem, RedundancyPolicy,

@@ -202,6 +202,47 @@ impl SensitivityRun {
         )
     }
 
+    /// State and sensitivities at `t` (within the run): the interpolant of the BDF formula of
+    /// the step containing `t` (as [`Bdf::interpolate`]), the same weights for both, so the
+    /// interpolated sensitivities are the derivatives of the interpolated state.
+    pub fn interpolate(&self, t: f64) -> (Vec<f64>, DMatrix<f64>) {
+        let last = self.times.len() - 1;
+        let i = self
+            .times
+            .partition_point(|&x| x < t)
+            .clamp(1.min(last), last);
+        if self.times[i] == t || last == 0 {
+            return (self.states[i].clone(), self.sensitivities[i].clone());
+        }
+        let k = self.orders[i].max(1).min(i);
+        let nodes: Vec<f64> = (0..=k).map(|j| self.times[i - j]).collect();
+        let w = lagrange_weights(&nodes, t);
+        let mut y = vec![0.0; self.states[i].len()];
+        let mut s = DMatrix::zeros(self.sensitivities[i].nrows(), self.sensitivities[i].ncols());
+        for (j, wj) in w.iter().enumerate() {
+            for (a, b) in y.iter_mut().zip(&self.states[i - j]) {
+                *a += wj * b;
+            }
+            s += &self.sensitivities[i - j] * *wj;
+        }
+        (y, s)
+    }
+
+    /// The run sampled at `t_out` (interpolated between steps, see
+    /// [`SensitivityRun::interpolate`]); `orders` of the result are 0.
+    pub fn resample(&self, t_out: &[f64]) -> SensitivityRun {
+        let (states, sensitivities) = t_out.iter().map(|&t| self.interpolate(t)).unzip();
+        SensitivityRun {
+            n_q: self.n_q,
+            times: t_out.to_vec(),
+            states,
+            sensitivities,
+            orders: vec![0; t_out.len()],
+            statistics: self.statistics,
+            sensitivity_statistics: self.sensitivity_statistics,
+        }
+    }
+
     /// The state at point `i` as `(q, v)`.
     pub fn state(&self, i: usize) -> State {
         State::from_vec(&self.states[i], self.n_q)
