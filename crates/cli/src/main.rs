@@ -88,6 +88,12 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Validate a deck without running it: keys, values, names, meshes, modal analyses, and
+    /// the assembly of the mechanism (redundant joint equations are reported).
+    Check {
+        /// The deck (TOML).
+        deck: PathBuf,
+    },
     /// Compare two result files dataset by dataset (golden-file checks): exit code 1 on a
     /// mismatch, listing the largest differences with their dataset and time.
     Compare {
@@ -148,6 +154,7 @@ fn main() -> ExitCode {
             };
             commands::run::run(deck, &cli.set, &req).map(|t| (t, 0))
         }
+        Command::Check { deck } => commands::check::run(deck, &cli.set).map(|t| (t, 0)),
         Command::Compare { a, b, rtol, atol } => commands::compare::run(a, b, *rtol, *atol)
             .map(|(text, same)| (text, if same { 0 } else { 1 })),
     };

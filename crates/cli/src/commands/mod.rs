@@ -1,5 +1,6 @@
 //! The subcommands of `flexsens`.
 
+pub mod check;
 pub mod compare;
 pub mod laminate;
 pub mod modes;

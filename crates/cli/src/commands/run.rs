@@ -92,16 +92,16 @@ type Placement = (
 );
 
 /// The validated mechanism.
-struct Mechanism {
-    model: Model<f64>,
-    state: State,
+pub(crate) struct Mechanism {
+    pub(crate) model: Model<f64>,
+    pub(crate) state: State,
     bodies: BTreeMap<String, BodyInfo>,
     body_order: Vec<String>,
     joint_names: Vec<String>,
     responses: Vec<(String, Response, &'static str)>,
-    times: Vec<f64>,
+    pub(crate) times: Vec<f64>,
     options: BdfOptions,
-    policy: RedundancyPolicy,
+    pub(crate) policy: RedundancyPolicy,
 }
 
 /// An angle: a number in degrees, or a string `"<number> deg|rad"`; radians out.
@@ -683,7 +683,7 @@ fn component(
     })
 }
 
-fn build_mechanism(src: &Source, raw: &RawDeck) -> Result<Mechanism, CliError> {
+pub(crate) fn build_mechanism(src: &Source, raw: &RawDeck) -> Result<Mechanism, CliError> {
     let lam = validate_laminates(src, raw)?;
     let mut model = Model::<f64>::new();
     let mut bodies = BTreeMap::new();

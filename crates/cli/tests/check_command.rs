@@ -1,0 +1,72 @@
+//! `flexsens check`: every shipped deck passes; bad decks fail with their place; mechanisms are
+//! assembled and redundant equations named.
+
+mod common;
+use common::*;
+
+#[test]
+fn every_shipped_deck_passes_check() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../decks");
+    let mut n = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let p = entry.unwrap().path();
+        if p.extension().is_some_and(|e| e == "toml") {
+            let o = run(&["check", p.to_str().unwrap()]);
+            assert!(
+                o.status.success(),
+                "{}: {}",
+                p.display(),
+                String::from_utf8_lossy(&o.stderr)
+            );
+            assert!(String::from_utf8_lossy(&o.stdout).ends_with("deck OK\n"));
+            n += 1;
+        }
+    }
+    assert!(n >= 7, "the shipped decks were found ({n})");
+}
+
+#[test]
+fn check_names_redundant_equations_and_can_refuse_them() {
+    let p = deck("slider_crank_rigid.toml");
+    let o = run(&["check", p.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("3 redundant joint equations removed") && text.contains("slider_guide"),
+        "{text}"
+    );
+    let o = run(&[
+        "check",
+        p.to_str().unwrap(),
+        "--set",
+        "analysis.redundant=error",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("redundant constraint equations") && err.contains("slider_guide"),
+        "{err}"
+    );
+}
+
+#[test]
+fn check_reports_bad_input_with_its_place_and_runs_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(deck("slider_crank_rigid.toml"))
+        .unwrap()
+        .replace("mass = 0.0380", "mass = -0.0380");
+    let p = dir.path().join("bad.toml");
+    std::fs::write(&p, &text).unwrap();
+    let o = run(&["check", p.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains(&format!("bad.toml:{}:", line_of(&text, "mass = -0.0380")))
+            && err.contains("rigid.crank.mass"),
+        "{err}"
+    );
+    assert_eq!(
+        std::fs::read_dir(dir.path()).unwrap().count(),
+        1,
+        "nothing written"
+    );
+}
