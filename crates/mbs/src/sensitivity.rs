@@ -383,6 +383,9 @@ struct Extension<'d, const N: usize> {
     trial: Option<(f64, Vec<f64>, DMatrix<f64>, usize)>,
     stats: SensitivityStatistics,
     record: SensitivityRun,
+    /// Corrector convergence-rate estimate and the Newton matrix's `c_0` it belongs to.
+    rate: f64,
+    last_c0: f64,
 }
 
 fn wrms_matrix(e: &DMatrix<f64>, reference: &DMatrix<f64>, rtol: f64, atol: &[f64]) -> f64 {
@@ -470,8 +473,15 @@ impl<const N: usize> StepExtension<MultibodySystem> for Extension<'_, N> {
                 } else {
                     1.0
                 };
+                // convergence-rate estimate as in the integrator's Newton iteration: carried
+                // over from earlier steps, reset with every new Newton matrix
+                if step.newton_c0 != self.last_c0 {
+                    self.rate = 1.0;
+                    self.last_c0 = step.newton_c0;
+                }
                 let mut converged = false;
-                for _ in 0..max_iterations {
+                let mut previous = f64::INFINITY;
+                for it in 0..max_iterations {
                     let g = tangent_rhs(sys, self.design, t, y, &sol, &s);
                     self.stats.dual_evaluations += self.design.chunks.len();
                     self.stats.corrector_iterations += 1;
@@ -485,10 +495,14 @@ impl<const N: usize> StepExtension<MultibodySystem> for Extension<'_, N> {
                     if !norm.is_finite() {
                         break;
                     }
-                    if norm < tol {
+                    if it > 0 {
+                        self.rate = (norm / previous).max(0.3 * self.rate);
+                    }
+                    if norm * self.rate.min(1.0) < tol || norm < 1e-3 * tol {
                         converged = true;
                         break;
                     }
+                    previous = norm;
                 }
                 if converged {
                     s
@@ -577,6 +591,8 @@ pub fn simulate_sensitivities_from<const N: usize>(
         hist: VecDeque::from([s0.clone()]),
         trial: None,
         stats: SensitivityStatistics::default(),
+        rate: 1.0,
+        last_c0: f64::NAN,
         record: SensitivityRun {
             n_q: sys.model().n_q(),
             times: vec![t0],
