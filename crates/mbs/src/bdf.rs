@@ -399,11 +399,13 @@ impl Bdf {
                 reason: IntegrationFailure::Settings(s),
             })
         };
-        if !(o.rtol >= 0.0) || o.atol.iter().any(|&a| !(a >= 0.0)) {
-            return bad("tolerances must be non-negative");
+        if !(o.rtol >= 0.0) {
+            return bad("rtol must be non-negative");
         }
-        if o.rtol == 0.0 && o.atol.contains(&0.0) {
-            return bad("rtol and atol must not both be zero");
+        // a zero absolute tolerance makes the weight of a vanishing component zero and the
+        // error norm 0/0 (as in CVODE, every entry must be positive)
+        if o.atol.iter().any(|&a| !(a > 0.0 && a.is_finite())) {
+            return bad("every atol entry must be positive and finite");
         }
         if o.atol.len() != 1 && o.atol.len() != self.n {
             return bad("atol must have one entry or one per component");
@@ -1052,6 +1054,20 @@ impl Bdf {
         t_out: &[f64],
         mut observer: impl FnMut(&Bdf),
     ) -> Result<Vec<Vec<f64>>, IntegrationError> {
+        let bad = |s| IntegrationError {
+            t: self.current().0,
+            h: self.h,
+            reason: IntegrationFailure::Settings(s),
+        };
+        if t_out.iter().any(|t| !t.is_finite()) || !t_end.is_finite() {
+            return Err(bad("output times and the end time must be finite"));
+        }
+        if t_out.windows(2).any(|w| w[1] < w[0]) {
+            return Err(bad("output times must be non-decreasing"));
+        }
+        if t_out.last().is_some_and(|&t| t > t_end) {
+            return Err(bad("output times must not pass the end time"));
+        }
         let mut out = Vec::with_capacity(t_out.len());
         let mut next = 0;
         let t0 = self.current().0;

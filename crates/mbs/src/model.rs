@@ -189,8 +189,14 @@ impl<P: Scalar> Model<P> {
             reason,
         };
         let ortho = m.axes.transpose() * m.axes - Matrix3::identity();
-        if ortho.amax() > 1e-9 || m.axes.determinant() < 0.0 {
+        // written so that NaN axes fail too
+        if !(ortho.amax() <= 1e-9 && m.axes.determinant() > 0.0) {
             return Err(bad("marker axes are not a right-handed orthonormal triad"));
+        }
+        if let Site::Point(p) = &m.site
+            && !p.iter().all(|x| x.is_finite())
+        {
+            return Err(bad("the marker point is not finite"));
         }
         match (m.body, &m.site) {
             (None, Site::Node(_)) => Err(bad("a ground marker cannot sit at an FE node")),

@@ -176,7 +176,7 @@ impl MultibodySystem {
         let max_it = 50;
         for it in 0..=max_it {
             let c = self.model.constraints(t, &state.q, &state.v);
-            let res = c.phi.iter().fold(0.0, |m: f64, x| m.max(x.abs()));
+            let res = max_abs(&c.phi);
             if res <= tol {
                 break;
             }
@@ -326,8 +326,8 @@ impl MultibodySystem {
                 .iter()
                 .map(|&b| self.model.nodal_displacements(b, q))
                 .collect(),
-            position_violation: c.phi.iter().fold(0.0, |m, x| m.max(x.abs())),
-            velocity_violation: c.phi_dot.iter().fold(0.0, |m, x| m.max(x.abs())),
+            position_violation: max_abs(&c.phi),
+            velocity_violation: max_abs(&c.phi_dot),
             energy: self.model.energy(t, q, v),
         })
     }
@@ -455,8 +455,14 @@ pub fn simulate(
     t_out: &[f64],
     options: BdfOptions,
 ) -> Result<Simulation, SimulationError> {
-    let t0 = t_out[0];
-    let t_end = *t_out.last().expect("at least one output time");
+    let (Some(&t0), Some(&t_end)) = (t_out.first(), t_out.last()) else {
+        return Err(IntegrationError {
+            t: f64::NAN,
+            h: 0.0,
+            reason: crate::bdf::IntegrationFailure::Settings("at least one output time is needed"),
+        }
+        .into());
+    };
     let mut bdf = Bdf::new(options);
     bdf.init(system, t0, &state.to_vec())?;
     let ys = bdf.integrate_to(system, t_end, t_out, |_| {})?;
@@ -468,5 +474,16 @@ pub fn simulate(
     Ok(Simulation {
         outputs,
         statistics: bdf.statistics(),
+    })
+}
+
+/// `max |x_i|`, NaN if any entry is NaN (`f64::max` would drop it and hide a broken state).
+fn max_abs(x: &[f64]) -> f64 {
+    x.iter().fold(0.0, |m: f64, v| {
+        if v.is_nan() || m.is_nan() {
+            f64::NAN
+        } else {
+            m.max(v.abs())
+        }
     })
 }
