@@ -111,9 +111,11 @@ pub fn run(
         .iter()
         .map(|(name, def)| report(name, def, derivatives))
         .collect();
-    Ok(match format {
-        Format::Table => output::table(raw.title.as_deref(), &reports),
-        Format::Json => output::json_doc("laminates", &reports),
-        Format::Csv => output::csv("laminate", &reports),
-    })
+    Ok(output::render(
+        format,
+        raw.title.as_deref(),
+        "laminates",
+        "laminate",
+        &reports,
+    ))
 }

@@ -487,11 +487,13 @@ pub fn run(path: &Path, overrides: &[String], req: &ModesRequest) -> Result<Stri
             derivs.as_ref().map(|(_, d)| d),
         ));
     }
-    Ok(match req.format {
-        Format::Table => output::table(raw.title.as_deref(), &reports),
-        Format::Json => output::json_doc("bodies", &reports),
-        Format::Csv => output::csv("body", &reports),
-    })
+    Ok(output::render(
+        req.format,
+        raw.title.as_deref(),
+        "bodies",
+        "body",
+        &reports,
+    ))
 }
 
 /// A failed eigen solution is a runtime failure; every other error of the finite-element layer

@@ -142,6 +142,22 @@ pub struct Report {
     pub derivatives: Vec<(String, Vec<Quantity>)>,
 }
 
+/// The reports in the requested format; `collection` names them in JSON (`"sections"`), `kind`
+/// heads the CSV column of names (`"section"`).
+pub fn render(
+    format: super::Format,
+    title: Option<&str>,
+    collection: &str,
+    kind: &str,
+    reports: &[Report],
+) -> String {
+    match format {
+        super::Format::Table => table(title, reports),
+        super::Format::Json => json_doc(collection, reports),
+        super::Format::Csv => csv(kind, reports),
+    }
+}
+
 /// Aligned, human-readable tables.
 pub fn table(title: Option<&str>, reports: &[Report]) -> String {
     let mut s = String::new();

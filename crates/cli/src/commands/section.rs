@@ -106,9 +106,11 @@ pub fn run(
             .map_err(|e| src.error(Some(s.span()), Some(format!("section.{name}")), e))?;
         reports.push(r);
     }
-    Ok(match format {
-        Format::Table => output::table(raw.title.as_deref(), &reports),
-        Format::Json => output::json_doc("sections", &reports),
-        Format::Csv => output::csv("section", &reports),
-    })
+    Ok(output::render(
+        format,
+        raw.title.as_deref(),
+        "sections",
+        "section",
+        &reports,
+    ))
 }
