@@ -17,7 +17,7 @@ use nalgebra::{Matrix3, Rotation3, Unit, Vector3};
 use toml::Spanned;
 
 use crate::deck::bodies::validate_one as validate_body;
-use crate::deck::check::{count, finite, positive, required, span};
+use crate::deck::check::{count, direction, finite, positive, required, span, vector};
 use crate::deck::laminates::{suggestion, validate as validate_laminates};
 use crate::deck::mechanism::{RawAnalysis, RawMarker, RawMotion, RawResponse, RawRotation};
 use crate::deck::{self, DeckError, RawDeck, Source};
@@ -166,28 +166,6 @@ fn quantity(
         Ok(x)
     } else {
         Err(bad(format!("{x} must be finite")))
-    }
-}
-
-fn vector(src: &Source, key: &str, v: &Spanned<[f64; 3]>) -> Result<Vector3<f64>, DeckError> {
-    let a = *v.get_ref();
-    if a.iter().all(|x| x.is_finite()) {
-        Ok(Vector3::from(a))
-    } else {
-        Err(src.error(
-            span(v),
-            Some(key.into()),
-            format!("{a:?} must have finite components"),
-        ))
-    }
-}
-
-fn direction(src: &Source, key: &str, v: &Spanned<[f64; 3]>) -> Result<Vector3<f64>, DeckError> {
-    let d = vector(src, key, v)?;
-    if d.norm() > 0.0 {
-        Ok(d / d.norm())
-    } else {
-        Err(src.error(span(v), Some(key.into()), "must not be the zero vector"))
     }
 }
 

@@ -6,7 +6,7 @@ use nalgebra::Vector3;
 use serde::Deserialize;
 use toml::Spanned;
 
-use super::check::{count, positive, required, span};
+use super::check::{count, nonzero_vector, positive, required, span, vector};
 use super::laminates::{LaminateModel, suggestion};
 use super::raw::RawDeck;
 use super::sections::{self, SectionDef};
@@ -103,27 +103,6 @@ pub enum Reference {
     CentreOfMass,
     FreeFree,
     PinnedEnds(Option<[usize; 2]>),
-}
-
-fn vector(
-    src: &Source,
-    key: &str,
-    v: &Spanned<[f64; 3]>,
-    nonzero: bool,
-) -> Result<Vector3<f64>, DeckError> {
-    let a = *v.get_ref();
-    if a.iter().any(|x| !x.is_finite()) {
-        return Err(src.error(
-            span(v),
-            Some(key.into()),
-            format!("{a:?} must have finite components"),
-        ));
-    }
-    let out = Vector3::from(a);
-    if nonzero && out.norm() == 0.0 {
-        return Err(src.error(span(v), Some(key.into()), "must not be the zero vector"));
-    }
-    Ok(out)
 }
 
 /// Validate one body.
@@ -224,13 +203,11 @@ pub fn validate_one(
                     &raw.start,
                     "start [x, y, z] (m)",
                 )?,
-                false,
             )?;
             let end = vector(
                 src,
                 &k("end"),
                 required(src, table.clone(), &k("end"), &raw.end, "end [x, y, z] (m)")?,
-                false,
             )?;
             let axis = end - start;
             if axis.norm() == 0.0 {
@@ -241,7 +218,7 @@ pub fn validate_one(
                 ));
             }
             let orientation = match &raw.orientation {
-                Some(o) => vector(src, &k("orientation"), o, true)?,
+                Some(o) => nonzero_vector(src, &k("orientation"), o)?,
                 None if axis.normalize().cross(&Vector3::y()).norm() > 1e-6 => Vector3::y(),
                 None => Vector3::z(),
             };
@@ -294,7 +271,7 @@ pub fn validate_one(
             let axis = raw
                 .material_axis
                 .as_ref()
-                .map(|a| vector(src, &k("material_axis"), a, true))
+                .map(|a| nonzero_vector(src, &k("material_axis"), a))
                 .transpose()?
                 .unwrap_or(Vector3::x());
             match &raw.file {

@@ -2,6 +2,7 @@
 
 use std::ops::Range;
 
+use nalgebra::Vector3;
 use toml::Spanned;
 
 use super::{DeckError, Source};
@@ -86,4 +87,41 @@ pub fn not_applicable<T>(
         )),
         None => Ok(()),
     }
+}
+
+/// A vector with finite components.
+pub fn vector(src: &Source, key: &str, v: &Spanned<[f64; 3]>) -> Result<Vector3<f64>, DeckError> {
+    let a = *v.get_ref();
+    if a.iter().all(|x| x.is_finite()) {
+        Ok(Vector3::from(a))
+    } else {
+        Err(src.error(
+            span(v),
+            Some(key.into()),
+            format!("{a:?} must have finite components"),
+        ))
+    }
+}
+
+/// A finite vector that is not zero, as given (not normalised).
+pub fn nonzero_vector(
+    src: &Source,
+    key: &str,
+    v: &Spanned<[f64; 3]>,
+) -> Result<Vector3<f64>, DeckError> {
+    let d = vector(src, key, v)?;
+    if d.norm() > 0.0 {
+        Ok(d)
+    } else {
+        Err(src.error(span(v), Some(key.into()), "must not be the zero vector"))
+    }
+}
+
+/// A direction: a finite, non-zero vector, normalised.
+pub fn direction(
+    src: &Source,
+    key: &str,
+    v: &Spanned<[f64; 3]>,
+) -> Result<Vector3<f64>, DeckError> {
+    nonzero_vector(src, key, v).map(|d| d / d.norm())
 }
