@@ -250,14 +250,7 @@ fn vtk_file_holds_the_mesh_and_every_mode() {
 }
 
 fn expect_bad(text: &str, extra: &[&str], line: Option<usize>, words: &str) {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("bad.toml");
-    std::fs::write(&path, text).unwrap();
-    let mut args = vec!["modes", path.to_str().unwrap()];
-    args.extend_from_slice(extra);
-    let o = run(&args);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{err}");
+    let (_dir, err) = bad_deck(text, |p| with_deck("modes", p, extra));
     if let Some(l) = line {
         assert!(
             err.contains(&format!("bad.toml:{l}:")),

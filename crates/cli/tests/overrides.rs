@@ -1,15 +1,11 @@
 //! `--set KEY=VALUE` deck overrides.
 
-use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 use flexsens::deck::overrides::{Override, OverrideError, apply};
 
-fn deck(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../decks")
-        .join(name)
-}
+mod common;
+use common::*;
 
 fn laminate_json(args: &[&str]) -> (Output, Option<serde_json::Value>) {
     let path = deck("laminate_paper_composite.toml");

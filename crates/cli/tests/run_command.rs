@@ -212,17 +212,8 @@ fn a_failed_run_leaves_no_result_file_and_exits_1() {
 }
 
 fn expect_bad(text: &str, at: &str, words: &str) {
-    let dir = tempfile::tempdir().unwrap();
-    let p = dir.path().join("bad.toml");
-    std::fs::write(&p, text).unwrap();
-    let o = run(&[
-        "run",
-        p.to_str().unwrap(),
-        "-o",
-        dir.path().join("o").to_str().unwrap(),
-    ]);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{err}");
+    let out = |p: &std::path::Path| p.with_file_name("o").display().to_string();
+    let (dir, err) = bad_deck(text, |p| with_deck("run", p, &["-o", &out(p)]));
     assert!(
         err.contains(&format!("bad.toml:{}:", line_of(text, at))),
         "line of `{at}` in: {err}"

@@ -117,12 +117,7 @@ fn command_line_derivatives_match_central_differences_of_command_line_runs() {
 }
 
 fn expect_bad(text: &str, line: usize, key: &str, words: &str) {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("bad.toml");
-    std::fs::write(&path, text).unwrap();
-    let o = run(&["section", path.to_str().unwrap()]);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{err}");
+    let (_dir, err) = bad_deck(text, |p| with_deck("section", p, &[]));
     assert!(
         err.contains(&format!("bad.toml:{line}:")),
         "line {line} in: {err}"

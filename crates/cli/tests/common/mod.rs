@@ -33,3 +33,37 @@ pub fn line_of(text: &str, needle: &str) -> usize {
         .expect("needle in text")
         + 1
 }
+
+/// Write `text` as `bad.toml` in a fresh directory, run the binary with `args(deck path)`, and
+/// expect bad input: exit code 2, no panic, nothing on stdout. Returns the directory (kept
+/// alive for the caller's checks) and stderr.
+pub fn bad_deck(text: &str, args: impl Fn(&Path) -> Vec<String>) -> (tempfile::TempDir, String) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bad.toml");
+    std::fs::write(&path, text).unwrap();
+    let args = args(&path);
+    let o = Command::new(env!("CARGO_BIN_EXE_flexsens"))
+        .args(&args)
+        .output()
+        .expect("flexsens runs");
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "exit code of {args:?} for:\n{text}\nstderr: {err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(
+        o.stdout.is_empty(),
+        "nothing on stdout after an error: {}",
+        String::from_utf8_lossy(&o.stdout)
+    );
+    (dir, err)
+}
+
+/// The arguments `[command, deck path, extra…]`.
+pub fn with_deck(command: &str, deck: &Path, extra: &[&str]) -> Vec<String> {
+    let mut a = vec![command.to_string(), deck.display().to_string()];
+    a.extend(extra.iter().map(|s| s.to_string()));
+    a
+}
