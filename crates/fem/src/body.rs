@@ -23,6 +23,15 @@ pub enum ReferenceCondition {
     /// Free-free: the six rigid-body modes are computed and discarded; the frame sits at the
     /// centre of mass.
     FreeFree,
+    /// A clamped cross-section line (for shells; the paper's condition, a point support on a
+    /// Mindlin shell, is singular): every node whose coordinate along the body's long axis
+    /// equals that of the node nearest the centre of mass is clamped (all six dof). The long
+    /// axis is the global axis of the largest extent of the mesh's bounding box (it must be
+    /// unique); the line of nodes must pass through the centre of mass (e.g. an even element
+    /// count along the length), otherwise the analysis fails with [`FemError::Invalid`]. The
+    /// body frame sits at the node nearest the centre of mass (on that line), parallel to the
+    /// mesh axes. On a beam the line is a single node: the same as [`Self::ClampedAtCentreOfMass`].
+    ClampedSectionAtCentre,
     /// Pinned ends: node `a` has its translations and the rotation about the a–b axis fixed,
     /// node `b` its translations normal to the a–b axis. The axis must be parallel to a global
     /// axis. The frame sits at node `a`.
@@ -81,6 +90,18 @@ pub struct ModalOptions {
     pub mass: MassKind,
     pub element: ElementOptions,
     pub eigen: EigenOptions,
+    /// Restrict the analysis to motion in the plane with this (unit) normal `n`, in mesh (body
+    /// frame) axes: at every node the translation along `n` and the two rotations about the
+    /// in-plane axes are fixed; the in-plane translations and the rotation about `n` stay free.
+    /// For beams in that plane this leaves exactly the planar bending and axial modes (no
+    /// out-of-plane bending, no torsion). For shells it keeps the in-plane (membrane) motion
+    /// when `n` is the shell normal; when `n` lies in the shell plane (e.g. `n = y` for a strip
+    /// along x in the x–y plane) it leaves `u_x, u_z, θ_y`: cylindrical bending without twist or
+    /// anticlastic curvature, i.e. the plate-strip (plane-strain in width) modes plus axial ones.
+    /// Only normals along a global axis are supported (checked with a 1e-9 tolerance after
+    /// normalisation); any other normal is rejected with [`FemError::Invalid`]. Free-free bodies
+    /// then have 3 rigid-body modes instead of 6. `None` (the default): full 3-D motion.
+    pub planar: Option<Vector3<f64>>,
 }
 
 impl ModalOptions {
@@ -93,8 +114,59 @@ impl ModalOptions {
             mass: MassKind::Lumped,
             element: ElementOptions::default(),
             eigen: EigenOptions::default(),
+            planar: None,
         }
     }
+}
+
+/// The global axis (0, 1, 2) of a planar-motion normal; errors unless the vector is finite,
+/// non-zero and along a global axis.
+pub fn planar_axis(normal: &Vector3<f64>) -> Result<usize, FemError> {
+    let norm = normal.norm();
+    if !(norm > 0.0) || !norm.is_finite() {
+        return Err(FemError::Invalid(format!(
+            "planar normal {normal:?} must be a finite, non-zero vector"
+        )));
+    }
+    let n = normal / norm;
+    let axis = n.iamax();
+    if (1.0 - n[axis].abs()) > 1e-9 || (n - Vector3::ith(axis, n[axis])).norm() > 1e-9 {
+        return Err(FemError::Invalid(format!(
+            "planar normal ({}, {}, {}) is not along a global axis of the mesh; only x, y or z \
+             normals are supported",
+            normal.x, normal.y, normal.z
+        )));
+    }
+    Ok(axis)
+}
+
+/// Fix, at every node of `mesh`, the translation along global `axis` and the rotations about
+/// the two other axes (motion in the plane normal to `axis`, see [`ModalOptions::planar`]).
+pub fn add_planar_constraints(mesh: &Mesh, axis: usize, c: &mut Constraints) {
+    assert!(axis < 3, "axis {axis} out of range");
+    for node in 0..mesh.nodes.len() {
+        c.fix(node, axis);
+        for r in 0..3 {
+            if r != axis {
+                c.fix(node, 3 + r);
+            }
+        }
+    }
+}
+
+/// The constraints and frame origin of a modal analysis: the reference condition plus the
+/// planar restriction of [`ModalOptions::planar`], if any.
+pub fn analysis_constraints(
+    mesh: &Mesh,
+    props: &Properties<f64>,
+    opts: &ModalOptions,
+) -> Result<(Constraints, Vector3<f64>), FemError> {
+    let axis = opts.planar.as_ref().map(planar_axis).transpose()?;
+    let (mut c, origin) = reference_constraints(mesh, props, opts.reference, &opts.element)?;
+    if let Some(axis) = axis {
+        add_planar_constraints(mesh, axis, &mut c);
+    }
+    Ok((c, origin))
 }
 
 /// Result of a body modal analysis in `f64`.
@@ -204,6 +276,49 @@ pub fn reference_constraints(
             c.clamp(node);
             Ok((c, mesh.nodes[node]))
         }
+        ReferenceCondition::ClampedSectionAtCentre => {
+            let node = mesh
+                .closest_node(&com)
+                .ok_or(FemError::Invalid("empty mesh".into()))?;
+            let (lo, hi) = mesh.nodes.iter().fold(
+                (
+                    Vector3::repeat(f64::INFINITY),
+                    Vector3::repeat(f64::NEG_INFINITY),
+                ),
+                |(lo, hi), p| (lo.inf(p), hi.sup(p)),
+            );
+            let ext = hi - lo;
+            let axis = ext.iamax();
+            let length = ext[axis];
+            if !(length > 0.0) {
+                return Err(FemError::Invalid(
+                    "a clamped section needs a mesh with a non-zero length".into(),
+                ));
+            }
+            if (0..3).any(|a| a != axis && (ext[a] - length).abs() <= 1e-9 * length) {
+                return Err(FemError::Invalid(format!(
+                    "clamped section at the centre: the long axis is ambiguous (bounding box \
+                     {} × {} × {})",
+                    ext.x, ext.y, ext.z
+                )));
+            }
+            let x0 = mesh.nodes[node][axis];
+            if (x0 - com[axis]).abs() > 1e-6 * length {
+                let name = ["x", "y", "z"][axis];
+                return Err(FemError::Invalid(format!(
+                    "clamped section at the centre: no line of nodes crosses the body at the \
+                     centre of mass ({name} = {}; the nearest node is at {name} = {x0}); use an \
+                     even number of elements along the length",
+                    com[axis]
+                )));
+            }
+            let tol = 1e-9 * ext.norm();
+            let line: Vec<NodeId> = (0..mesh.nodes.len())
+                .filter(|&k| (mesh.nodes[k][axis] - x0).abs() <= tol)
+                .collect();
+            c.fix_nodes(&line, &dof::ALL);
+            Ok((c, mesh.nodes[node]))
+        }
         ReferenceCondition::FreeFree => Ok((c, com)),
         ReferenceCondition::PinnedEnds { a, b } => {
             let n = mesh.nodes.len();
@@ -241,15 +356,17 @@ pub fn modal_analysis(
     props: &Properties<f64>,
     opts: &ModalOptions,
 ) -> Result<ModalAnalysis, FemError> {
-    let (constraints, origin) = reference_constraints(mesh, props, opts.reference, &opts.element)?;
+    let (constraints, origin) = analysis_constraints(mesh, props, opts)?;
     let assembly = Assembly::new(mesh, &constraints)?;
     let (kv, mv) = assembly.values(mesh, props, &opts.element, opts.mass)?;
     let k = assembly.matrix(kv);
     let m = assembly.matrix(mv);
-    let rigid = if opts.reference == ReferenceCondition::FreeFree {
-        6
-    } else {
-        0
+    // rigid-body modes of a free-free body: 6 in space, 3 in a plane (2 translations and the
+    // rotation about the normal)
+    let rigid = match (opts.reference, opts.planar) {
+        (ReferenceCondition::FreeFree, None) => 6,
+        (ReferenceCondition::FreeFree, Some(_)) => 3,
+        _ => 0,
     };
     let want = (opts.n_modes + rigid + GUARD_MODES).min(assembly.n_free());
     if opts.n_modes + rigid > assembly.n_free() {
@@ -268,9 +385,9 @@ pub fn modal_analysis(
             .iter()
             .take_while(|l| l.abs() <= 1e-8 * lmax)
             .count();
-        if n_rigid != 6 {
+        if n_rigid != rigid {
             return Err(FemError::Eigen(format!(
-                "free-free body has {n_rigid} rigid-body modes, expected 6"
+                "free-free body has {n_rigid} rigid-body modes, expected {rigid}"
             )));
         }
         pairs.values.drain(..n_rigid);

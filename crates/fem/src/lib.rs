@@ -12,8 +12,10 @@
 //!
 //! Typical use: build a [`Mesh`] (generators, or [`parse_gmsh_v4`] on text) and
 //! [`Properties`] (beam sections, laminates from `laminate::PlyStack::stiffness`); run
-//! [`modal_analysis`] with [`ModalOptions`] (reference condition, number of modes, Rayleigh
-//! damping, lumped or consistent mass); [`modal_body`] gives the `ModalBody<f64>`;
+//! [`modal_analysis`] with [`ModalOptions`] (reference condition — clamped node or clamped
+//! cross-section line at the centre of mass, free-free, pinned ends — number of modes, Rayleigh
+//! damping, lumped or consistent mass, optional restriction to motion in a plane normal to a
+//! global axis); [`modal_body`] gives the `ModalBody<f64>`;
 //! [`analysis_derivatives`] evaluates the properties on `Dual<N>` numbers seeded with the design
 //! variables (in chunks of `N`), assembles `K_b`, `M_b` on the same sparse pattern and returns
 //! eigenvalue and (Nelson/Dailey) eigenvector derivatives; [`modal_body_dual`] packs them into a
@@ -43,8 +45,9 @@ pub use assembly::{
 pub use beam::BeamSection;
 pub use body::{
     ModalAnalysis, ModalOptions, ModeUpdate, RayleighDamping, ReferenceCondition,
-    analysis_derivatives, design_matrices, modal_analysis, modal_body, modal_body_dual,
-    reference_constraints, second_derivative_terms,
+    add_planar_constraints, analysis_constraints, analysis_derivatives, design_matrices,
+    modal_analysis, modal_body, modal_body_dual, planar_axis, reference_constraints,
+    second_derivative_terms,
 };
 pub use eigen::{EigenMethod, EigenOptions, Eigenpairs, lowest_modes};
 pub use mesh::{Element, GmshTriangles, Mesh, MeshError, NodeId, parse_gmsh_v4};
