@@ -18,7 +18,9 @@ use crate::sensitivity::{
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ReferenceCondition {
     /// The paper's default: the node nearest the centre of mass is clamped (all six dof) and the
-    /// body frame sits there, parallel to the mesh axes.
+    /// body frame sits there, parallel to the mesh axes. On a Mindlin shell a point support is
+    /// singular (the lowest frequencies fall with mesh refinement): use
+    /// [`Self::ClampedSectionAtCentre`] there.
     ClampedAtCentreOfMass,
     /// Free-free: the six rigid-body modes are computed and discarded; the frame sits at the
     /// centre of mass.
