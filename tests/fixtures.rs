@@ -368,9 +368,17 @@ pub fn slider_crank_design<const N: usize>(
 }
 
 /// System with redundant equations removed and the initial state assembled.
-pub fn assembled(model: Model<f64>, mut state: State) -> (MultibodySystem, State) {
-    let mut sys =
-        MultibodySystem::new(model, &state, RedundancyPolicy::Remove).expect("valid system");
+pub fn assembled(model: Model<f64>, state: State) -> (MultibodySystem, State) {
+    assembled_with(model, state, RedundancyPolicy::Remove)
+}
+
+/// As [`assembled`] with a redundancy policy.
+pub fn assembled_with(
+    model: Model<f64>,
+    mut state: State,
+    policy: RedundancyPolicy,
+) -> (MultibodySystem, State) {
+    let mut sys = MultibodySystem::new(model, &state, policy).expect("valid system");
     sys.assemble(0.0, &mut state, 1e-13).expect("assembly");
     (sys, state)
 }

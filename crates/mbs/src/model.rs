@@ -436,7 +436,12 @@ impl<P: Scalar> Model<P> {
     }
 
     /// Constraint equations of all joints at `(t, q, v)`, as kinematic quantities.
-    fn constraint_kin<S: Scalar + From<P>>(&self, t: f64, q: &[S], v: &[S]) -> Vec<Kin<S>> {
+    pub(crate) fn constraint_kin<S: Scalar + From<P>>(
+        &self,
+        t: f64,
+        q: &[S],
+        v: &[S],
+    ) -> Vec<Kin<S>> {
         let mut out = Vec::with_capacity(self.n_c);
         for j in &self.joints {
             let axes = j.kind.needs_axes();
@@ -567,10 +572,23 @@ impl<P: Scalar> Model<P> {
         v: &[S],
         rows: &[usize],
     ) -> Equations<S> {
+        let k = self.constraint_kin(t, q, v);
+        self.equations_with(t, q, v, &k, rows)
+    }
+
+    /// As [`Model::equations`], with the constraint kinematics `k` of all rows already
+    /// evaluated at `(t, q, v)` ([`Model::constraint_kin`]).
+    pub(crate) fn equations_with<S: Scalar + From<P>>(
+        &self,
+        t: f64,
+        q: &[S],
+        v: &[S],
+        k: &[Kin<S>],
+        rows: &[usize],
+    ) -> Equations<S> {
         let nv = self.n_v;
         let n = nv + rows.len();
         let (m, f) = self.mass_and_forces(t, q, v);
-        let k = self.constraint_kin(t, q, v);
         let mut matrix = DMatrix::zeros(n, n);
         matrix.view_mut((0, 0), (nv, nv)).copy_from(&m);
         let mut rhs = DVector::zeros(n);

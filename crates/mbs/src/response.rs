@@ -164,7 +164,6 @@ pub fn response_history<const N: usize>(
 ) -> Result<ResponseHistory, SensitivityError> {
     let nq = run.n_q;
     let nv = sys.model().n_v();
-    let rows = sys.active_rows();
     let nc = sys.model().n_constraints();
     let m = design.n_variables();
     let mut values = Vec::with_capacity(run.times.len());
@@ -175,6 +174,7 @@ pub fn response_history<const N: usize>(
         for (c, (model, range)) in design.chunk_ranges().enumerate() {
             let yd = seeded::<N>(y, s, &range);
             let (qd, vd) = yd.split_at(nq);
+            let rows = &sol.rows;
             let res = model.residual(t, qd, vd, rows, &sol.x);
             let x = solve_tangents(&sol.lu, &sol.x, &res);
             let mut lambda = vec![Dual::<N>::constant(0.0); nc];
@@ -217,7 +217,7 @@ pub fn response_values(
             let mut lambda = vec![0.0; nc];
             if needs_lambda {
                 let sol = sys.solve(t, q, v)?;
-                for (a, &r) in sys.active_rows().iter().enumerate() {
+                for (a, &r) in sol.rows.iter().enumerate() {
                     lambda[r] = sol.x[nv + a];
                 }
             }

@@ -287,7 +287,7 @@ pub fn tangent_rhs<const N: usize>(
     for (model, range) in design.chunk_ranges() {
         let yd = seeded::<N>(y, s, &range);
         let (qd, vd) = yd.split_at(nq);
-        let res = model.residual(t, qd, vd, sys.active_rows(), &sol.x);
+        let res = model.residual(t, qd, vd, &sol.rows, &sol.x);
         let x = solve_tangents(&sol.lu, &sol.x, &res);
         let mut qdot = vec![Dual::<N>::constant(0.0); nq];
         model.kinematic_rates(qd, vd, &mut qdot);

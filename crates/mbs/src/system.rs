@@ -9,18 +9,30 @@ use crate::bdf::{Bdf, BdfOptions, IntegrationError, OdeSystem, RhsError, Statist
 use crate::body::BodyId;
 use crate::error::ConstraintError;
 use crate::joint::JointId;
-use crate::kin::{quat_from_rotation_vector, quat_mul};
+use crate::kin::{Kin, quat_from_rotation_vector, quat_mul};
 use crate::model::{Energy, Model, State};
 use nalgebra::Vector4;
 
 /// What to do with redundant constraint equations.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum RedundancyPolicy {
-    /// Drop the dependent equations (their multipliers are reported as zero).
+    /// Drop the equations dependent at the assembled state for the whole run (their
+    /// multipliers are reported as zero). Correct when the redundancy holds in every
+    /// configuration (a planar mechanism in 3-D with rigid bodies or in-plane modes); the
+    /// dropped rows are not enforced, and their violation is reported apart
+    /// ([`Output::removed_position_violation`]).
     #[default]
     Remove,
     /// Fail with [`ConstraintError::Redundant`] naming the joints.
     Error,
+    /// Select the independent equations again at every state ([`MultibodySystem::rows_at`]).
+    /// Needed when redundancy depends on the configuration: a planar mechanism whose flexible
+    /// bodies have out-of-plane modes can have rows that are dependent only in special
+    /// configurations (the slider-crank's slide roll equation while the rod lies along the
+    /// slide, at crank angles 0 and π); dropped for the whole run they drift freely. The
+    /// index-1 equations are then nearly singular near those configurations (smaller steps
+    /// there, and design sensitivities that are sensitive to the steps taken through them).
+    Reselect,
 }
 
 /// Reaction of a joint (from its multipliers), global components.
@@ -56,6 +68,12 @@ pub struct Output {
     /// `max |Φ|` and `max |Φ̇|` over all rows.
     pub position_violation: f64,
     pub velocity_violation: f64,
+    /// `max |Φ|` over the rows kept in Eq. (12) at this state (held at the Baumgarte /
+    /// integration-tolerance level) and over the rows dropped as dependent (not enforced: with
+    /// [`RedundancyPolicy::Remove`] a growing value means redundancy found at assembly does not
+    /// hold here; use [`RedundancyPolicy::Reselect`]).
+    pub kept_position_violation: f64,
+    pub removed_position_violation: f64,
     pub energy: Energy,
 }
 
@@ -64,6 +82,10 @@ pub struct Solution {
     /// `[v̇; λ_active]`.
     pub x: Vec<f64>,
     pub lu: LU<f64, Dyn, Dyn>,
+    /// The constraint rows kept in Eq. (12) at this state (the order of `λ_active`). With
+    /// [`RedundancyPolicy::Reselect`] they are chosen at every state (see
+    /// [`MultibodySystem::solve`]); the tangents of this solution must use the same rows.
+    pub rows: Vec<usize>,
 }
 
 /// The multibody system as an ODE `y' = f(t, y)`, `y = [q; v]`.
@@ -76,6 +98,17 @@ pub struct MultibodySystem {
 
 /// Width of the dual chunks used for the state Jacobian.
 const CHUNK: usize = 8;
+
+/// Relative tolerance of the redundancy check at assembly (reported rows, policy `Error`).
+const ASSEMBLY_DEPENDENCE_TOL: f64 = 1e-8;
+
+/// Relative tolerance of the row selection at every state. Near a configuration where rows
+/// lose rank (a flexible slider-crank whose rod passes through the line of the slide) the kept
+/// rows make Eq. (12) ill-conditioned and its index-1 form nearly singular; rows within 1e-6 of
+/// dependence are dropped there. Measured on the flexible slider-crank with out-of-plane modes:
+/// 1e-8 and 1e-6 give the same response to 4 digits and `|Φ| ≤ 2e-8`, 1e-6 in a quarter of the
+/// steps; 1e-3 and above leave the row out long enough to drift (`|Φ|` 3e-5 … 0.6).
+const STATE_DEPENDENCE_TOL: f64 = 1e-6;
 
 impl MultibodySystem {
     /// Wrap `model`, checking the constraint Jacobian at `state` (t = 0) for redundant
@@ -90,9 +123,12 @@ impl MultibodySystem {
 
     /// As [`MultibodySystem::new`], with the redundancy check at time `t` (drivers).
     ///
-    /// On flexible bodies redundancy can depend on the deformation: equations dependent in the
-    /// undeformed state may become (weakly) independent as the body deforms. The rows chosen
-    /// here are kept for the whole run.
+    /// Redundancy can depend on the configuration: on a mechanism with flexible bodies whose
+    /// modes move the joints out of the mechanism's plane, equations that are dependent in one
+    /// configuration (e.g. with a rod aligned with a slide) are independent in all others.
+    /// The rows found here ([`MultibodySystem::active_rows`]) describe this configuration;
+    /// [`RedundancyPolicy::Remove`] keeps them for the whole run, [`RedundancyPolicy::Reselect`]
+    /// selects the independent rows again at every state.
     pub fn new_at(
         model: Model<f64>,
         t: f64,
@@ -134,11 +170,15 @@ impl MultibodySystem {
     pub fn model(&self) -> &Model<f64> {
         &self.model
     }
-    /// Constraint rows kept in Eq. (12).
+    /// Constraint rows kept in Eq. (12) at the state of the last redundancy check
+    /// ([`MultibodySystem::new_at`], [`MultibodySystem::assemble`]). With
+    /// [`RedundancyPolicy::Reselect`] the rows during a run are those of each state
+    /// ([`Solution::rows`], [`MultibodySystem::rows_at`]).
     pub fn active_rows(&self) -> &[usize] {
         &self.rows
     }
-    /// Dependent equations that were dropped: `(joint, equation index within the joint)`.
+    /// Dependent equations dropped at the state of the last redundancy check:
+    /// `(joint, equation index within the joint)`.
     pub fn removed_equations(&self) -> Vec<(JointId, usize)> {
         self.removed
             .iter()
@@ -149,9 +189,39 @@ impl MultibodySystem {
             .collect()
     }
 
+    /// The constraint rows of Eq. (12) at `(t, q)`: with [`RedundancyPolicy::Reselect`] a
+    /// greedy selection in row order at this state (a row is dropped when it lies within a
+    /// relative 1e-6 of the span of the rows before it); otherwise
+    /// [`MultibodySystem::active_rows`].
+    pub fn rows_at(&self, t: f64, q: &[f64]) -> Vec<usize> {
+        let v = vec![0.0; self.model.n_v()];
+        let k = self.model.constraint_kin(t, q, &v);
+        self.select_rows(&k)
+    }
+
+    fn select_rows(&self, k: &[Kin<f64>]) -> Vec<usize> {
+        match self.policy {
+            RedundancyPolicy::Error | RedundancyPolicy::Remove => self.rows.clone(),
+            RedundancyPolicy::Reselect => {
+                independent_rows_of(
+                    k.iter().map(|r| r.jac.as_slice()),
+                    self.model.n_v(),
+                    STATE_DEPENDENCE_TOL,
+                )
+                .0
+            }
+        }
+    }
+
     /// Solve Eq. (12) at `(t, q, v)`.
+    ///
+    /// The constraint rows are [`MultibodySystem::rows_at`] (returned in [`Solution::rows`]):
+    /// with [`RedundancyPolicy::Reselect`] those independent at this state, otherwise those of
+    /// the assembly.
     pub fn solve(&self, t: f64, q: &[f64], v: &[f64]) -> Result<Solution, ConstraintError> {
-        let e = self.model.equations(t, q, v, &self.rows);
+        let k = self.model.constraint_kin(t, q, v);
+        let rows = self.select_rows(&k);
+        let e = self.model.equations_with(t, q, v, &k, &rows);
         let lu = e.matrix.lu();
         let mut x = e.rhs;
         if !lu.solve_mut(&mut x) {
@@ -163,6 +233,7 @@ impl MultibodySystem {
         Ok(Solution {
             x: x.as_slice().to_vec(),
             lu,
+            rows,
         })
     }
 
@@ -232,12 +303,12 @@ impl MultibodySystem {
         }
     }
 
-    /// Full-length multipliers from the active ones.
-    fn full_lambda(&self, x: &[f64]) -> Vec<f64> {
+    /// Full-length multipliers of a solution (zero for the rows it dropped).
+    fn full_lambda(&self, sol: &Solution) -> Vec<f64> {
         let nv = self.model.n_v();
         let mut l = vec![0.0; self.model.n_constraints()];
-        for (i, &r) in self.rows.iter().enumerate() {
-            l[r] = x[nv + i];
+        for (i, &r) in sol.rows.iter().enumerate() {
+            l[r] = sol.x[nv + i];
         }
         l
     }
@@ -297,7 +368,7 @@ impl MultibodySystem {
         let (q, v) = y.split_at(nq);
         let sol = self.solve(t, q, v)?;
         let nv = self.model.n_v();
-        let lambda = self.full_lambda(&sol.x);
+        let lambda = self.full_lambda(&sol);
         let c = self.model.constraints(t, q, v);
         let ids: Vec<BodyId> = self.model.body_ids().collect();
         Ok(Output {
@@ -327,6 +398,13 @@ impl MultibodySystem {
                 .map(|&b| self.model.nodal_displacements(b, q))
                 .collect(),
             position_violation: max_abs(&c.phi),
+            kept_position_violation: sol
+                .rows
+                .iter()
+                .fold(0.0, |m: f64, &r| m.max(c.phi[r].abs())),
+            removed_position_violation: (0..c.phi.len())
+                .filter(|r| !sol.rows.contains(r))
+                .fold(0.0, |m: f64, r| m.max(c.phi[r].abs())),
             velocity_violation: max_abs(&c.phi_dot),
             energy: self.model.energy(t, q, v),
         })
@@ -348,19 +426,40 @@ fn min_norm(jac: &DMatrix<f64>, r: &[f64]) -> Vec<f64> {
 
 /// Greedy modified Gram–Schmidt on the rows of `jac`: `(independent, dependent)` row indices.
 fn independent_rows(jac: &DMatrix<f64>) -> (Vec<usize>, Vec<usize>) {
-    let mut basis: Vec<DVector<f64>> = Vec::new();
+    let rows: Vec<Vec<f64>> = (0..jac.nrows())
+        .map(|r| jac.row(r).iter().copied().collect())
+        .collect();
+    independent_rows_of(
+        rows.iter().map(Vec::as_slice),
+        jac.ncols(),
+        ASSEMBLY_DEPENDENCE_TOL,
+    )
+}
+
+/// Greedy modified Gram–Schmidt on rows of length `n`: `(independent, dependent)` indices. A
+/// row is dependent when its component orthogonal to the independent rows before it is below
+/// `tol` times its norm (or it is zero).
+fn independent_rows_of<'a>(
+    rows: impl Iterator<Item = &'a [f64]>,
+    n: usize,
+    tol: f64,
+) -> (Vec<usize>, Vec<usize>) {
+    // orthonormal basis, row after row
+    let mut basis: Vec<f64> = Vec::new();
+    let mut x = vec![0.0; n];
     let (mut keep, mut drop) = (Vec::new(), Vec::new());
-    for r in 0..jac.nrows() {
-        let row = jac.row(r).transpose();
-        let norm0 = row.norm();
-        let mut x = row.clone();
-        for b in &basis {
-            let p = b.dot(&x);
-            x -= b * p;
+    for (r, row) in rows.enumerate() {
+        x.copy_from_slice(row);
+        let norm0 = x.iter().map(|a| a * a).sum::<f64>().sqrt();
+        for b in basis.chunks_exact(n) {
+            let p: f64 = b.iter().zip(&x).map(|(a, c)| a * c).sum();
+            for (xi, bi) in x.iter_mut().zip(b) {
+                *xi -= p * bi;
+            }
         }
-        let n = x.norm();
-        if n > 1e-8 * norm0.max(1e-300) && norm0 > 0.0 {
-            basis.push(x / n);
+        let nx = x.iter().map(|a| a * a).sum::<f64>().sqrt();
+        if nx > tol * norm0.max(1e-300) && norm0 > 0.0 {
+            basis.extend(x.iter().map(|a| a / nx));
             keep.push(r);
         } else {
             drop.push(r);
@@ -414,7 +513,7 @@ impl OdeSystem for MultibodySystem {
                 .enumerate()
                 .map(|(i, &x)| seed(nq + i, x))
                 .collect();
-            let res = self.model.residual(t, &qd, &vd, &self.rows, &sol.x);
+            let res = self.model.residual(t, &qd, &vd, &sol.rows, &sol.x);
             let x = solve_tangents(&sol.lu, &sol.x, &res);
             let mut qdot = vec![Dual::<CHUNK>::constant(0.0); nq];
             self.model.kinematic_rates(&qd, &vd, &mut qdot);
