@@ -128,48 +128,50 @@ pub(crate) fn joint_equations<S: Scalar>(
     n_v: usize,
     out: &mut Vec<Kin<S>>,
 ) {
-    let d: Kin3<S> = b.point.sub(&a.point);
+    let cols = [a.cols.clone(), b.cols.clone()];
+    let cols = &cols[..];
+    let d: Kin3<S> = b.point.sub_on(&a.point, cols);
     let [a1, a2, a3] = &a.axes;
     let [b1, b2, b3] = &b.axes;
     let sph = |out: &mut Vec<Kin<S>>| {
         for i in 0..3 {
-            out.push(d.component(i));
+            out.push(d.component_on(i, cols));
         }
     };
     match kind {
         JointKind::Spherical => sph(out),
         JointKind::Revolute => {
             sph(out);
-            out.push(a1.dot(b3));
-            out.push(a2.dot(b3));
+            out.push(a1.dot_on(b3, cols));
+            out.push(a2.dot_on(b3, cols));
         }
         JointKind::Universal => {
             sph(out);
-            out.push(a3.dot(b3));
+            out.push(a3.dot_on(b3, cols));
         }
         JointKind::Cylindrical => {
-            out.push(a1.dot(b3));
-            out.push(a2.dot(b3));
-            out.push(a1.dot(&d));
-            out.push(a2.dot(&d));
+            out.push(a1.dot_on(b3, cols));
+            out.push(a2.dot_on(b3, cols));
+            out.push(a1.dot_on(&d, cols));
+            out.push(a2.dot_on(&d, cols));
         }
         JointKind::Translational => {
-            out.push(a1.dot(b3));
-            out.push(a2.dot(b3));
-            out.push(a1.dot(&d));
-            out.push(a2.dot(&d));
-            out.push(a1.dot(b2));
+            out.push(a1.dot_on(b3, cols));
+            out.push(a2.dot_on(b3, cols));
+            out.push(a1.dot_on(&d, cols));
+            out.push(a2.dot_on(&d, cols));
+            out.push(a1.dot_on(b2, cols));
         }
         JointKind::Fixed => {
             sph(out);
-            out.push(a2.dot(b3));
-            out.push(a3.dot(b1));
-            out.push(a1.dot(b2));
+            out.push(a2.dot_on(b3, cols));
+            out.push(a3.dot_on(b1, cols));
+            out.push(a1.dot_on(b2, cols));
         }
         JointKind::AngleDriver(f) => {
             // ρ sin(f − θ) with ρ cos θ = e1A·e1B, ρ sin θ = e2A·e1B
-            let c = a1.dot(b1);
-            let s = a2.dot(b1);
+            let c = a1.dot_on(b1, cols);
+            let s = a2.dot_on(b1, cols);
             let [fv, fd, fdd] = f.eval(t);
             let (sf, cf) = fv.sin_cos();
             let sin_f = Kin::of_time(
@@ -188,13 +190,13 @@ pub(crate) fn joint_equations<S: Scalar>(
                 ],
                 n_v,
             );
-            out.push(c.mul(&sin_f).sub(&s.mul(&cos_f)));
+            out.push(c.mul_on(&sin_f, cols).sub_on(&s.mul_on(&cos_f, cols), cols));
         }
         JointKind::DistanceDriver(f) => {
-            let x = a3.dot(&d);
+            let x = a3.dot_on(&d, cols);
             let [fv, fd, fdd] = f.eval(t);
             let ft = Kin::of_time([S::from_f64(fv), S::from_f64(fd), S::from_f64(fdd)], n_v);
-            out.push(x.sub(&ft));
+            out.push(x.sub_on(&ft, cols));
         }
     }
 }

@@ -11,6 +11,8 @@
 //! Products and sums follow the product rule, so every joint built from marker points and
 //! axes gets its Jacobian and `γ` consistent with `Φ` by construction.
 
+use std::ops::Range;
+
 use nalgebra::{Matrix3, Matrix3x4, Vector3, Vector4};
 use sens::Scalar;
 
@@ -185,7 +187,85 @@ impl<S: Scalar> Kin<S> {
     }
 }
 
+/// Columns `cols` (velocity ranges of the bodies involved) of a Jacobian row of length `n`,
+/// zero elsewhere: the kinematics of a joint touch only its two bodies' columns.
+fn sparse_row<T: Clone>(
+    n: usize,
+    zero: T,
+    cols: &[Range<usize>],
+    f: impl Fn(usize) -> T,
+) -> Vec<T> {
+    let mut jac = vec![zero; n];
+    for r in cols {
+        for i in r.clone() {
+            jac[i] = f(i);
+        }
+    }
+    jac
+}
+
+impl<S: Scalar> Kin<S> {
+    /// [`Kin::sub`] computing only the Jacobian columns `cols` (the others must be zero in
+    /// both operands).
+    pub(crate) fn sub_on(&self, o: &Self, cols: &[Range<usize>]) -> Self {
+        Self {
+            val: self.val - o.val,
+            rate: self.rate - o.rate,
+            quad: self.quad - o.quad,
+            jac: sparse_row(self.jac.len(), S::zero(), cols, |i| self.jac[i] - o.jac[i]),
+        }
+    }
+
+    /// [`Kin::mul`] computing only the Jacobian columns `cols`.
+    pub(crate) fn mul_on(&self, o: &Self, cols: &[Range<usize>]) -> Self {
+        Self {
+            val: self.val * o.val,
+            rate: self.rate * o.val + self.val * o.rate,
+            quad: self.quad * o.val + S::from_f64(2.0) * self.rate * o.rate + self.val * o.quad,
+            jac: sparse_row(self.jac.len(), S::zero(), cols, |i| {
+                self.jac[i] * o.val + self.val * o.jac[i]
+            }),
+        }
+    }
+}
+
 impl<S: Scalar> Kin3<S> {
+    /// [`Kin3::sub`] computing only the Jacobian columns `cols`.
+    pub(crate) fn sub_on(&self, o: &Self, cols: &[Range<usize>]) -> Self {
+        Self {
+            val: self.val - o.val,
+            rate: self.rate - o.rate,
+            quad: self.quad - o.quad,
+            jac: sparse_row(self.jac.len(), Vector3::zeros(), cols, |i| {
+                self.jac[i] - o.jac[i]
+            }),
+        }
+    }
+
+    /// [`Kin3::dot`] computing only the Jacobian columns `cols`.
+    pub(crate) fn dot_on(&self, o: &Self, cols: &[Range<usize>]) -> Kin<S> {
+        Kin {
+            val: self.val.dot(&o.val),
+            rate: self.rate.dot(&o.val) + self.val.dot(&o.rate),
+            quad: self.quad.dot(&o.val)
+                + S::from_f64(2.0) * self.rate.dot(&o.rate)
+                + self.val.dot(&o.quad),
+            jac: sparse_row(self.jac.len().max(o.jac.len()), S::zero(), cols, |i| {
+                self.jac[i].dot(&o.val) + self.val.dot(&o.jac[i])
+            }),
+        }
+    }
+
+    /// [`Kin3::component`] computing only the Jacobian columns `cols`.
+    pub(crate) fn component_on(&self, i: usize, cols: &[Range<usize>]) -> Kin<S> {
+        Kin {
+            val: self.val[i],
+            rate: self.rate[i],
+            quad: self.quad[i],
+            jac: sparse_row(self.jac.len(), S::zero(), cols, |c| self.jac[c][i]),
+        }
+    }
+
     pub fn sub(&self, o: &Self) -> Self {
         Self {
             val: self.val - o.val,

@@ -90,6 +90,8 @@ pub(crate) struct MarkerKin<S: Scalar> {
     /// Velocity offset of the body, modal rotation columns of the node (body components).
     pub v_off: usize,
     pub node_rot_modes: Vec<Vector3<S>>,
+    /// The body's velocity columns (empty for ground): the only nonzero Jacobian columns.
+    pub cols: std::ops::Range<usize>,
 }
 
 fn constant<S: Scalar>(x: Vector3<S>, n_v: usize) -> Kin3<S> {
@@ -124,6 +126,7 @@ pub(crate) fn marker_kin<P: Scalar, S: Scalar + From<P>>(
             a: Matrix3::identity(),
             v_off: 0,
             node_rot_modes: Vec::new(),
+            cols: 0..0,
         };
     };
     let ps = pose(&q[qo..]);
@@ -204,5 +207,6 @@ pub(crate) fn marker_kin<P: Scalar, S: Scalar + From<P>>(
         a,
         v_off: vo,
         node_rot_modes: xt,
+        cols: vo..vo + 6 + nm,
     }
 }

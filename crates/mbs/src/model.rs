@@ -618,19 +618,42 @@ impl<P: Scalar> Model<P> {
         rows: &[usize],
         x_hat: &[f64],
     ) -> Vec<S> {
-        let e = self.equations(t, q, v, rows);
-        let n = e.rhs.len();
-        (0..n)
-            .map(|i| {
-                let mut r = e.rhs[i];
-                for j in 0..n {
-                    if x_hat[j] != 0.0 {
-                        r -= e.matrix[(i, j)] * x_hat[j];
-                    }
+        // the blocks of Eq. (12) applied to x̂ without assembling the augmented matrix (the same
+        // operations, in the same order, as `rhs − matrix · x̂`)
+        let nv = self.n_v;
+        let (m, f) = self.mass_and_forces(t, q, v);
+        let k = self.constraint_kin(t, q, v);
+        let mut out = Vec::with_capacity(nv + rows.len());
+        for i in 0..nv {
+            let mut r = f[i];
+            for j in 0..nv {
+                if x_hat[j] != 0.0 {
+                    r -= m[(i, j)] * x_hat[j];
                 }
-                r
-            })
-            .collect()
+            }
+            out.push(r);
+        }
+        for (a, &row) in rows.iter().enumerate() {
+            let lambda = x_hat[nv + a];
+            if lambda != 0.0 {
+                for (o, &x) in out.iter_mut().zip(&k[row].jac) {
+                    *o -= x * lambda;
+                }
+            }
+        }
+        let two_alpha = S::from_f64(2.0 * self.baumgarte.alpha);
+        let beta2 = S::from_f64(self.baumgarte.beta * self.baumgarte.beta);
+        for &row in rows {
+            let c = &k[row];
+            let mut r = -c.quad - two_alpha * c.rate - beta2 * c.val;
+            for (col, &x) in c.jac.iter().enumerate() {
+                if x_hat[col] != 0.0 {
+                    r -= x * x_hat[col];
+                }
+            }
+            out.push(r);
+        }
+        out
     }
 }
 

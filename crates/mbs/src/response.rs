@@ -11,7 +11,7 @@
 //! of the computed value); maxima and minima take the sensitivity at the point where they occur.
 
 use nalgebra::{DMatrix, Vector3};
-use sens::{Dual, Scalar, solve_tangents};
+use sens::{Dual, Scalar};
 
 use crate::body::{BodyId, mode_vec, pose};
 use crate::joint::JointId;
@@ -176,7 +176,7 @@ pub fn response_history<const N: usize>(
             let (qd, vd) = yd.split_at(nq);
             let rows = &sol.rows;
             let res = model.residual(t, qd, vd, rows, &sol.x);
-            let x = solve_tangents(&sol.lu, &sol.x, &res);
+            let x = crate::system::lu_tangents(&sol.lu, &sol.x, &res);
             let mut lambda = vec![Dual::<N>::constant(0.0); nc];
             for (a, &r) in rows.iter().enumerate() {
                 lambda[r] = x[nv + a];

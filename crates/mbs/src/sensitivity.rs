@@ -29,7 +29,7 @@
 use std::collections::VecDeque;
 
 use nalgebra::DMatrix;
-use sens::{Dual, solve_tangents};
+use sens::Dual;
 
 use crate::bdf::{
     Bdf, BdfOptions, IntegrationError, IntegrationFailure, OdeSystem, RhsError, Statistics,
@@ -288,7 +288,7 @@ pub fn tangent_rhs<const N: usize>(
         let yd = seeded::<N>(y, s, &range);
         let (qd, vd) = yd.split_at(nq);
         let res = model.residual(t, qd, vd, &sol.rows, &sol.x);
-        let x = solve_tangents(&sol.lu, &sol.x, &res);
+        let x = crate::system::lu_tangents(&sol.lu, &sol.x, &res);
         let mut qdot = vec![Dual::<N>::constant(0.0); nq];
         model.kinematic_rates(qd, vd, &mut qdot);
         for (k, j) in range.enumerate() {
@@ -400,7 +400,109 @@ fn wrms_matrix(e: &DMatrix<f64>, reference: &DMatrix<f64>, rtol: f64, atol: &[f6
     (sum / (e.len().max(1) as f64)).sqrt()
 }
 
+/// Convergence test of the chord iterations that replace the exact Jacobian of
+/// [`SensitivityMethod::StaggeredDirect`]: weighted RMS update (integrator's error norm) below
+/// 1e-9, i.e. ~1e-15 of `rtol·|S| + atol`: the exact discrete derivative to round-off.
+const DIRECT_TOL: f64 = 1e-9;
+
 impl<const N: usize> Extension<'_, N> {
+    /// Most chord iterations worth doing instead of an exact Jacobian: that costs
+    /// `⌈n/8⌉` evaluations in `Dual<8>`, an LU and one evaluation per chunk; an iteration one
+    /// evaluation per chunk in `Dual<N>` (relative cost `(3 + N)/11` of a `Dual<8>` one, measured
+    /// on the slider-crank).
+    fn direct_iteration_budget(&self, n: usize) -> usize {
+        // from the number of variables, not the chunk width, so that the iterations (and the
+        // results, to the last bit) do not depend on the chunking
+        let m = self.design.n_variables();
+        let w = m.min(8) as f64;
+        let iteration = m.div_ceil(8) as f64 * (3.0 + w) / 11.0;
+        let exact = n.div_ceil(8) as f64 + 0.1 * n as f64 / 47.0 + iteration;
+        ((exact / iteration).floor() as usize).clamp(2, 20)
+    }
+
+    /// Chord iterations `S ← S + s·M⁻¹(f_y S + f_b − c_0 S − ψ)` with the integrator's Newton
+    /// matrix `M` from the interpolated predictor, until the weighted RMS update (times the
+    /// convergence-rate estimate unless `strict`) is below `tol`; `None` after `max_iterations`
+    /// or when they diverge or (with `strict`) converge too slowly for the budget.
+    #[allow(clippy::too_many_arguments)]
+    fn chord(
+        &mut self,
+        sys: &mut MultibodySystem,
+        step: &TrialStep<'_>,
+        sol: &Solution,
+        psi: &DMatrix<f64>,
+        atol: &[f64],
+        tol: f64,
+        max_iterations: usize,
+        strict: bool,
+    ) -> Result<Option<DMatrix<f64>>, IntegrationFailure> {
+        let t = step.times[0];
+        let k = step.order;
+        let c0 = step.coefficients[0];
+        let y = &step.y_new;
+        // predictor: the interpolant through the past sensitivities
+        let np = (k + 1).min(self.hist.len());
+        let w = lagrange_weights(&step.history_times[..np], t);
+        let mut s = &self.hist[0] * w[0];
+        for i in 1..np {
+            s += &self.hist[i] * w[i];
+        }
+        let scale = if step.newton_c0 != c0 {
+            2.0 * step.newton_c0 / (c0 + step.newton_c0)
+        } else {
+            1.0
+        };
+        // convergence-rate estimate as in the integrator's Newton iteration: carried over from
+        // earlier steps, reset with every new Newton matrix
+        if step.newton_c0 != self.last_c0 {
+            self.rate = 1.0;
+            self.last_c0 = step.newton_c0;
+        }
+        let mut previous = f64::INFINITY;
+        let mut first = f64::INFINITY;
+        for it in 0..max_iterations {
+            let g = tangent_rhs(sys, self.design, t, y, sol, &s);
+            self.stats.dual_evaluations += self.design.chunks.len();
+            self.stats.corrector_iterations += 1;
+            let mut r = g - &s * c0 - psi;
+            if !step.newton_matrix.solve_mut(&mut r) {
+                return Err(IntegrationFailure::SingularNewtonMatrix);
+            }
+            r *= scale;
+            let norm = wrms_matrix(&r, &self.hist[0], step.rtol, atol);
+            s += r;
+            if !norm.is_finite() {
+                return Ok(None);
+            }
+            if it > 0 {
+                let ratio = norm / previous;
+                self.rate = ratio.max(0.3 * self.rate);
+                if strict && ratio >= 1.0 {
+                    return Ok(None);
+                }
+            } else {
+                first = norm;
+            }
+            if strict {
+                if norm < tol {
+                    return Ok(Some(s));
+                }
+                // iterations still needed at the observed rate
+                if it > 0 {
+                    let rate = (norm / first).powf(1.0 / it as f64);
+                    let needed = (tol / norm).ln() / rate.ln();
+                    if !(needed <= (max_iterations - it - 1) as f64) {
+                        return Ok(None);
+                    }
+                }
+            } else if norm * self.rate.min(1.0) < tol || norm < 1e-3 * tol {
+                return Ok(Some(s));
+            }
+            previous = norm;
+        }
+        Ok(None)
+    }
+
     fn direct(
         &mut self,
         sys: &mut MultibodySystem,
@@ -456,60 +558,23 @@ impl<const N: usize> StepExtension<MultibodySystem> for Extension<'_, N> {
             .map(|a| a * self.options.atol_scale)
             .collect();
         let s = match self.options.method {
-            SensitivityMethod::StaggeredDirect => self.direct(sys, t, y, &sol, c0, &psi)?,
+            SensitivityMethod::StaggeredDirect => {
+                // the linear system of the step, solved by chord iterations with the Newton
+                // matrix to round-off level (an exact Jacobian and its LU cost several dual
+                // evaluations per step); the exact Jacobian only if they converge slowly
+                let budget = self.direct_iteration_budget(sys.model().n_q() + sys.model().n_v());
+                match self.chord(sys, step, &sol, &psi, &atol, DIRECT_TOL, budget, true)? {
+                    Some(s) => s,
+                    None => self.direct(sys, t, y, &sol, c0, &psi)?,
+                }
+            }
             SensitivityMethod::StaggeredCorrector {
                 tol,
                 max_iterations,
-            } => {
-                // predictor: the interpolant through the past sensitivities
-                let np = (k + 1).min(self.hist.len());
-                let w = lagrange_weights(&step.history_times[..np], t);
-                let mut s = &self.hist[0] * w[0];
-                for i in 1..np {
-                    s += &self.hist[i] * w[i];
-                }
-                let scale = if step.newton_c0 != c0 {
-                    2.0 * step.newton_c0 / (c0 + step.newton_c0)
-                } else {
-                    1.0
-                };
-                // convergence-rate estimate as in the integrator's Newton iteration: carried
-                // over from earlier steps, reset with every new Newton matrix
-                if step.newton_c0 != self.last_c0 {
-                    self.rate = 1.0;
-                    self.last_c0 = step.newton_c0;
-                }
-                let mut converged = false;
-                let mut previous = f64::INFINITY;
-                for it in 0..max_iterations {
-                    let g = tangent_rhs(sys, self.design, t, y, &sol, &s);
-                    self.stats.dual_evaluations += self.design.chunks.len();
-                    self.stats.corrector_iterations += 1;
-                    let mut r = g - &s * c0 - &psi;
-                    if !step.newton_matrix.solve_mut(&mut r) {
-                        return Err(IntegrationFailure::SingularNewtonMatrix);
-                    }
-                    r *= scale;
-                    let norm = wrms_matrix(&r, &self.hist[0], step.rtol, &atol);
-                    s += r;
-                    if !norm.is_finite() {
-                        break;
-                    }
-                    if it > 0 {
-                        self.rate = (norm / previous).max(0.3 * self.rate);
-                    }
-                    if norm * self.rate.min(1.0) < tol || norm < 1e-3 * tol {
-                        converged = true;
-                        break;
-                    }
-                    previous = norm;
-                }
-                if converged {
-                    s
-                } else {
-                    self.direct(sys, t, y, &sol, c0, &psi)?
-                }
-            }
+            } => match self.chord(sys, step, &sol, &psi, &atol, tol, max_iterations, false)? {
+                Some(s) => s,
+                None => self.direct(sys, t, y, &sol, c0, &psi)?,
+            },
         };
         if s.iter().any(|x| !x.is_finite()) {
             return Err(IntegrationFailure::NonFinite);

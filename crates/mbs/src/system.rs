@@ -3,7 +3,7 @@
 //! the outputs per time.
 
 use nalgebra::{DMatrix, DVector, Dyn, LU, Matrix3, Vector3};
-use sens::{Dual, Scalar, chunk_ranges, solve_tangents};
+use sens::{Dual, Scalar, chunk_ranges};
 
 use crate::bdf::{Bdf, BdfOptions, IntegrationError, OdeSystem, RhsError, Statistics};
 use crate::body::BodyId;
@@ -411,6 +411,23 @@ impl MultibodySystem {
     }
 }
 
+/// [`sens::solve_tangents`] for nalgebra's LU (the same solves, without the copy of the `L`
+/// factor that its `LinearSolver::dim` makes on every call).
+pub(crate) fn lu_tangents<const N: usize>(
+    lu: &LU<f64, Dyn, Dyn>,
+    x_hat: &[f64],
+    residual: &[Dual<N>],
+) -> Vec<Dual<N>> {
+    let n = x_hat.len();
+    assert_eq!(residual.len(), n, "residual has the wrong length");
+    let mut rhs = DMatrix::from_fn(n, N, |i, k| residual[i].d[k]);
+    let ok = lu.solve_mut(&mut rhs);
+    debug_assert!(ok, "tangent solve with a singular LU factor");
+    (0..n)
+        .map(|i| Dual::new(x_hat[i], std::array::from_fn(|k| rhs[(i, k)])))
+        .collect()
+}
+
 /// `−J⁺ r` (minimum-norm least squares; tolerant of dependent rows).
 fn min_norm(jac: &DMatrix<f64>, r: &[f64]) -> Vec<f64> {
     if jac.nrows() == 0 {
@@ -514,7 +531,7 @@ impl OdeSystem for MultibodySystem {
                 .map(|(i, &x)| seed(nq + i, x))
                 .collect();
             let res = self.model.residual(t, &qd, &vd, &sol.rows, &sol.x);
-            let x = solve_tangents(&sol.lu, &sol.x, &res);
+            let x = lu_tangents(&sol.lu, &sol.x, &res);
             let mut qdot = vec![Dual::<CHUNK>::constant(0.0); nq];
             self.model.kinematic_rates(&qd, &vd, &mut qdot);
             for (k, col) in range.clone().enumerate() {
