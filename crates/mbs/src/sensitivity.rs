@@ -13,8 +13,13 @@
 //!
 //! `S` is integrated on the integrator's own steps with the same BDF formula
 //! (`Σ c_j S_{n+1−j} = f_y S_{n+1} + f_b`, a linear system per step):
-//! - [`SensitivityMethod::StaggeredDirect`]: `f_y` exact at the converged state, one LU of
-//!   `c_0 I − f_y` per step: the result is the exact derivative of the discrete solution;
+//! - [`SensitivityMethod::StaggeredDirect`]: the linear system `(c_0 I − f_y) S = f_b − ψ` with
+//!   `f_y` exact at the converged state, solved to round-off: the result is the exact derivative
+//!   of the discrete solution. It is solved by iterations, each one dual evaluation per chunk,
+//!   preconditioned with the LU of `c_0 I − f_y` at the last exact Jacobian (refactorised when
+//!   `c_0` changes); a new exact Jacobian (`⌈n/8⌉` evaluations in `Dual<8>`) only when they
+//!   converge slowly (measured on the slider-crank: 3.3 evaluations per step, an exact Jacobian
+//!   every ~45 steps);
 //! - [`SensitivityMethod::StaggeredCorrector`]: chord iterations with the integrator's Newton
 //!   matrix, each one dual evaluation, to a tolerance in the integrator's error norm (falls
 //!   back to the direct solve if they do not converge).
@@ -108,8 +113,8 @@ impl<const N: usize> DesignModel<N> {
 /// How the linear sensitivity system of each step is solved.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum SensitivityMethod {
-    /// Exact `f_y` at the converged state and one LU per step: the exact derivative of the
-    /// discrete solution.
+    /// The linear system of each step with the exact `f_y` at the converged state, solved to
+    /// round-off (see the module docs): the exact derivative of the discrete solution.
     StaggeredDirect,
     /// Chord iterations with the integrator's Newton matrix until the weighted RMS update is
     /// below `tol` (in the integrator's error norm); direct solve after `max_iterations`.
@@ -386,6 +391,28 @@ struct Extension<'d, const N: usize> {
     /// Corrector convergence-rate estimate and the Newton matrix's `c_0` it belongs to.
     rate: f64,
     last_c0: f64,
+    /// Direct method: the last exact Jacobian and the LU of `c_0 I − f_y` with it.
+    exact: Option<ExactMatrix>,
+}
+
+/// An exact state Jacobian `f_y` (at some earlier step) and the LU of `c0 I − f_y`.
+struct ExactMatrix {
+    jac: DMatrix<f64>,
+    c0: f64,
+    lu: nalgebra::LU<f64, nalgebra::Dyn, nalgebra::Dyn>,
+    /// `(t, y)` where `jac` was evaluated.
+    t: f64,
+    y: Vec<f64>,
+}
+
+impl ExactMatrix {
+    fn factor(jac: &DMatrix<f64>, c0: f64) -> nalgebra::LU<f64, nalgebra::Dyn, nalgebra::Dyn> {
+        let mut a = -jac;
+        for i in 0..a.nrows() {
+            a[(i, i)] += c0;
+        }
+        a.lu()
+    }
 }
 
 fn wrms_matrix(e: &DMatrix<f64>, reference: &DMatrix<f64>, rtol: f64, atol: &[f64]) -> f64 {
@@ -400,30 +427,18 @@ fn wrms_matrix(e: &DMatrix<f64>, reference: &DMatrix<f64>, rtol: f64, atol: &[f6
     (sum / (e.len().max(1) as f64)).sqrt()
 }
 
-/// Convergence test of the chord iterations that replace the exact Jacobian of
-/// [`SensitivityMethod::StaggeredDirect`]: weighted RMS update (integrator's error norm) below
-/// 1e-9, i.e. ~1e-15 of `rtol·|S| + atol`: the exact discrete derivative to round-off.
+/// Convergence test of the iterations of [`SensitivityMethod::StaggeredDirect`]: estimated
+/// remaining error (rate × last update, weighted RMS in the integrator's error norm) below 1e-9,
+/// i.e. ~1e-15 of `rtol·|S| + atol`: the exact discrete derivative to round-off.
 const DIRECT_TOL: f64 = 1e-9;
+/// Iterations of [`SensitivityMethod::StaggeredDirect`] before a new exact Jacobian.
+const DIRECT_MAX_ITERATIONS: usize = 6;
 
 impl<const N: usize> Extension<'_, N> {
-    /// Most chord iterations worth doing instead of an exact Jacobian: that costs
-    /// `⌈n/8⌉` evaluations in `Dual<8>`, an LU and one evaluation per chunk; an iteration one
-    /// evaluation per chunk in `Dual<N>` (relative cost `(3 + N)/11` of a `Dual<8>` one, measured
-    /// on the slider-crank).
-    fn direct_iteration_budget(&self, n: usize) -> usize {
-        // from the number of variables, not the chunk width, so that the iterations (and the
-        // results, to the last bit) do not depend on the chunking
-        let m = self.design.n_variables();
-        let w = m.min(8) as f64;
-        let iteration = m.div_ceil(8) as f64 * (3.0 + w) / 11.0;
-        let exact = n.div_ceil(8) as f64 + 0.1 * n as f64 / 47.0 + iteration;
-        ((exact / iteration).floor() as usize).clamp(2, 20)
-    }
-
-    /// Chord iterations `S ← S + s·M⁻¹(f_y S + f_b − c_0 S − ψ)` with the integrator's Newton
-    /// matrix `M` from the interpolated predictor, until the weighted RMS update (times the
-    /// convergence-rate estimate unless `strict`) is below `tol`; `None` after `max_iterations`
-    /// or when they diverge or (with `strict`) converge too slowly for the budget.
+    /// The staggered corrector: chord iterations `S ← S + s·M⁻¹(f_y S + f_b − c_0 S − ψ)`
+    /// with the integrator's Newton matrix `M` from the interpolated predictor, until the
+    /// weighted RMS update times the convergence-rate estimate is below `tol`; `None` after
+    /// `max_iterations` or on a non-finite update.
     #[allow(clippy::too_many_arguments)]
     fn chord(
         &mut self,
@@ -434,7 +449,6 @@ impl<const N: usize> Extension<'_, N> {
         atol: &[f64],
         tol: f64,
         max_iterations: usize,
-        strict: bool,
     ) -> Result<Option<DMatrix<f64>>, IntegrationFailure> {
         let t = step.times[0];
         let k = step.order;
@@ -459,7 +473,6 @@ impl<const N: usize> Extension<'_, N> {
             self.last_c0 = step.newton_c0;
         }
         let mut previous = f64::INFINITY;
-        let mut first = f64::INFINITY;
         for it in 0..max_iterations {
             let g = tangent_rhs(sys, self.design, t, y, sol, &s);
             self.stats.dual_evaluations += self.design.chunks.len();
@@ -475,32 +488,129 @@ impl<const N: usize> Extension<'_, N> {
                 return Ok(None);
             }
             if it > 0 {
-                let ratio = norm / previous;
-                self.rate = ratio.max(0.3 * self.rate);
-                if strict && ratio >= 1.0 {
-                    return Ok(None);
-                }
-            } else {
-                first = norm;
+                self.rate = (norm / previous).max(0.3 * self.rate);
             }
-            if strict {
-                if norm < tol {
-                    return Ok(Some(s));
-                }
-                // iterations still needed at the observed rate
-                if it > 0 {
-                    let rate = (norm / first).powf(1.0 / it as f64);
-                    let needed = (tol / norm).ln() / rate.ln();
-                    if !(needed <= (max_iterations - it - 1) as f64) {
-                        return Ok(None);
-                    }
-                }
-            } else if norm * self.rate.min(1.0) < tol || norm < 1e-3 * tol {
+            if norm * self.rate.min(1.0) < tol || norm < 1e-3 * tol {
                 return Ok(Some(s));
             }
             previous = norm;
         }
         Ok(None)
+    }
+
+    /// The step's linear system `(c_0 I − f_y) S = f_b − ψ` of the direct method, solved to
+    /// round-off: chord iterations preconditioned with the LU of `c_0 I − f_y` at the last
+    /// exact Jacobian (refactorised, not re-evaluated, when `c_0` changes), from the
+    /// interpolated predictor, until the weighted RMS update is below [`DIRECT_TOL`]. When they
+    /// converge slowly the exact Jacobian is evaluated at this state, and one more iteration
+    /// with it is the exact solution.
+    fn direct_step(
+        &mut self,
+        sys: &mut MultibodySystem,
+        step: &TrialStep<'_>,
+        sol: &Solution,
+        psi: &DMatrix<f64>,
+        atol: &[f64],
+    ) -> Result<DMatrix<f64>, IntegrationFailure> {
+        let t = step.times[0];
+        let c0 = step.coefficients[0];
+        let y = &step.y_new;
+        if self.exact.is_none() {
+            self.refresh_exact(sys, t, y, c0)?;
+        }
+        if let Some(e) = self.exact.as_mut()
+            && e.c0 != c0
+        {
+            e.lu = ExactMatrix::factor(&e.jac, c0);
+            e.c0 = c0;
+        }
+        let k = step.order;
+        let np = (k + 1).min(self.hist.len());
+        let w = lagrange_weights(&step.history_times[..np], t);
+        let mut s = &self.hist[0] * w[0];
+        for i in 1..np {
+            s += &self.hist[i] * w[i];
+        }
+        let mut first = f64::INFINITY;
+        for it in 0..DIRECT_MAX_ITERATIONS {
+            let here = self.exact.as_ref().is_some_and(|e| e.t == t && e.y == *y);
+            let norm = self.direct_iteration(sys, step, sol, psi, atol, &mut s)?;
+            if here || norm == 0.0 {
+                return Ok(s);
+            }
+            if !norm.is_finite() {
+                break;
+            }
+            if it == 0 {
+                first = norm;
+            } else {
+                // the remaining error is about rate × the last update (linear convergence)
+                let rate = (norm / first).powf(1.0 / it as f64);
+                if rate < 0.5 && norm * rate / (1.0 - rate) < DIRECT_TOL {
+                    return Ok(s);
+                }
+                // iterations still needed at the observed rate
+                let needed = (DIRECT_TOL / (norm * rate)).ln() / rate.ln();
+                if !(rate < 0.5 && needed <= (DIRECT_MAX_ITERATIONS - it - 1) as f64) {
+                    break;
+                }
+            }
+        }
+        // the exact Jacobian here: one iteration with it solves the system
+        self.refresh_exact(sys, t, y, c0)?;
+        if s.iter().any(|x| !x.is_finite()) {
+            s = self.hist[0].clone();
+        }
+        self.direct_iteration(sys, step, sol, psi, atol, &mut s)?;
+        Ok(s)
+    }
+
+    /// `S ← S + (c_0 I − f_y,exact)⁻¹ (f_y S + f_b − c_0 S − ψ)`; returns the weighted RMS norm
+    /// of the update.
+    fn direct_iteration(
+        &mut self,
+        sys: &mut MultibodySystem,
+        step: &TrialStep<'_>,
+        sol: &Solution,
+        psi: &DMatrix<f64>,
+        atol: &[f64],
+        s: &mut DMatrix<f64>,
+    ) -> Result<f64, IntegrationFailure> {
+        let t = step.times[0];
+        let c0 = step.coefficients[0];
+        let g = tangent_rhs(sys, self.design, t, &step.y_new, sol, s);
+        self.stats.dual_evaluations += self.design.chunks.len();
+        self.stats.corrector_iterations += 1;
+        let mut r = g - &*s * c0 - psi;
+        let e = self.exact.as_ref().expect("an exact Jacobian");
+        if !e.lu.solve_mut(&mut r) {
+            return Err(IntegrationFailure::SingularNewtonMatrix);
+        }
+        let norm = wrms_matrix(&r, &self.hist[0], step.rtol, atol);
+        *s += r;
+        Ok(norm)
+    }
+
+    fn refresh_exact(
+        &mut self,
+        sys: &mut MultibodySystem,
+        t: f64,
+        y: &[f64],
+        c0: f64,
+    ) -> Result<(), IntegrationFailure> {
+        let n = y.len();
+        let mut jac = DMatrix::zeros(n, n);
+        sys.jacobian(t, y, &mut jac)?;
+        self.stats.direct_solves += 1;
+        let lu = ExactMatrix::factor(&jac, c0);
+        self.exact = Some(ExactMatrix {
+            jac,
+            c0,
+            lu,
+            t,
+            y: y.to_vec(),
+        });
+        Ok(())
     }
 
     fn direct(
@@ -558,20 +668,11 @@ impl<const N: usize> StepExtension<MultibodySystem> for Extension<'_, N> {
             .map(|a| a * self.options.atol_scale)
             .collect();
         let s = match self.options.method {
-            SensitivityMethod::StaggeredDirect => {
-                // the linear system of the step, solved by chord iterations with the Newton
-                // matrix to round-off level (an exact Jacobian and its LU cost several dual
-                // evaluations per step); the exact Jacobian only if they converge slowly
-                let budget = self.direct_iteration_budget(sys.model().n_q() + sys.model().n_v());
-                match self.chord(sys, step, &sol, &psi, &atol, DIRECT_TOL, budget, true)? {
-                    Some(s) => s,
-                    None => self.direct(sys, t, y, &sol, c0, &psi)?,
-                }
-            }
+            SensitivityMethod::StaggeredDirect => self.direct_step(sys, step, &sol, &psi, &atol)?,
             SensitivityMethod::StaggeredCorrector {
                 tol,
                 max_iterations,
-            } => match self.chord(sys, step, &sol, &psi, &atol, tol, max_iterations, false)? {
+            } => match self.chord(sys, step, &sol, &psi, &atol, tol, max_iterations)? {
                 Some(s) => s,
                 None => self.direct(sys, t, y, &sol, c0, &psi)?,
             },
@@ -658,6 +759,7 @@ pub fn simulate_sensitivities_from<const N: usize>(
         stats: SensitivityStatistics::default(),
         rate: 1.0,
         last_c0: f64::NAN,
+        exact: None,
         record: SensitivityRun {
             n_q: sys.model().n_q(),
             times: vec![t0],
