@@ -61,6 +61,8 @@ pub enum ModalBodyError {
         eigenvalues: usize,
         damping: usize,
     },
+    #[error("cannot align modal bodies of different layouts ({0})")]
+    Layout(String),
     #[error("node {node}: {what} = {value} must be finite and non-negative")]
     BadMass {
         node: usize,
@@ -127,6 +129,75 @@ impl<S: Scalar> ModalBody<S> {
                     });
                 }
             }
+        }
+        Ok(())
+    }
+}
+
+impl ModalBody<f64> {
+    /// Track the modes of `reference` (mode tracking): within every group of repeated
+    /// eigenvalues of `reference` (relative gap ≤ `cluster_tol`), replace this body's modes by
+    /// the mass-orthonormal combination closest to the reference modes (orthogonal Procrustes
+    /// in the lumped-mass metric); isolated modes get the reference's sign.
+    ///
+    /// Eigenvalue solvers return any basis of a repeated eigenvalue and any sign, so modal
+    /// coordinates of two analyses (e.g. a nominal and a perturbed design) mean the same only
+    /// after this. The tracked basis of a perturbed design differs from the reference by
+    /// `O(δ)` and its derivative has no rotation within the clusters, the convention of the
+    /// updated-mode derivatives (Nelson's method with the in-cluster rotation removed). Exact
+    /// for clusters that stay repeated; where a cluster splits, the rotated modes are no
+    /// longer eigenvectors (their modal stiffness stays diagonal only to `O(split)`).
+    pub fn align_to(
+        &mut self,
+        reference: &ModalBody<f64>,
+        cluster_tol: f64,
+    ) -> Result<(), ModalBodyError> {
+        let p = self.n_modes();
+        if self.n_nodes() != reference.n_nodes()
+            || p != reference.n_modes()
+            || self.modes.nrows() != reference.modes.nrows()
+        {
+            return Err(ModalBodyError::Layout(format!(
+                "{} nodes and {} modes against {} nodes and {} modes",
+                self.n_nodes(),
+                p,
+                reference.n_nodes(),
+                reference.n_modes()
+            )));
+        }
+        // C = X_selfᵀ M X_ref with the lumped mass of the reference
+        let mut weighted = reference.modes.clone();
+        for (k, (m, mu)) in reference
+            .node_masses
+            .iter()
+            .zip(&reference.node_inertias)
+            .enumerate()
+        {
+            let w = [*m, *m, *m, mu.x, mu.y, mu.z];
+            for (d, wd) in w.iter().enumerate() {
+                weighted.row_mut(NODE_DOFS * k + d).scale_mut(*wd);
+            }
+        }
+        let c = self.modes.transpose() * weighted;
+        let lam = &reference.eigenvalues;
+        let mut start = 0;
+        while start < p {
+            let mut end = start + 1;
+            while end < p
+                && (lam[end] - lam[end - 1]).abs()
+                    <= cluster_tol * lam[end].abs().max(lam[end - 1].abs())
+            {
+                end += 1;
+            }
+            let r = end - start;
+            let block = c.view((start, start), (r, r)).into_owned();
+            // X_self R closest to X_ref: R = U Vᵀ of the SVD of X_selfᵀ M X_ref
+            let svd = block.svd(true, true);
+            let (u, vt) = (svd.u.expect("u"), svd.v_t.expect("v_t"));
+            let rot = u * vt;
+            let cols = self.modes.columns(start, r) * rot;
+            self.modes.columns_mut(start, r).copy_from(&cols);
+            start = end;
         }
         Ok(())
     }

@@ -386,9 +386,10 @@ pub fn mode_derivatives_with(
                             <= 1e-12 * vals.iter().fold(0.0f64, |a, b| a.max(b.abs())).max(1e-300)
                         {
                             // the cluster stays together: the first-order equations leave the
-                            // rotation within it free; keep only the symmetric part that the
-                            // normalisation fixes (no rotation of the basis)
-                            c[(i, j)] = -0.5 * (mv[(i, j)] + mv[(j, i)]) - 0.5 * mbr[(i, j)];
+                            // rotation within it free; take none, so that `Zᵀ M x_b` keeps only
+                            // the symmetric part the normalisation fixes, `−Zᵀ M_b Z / 2` (the
+                            // convention of mode tracking, `ModalBody::align_to`)
+                            c[(i, j)] = -mv[(i, j)] - 0.5 * mbr[(i, j)];
                             continue;
                         }
                         let mut num = kbv[(i, j)] - vals[j] * mv[(i, j)] - lambda * mbv[(i, j)];
