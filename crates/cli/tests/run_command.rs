@@ -45,7 +45,12 @@ fn rigid_slider_crank_follows_the_closed_form_over_two_revolutions() {
     let (head, rows) = read_csv(&out.join("history.csv"));
     assert_eq!(
         head,
-        ["time", "slider_vx [m/s]", "slider_x [m]", "violation [1]"]
+        [
+            "time [s]",
+            "slider_vx [m/s]",
+            "slider_x [m]",
+            "violation [1]"
+        ]
     );
     assert_eq!(rows.len(), 839);
     let (mut ex, mut ev) = (0.0f64, 0.0f64);
@@ -345,7 +350,7 @@ fn free_flexible_beam_accelerates_as_a_whole_and_bends_to_its_static_shape() {
     let o = run(&["run", p.to_str().unwrap(), "-o", out.to_str().unwrap()]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let (head, rows) = read_csv(&out.join("history.csv"));
-    assert_eq!(head, ["time", "bend [1]", "end_uy [m]", "frame_x [m]"]);
+    assert_eq!(head, ["time [s]", "bend [1]", "end_uy [m]", "frame_x [m]"]);
     // x of the frame: ½ (P/m) t², m = ρ A L (the lumped masses add up to it)
     let m = 2700.0 * 1e-4 * 0.4;
     let last = rows.last().unwrap();

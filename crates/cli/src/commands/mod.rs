@@ -7,6 +7,7 @@ pub mod modes;
 pub mod output;
 pub mod run;
 pub mod section;
+pub(crate) mod sensitivity;
 
 /// How results are printed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]

@@ -17,6 +17,7 @@ use serde_json::json;
 use super::Format;
 use super::output::{self, Quantity, Report};
 use crate::deck::bodies::{BodyDef, BodyShape, Reference, validate_one};
+use crate::deck::design::DesignVariable;
 use crate::deck::laminates::validate as validate_laminates;
 use crate::deck::{self, Source};
 use crate::error::CliError;
@@ -34,46 +35,82 @@ pub struct ModesRequest<'a> {
     pub export_matrices: Option<&'a Path>,
 }
 
-/// The design of a body: the ply angles its stiffness depends on.
-enum Design {
-    /// A beam: the section's values and derivatives with respect to each region's angle.
-    Beam(Box<SectionSensitivities>),
-    /// A shell: the laminate's ply angles, seeded directly.
+/// The design variables a body's derivatives are taken with respect to.
+#[derive(Clone, Copy)]
+pub(crate) enum DesignRequest<'a> {
+    /// None: the plain analysis.
+    None,
+    /// One variable per ply (section region) angle, per radian (`flexsens modes --derivatives`).
+    EachPly,
+    /// The deck's `[design.*]` variables (per degree).
+    Variables(&'a [DesignVariable]),
+}
+
+/// The design of a body: how its stiffness depends on the design variables.
+pub(crate) enum Design {
+    /// A beam: the section's values and derivatives with respect to each variable.
+    Beam {
+        sens: Box<SectionSensitivities>,
+        names: Vec<String>,
+        values: Vec<f64>,
+    },
+    /// A shell: the laminate's ply angles move with the variables, `θ_p = θ_p0 + Σ_j f (b_j −
+    /// b_j0)` for each `(p, f)` of `links[j]` (θ in radians).
     Shell {
         stack: PlyStack<f64>,
-        laminate: String,
+        names: Vec<String>,
+        values: Vec<f64>,
+        links: Vec<Vec<(usize, f64)>>,
     },
 }
 
 impl Design {
-    fn names(&self) -> Vec<String> {
+    pub(crate) fn names(&self) -> &[String] {
         match self {
-            Design::Beam(s) => s.variables.iter().map(|n| format!("{n}.angle")).collect(),
-            Design::Shell { stack, laminate } => (0..stack.plies().len())
-                .map(|i| format!("{laminate}.plies[{i}].angle"))
-                .collect(),
+            Design::Beam { names, .. } | Design::Shell { names, .. } => names,
         }
     }
 
-    fn values(&self) -> Vec<f64> {
+    /// The design variables' values (beams: only their tangents enter, see
+    /// `BeamSection::from_sensitivities`).
+    pub(crate) fn values(&self) -> &[f64] {
         match self {
-            // the section's variables are offsets of its regions' angles: their values do not
-            // enter (the chain rule only uses the tangents)
-            Design::Beam(s) => vec![0.0; s.derivatives.len()],
-            Design::Shell { stack, .. } => stack.plies().iter().map(|p| p.angle).collect(),
+            Design::Beam { values, .. } | Design::Shell { values, .. } => values,
+        }
+    }
+
+    /// Whether variable `j` changes this body's stiffness.
+    pub(crate) fn depends_on(&self, j: usize) -> bool {
+        match self {
+            Design::Beam { sens, .. } => sens
+                .derivatives
+                .get(j)
+                .is_some_and(|d| d.stiffness.iter().any(|x| *x != 0.0)),
+            Design::Shell { links, .. } => links.get(j).is_some_and(|l| !l.is_empty()),
         }
     }
 
     /// Element properties on dual numbers seeded with the design variables `b`.
-    fn properties<const N: usize>(&self, b: &[Dual<N>]) -> Properties<Dual<N>> {
+    pub(crate) fn properties<const N: usize>(&self, b: &[Dual<N>]) -> Properties<Dual<N>> {
         match self {
-            Design::Beam(s) => Properties {
-                sections: vec![BeamSection::from_sensitivities(s, b)],
+            Design::Beam { sens, .. } => Properties {
+                sections: vec![BeamSection::from_sensitivities(sens, b)],
                 laminates: Vec::new(),
             },
-            Design::Shell { stack, .. } => {
+            Design::Shell { stack, links, .. } => {
+                let mut angles: Vec<Dual<N>> = stack
+                    .plies()
+                    .iter()
+                    .map(|p| Dual::constant(p.angle))
+                    .collect();
+                for (bj, l) in b.iter().zip(links) {
+                    let step = *bj - Dual::constant(bj.v);
+                    for &(p, f) in l {
+                        angles[p] += step * Dual::constant(f);
+                    }
+                }
                 let dual = stack
-                    .with_angles(b)
+                    .with_angles(&angles)
                     .expect("angles of a validated stack stay valid");
                 Properties {
                     sections: Vec::new(),
@@ -84,12 +121,33 @@ impl Design {
     }
 }
 
+/// The section design map of the deck's variables: region `r` moves with variable `j` when it
+/// is a ply of `j`'s laminate (regions of sections built from a laminate are named
+/// `<laminate>.plies[i]`, or `<wall>/<laminate>.plies[i]` in a box).
+fn section_design(mesh: &section::SectionMesh, vars: &[DesignVariable]) -> DesignMap {
+    let mut map = DesignMap::new();
+    for v in vars {
+        let mut links = Vec::new();
+        for &(p, f) in &v.stack_plies {
+            let tag = format!("{}.plies[{p}]", v.laminate);
+            let nested = format!("/{tag}");
+            for (r, region) in mesh.regions.iter().enumerate() {
+                if region.name == tag || region.name.ends_with(&nested) {
+                    links.push((r, f));
+                }
+            }
+        }
+        map = map.with_variable(v.name.clone(), links);
+    }
+    map
+}
+
 /// A body ready for the finite-element analysis.
 pub(crate) struct Built {
     pub(crate) mesh: fem::Mesh,
     pub(crate) props: Properties<f64>,
     pub(crate) options: ModalOptions,
-    design: Design,
+    pub(crate) design: Design,
     pub(crate) kind: &'static str,
 }
 
@@ -98,17 +156,44 @@ fn shell(
     mesh: fem::Mesh,
     stack: &PlyStack<f64>,
     laminate: &str,
+    request: DesignRequest,
 ) -> (fem::Mesh, Properties<f64>, Design, &'static str) {
     let props = Properties {
         sections: Vec::new(),
         laminates: vec![stack.stiffness()],
+    };
+    let plies = stack.plies();
+    let (names, values, links) = match request {
+        DesignRequest::None => (Vec::new(), Vec::new(), Vec::new()),
+        DesignRequest::EachPly => (
+            (0..plies.len())
+                .map(|i| format!("{laminate}.plies[{i}].angle"))
+                .collect(),
+            plies.iter().map(|p| p.angle).collect(),
+            (0..plies.len()).map(|i| vec![(i, 1.0)]).collect(),
+        ),
+        DesignRequest::Variables(vars) => (
+            vars.iter().map(|v| v.name.clone()).collect(),
+            vars.iter().map(|v| v.value).collect(),
+            vars.iter()
+                .map(|v| {
+                    if v.laminate == laminate {
+                        v.stack_plies.clone()
+                    } else {
+                        Vec::new()
+                    }
+                })
+                .collect(),
+        ),
     };
     (
         mesh,
         props,
         Design::Shell {
             stack: stack.clone(),
-            laminate: laminate.to_string(),
+            names,
+            values,
+            links,
         },
         "shell",
     )
@@ -118,7 +203,7 @@ pub(crate) fn build(
     src: &Source,
     name: &str,
     def: &BodyDef,
-    derivatives: bool,
+    request: DesignRequest,
 ) -> Result<Built, CliError> {
     let input = |key: &str, m: String| {
         CliError::Input(src.error(None, Some(format!("body.{name}{key}")), m))
@@ -134,21 +219,40 @@ pub(crate) fn build(
         } => {
             let mesh = fem::Mesh::straight_beam(*start, *end, *elements, 0, *orientation)
                 .map_err(|e| input(".elements", e.to_string()))?;
-            let s = if derivatives {
-                let design = DesignMap::each_region(&section.mesh);
-                section::analyse_with_derivatives::<CHUNK>(&section.mesh, &design)
-            } else {
-                section::analyse(&section.mesh).map(|p| SectionSensitivities {
+            let map = match request {
+                DesignRequest::None => None,
+                DesignRequest::EachPly => Some(DesignMap::each_region(&section.mesh)),
+                DesignRequest::Variables(vars) => Some(section_design(&section.mesh, vars)),
+            };
+            let s = match &map {
+                Some(map) => section::analyse_with_derivatives::<CHUNK>(&section.mesh, map),
+                None => section::analyse(&section.mesh).map(|p| SectionSensitivities {
                     properties: p,
                     ..Default::default()
-                })
+                }),
             }
             .map_err(|e| input("", format!("section `{section_name}`: {e}")))?;
             let props = Properties {
                 sections: vec![BeamSection::from_section(&s.properties)],
                 laminates: Vec::new(),
             };
-            (mesh, props, Design::Beam(Box::new(s)), "beam")
+            let (names, values) = match request {
+                DesignRequest::None => (Vec::new(), Vec::new()),
+                DesignRequest::EachPly => (
+                    s.variables.iter().map(|n| format!("{n}.angle")).collect(),
+                    vec![0.0; s.variables.len()],
+                ),
+                DesignRequest::Variables(vars) => (
+                    vars.iter().map(|v| v.name.clone()).collect(),
+                    vars.iter().map(|v| v.value).collect(),
+                ),
+            };
+            let design = Design::Beam {
+                sens: Box::new(s),
+                names,
+                values,
+            };
+            (mesh, props, design, "beam")
         }
         BodyShape::ShellRectangle {
             laminate,
@@ -165,7 +269,7 @@ pub(crate) fn build(
                     *material_axis = *axis;
                 }
             }
-            shell(mesh, stack, laminate)
+            shell(mesh, stack, laminate, request)
         }
         BodyShape::ShellMesh {
             laminate,
@@ -176,11 +280,12 @@ pub(crate) fn build(
         } => {
             let tri = fem::parse_gmsh_v4(mesh_text)
                 .map_err(|e| input(".file", format!("in the mesh {file}: {e}")))?;
-            shell(tri.to_mesh(0, *axis), stack, laminate)
+            shell(tri.to_mesh(0, *axis), stack, laminate, request)
         }
     };
     let reference = match def.reference {
         Reference::CentreOfMass => ReferenceCondition::ClampedAtCentreOfMass,
+        Reference::ClampedSection => ReferenceCondition::ClampedSectionAtCentre,
         Reference::FreeFree => ReferenceCondition::FreeFree,
         Reference::PinnedEnds(Some([a, b])) => {
             if a.max(b) >= mesh.nodes.len() {
@@ -210,6 +315,7 @@ pub(crate) fn build(
     };
     let mut options = ModalOptions::new(def.modes);
     options.reference = reference;
+    options.planar = def.planar;
     options.damping = def
         .damping
         .map(|(modes, ratios)| RayleighDamping { modes, ratios });
@@ -451,11 +557,16 @@ pub fn run(path: &Path, overrides: &[String], req: &ModesRequest) -> Result<Stri
     let mut reports = Vec::new();
     for (name, b) in selected {
         let def = validate_one(&src, &raw, name, b, &model)?;
-        let built = build(&src, name, &def, req.derivatives)?;
+        let request = if req.derivatives {
+            DesignRequest::EachPly
+        } else {
+            DesignRequest::None
+        };
+        let built = build(&src, name, &def, request)?;
         let analysis = fem::modal_analysis(&built.mesh, &built.props, &built.options)
             .map_err(|e| fem_error(&src, name, b.span(), e))?;
         let derivs = if req.derivatives {
-            let values = built.design.values();
+            let values = built.design.values().to_vec();
             let (dm, d) = fem::analysis_derivatives::<CHUNK, _>(
                 &built.mesh,
                 &analysis,

@@ -1,8 +1,7 @@
-//! `flexsens run`: the dynamic analysis of the deck's mechanism, written as a result file
-//! (HDF5) and CSV tables.
-//!
-//! Design sensitivities are not computed by this command yet; `flexsens modes --derivatives`
-//! and `flexsens section --derivatives` give those of the components.
+//! `flexsens run`: the dynamic analysis of the deck's mechanism and, when the deck declares
+//! design variables, the direct sensitivities of every response, objectives with gradients
+//! and finite-difference comparisons ([`super::sensitivity`]); written as a result file (HDF5)
+//! and CSV tables.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -13,11 +12,15 @@ use mbs::{
     Baumgarte, BdfOptions, BodyId, FlexibleBody, Force, Joint, JointKind, Load, LoadFrame, Marker,
     Model, MultibodySystem, Output, RedundancyPolicy, RigidBody, State, StepControl, TimeFunction,
 };
-use nalgebra::{Matrix3, Rotation3, Unit, Vector3};
+use nalgebra::{DMatrix, Matrix3, Rotation3, Unit, Vector3};
 use toml::Spanned;
 
+use super::modes::DesignRequest;
+use super::sensitivity::{self, FdCase, ObjectiveResult, Sensitivities};
 use crate::deck::bodies::validate_one as validate_body;
 use crate::deck::check::{count, direction, finite, positive, required, span, vector};
+use crate::deck::design::FdSteps;
+use crate::deck::design::{DesignDef, validate as validate_design};
 use crate::deck::laminates::{suggestion, validate as validate_laminates};
 use crate::deck::mechanism::{RawAnalysis, RawMarker, RawMotion, RawResponse, RawRotation};
 use crate::deck::{self, DeckError, RawDeck, Source};
@@ -46,7 +49,7 @@ struct BodyInfo {
 }
 
 /// A response to evaluate at every output time.
-enum Response {
+pub(crate) enum Response {
     Position {
         body: BodyId,
         component: usize,
@@ -81,6 +84,60 @@ enum Response {
     ConstraintViolation,
 }
 
+impl Response {
+    /// The same response in the sensitivity analysis (`mbs::Response`), when it has one:
+    /// energies, constraint violations and reaction moments have none.
+    pub(crate) fn differentiable(
+        &self,
+        model: &Model<f64>,
+        joints: &[mbs::JointId],
+    ) -> Option<mbs::Response> {
+        let body = |i: usize| model.body_ids().nth(i).expect("a body of the model");
+        Some(match self {
+            Response::Position { body, component } => mbs::Response::BodyPosition {
+                body: *body,
+                axis: *component,
+            },
+            Response::Velocity { component, nv } => {
+                mbs::Response::State(model.n_q() + nv.start + component)
+            }
+            Response::NodalDisplacement {
+                body: b,
+                node,
+                component,
+            } => mbs::Response::NodalDisplacement {
+                body: body(*b),
+                node: *node,
+                dof: *component,
+            },
+            Response::MidNodeDeflection {
+                body: b,
+                nodes,
+                normal,
+                ..
+            } => mbs::Response::MidNodeDeflection {
+                body: body(*b),
+                first: nodes[0],
+                mid: nodes[1],
+                last: nodes[2],
+                normal: *normal,
+            },
+            Response::Reaction { joint, component } if *component < 3 => {
+                mbs::Response::ReactionForce {
+                    joint: joints[*joint],
+                    axis: *component,
+                }
+            }
+            Response::Modal { body: b, mode } => {
+                mbs::Response::State(model.q_range(body(*b)).start + 7 + mode)
+            }
+            Response::Reaction { .. } | Response::Energy | Response::ConstraintViolation => {
+                return None;
+            }
+        })
+    }
+}
+
 /// A body's initial state: id, frame origin, orientation (body → global), velocity of the
 /// origin, angular velocity (global components).
 type Placement = (
@@ -91,16 +148,29 @@ type Placement = (
     Vector3<f64>,
 );
 
+/// A flexible body of the mechanism with what its design derivatives need.
+pub(crate) struct FlexiblePart {
+    pub(crate) id: BodyId,
+    pub(crate) name: String,
+    pub(crate) built: super::modes::Built,
+    pub(crate) analysis: fem::ModalAnalysis,
+    /// The body's table in the deck.
+    pub(crate) span: Range<usize>,
+}
+
 /// The validated mechanism.
 pub(crate) struct Mechanism {
     pub(crate) model: Model<f64>,
+    pub(crate) flexible: Vec<FlexiblePart>,
+    pub(crate) design: DesignDef,
     pub(crate) state: State,
     bodies: BTreeMap<String, BodyInfo>,
     body_order: Vec<String>,
     joint_names: Vec<String>,
-    responses: Vec<(String, Response, &'static str)>,
+    pub(crate) joint_ids: Vec<mbs::JointId>,
+    pub(crate) responses: Vec<(String, Response, &'static str)>,
     pub(crate) times: Vec<f64>,
-    options: BdfOptions,
+    pub(crate) options: BdfOptions,
     pub(crate) policy: RedundancyPolicy,
 }
 
@@ -661,8 +731,21 @@ fn component(
     })
 }
 
-pub(crate) fn build_mechanism(src: &Source, raw: &RawDeck) -> Result<Mechanism, CliError> {
+/// Build the deck's mechanism; with `derivatives`, each flexible body also gets its
+/// derivatives with respect to the deck's design variables ready (section derivatives).
+pub(crate) fn build_mechanism(
+    src: &Source,
+    raw: &RawDeck,
+    derivatives: bool,
+) -> Result<Mechanism, CliError> {
     let lam = validate_laminates(src, raw)?;
+    let design = validate_design(src, raw, &lam)?;
+    let request = if derivatives && design.enabled {
+        DesignRequest::Variables(&design.variables)
+    } else {
+        DesignRequest::None
+    };
+    let mut flexible = Vec::new();
     let mut model = Model::<f64>::new();
     let mut bodies = BTreeMap::new();
     let mut body_order = Vec::new();
@@ -670,7 +753,7 @@ pub(crate) fn build_mechanism(src: &Source, raw: &RawDeck) -> Result<Mechanism, 
     // flexible bodies: modes of the mesh as given (global coordinates at t = 0)
     for (name, b) in &raw.body {
         let def = validate_body(src, raw, name, b, &lam)?;
-        let built = super::modes::build(src, name, &def, false)?;
+        let built = super::modes::build(src, name, &def, request)?;
         if built.options.mass != fem::MassKind::Lumped {
             return Err(CliError::Input(src.error(
                 Some(b.span()),
@@ -692,6 +775,8 @@ pub(crate) fn build_mechanism(src: &Source, raw: &RawDeck) -> Result<Mechanism, 
                     e.to_string(),
                 ))
             })?;
+        let origin = analysis.origin;
+        let frequencies = analysis.frequencies_hz();
         placements.push((
             id,
             analysis.origin,
@@ -703,13 +788,20 @@ pub(crate) fn build_mechanism(src: &Source, raw: &RawDeck) -> Result<Mechanism, 
             name.clone(),
             BodyInfo {
                 id,
-                position: analysis.origin,
+                position: origin,
                 rotation: Matrix3::identity(),
                 nodes: Some(nodes),
-                frequencies: analysis.frequencies_hz(),
+                frequencies,
             },
         );
         body_order.push(name.clone());
+        flexible.push(FlexiblePart {
+            id,
+            name: name.clone(),
+            built,
+            analysis,
+            span: b.span(),
+        });
     }
     for (name, r) in &raw.rigid {
         let k = |s: &str| format!("rigid.{name}.{s}");
@@ -782,6 +874,7 @@ pub(crate) fn build_mechanism(src: &Source, raw: &RawDeck) -> Result<Mechanism, 
     let (times, options, baumgarte, policy) = analysis(src, raw.analysis.as_ref())?;
     model.baumgarte = baumgarte;
     let mut joint_names = Vec::new();
+    let mut joint_ids = Vec::new();
     for (name, j) in &raw.joint {
         let k = |s: &str| format!("joint.{name}.{s}");
         let rj = j.get_ref();
@@ -858,7 +951,7 @@ pub(crate) fn build_mechanism(src: &Source, raw: &RawDeck) -> Result<Mechanism, 
             )?,
             &bodies,
         )?;
-        model
+        let id = model
             .add_joint(Joint::new(name.clone(), kind, a, b))
             .map_err(|e| {
                 CliError::Input(src.error(
@@ -868,6 +961,7 @@ pub(crate) fn build_mechanism(src: &Source, raw: &RawDeck) -> Result<Mechanism, 
                 ))
             })?;
         joint_names.push(name.clone());
+        joint_ids.push(id);
     }
     for (name, f) in &raw.force {
         let k = |s: &str| format!("force.{name}.{s}");
@@ -1036,17 +1130,79 @@ pub(crate) fn build_mechanism(src: &Source, raw: &RawDeck) -> Result<Mechanism, 
     }
     let state = initial_state(&model, &placements);
     let responses = responses(src, raw, &model, &bodies, &joint_names)?;
+    check_design(
+        src,
+        raw,
+        &design,
+        &flexible,
+        &responses,
+        &model,
+        &joint_ids,
+        derivatives,
+    )?;
     Ok(Mechanism {
         model,
+        flexible,
+        design,
         state,
         bodies,
         body_order,
         joint_names,
+        joint_ids,
         responses,
         times,
         options,
         policy,
     })
+}
+
+/// Design variables must move some flexible body; objectives of a run with sensitivities need
+/// responses that have them.
+fn check_design(
+    src: &Source,
+    raw: &RawDeck,
+    design: &DesignDef,
+    flexible: &[FlexiblePart],
+    responses: &[(String, Response, &'static str)],
+    model: &Model<f64>,
+    joints: &[mbs::JointId],
+    derivatives: bool,
+) -> Result<(), DeckError> {
+    if !(derivatives && design.enabled) {
+        return Ok(());
+    }
+    for (j, v) in design.variables.iter().enumerate() {
+        if !flexible.iter().any(|p| p.built.design.depends_on(j)) {
+            return Err(src.error(
+                Some(raw.design[&v.name].span()),
+                Some(format!("design.{}", v.name)),
+                format!(
+                    "the design variable changes no flexible body: laminate `{}` laminates no \
+                     shell body and builds no beam body's section",
+                    v.laminate
+                ),
+            ));
+        }
+    }
+    for o in &design.objectives {
+        let (_, r, _) = responses
+            .iter()
+            .find(|(n, _, _)| *n == o.response)
+            .expect("objective responses are validated");
+        if r.differentiable(model, joints).is_none() {
+            let ro = raw.objective[&o.name].get_ref();
+            return Err(src.error(
+                ro.response.as_ref().and_then(span),
+                Some(format!("objective.{}.response", o.name)),
+                format!(
+                    "response `{}` has no design sensitivities (energies, constraint violations \
+                     and reaction moments have none), so its objective has no gradient",
+                    o.response
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 fn initial_state(model: &Model<f64>, placements: &[Placement]) -> State {
@@ -1273,7 +1429,7 @@ fn responses(
 }
 
 /// The value of a response at one output.
-fn evaluate(r: &Response, o: &Output) -> f64 {
+pub(crate) fn evaluate(r: &Response, o: &Output) -> f64 {
     match r {
         Response::Position { body, component } => o.positions[body.index()][*component],
         Response::Velocity { nv, component } => o.v[nv.start + component],
@@ -1323,10 +1479,79 @@ fn default_out(deck: &Path) -> PathBuf {
     deck.with_file_name(format!("{stem}.out"))
 }
 
+/// Everything a run computed, ready to be written.
+struct Computed {
+    outputs: Vec<Output>,
+    statistics: mbs::Statistics,
+    /// Per response: its history at the output times.
+    values: Vec<Vec<f64>>,
+    sensitivities: Option<Sensitivities>,
+    objectives: Vec<ObjectiveResult>,
+    fd: Vec<FdCase>,
+}
+
+/// The output files a run may write; those a run does not write are removed, so that a
+/// directory never mixes two runs.
+const OUTPUT_FILES: [&str; 4] = [
+    "history.csv",
+    "sensitivities.csv",
+    "gradients.csv",
+    "results.h5",
+];
+
 /// Run the command; the returned text goes to stdout.
 pub fn run(path: &Path, overrides: &[String], req: &RunRequest) -> Result<String, CliError> {
     let (src, raw) = deck::load(path, overrides)?;
-    let mech = build_mechanism(&src, &raw)?;
+    let mech = build_mechanism(&src, &raw, true)?;
+    let out = req
+        .out
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| default_out(path));
+    // a failed run must not leave the previous run's files looking like its own
+    for f in OUTPUT_FILES {
+        match std::fs::remove_file(out.join(f)) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                return Err(CliError::Runtime(format!(
+                    "cannot remove the old {}: {e}",
+                    out.join(f).display()
+                )));
+            }
+            _ => {}
+        }
+    }
+    let computed = compute(&src, &mech)?;
+    let g = results(&src, &mech, &computed);
+    let bytes = g
+        .to_hdf5()
+        .map_err(|e| CliError::Runtime(format!("cannot encode the results: {e}")))?;
+    write_atomic(
+        &out.join("history.csv"),
+        history_csv(&mech, &computed).as_bytes(),
+    )?;
+    let mut written = vec![out.join("history.csv")];
+    if let Some(csv) = sensitivities_csv(&mech, &computed) {
+        write_atomic(&out.join("sensitivities.csv"), csv.as_bytes())?;
+        written.push(out.join("sensitivities.csv"));
+    }
+    if !computed.objectives.is_empty() {
+        write_atomic(
+            &out.join("gradients.csv"),
+            gradients_csv(&mech, &computed).as_bytes(),
+        )?;
+        written.push(out.join("gradients.csv"));
+    }
+    // results.h5 last: its presence means the run completed
+    write_atomic(&out.join("results.h5"), &bytes)?;
+    written.push(out.join("results.h5"));
+    let summary = summary(&src, &mech, &computed, &out);
+    if req.json {
+        return Ok(summary.to_string() + "\n");
+    }
+    Ok(summary_text(&raw, &mech, &computed, &summary, &written))
+}
+
+/// The analysis, its sensitivities, objectives and finite-difference comparisons.
+fn compute(src: &Source, mech: &Mechanism) -> Result<Computed, CliError> {
     let runtime = |m: String| CliError::Runtime(format!("{}: {m}", src.file.display()));
     let mut system =
         MultibodySystem::new_at(mech.model.clone(), mech.times[0], &mech.state, mech.policy)
@@ -1339,22 +1564,66 @@ pub fn run(path: &Path, overrides: &[String], req: &RunRequest) -> Result<String
                 "the initial configuration cannot be assembled: {e}"
             ))
         })?;
-    let sim = mbs::simulate(&mut system, &state, &mech.times, mech.options.clone())
-        .map_err(|e| runtime(e.to_string()))?;
-    // results
+    let (outputs, statistics, sens) = if mech.design.enabled {
+        let s = sensitivity::analyse(src, mech, &mut system, &state)?;
+        (s.outputs.clone(), s.statistics, Some(s))
+    } else {
+        let sim = mbs::simulate(&mut system, &state, &mech.times, mech.options.clone())
+            .map_err(|e| runtime(e.to_string()))?;
+        (sim.outputs, sim.statistics, None)
+    };
+    let values: Vec<Vec<f64>> = mech
+        .responses
+        .iter()
+        .map(|(_, r, _)| outputs.iter().map(|o| evaluate(r, o)).collect())
+        .collect();
+    let objectives = sensitivity::objectives(
+        src,
+        mech,
+        &values,
+        sens.as_ref().map(|s| s.responses.as_slice()),
+    )?;
+    let fd = match &sens {
+        Some(s) => sensitivity::finite_differences(src, mech, &system, &state, &s.replay)?,
+        None => Vec::new(),
+    };
+    Ok(Computed {
+        outputs,
+        statistics,
+        values,
+        sensitivities: sens,
+        objectives,
+        fd,
+    })
+}
+
+/// Unit of a derivative per degree.
+fn per_degree(unit: &str) -> String {
+    if unit == "1" {
+        "1/deg".into()
+    } else {
+        format!("{unit}/deg")
+    }
+}
+
+/// A row-major copy of a matrix.
+fn row_major(m: &DMatrix<f64>) -> Vec<f64> {
+    m.transpose().iter().copied().collect()
+}
+
+/// The result file's contents.
+fn results(src: &Source, mech: &Mechanism, c: &Computed) -> Group {
     let n = mech.times.len();
+    let outputs = &c.outputs;
     let mut g = Group::default();
     g.attrs.insert(
         "flexsens_version".into(),
         Attr::Text(env!("CARGO_PKG_VERSION").into()),
     );
     g.put("time", &[n], mech.times.clone()).units("s");
-    let mut history: Vec<(String, &str, Vec<f64>)> = Vec::new();
-    for (name, r, unit) in &mech.responses {
-        let v: Vec<f64> = sim.outputs.iter().map(|o| evaluate(r, o)).collect();
+    for ((name, _, unit), v) in mech.responses.iter().zip(&c.values) {
         g.put(&format!("responses/{name}"), &[n], v.clone())
             .units(unit);
-        history.push((name.clone(), unit, v));
     }
     for name in &mech.body_order {
         let b = &mech.bodies[name];
@@ -1362,7 +1631,7 @@ pub fn run(path: &Path, overrides: &[String], req: &RunRequest) -> Result<String
         g.put(
             &format!("bodies/{name}/position"),
             &[n, 3],
-            sim.outputs
+            outputs
                 .iter()
                 .flat_map(|o| o.positions[i].iter().copied().collect::<Vec<_>>())
                 .collect(),
@@ -1371,7 +1640,7 @@ pub fn run(path: &Path, overrides: &[String], req: &RunRequest) -> Result<String
         g.put(
             &format!("bodies/{name}/orientation"),
             &[n, 3, 3],
-            sim.outputs
+            outputs
                 .iter()
                 .flat_map(|o| {
                     o.orientations[i]
@@ -1384,14 +1653,11 @@ pub fn run(path: &Path, overrides: &[String], req: &RunRequest) -> Result<String
         )
         .units("1");
         if b.nodes.is_some() {
-            let m = sim.outputs[0].modal[i].len();
+            let m = outputs[0].modal[i].len();
             g.put(
                 &format!("bodies/{name}/modal_coordinates"),
                 &[n, m],
-                sim.outputs
-                    .iter()
-                    .flat_map(|o| o.modal[i].clone())
-                    .collect(),
+                outputs.iter().flat_map(|o| o.modal[i].clone()).collect(),
             )
             .units("1");
             g.put(
@@ -1406,7 +1672,7 @@ pub fn run(path: &Path, overrides: &[String], req: &RunRequest) -> Result<String
         g.put(
             &format!("joints/{name}/reaction_on_b"),
             &[n, 6],
-            sim.outputs
+            outputs
                 .iter()
                 .flat_map(|o| {
                     let r = &o.reactions[j];
@@ -1426,23 +1692,23 @@ pub fn run(path: &Path, overrides: &[String], req: &RunRequest) -> Result<String
     g.put(
         "constraints/position_violation",
         &[n],
-        sim.outputs.iter().map(|o| o.position_violation).collect(),
+        outputs.iter().map(|o| o.position_violation).collect(),
     )
     .units("m");
     g.put(
         "constraints/velocity_violation",
         &[n],
-        sim.outputs.iter().map(|o| o.velocity_violation).collect(),
+        outputs.iter().map(|o| o.velocity_violation).collect(),
     )
     .units("m/s");
     g.put(
         "energy/total",
         &[n],
-        sim.outputs.iter().map(|o| o.energy.total()).collect(),
+        outputs.iter().map(|o| o.energy.total()).collect(),
     )
     .units("J");
-    let st = &sim.statistics;
-    for (k, v) in [
+    let st = &c.statistics;
+    let mut counters = vec![
         ("steps", st.steps),
         ("rejected_steps", st.rejected_steps),
         ("newton_failures", st.newton_failures),
@@ -1450,52 +1716,277 @@ pub fn run(path: &Path, overrides: &[String], req: &RunRequest) -> Result<String
         ("rhs_evaluations", st.rhs_evaluations),
         ("jacobians", st.jacobians),
         ("factorizations", st.factorizations),
-    ] {
+    ];
+    if let Some(s) = &c.sensitivities {
+        let ss = &s.sensitivity_statistics;
+        counters.extend([
+            ("sensitivity_dual_evaluations", ss.dual_evaluations),
+            ("sensitivity_corrector_iterations", ss.corrector_iterations),
+            ("sensitivity_direct_solves", ss.direct_solves),
+        ]);
+    }
+    for (k, v) in counters {
         g.group("statistics")
             .attrs
             .insert(k.into(), Attr::I64(v as i64));
     }
+    let vars = &mech.design.variables;
+    let m = vars.len();
+    if m > 0 {
+        g.put_text(
+            "design/names",
+            vars.iter().map(|v| v.name.clone()).collect(),
+        );
+        g.put(
+            "design/values",
+            &[m],
+            vars.iter().map(|v| v.value).collect(),
+        )
+        .units("deg");
+        g.put_text(
+            "design/laminates",
+            vars.iter().map(|v| v.laminate.clone()).collect(),
+        );
+    }
+    if let Some(s) = &c.sensitivities {
+        let method = match (mech.design.corrector, mech.design.fixed_modes) {
+            (false, false) => "direct, updated modes",
+            (false, true) => "direct, fixed modes",
+            (true, false) => "corrector, updated modes",
+            (true, true) => "corrector, fixed modes",
+        };
+        g.group("sensitivities")
+            .attrs
+            .insert("method".into(), Attr::Text(method.into()));
+        for ((name, _, unit), d) in mech.responses.iter().zip(&s.responses) {
+            if let Some(d) = d {
+                g.put(&format!("sensitivities/{name}"), &[n, m], row_major(d))
+                    .units(&per_degree(unit));
+            }
+        }
+        for (body, df) in &s.frequencies {
+            g.put(
+                &format!("bodies/{body}/frequency_derivatives"),
+                &[df.nrows(), m],
+                row_major(df),
+            )
+            .units("Hz/deg");
+        }
+    }
+    for o in &c.objectives {
+        let base = format!("objectives/{}", o.name);
+        g.put(&format!("{base}/value"), &[1], vec![o.value])
+            .units(o.unit);
+        if let Some(t) = o.time {
+            g.put(&format!("{base}/time"), &[1], vec![t]).units("s");
+        }
+        if !o.gradient.is_empty() {
+            g.put(&format!("{base}/gradient"), &[m], o.gradient.clone())
+                .units(&per_degree(o.unit));
+        }
+        let og = g.group(&base);
+        og.attrs
+            .insert("response".into(), Attr::Text(o.response.clone()));
+        og.attrs.insert("kind".into(), Attr::Text(o.kind.label()));
+    }
+    for case in &c.fd {
+        let base = format!("finite_differences/{}", case.label);
+        for ((name, _, unit), d) in mech.responses.iter().zip(&case.responses) {
+            if let Some(d) = d {
+                g.put(&format!("{base}/{name}"), &[n, m], row_major(d))
+                    .units(&per_degree(unit));
+            }
+        }
+        for (o, d) in c.objectives.iter().zip(&case.objectives) {
+            g.put(&format!("{base}/objectives/{}", o.name), &[m], d.clone())
+                .units(&per_degree(o.unit));
+        }
+        g.put(&format!("{base}/perturbations"), &[m], case.deltas.clone())
+            .units("deg");
+        let cg = g.group(&base);
+        for (k, v) in [
+            ("scheme", if case.central { "central" } else { "forward" }),
+            (
+                "perturbation",
+                if case.relative {
+                    "relative"
+                } else {
+                    "absolute"
+                },
+            ),
+            (
+                "steps",
+                match case.steps {
+                    FdSteps::Replay => "replay",
+                    FdSteps::Adaptive => "adaptive",
+                },
+            ),
+        ] {
+            cg.attrs.insert(k.into(), Attr::Text(v.into()));
+        }
+        cg.attrs.insert("size".into(), Attr::F64(case.size));
+    }
     g.put_text("meta/deck", vec![src.text.clone()]);
     g.put_text("meta/deck_path", vec![src.file.display().to_string()]);
     g.put_text("meta/overrides", src.overrides.clone());
-    let out = req
-        .out
-        .map(Path::to_path_buf)
-        .unwrap_or_else(|| default_out(path));
-    let bytes = g
-        .to_hdf5()
-        .map_err(|e| CliError::Runtime(format!("cannot encode the results: {e}")))?;
-    let mut csv = String::from("time");
-    for (name, unit, _) in &history {
+    g
+}
+
+/// `history.csv`: time and every response.
+fn history_csv(mech: &Mechanism, c: &Computed) -> String {
+    let mut csv = String::from("time [s]");
+    for (name, _, unit) in &mech.responses {
         let _ = write!(csv, ",{name} [{unit}]");
     }
     csv.push('\n');
     for (i, t) in mech.times.iter().enumerate() {
         let _ = write!(csv, "{t:e}");
-        for (_, _, v) in &history {
+        for v in &c.values {
             let _ = write!(csv, ",{:e}", v[i]);
         }
         csv.push('\n');
     }
-    write_atomic(&out.join("history.csv"), csv.as_bytes())?;
-    // results.h5 last: its presence means the run completed
-    write_atomic(&out.join("results.h5"), &bytes)?;
-    let summary = serde_json::json!({
+    csv
+}
+
+/// `sensitivities.csv`: time and `d(response)/d(variable)` for every response that has
+/// sensitivities and every design variable.
+fn sensitivities_csv(mech: &Mechanism, c: &Computed) -> Option<String> {
+    let s = c.sensitivities.as_ref()?;
+    let vars = &mech.design.variables;
+    let mut csv = String::from("time [s]");
+    let mut columns = Vec::new();
+    for ((name, _, unit), d) in mech.responses.iter().zip(&s.responses) {
+        if let Some(d) = d {
+            for (j, v) in vars.iter().enumerate() {
+                let _ = write!(csv, ",d {name}/d {} [{}]", v.name, per_degree(unit));
+                columns.push((d, j));
+            }
+        }
+    }
+    csv.push('\n');
+    for (i, t) in mech.times.iter().enumerate() {
+        let _ = write!(csv, "{t:e}");
+        for (d, j) in &columns {
+            let _ = write!(csv, ",{:e}", d[(i, *j)]);
+        }
+        csv.push('\n');
+    }
+    Some(csv)
+}
+
+/// `gradients.csv`: one row per objective, its value and one column per design variable.
+fn gradients_csv(mech: &Mechanism, c: &Computed) -> String {
+    let mut csv = String::from("objective,response,kind,value,unit,time [s]");
+    let with_gradients = c.sensitivities.is_some();
+    if with_gradients {
+        for v in &mech.design.variables {
+            let _ = write!(csv, ",d/d {} [unit/deg]", v.name);
+        }
+    }
+    csv.push('\n');
+    for o in &c.objectives {
+        let _ = write!(
+            csv,
+            "{},{},{},{:e},{},{}",
+            o.name,
+            o.response,
+            o.kind.label(),
+            o.value,
+            o.unit,
+            o.time.map(|t| format!("{t:e}")).unwrap_or_default()
+        );
+        for g in &o.gradient {
+            let _ = write!(csv, ",{g:e}");
+        }
+        csv.push('\n');
+    }
+    csv
+}
+
+/// The machine-readable summary (`--json`), also the source of the table.
+fn summary(src: &Source, mech: &Mechanism, c: &Computed, out: &Path) -> serde_json::Value {
+    use serde_json::json;
+    let st = &c.statistics;
+    let responses: serde_json::Map<_, _> = mech
+        .responses
+        .iter()
+        .zip(&c.values)
+        .map(|((name, _, unit), v)| {
+            (
+                name.clone(),
+                json!({
+                    "unit": unit,
+                    "final": v.last(),
+                    "min": v.iter().copied().fold(f64::INFINITY, f64::min),
+                    "max": v.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+                }),
+            )
+        })
+        .collect();
+    let design: Vec<_> = mech
+        .design
+        .variables
+        .iter()
+        .map(|v| json!({"name": v.name, "laminate": v.laminate, "value": v.value, "unit": "deg"}))
+        .collect();
+    let objectives: Vec<_> = c
+        .objectives
+        .iter()
+        .map(|o| {
+            json!({
+                "name": o.name, "response": o.response, "kind": o.kind.label(),
+                "value": o.value, "unit": o.unit, "time": o.time, "gradient": o.gradient,
+            })
+        })
+        .collect();
+    let fd: Vec<_> =
+        c.fd.iter()
+            .map(|case| {
+                let s = c
+                    .sensitivities
+                    .as_ref()
+                    .expect("comparisons need sensitivities");
+                let worst: serde_json::Map<_, _> = mech
+                    .responses
+                    .iter()
+                    .zip(case.responses.iter().zip(&s.responses))
+                    .filter_map(|((name, _, _), (f, d))| {
+                        Some((
+                            name.clone(),
+                            json!(sensitivity::relative_difference(f.as_ref()?, d.as_ref()?)),
+                        ))
+                    })
+                    .collect();
+                json!({"case": case.label, "max_relative_difference": worst})
+            })
+            .collect();
+    json!({
         "deck": src.file.display().to_string(),
         "output": out.display().to_string(),
         "t_end": mech.times.last(),
-        "outputs": n,
+        "outputs": mech.times.len(),
         "steps": st.steps,
         "rejected_steps": st.rejected_steps,
         "rhs_evaluations": st.rhs_evaluations,
-        "max_position_violation": sim.outputs.iter().map(|o| o.position_violation).fold(0.0, f64::max),
-        "responses": history.iter().map(|(name, unit, v)| (name.clone(), serde_json::json!({
-            "unit": unit, "final": v.last(), "min": v.iter().copied().fold(f64::INFINITY, f64::min), "max": v.iter().copied().fold(f64::NEG_INFINITY, f64::max)
-        }))).collect::<serde_json::Map<_, _>>(),
-    });
-    if req.json {
-        return Ok(summary.to_string() + "\n");
-    }
+        "max_position_violation": c.outputs.iter().map(|o| o.position_violation).fold(0.0, f64::max),
+        "responses": responses,
+        "design": design,
+        "objectives": objectives,
+        "finite_differences": fd,
+    })
+}
+
+/// The one-screen summary for people.
+fn summary_text(
+    raw: &RawDeck,
+    mech: &Mechanism,
+    c: &Computed,
+    summary: &serde_json::Value,
+    written: &[PathBuf],
+) -> String {
+    let n = mech.times.len();
+    let st = &c.statistics;
     let mut s = String::new();
     if let Some(t) = &raw.title {
         let _ = writeln!(s, "{t}");
@@ -1519,13 +2010,13 @@ pub fn run(path: &Path, overrides: &[String], req: &RunRequest) -> Result<String
         "largest position-constraint violation: {:.3e}",
         summary["max_position_violation"].as_f64().unwrap_or(0.0)
     );
-    if !history.is_empty() {
+    if !c.values.is_empty() {
         let _ = writeln!(
             s,
             "{:<24} {:>14} {:>14} {:>14}  unit",
             "response", "min", "max", "final"
         );
-        for (name, unit, v) in &history {
+        for ((name, _, unit), v) in mech.responses.iter().zip(&c.values) {
             let r = &summary["responses"][name];
             let _ = writeln!(
                 s,
@@ -1536,11 +2027,64 @@ pub fn run(path: &Path, overrides: &[String], req: &RunRequest) -> Result<String
             );
         }
     }
-    let _ = writeln!(
-        s,
-        "written: {} and {}",
-        out.join("results.h5").display(),
-        out.join("history.csv").display()
-    );
-    Ok(s)
+    let vars = &mech.design.variables;
+    if c.sensitivities.is_some() {
+        let names: Vec<String> = vars
+            .iter()
+            .map(|v| format!("{} = {}°", v.name, v.value))
+            .collect();
+        let _ = writeln!(
+            s,
+            "sensitivities with respect to {} ({})",
+            names.join(", "),
+            if mech.design.fixed_modes {
+                "fixed modes"
+            } else {
+                "updated modes"
+            }
+        );
+    }
+    if !c.objectives.is_empty() {
+        let _ = write!(s, "{:<24} {:>14}", "objective", "value");
+        if c.sensitivities.is_some() {
+            for v in vars {
+                let _ = write!(s, " {:>14}", format!("d/d {}", v.name));
+            }
+        }
+        let _ = writeln!(s, "  unit");
+        for o in &c.objectives {
+            let _ = write!(s, "{:<24} {:>14.6e}", o.name, o.value);
+            for g in &o.gradient {
+                let _ = write!(s, " {g:>14.6e}");
+            }
+            let at = o
+                .time
+                .map(|t| format!(" (at {t:.6} s)"))
+                .unwrap_or_default();
+            let _ = writeln!(s, "  {}{at}", o.unit);
+        }
+    }
+    if let Some(cases) = summary["finite_differences"].as_array()
+        && !cases.is_empty()
+    {
+        let _ = writeln!(
+            s,
+            "finite differences: largest |FD − direct| / max |direct| per response"
+        );
+        for case in cases {
+            let worst = case["max_relative_difference"]
+                .as_object()
+                .map(|m| {
+                    m.iter()
+                        .map(|(k, v)| format!("{k} {:.2e}", v.as_f64().unwrap_or(f64::NAN)))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                })
+                .unwrap_or_default();
+            let _ = writeln!(s, "  {:<36} {worst}", case["case"].as_str().unwrap_or(""));
+        }
+    }
+    let files: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
+    let _ = writeln!(s, "written: {}", files.join(", "));
+    s
 }

@@ -9,6 +9,7 @@
 
 pub mod bodies;
 pub mod check;
+pub mod design;
 pub mod laminates;
 pub mod mechanism;
 pub mod overrides;

@@ -38,6 +38,16 @@ pub struct RawDeck {
     pub response: BTreeMap<String, Spanned<super::mechanism::RawResponse>>,
     /// Time integration settings of `flexsens run`.
     pub analysis: Option<Spanned<super::mechanism::RawAnalysis>>,
+    /// Design variables by name (ply angles, degrees).
+    #[serde(default)]
+    pub design: BTreeMap<String, Spanned<super::design::RawDesign>>,
+    /// Scalar objectives of responses by name.
+    #[serde(default)]
+    pub objective: BTreeMap<String, Spanned<super::design::RawObjective>>,
+    /// Settings of the direct sensitivity analysis.
+    pub sensitivity: Option<Spanned<super::design::RawSensitivity>>,
+    /// Finite-difference comparisons.
+    pub finite_differences: Option<Spanned<super::design::RawFiniteDifferences>>,
 }
 
 /// A material: isotropic (`E`, `nu`) or orthotropic (the nine constants), with `density`.

@@ -1,0 +1,397 @@
+//! The design-sensitivity part of `flexsens run`: the dual model of the mechanism, the direct
+//! sensitivity integration, response sensitivities, objectives with gradients and the
+//! finite-difference comparisons the deck asks for.
+//!
+//! Chain (one code path from the ply angles up): the deck's `[design.*]` variables →
+//! laminate and section derivatives (`modes::Design`) → `fem::analysis_derivatives` (frequencies
+//! and mode shapes, fixed- or updated-mode) → `fem::modal_body_dual` per chunk of variables →
+//! the mechanism's `Model<Dual<N>>` → `mbs::simulate_sensitivities`. Derivatives are per
+//! degree of the design variables.
+
+use nalgebra::DMatrix;
+
+use mbs::{
+    BdfOptions, Body, DesignModel, FdScheme, FlexibleBody, Model, MultibodySystem, Objective,
+    Output, Perturbation, SensitivityOptions, SensitivityStatistics, State, Statistics,
+};
+use sens::Dual;
+
+use super::run::{Mechanism, build_mechanism, evaluate};
+use crate::deck::Source;
+use crate::deck::design::{FdSteps, ObjectiveKind};
+use crate::error::CliError;
+
+/// Results of the direct sensitivity analysis, at the output times.
+pub(crate) struct Sensitivities {
+    pub(crate) outputs: Vec<Output>,
+    pub(crate) statistics: Statistics,
+    pub(crate) sensitivity_statistics: SensitivityStatistics,
+    /// Per response of the mechanism: `dψ(t_i)/db_j` (rows: times), `None` when the response
+    /// has no sensitivities.
+    pub(crate) responses: Vec<Option<DMatrix<f64>>>,
+    /// Per flexible body: `df_k/db_j` (Hz/deg; rows: modes).
+    pub(crate) frequencies: Vec<(String, DMatrix<f64>)>,
+    /// Options that replay the run's steps (finite differences of the discrete solution).
+    pub(crate) replay: BdfOptions,
+}
+
+fn runtime(src: &Source, m: impl std::fmt::Display) -> CliError {
+    CliError::Runtime(format!("{}: {m}", src.file.display()))
+}
+
+/// The analysis with its direct sensitivities, from the assembled `state`.
+pub(crate) fn analyse(
+    src: &Source,
+    mech: &Mechanism,
+    system: &mut MultibodySystem,
+    state: &State,
+) -> Result<Sensitivities, CliError> {
+    // the chunk width changes the work, never the results
+    match mech.design.variables.len() {
+        1 => analyse_chunked::<1>(src, mech, system, state),
+        2 => analyse_chunked::<2>(src, mech, system, state),
+        3 | 4 => analyse_chunked::<4>(src, mech, system, state),
+        _ => analyse_chunked::<8>(src, mech, system, state),
+    }
+}
+
+fn analyse_chunked<const N: usize>(
+    src: &Source,
+    mech: &Mechanism,
+    system: &mut MultibodySystem,
+    state: &State,
+) -> Result<Sensitivities, CliError> {
+    let m = mech.design.variables.len();
+    let update = if mech.design.fixed_modes {
+        fem::ModeUpdate::Fixed
+    } else {
+        fem::ModeUpdate::Updated
+    };
+    let ranges: Vec<_> = sens::chunk_ranges(m, N).collect();
+    let mut chunks: Vec<Model<Dual<N>>> = ranges
+        .iter()
+        .map(|_| mech.model.map(Dual::<N>::constant))
+        .collect();
+    let mut frequencies = Vec::new();
+    for part in &mech.flexible {
+        let fem_error = |e| super::modes::fem_error(src, &part.name, part.span.clone(), e);
+        let built = &part.built;
+        let (_, derivs) = fem::analysis_derivatives::<N, _>(
+            &built.mesh,
+            &part.analysis,
+            built.design.values(),
+            |bd| built.design.properties(bd),
+            update,
+        )
+        .map_err(fem_error)?;
+        let lambdas = &part.analysis.pairs.values;
+        let mut df = DMatrix::zeros(lambdas.len(), m);
+        for (j, dl) in derivs.eigenvalues.iter().enumerate() {
+            for (k, (&l, &d)) in lambdas.iter().zip(dl).enumerate() {
+                // f = √λ / 2π ⇒ df = dλ / (4π √λ)
+                df[(k, j)] = d / (4.0 * std::f64::consts::PI * l.max(0.0).sqrt());
+            }
+        }
+        frequencies.push((part.name.clone(), df));
+        for (model, range) in chunks.iter_mut().zip(&ranges) {
+            let body = fem::modal_body_dual::<N>(
+                &built.mesh,
+                &built.props,
+                &part.analysis,
+                &derivs,
+                range.start,
+                update,
+            )
+            .map_err(fem_error)?;
+            *model.body_mut(part.id) = Body::Flexible(FlexibleBody::new(part.name.clone(), body));
+        }
+    }
+    let design = DesignModel::new(chunks, m).map_err(|e| runtime(src, e))?;
+    let mut options = if mech.design.corrector {
+        SensitivityOptions::corrector()
+    } else {
+        SensitivityOptions::default()
+    };
+    options.error_control = mech.design.error_control;
+    let (t0, t_end) = (mech.times[0], *mech.times.last().expect("output times"));
+    let run = mbs::simulate_sensitivities(
+        system,
+        &design,
+        state,
+        t0,
+        t_end,
+        mech.options.clone(),
+        &options,
+    )
+    .map_err(|e| runtime(src, e))?;
+    let replay = run.replay_options(
+        mech.options.rtol,
+        mech.options.atol.first().copied().unwrap_or(1e-8),
+        1e-6,
+    );
+    let sampled = run.resample(&mech.times);
+    let outputs = sampled
+        .times
+        .iter()
+        .zip(&sampled.states)
+        .map(|(&t, y)| system.output(t, y))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| runtime(src, e))?;
+    let mut responses = Vec::new();
+    for (_, r, _) in &mech.responses {
+        responses.push(match r.differentiable(&mech.model, &mech.joint_ids) {
+            None => None,
+            Some(resp) => Some(
+                mbs::response_history(system, &design, &sampled, &resp)
+                    .map_err(|e| runtime(src, e))?
+                    .gradients,
+            ),
+        });
+    }
+    Ok(Sensitivities {
+        outputs,
+        statistics: run.statistics,
+        sensitivity_statistics: run.sensitivity_statistics,
+        responses,
+        frequencies,
+        replay,
+    })
+}
+
+/// A computed objective.
+pub(crate) struct ObjectiveResult {
+    pub(crate) name: String,
+    pub(crate) response: String,
+    pub(crate) unit: &'static str,
+    pub(crate) kind: ObjectiveKind,
+    pub(crate) value: f64,
+    /// Where a maximum or minimum occurs.
+    pub(crate) time: Option<f64>,
+    /// Per design variable (empty without sensitivities).
+    pub(crate) gradient: Vec<f64>,
+}
+
+fn objective(kind: ObjectiveKind) -> Objective {
+    match kind {
+        ObjectiveKind::Integral => Objective::Integral,
+        ObjectiveKind::Mean => Objective::Mean,
+        ObjectiveKind::Rms => Objective::Rms,
+        ObjectiveKind::Max => Objective::Max,
+        ObjectiveKind::Min => Objective::Min,
+        ObjectiveKind::At(t) => Objective::At(t),
+    }
+}
+
+/// The deck's objectives of the response histories `values` (one per response, at the output
+/// times) with their gradients from `gradients` when given.
+pub(crate) fn objectives(
+    src: &Source,
+    mech: &Mechanism,
+    values: &[Vec<f64>],
+    gradients: Option<&[Option<DMatrix<f64>>]>,
+) -> Result<Vec<ObjectiveResult>, CliError> {
+    mech.design
+        .objectives
+        .iter()
+        .map(|o| {
+            let i = mech
+                .responses
+                .iter()
+                .position(|(n, _, _)| *n == o.response)
+                .expect("validated objective");
+            let g = gradients.and_then(|g| g[i].as_ref());
+            let v = objective(o.kind)
+                .evaluate(&mech.times, &values[i], g)
+                .map_err(|e| {
+                    CliError::Input(src.error(
+                        None,
+                        Some(format!("objective.{}", o.name)),
+                        e.to_string(),
+                    ))
+                })?;
+            Ok(ObjectiveResult {
+                name: o.name.clone(),
+                response: o.response.clone(),
+                unit: mech.responses[i].2,
+                kind: o.kind,
+                value: v.value,
+                time: v.time,
+                gradient: v.gradient,
+            })
+        })
+        .collect()
+}
+
+/// One finite-difference comparison: a scheme, a perturbation size and a step policy.
+pub(crate) struct FdCase {
+    /// e.g. `forward_relative_0.01_replay`.
+    pub(crate) label: String,
+    pub(crate) central: bool,
+    pub(crate) relative: bool,
+    pub(crate) size: f64,
+    pub(crate) steps: FdSteps,
+    /// Perturbation of each variable (degrees).
+    pub(crate) deltas: Vec<f64>,
+    /// Per response with sensitivities: `n × m` differences (as `Sensitivities::responses`).
+    pub(crate) responses: Vec<Option<DMatrix<f64>>>,
+    /// Per objective: the differences of its value, one per variable.
+    pub(crate) objectives: Vec<Vec<f64>>,
+}
+
+/// Relative gap below which eigenvalues count as repeated when perturbed modes are tracked.
+const CLUSTER_TOL: f64 = 1e-6;
+
+/// The response histories (differentiable responses, concatenated) and objective values of
+/// the deck with the design `b`: the whole chain rebuilt from a perturbed deck.
+fn perturbed_outputs(
+    src: &Source,
+    mech: &Mechanism,
+    nominal: &MultibodySystem,
+    state: &State,
+    b: &[f64],
+    options: &BdfOptions,
+) -> Result<Vec<f64>, CliError> {
+    let args: Vec<String> = mech
+        .design
+        .variables
+        .iter()
+        .zip(b)
+        .flat_map(|(v, &bj)| {
+            if bj == v.value {
+                Vec::new()
+            } else {
+                v.overrides(bj)
+            }
+        })
+        .collect();
+    let psrc = Source {
+        file: src.file.clone(),
+        text: src.text.clone(),
+        overrides: Vec::new(),
+    }
+    .with_overrides(&args)?;
+    let raw = psrc.parse()?;
+    let mut pmech = build_mechanism(&psrc, &raw, false)?;
+    // the perturbed modes in the nominal modes' basis (any basis of a repeated frequency, any
+    // sign), so that the nominal state means the same motion
+    for part in &mech.flexible {
+        if let (Body::Flexible(reference), Body::Flexible(body)) =
+            (mech.model.body(part.id), pmech.model.body_mut(part.id))
+        {
+            body.modal
+                .align_to(&reference.modal, CLUSTER_TOL)
+                .map_err(|e| runtime(src, format!("body `{}`: {e}", part.name)))?;
+        }
+    }
+    let mut sys = nominal.with_model(pmech.model);
+    let mut st = state.clone();
+    let t0 = mech.times[0];
+    sys.assemble(t0, &mut st, 1e-10)
+        .map_err(|e| runtime(src, format!("perturbed design {b:?}: {e}")))?;
+    let sim = mbs::simulate(&mut sys, &st, &mech.times, options.clone())
+        .map_err(|e| runtime(src, format!("perturbed design {b:?}: {e}")))?;
+    let mut out = Vec::new();
+    let mut values = Vec::new();
+    for (_, r, _) in &mech.responses {
+        let v: Vec<f64> = sim.outputs.iter().map(|o| evaluate(r, o)).collect();
+        if r.differentiable(&mech.model, &mech.joint_ids).is_some() {
+            out.extend_from_slice(&v);
+        }
+        values.push(v);
+    }
+    for o in objectives(src, mech, &values, None)? {
+        out.push(o.value);
+    }
+    Ok(out)
+}
+
+/// Run the deck's finite-difference comparisons.
+pub(crate) fn finite_differences(
+    src: &Source,
+    mech: &Mechanism,
+    nominal: &MultibodySystem,
+    state: &State,
+    replay: &BdfOptions,
+) -> Result<Vec<FdCase>, CliError> {
+    let Some(fd) = &mech.design.finite_differences else {
+        return Ok(Vec::new());
+    };
+    let b: Vec<f64> = mech.design.variables.iter().map(|v| v.value).collect();
+    let m = b.len();
+    let n = mech.times.len();
+    let scheme = if fd.central {
+        FdScheme::Central
+    } else {
+        FdScheme::Forward
+    };
+    let perturbations: Vec<Perturbation> = fd
+        .sizes
+        .iter()
+        .map(|&s| {
+            if fd.relative {
+                Perturbation::Relative(s)
+            } else {
+                Perturbation::Absolute(s)
+            }
+        })
+        .collect();
+    let mut cases = Vec::new();
+    for &steps in &fd.steps {
+        let options = match steps {
+            FdSteps::Replay => replay.clone(),
+            FdSteps::Adaptive => mech.options.clone(),
+        };
+        let results = mbs::finite_differences(&b, scheme, &perturbations, |bb| {
+            perturbed_outputs(src, mech, nominal, state, bb, &options)
+        })?;
+        for r in results {
+            let mut responses = Vec::new();
+            let mut row = 0;
+            for (_, resp, _) in &mech.responses {
+                if resp.differentiable(&mech.model, &mech.joint_ids).is_some() {
+                    responses.push(Some(r.derivative.rows(row, n).into_owned()));
+                    row += n;
+                } else {
+                    responses.push(None);
+                }
+            }
+            let objectives = (0..mech.design.objectives.len())
+                .map(|k| (0..m).map(|j| r.derivative[(row + k, j)]).collect())
+                .collect();
+            let size = match r.perturbation {
+                Perturbation::Relative(s) | Perturbation::Absolute(s) => s,
+            };
+            cases.push(FdCase {
+                label: format!(
+                    "{}_{}_{size}_{}",
+                    if fd.central { "central" } else { "forward" },
+                    if fd.relative { "relative" } else { "absolute" },
+                    match steps {
+                        FdSteps::Replay => "replay",
+                        FdSteps::Adaptive => "adaptive",
+                    }
+                ),
+                central: fd.central,
+                relative: fd.relative,
+                size,
+                steps,
+                deltas: r.steps,
+                responses,
+                objectives,
+            });
+        }
+    }
+    Ok(cases)
+}
+
+/// The largest difference between two derivative histories relative to the largest magnitude
+/// of `reference` (per variable, the worst variable).
+pub(crate) fn relative_difference(a: &DMatrix<f64>, reference: &DMatrix<f64>) -> f64 {
+    (0..reference.ncols())
+        .map(|j| {
+            let scale = reference.column(j).amax();
+            let diff = (a.column(j) - reference.column(j)).amax();
+            if scale > 0.0 { diff / scale } else { diff }
+        })
+        .fold(0.0, f64::max)
+}

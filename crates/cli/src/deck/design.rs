@@ -1,0 +1,474 @@
+//! `[design.*]`, `[objective.*]`, `[sensitivity]` and `[finite_differences]`: what `flexsens run`
+//! differentiates, with respect to what, and how it compares with finite differences.
+//!
+//! A design variable `b` (degrees) moves the angles of plies of one laminate:
+//! `θ_i(b) = θ_i0 + f_i (b − b0)`, with `b0` the angle of the first listed ply divided by its
+//! factor. Every section built from the laminate (tube, box) and every shell body laminated
+//! with it follows; the derivatives are per degree.
+
+use serde::Deserialize;
+use toml::Spanned;
+
+use super::check::{finite, positive, span};
+use super::laminates::{LaminateModel, suggestion};
+use super::{DeckError, RawDeck, Source};
+
+/// A design variable as written.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawDesign {
+    /// `"ply-angle"` (the default and, for now, the only kind).
+    pub kind: Option<Spanned<String>>,
+    /// The laminate whose plies move.
+    pub laminate: Option<Spanned<String>>,
+    /// Indices of the plies (as listed in the deck, from 0); default: all of them.
+    pub plies: Option<Spanned<Vec<i64>>>,
+    /// `dθ_i/db` of each listed ply (default 1; e.g. `[1, -1]` for a `[θ/−θ]` pair).
+    pub factors: Option<Spanned<Vec<f64>>>,
+}
+
+/// A scalar objective of a response history.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawObjective {
+    /// A `[response.*]` name.
+    pub response: Option<Spanned<String>>,
+    /// `"integral"`, `"mean"`, `"rms"`, `"max"`, `"min"` or `"at"`.
+    pub kind: Option<Spanned<String>>,
+    /// With `kind = "at"`: the time (s).
+    pub time: Option<Spanned<f64>>,
+}
+
+/// Settings of the direct sensitivity analysis.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawSensitivity {
+    /// `false` skips the sensitivities (e.g. in a sweep); default `true` when the deck declares
+    /// design variables.
+    pub enabled: Option<Spanned<bool>>,
+    /// `"direct"` (exact derivative of the discrete solution, default) or `"corrector"`.
+    pub method: Option<Spanned<String>>,
+    /// Mode derivatives: `"updated"` (default) or `"fixed"`.
+    pub modes: Option<Spanned<String>>,
+    /// Include the sensitivities in the step-size control (default `false`).
+    pub error_control: Option<Spanned<bool>>,
+}
+
+/// Finite-difference comparisons to run.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawFiniteDifferences {
+    /// `"forward"` (default) or `"central"`.
+    pub scheme: Option<Spanned<String>>,
+    /// `"relative"` (default: δ = size·|b|) or `"absolute"` (δ = size, degrees).
+    pub perturbation: Option<Spanned<String>>,
+    /// Perturbation sizes.
+    pub sizes: Option<Spanned<Vec<f64>>>,
+    /// `"replay"` (the nominal step sequence, default), `"adaptive"` (independent runs) or
+    /// `"both"`.
+    pub steps: Option<Spanned<String>>,
+}
+
+/// A validated design variable.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DesignVariable {
+    pub name: String,
+    pub laminate: String,
+    /// `(ply index in the stack, dθ/db)`, θ in radians and b in degrees (mirrored plies of a
+    /// symmetric laminate included).
+    pub stack_plies: Vec<(usize, f64)>,
+    /// `(ply index in the deck, θ_i0 in degrees, f_i)`: what a perturbed deck changes.
+    pub deck_plies: Vec<(usize, f64, f64)>,
+    /// `b0` (degrees).
+    pub value: f64,
+}
+
+impl DesignVariable {
+    /// `--set` overrides of the deck for the design `b` of this variable.
+    pub fn overrides(&self, b: f64) -> Vec<String> {
+        self.deck_plies
+            .iter()
+            .map(|&(i, theta0, f)| {
+                format!(
+                    "laminate.{}.plies.{i}.angle={:?}",
+                    self.laminate,
+                    theta0 + f * (b - self.value)
+                )
+            })
+            .collect()
+    }
+}
+
+/// What an objective computes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ObjectiveKind {
+    Integral,
+    Mean,
+    Rms,
+    Max,
+    Min,
+    At(f64),
+}
+
+impl ObjectiveKind {
+    pub fn label(&self) -> String {
+        match self {
+            ObjectiveKind::Integral => "integral".into(),
+            ObjectiveKind::Mean => "mean".into(),
+            ObjectiveKind::Rms => "rms".into(),
+            ObjectiveKind::Max => "max".into(),
+            ObjectiveKind::Min => "min".into(),
+            ObjectiveKind::At(t) => format!("at {t} s"),
+        }
+    }
+}
+
+/// A validated objective.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ObjectiveDef {
+    pub name: String,
+    pub response: String,
+    pub kind: ObjectiveKind,
+}
+
+/// Where the perturbed runs of a finite-difference comparison take their steps.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FdSteps {
+    Replay,
+    Adaptive,
+}
+
+/// A validated finite-difference request.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FdDef {
+    pub central: bool,
+    pub relative: bool,
+    pub sizes: Vec<f64>,
+    pub steps: Vec<FdSteps>,
+}
+
+/// The validated design part of a deck.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DesignDef {
+    pub variables: Vec<DesignVariable>,
+    /// Sensitivities are computed (design variables declared and not disabled).
+    pub enabled: bool,
+    pub corrector: bool,
+    pub fixed_modes: bool,
+    pub error_control: bool,
+    pub objectives: Vec<ObjectiveDef>,
+    pub finite_differences: Option<FdDef>,
+}
+
+fn choice<'a>(
+    src: &Source,
+    key: &str,
+    v: Option<&'a Spanned<String>>,
+    allowed: &[&'a str],
+) -> Result<Option<&'a str>, DeckError> {
+    let Some(v) = v else { return Ok(None) };
+    let s = v.get_ref().as_str();
+    if allowed.contains(&s) {
+        return Ok(Some(s));
+    }
+    let list: Vec<String> = allowed.iter().map(|a| format!("\"{a}\"")).collect();
+    Err(src.error(
+        span(v),
+        Some(key.into()),
+        format!(
+            "unknown value `{s}`: expected {}{}",
+            list.join(", "),
+            suggestion(s, allowed)
+        ),
+    ))
+}
+
+fn variable(
+    src: &Source,
+    raw: &RawDeck,
+    name: &str,
+    d: &Spanned<RawDesign>,
+    model: &LaminateModel,
+) -> Result<DesignVariable, DeckError> {
+    let k = |s: &str| format!("design.{name}.{s}");
+    let rd = d.get_ref();
+    choice(src, &k("kind"), rd.kind.as_ref(), &["ply-angle"])?;
+    let lam = rd.laminate.as_ref().ok_or_else(|| {
+        src.error(
+            span(d),
+            Some(k("laminate")),
+            "missing value: laminate (the laminate whose ply angles move)",
+        )
+    })?;
+    let lname = lam.get_ref();
+    let def = model.laminates.get(lname).ok_or_else(|| {
+        let known: Vec<&str> = model.laminates.keys().map(String::as_str).collect();
+        src.error(
+            span(lam),
+            Some(k("laminate")),
+            format!("undefined laminate `{lname}`{}", suggestion(lname, &known)),
+        )
+    })?;
+    let raw_lam = raw.laminate[lname].get_ref();
+    let n_deck = raw_lam.plies.as_ref().map_or(0, |p| p.get_ref().len());
+    let symmetric = raw_lam.symmetric.as_ref().is_some_and(|s| *s.get_ref());
+    let plies: Vec<usize> = match &rd.plies {
+        None => (0..n_deck).collect(),
+        Some(p) => {
+            let mut out = Vec::new();
+            for &i in p.get_ref() {
+                if i < 0 || i as usize >= n_deck {
+                    return Err(src.error(
+                        span(p),
+                        Some(k("plies")),
+                        format!(
+                            "ply {i} does not exist: laminate `{lname}` lists plies 0 to {}",
+                            n_deck.saturating_sub(1)
+                        ),
+                    ));
+                }
+                if out.contains(&(i as usize)) {
+                    return Err(src.error(
+                        span(p),
+                        Some(k("plies")),
+                        format!("ply {i} is listed twice"),
+                    ));
+                }
+                out.push(i as usize);
+            }
+            out
+        }
+    };
+    if plies.is_empty() {
+        return Err(src.error(
+            rd.plies.as_ref().and_then(span).or(span(d)),
+            Some(k("plies")),
+            "a design variable needs at least one ply",
+        ));
+    }
+    let factors: Vec<f64> = match &rd.factors {
+        None => vec![1.0; plies.len()],
+        Some(f) => {
+            let v = f.get_ref();
+            if v.len() != plies.len() {
+                return Err(src.error(
+                    span(f),
+                    Some(k("factors")),
+                    format!("{} factors for {} plies", v.len(), plies.len()),
+                ));
+            }
+            if v.iter().any(|x| !x.is_finite() || *x == 0.0) {
+                return Err(src.error(
+                    span(f),
+                    Some(k("factors")),
+                    "factors must be finite and non-zero",
+                ));
+            }
+            v.clone()
+        }
+    };
+    let stack = def.stack.plies();
+    let n_stack = stack.len();
+    let mut stack_plies = Vec::new();
+    let mut deck_plies = Vec::new();
+    let rad = std::f64::consts::PI / 180.0;
+    for (&i, &f) in plies.iter().zip(&factors) {
+        stack_plies.push((i, f * rad));
+        if symmetric {
+            stack_plies.push((n_stack - 1 - i, f * rad));
+        }
+        // the angle as written (degrees), not a round trip through radians
+        let written = raw_lam
+            .plies
+            .as_ref()
+            .and_then(|p| p.get_ref()[i].get_ref().angle.as_ref())
+            .map_or(stack[i].angle.to_degrees(), |a| *a.get_ref());
+        deck_plies.push((i, written, f));
+    }
+    let value = deck_plies[0].1 / deck_plies[0].2;
+    Ok(DesignVariable {
+        name: name.to_string(),
+        laminate: lname.clone(),
+        stack_plies,
+        deck_plies,
+        value,
+    })
+}
+
+fn objective(
+    src: &Source,
+    raw: &RawDeck,
+    name: &str,
+    o: &Spanned<RawObjective>,
+) -> Result<ObjectiveDef, DeckError> {
+    let k = |s: &str| format!("objective.{name}.{s}");
+    let ro = o.get_ref();
+    let resp = ro.response.as_ref().ok_or_else(|| {
+        src.error(
+            span(o),
+            Some(k("response")),
+            "missing value: response (a [response.*] name)",
+        )
+    })?;
+    if !raw.response.contains_key(resp.get_ref()) {
+        let known: Vec<&str> = raw.response.keys().map(String::as_str).collect();
+        return Err(src.error(
+            span(resp),
+            Some(k("response")),
+            format!(
+                "undefined response `{}`{}",
+                resp.get_ref(),
+                suggestion(resp.get_ref(), &known)
+            ),
+        ));
+    }
+    let kinds = ["integral", "mean", "rms", "max", "min", "at"];
+    let kind_v = ro.kind.as_ref().ok_or_else(|| {
+        src.error(
+            span(o),
+            Some(k("kind")),
+            "missing value: kind (\"integral\", \"mean\", \"rms\", \"max\", \"min\" or \"at\")",
+        )
+    })?;
+    let kind = match choice(src, &k("kind"), Some(kind_v), &kinds)?.unwrap_or_default() {
+        "integral" => ObjectiveKind::Integral,
+        "mean" => ObjectiveKind::Mean,
+        "rms" => ObjectiveKind::Rms,
+        "max" => ObjectiveKind::Max,
+        "min" => ObjectiveKind::Min,
+        _ => {
+            let t = ro.time.as_ref().ok_or_else(|| {
+                src.error(
+                    span(o),
+                    Some(k("time")),
+                    "missing value: time (s) for kind = \"at\"",
+                )
+            })?;
+            ObjectiveKind::At(finite(src, &k("time"), t, "s")?)
+        }
+    };
+    if !matches!(kind, ObjectiveKind::At(_))
+        && let Some(t) = &ro.time
+    {
+        return Err(src.error(
+            span(t),
+            Some(k("time")),
+            "time is only used with kind = \"at\"",
+        ));
+    }
+    Ok(ObjectiveDef {
+        name: name.to_string(),
+        response: resp.get_ref().clone(),
+        kind,
+    })
+}
+
+fn finite_differences(src: &Source, r: &Spanned<RawFiniteDifferences>) -> Result<FdDef, DeckError> {
+    let k = |s: &str| format!("finite_differences.{s}");
+    let rf = r.get_ref();
+    let central = choice(
+        src,
+        &k("scheme"),
+        rf.scheme.as_ref(),
+        &["forward", "central"],
+    )? == Some("central");
+    let relative = choice(
+        src,
+        &k("perturbation"),
+        rf.perturbation.as_ref(),
+        &["relative", "absolute"],
+    )? != Some("absolute");
+    let sizes = match &rf.sizes {
+        None => vec![if relative { 0.01 } else { 0.1 }],
+        Some(s) => {
+            if s.get_ref().is_empty() {
+                return Err(src.error(span(s), Some(k("sizes")), "no sizes given"));
+            }
+            for (i, x) in s.get_ref().iter().enumerate() {
+                positive(
+                    src,
+                    &format!("{}[{i}]", k("sizes")),
+                    &Spanned::new(s.span(), *x),
+                    if relative { "1" } else { "degrees" },
+                )?;
+            }
+            s.get_ref().clone()
+        }
+    };
+    let steps = match choice(
+        src,
+        &k("steps"),
+        rf.steps.as_ref(),
+        &["replay", "adaptive", "both"],
+    )? {
+        None | Some("replay") => vec![FdSteps::Replay],
+        Some("adaptive") => vec![FdSteps::Adaptive],
+        _ => vec![FdSteps::Replay, FdSteps::Adaptive],
+    };
+    Ok(FdDef {
+        central,
+        relative,
+        sizes,
+        steps,
+    })
+}
+
+/// Validate the design tables of a deck.
+pub fn validate(
+    src: &Source,
+    raw: &RawDeck,
+    model: &LaminateModel,
+) -> Result<DesignDef, DeckError> {
+    let variables = raw
+        .design
+        .iter()
+        .map(|(name, d)| variable(src, raw, name, d, model))
+        .collect::<Result<Vec<_>, _>>()?;
+    let objectives = raw
+        .objective
+        .iter()
+        .map(|(name, o)| objective(src, raw, name, o))
+        .collect::<Result<Vec<_>, _>>()?;
+    let s = raw.sensitivity.as_ref().map(|s| s.get_ref());
+    let enabled = s
+        .and_then(|s| s.enabled.as_ref())
+        .is_none_or(|e| *e.get_ref())
+        && !variables.is_empty();
+    let method = choice(
+        src,
+        "sensitivity.method",
+        s.and_then(|s| s.method.as_ref()),
+        &["direct", "corrector"],
+    )?;
+    let modes = choice(
+        src,
+        "sensitivity.modes",
+        s.and_then(|s| s.modes.as_ref()),
+        &["updated", "fixed"],
+    )?;
+    let finite_differences = raw
+        .finite_differences
+        .as_ref()
+        .map(|r| finite_differences(src, r))
+        .transpose()?;
+    if let Some(fd) = &raw.finite_differences
+        && variables.is_empty()
+    {
+        return Err(src.error(
+            span(fd),
+            Some("finite_differences".into()),
+            "finite differences need design variables: declare a [design.*] table",
+        ));
+    }
+    Ok(DesignDef {
+        variables,
+        enabled,
+        corrector: method == Some("corrector"),
+        fixed_modes: modes == Some("fixed"),
+        error_control: s
+            .and_then(|s| s.error_control.as_ref())
+            .is_some_and(|e| *e.get_ref()),
+        objectives,
+        finite_differences,
+    })
+}
