@@ -40,8 +40,11 @@ pub struct RawBody {
     pub elements: Option<Spanned<toml::Value>>,
     /// Number of elastic modes retained.
     pub modes: Option<Spanned<i64>>,
-    /// `"centre-of-mass"` (default), `"free-free"` or `"pinned-ends"`.
+    /// `"centre-of-mass"` (default), `"clamped-section"`, `"free-free"` or `"pinned-ends"`.
     pub reference: Option<Spanned<String>>,
+    /// Keep only modes of motion in the plane with this normal (a global axis): translations
+    /// in the plane and rotations about the normal.
+    pub planar: Option<Spanned<[f64; 3]>>,
     /// Pinned ends: the two node indices (default: the beam's end nodes).
     pub pinned: Option<Spanned<[i64; 2]>>,
     /// Rayleigh damping from two modal damping ratios.
@@ -92,6 +95,8 @@ pub struct BodyDef {
     pub shape: BodyShape,
     pub modes: usize,
     pub reference: Reference,
+    /// Normal of the plane the modes are restricted to.
+    pub planar: Option<Vector3<f64>>,
     /// Zero-based mode indices and ratios.
     pub damping: Option<([usize; 2], [f64; 2])>,
     pub lumped: bool,
@@ -101,6 +106,7 @@ pub struct BodyDef {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Reference {
     CentreOfMass,
+    ClampedSection,
     FreeFree,
     PinnedEnds(Option<[usize; 2]>),
 }
@@ -388,6 +394,7 @@ pub fn validate_one(
     )?;
     let reference = match raw.reference.as_ref().map(|r| (r, r.get_ref().as_str())) {
         None | Some((_, "centre-of-mass")) => Reference::CentreOfMass,
+        Some((_, "clamped-section")) => Reference::ClampedSection,
         Some((_, "free-free")) => Reference::FreeFree,
         Some((_, "pinned-ends")) => Reference::PinnedEnds(match &raw.pinned {
             None => None,
@@ -404,7 +411,12 @@ pub fn validate_one(
             }
         }),
         Some((r, other)) => {
-            let choices = ["centre-of-mass", "free-free", "pinned-ends"];
+            let choices = [
+                "centre-of-mass",
+                "clamped-section",
+                "free-free",
+                "pinned-ends",
+            ];
             return Err(src.error(
                 span(r),
                 Some(k("reference")),
@@ -473,10 +485,27 @@ pub fn validate_one(
             ));
         }
     };
+    let planar = raw
+        .planar
+        .as_ref()
+        .map(|p| {
+            let n = nonzero_vector(src, &k("planar"), p)?;
+            let axis = n.iamax();
+            if n.iter().enumerate().any(|(i, x)| i != axis && *x != 0.0) {
+                return Err(src.error(
+                    span(p),
+                    Some(k("planar")),
+                    "the normal of the plane of the modes must be a global axis, e.g. [0, 0, 1]",
+                ));
+            }
+            Ok(n.normalize())
+        })
+        .transpose()?;
     Ok(BodyDef {
         shape,
         modes,
         reference,
+        planar,
         damping,
         lumped,
     })
