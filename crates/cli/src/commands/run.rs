@@ -37,15 +37,15 @@ pub struct RunRequest<'a> {
 }
 
 /// A body of the mechanism: where it is in the model and what the responses need of it.
-struct BodyInfo {
-    id: BodyId,
+pub(crate) struct BodyInfo {
+    pub(crate) id: BodyId,
     /// Initial frame origin and orientation.
     position: Vector3<f64>,
     rotation: Matrix3<f64>,
     /// Flexible bodies: node positions in the body frame.
     nodes: Option<Vec<Vector3<f64>>>,
     /// Natural frequencies (Hz), flexible bodies.
-    frequencies: Vec<f64>,
+    pub(crate) frequencies: Vec<f64>,
 }
 
 /// A response to evaluate at every output time.
@@ -164,8 +164,8 @@ pub(crate) struct Mechanism {
     pub(crate) flexible: Vec<FlexiblePart>,
     pub(crate) design: DesignDef,
     pub(crate) state: State,
-    bodies: BTreeMap<String, BodyInfo>,
-    body_order: Vec<String>,
+    pub(crate) bodies: BTreeMap<String, BodyInfo>,
+    pub(crate) body_order: Vec<String>,
     joint_names: Vec<String>,
     pub(crate) joint_ids: Vec<mbs::JointId>,
     pub(crate) responses: Vec<(String, Response, &'static str)>,
@@ -1480,14 +1480,14 @@ fn default_out(deck: &Path) -> PathBuf {
 }
 
 /// Everything a run computed, ready to be written.
-struct Computed {
-    outputs: Vec<Output>,
-    statistics: mbs::Statistics,
+pub(crate) struct Computed {
+    pub(crate) outputs: Vec<Output>,
+    pub(crate) statistics: mbs::Statistics,
     /// Per response: its history at the output times.
-    values: Vec<Vec<f64>>,
-    sensitivities: Option<Sensitivities>,
-    objectives: Vec<ObjectiveResult>,
-    fd: Vec<FdCase>,
+    pub(crate) values: Vec<Vec<f64>>,
+    pub(crate) sensitivities: Option<Sensitivities>,
+    pub(crate) objectives: Vec<ObjectiveResult>,
+    pub(crate) fd: Vec<FdCase>,
 }
 
 /// The output files a run may write; those a run does not write are removed, so that a
@@ -1551,7 +1551,7 @@ pub fn run(path: &Path, overrides: &[String], req: &RunRequest) -> Result<String
 }
 
 /// The analysis, its sensitivities, objectives and finite-difference comparisons.
-fn compute(src: &Source, mech: &Mechanism) -> Result<Computed, CliError> {
+pub(crate) fn compute(src: &Source, mech: &Mechanism) -> Result<Computed, CliError> {
     let runtime = |m: String| CliError::Runtime(format!("{}: {m}", src.file.display()));
     let mut system =
         MultibodySystem::new_at(mech.model.clone(), mech.times[0], &mech.state, mech.policy)
