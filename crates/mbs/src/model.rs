@@ -586,11 +586,23 @@ impl<P: Scalar> Model<P> {
         k: &[Kin<S>],
         rows: &[usize],
     ) -> Equations<S> {
+        let (m, f) = self.mass_and_forces(t, q, v);
+        self.assemble(&m, &f, k, rows)
+    }
+
+    /// Eq. (12) from its blocks: the mass matrix, generalised forces and constraint
+    /// kinematics (any scalar; the blocks must not depend on `P`).
+    pub(crate) fn assemble<S: Scalar>(
+        &self,
+        m: &DMatrix<S>,
+        f: &[S],
+        k: &[Kin<S>],
+        rows: &[usize],
+    ) -> Equations<S> {
         let nv = self.n_v;
         let n = nv + rows.len();
-        let (m, f) = self.mass_and_forces(t, q, v);
         let mut matrix = DMatrix::zeros(n, n);
-        matrix.view_mut((0, 0), (nv, nv)).copy_from(&m);
+        matrix.view_mut((0, 0), (nv, nv)).copy_from(m);
         let mut rhs = DVector::zeros(n);
         for i in 0..nv {
             rhs[i] = f[i];
@@ -618,11 +630,23 @@ impl<P: Scalar> Model<P> {
         rows: &[usize],
         x_hat: &[f64],
     ) -> Vec<S> {
-        // the blocks of Eq. (12) applied to x̂ without assembling the augmented matrix (the same
-        // operations, in the same order, as `rhs − matrix · x̂`)
-        let nv = self.n_v;
         let (m, f) = self.mass_and_forces(t, q, v);
         let k = self.constraint_kin(t, q, v);
+        self.residual_from(&m, &f, &k, rows, x_hat)
+    }
+
+    /// [`Model::residual`] from the blocks of Eq. (12) (see [`Model::assemble`]): applied to x̂
+    /// without assembling the augmented matrix (the same operations, in the same order, as
+    /// `rhs − matrix · x̂`).
+    pub(crate) fn residual_from<S: Scalar>(
+        &self,
+        m: &DMatrix<S>,
+        f: &[S],
+        k: &[Kin<S>],
+        rows: &[usize],
+        x_hat: &[f64],
+    ) -> Vec<S> {
+        let nv = self.n_v;
         let mut out = Vec::with_capacity(nv + rows.len());
         for i in 0..nv {
             let mut r = f[i];

@@ -308,6 +308,45 @@ pub fn tangent_rhs<const N: usize>(
     out
 }
 
+/// [`MultibodySystem::solve`] at `(t, y)` and `f_y S + f_b` there, the first chunk's dual
+/// evaluation giving the `f64` equations too.
+fn solve_and_tangent_rhs<const N: usize>(
+    sys: &MultibodySystem,
+    design: &DesignModel<N>,
+    t: f64,
+    y: &[f64],
+    s: &DMatrix<f64>,
+) -> Result<(Solution, DMatrix<f64>), ConstraintError> {
+    let nq = sys.model().n_q();
+    let nv = sys.model().n_v();
+    let mut out = DMatrix::zeros(nq + nv, design.n_variables());
+    let mut sol = None;
+    for (model, range) in design.chunk_ranges() {
+        let yd = seeded::<N>(y, s, &range);
+        let (qd, vd) = yd.split_at(nq);
+        let (sl, res) = match &sol {
+            None => {
+                let (sl, res) = sys.solve_dual(model, t, qd, vd)?;
+                sol = Some(sl);
+                (sol.as_ref().expect("just set"), res)
+            }
+            Some(sl) => (sl, model.residual(t, qd, vd, &sl.rows, &sl.x)),
+        };
+        let x = crate::system::lu_tangents(&sl.lu, &sl.x, &res);
+        let mut qdot = vec![Dual::<N>::constant(0.0); nq];
+        model.kinematic_rates(qd, vd, &mut qdot);
+        for (k, j) in range.enumerate() {
+            for i in 0..nq {
+                out[(i, j)] = qdot[i].d[k];
+            }
+            for i in 0..nv {
+                out[(nq + i, j)] = x[i].d[k];
+            }
+        }
+    }
+    Ok((sol.expect("at least one chunk"), out))
+}
+
 /// Pseudo-inverse solve `−J⁺ R` column by column (minimum norm, tolerant of dependent rows).
 fn min_norm_columns(jac: &DMatrix<f64>, r: &DMatrix<f64>) -> DMatrix<f64> {
     if jac.nrows() == 0 {
@@ -449,18 +488,13 @@ impl<const N: usize> Extension<'_, N> {
         atol: &[f64],
         tol: f64,
         max_iterations: usize,
+        mut s: DMatrix<f64>,
+        g0: DMatrix<f64>,
     ) -> Result<Option<DMatrix<f64>>, IntegrationFailure> {
         let t = step.times[0];
-        let k = step.order;
         let c0 = step.coefficients[0];
         let y = &step.y_new;
-        // predictor: the interpolant through the past sensitivities
-        let np = (k + 1).min(self.hist.len());
-        let w = lagrange_weights(&step.history_times[..np], t);
-        let mut s = &self.hist[0] * w[0];
-        for i in 1..np {
-            s += &self.hist[i] * w[i];
-        }
+        let mut g0 = Some(g0);
         let scale = if step.newton_c0 != c0 {
             2.0 * step.newton_c0 / (c0 + step.newton_c0)
         } else {
@@ -474,8 +508,13 @@ impl<const N: usize> Extension<'_, N> {
         }
         let mut previous = f64::INFINITY;
         for it in 0..max_iterations {
-            let g = tangent_rhs(sys, self.design, t, y, sol, &s);
-            self.stats.dual_evaluations += self.design.chunks.len();
+            let g = match g0.take() {
+                Some(g) => g,
+                None => {
+                    self.stats.dual_evaluations += self.design.chunks.len();
+                    tangent_rhs(sys, self.design, t, y, sol, &s)
+                }
+            };
             self.stats.corrector_iterations += 1;
             let mut r = g - &s * c0 - psi;
             if !step.newton_matrix.solve_mut(&mut r) {
@@ -511,10 +550,13 @@ impl<const N: usize> Extension<'_, N> {
         sol: &Solution,
         psi: &DMatrix<f64>,
         atol: &[f64],
+        mut s: DMatrix<f64>,
+        g0: DMatrix<f64>,
     ) -> Result<DMatrix<f64>, IntegrationFailure> {
         let t = step.times[0];
         let c0 = step.coefficients[0];
         let y = &step.y_new;
+        let mut g0 = Some(g0);
         if self.exact.is_none() {
             self.refresh_exact(sys, t, y, c0)?;
         }
@@ -524,17 +566,10 @@ impl<const N: usize> Extension<'_, N> {
             e.lu = ExactMatrix::factor(&e.jac, c0);
             e.c0 = c0;
         }
-        let k = step.order;
-        let np = (k + 1).min(self.hist.len());
-        let w = lagrange_weights(&step.history_times[..np], t);
-        let mut s = &self.hist[0] * w[0];
-        for i in 1..np {
-            s += &self.hist[i] * w[i];
-        }
         let mut first = f64::INFINITY;
         for it in 0..DIRECT_MAX_ITERATIONS {
             let here = self.exact.as_ref().is_some_and(|e| e.t == t && e.y == *y);
-            let norm = self.direct_iteration(sys, step, sol, psi, atol, &mut s)?;
+            let norm = self.direct_iteration(sys, step, sol, psi, atol, &mut s, g0.take())?;
             if here || norm == 0.0 {
                 return Ok(s);
             }
@@ -561,7 +596,7 @@ impl<const N: usize> Extension<'_, N> {
         if s.iter().any(|x| !x.is_finite()) {
             s = self.hist[0].clone();
         }
-        self.direct_iteration(sys, step, sol, psi, atol, &mut s)?;
+        self.direct_iteration(sys, step, sol, psi, atol, &mut s, None)?;
         Ok(s)
     }
 
@@ -575,11 +610,17 @@ impl<const N: usize> Extension<'_, N> {
         psi: &DMatrix<f64>,
         atol: &[f64],
         s: &mut DMatrix<f64>,
+        g: Option<DMatrix<f64>>,
     ) -> Result<f64, IntegrationFailure> {
         let t = step.times[0];
         let c0 = step.coefficients[0];
-        let g = tangent_rhs(sys, self.design, t, &step.y_new, sol, s);
-        self.stats.dual_evaluations += self.design.chunks.len();
+        let g = match g {
+            Some(g) => g,
+            None => {
+                self.stats.dual_evaluations += self.design.chunks.len();
+                tangent_rhs(sys, self.design, t, &step.y_new, sol, s)
+            }
+        };
         self.stats.corrector_iterations += 1;
         let mut r = g - &*s * c0 - psi;
         let e = self.exact.as_ref().expect("an exact Jacobian");
@@ -655,8 +696,17 @@ impl<const N: usize> StepExtension<MultibodySystem> for Extension<'_, N> {
         let k = step.order;
         let c = &step.coefficients;
         let y = &step.y_new;
-        let nq = sys.model().n_q();
-        let sol = sys.solve(t, &y[..nq], &y[nq..]).map_err(rhs_failure)?;
+        // predictor: the interpolant through the past sensitivities; the first evaluation of
+        // `f_y S + f_b` there also gives the solution of Eq. (12) at the new state
+        let np = (k + 1).min(self.hist.len());
+        let w = lagrange_weights(&step.history_times[..np], t);
+        let mut s_pred = &self.hist[0] * w[0];
+        for i in 1..np {
+            s_pred += &self.hist[i] * w[i];
+        }
+        let (sol, g0) =
+            solve_and_tangent_rhs(sys, self.design, t, y, &s_pred).map_err(rhs_failure)?;
+        self.stats.dual_evaluations += self.design.chunks.len();
         let mut psi = &self.hist[0] * c[1];
         for j in 2..=k {
             psi += &self.hist[j - 1] * c[j];
@@ -668,11 +718,23 @@ impl<const N: usize> StepExtension<MultibodySystem> for Extension<'_, N> {
             .map(|a| a * self.options.atol_scale)
             .collect();
         let s = match self.options.method {
-            SensitivityMethod::StaggeredDirect => self.direct_step(sys, step, &sol, &psi, &atol)?,
+            SensitivityMethod::StaggeredDirect => {
+                self.direct_step(sys, step, &sol, &psi, &atol, s_pred, g0)?
+            }
             SensitivityMethod::StaggeredCorrector {
                 tol,
                 max_iterations,
-            } => match self.chord(sys, step, &sol, &psi, &atol, tol, max_iterations)? {
+            } => match self.chord(
+                sys,
+                step,
+                &sol,
+                &psi,
+                &atol,
+                tol,
+                max_iterations,
+                s_pred,
+                g0,
+            )? {
                 Some(s) => s,
                 None => self.direct(sys, t, y, &sol, c0, &psi)?,
             },

@@ -213,6 +213,36 @@ impl MultibodySystem {
         }
     }
 
+    /// [`MultibodySystem::solve`] and the dual residual of `model` (this system's model with
+    /// design tangents) at the seeded state `(q, v)` from one dual evaluation: the `f64`
+    /// equations are the values of the dual ones. Returns the solution and the residual
+    /// ([`Model::residual`] at its `x̂`).
+    pub(crate) fn solve_dual<const N: usize>(
+        &self,
+        model: &Model<Dual<N>>,
+        t: f64,
+        q: &[Dual<N>],
+        v: &[Dual<N>],
+    ) -> Result<(Solution, Vec<Dual<N>>), ConstraintError> {
+        let k = model.constraint_kin(t, q, v);
+        let (m, f) = model.mass_and_forces(t, q, v);
+        let kv: Vec<Kin<f64>> = k
+            .iter()
+            .map(|r| Kin {
+                val: r.val.value(),
+                rate: r.rate.value(),
+                quad: r.quad.value(),
+                jac: r.jac.iter().map(|x| x.value()).collect(),
+            })
+            .collect();
+        let rows = self.select_rows(&kv);
+        let fv: Vec<f64> = f.iter().map(|x| x.value()).collect();
+        let e = self.model.assemble(&m.map(|x| x.value()), &fv, &kv, &rows);
+        let sol = self.factor_and_solve(t, e, rows)?;
+        let res = model.residual_from(&m, &f, &k, &sol.rows, &sol.x);
+        Ok((sol, res))
+    }
+
     /// Solve Eq. (12) at `(t, q, v)`.
     ///
     /// The constraint rows are [`MultibodySystem::rows_at`] (returned in [`Solution::rows`]):
@@ -222,6 +252,15 @@ impl MultibodySystem {
         let k = self.model.constraint_kin(t, q, v);
         let rows = self.select_rows(&k);
         let e = self.model.equations_with(t, q, v, &k, &rows);
+        self.factor_and_solve(t, e, rows)
+    }
+
+    fn factor_and_solve(
+        &self,
+        t: f64,
+        e: crate::model::Equations<f64>,
+        rows: Vec<usize>,
+    ) -> Result<Solution, ConstraintError> {
         let lu = e.matrix.lu();
         let mut x = e.rhs;
         if !lu.solve_mut(&mut x) {
