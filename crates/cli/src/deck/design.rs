@@ -58,6 +58,8 @@ pub struct RawSensitivity {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawFiniteDifferences {
+    /// `false` skips the comparisons (default `true`).
+    pub enabled: Option<Spanned<bool>>,
     /// `"forward"` (default) or `"central"`.
     pub scheme: Option<Spanned<String>>,
     /// `"relative"` (default: δ = size·|b|) or `"absolute"` (δ = size, degrees).
@@ -450,7 +452,13 @@ pub fn validate(
         .finite_differences
         .as_ref()
         .map(|r| finite_differences(src, r))
-        .transpose()?;
+        .transpose()?
+        .filter(|_| {
+            raw.finite_differences
+                .as_ref()
+                .and_then(|r| r.get_ref().enabled.as_ref())
+                .is_none_or(|e| *e.get_ref())
+        });
     if let Some(fd) = &raw.finite_differences
         && variables.is_empty()
     {
