@@ -49,7 +49,7 @@ fn rigid_slider_crank_follows_the_closed_form_over_two_revolutions() {
             "time [s]",
             "slider_vx [m/s]",
             "slider_x [m]",
-            "violation [1]"
+            "violation [m]"
         ]
     );
     assert_eq!(rows.len(), 839);

@@ -688,11 +688,16 @@ fn analysis(
     let policy = match raw.redundant.as_ref().map(|r| (r, r.get_ref().as_str())) {
         None | Some((_, "remove")) => RedundancyPolicy::Remove,
         Some((_, "error")) => RedundancyPolicy::Error,
+        Some((_, "reselect")) => RedundancyPolicy::Reselect,
         Some((r, other)) => {
+            let choices = ["remove", "reselect", "error"];
             return Err(src.error(
                 span(r),
                 Some(k("redundant")),
-                format!("unknown policy `{other}`: expected \"remove\" or \"error\""),
+                format!(
+                    "unknown policy `{other}`: expected \"remove\", \"reselect\" or \"error\"{}",
+                    suggestion(other, &choices)
+                ),
             ));
         }
     };
@@ -1404,7 +1409,7 @@ fn responses(
                 )
             }
             "energy" => (Response::Energy, "J"),
-            "constraint-violation" => (Response::ConstraintViolation, "1"),
+            "constraint-violation" => (Response::ConstraintViolation, "m"),
             other => {
                 let c = [
                     "position",
@@ -1696,6 +1701,15 @@ fn results(src: &Source, mech: &Mechanism, c: &Computed) -> Group {
     )
     .units("m");
     g.put(
+        "constraints/removed_position_violation",
+        &[n],
+        outputs
+            .iter()
+            .map(|o| o.removed_position_violation)
+            .collect(),
+    )
+    .units("m");
+    g.put(
         "constraints/velocity_violation",
         &[n],
         outputs.iter().map(|o| o.velocity_violation).collect(),
@@ -1958,7 +1972,23 @@ fn summary(src: &Source, mech: &Mechanism, c: &Computed, out: &Path) -> serde_js
                         ))
                     })
                     .collect();
-                json!({"case": case.label, "max_relative_difference": worst})
+                let absolute: serde_json::Map<_, _> = mech
+                    .responses
+                    .iter()
+                    .zip(case.responses.iter().zip(&s.responses))
+                    .filter_map(|((name, _, _), (f, d))| {
+                        let (f, d) = (f.as_ref()?, d.as_ref()?);
+                        Some((
+                            name.clone(),
+                            json!({"difference": (f - d).amax(), "sensitivity": d.amax()}),
+                        ))
+                    })
+                    .collect();
+                json!({
+                    "case": case.label,
+                    "max_relative_difference": worst,
+                    "max_absolute": absolute,
+                })
             })
             .collect();
     json!({
@@ -1970,6 +2000,7 @@ fn summary(src: &Source, mech: &Mechanism, c: &Computed, out: &Path) -> serde_js
         "rejected_steps": st.rejected_steps,
         "rhs_evaluations": st.rhs_evaluations,
         "max_position_violation": c.outputs.iter().map(|o| o.position_violation).fold(0.0, f64::max),
+        "max_removed_position_violation": c.outputs.iter().map(|o| o.removed_position_violation).fold(0.0, f64::max),
         "responses": responses,
         "design": design,
         "objectives": objectives,
@@ -2007,8 +2038,11 @@ fn summary_text(
     );
     let _ = writeln!(
         s,
-        "largest position-constraint violation: {:.3e}",
-        summary["max_position_violation"].as_f64().unwrap_or(0.0)
+        "largest position-constraint violation: {:.3e} (equations dropped as redundant: {:.3e})",
+        summary["max_position_violation"].as_f64().unwrap_or(0.0),
+        summary["max_removed_position_violation"]
+            .as_f64()
+            .unwrap_or(0.0)
     );
     if !c.values.is_empty() {
         let _ = writeln!(

@@ -84,7 +84,8 @@ fn analyse_chunked<const N: usize>(
             update,
         )
         .map_err(fem_error)?;
-        let lambdas = &part.analysis.pairs.values;
+        // the retained modes (the analysis also computes a few guard modes)
+        let lambdas = &part.analysis.pairs.values[..part.analysis.n_modes];
         let mut df = DMatrix::zeros(lambdas.len(), m);
         for (j, dl) in derivs.eigenvalues.iter().enumerate() {
             for (k, (&l, &d)) in lambdas.iter().zip(dl).enumerate() {
