@@ -6,7 +6,7 @@ use nalgebra::{Matrix3, Vector3};
 use sens::Scalar;
 
 use crate::body::{Body, BodyId, mode_vec, pose, vec3, vec3f};
-use crate::kin::{Kin3, skew};
+use crate::kin::Kin3;
 
 /// Where a marker sits on its body.
 #[derive(Clone, Debug, PartialEq)]
@@ -79,6 +79,27 @@ impl Marker {
         self.axes = Matrix3::from_columns(&[e1, e2, e1.cross(&e2)]);
         self
     }
+}
+
+/// `A x` written out (nalgebra's generic product goes through a slow path for dual numbers).
+#[inline]
+fn mv<S: Scalar>(a: &Matrix3<S>, x: &Vector3<S>) -> Vector3<S> {
+    Vector3::new(
+        a[(0, 0)] * x[0] + a[(0, 1)] * x[1] + a[(0, 2)] * x[2],
+        a[(1, 0)] * x[0] + a[(1, 1)] * x[1] + a[(1, 2)] * x[2],
+        a[(2, 0)] * x[0] + a[(2, 1)] * x[1] + a[(2, 2)] * x[2],
+    )
+}
+
+/// `A (e_i × w)` for `i = 0, 1, 2` into `out` (the Jacobian columns of `A w` with respect to the
+/// body-frame angular velocity).
+#[inline]
+fn omega_columns<S: Scalar>(a: &Matrix3<S>, w: &Vector3<S>, out: &mut [Vector3<S>]) {
+    let c = |j: usize| Vector3::new(a[(0, j)], a[(1, j)], a[(2, j)]);
+    // e_0 × w = (0, −w2, w1), e_1 × w = (w2, 0, −w0), e_2 × w = (−w1, w0, 0)
+    out[0] = c(2) * w[1] - c(1) * w[2];
+    out[1] = c(0) * w[2] - c(2) * w[0];
+    out[2] = c(1) * w[0] - c(0) * w[1];
 }
 
 /// Kinematics of a marker: global point and axes with rates, quadratic terms, Jacobians.
@@ -164,16 +185,16 @@ pub(crate) fn marker_kin<P: Scalar, S: Scalar + From<P>>(
         let mut e = Vector3::zeros();
         e[i] = S::one();
         jac[vo + i] = e;
-        // ω column i: A (e_i × u)
-        jac[vo + 3 + i] = a * e.cross(&u);
     }
+    // ω columns: A (e_i × u)
+    omega_columns(&a, &u, &mut jac[vo + 3..vo + 6]);
     for j in 0..xd.len() {
-        jac[vo + 6 + j] = a * xd[j];
+        jac[vo + 6 + j] = mv(&a, &xd[j]);
     }
     let point = Kin3 {
-        val: ps.r + a * u,
-        rate: rd + a * (om.cross(&u) + ud),
-        quad: a * (om.cross(&om.cross(&u)) + om.cross(&ud) * two),
+        val: ps.r + mv(&a, &u),
+        rate: rd + mv(&a, &(om.cross(&u) + ud)),
+        quad: mv(&a, &(om.cross(&om.cross(&u)) + om.cross(&ud) * two)),
         jac,
     };
     let axes = if with_axes {
@@ -182,19 +203,15 @@ pub(crate) fn marker_kin<P: Scalar, S: Scalar + From<P>>(
             let ep = e0 + th.cross(&e0);
             let epd = thd.cross(&e0);
             let mut jac = vec![Vector3::zeros(); n_v];
-            let ept = skew(&ep);
-            for i in 0..3 {
-                // ω column i: A (e_i × e')
-                let col = -ept.column(i).into_owned();
-                jac[vo + 3 + i] = a * col;
-            }
+            // ω columns: A (e_i × e')
+            omega_columns(&a, &ep, &mut jac[vo + 3..vo + 6]);
             for j in 0..xt.len() {
-                jac[vo + 6 + j] = a * xt[j].cross(&e0);
+                jac[vo + 6 + j] = mv(&a, &xt[j].cross(&e0));
             }
             Kin3 {
-                val: a * ep,
-                rate: a * (om.cross(&ep) + epd),
-                quad: a * (om.cross(&om.cross(&ep)) + om.cross(&epd) * two),
+                val: mv(&a, &ep),
+                rate: mv(&a, &(om.cross(&ep) + epd)),
+                quad: mv(&a, &(om.cross(&om.cross(&ep)) + om.cross(&epd) * two)),
                 jac,
             }
         })
