@@ -22,6 +22,9 @@ struct Cli {
     /// `--set laminate.rod.plies.0.angle=30` (repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE", global = true)]
     set: Vec<String>,
+    /// No progress reports on stderr.
+    #[arg(long, short = 'q', global = true)]
+    quiet: bool,
 }
 
 #[derive(Subcommand)]
@@ -88,6 +91,24 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Run a deck for every combination of varied values (in parallel) and write one row per
+    /// case, with its objectives and gradients, to `DIR/summary.csv`.
+    Sweep {
+        /// The deck (TOML).
+        deck: PathBuf,
+        /// A deck value to vary: `KEY=START:STEP:END` (inclusive) or `KEY=V1,V2,…`; `KEY` is a
+        /// dotted deck path as for --set, or `design.NAME` for a design variable (repeatable;
+        /// all combinations are run).
+        #[arg(long, value_name = "KEY=VALUES", required = true)]
+        vary: Vec<String>,
+        /// Output directory (default: `<deck name>.sweep` beside the deck); case `i` is written
+        /// to `DIR/case_00i`.
+        #[arg(short = 'o', long = "output", value_name = "DIR")]
+        output: Option<PathBuf>,
+        /// Number of cases run at once (default: the number of cores).
+        #[arg(short = 'j', long, value_name = "N")]
+        jobs: Option<usize>,
+    },
     /// Validate a deck without running it: keys, values, names, meshes, modal analyses, and
     /// the assembly of the mechanism (redundant joint equations are reported).
     Check {
@@ -153,6 +174,20 @@ fn main() -> ExitCode {
                 json: *json,
             };
             commands::run::run(deck, &cli.set, &req).map(|t| (t, 0))
+        }
+        Command::Sweep {
+            deck,
+            vary,
+            output,
+            jobs,
+        } => {
+            let req = commands::sweep::SweepRequest {
+                vary,
+                out: output.as_deref(),
+                jobs: *jobs,
+                quiet: cli.quiet,
+            };
+            commands::sweep::run(deck, &cli.set, &req).map(|(t, ok)| (t, if ok { 0 } else { 1 }))
         }
         Command::Check { deck } => commands::check::run(deck, &cli.set).map(|t| (t, 0)),
         Command::Compare { a, b, rtol, atol } => commands::compare::run(a, b, *rtol, *atol)

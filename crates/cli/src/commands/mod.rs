@@ -8,6 +8,7 @@ pub mod output;
 pub mod run;
 pub mod section;
 pub(crate) mod sensitivity;
+pub mod sweep;
 
 /// How results are printed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]

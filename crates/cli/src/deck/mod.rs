@@ -172,12 +172,26 @@ impl Source {
     /// Parse the raw deck; TOML syntax errors, type errors and unknown keys carry their place.
     pub fn parse(&self) -> Result<RawDeck, DeckError> {
         toml::from_str::<RawDeck>(&self.text).map_err(|e| {
-            let message = e.message().trim_end().to_string();
+            let mut message = e.message().trim_end().to_string();
+            if let Some(hint) = unknown_key_hint(&message) {
+                message.push_str(&hint);
+            }
             let key = key_from_message(&message)
                 .or_else(|| e.span().and_then(|s| self.key_before(s.start)));
             self.error(e.span(), key, message)
         })
     }
+}
+
+/// "; did you mean `x`?" for serde's "unknown field `y`, expected one of `a`, `b`, …" when one
+/// of the expected keys is close to the unknown one.
+fn unknown_key_hint(message: &str) -> Option<String> {
+    let rest = message.strip_prefix("unknown field `")?;
+    let (word, rest) = rest.split_once('`')?;
+    let expected: Vec<&str> = rest.split('`').skip(1).step_by(2).collect();
+    let hint = laminates::suggestion(word, &expected);
+    hint.starts_with(", did you mean")
+        .then(|| hint.replacen(", ", "; ", 1))
 }
 
 /// The key named in a serde message such as "unknown field `E4`, expected …".
