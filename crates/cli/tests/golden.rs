@@ -1,0 +1,118 @@
+//! Golden-file checks, as users run them in CI: two small shipped decks are run and their
+//! `results.h5` compared with the committed reference files by `flexsens compare`.
+//!
+//! After a deliberate change of results, regenerate the references with
+//! `FLEXSENS_BLESS=1 cargo test -p flexsens --test golden` and commit them with the change.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use common::{deck, run};
+
+/// Relative tolerance of the comparison: far below any modelling change, above the last-bit
+/// differences that vectorised kernels may give on another processor.
+const RTOL: &str = "1e-7";
+const ATOL: &str = "1e-14";
+
+fn golden(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/golden")
+        .join(name)
+}
+
+fn check(deck_name: &str, sets: &[&str], golden_name: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let mut args = vec![
+        "run".to_string(),
+        deck(deck_name).display().to_string(),
+        "-o".into(),
+        out.display().to_string(),
+    ];
+    for s in sets {
+        args.extend(["--set".to_string(), s.to_string()]);
+    }
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let o = run(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let reference = golden(golden_name);
+    if std::env::var_os("FLEXSENS_BLESS").is_some() {
+        std::fs::copy(out.join("results.h5"), &reference).unwrap();
+        return;
+    }
+    let result = out.join("results.h5");
+    let o = run(&[
+        "compare",
+        result.to_str().unwrap(),
+        reference.to_str().unwrap(),
+        "--rtol",
+        RTOL,
+        "--atol",
+        ATOL,
+    ]);
+    assert!(
+        o.status.success(),
+        "{golden_name} differs from the reference:\n{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+#[test]
+fn rigid_slider_crank_matches_its_golden_file() {
+    check(
+        "slider_crank_rigid.toml",
+        &["analysis.t_end=0.02"],
+        "slider_crank_rigid.h5",
+    );
+}
+
+#[test]
+fn beam_slider_crank_with_sensitivities_matches_its_golden_file() {
+    check(
+        "slider_crank_beam.toml",
+        &[
+            "analysis.t_end=0.002",
+            "finite_differences.scheme=central",
+            "finite_differences.sizes=[1e-3]",
+        ],
+        "slider_crank_beam.h5",
+    );
+}
+
+/// The check can fail: a changed deck value is caught.
+#[test]
+fn a_changed_result_fails_the_golden_check() {
+    if std::env::var_os("FLEXSENS_BLESS").is_some() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let o = run(&[
+        "run",
+        deck("slider_crank_rigid.toml").to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--set",
+        "analysis.t_end=0.02",
+        "--set",
+        "rigid.slider.mass=0.0381",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = run(&[
+        "compare",
+        out.join("results.h5").to_str().unwrap(),
+        golden("slider_crank_rigid.h5").to_str().unwrap(),
+        "--rtol",
+        RTOL,
+        "--atol",
+        ATOL,
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(1),
+        "{}",
+        String::from_utf8_lossy(&o.stdout)
+    );
+}
