@@ -42,7 +42,7 @@ use crate::bdf::{
 };
 use crate::error::ConstraintError;
 use crate::model::{Model, State};
-use crate::system::{MultibodySystem, Solution};
+use crate::system::{Factors, MultibodySystem, Solution};
 
 /// The model with design derivatives: one `Model<Dual<N>>` per chunk of `N` design variables
 /// (chunk `c` carries the tangents of variables `c·N .. min((c+1)·N, m)`; unused tangent slots of
@@ -286,6 +286,19 @@ pub fn tangent_rhs<const N: usize>(
     sol: &Solution,
     s: &DMatrix<f64>,
 ) -> DMatrix<f64> {
+    tangent_rhs_with(sys, design, t, y, sol, &Factors::new(&sol.lu), s)
+}
+
+/// [`tangent_rhs`] with the unpacked factors of `sol`.
+fn tangent_rhs_with<const N: usize>(
+    sys: &MultibodySystem,
+    design: &DesignModel<N>,
+    t: f64,
+    y: &[f64],
+    sol: &Solution,
+    factors: &Factors,
+    s: &DMatrix<f64>,
+) -> DMatrix<f64> {
     let nq = sys.model().n_q();
     let nv = sys.model().n_v();
     let mut out = DMatrix::zeros(nq + nv, design.n_variables());
@@ -293,7 +306,7 @@ pub fn tangent_rhs<const N: usize>(
         let yd = seeded::<N>(y, s, &range);
         let (qd, vd) = yd.split_at(nq);
         let res = model.residual(t, qd, vd, &sol.rows, &sol.x);
-        let x = crate::system::lu_tangents(&sol.lu, &sol.x, &res);
+        let x = crate::system::lu_tangents(factors, &sol.x, &res);
         let mut qdot = vec![Dual::<N>::constant(0.0); nq];
         model.kinematic_rates(qd, vd, &mut qdot);
         for (k, j) in range.enumerate() {
@@ -316,23 +329,24 @@ fn solve_and_tangent_rhs<const N: usize>(
     t: f64,
     y: &[f64],
     s: &DMatrix<f64>,
-) -> Result<(Solution, DMatrix<f64>), ConstraintError> {
+) -> Result<(Solution, Factors, DMatrix<f64>), ConstraintError> {
     let nq = sys.model().n_q();
     let nv = sys.model().n_v();
     let mut out = DMatrix::zeros(nq + nv, design.n_variables());
-    let mut sol = None;
+    let mut sol: Option<(Solution, Factors)> = None;
     for (model, range) in design.chunk_ranges() {
         let yd = seeded::<N>(y, s, &range);
         let (qd, vd) = yd.split_at(nq);
-        let (sl, res) = match &sol {
+        let ((sl, factors), res) = match &sol {
             None => {
                 let (sl, res) = sys.solve_dual(model, t, qd, vd)?;
-                sol = Some(sl);
+                let f = Factors::new(&sl.lu);
+                sol = Some((sl, f));
                 (sol.as_ref().expect("just set"), res)
             }
-            Some(sl) => (sl, model.residual(t, qd, vd, &sl.rows, &sl.x)),
+            Some(pair) => (pair, model.residual(t, qd, vd, &pair.0.rows, &pair.0.x)),
         };
-        let x = crate::system::lu_tangents(&sl.lu, &sl.x, &res);
+        let x = crate::system::lu_tangents(factors, &sl.x, &res);
         let mut qdot = vec![Dual::<N>::constant(0.0); nq];
         model.kinematic_rates(qd, vd, &mut qdot);
         for (k, j) in range.enumerate() {
@@ -344,7 +358,8 @@ fn solve_and_tangent_rhs<const N: usize>(
             }
         }
     }
-    Ok((sol.expect("at least one chunk"), out))
+    let (sol, factors) = sol.expect("at least one chunk");
+    Ok((sol, factors, out))
 }
 
 /// Pseudo-inverse solve `−J⁺ R` column by column (minimum norm, tolerant of dependent rows).
@@ -434,23 +449,29 @@ struct Extension<'d, const N: usize> {
     exact: Option<ExactMatrix>,
 }
 
+/// The solution of Eq. (12) at a step's new state and its unpacked factors.
+struct StepSolution {
+    sol: Solution,
+    factors: Factors,
+}
+
 /// An exact state Jacobian `f_y` (at some earlier step) and the LU of `c0 I − f_y`.
 struct ExactMatrix {
     jac: DMatrix<f64>,
     c0: f64,
-    lu: nalgebra::LU<f64, nalgebra::Dyn, nalgebra::Dyn>,
+    lu: Factors,
     /// `(t, y)` where `jac` was evaluated.
     t: f64,
     y: Vec<f64>,
 }
 
 impl ExactMatrix {
-    fn factor(jac: &DMatrix<f64>, c0: f64) -> nalgebra::LU<f64, nalgebra::Dyn, nalgebra::Dyn> {
+    fn factor(jac: &DMatrix<f64>, c0: f64) -> Factors {
         let mut a = -jac;
         for i in 0..a.nrows() {
             a[(i, i)] += c0;
         }
-        a.lu()
+        Factors::new(&a.lu())
     }
 }
 
@@ -483,7 +504,7 @@ impl<const N: usize> Extension<'_, N> {
         &mut self,
         sys: &mut MultibodySystem,
         step: &TrialStep<'_>,
-        sol: &Solution,
+        sol: &StepSolution,
         psi: &DMatrix<f64>,
         atol: &[f64],
         tol: f64,
@@ -512,7 +533,7 @@ impl<const N: usize> Extension<'_, N> {
                 Some(g) => g,
                 None => {
                     self.stats.dual_evaluations += self.design.chunks.len();
-                    tangent_rhs(sys, self.design, t, y, sol, &s)
+                    tangent_rhs_with(sys, self.design, t, y, &sol.sol, &sol.factors, &s)
                 }
             };
             self.stats.corrector_iterations += 1;
@@ -547,7 +568,7 @@ impl<const N: usize> Extension<'_, N> {
         &mut self,
         sys: &mut MultibodySystem,
         step: &TrialStep<'_>,
-        sol: &Solution,
+        sol: &StepSolution,
         psi: &DMatrix<f64>,
         atol: &[f64],
         mut s: DMatrix<f64>,
@@ -606,7 +627,7 @@ impl<const N: usize> Extension<'_, N> {
         &mut self,
         sys: &mut MultibodySystem,
         step: &TrialStep<'_>,
-        sol: &Solution,
+        sol: &StepSolution,
         psi: &DMatrix<f64>,
         atol: &[f64],
         s: &mut DMatrix<f64>,
@@ -618,15 +639,16 @@ impl<const N: usize> Extension<'_, N> {
             Some(g) => g,
             None => {
                 self.stats.dual_evaluations += self.design.chunks.len();
-                tangent_rhs(sys, self.design, t, &step.y_new, sol, s)
+                tangent_rhs_with(sys, self.design, t, &step.y_new, &sol.sol, &sol.factors, s)
             }
         };
         self.stats.corrector_iterations += 1;
         let mut r = g - &*s * c0 - psi;
         let e = self.exact.as_ref().expect("an exact Jacobian");
-        if !e.lu.solve_mut(&mut r) {
+        if !e.lu.is_invertible() {
             return Err(IntegrationFailure::SingularNewtonMatrix);
         }
+        e.lu.solve_matrix(&mut r);
         let norm = wrms_matrix(&r, &self.hist[0], step.rtol, atol);
         *s += r;
         Ok(norm)
@@ -659,7 +681,7 @@ impl<const N: usize> Extension<'_, N> {
         sys: &mut MultibodySystem,
         t: f64,
         y: &[f64],
-        sol: &Solution,
+        sol: &StepSolution,
         c0: f64,
         psi: &DMatrix<f64>,
     ) -> Result<DMatrix<f64>, IntegrationFailure> {
@@ -671,7 +693,15 @@ impl<const N: usize> Extension<'_, N> {
             a[(i, i)] += c0;
         }
         let lu = a.lu();
-        let fb = tangent_rhs(sys, self.design, t, y, sol, &DMatrix::zeros(n, psi.ncols()));
+        let fb = tangent_rhs_with(
+            sys,
+            self.design,
+            t,
+            y,
+            &sol.sol,
+            &sol.factors,
+            &DMatrix::zeros(n, psi.ncols()),
+        );
         self.stats.dual_evaluations += self.design.chunks.len();
         self.stats.direct_solves += 1;
         let mut s = fb - psi;
@@ -704,8 +734,9 @@ impl<const N: usize> StepExtension<MultibodySystem> for Extension<'_, N> {
         for i in 1..np {
             s_pred += &self.hist[i] * w[i];
         }
-        let (sol, g0) =
+        let (sol, factors, g0) =
             solve_and_tangent_rhs(sys, self.design, t, y, &s_pred).map_err(rhs_failure)?;
+        let sol = StepSolution { sol, factors };
         self.stats.dual_evaluations += self.design.chunks.len();
         let mut psi = &self.hist[0] * c[1];
         for j in 2..=k {
