@@ -367,3 +367,130 @@ fn plate_deck_sensitivities_match_replayed_central_differences() {
     let v = summary["max_position_violation"].as_f64().unwrap();
     assert!(v < 1e-5, "{v:e}");
 }
+
+/// Every group, dataset and attribute of a run with design sensitivities, read back through the
+/// reference HDF5 library (h5py), equals what flexsens wrote: names, shapes, values, units.
+#[test]
+fn every_dataset_and_attribute_reads_back_through_h5py() {
+    use flexsens::results::Attr;
+    let have_h5py = std::process::Command::new("python3")
+        .args(["-c", "import h5py"])
+        .status()
+        .is_ok_and(|s| s.success());
+    if !have_h5py {
+        assert!(std::env::var_os("CI").is_none(), "CI must have h5py");
+        eprintln!("SKIPPED: h5py not installed");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let o = run(&[
+        "run",
+        deck("slider_crank_beam.toml").to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--set",
+        "analysis.t_end=0.001",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let script = r#"
+import h5py, json, sys
+def val(v):
+    if isinstance(v, bytes): return v.decode()
+    if hasattr(v, "tolist"): v = v.tolist()
+    if isinstance(v, list): return [val(x) for x in v]
+    return v
+out = {"datasets": {}, "attrs": {}}
+def visit(name, obj):
+    out["attrs"]["/" + name] = {k: val(v) for k, v in obj.attrs.items()}
+    if isinstance(obj, h5py.Dataset):
+        data = obj.asstr()[()] if h5py.check_string_dtype(obj.dtype) else obj[()]
+        out["datasets"]["/" + name] = {"shape": list(obj.shape), "values": val(data)}
+with h5py.File(sys.argv[1], "r") as f:
+    out["attrs"]["/"] = {k: val(v) for k, v in f.attrs.items()}
+    f.visititems(visit)
+print(json.dumps(out))
+"#;
+    let o = std::process::Command::new("python3")
+        .arg("-c")
+        .arg(script)
+        .arg(out.join("results.h5"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let doc: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let g = Group::read_hdf5(&out.join("results.h5")).unwrap();
+    // walk what flexsens wrote
+    let mut datasets = 0;
+    let mut stack: Vec<(String, &Group)> = vec![(String::new(), &g)];
+    let attr_json = |a: &Attr| match a {
+        Attr::Text(t) => serde_json::json!(t),
+        Attr::F64(x) => serde_json::json!(x),
+        Attr::I64(i) => serde_json::json!(i),
+    };
+    while let Some((path, group)) = stack.pop() {
+        let key = if path.is_empty() {
+            "/".to_string()
+        } else {
+            path.clone()
+        };
+        for (k, a) in &group.attrs {
+            assert_eq!(doc["attrs"][&key][k], attr_json(a), "{key} @{k}");
+        }
+        for (name, d) in &group.datasets {
+            let p = format!("{path}/{name}");
+            let h = &doc["datasets"][&p];
+            assert!(!h.is_null(), "h5py does not see {p}");
+            assert_eq!(h["shape"], serde_json::json!(d.shape), "{p}");
+            let flat: Vec<serde_json::Value> = {
+                fn flatten(v: &serde_json::Value, out: &mut Vec<serde_json::Value>) {
+                    match v.as_array() {
+                        Some(a) => a.iter().for_each(|x| flatten(x, out)),
+                        None => out.push(v.clone()),
+                    }
+                }
+                let mut f = Vec::new();
+                flatten(&h["values"], &mut f);
+                f
+            };
+            match &d.data {
+                Data::F64(v) => {
+                    let got: Vec<f64> = flat.iter().map(|x| x.as_f64().unwrap()).collect();
+                    assert_eq!(&got, v, "{p}");
+                }
+                Data::Text(t) => {
+                    let got: Vec<&str> = flat.iter().map(|x| x.as_str().unwrap()).collect();
+                    assert_eq!(got, *t, "{p}");
+                }
+            }
+            for (k, a) in &d.attrs {
+                assert_eq!(doc["attrs"][&p][k], attr_json(a), "{p} @{k}");
+            }
+            datasets += 1;
+        }
+        for (name, sub) in &group.groups {
+            stack.push((format!("{path}/{name}"), sub));
+        }
+    }
+    assert_eq!(
+        doc["datasets"].as_object().unwrap().len(),
+        datasets,
+        "h5py sees exactly the datasets written"
+    );
+    // the sensitivity part is there, with units
+    for p in [
+        "/sensitivities/mid_deflection",
+        "/design/values",
+        "/objectives/peak_deflection/gradient",
+        "/bodies/rod/frequency_derivatives",
+        "/finite_differences/forward_relative_0.01_replay/mid_deflection",
+    ] {
+        assert!(!doc["datasets"][p].is_null(), "{p}");
+        if p != "/design/values" {
+            assert!(
+                doc["attrs"][p]["units"].as_str().unwrap().ends_with("/deg"),
+                "{p}"
+            );
+        }
+    }
+}
