@@ -13,4 +13,5 @@ pub mod commands;
 pub mod deck;
 pub mod error;
 pub mod files;
+mod progress;
 pub mod results;

@@ -1,6 +1,6 @@
 //! The `flexsens` binary: command line → commands → exit codes (see the library docs).
 
-use std::io::Write;
+use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -172,6 +172,7 @@ fn main() -> ExitCode {
             let req = commands::run::RunRequest {
                 out: output.as_deref(),
                 json: *json,
+                progress: !cli.quiet && std::io::stderr().is_terminal(),
             };
             commands::run::run(deck, &cli.set, &req).map(|t| (t, 0))
         }

@@ -228,6 +228,8 @@ fn fixed_mode_sensitivities_differ_from_updated_mode_ones() {
             "finite_differences.enabled=false",
         ]);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        // stderr is not a terminal here: no progress bar
+        assert!(o.stderr.is_empty(), "{}", String::from_utf8_lossy(&o.stderr));
         let g = Group::read_hdf5(&out.join("results.h5")).unwrap();
         s.push(f64s(&g, "sensitivities/mid_deflection"));
     }

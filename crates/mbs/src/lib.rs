@@ -108,6 +108,6 @@ pub use sensitivity::{
     simulate_sensitivities_from, simulate_steps, tangent_rhs,
 };
 pub use system::{
-    JointReaction, MultibodySystem, Output, RedundancyPolicy, Simulation, SimulationError,
-    Solution, simulate,
+    JointReaction, MultibodySystem, Output, Progress, RedundancyPolicy, Simulation,
+    SimulationError, Solution, simulate,
 };

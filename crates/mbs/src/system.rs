@@ -94,7 +94,11 @@ pub struct MultibodySystem {
     rows: Vec<usize>,
     removed: Vec<usize>,
     policy: RedundancyPolicy,
+    progress: Option<Progress>,
 }
+
+/// A progress observer: called with the time of every right-hand-side evaluation.
+pub type Progress = std::sync::Arc<dyn Fn(f64) + Send + Sync>;
 
 /// Width of the dual chunks used for the state Jacobian.
 const CHUNK: usize = 8;
@@ -147,7 +151,14 @@ impl MultibodySystem {
             rows,
             removed,
             policy,
+            progress: None,
         })
+    }
+
+    /// Report progress: `observer(t)` is called at every right-hand-side evaluation (times of
+    /// trial steps included), e.g. to drive a progress bar.
+    pub fn set_progress(&mut self, observer: Option<Progress>) {
+        self.progress = observer;
     }
 
     /// The same system (same active constraint rows) with other model parameters, e.g. a
@@ -164,6 +175,7 @@ impl MultibodySystem {
             rows: self.rows.clone(),
             removed: self.removed.clone(),
             policy: self.policy,
+            progress: self.progress.clone(),
         }
     }
 
@@ -639,6 +651,9 @@ impl OdeSystem for MultibodySystem {
     }
 
     fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), RhsError> {
+        if let Some(p) = &self.progress {
+            p(t);
+        }
         let nq = self.model.n_q();
         let (q, v) = y.split_at(nq);
         let sol = self.solve(t, q, v).map_err(|e| RhsError(e.to_string()))?;

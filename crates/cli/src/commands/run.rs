@@ -26,6 +26,7 @@ use crate::deck::mechanism::{RawAnalysis, RawMarker, RawMotion, RawResponse, Raw
 use crate::deck::{self, DeckError, RawDeck, Source};
 use crate::error::CliError;
 use crate::files::write_atomic;
+use crate::progress::RunProgress;
 use crate::results::{Attr, Group};
 
 /// What `flexsens run` was asked for.
@@ -34,6 +35,8 @@ pub struct RunRequest<'a> {
     pub out: Option<&'a Path>,
     /// A one-line JSON summary on stdout instead of the table.
     pub json: bool,
+    /// A progress bar on stderr for runs longer than a second.
+    pub progress: bool,
 }
 
 /// A body of the mechanism: where it is in the model and what the responses need of it.
@@ -172,6 +175,8 @@ pub(crate) struct Mechanism {
     pub(crate) times: Vec<f64>,
     pub(crate) options: BdfOptions,
     pub(crate) policy: RedundancyPolicy,
+    /// The progress bar, when one is wanted.
+    pub(crate) progress: Option<RunProgress>,
 }
 
 /// An angle: a number in degrees, or a string `"<number> deg|rad"`; radians out.
@@ -1158,6 +1163,7 @@ pub(crate) fn build_mechanism(
         times,
         options,
         policy,
+        progress: None,
     })
 }
 
@@ -1507,7 +1513,11 @@ const OUTPUT_FILES: [&str; 4] = [
 /// Run the command; the returned text goes to stdout.
 pub fn run(path: &Path, overrides: &[String], req: &RunRequest) -> Result<String, CliError> {
     let (src, raw) = deck::load(path, overrides)?;
-    let mech = build_mechanism(&src, &raw, true)?;
+    let mut mech = build_mechanism(&src, &raw, true)?;
+    if req.progress {
+        let t_end = *mech.times.last().expect("output times");
+        mech.progress = Some(RunProgress::new(mech.times[0], t_end));
+    }
     let out = req
         .out
         .map(Path::to_path_buf)
@@ -1524,7 +1534,11 @@ pub fn run(path: &Path, overrides: &[String], req: &RunRequest) -> Result<String
             _ => {}
         }
     }
-    let computed = compute(&src, &mech)?;
+    let computed = compute(&src, &mech);
+    if let Some(p) = &mech.progress {
+        p.finish();
+    }
+    let computed = computed?;
     let g = results(&src, &mech, &computed);
     let bytes = g
         .to_hdf5()
@@ -1569,6 +1583,17 @@ pub(crate) fn compute(src: &Source, mech: &Mechanism) -> Result<Computed, CliErr
                 "the initial configuration cannot be assembled: {e}"
             ))
         })?;
+    if let Some(p) = &mech.progress {
+        system.set_progress(Some(p.observer()));
+        if mech.design.enabled
+            && let Some(fd) = &mech.design.finite_differences
+        {
+            let m = mech.design.variables.len();
+            let k = fd.sizes.len();
+            let per_steps = if fd.central { 2 * m * k } else { 1 + m * k };
+            p.add_phases(per_steps * fd.steps.len());
+        }
+    }
     let (outputs, statistics, sens) = if mech.design.enabled {
         let s = sensitivity::analyse(src, mech, &mut system, &state)?;
         (s.outputs.clone(), s.statistics, Some(s))

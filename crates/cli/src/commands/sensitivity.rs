@@ -284,6 +284,9 @@ fn perturbed_outputs(
                 .map_err(|e| runtime(src, format!("body `{}`: {e}", part.name)))?;
         }
     }
+    if let Some(p) = &mech.progress {
+        p.next_phase();
+    }
     let mut sys = nominal.with_model(pmech.model);
     let mut st = state.clone();
     let t0 = mech.times[0];

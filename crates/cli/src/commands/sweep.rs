@@ -228,6 +228,7 @@ pub fn run(
                     let request = RunRequest {
                         out: Some(&dir),
                         json: true,
+                        progress: false,
                     };
                     let outcome = super::run::run(path, &sets[i], &request).and_then(|s| {
                         serde_json::from_str::<Value>(&s)
