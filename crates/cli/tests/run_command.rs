@@ -86,13 +86,7 @@ fn json_summary_for_scripts() {
 
 #[test]
 fn results_h5_holds_every_history_with_units_readable_by_h5py() {
-    let have_h5py = Command::new("python3")
-        .args(["-c", "import h5py"])
-        .status()
-        .is_ok_and(|s| s.success());
-    if !have_h5py {
-        assert!(std::env::var_os("CI").is_none(), "CI must have h5py");
-        eprintln!("SKIPPED: h5py not installed");
+    if !common::h5py_available() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{bad_deck, deck, json, run, with_deck};
+use common::{bad_deck, deck, run, with_deck};
 use flexsens::results::{Data, Group};
 
 /// A short run of the beam slider-crank: about 0.6 of a crank revolution.
@@ -57,19 +57,15 @@ fn read_csv(path: &std::path::Path) -> (Vec<String>, Vec<Vec<String>>) {
 fn beam_deck_sensitivities_match_replayed_central_differences_and_converge() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
-    let summary = json(&[
-        "run",
-        deck("slider_crank_beam.toml").to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--json",
-        "--set",
-        T_END,
-        "--set",
-        "finite_differences.scheme=central",
-        "--set",
-        "finite_differences.sizes=[1e-3, 1e-4]",
-    ]);
+    let summary = common::run_json(
+        "slider_crank_beam.toml",
+        &out,
+        &[
+            T_END,
+            "finite_differences.scheme=central",
+            "finite_differences.sizes=[1e-3, 1e-4]",
+        ],
+    );
     let g = Group::read_hdf5(&out.join("results.h5")).unwrap();
     let n = f64s(&g, "time").len();
     let direct = f64s(&g, "sensitivities/mid_deflection");
@@ -229,7 +225,11 @@ fn fixed_mode_sensitivities_differ_from_updated_mode_ones() {
         ]);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         // stderr is not a terminal here: no progress bar
-        assert!(o.stderr.is_empty(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert!(
+            o.stderr.is_empty(),
+            "{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
         let g = Group::read_hdf5(&out.join("results.h5")).unwrap();
         s.push(f64s(&g, "sensitivities/mid_deflection"));
     }
@@ -339,19 +339,15 @@ fn design_that_moves_nothing_or_objectives_without_gradients_are_rejected() {
 fn plate_deck_sensitivities_match_replayed_central_differences() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
-    let summary = json(&[
-        "run",
-        deck("slider_crank_plate.toml").to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--json",
-        "--set",
-        "analysis.t_end=0.002",
-        "--set",
-        "finite_differences.scheme=central",
-        "--set",
-        "finite_differences.sizes=[1e-4]",
-    ]);
+    let summary = common::run_json(
+        "slider_crank_plate.toml",
+        &out,
+        &[
+            "analysis.t_end=0.002",
+            "finite_differences.scheme=central",
+            "finite_differences.sizes=[1e-4]",
+        ],
+    );
     let g = Group::read_hdf5(&out.join("results.h5")).unwrap();
     let direct = f64s(&g, "sensitivities/mid_deflection");
     let fd = f64s(
@@ -375,26 +371,12 @@ fn plate_deck_sensitivities_match_replayed_central_differences() {
 #[test]
 fn every_dataset_and_attribute_reads_back_through_h5py() {
     use flexsens::results::Attr;
-    let have_h5py = std::process::Command::new("python3")
-        .args(["-c", "import h5py"])
-        .status()
-        .is_ok_and(|s| s.success());
-    if !have_h5py {
-        assert!(std::env::var_os("CI").is_none(), "CI must have h5py");
-        eprintln!("SKIPPED: h5py not installed");
+    if !common::h5py_available() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
-    let o = run(&[
-        "run",
-        deck("slider_crank_beam.toml").to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--set",
-        "analysis.t_end=0.001",
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    common::run_json("slider_crank_beam.toml", &out, &["analysis.t_end=0.001"]);
     let script = r#"
 import h5py, json, sys
 def val(v):

@@ -125,10 +125,14 @@ fn analyse_chunked<const N: usize>(
         &options,
     )
     .map_err(|e| runtime(src, e))?;
+    // Newton of the replayed steps converges to `newton_tol` of the error weights
+    // `atol + rtol |y|`: tight, but not below round-off when the tolerances are tiny (the
+    // fixed-step integrator's are 1e-10 and 1e-12)
+    let newton_tol = (1e-12 / mech.options.rtol).clamp(1e-6, 1e-2);
     let replay = run.replay_options(
         mech.options.rtol,
         mech.options.atol.first().copied().unwrap_or(1e-8),
-        1e-6,
+        newton_tol,
     );
     let sampled = run.resample(&mech.times);
     let outputs = sampled

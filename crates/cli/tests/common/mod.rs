@@ -67,3 +67,34 @@ pub fn with_deck(command: &str, deck: &Path, extra: &[&str]) -> Vec<String> {
     a.extend(extra.iter().map(|s| s.to_string()));
     a
 }
+
+/// Whether h5py can be imported; CI must have it (a missing h5py there fails the test instead
+/// of skipping it).
+pub fn h5py_available() -> bool {
+    let ok = Command::new("python3")
+        .args(["-c", "import h5py"])
+        .status()
+        .is_ok_and(|s| s.success());
+    if !ok {
+        assert!(std::env::var_os("CI").is_none(), "CI must have h5py");
+        eprintln!("SKIPPED: h5py not installed");
+    }
+    ok
+}
+
+/// `flexsens run DECK -o OUT --json --set …` (the shipped deck `deck_name`), expecting success;
+/// the JSON summary.
+pub fn run_json(deck_name: &str, out: &Path, sets: &[&str]) -> serde_json::Value {
+    let mut args = vec![
+        "run".to_string(),
+        deck(deck_name).display().to_string(),
+        "-o".into(),
+        out.display().to_string(),
+        "--json".into(),
+    ];
+    for s in sets {
+        args.extend(["--set".to_string(), s.to_string()]);
+    }
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    json(&args)
+}
