@@ -13,5 +13,6 @@ pub mod commands;
 pub mod deck;
 pub mod error;
 pub mod files;
+pub mod plot;
 mod progress;
 pub mod results;

@@ -109,6 +109,31 @@ enum Command {
         #[arg(short = 'j', long, value_name = "N")]
         jobs: Option<usize>,
     },
+    /// Regenerate the paper's §5 figures (mid-node deflection, direct sensitivities against
+    /// finite differences, fixed against updated modes) for several lay-ups, as SVG and PNG,
+    /// with a summary (summary.md, summary.json).
+    Report {
+        /// The deck (TOML): one [design.*] variable (the lay-up angle) and a
+        /// mid-node-deflection response.
+        deck: PathBuf,
+        /// Lay-ups: comma-separated values of the deck's first design variable, degrees.
+        #[arg(
+            long,
+            value_name = "ANGLES",
+            default_value = "0,15,30",
+            allow_hyphen_values = true
+        )]
+        layups: String,
+        /// Output directory (default: `<deck name>.report` beside the deck).
+        #[arg(short = 'o', long = "output", value_name = "DIR")]
+        output: Option<PathBuf>,
+        /// Step of the fixed-step runs, s (default: a tenth of the output step).
+        #[arg(long, value_name = "SECONDS")]
+        fixed_step: Option<f64>,
+        /// Runs at once (default: the available cores).
+        #[arg(short = 'j', long, value_name = "N")]
+        jobs: Option<usize>,
+    },
     /// Validate a deck without running it: keys, values, names, meshes, modal analyses, and
     /// the assembly of the mechanism (redundant joint equations are reported).
     Check {
@@ -189,6 +214,21 @@ fn main() -> ExitCode {
                 quiet: cli.quiet,
             };
             commands::sweep::run(deck, &cli.set, &req).map(|(t, ok)| (t, if ok { 0 } else { 1 }))
+        }
+        Command::Report {
+            deck,
+            layups,
+            output,
+            fixed_step,
+            jobs,
+        } => {
+            let req = commands::report::ReportRequest {
+                out: output.as_deref(),
+                layups,
+                fixed_step: *fixed_step,
+                jobs: *jobs,
+            };
+            commands::report::run(deck, &cli.set, &req).map(|t| (t, 0))
         }
         Command::Check { deck } => commands::check::run(deck, &cli.set).map(|t| (t, 0)),
         Command::Compare { a, b, rtol, atol } => commands::compare::run(a, b, *rtol, *atol)

@@ -5,6 +5,7 @@ pub mod compare;
 pub mod laminate;
 pub mod modes;
 pub mod output;
+pub mod report;
 pub mod run;
 pub mod section;
 pub(crate) mod sensitivity;
