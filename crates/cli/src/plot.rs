@@ -1,4 +1,5 @@
-//! Line plots of time histories as SVG and PNG (for `flexsens report`).
+//! Line plots of time histories as SVG and PNG (for `flexsens report`). Curves are told apart
+//! by colour and dashes only: markers at regular intervals alias with oscillating histories.
 //!
 //! Text in the PNG files is drawn with the bundled DejaVu Sans font (`assets/fonts`, its
 //! licence alongside), so no system font is needed; the SVG files name the font family and
@@ -23,15 +24,6 @@ pub enum Line {
     Dashed,
 }
 
-/// A marker drawn at some of a series' points (so that coincident curves stay visible).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Marker {
-    Circle,
-    Triangle,
-    Cross,
-    Square,
-}
-
 /// One curve.
 #[derive(Clone, Debug)]
 pub struct Series {
@@ -39,7 +31,6 @@ pub struct Series {
     pub x: Vec<f64>,
     pub y: Vec<f64>,
     pub line: Line,
-    pub marker: Option<Marker>,
     /// Index into the palette.
     pub color: usize,
     /// Stroke width in pixels.
@@ -54,23 +45,15 @@ impl Series {
             x: x.to_vec(),
             y: y.to_vec(),
             line: Line::Solid,
-            marker: None,
             color,
             width: 2,
         }
     }
 
-    /// A dashed line with markers.
-    pub fn dashed(
-        label: impl Into<String>,
-        x: &[f64],
-        y: &[f64],
-        color: usize,
-        marker: Marker,
-    ) -> Self {
+    /// A dashed line.
+    pub fn dashed(label: impl Into<String>, x: &[f64], y: &[f64], color: usize) -> Self {
         Self {
             line: Line::Dashed,
-            marker: Some(marker),
             ..Self::solid(label, x, y, color)
         }
     }
@@ -117,7 +100,11 @@ fn color(i: usize) -> RGBColor {
 impl Figure {
     /// Size in pixels.
     pub fn size(&self) -> (u32, u32) {
-        (PANEL_WIDTH * self.panels.len().max(1) as u32, HEIGHT)
+        // one panel gets room for a long title
+        (
+            (PANEL_WIDTH * self.panels.len().max(1) as u32).max(980),
+            HEIGHT,
+        )
     }
 
     /// The figure as an SVG document.
@@ -157,7 +144,7 @@ impl Figure {
         let err = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
         root.fill(&WHITE).map_err(err)?;
         let body = root
-            .titled(&self.title, (FAMILY, 24).into_font())
+            .titled(&self.title, (FAMILY, 22).into_font())
             .map_err(err)?;
         let areas = body.split_evenly((1, self.panels.len().max(1)));
         for (panel, area) in self.panels.iter().zip(&areas) {
@@ -318,23 +305,11 @@ fn draw_panel<DB: DrawingBackend>(
             Line::Solid => (vec![(0, 0), (26, 0)], vec![(26, 0), (26, 0)]),
             Line::Dashed => (vec![(0, 0), (9, 0)], vec![(15, 0), (26, 0)]),
         };
-        let legend_marker = marker_path(s.marker, (13, 0));
         annotation.label(&s.label).legend(move |(x, y)| {
             EmptyElement::at((x, y))
                 + PathElement::new(seg1.clone(), style)
                 + PathElement::new(seg2.clone(), style)
-                + PathElement::new(legend_marker.clone(), style)
         });
-        // markers at about 25 points spread over the curve
-        if let Some(m) = s.marker {
-            let every = (points.len() / 25).max(1);
-            let offset = (s.color * every / 7) % every;
-            chart
-                .draw_series(points.iter().skip(offset).step_by(every).map(|&p| {
-                    EmptyElement::at(p) + PathElement::new(marker_path(Some(m), (0, 0)), style)
-                }))
-                .map_err(err)?;
-        }
     }
     chart
         .configure_series_labels()
@@ -345,45 +320,6 @@ fn draw_panel<DB: DrawingBackend>(
         .draw()
         .map_err(err)?;
     Ok(())
-}
-
-/// The outline of a marker centred at `at` (pixels relative to its anchor) as one path; a
-/// point for `None`.
-fn marker_path(marker: Option<Marker>, at: (i32, i32)) -> Vec<(i32, i32)> {
-    let (x, y) = at;
-    let r = 4;
-    match marker {
-        None => vec![at, at],
-        Some(Marker::Circle) => (0..=12)
-            .map(|k| {
-                let a = std::f64::consts::PI * k as f64 / 6.0;
-                (
-                    x + (f64::from(r) * a.cos()).round() as i32,
-                    y + (f64::from(r) * a.sin()).round() as i32,
-                )
-            })
-            .collect(),
-        Some(Marker::Square) => vec![
-            (x - r, y - r),
-            (x + r, y - r),
-            (x + r, y + r),
-            (x - r, y + r),
-            (x - r, y - r),
-        ],
-        Some(Marker::Triangle) => vec![
-            (x, y - r - 1),
-            (x + r, y + r),
-            (x - r, y + r),
-            (x, y - r - 1),
-        ],
-        Some(Marker::Cross) => vec![
-            (x - r, y - r),
-            (x + r, y + r),
-            (x, y),
-            (x - r, y + r),
-            (x + r, y - r),
-        ],
-    }
 }
 
 #[cfg(test)]
@@ -414,7 +350,7 @@ mod tests {
                 y_label: "y [1/deg]".into(),
                 series: vec![
                     Series::solid("a", &t, &y, 0),
-                    Series::dashed("b", &t, &y, 1, Marker::Circle),
+                    Series::dashed("b", &t, &y, 1),
                 ],
             }],
         };

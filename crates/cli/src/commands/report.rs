@@ -28,7 +28,7 @@ use crate::deck::design::{FdDef, FdSteps};
 use crate::deck::{self, RawDeck, Source};
 use crate::error::CliError;
 use crate::files::write_atomic;
-use crate::plot::{Figure, Marker, Panel, Series};
+use crate::plot::{Figure, Panel, Series};
 
 /// Forward-difference sizes of Figs. 11–13 (relative).
 const SIZES: [f64; 3] = [0.001, 0.01, 0.05];
@@ -432,6 +432,11 @@ fn figures(s: &Subject, layups: &[Layup], fixed_step: f64) -> Vec<(String, Figur
     ));
     for l in layups {
         let a = angle_name(l.angle);
+        let note = if vanishes(l) {
+            " — the derivative vanishes here"
+        } else {
+            ""
+        };
         let t = &l.main.times;
         let direct = |r: &RunResult, label: &str| Series::solid(label, &r.times, &r.sensitivity, 0);
         // (b) Fig. 6
@@ -442,13 +447,12 @@ fn figures(s: &Subject, layups: &[Layup], fixed_step: f64) -> Vec<(String, Figur
                 &l.fixed_step.times,
                 &f.values,
                 3,
-                Marker::Circle,
             ));
         }
         let mut variable = vec![direct(l.main, "direct")];
-        for (steps, label, color, marker) in [
-            (FdSteps::Replay, "replayed steps", 2, Marker::Triangle),
-            (FdSteps::Adaptive, "adaptive steps", 1, Marker::Cross),
+        for (steps, label, color) in [
+            (FdSteps::Replay, "replayed steps", 2),
+            (FdSteps::Adaptive, "adaptive steps", 1),
         ] {
             if let Some(f) = find(l.main, false, FIG6_SIZE, steps) {
                 variable.push(Series::dashed(
@@ -456,7 +460,6 @@ fn figures(s: &Subject, layups: &[Layup], fixed_step: f64) -> Vec<(String, Figur
                     t,
                     &f.values,
                     color,
-                    marker,
                 ));
             }
         }
@@ -464,8 +467,8 @@ fn figures(s: &Subject, layups: &[Layup], fixed_step: f64) -> Vec<(String, Figur
             format!("integrators_{a}deg"),
             Figure {
                 title: format!(
-                    "Lay-up [{a}°]: direct sensitivities and forward differences, fixed- and \
-                     variable-step integration (paper Fig. 6)"
+                    "Lay-up [{a}°]: direct sensitivities and forward differences (1 %), \
+                     fixed and variable steps (paper Fig. 6){note}"
                 ),
                 panels: vec![
                     Panel {
@@ -487,9 +490,7 @@ fn figures(s: &Subject, layups: &[Layup], fixed_step: f64) -> Vec<(String, Figur
         figs.push((
             format!("modes_{a}deg"),
             Figure {
-                title: format!(
-                    "Lay-up [{a}°]: sensitivities with updated and fixed modes (paper Figs. 9, 10)"
-                ),
+                title: format!("Lay-up [{a}°]: updated vs fixed modes (paper Figs. 9, 10){note}"),
                 panels: vec![Panel {
                     title: format!("d({})/d{var}", s.response_name),
                     x_label: TIME_LABEL.into(),
@@ -501,7 +502,6 @@ fn figures(s: &Subject, layups: &[Layup], fixed_step: f64) -> Vec<(String, Figur
                             &l.fixed_modes.times,
                             &l.fixed_modes.sensitivity,
                             3,
-                            Marker::Square,
                         ),
                     ],
                 }],
@@ -510,18 +510,13 @@ fn figures(s: &Subject, layups: &[Layup], fixed_step: f64) -> Vec<(String, Figur
         // (d) Figs. 11–13
         let panel = |steps: FdSteps, title: &str| {
             let mut series = vec![Series::solid("direct", t, &l.main.sensitivity, 0)];
-            for (k, (size, marker)) in SIZES
-                .iter()
-                .zip([Marker::Circle, Marker::Triangle, Marker::Cross])
-                .enumerate()
-            {
+            for (k, size) in SIZES.iter().enumerate() {
                 if let Some(f) = find(l.main, false, *size, steps) {
                     series.push(Series::dashed(
                         format!("forward {}", percent(*size)),
                         t,
                         &f.values,
                         k + 1,
-                        marker,
                     ));
                 }
             }
@@ -536,8 +531,8 @@ fn figures(s: &Subject, layups: &[Layup], fixed_step: f64) -> Vec<(String, Figur
             format!("perturbations_{a}deg"),
             Figure {
                 title: format!(
-                    "Lay-up [{a}°]: direct sensitivities and forward differences of 0.1 %, 1 % \
-                     and 5 % (paper Figs. 11–13)"
+                    "Lay-up [{a}°]: direct sensitivities and forward differences of 0.1 %, 1 %, \
+                     5 % (paper Figs. 11–13){note}"
                 ),
                 panels: vec![
                     panel(FdSteps::Replay, "perturbed runs replay the nominal steps"),
