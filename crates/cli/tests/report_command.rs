@@ -19,7 +19,7 @@ fn report_writes_every_figure_and_the_summary() {
         "-o",
         out.to_str().unwrap(),
         "--set",
-        "analysis.t_end=0.004",
+        "analysis.t_end=0.002",
     ]);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{stderr}");
