@@ -307,18 +307,28 @@ fn tangent_rhs_with<const N: usize>(
         let (qd, vd) = yd.split_at(nq);
         let res = model.residual(t, qd, vd, &sol.rows, &sol.x);
         let x = crate::system::lu_tangents(factors, &sol.x, &res);
-        let mut qdot = vec![Dual::<N>::constant(0.0); nq];
-        model.kinematic_rates(qd, vd, &mut qdot);
-        for (k, j) in range.enumerate() {
-            for i in 0..nq {
-                out[(i, j)] = qdot[i].d[k];
-            }
-            for i in 0..nv {
-                out[(nq + i, j)] = x[i].d[k];
-            }
-        }
+        write_rates(&mut out, model, qd, vd, &x[..nv], range);
     }
     out
+}
+
+/// Columns `range` of `f_y S + f_b`: the tangents of `q̇` (from `(q, v)`) and of `v̇ = x`.
+fn write_rates<const N: usize>(
+    out: &mut DMatrix<f64>,
+    model: &Model<Dual<N>>,
+    q: &[Dual<N>],
+    v: &[Dual<N>],
+    vdot: &[Dual<N>],
+    range: std::ops::Range<usize>,
+) {
+    let nq = q.len();
+    let mut qdot = vec![Dual::<N>::constant(0.0); nq];
+    model.kinematic_rates(q, v, &mut qdot);
+    for (k, j) in range.enumerate() {
+        for (i, x) in qdot.iter().chain(vdot).enumerate() {
+            out[(i, j)] = x.d[k];
+        }
+    }
 }
 
 /// [`MultibodySystem::solve`] at `(t, y)` and `f_y S + f_b` there, the first chunk's dual
@@ -347,16 +357,7 @@ fn solve_and_tangent_rhs<const N: usize>(
             Some(pair) => (pair, model.residual(t, qd, vd, &pair.0.rows, &pair.0.x)),
         };
         let x = crate::system::lu_tangents(factors, &sl.x, &res);
-        let mut qdot = vec![Dual::<N>::constant(0.0); nq];
-        model.kinematic_rates(qd, vd, &mut qdot);
-        for (k, j) in range.enumerate() {
-            for i in 0..nq {
-                out[(i, j)] = qdot[i].d[k];
-            }
-            for i in 0..nv {
-                out[(nq + i, j)] = x[i].d[k];
-            }
-        }
+        write_rates(&mut out, model, qd, vd, &x[..nv], range);
     }
     let (sol, factors) = sol.expect("at least one chunk");
     Ok((sol, factors, out))
