@@ -14,10 +14,22 @@
 //! gravity, initial velocities those of the rigid mechanism with `ẇ = 0` (consistent, so the
 //! assembly leaves them unchanged and the initial state does not depend on the design).
 //!
-//! Damping: clamped at its centre the rod is two cantilevers, so the four lowest modes share
-//! one frequency (first bending of each half in each plane); Rayleigh damping cannot be fitted
-//! at modes 1 and 4. It is fitted to 1 % at mode 1 and 3 % at mode 5 (the next frequency, a
-//! guard mode of the analysis, with its eigenvalue derivative) and applied to the four
+//! Modes: the paper's model is planar, so by default the rod's modes are those of motion in the
+//! mechanism plane xy (`fem::ModalOptions::planar = Some(z)`, [`RodOptions::planar`]). With
+//! 3-D modes the rod's out-of-plane modes make the slide's roll equation independent away from
+//! the dead centres, and [`RedundancyPolicy::Remove`] (rows chosen at the assembly, crank angle
+//! 0) would leave the slider rolling freely; with planar modes that row is dependent in every
+//! configuration and `Remove` is right. The restriction also suppresses the bending–twist
+//! coupling of off-axis plies and stiffens the rod (15° lay-up, measured 2026-11-21: planar
+//! modes 582, 582, 3056, 3056 Hz; 3-D modes 480.5 Hz ×4, then 2621 Hz).
+//!
+//! Damping (planar modes): clamped at its centre the rod is two cantilevers, so the modes come
+//! in pairs of equal frequencies (the two halves); the paper's Rayleigh damping, 1 % at mode 1
+//! and 3 % at mode 4 (zero-based 0 and 3, different frequencies), is fitted by `fem` from the
+//! retained modes (with their eigenvalue derivatives for the design models). With 3-D modes
+//! (`planar: false`) the four lowest modes share one frequency (first bending of each half in
+//! each plane); the damping is then fitted at modes 1 and 5 (the next frequency, a guard mode
+//! of the analysis when four are retained, with its eigenvalue derivative) and applied to the
 //! retained modes.
 //!
 //! Design variables are ply angles in **degrees**: either one common angle of all plies
@@ -121,6 +133,9 @@ pub struct RodOptions {
     pub elements: usize,
     pub modes: usize,
     pub update: ModeUpdate,
+    /// Modes of motion in the mechanism plane xy only (the paper's planar model, the default);
+    /// `false`: 3-D modes (out-of-plane bending too).
+    pub planar: bool,
 }
 
 impl Default for RodOptions {
@@ -129,6 +144,7 @@ impl Default for RodOptions {
             elements: 8,
             modes: 4,
             update: ModeUpdate::Updated,
+            planar: true,
         }
     }
 }
@@ -159,7 +175,16 @@ impl Ids {
     }
 }
 
-fn rayleigh() -> RayleighDamping {
+/// The paper's damping of the planar rod: 1 % at mode 1, 3 % at mode 4.
+fn rayleigh_planar() -> RayleighDamping {
+    RayleighDamping {
+        modes: [0, 3],
+        ratios: [0.01, 0.03],
+    }
+}
+
+/// The damping of the 3-D rod: 1 % at mode 1, 3 % at mode 5 (see the module docs).
+fn rayleigh_3d() -> RayleighDamping {
     RayleighDamping {
         modes: [0, 4],
         ratios: [0.01, 0.03],
@@ -190,14 +215,24 @@ fn modal_setup(
         sections: vec![BeamSection::from_section(&sens.properties)],
         laminates: vec![],
     };
-    let mo = ModalOptions::new(opts.modes);
+    // planar: `fem` fits the damping from the retained modes; 3-D: `damping_3d`
+    let mo = if opts.planar {
+        ModalOptions {
+            planar: Some(Vector3::z()),
+            damping: Some(rayleigh_planar()),
+            ..ModalOptions::new(opts.modes)
+        }
+    } else {
+        ModalOptions::new(opts.modes)
+    };
     let analysis = modal_analysis(&mesh, &props, &mo).expect("modal analysis");
     (mesh, props, analysis)
 }
 
-/// Modal damping `α + βλ_k` with `(α, β)` fitted at modes 1 and 5 (see the module docs).
-fn damping<S: Scalar>(lambdas: &[S], lambda5: S) -> Vec<S> {
-    let (a, b) = rayleigh()
+/// Modal damping `α + βλ_k` of the 3-D rod with `(α, β)` fitted at modes 1 and 5 (see the
+/// module docs).
+fn damping_3d<S: Scalar>(lambdas: &[S], lambda5: S) -> Vec<S> {
+    let (a, b) = rayleigh_3d()
         .coefficients(lambdas[0], lambda5)
         .expect("distinct frequencies");
     lambdas.iter().map(|&l| a + b * l).collect()
@@ -315,7 +350,9 @@ pub fn slider_crank(angles_deg: &[f64], opts: &RodOptions) -> (Model<f64>, State
     };
     let (beam, bprops, analysis) = modal_setup(&sens, opts);
     let mut body = modal_body(&beam, &bprops, &analysis).expect("modal body");
-    body.modal_damping = damping(&body.eigenvalues, analysis.pairs.values[4]);
+    if !opts.planar {
+        body.modal_damping = damping_3d(&body.eigenvalues, analysis.pairs.values[4]);
+    }
     mechanism(body, opts.elements)
 }
 
@@ -349,12 +386,14 @@ pub fn slider_crank_design<const N: usize>(
         let mut body =
             modal_body_dual::<N>(&beam, &bprops, &analysis, &derivs, range.start, opts.update)
                 .expect("dual modal body");
-        let mut d5 = [0.0; N];
-        for (k, v) in range.clone().enumerate() {
-            d5[k] = derivs.eigenvalues[v][4];
+        if !opts.planar {
+            let mut d5 = [0.0; N];
+            for (k, v) in range.clone().enumerate() {
+                d5[k] = derivs.eigenvalues[v][4];
+            }
+            let lambda5 = Dual::new(analysis.pairs.values[4], d5);
+            body.modal_damping = damping_3d(&body.eigenvalues, lambda5);
         }
-        let lambda5 = Dual::new(analysis.pairs.values[4], d5);
-        body.modal_damping = damping(&body.eigenvalues, lambda5);
         let (model, s, i) = mechanism(body, opts.elements);
         chunks.push(model);
         state = Some(s);

@@ -158,8 +158,13 @@ fn mid_node_deflection_sensitivity_matches_central_differences_on_the_replayed_s
     );
     // the adaptive nominal run (loose Newton) and its replay (tight Newton) agree closely
     assert!(worst_relative(&column(&h0, 0), &s) < 1e-4);
+    // measured 2026-11-21 (planar modes): 1383 steps, max |deflection| 1.261e-3 (1.492e-3 in
+    // 743 steps with the former 3-D modes, whose slider rolled freely under `Remove`)
     let n = run.times.len();
     let fd = central(ANGLE, &[2e-3, 1e-3], &updated, &run.times, &replay);
+    // wider perturbations for the reaction force (below)
+    let fd_wide = central(ANGLE, &[2e-2, 1e-2], &updated, &run.times, &replay);
+    let extrapolated_wide = richardson(&fd_wide[0], &fd_wide[1]);
     let extrapolated = richardson(&fd[0], &fd[1]);
     let (plain, rich) = (
         worst_relative(&fd[1][..n], &s),
@@ -170,11 +175,11 @@ fn mid_node_deflection_sensitivity_matches_central_differences_on_the_replayed_s
         "replayed central differences: δ = 0.001° {plain:.2e}, Richardson (0.002°, 0.001°) \
          {rich:.2e}; fixed-mode vs central differences {fixed_err:.2e}"
     );
-    // measured 2026-11-21: plain 1.1e-6 (the δ² truncation of a response whose phase moves
-    // with the frequencies), Richardson 7e-9
+    // measured 2026-11-21: plain 1.17e-6 (the δ² truncation of a response whose phase moves
+    // with the frequencies), Richardson 3.4e-8
     assert!(plain < 3e-6, "{plain:e}");
     assert!(rich < 1e-6, "{rich:e}");
-    // measured 2026-11-21: fixed-mode is 27 % off
+    // measured 2026-11-21: fixed-mode is 8.1 % off
     assert!(fixed_err > 1e-2, "{fixed_err:e}");
     // reaction force and slider position histories
     let (dm, state0, ids) = slider_crank_design::<1>(&angles, Design::Common, &updated);
@@ -189,19 +194,32 @@ fn mid_node_deflection_sensitivity_matches_central_differences_on_the_replayed_s
         &SensitivityOptions::default(),
     )
     .unwrap();
-    for (k, r) in more_responses(&ids).iter().enumerate() {
+    // The reaction is checked against the wider perturbations (0.02°, 0.01°): multipliers
+    // carry the modal stiffness forces λ_k w_k, which amplify the Newton residuals of the
+    // perturbed runs, and with the planar modes (modes 3 and 4, second bending of each half at
+    // 3056 Hz, λ 28 times that of the first at 582 Hz) this noise dominates at 0.001° (measured 2026-11-21: (0.002°, 0.001°) 1.23e-4 and
+    // 4.7e-5, Richardson 8.9e-5; with the Newton tolerance 1e-7 4.8e-5 and 1.2e-4, the finer
+    // the worse; 1e-8 fails to converge). At (0.02°, 0.01°) the differences are 2.28e-3 and
+    // 5.61e-4 (δ², ratio 4.06) and Richardson leaves 1.4e-5. The nodal displacement keeps
+    // (0.002°, 0.001°).
+    for (k, (r, bound)) in more_responses(&ids).iter().zip([5e-5, 5e-6]).enumerate() {
         let hr = response_history(&sys, &dm, &run_r, r).unwrap();
         let start = n + OBJECTIVES.len() + k * n;
+        let (fd, extrapolated, deltas) = if k == 0 {
+            (&fd_wide, &extrapolated_wide, ["0.02", "0.01"])
+        } else {
+            (&fd, &extrapolated, ["0.002", "0.001"])
+        };
         let err = worst_relative(&extrapolated[start..start + n], &column(&hr, 0));
         let e0 = worst_relative(&fd[0][start..start + n], &column(&hr, 0));
         let e1 = worst_relative(&fd[1][start..start + n], &column(&hr, 0));
         eprintln!(
-            "{r:?}: worst relative difference {err:.2e} (δ = 0.002°: {e0:.2e}, 0.001°: {e1:.2e})"
+            "{r:?}: worst relative difference {err:.2e} (δ = {}°: {e0:.2e}, {}°: {e1:.2e})",
+            deltas[0], deltas[1]
         );
-        // measured 2026-11-21: reaction 1.4e-6 (the δ² term is gone, the rest is the
-        // differences' noise: multipliers carry the modal stiffness forces λ_k w_k, which
-        // amplify the Newton residuals of the perturbed runs), nodal displacement 8e-9
-        assert!(err < 5e-6, "{r:?}: {err:e}");
+        // measured 2026-11-21: reaction 1.4e-5 (the δ² term is gone, the rest is the
+        // differences' noise), nodal displacement 3.7e-8
+        assert!(err < bound, "{r:?}: {err:e}");
     }
     // objectives' gradients (Eq. 39) against central differences of the objectives
     for (k, o) in OBJECTIVES.iter().enumerate() {
@@ -235,17 +253,30 @@ fn direct_sensitivities_converge_and_adaptive_finite_differences_are_noisy() {
     };
     let (reference, steps) = at_end(1e-9);
     eprintln!("reference (rtol 1e-9, {steps} steps): ∂ζ(t_end)/∂θ = {reference:.9e}");
+    // measured 2026-11-21 (planar modes): rtol 1e-4 1.90e-3 (728 steps), 3e-5 2.46e-3,
+    // 1e-5 1.99e-3 (900), 3e-6 6.6e-4, 1e-6 2.49e-4 (1383), 3e-7 9.1e-5, 1e-7 1.83e-5 (1679),
+    // 1e-8 7.1e-8: a plateau at ~2e-3 down to rtol 1e-5, then convergence (the 3-D modes, first
+    // bending only, gave 2.65e-3, 6.45e-5, 2.35e-5, 3.77e-6 at rtol 1e-4 … 1e-7). Monotone from
+    // rtol 1e-5 on; the plateau is bounded.
     let mut previous = f64::INFINITY;
     for rtol in [1e-4, 1e-5, 1e-6, 1e-7] {
         let (s, steps) = at_end(rtol);
         let err = (s - reference).abs() / reference.abs();
         eprintln!("rtol {rtol:.0e}: {steps} steps, relative error {err:.2e}");
-        assert!(err < previous, "no convergence at rtol {rtol:e}");
+        if rtol < 1e-5 {
+            assert!(err < previous, "no convergence at rtol {rtol:e}");
+        }
+        if rtol > 1e-6 {
+            assert!(err < 5e-3, "rtol {rtol:e}: {err:e}");
+        }
         previous = err;
     }
     assert!(previous < 1e-3, "{previous:e}");
+    let (s6, _) = at_end(1e-6);
+    let discretisation = (s6 - reference).abs() / reference.abs();
     // the staggered corrector (the integrator's Newton matrix, its tolerance) and the
-    // sensitivities in the error control give the same accuracy at rtol 1e-6
+    // sensitivities in the error control are as accurate at rtol 1e-6 as the staggered direct
+    // method (measured 2026-11-21: 2.49e-4)
     let (dm, state, ids) = slider_crank_design::<1>(&angles, Design::Common, &opts);
     let (mut sys, state) = assembled(dm.values(), state);
     for (label, o) in [
@@ -266,8 +297,8 @@ fn direct_sensitivities_converge_and_adaptive_finite_differences_are_noisy() {
             "{label}: {} steps ({} rejected), {:?}, relative error {err:.2e}",
             run.statistics.steps, run.statistics.rejected_steps, run.sensitivity_statistics
         );
-        // measured 2026-11-21: 2.3e-5 and 3.9e-5
-        assert!(err < 1e-4, "{label}: {err:e}");
+        // measured 2026-11-21: 2.48e-4 (1383 steps) and 2.8e-5 (1904 steps, 386 rejected)
+        assert!(err < 2.0 * discretisation, "{label}: {err:e}");
     }
     // independent adaptive runs (rtol 1e-6) of the perturbed designs
     let t_out = [0.0, T_END];
@@ -278,8 +309,6 @@ fn direct_sensitivities_converge_and_adaptive_finite_differences_are_noisy() {
         &t_out,
         &BdfOptions::adaptive(1e-6, 1e-9),
     );
-    let (s6, _) = at_end(1e-6);
-    let discretisation = (s6 - reference).abs() / reference.abs();
     for (f, delta) in fd.iter().zip(["0.1", "0.01", "0.001", "0.0001"]) {
         let err = (f[1] - reference).abs() / reference.abs();
         eprintln!(
@@ -288,8 +317,9 @@ fn direct_sensitivities_converge_and_adaptive_finite_differences_are_noisy() {
         );
     }
     let noise = |f: &Vec<f64>| (f[1] - reference).abs() / reference.abs();
-    // measured 2026-11-21 (rtol 1e-6; direct 2.3e-5): δ = 0.1° 6.8e-3 (truncation),
-    // 0.01° 2.3e-4, 0.001° 6.8e-4, 0.0001° 1.9e-2 — step-selection noise ∝ 1/δ
+    // measured 2026-11-21 (rtol 1e-6; direct 2.49e-4): δ = 0.1° 4.6e-3, 0.01° 4.0e-3,
+    // 0.001° 2.8e-3 (about ten times the direct method's error), 0.0001° 4.5e-2 (step-selection
+    // noise ∝ 1/δ)
     assert!(noise(&fd[3]) > 10.0 * discretisation);
     assert!(noise(&fd[3]) > noise(&fd[1]));
 }
