@@ -2,32 +2,9 @@
 
 mod common;
 
-use common::{Rect, rel};
-use fem::{Mesh, ModalOptions, ReferenceCondition, modal_analysis, modal_body};
+use common::{Rect, beam, rel, slender};
+use fem::{ModalOptions, ReferenceCondition, modal_analysis, modal_body};
 use nalgebra::Vector3;
-
-fn slender() -> Rect {
-    // weak axis: bending in x–z (about x₂ = y), hz < hy
-    Rect {
-        e: 70e9,
-        nu: 0.3,
-        rho: 2700.0,
-        hy: 0.02,
-        hz: 0.01,
-        kappa: 5.0 / 6.0,
-    }
-}
-
-fn beam(n: usize) -> Mesh {
-    Mesh::straight_beam(
-        Vector3::new(0.2, 0.0, 0.0),
-        Vector3::new(1.2, 0.0, 0.0),
-        n,
-        0,
-        Vector3::y(),
-    )
-    .unwrap()
-}
 
 fn eb(r: &Rect, beta_l: f64, l: f64) -> f64 {
     // weak-axis Euler–Bernoulli eigenvalue (βL)⁴ EI/(ρA L⁴)

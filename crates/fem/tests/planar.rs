@@ -5,36 +5,13 @@
 
 mod common;
 
-use common::{Rect, rel, timoshenko_cantilever};
+use common::{beam, rel, slender, timoshenko_cantilever};
 use fem::{
     EigenMethod, FemError, MassKind, Mesh, ModalBody, ModalOptions, ModeUpdate, Properties,
     ReferenceCondition, analysis_derivatives, modal_analysis, modal_body, modal_body_dual,
 };
 use nalgebra::{DMatrix, DVector, Vector3};
 use sens::{Dual, Scalar};
-
-fn slender() -> Rect {
-    Rect {
-        e: 70e9,
-        nu: 0.3,
-        rho: 2700.0,
-        hy: 0.02,
-        hz: 0.01,
-        kappa: 5.0 / 6.0,
-    }
-}
-
-/// A 1 m beam along x (section x₂ = y), `n` elements, nodes `0..=n`.
-fn beam(n: usize) -> Mesh {
-    Mesh::straight_beam(
-        Vector3::new(0.2, 0.0, 0.0),
-        Vector3::new(1.2, 0.0, 0.0),
-        n,
-        0,
-        Vector3::y(),
-    )
-    .unwrap()
-}
 
 /// The dof fixed by a planar restriction with normal along global `axis`.
 fn out_of_plane(axis: usize) -> Vec<usize> {

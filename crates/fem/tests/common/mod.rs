@@ -3,7 +3,7 @@
 
 use fem::{BeamSection, Properties};
 use laminate::{LaminateStiffness, OrthotropicMaterial, Ply, PlyStack};
-use nalgebra::{DMatrix, Matrix4};
+use nalgebra::{DMatrix, Matrix4, Vector3};
 
 /// An isotropic rectangular section, `hy` along x₂, `hz` along x₃; shear correction `kappa`.
 pub struct Rect {
@@ -295,4 +295,28 @@ pub fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
 /// Relative difference.
 pub fn rel(a: f64, b: f64) -> f64 {
     (a - b).abs() / b.abs()
+}
+
+/// A slender aluminium bar, 20 × 10 mm (weak axis: bending in x–z, about x₂ = y).
+pub fn slender() -> Rect {
+    Rect {
+        e: 70e9,
+        nu: 0.3,
+        rho: 2700.0,
+        hy: 0.02,
+        hz: 0.01,
+        kappa: 5.0 / 6.0,
+    }
+}
+
+/// A 1 m beam along x from x = 0.2 (section x₂ = y), `n` elements, nodes `0..=n`.
+pub fn beam(n: usize) -> fem::Mesh {
+    fem::Mesh::straight_beam(
+        Vector3::new(0.2, 0.0, 0.0),
+        Vector3::new(1.2, 0.0, 0.0),
+        n,
+        0,
+        Vector3::y(),
+    )
+    .unwrap()
 }
