@@ -8,7 +8,7 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::{deck, run};
+use common::run;
 
 /// Relative tolerance of the comparison: far below any modelling change, above the last-bit
 /// differences that vectorised kernels may give on another processor. The runs take fixed
@@ -23,6 +23,26 @@ fn golden(name: &str) -> PathBuf {
         .join(name)
 }
 
+/// The rigid slider-crank's run: a short span on fixed steps.
+const RIGID: [&str; 3] = [
+    "analysis.t_end=0.02",
+    "analysis.integrator=\"fixed\"",
+    "analysis.step=1e-4",
+];
+
+/// `flexsens compare RESULT REFERENCE` with the golden tolerances.
+fn compare(result: &Path, reference: &Path) -> std::process::Output {
+    run(&[
+        "compare",
+        result.to_str().unwrap(),
+        reference.to_str().unwrap(),
+        "--rtol",
+        RTOL,
+        "--atol",
+        ATOL,
+    ])
+}
+
 fn check(deck_name: &str, sets: &[&str], golden_name: &str) {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
@@ -32,16 +52,7 @@ fn check(deck_name: &str, sets: &[&str], golden_name: &str) {
         std::fs::copy(out.join("results.h5"), &reference).unwrap();
         return;
     }
-    let result = out.join("results.h5");
-    let o = run(&[
-        "compare",
-        result.to_str().unwrap(),
-        reference.to_str().unwrap(),
-        "--rtol",
-        RTOL,
-        "--atol",
-        ATOL,
-    ]);
+    let o = compare(&out.join("results.h5"), &reference);
     assert!(
         o.status.success(),
         "{golden_name} differs from the reference:\n{}{}",
@@ -52,15 +63,7 @@ fn check(deck_name: &str, sets: &[&str], golden_name: &str) {
 
 #[test]
 fn rigid_slider_crank_matches_its_golden_file() {
-    check(
-        "slider_crank_rigid.toml",
-        &[
-            "analysis.t_end=0.02",
-            "analysis.integrator=\"fixed\"",
-            "analysis.step=1e-4",
-        ],
-        "slider_crank_rigid.h5",
-    );
+    check("slider_crank_rigid.toml", &RIGID, "slider_crank_rigid.h5");
 }
 
 #[test]
@@ -86,30 +89,10 @@ fn a_changed_result_fails_the_golden_check() {
     }
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
-    let o = run(&[
-        "run",
-        deck("slider_crank_rigid.toml").to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--set",
-        "analysis.t_end=0.02",
-        "--set",
-        "analysis.integrator=\"fixed\"",
-        "--set",
-        "analysis.step=1e-4",
-        "--set",
-        "rigid.slider.mass=0.0381",
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let o = run(&[
-        "compare",
-        out.join("results.h5").to_str().unwrap(),
-        golden("slider_crank_rigid.h5").to_str().unwrap(),
-        "--rtol",
-        RTOL,
-        "--atol",
-        ATOL,
-    ]);
+    let mut sets = RIGID.to_vec();
+    sets.push("rigid.slider.mass=0.0381");
+    common::run_json("slider_crank_rigid.toml", &out, &sets);
+    let o = compare(&out.join("results.h5"), &golden("slider_crank_rigid.h5"));
     assert_eq!(
         o.status.code(),
         Some(1),
