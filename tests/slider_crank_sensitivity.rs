@@ -9,6 +9,7 @@ use flexsens_tests::{
 use mbs::{
     Bdf, BdfOptions, FdScheme, Objective, Perturbation, Response, SensitivityOptions,
     SensitivityRun, finite_differences, response_history, response_values, simulate_sensitivities,
+    simulate_steps,
 };
 
 const T_END: f64 = 0.02;
@@ -274,9 +275,9 @@ fn direct_sensitivities_converge_and_adaptive_finite_differences_are_noisy() {
     assert!(previous < 1e-3, "{previous:e}");
     let (s6, _) = at_end(1e-6);
     let discretisation = (s6 - reference).abs() / reference.abs();
-    // the staggered corrector (the integrator's Newton matrix, its tolerance) and the
-    // sensitivities in the error control are as accurate at rtol 1e-6 as the staggered direct
-    // method (measured 2026-11-21: 2.49e-4)
+    // the staggered and simultaneous correctors (the integrator's Newton matrix, its
+    // tolerance) and the sensitivities in the error control are as accurate at rtol 1e-6 as
+    // the staggered direct method (measured 2026-11-21: 2.49e-4)
     let (dm, state, ids) = slider_crank_design::<1>(&angles, Design::Common, &opts);
     let (mut sys, state) = assembled(dm.values(), state);
     for (label, o) in [
@@ -288,6 +289,14 @@ fn direct_sensitivities_converge_and_adaptive_finite_differences_are_noisy() {
                 ..SensitivityOptions::corrector()
             },
         ),
+        ("simultaneous", SensitivityOptions::simultaneous()),
+        (
+            "simultaneous, error control",
+            SensitivityOptions {
+                error_control: true,
+                ..SensitivityOptions::simultaneous()
+            },
+        ),
     ] {
         let run =
             simulate_sensitivities(&mut sys, &dm, &state, 0.0, T_END, options6(), &o).unwrap();
@@ -297,9 +306,27 @@ fn direct_sensitivities_converge_and_adaptive_finite_differences_are_noisy() {
             "{label}: {} steps ({} rejected), {:?}, relative error {err:.2e}",
             run.statistics.steps, run.statistics.rejected_steps, run.sensitivity_statistics
         );
-        // measured 2026-11-21: 2.48e-4 (1383 steps) and 2.8e-5 (1904 steps, 386 rejected)
+        // measured 2026-11-21: corrector 2.48e-4 (1383 steps) and 2.8e-5 (1904 steps, 386
+        // rejected); simultaneous 2.48e-4 (1383 steps, 1.5 dual evaluations per step) and
+        // 5.4e-5 (1952 steps, 440 rejected)
         assert!(err < 2.0 * discretisation, "{label}: {err:e}");
     }
+    // the simultaneous corrector converges with the tolerance like the direct method
+    // (measured 2026-11-21 at rtol 1e-7: 1.83e-5, the direct method's error to 3 digits)
+    let run = simulate_sensitivities(
+        &mut sys,
+        &dm,
+        &state,
+        0.0,
+        T_END,
+        BdfOptions::adaptive(1e-7, 1e-10),
+        &SensitivityOptions::simultaneous(),
+    )
+    .unwrap();
+    let h = response_history(&sys, &dm, &run, &ids.mid_deflection()).unwrap();
+    let err7 = (h.gradients[(h.times.len() - 1, 0)] - reference).abs() / reference.abs();
+    eprintln!("simultaneous, rtol 1e-7: relative error {err7:.2e}");
+    assert!(err7 < 0.2 * discretisation, "{err7:e}");
     // independent adaptive runs (rtol 1e-6) of the perturbed designs
     let t_out = [0.0, T_END];
     let fd = central(
@@ -325,7 +352,9 @@ fn direct_sensitivities_converge_and_adaptive_finite_differences_are_noisy() {
 }
 
 /// Many design variables (one per ply) in chunks of 1, 2, 4 and 8: identical sensitivities
-/// (measured 2026-11-21: bitwise identical).
+/// (measured 2026-11-21: bitwise identical), with the staggered direct method and with the
+/// simultaneous corrector (whose Newton right-hand sides are the values of the first chunk's
+/// dual evaluation: the state must not change either).
 #[test]
 fn sensitivities_do_not_depend_on_the_chunk_width() {
     let angles = [10.0, 20.0, 30.0, 40.0];
@@ -333,11 +362,11 @@ fn sensitivities_do_not_depend_on_the_chunk_width() {
     let t_end = 0.005;
     fn run<const N: usize>(
         angles: &[f64],
-        design: Design,
         opts: &RodOptions,
         t_end: f64,
+        method: &SensitivityOptions,
     ) -> SensitivityRun {
-        let (dm, state, _) = slider_crank_design::<N>(angles, design, opts);
+        let (dm, state, _) = slider_crank_design::<N>(angles, Design::PerPly, opts);
         let (mut sys, state) = assembled(dm.values(), state);
         simulate_sensitivities(
             &mut sys,
@@ -346,32 +375,54 @@ fn sensitivities_do_not_depend_on_the_chunk_width() {
             0.0,
             t_end,
             BdfOptions::adaptive(1e-6, 1e-9),
-            &SensitivityOptions::default(),
+            method,
         )
         .unwrap()
     }
-    let r1 = run::<1>(&angles, Design::PerPly, &opts, t_end);
-    let scale = r1
-        .sensitivities
-        .iter()
-        .flat_map(|s| s.iter())
-        .fold(0.0f64, |m, x| m.max(x.abs()));
-    for (n, r) in [
-        (2, run::<2>(&angles, Design::PerPly, &opts, t_end)),
-        (4, run::<4>(&angles, Design::PerPly, &opts, t_end)),
-        (8, run::<8>(&angles, Design::PerPly, &opts, t_end)),
+    for method in [
+        SensitivityOptions::default(),
+        SensitivityOptions::simultaneous(),
     ] {
-        assert_eq!(
-            r.times, r1.times,
-            "N = {n}: the state integration must not change"
-        );
-        let diff = r
+        let r1 = run::<1>(&angles, &opts, t_end, &method);
+        // and the state is the analysis's, bit for bit (without error control)
+        let (dm, state, _) = slider_crank_design::<1>(&angles, Design::PerPly, &opts);
+        let (mut sys, state) = assembled(dm.values(), state);
+        let plain = simulate_steps(
+            &mut sys,
+            &state,
+            0.0,
+            t_end,
+            BdfOptions::adaptive(1e-6, 1e-9),
+        )
+        .unwrap();
+        assert_eq!(plain.times, r1.times);
+        assert_eq!(plain.states, r1.states);
+        let scale = r1
             .sensitivities
             .iter()
-            .zip(&r1.sensitivities)
-            .map(|(a, b)| (a - b).amax())
-            .fold(0.0, f64::max);
-        eprintln!("N = {n}: max |S_N − S_1| = {diff:.2e} (max |S| = {scale:.2e})");
-        assert!(diff <= 1e-12 * scale, "N = {n}: {diff:e}");
+            .flat_map(|s| s.iter())
+            .fold(0.0f64, |m, x| m.max(x.abs()));
+        for (n, r) in [
+            (2, run::<2>(&angles, &opts, t_end, &method)),
+            (4, run::<4>(&angles, &opts, t_end, &method)),
+            (8, run::<8>(&angles, &opts, t_end, &method)),
+        ] {
+            assert_eq!(
+                r.times, r1.times,
+                "N = {n}: the state integration must not change"
+            );
+            assert_eq!(r.states, r1.states, "N = {n}: the states must not change");
+            let diff = r
+                .sensitivities
+                .iter()
+                .zip(&r1.sensitivities)
+                .map(|(a, b)| (a - b).amax())
+                .fold(0.0, f64::max);
+            eprintln!(
+                "{:?}, N = {n}: max |S_N − S_1| = {diff:.2e} (max |S| = {scale:.2e})",
+                method.method
+            );
+            assert!(diff <= 1e-12 * scale, "N = {n}: {diff:e}");
+        }
     }
 }

@@ -220,14 +220,54 @@ pub struct TrialStep<'a> {
 
 /// Variables integrated alongside the state on the same steps ([`Bdf::step_with`]), e.g.
 /// forward sensitivities.
+///
+/// Staggered extensions solve their variables once the state's Newton iteration has converged
+/// ([`StepExtension::trial`]). Simultaneous ones ([`StepExtension::simultaneous`]) are corrected
+/// inside it: every Newton iteration evaluates the state's right-hand side through
+/// [`StepExtension::newton_rhs`] (which may share work with the extension's own right-hand
+/// side) and then applies [`StepExtension::newton_correct`]; the iteration stops when the
+/// state and the extension have both converged.
 pub trait StepExtension<Sys: ?Sized> {
     /// Whether the extension's error estimate joins the step-size control (then
     /// [`StepExtension::trial`] is called for every trial step before the error test).
     fn controls_error(&self) -> bool {
         false
     }
-    /// Solve the extension's variables on the trial step; return their weighted RMS local error
-    /// estimate (used only when [`StepExtension::controls_error`]).
+    /// Whether the extension is corrected inside the state's Newton iteration.
+    fn simultaneous(&self) -> bool {
+        false
+    }
+    /// Simultaneous extensions: a Newton iteration starts for the formula `coefficients` over
+    /// `times` (`t_{n+1}, t_n, …`), the accepted points being at `history_times`.
+    fn newton_begin(&mut self, _times: &[f64], _coefficients: &[f64], _history_times: &[f64]) {}
+    /// Simultaneous extensions: `f(t, y)` into `dy` (with the extension's own right-hand side
+    /// at its current iterate, kept for [`StepExtension::newton_correct`]).
+    fn newton_rhs(
+        &mut self,
+        _sys: &mut Sys,
+        _t: f64,
+        _y: &[f64],
+        _dy: &mut [f64],
+    ) -> Result<(), RhsError> {
+        Err(RhsError(
+            "a staggered extension has no Newton right-hand side".into(),
+        ))
+    }
+    /// Simultaneous extensions: one chord update with the Newton matrix `newton_matrix`
+    /// (`= newton_c0 · I − J`, scaled by `scale` for the step's `c0`); returns the update's
+    /// weighted RMS norm in the integrator's error weights (`rtol`, `atol` of the state).
+    fn newton_correct(
+        &mut self,
+        _newton_matrix: &LU<f64, Dyn, Dyn>,
+        _scale: f64,
+        _rtol: f64,
+        _atol: &[f64],
+    ) -> Result<f64, IntegrationFailure> {
+        Ok(0.0)
+    }
+    /// Solve the extension's variables on the trial step (simultaneous extensions: take their
+    /// converged iterate); return their weighted RMS local error estimate (used only when
+    /// [`StepExtension::controls_error`]).
     fn trial(&mut self, sys: &mut Sys, step: &TrialStep<'_>) -> Result<f64, IntegrationFailure>;
     /// The last trial step was accepted.
     fn accept(&mut self);
@@ -717,7 +757,7 @@ impl Bdf {
                 if self.lu.is_none() || ((c0 / self.lu_c0) - 1.0).abs() > 0.2 {
                     self.factorize(c0)?;
                 }
-                match self.newton(sys, t_new, &y_pred, &psi, c0)? {
+                match self.newton(sys, ext, &nodes, &coeffs, &y_pred, &psi)? {
                     Some(y) => {
                         result = Some(y);
                         break;
@@ -945,15 +985,23 @@ impl Bdf {
         }
     }
 
-    /// Newton iteration for `c0 y + ψ = f(t, y)`; `None` if it does not converge.
-    fn newton(
+    /// Newton iteration for `c0 y + ψ = f(t, y)` (`t = nodes[0]`, `c0 = coeffs[0]`), with a
+    /// simultaneous extension corrected alongside; `None` if it does not converge.
+    fn newton<Sys: OdeSystem, E: StepExtension<Sys>>(
         &mut self,
-        sys: &mut impl OdeSystem,
-        t: f64,
+        sys: &mut Sys,
+        ext: &mut E,
+        nodes: &[f64],
+        coeffs: &[f64],
         y_pred: &[f64],
         psi: &[f64],
-        c0: f64,
     ) -> Result<Option<Vec<f64>>, IntegrationError> {
+        let (t, c0) = (nodes[0], coeffs[0]);
+        let simultaneous = ext.simultaneous();
+        if simultaneous {
+            let past: Vec<f64> = self.hist.iter().map(|x| x.0).collect();
+            ext.newton_begin(nodes, coeffs, &past);
+        }
         let mut y = y_pred.to_vec();
         let mut f = vec![0.0; self.n];
         let mut prev_norm = f64::INFINITY;
@@ -965,7 +1013,12 @@ impl Bdf {
         };
         for it in 0..self.opts.max_newton_iterations {
             self.stats.newton_iterations += 1;
-            if let Err(e) = sys.rhs(t, &y, &mut f) {
+            let evaluated = if simultaneous {
+                ext.newton_rhs(sys, t, &y, &mut f)
+            } else {
+                sys.rhs(t, &y, &mut f)
+            };
+            if let Err(e) = evaluated {
                 // a convergence failure (the step will be reduced); reported if it persists
                 self.last_rhs_error = Some(e);
                 return Ok(None);
@@ -978,13 +1031,24 @@ impl Bdf {
                 return Err(self.fail(IntegrationFailure::SingularNewtonMatrix));
             }
             // a matrix factorised with another c0: scale the chord step (CVODE's 2/(1+γ ratio))
-            if self.lu_c0 != c0 {
-                r *= 2.0 * self.lu_c0 / (c0 + self.lu_c0);
+            let scale = if self.lu_c0 != c0 {
+                2.0 * self.lu_c0 / (c0 + self.lu_c0)
+            } else {
+                1.0
+            };
+            if scale != 1.0 {
+                r *= scale;
             }
             for i in 0..self.n {
                 y[i] += r[i];
             }
-            let norm = self.wrms(r.as_slice(), &y_ref);
+            let mut norm = self.wrms(r.as_slice(), &y_ref);
+            if simultaneous {
+                let e = ext
+                    .newton_correct(lu, scale, self.opts.rtol, &self.atol)
+                    .map_err(|r| self.fail(r))?;
+                norm = norm.max(e);
+            }
             if !norm.is_finite() {
                 return Ok(None);
             }

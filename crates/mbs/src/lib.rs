@@ -38,7 +38,8 @@
 //!   bodies from `fem::modal_body_dual`, fixed- or updated-mode).
 //! - [`simulate_sensitivities`]: state and `S = ∂y/∂b` on the integrator's own steps with the
 //!   same BDF formula ([`SensitivityMethod::StaggeredDirect`]: exact derivative of the discrete
-//!   solution; [`SensitivityMethod::StaggeredCorrector`]), optionally in the error control
+//!   solution; [`SensitivityMethod::StaggeredCorrector`]; [`SensitivityMethod::Simultaneous`],
+//!   inside the state's Newton iteration, the cheapest), optionally in the error control
 //!   ([`SensitivityOptions`]); `f_y S + f_b` is one dual evaluation per chunk
 //!   ([`tangent_rhs`]); initial sensitivities consistent with the constraints
 //!   ([`initial_sensitivities`], Eq. 44). Integration extensions hook into

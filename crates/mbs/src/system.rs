@@ -161,6 +161,14 @@ impl MultibodySystem {
         self.progress = observer;
     }
 
+    /// Call the progress observer, if any, with `t` (for evaluations made outside
+    /// [`OdeSystem::rhs`]).
+    pub(crate) fn report_progress(&self, t: f64) {
+        if let Some(p) = &self.progress {
+            p(t);
+        }
+    }
+
     /// The same system (same active constraint rows) with other model parameters, e.g. a
     /// perturbed design for finite-difference checks. The layout must be unchanged.
     pub fn with_model(&self, model: Model<f64>) -> Self {

@@ -98,6 +98,14 @@ fn sdof_response_sensitivity_matches_the_closed_form() {
                 ..SensitivityOptions::default()
             },
         ),
+        ("simultaneous", SensitivityOptions::simultaneous()),
+        (
+            "simultaneous, error control",
+            SensitivityOptions {
+                error_control: true,
+                ..SensitivityOptions::simultaneous()
+            },
+        ),
     ] {
         let run = simulate_sensitivities(
             &mut sys,
