@@ -1788,15 +1788,18 @@ fn results(src: &Source, mech: &Mechanism, c: &Computed) -> Group {
         );
     }
     if let Some(s) = &c.sensitivities {
-        let method = match (mech.design.corrector, mech.design.fixed_modes) {
-            (false, false) => "direct, updated modes",
-            (false, true) => "direct, fixed modes",
-            (true, false) => "corrector, updated modes",
-            (true, true) => "corrector, fixed modes",
-        };
+        let method = format!(
+            "{}, {} modes",
+            mech.design.method.name(),
+            if mech.design.fixed_modes {
+                "fixed"
+            } else {
+                "updated"
+            }
+        );
         g.group("sensitivities")
             .attrs
-            .insert("method".into(), Attr::Text(method.into()));
+            .insert("method".into(), Attr::Text(method));
         for ((name, _, unit), d) in mech.responses.iter().zip(&s.responses) {
             if let Some(d) = d {
                 g.put(&format!("sensitivities/{name}"), &[n, m], row_major(d))

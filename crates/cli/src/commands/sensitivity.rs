@@ -18,7 +18,7 @@ use sens::Dual;
 
 use super::run::{Mechanism, build_mechanism, evaluate};
 use crate::deck::Source;
-use crate::deck::design::{FdSteps, ObjectiveKind};
+use crate::deck::design::{FdSteps, ObjectiveKind, SensitivityScheme};
 use crate::error::CliError;
 
 /// Results of the direct sensitivity analysis, at the output times.
@@ -108,10 +108,10 @@ fn analyse_chunked<const N: usize>(
         }
     }
     let design = DesignModel::new(chunks, m).map_err(|e| runtime(src, e))?;
-    let mut options = if mech.design.corrector {
-        SensitivityOptions::corrector()
-    } else {
-        SensitivityOptions::default()
+    let mut options = match mech.design.method {
+        SensitivityScheme::Direct => SensitivityOptions::default(),
+        SensitivityScheme::Corrector => SensitivityOptions::corrector(),
+        SensitivityScheme::Simultaneous => SensitivityOptions::simultaneous(),
     };
     options.error_control = mech.design.error_control;
     let (t0, t_end) = (mech.times[0], *mech.times.last().expect("output times"));

@@ -46,7 +46,8 @@ pub struct RawSensitivity {
     /// `false` skips the sensitivities (e.g. in a sweep); default `true` when the deck declares
     /// design variables.
     pub enabled: Option<Spanned<bool>>,
-    /// `"direct"` (exact derivative of the discrete solution, default) or `"corrector"`.
+    /// `"direct"` (exact derivative of the discrete solution, default), `"simultaneous"` or
+    /// `"corrector"`.
     pub method: Option<Spanned<String>>,
     /// Mode derivatives: `"updated"` (default) or `"fixed"`.
     pub modes: Option<Spanned<String>>,
@@ -149,13 +150,35 @@ pub struct FdDef {
     pub steps: Vec<FdSteps>,
 }
 
+/// How the sensitivities are integrated (`[sensitivity] method`, see `mbs::SensitivityMethod`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SensitivityScheme {
+    /// Staggered direct: the exact derivative of the discrete solution.
+    Direct,
+    /// Staggered corrector with the integrator's Newton matrix.
+    Corrector,
+    /// Simultaneous corrector inside the state's Newton iteration (the cheapest).
+    Simultaneous,
+}
+
+impl SensitivityScheme {
+    /// The deck's name of the method.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Direct => "direct",
+            Self::Corrector => "corrector",
+            Self::Simultaneous => "simultaneous",
+        }
+    }
+}
+
 /// The validated design part of a deck.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DesignDef {
     pub variables: Vec<DesignVariable>,
     /// Sensitivities are computed (design variables declared and not disabled).
     pub enabled: bool,
-    pub corrector: bool,
+    pub method: SensitivityScheme,
     pub fixed_modes: bool,
     pub error_control: bool,
     pub objectives: Vec<ObjectiveDef>,
@@ -440,7 +463,7 @@ pub fn validate(
         src,
         "sensitivity.method",
         s.and_then(|s| s.method.as_ref()),
-        &["direct", "corrector"],
+        &["direct", "simultaneous", "corrector"],
     )?;
     let modes = choice(
         src,
@@ -471,7 +494,11 @@ pub fn validate(
     Ok(DesignDef {
         variables,
         enabled,
-        corrector: method == Some("corrector"),
+        method: match method {
+            Some("corrector") => SensitivityScheme::Corrector,
+            Some("simultaneous") => SensitivityScheme::Simultaneous,
+            _ => SensitivityScheme::Direct,
+        },
         fixed_modes: modes == Some("fixed"),
         error_control: s
             .and_then(|s| s.error_control.as_ref())
