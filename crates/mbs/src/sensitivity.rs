@@ -356,8 +356,7 @@ fn write_rates<const N: usize>(
     }
 }
 
-/// [`MultibodySystem::solve`] at `(t, y)` and `f_y S + f_b` there, the first chunk's dual
-/// evaluation giving the `f64` equations too.
+/// [`fused_rhs`] with the unpacked factors of Eq. (12), for further tangent solves.
 fn solve_and_tangent_rhs<const N: usize>(
     sys: &MultibodySystem,
     design: &DesignModel<N>,
@@ -365,40 +364,22 @@ fn solve_and_tangent_rhs<const N: usize>(
     y: &[f64],
     s: &DMatrix<f64>,
 ) -> Result<(Solution, Factors, DMatrix<f64>), ConstraintError> {
-    let nq = sys.model().n_q();
-    let nv = sys.model().n_v();
-    let mut out = DMatrix::zeros(nq + nv, design.n_variables());
-    let mut sol: Option<(Solution, Factors)> = None;
-    for (model, range) in design.chunk_ranges() {
-        let yd = seeded::<N>(y, s, &range);
-        let (qd, vd) = yd.split_at(nq);
-        let ((sl, factors), res) = match &sol {
-            None => {
-                let (sl, res) = sys.solve_dual(model, t, qd, vd)?;
-                let f = Factors::new(&sl.lu);
-                sol = Some((sl, f));
-                (sol.as_ref().expect("just set"), res)
-            }
-            Some(pair) => (pair, model.residual(t, qd, vd, &pair.0.rows, &pair.0.x)),
-        };
-        let x = crate::system::lu_tangents(factors, &sl.x, &res);
-        write_rates(&mut out, model, qd, vd, &x[..nv], range);
-    }
-    let (sol, factors) = sol.expect("at least one chunk");
+    let (sol, factors, out) = fused_rhs(sys, design, t, y, s)?;
+    let factors = factors.unwrap_or_else(|| Factors::new(&sol.lu));
     Ok((sol, factors, out))
 }
 
-/// The simultaneous corrector's evaluation at a Newton iterate: Eq. (12) solved at `(t, y)`
-/// from the values of the first chunk's dual evaluation, and `f_y S + f_b` there (`n × m`).
-/// Few tangent columns are solved with nalgebra's packed LU directly (unpacking it into
-/// [`Factors`] costs more than it saves below [`UNPACK_COLUMNS`] columns).
+/// Eq. (12) solved at `(t, y)` from the values of the first chunk's dual evaluation
+/// ([`MultibodySystem::solve_dual`]), and `f_y S + f_b` there (`n × m`); the unpacked factors
+/// if they were made. Few tangent columns are solved with nalgebra's packed LU directly
+/// (unpacking it into [`Factors`] costs more than it saves below [`UNPACK_COLUMNS`] columns).
 fn fused_rhs<const N: usize>(
     sys: &MultibodySystem,
     design: &DesignModel<N>,
     t: f64,
     y: &[f64],
     s: &DMatrix<f64>,
-) -> Result<(Solution, DMatrix<f64>), ConstraintError> {
+) -> Result<(Solution, Option<Factors>, DMatrix<f64>), ConstraintError> {
     let nq = sys.model().n_q();
     let nv = sys.model().n_v();
     let mut out = DMatrix::zeros(nq + nv, design.n_variables());
@@ -426,7 +407,7 @@ fn fused_rhs<const N: usize>(
         };
         write_rates(&mut out, model, qd, vd, &x[..nv], range);
     }
-    Ok((sol.expect("at least one chunk"), out))
+    Ok((sol.expect("at least one chunk"), factors, out))
 }
 
 /// Tangent columns from which solves go through unpacked [`Factors`].
@@ -855,7 +836,7 @@ impl<const N: usize> StepExtension<MultibodySystem> for Extension<'_, N> {
             .newton
             .as_mut()
             .expect("newton_begin precedes newton_rhs");
-        let (sol, g) =
+        let (sol, _, g) =
             fused_rhs(sys, self.design, t, y, &it.s).map_err(|e| RhsError(e.to_string()))?;
         self.stats.dual_evaluations += self.design.chunks.len();
         let nq = sys.model().n_q();
