@@ -559,6 +559,32 @@ const DIRECT_TOL: f64 = 1e-9;
 const DIRECT_MAX_ITERATIONS: usize = 6;
 
 impl<const N: usize> Extension<'_, N> {
+    /// The predictor of a step to `t` of order `k`: the interpolant through the last `k + 1`
+    /// accepted sensitivities (at `history_times`, most recent first).
+    fn predictor(&self, history_times: &[f64], t: f64, k: usize) -> DMatrix<f64> {
+        let np = (k + 1).min(self.hist.len());
+        let w = lagrange_weights(&history_times[..np], t);
+        let mut s = &self.hist[0] * w[0];
+        for i in 1..np {
+            s += &self.hist[i] * w[i];
+        }
+        s
+    }
+
+    /// The constant part `ψ = Σ_{j≥1} c_j S_{n+1−j}` of the BDF formula with `coefficients`.
+    fn formula_constant(&self, coefficients: &[f64]) -> DMatrix<f64> {
+        let mut psi = &self.hist[0] * coefficients[1];
+        for j in 2..coefficients.len() {
+            psi += &self.hist[j - 1] * coefficients[j];
+        }
+        psi
+    }
+
+    /// The sensitivities' absolute tolerances from the state's.
+    fn sensitivity_atol(&self, atol: &[f64]) -> Vec<f64> {
+        atol.iter().map(|a| a * self.options.atol_scale).collect()
+    }
+
     /// The weighted RMS local error estimate of the sensitivities `s` of a trial step (0 without
     /// error control, and in the start-up steps, which the state controls alone).
     fn error_estimate(&self, step: &TrialStep<'_>, s: &DMatrix<f64>, atol: &[f64]) -> f64 {
@@ -806,19 +832,9 @@ impl<const N: usize> StepExtension<MultibodySystem> for Extension<'_, N> {
 
     fn newton_begin(&mut self, times: &[f64], coefficients: &[f64], history_times: &[f64]) {
         let k = coefficients.len() - 1;
-        let np = (k + 1).min(self.hist.len());
-        let w = lagrange_weights(&history_times[..np], times[0]);
-        let mut s = &self.hist[0] * w[0];
-        for i in 1..np {
-            s += &self.hist[i] * w[i];
-        }
-        let mut psi = &self.hist[0] * coefficients[1];
-        for j in 2..=k {
-            psi += &self.hist[j - 1] * coefficients[j];
-        }
         self.newton = Some(NewtonIterate {
-            s,
-            psi,
+            s: self.predictor(history_times, times[0], k),
+            psi: self.formula_constant(coefficients),
             c0: coefficients[0],
             g: None,
         });
@@ -867,8 +883,8 @@ impl<const N: usize> StepExtension<MultibodySystem> for Extension<'_, N> {
             r *= scale;
         }
         self.stats.corrector_iterations += 1;
-        let atol: Vec<f64> = atol.iter().map(|a| a * self.options.atol_scale).collect();
-        let norm = wrms_matrix(&r, &self.hist[0], rtol, &atol);
+        let norm = wrms_matrix(&r, &self.hist[0], rtol, &self.sensitivity_atol(atol));
+        let it = self.newton.as_mut().expect("checked above");
         it.s += r;
         // in the convergence test with error control; otherwise the sensitivities take the
         // state's iterations (their remaining iteration error is then rate^j ≤ 0.3 of their own
@@ -889,11 +905,7 @@ impl<const N: usize> StepExtension<MultibodySystem> for Extension<'_, N> {
         let k = step.order;
         let c = &step.coefficients;
         let y = &step.y_new;
-        let atol: Vec<f64> = step
-            .atol
-            .iter()
-            .map(|a| a * self.options.atol_scale)
-            .collect();
+        let atol = self.sensitivity_atol(step.atol);
         if self.options.method == SensitivityMethod::Simultaneous {
             let it = self
                 .newton
@@ -905,20 +917,12 @@ impl<const N: usize> StepExtension<MultibodySystem> for Extension<'_, N> {
         }
         // predictor: the interpolant through the past sensitivities; the first evaluation of
         // `f_y S + f_b` there also gives the solution of Eq. (12) at the new state
-        let np = (k + 1).min(self.hist.len());
-        let w = lagrange_weights(&step.history_times[..np], t);
-        let mut s_pred = &self.hist[0] * w[0];
-        for i in 1..np {
-            s_pred += &self.hist[i] * w[i];
-        }
+        let s_pred = self.predictor(&step.history_times, t, k);
         let (sol, factors, g0) =
             solve_and_tangent_rhs(sys, self.design, t, y, &s_pred).map_err(rhs_failure)?;
         let sol = StepSolution { sol, factors };
         self.stats.dual_evaluations += self.design.chunks.len();
-        let mut psi = &self.hist[0] * c[1];
-        for j in 2..=k {
-            psi += &self.hist[j - 1] * c[j];
-        }
+        let psi = self.formula_constant(c);
         let c0 = c[0];
         let s = match self.options.method {
             SensitivityMethod::StaggeredDirect => {
