@@ -129,12 +129,15 @@ pub enum SensitivityMethod {
     /// below `tol` (in the integrator's error norm); direct solve after `max_iterations`.
     StaggeredCorrector { tol: f64, max_iterations: usize },
     /// Simultaneous corrector: the sensitivities are corrected inside the state's Newton
-    /// iteration with its matrix, one chord update per Newton iteration, `f_y S + f_b`
-    /// evaluated at each Newton iterate by the same dual evaluation that gives the state's
-    /// right-hand side (its values) and with the same LU of Eq. (12); the iteration stops when
-    /// both have converged to the integrator's Newton tolerance. The cheapest method (no
-    /// evaluation or factorisation of its own); the sensitivities are those of the state's
-    /// converged Newton iterate, not to round-off those of its final correction.
+    /// iteration with its matrix, `f_y S + f_b` evaluated at a Newton iterate by the same dual
+    /// evaluation that gives the state's right-hand side (its values) and with the same LU of
+    /// Eq. (12). Without error control the sensitivities take one chord update per step, at
+    /// the predicted state (the first iterate); the state's further iterations use plain
+    /// evaluations. With error control they are updated at every iterate and join the
+    /// convergence test. The cheapest method (no evaluation or factorisation of its own); its
+    /// iteration error is bounded by the chord rate times its first update, the same order as
+    /// the local truncation error, so it agrees with the direct method to the discretisation
+    /// error rather than to round-off.
     Simultaneous,
 }
 
@@ -509,8 +512,10 @@ struct NewtonIterate {
     /// `Σ_{j≥1} c_j S_{n+1−j}` of the step's formula and its `c_0`.
     psi: DMatrix<f64>,
     c0: f64,
-    /// `f_y S + f_b` at the last Newton right-hand side.
+    /// `f_y S + f_b` at the last Newton right-hand side, if it corrects the sensitivities.
     g: Option<DMatrix<f64>>,
+    /// Corrections applied so far in this step.
+    corrections: usize,
 }
 
 /// The solution of Eq. (12) at a step's new state and its unpacked factors.
@@ -837,6 +842,7 @@ impl<const N: usize> StepExtension<MultibodySystem> for Extension<'_, N> {
             psi: self.formula_constant(coefficients),
             c0: coefficients[0],
             g: None,
+            corrections: 0,
         });
     }
 
@@ -852,6 +858,12 @@ impl<const N: usize> StepExtension<MultibodySystem> for Extension<'_, N> {
             .newton
             .as_mut()
             .expect("newton_begin precedes newton_rhs");
+        if !self.options.error_control && it.corrections > 0 {
+            // one correction per step without error control: the state's further iterations
+            // take plain evaluations
+            it.g = None;
+            return OdeSystem::rhs(sys, t, y, dy);
+        }
         let (sol, _, g) =
             fused_rhs(sys, self.design, t, y, &it.s).map_err(|e| RhsError(e.to_string()))?;
         self.stats.dual_evaluations += self.design.chunks.len();
@@ -874,7 +886,10 @@ impl<const N: usize> StepExtension<MultibodySystem> for Extension<'_, N> {
             .newton
             .as_mut()
             .expect("newton_begin precedes newton_correct");
-        let g = it.g.take().expect("newton_rhs precedes newton_correct");
+        let Some(g) = it.g.take() else {
+            return Ok(0.0); // the state's iteration alone (see `newton_rhs`)
+        };
+        it.corrections += 1;
         let mut r = g - &it.s * it.c0 - &it.psi;
         if !newton_matrix.solve_mut(&mut r) {
             return Err(IntegrationFailure::SingularNewtonMatrix);
@@ -886,8 +901,8 @@ impl<const N: usize> StepExtension<MultibodySystem> for Extension<'_, N> {
         let norm = wrms_matrix(&r, &self.hist[0], rtol, &self.sensitivity_atol(atol));
         let it = self.newton.as_mut().expect("checked above");
         it.s += r;
-        // in the convergence test with error control; otherwise the sensitivities take the
-        // state's iterations (their remaining iteration error is then rate^j ≤ 0.3 of their own
+        // in the convergence test with error control; otherwise a single update (its remaining
+        // iteration error is the chord rate times this update, the order of the sensitivities'
         // local truncation error), non-finite updates still fail the iteration
         Ok(if self.options.error_control || !norm.is_finite() {
             norm
