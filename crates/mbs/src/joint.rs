@@ -125,78 +125,69 @@ pub(crate) fn joint_equations<S: Scalar>(
     a: &MarkerKin<S>,
     b: &MarkerKin<S>,
     t: f64,
-    n_v: usize,
     out: &mut Vec<Kin<S>>,
 ) {
-    let cols = [a.cols.clone(), b.cols.clone()];
-    let cols = &cols[..];
-    let d: Kin3<S> = b.point.sub_on(&a.point, cols);
+    let d: Kin3<S> = b.point.sub(&a.point);
     let [a1, a2, a3] = &a.axes;
     let [b1, b2, b3] = &b.axes;
     let sph = |out: &mut Vec<Kin<S>>| {
         for i in 0..3 {
-            out.push(d.component_on(i, cols));
+            out.push(d.component(i));
         }
     };
     match kind {
         JointKind::Spherical => sph(out),
         JointKind::Revolute => {
             sph(out);
-            out.push(a1.dot_on(b3, cols));
-            out.push(a2.dot_on(b3, cols));
+            out.push(a1.dot(b3));
+            out.push(a2.dot(b3));
         }
         JointKind::Universal => {
             sph(out);
-            out.push(a3.dot_on(b3, cols));
+            out.push(a3.dot(b3));
         }
         JointKind::Cylindrical => {
-            out.push(a1.dot_on(b3, cols));
-            out.push(a2.dot_on(b3, cols));
-            out.push(a1.dot_on(&d, cols));
-            out.push(a2.dot_on(&d, cols));
+            out.push(a1.dot(b3));
+            out.push(a2.dot(b3));
+            out.push(a1.dot(&d));
+            out.push(a2.dot(&d));
         }
         JointKind::Translational => {
-            out.push(a1.dot_on(b3, cols));
-            out.push(a2.dot_on(b3, cols));
-            out.push(a1.dot_on(&d, cols));
-            out.push(a2.dot_on(&d, cols));
-            out.push(a1.dot_on(b2, cols));
+            out.push(a1.dot(b3));
+            out.push(a2.dot(b3));
+            out.push(a1.dot(&d));
+            out.push(a2.dot(&d));
+            out.push(a1.dot(b2));
         }
         JointKind::Fixed => {
             sph(out);
-            out.push(a2.dot_on(b3, cols));
-            out.push(a3.dot_on(b1, cols));
-            out.push(a1.dot_on(b2, cols));
+            out.push(a2.dot(b3));
+            out.push(a3.dot(b1));
+            out.push(a1.dot(b2));
         }
         JointKind::AngleDriver(f) => {
             // ρ sin(f − θ) with ρ cos θ = e1A·e1B, ρ sin θ = e2A·e1B
-            let c = a1.dot_on(b1, cols);
-            let s = a2.dot_on(b1, cols);
+            let c = a1.dot(b1);
+            let s = a2.dot(b1);
             let [fv, fd, fdd] = f.eval(t);
             let (sf, cf) = fv.sin_cos();
-            let sin_f = Kin::of_time(
-                [
-                    S::from_f64(sf),
-                    S::from_f64(cf * fd),
-                    S::from_f64(-sf * fd * fd + cf * fdd),
-                ],
-                n_v,
-            );
-            let cos_f = Kin::of_time(
-                [
-                    S::from_f64(cf),
-                    S::from_f64(-sf * fd),
-                    S::from_f64(-cf * fd * fd - sf * fdd),
-                ],
-                n_v,
-            );
-            out.push(c.mul_on(&sin_f, cols).sub_on(&s.mul_on(&cos_f, cols), cols));
+            let sin_f = Kin::of_time([
+                S::from_f64(sf),
+                S::from_f64(cf * fd),
+                S::from_f64(-sf * fd * fd + cf * fdd),
+            ]);
+            let cos_f = Kin::of_time([
+                S::from_f64(cf),
+                S::from_f64(-sf * fd),
+                S::from_f64(-cf * fd * fd - sf * fdd),
+            ]);
+            out.push(c.mul(&sin_f).sub(&s.mul(&cos_f)));
         }
         JointKind::DistanceDriver(f) => {
-            let x = a3.dot_on(&d, cols);
+            let x = a3.dot(&d);
             let [fv, fd, fdd] = f.eval(t);
-            let ft = Kin::of_time([S::from_f64(fv), S::from_f64(fd), S::from_f64(fdd)], n_v);
-            out.push(x.sub_on(&ft, cols));
+            let ft = Kin::of_time([S::from_f64(fv), S::from_f64(fd), S::from_f64(fdd)]);
+            out.push(x.sub(&ft));
         }
     }
 }

@@ -5,8 +5,9 @@
 //! - `rate`: its total time derivative `Φ̇ = Φ_v v + Φ_t`,
 //! - `quad`: its second time derivative with the accelerations held at zero,
 //!   `Φ̈ − Φ_v v̇` (so that `γ = −quad` in Eq. 9),
-//! - `jac`: `Φ_v`, the row(s) multiplying the velocity variables `v` (one entry per velocity
-//!   variable of the whole system).
+//! - `jac`: `Φ_v`, the row(s) multiplying the velocity variables `v`, stored only on the
+//!   velocity columns of the (at most two) bodies involved ([`Jac`]): a marker touches its
+//!   body's columns, a joint those of its two bodies, whatever the size of the system.
 //!
 //! Products and sums follow the product rule, so every joint built from marker points and
 //! axes gets its Jacobian and `γ` consistent with `Φ` by construction.
@@ -123,6 +124,169 @@ pub fn quat_from_matrix(a: &Matrix3<f64>) -> Vector4<f64> {
     if p[0] < 0.0 { -p } else { p }
 }
 
+/// The velocity columns on which a Jacobian row may be nonzero: at most two disjoint ranges
+/// (bodies' velocity blocks), in ascending order; empty ranges are absent.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Cols {
+    ranges: [Range<usize>; 2],
+}
+
+impl Cols {
+    /// No columns (a function of time only, or a ground quantity).
+    pub fn none() -> Self {
+        Self::default()
+    }
+
+    /// The columns `r` (one body's velocity block).
+    pub fn of(r: Range<usize>) -> Self {
+        Self { ranges: [r, 0..0] }
+    }
+
+    /// The union of two column sets, each range either equal to or disjoint from the others.
+    ///
+    /// # Panics
+    /// If the union has more than two distinct ranges (quantities of more than two bodies).
+    pub fn union(&self, o: &Self) -> Self {
+        if self == o || o.is_empty() {
+            return self.clone();
+        }
+        if self.is_empty() {
+            return o.clone();
+        }
+        let mut out: Vec<Range<usize>> = Vec::with_capacity(2);
+        for r in self.ranges.iter().chain(&o.ranges) {
+            if !r.is_empty() && !out.contains(r) {
+                out.push(r.clone());
+            }
+        }
+        out.sort_by_key(|r| r.start);
+        match out.as_slice() {
+            [a] => Self::of(a.clone()),
+            [a, b] => {
+                debug_assert!(a.end <= b.start, "overlapping velocity blocks");
+                Self {
+                    ranges: [a.clone(), b.clone()],
+                }
+            }
+            _ => panic!("kinematic quantity of more than two bodies"),
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.ranges[0].is_empty() && self.ranges[1].is_empty()
+    }
+
+    /// Number of columns.
+    pub fn len(&self) -> usize {
+        self.ranges[0].len() + self.ranges[1].len()
+    }
+
+    /// The columns, ascending.
+    pub fn iter(&self) -> impl Iterator<Item = usize> + '_ {
+        self.ranges[0].clone().chain(self.ranges[1].clone())
+    }
+
+    /// Position of column `c` in the stored entries.
+    #[inline]
+    fn position(&self, c: usize) -> Option<usize> {
+        let [a, b] = &self.ranges;
+        if a.contains(&c) {
+            Some(c - a.start)
+        } else if b.contains(&c) {
+            Some(a.len() + c - b.start)
+        } else {
+            None
+        }
+    }
+}
+
+/// A velocity-Jacobian row stored on its [`Cols`] only (zero elsewhere).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Jac<T> {
+    cols: Cols,
+    entries: Vec<T>,
+}
+
+impl<T: Copy> Jac<T> {
+    /// No nonzero columns.
+    pub fn empty() -> Self {
+        Self {
+            cols: Cols::none(),
+            entries: Vec::new(),
+        }
+    }
+
+    /// Entries `f(c)` for the columns `c` of `cols`.
+    pub fn from_fn(cols: Cols, f: impl FnMut(usize) -> T) -> Self {
+        let entries = cols.iter().map(f).collect();
+        Self { cols, entries }
+    }
+
+    /// Entries given in the order of `cols`.
+    pub fn from_entries(cols: Cols, entries: Vec<T>) -> Self {
+        assert_eq!(cols.len(), entries.len(), "one entry per column");
+        Self { cols, entries }
+    }
+
+    pub fn cols(&self) -> &Cols {
+        &self.cols
+    }
+
+    /// The entry of column `c` (`zero` outside the stored columns).
+    #[inline]
+    pub fn get(&self, c: usize, zero: T) -> T {
+        match self.cols.position(c) {
+            Some(i) => self.entries[i],
+            None => zero,
+        }
+    }
+
+    /// `(column, entry)` pairs, ascending columns.
+    pub fn iter(&self) -> impl Iterator<Item = (usize, &T)> + '_ {
+        self.cols.iter().zip(&self.entries)
+    }
+
+    /// The same row with `f` applied to each entry.
+    pub fn map<U: Copy>(&self, f: impl FnMut(&T) -> U) -> Jac<U> {
+        Jac {
+            cols: self.cols.clone(),
+            entries: self.entries.iter().map(f).collect(),
+        }
+    }
+
+    /// The full row of length `n`.
+    pub fn dense(&self, n: usize, zero: T) -> Vec<T> {
+        let mut out = vec![zero; n];
+        for (c, &x) in self.iter() {
+            out[c] = x;
+        }
+        out
+    }
+
+    /// `f(x_c, y_c)` on the union of the columns of `x` and `y`.
+    fn combine<U: Copy, V: Copy>(
+        x: &Self,
+        y: &Jac<U>,
+        zx: T,
+        zy: U,
+        mut f: impl FnMut(T, U) -> V,
+    ) -> Jac<V> {
+        if x.cols == y.cols {
+            return Jac {
+                cols: x.cols.clone(),
+                entries: x
+                    .entries
+                    .iter()
+                    .zip(&y.entries)
+                    .map(|(&a, &b)| f(a, b))
+                    .collect(),
+            };
+        }
+        let cols = x.cols.union(&y.cols);
+        Jac::from_fn(cols, |c| f(x.get(c, zx), y.get(c, zy)))
+    }
+}
+
 /// A scalar kinematic quantity with its rate, quadratic acceleration term and velocity
 /// Jacobian row (see the module docs).
 #[derive(Clone, Debug)]
@@ -130,26 +294,26 @@ pub struct Kin<S: Scalar> {
     pub val: S,
     pub rate: S,
     pub quad: S,
-    pub jac: Vec<S>,
+    pub jac: Jac<S>,
 }
 
-/// A vector kinematic quantity (global components); `jac[i]` is `∂(rate)/∂v_i`.
+/// A vector kinematic quantity (global components); `jac` column `i` is `∂(rate)/∂v_i`.
 #[derive(Clone, Debug)]
 pub struct Kin3<S: Scalar> {
     pub val: Vector3<S>,
     pub rate: Vector3<S>,
     pub quad: Vector3<S>,
-    pub jac: Vec<Vector3<S>>,
+    pub jac: Jac<Vector3<S>>,
 }
 
 impl<S: Scalar> Kin<S> {
     /// A function of time only: value, first and second derivative; no Jacobian.
-    pub fn of_time(f: [S; 3], n_v: usize) -> Self {
+    pub fn of_time(f: [S; 3]) -> Self {
         Self {
             val: f[0],
             rate: f[1],
             quad: f[2],
-            jac: vec![S::zero(); n_v],
+            jac: Jac::empty(),
         }
     }
 
@@ -158,7 +322,7 @@ impl<S: Scalar> Kin<S> {
             val: self.val + o.val,
             rate: self.rate + o.rate,
             quad: self.quad + o.quad,
-            jac: self.jac.iter().zip(&o.jac).map(|(&a, &b)| a + b).collect(),
+            jac: Jac::combine(&self.jac, &o.jac, S::zero(), S::zero(), |a, b| a + b),
         }
     }
 
@@ -167,7 +331,7 @@ impl<S: Scalar> Kin<S> {
             val: self.val - o.val,
             rate: self.rate - o.rate,
             quad: self.quad - o.quad,
-            jac: self.jac.iter().zip(&o.jac).map(|(&a, &b)| a - b).collect(),
+            jac: Jac::combine(&self.jac, &o.jac, S::zero(), S::zero(), |a, b| a - b),
         }
     }
 
@@ -177,92 +341,21 @@ impl<S: Scalar> Kin<S> {
             val: self.val * o.val,
             rate: self.rate * o.val + self.val * o.rate,
             quad: self.quad * o.val + S::from_f64(2.0) * self.rate * o.rate + self.val * o.quad,
-            jac: self
-                .jac
-                .iter()
-                .zip(&o.jac)
-                .map(|(&a, &b)| a * o.val + self.val * b)
-                .collect(),
-        }
-    }
-}
-
-/// Columns `cols` (velocity ranges of the bodies involved) of a Jacobian row of length `n`,
-/// zero elsewhere: the kinematics of a joint touch only its two bodies' columns.
-fn sparse_row<T: Clone>(
-    n: usize,
-    zero: T,
-    cols: &[Range<usize>],
-    f: impl Fn(usize) -> T,
-) -> Vec<T> {
-    let mut jac = vec![zero; n];
-    for r in cols {
-        for i in r.clone() {
-            jac[i] = f(i);
-        }
-    }
-    jac
-}
-
-impl<S: Scalar> Kin<S> {
-    /// [`Kin::sub`] computing only the Jacobian columns `cols` (the others must be zero in
-    /// both operands).
-    pub(crate) fn sub_on(&self, o: &Self, cols: &[Range<usize>]) -> Self {
-        Self {
-            val: self.val - o.val,
-            rate: self.rate - o.rate,
-            quad: self.quad - o.quad,
-            jac: sparse_row(self.jac.len(), S::zero(), cols, |i| self.jac[i] - o.jac[i]),
-        }
-    }
-
-    /// [`Kin::mul`] computing only the Jacobian columns `cols`.
-    pub(crate) fn mul_on(&self, o: &Self, cols: &[Range<usize>]) -> Self {
-        Self {
-            val: self.val * o.val,
-            rate: self.rate * o.val + self.val * o.rate,
-            quad: self.quad * o.val + S::from_f64(2.0) * self.rate * o.rate + self.val * o.quad,
-            jac: sparse_row(self.jac.len(), S::zero(), cols, |i| {
-                self.jac[i] * o.val + self.val * o.jac[i]
+            jac: Jac::combine(&self.jac, &o.jac, S::zero(), S::zero(), |a, b| {
+                a * o.val + self.val * b
             }),
         }
     }
 }
 
 impl<S: Scalar> Kin3<S> {
-    /// [`Kin3::sub`] computing only the Jacobian columns `cols`.
-    pub(crate) fn sub_on(&self, o: &Self, cols: &[Range<usize>]) -> Self {
+    /// A constant vector: no rate, no Jacobian.
+    pub fn constant(val: Vector3<S>) -> Self {
         Self {
-            val: self.val - o.val,
-            rate: self.rate - o.rate,
-            quad: self.quad - o.quad,
-            jac: sparse_row(self.jac.len(), Vector3::zeros(), cols, |i| {
-                self.jac[i] - o.jac[i]
-            }),
-        }
-    }
-
-    /// [`Kin3::dot`] computing only the Jacobian columns `cols`.
-    pub(crate) fn dot_on(&self, o: &Self, cols: &[Range<usize>]) -> Kin<S> {
-        Kin {
-            val: self.val.dot(&o.val),
-            rate: self.rate.dot(&o.val) + self.val.dot(&o.rate),
-            quad: self.quad.dot(&o.val)
-                + S::from_f64(2.0) * self.rate.dot(&o.rate)
-                + self.val.dot(&o.quad),
-            jac: sparse_row(self.jac.len().max(o.jac.len()), S::zero(), cols, |i| {
-                self.jac[i].dot(&o.val) + self.val.dot(&o.jac[i])
-            }),
-        }
-    }
-
-    /// [`Kin3::component`] computing only the Jacobian columns `cols`.
-    pub(crate) fn component_on(&self, i: usize, cols: &[Range<usize>]) -> Kin<S> {
-        Kin {
-            val: self.val[i],
-            rate: self.rate[i],
-            quad: self.quad[i],
-            jac: sparse_row(self.jac.len(), S::zero(), cols, |c| self.jac[c][i]),
+            val,
+            rate: Vector3::zeros(),
+            quad: Vector3::zeros(),
+            jac: Jac::empty(),
         }
     }
 
@@ -271,7 +364,13 @@ impl<S: Scalar> Kin3<S> {
             val: self.val - o.val,
             rate: self.rate - o.rate,
             quad: self.quad - o.quad,
-            jac: self.jac.iter().zip(&o.jac).map(|(a, b)| a - b).collect(),
+            jac: Jac::combine(
+                &self.jac,
+                &o.jac,
+                Vector3::zeros(),
+                Vector3::zeros(),
+                |a, b| a - b,
+            ),
         }
     }
 
@@ -283,12 +382,13 @@ impl<S: Scalar> Kin3<S> {
             quad: self.quad.dot(&o.val)
                 + S::from_f64(2.0) * self.rate.dot(&o.rate)
                 + self.val.dot(&o.quad),
-            jac: self
-                .jac
-                .iter()
-                .zip(&o.jac)
-                .map(|(a, b)| a.dot(&o.val) + self.val.dot(b))
-                .collect(),
+            jac: Jac::combine(
+                &self.jac,
+                &o.jac,
+                Vector3::zeros(),
+                Vector3::zeros(),
+                |a, b| a.dot(&o.val) + self.val.dot(&b),
+            ),
         }
     }
 
@@ -298,7 +398,7 @@ impl<S: Scalar> Kin3<S> {
             val: self.val[i],
             rate: self.rate[i],
             quad: self.quad[i],
-            jac: self.jac.iter().map(|a| a[i]).collect(),
+            jac: self.jac.map(|a| a[i]),
         }
     }
 }

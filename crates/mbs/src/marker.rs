@@ -6,7 +6,7 @@ use nalgebra::{Matrix3, Vector3};
 use sens::Scalar;
 
 use crate::body::{Body, BodyId, mode_vec, pose, vec3, vec3f};
-use crate::kin::Kin3;
+use crate::kin::{Cols, Jac, Kin3};
 
 /// Where a marker sits on its body.
 #[derive(Clone, Debug, PartialEq)]
@@ -111,17 +111,6 @@ pub(crate) struct MarkerKin<S: Scalar> {
     /// Velocity offset of the body, modal rotation columns of the node (body components).
     pub v_off: usize,
     pub node_rot_modes: Vec<Vector3<S>>,
-    /// The body's velocity columns (empty for ground): the only nonzero Jacobian columns.
-    pub cols: std::ops::Range<usize>,
-}
-
-fn constant<S: Scalar>(x: Vector3<S>, n_v: usize) -> Kin3<S> {
-    Kin3 {
-        val: x,
-        rate: Vector3::zeros(),
-        quad: Vector3::zeros(),
-        jac: vec![Vector3::zeros(); n_v],
-    }
 }
 
 /// Marker kinematics at the state `(q, v)`. `body` is the marker's body with its coordinate
@@ -131,7 +120,6 @@ pub(crate) fn marker_kin<P: Scalar, S: Scalar + From<P>>(
     body: Option<(&Body<P>, usize, usize)>,
     q: &[S],
     v: &[S],
-    n_v: usize,
     with_axes: bool,
 ) -> MarkerKin<S> {
     let axes0: [Vector3<S>; 3] =
@@ -142,12 +130,11 @@ pub(crate) fn marker_kin<P: Scalar, S: Scalar + From<P>>(
             Site::Node(_) => unreachable!("validated: ground markers are points"),
         };
         return MarkerKin {
-            point: constant(p, n_v),
-            axes: axes0.map(|e| constant(e, n_v)),
+            point: Kin3::constant(p),
+            axes: axes0.map(Kin3::constant),
             a: Matrix3::identity(),
             v_off: 0,
             node_rot_modes: Vec::new(),
-            cols: 0..0,
         };
     };
     let ps = pose(&q[qo..]);
@@ -180,43 +167,45 @@ pub(crate) fn marker_kin<P: Scalar, S: Scalar + From<P>>(
         (Site::Node(_), Body::Rigid(_)) => unreachable!("validated: nodes only on flexible bodies"),
     }
     let two = S::from_f64(2.0);
-    let mut jac = vec![Vector3::zeros(); n_v];
-    for i in 0..3 {
-        let mut e = Vector3::zeros();
+    // the body's velocity columns: translation, rotation (ω'), modes
+    let cols = vo..vo + 6 + nm;
+    let mut jac = vec![Vector3::zeros(); 6 + nm];
+    for (i, e) in jac.iter_mut().take(3).enumerate() {
         e[i] = S::one();
-        jac[vo + i] = e;
     }
     // ω columns: A (e_i × u)
-    omega_columns(&a, &u, &mut jac[vo + 3..vo + 6]);
+    omega_columns(&a, &u, &mut jac[3..6]);
     for j in 0..xd.len() {
-        jac[vo + 6 + j] = mv(&a, &xd[j]);
+        jac[6 + j] = mv(&a, &xd[j]);
     }
     let point = Kin3 {
         val: ps.r + mv(&a, &u),
         rate: rd + mv(&a, &(om.cross(&u) + ud)),
         quad: mv(&a, &(om.cross(&om.cross(&u)) + om.cross(&ud) * two)),
-        jac,
+        jac: Jac::from_entries(Cols::of(cols.clone()), jac),
     };
     let axes = if with_axes {
         axes0.map(|e0| {
             // e' = e0 + θ × e0 (small nodal rotation)
             let ep = e0 + th.cross(&e0);
             let epd = thd.cross(&e0);
-            let mut jac = vec![Vector3::zeros(); n_v];
+            // no translation columns (kept, zero, so that all the marker's quantities share
+            // its columns)
+            let mut jac = vec![Vector3::zeros(); 6 + nm];
             // ω columns: A (e_i × e')
-            omega_columns(&a, &ep, &mut jac[vo + 3..vo + 6]);
+            omega_columns(&a, &ep, &mut jac[3..6]);
             for j in 0..xt.len() {
-                jac[vo + 6 + j] = mv(&a, &xt[j].cross(&e0));
+                jac[6 + j] = mv(&a, &xt[j].cross(&e0));
             }
             Kin3 {
                 val: mv(&a, &ep),
                 rate: mv(&a, &(om.cross(&ep) + epd)),
                 quad: mv(&a, &(om.cross(&om.cross(&ep)) + om.cross(&epd) * two)),
-                jac,
+                jac: Jac::from_entries(Cols::of(cols.clone()), jac),
             }
         })
     } else {
-        axes0.map(|e| constant(e, 0))
+        axes0.map(Kin3::constant)
     };
     MarkerKin {
         point,
@@ -224,6 +213,5 @@ pub(crate) fn marker_kin<P: Scalar, S: Scalar + From<P>>(
         a,
         v_off: vo,
         node_rot_modes: xt,
-        cols: vo..vo + 6 + nm,
     }
 }

@@ -416,7 +416,7 @@ impl<P: Scalar> Model<P> {
         v: &[S],
         with_axes: bool,
     ) -> MarkerKin<S> {
-        marker_kin(m, self.slot_of(m), q, v, self.n_v, with_axes)
+        marker_kin(m, self.slot_of(m), q, v, with_axes)
     }
 
     /// `q̇` from `(q, v)`: `ṙ`, `ṗ = ½ L(p)ᵀ ω'`, `ẇ`.
@@ -447,7 +447,7 @@ impl<P: Scalar> Model<P> {
             let axes = j.kind.needs_axes();
             let a = self.marker(&j.a, q, v, axes);
             let b = self.marker(&j.b, q, v, axes);
-            joint_equations(&j.kind, &a, &b, t, self.n_v, &mut out);
+            joint_equations(&j.kind, &a, &b, t, &mut out);
         }
         out
     }
@@ -462,7 +462,7 @@ impl<P: Scalar> Model<P> {
         let k = self.constraint_kin(t, q, v);
         let mut jac = DMatrix::zeros(self.n_c, self.n_v);
         for (i, row) in k.iter().enumerate() {
-            for (c, &x) in row.jac.iter().enumerate() {
+            for (c, &x) in row.jac.iter() {
                 jac[(i, c)] = x;
             }
         }
@@ -521,7 +521,7 @@ impl<P: Scalar> Model<P> {
                     LoadFrame::Global => l,
                     LoadFrame::Body => k.a * l,
                 };
-                for (i, j) in k.point.jac.iter().enumerate() {
+                for (i, j) in k.point.jac.iter() {
                     f[i] += j.dot(&fg);
                 }
             }
@@ -557,7 +557,7 @@ impl<P: Scalar> Model<P> {
                 let ld = d.val.dot(&d.rate) / l;
                 let tension = (l - S::from_f64(*free_length)) * *stiffness + ld * *damping;
                 let dir = d.val / l;
-                for (i, j) in d.jac.iter().enumerate() {
+                for (i, j) in d.jac.iter() {
                     f[i] -= tension * j.dot(&dir);
                 }
             }
@@ -611,7 +611,7 @@ impl<P: Scalar> Model<P> {
         let beta2 = S::from_f64(self.baumgarte.beta * self.baumgarte.beta);
         for (r, &row) in rows.iter().enumerate() {
             let c = &k[row];
-            for (col, &x) in c.jac.iter().enumerate() {
+            for (col, &x) in c.jac.iter() {
                 matrix[(nv + r, col)] = x;
                 matrix[(col, nv + r)] = x;
             }
@@ -660,8 +660,8 @@ impl<P: Scalar> Model<P> {
         for (a, &row) in rows.iter().enumerate() {
             let lambda = x_hat[nv + a];
             if lambda != 0.0 {
-                for (o, &x) in out.iter_mut().zip(&k[row].jac) {
-                    *o -= x * lambda;
+                for (col, &x) in k[row].jac.iter() {
+                    out[col] -= x * lambda;
                 }
             }
         }
@@ -670,7 +670,7 @@ impl<P: Scalar> Model<P> {
         for &row in rows {
             let c = &k[row];
             let mut r = -c.quad - two_alpha * c.rate - beta2 * c.val;
-            for (col, &x) in c.jac.iter().enumerate() {
+            for (col, &x) in c.jac.iter() {
                 if x_hat[col] != 0.0 {
                     r -= x * x_hat[col];
                 }

@@ -223,12 +223,9 @@ impl MultibodySystem {
         match self.policy {
             RedundancyPolicy::Error | RedundancyPolicy::Remove => self.rows.clone(),
             RedundancyPolicy::Reselect => {
-                independent_rows_of(
-                    k.iter().map(|r| r.jac.as_slice()),
-                    self.model.n_v(),
-                    STATE_DEPENDENCE_TOL,
-                )
-                .0
+                let n_v = self.model.n_v();
+                let dense: Vec<Vec<f64>> = k.iter().map(|r| r.jac.dense(n_v, 0.0)).collect();
+                independent_rows_of(dense.iter().map(Vec::as_slice), n_v, STATE_DEPENDENCE_TOL).0
             }
         }
     }
@@ -252,7 +249,7 @@ impl MultibodySystem {
                 val: r.val.value(),
                 rate: r.rate.value(),
                 quad: r.quad.value(),
-                jac: r.jac.iter().map(|x| x.value()).collect(),
+                jac: r.jac.map(|x| x.value()),
             })
             .collect();
         let rows = self.select_rows(&kv);
