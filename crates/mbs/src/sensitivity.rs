@@ -413,8 +413,9 @@ fn fused_rhs<const N: usize>(
     Ok((sol.expect("at least one chunk"), factors, out))
 }
 
-/// Tangent columns from which solves go through unpacked [`Factors`].
-const UNPACK_COLUMNS: usize = 4;
+/// Tangent columns from which solves go through unpacked [`Factors`] (measured on the
+/// slider-crank's 40 × 40 Eq. 12: unpacking costs about five of nalgebra's column solves).
+const UNPACK_COLUMNS: usize = 9;
 
 /// Pseudo-inverse solve `−J⁺ R` column by column (minimum norm, tolerant of dependent rows).
 fn min_norm_columns(jac: &DMatrix<f64>, r: &DMatrix<f64>) -> DMatrix<f64> {
