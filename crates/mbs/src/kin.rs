@@ -402,3 +402,80 @@ impl<S: Scalar> Kin3<S> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn kin3(cols: Range<usize>, seed: f64) -> Kin3<f64> {
+        let c = Cols::of(cols);
+        Kin3 {
+            val: Vector3::new(seed, 2.0 * seed, -seed),
+            rate: Vector3::new(0.5, -seed, 1.5),
+            quad: Vector3::new(seed * seed, 0.25, -1.0),
+            jac: Jac::from_fn(c, |i| {
+                Vector3::new(i as f64 + seed, -(i as f64), seed * i as f64)
+            }),
+        }
+    }
+
+    #[test]
+    fn column_union_is_ascending_and_merges_equal_blocks() {
+        let a = Cols::of(6..16);
+        let b = Cols::of(0..6);
+        let u = a.union(&b);
+        assert_eq!(u.iter().collect::<Vec<_>>(), (0..16).collect::<Vec<_>>());
+        assert_eq!(a.union(&a), a);
+        assert_eq!(a.union(&Cols::none()), a);
+        assert_eq!(Cols::none().union(&b), b);
+        let c = Cols::of(20..26).union(&b);
+        assert_eq!(c.len(), 12);
+        assert_eq!(c.iter().collect::<Vec<_>>()[6], 20);
+        assert_eq!(c.union(&Cols::of(20..26)), c);
+    }
+
+    #[test]
+    #[should_panic(expected = "more than two bodies")]
+    fn three_bodies_in_one_row_are_refused() {
+        let _ = Cols::of(0..6).union(&Cols::of(6..12).union(&Cols::of(12..18)));
+    }
+
+    /// Sparse products equal the same products on dense rows.
+    #[test]
+    fn sparse_rows_match_dense_algebra() {
+        let n = 30;
+        let a = kin3(3..9, 0.7);
+        let b = kin3(20..30, -1.3);
+        let dense = |j: &Jac<f64>| j.dense(n, 0.0);
+        let dense3 = |j: &Jac<Vector3<f64>>| j.dense(n, Vector3::zeros());
+        let (ja, jb) = (dense3(&a.jac), dense3(&b.jac));
+        let d = b.sub(&a);
+        let dd = dense3(&d.jac);
+        for c in 0..n {
+            assert_eq!(dd[c], jb[c] - ja[c]);
+        }
+        let p = a.dot(&b);
+        let dp = dense(&p.jac);
+        for c in 0..n {
+            assert_eq!(dp[c], ja[c].dot(&b.val) + a.val.dot(&jb[c]));
+        }
+        let comp = d.component(2);
+        let m = comp.mul(&p);
+        let dm = dense(&m.jac);
+        let dc = dense(&comp.jac);
+        for c in 0..n {
+            assert_eq!(dm[c], dc[c] * p.val + comp.val * dp[c]);
+        }
+        assert_eq!(m.rate, comp.rate * p.val + comp.val * p.rate);
+        let of_time = Kin::of_time([1.0, 2.0, 3.0]);
+        let s = m.sub(&of_time);
+        assert_eq!(s.jac, m.jac);
+        assert_eq!(
+            (s.val, s.rate, s.quad),
+            (m.val - 1.0, m.rate - 2.0, m.quad - 3.0)
+        );
+        // entries outside the stored columns read as zero
+        assert_eq!(a.jac.get(0, Vector3::zeros()), Vector3::zeros());
+        assert_eq!(a.jac.get(4, Vector3::zeros()), Vector3::new(4.7, -4.0, 2.8));
+    }
+}
