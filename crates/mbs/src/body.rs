@@ -6,6 +6,8 @@
 //! components, modal velocities.
 
 use fem::ModalBody;
+use std::sync::OnceLock;
+
 use nalgebra::{DMatrix, Matrix3, Vector3, Vector4};
 use sens::Scalar;
 
@@ -173,8 +175,12 @@ pub(crate) fn pose<S: Scalar>(q: &[S]) -> Pose<S> {
 /// Everything the equations of motion need from one body at one state: its mass matrix block
 /// and the generalised forces `g + s − Λw − Dẇ` (Eq. 12), written into the system arrays at
 /// velocity offset `off`.
+///
+/// `invariants` caches a flexible body's [`ModalInvariants`] (made at the first call).
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn body_dynamics<P: Scalar, S: Scalar + From<P>>(
     body: &Body<P>,
+    invariants: &OnceLock<ModalInvariants<P>>,
     q: &[S],
     v: &[S],
     gravity: &Vector3<f64>,
@@ -202,108 +208,498 @@ pub(crate) fn body_dynamics<P: Scalar, S: Scalar + From<P>>(
             }
         }
         Body::Flexible(b) => {
-            let modal = &b.modal;
-            let nm = modal.n_modes();
-            let w = &q[7..7 + nm];
-            let wd = &v[6..6 + nm];
-            let om = rd_omega;
-            let g_body = a.transpose() * g;
-            let mut total = S::zero();
-            let mut first = Vector3::<S>::zeros(); // Σ m_k u_k
-            let mut m_oo = Matrix3::<S>::zeros();
-            let mut s_d = DMatrix::<S>::zeros(3, nm); // Σ m_k Xδ_k
-            let mut m_ow = DMatrix::<S>::zeros(3, nm);
-            let mut m_ww = DMatrix::<S>::zeros(nm, nm);
-            let mut qc = Vector3::<S>::zeros(); // Σ m_k c'_k
-            let mut s_o = Vector3::<S>::zeros(); // Σ m_k u_k × c'_k + ω × Σ J Ω_k
-            let mut hj = Vector3::<S>::zeros(); // Σ J_k Ω_k
-            let mut s_w = vec![S::zero(); nm];
-            let mut xd = vec![Vector3::<S>::zeros(); nm];
-            let mut xt = vec![Vector3::<S>::zeros(); nm];
-            for k in 0..modal.n_nodes() {
-                let mk: S = S::from_f64(modal.node_masses[k]);
-                let jk: Vector3<S> = vec3f(&modal.node_inertias[k]);
-                let mut u: Vector3<S> = vec3f(&modal.node_positions[k]);
-                let mut ud = Vector3::<S>::zeros();
-                let mut th_d = Vector3::<S>::zeros();
-                for j in 0..nm {
-                    xd[j] = mode_vec(modal, k, j, false);
-                    xt[j] = mode_vec(modal, k, j, true);
-                    u += xd[j] * w[j];
-                    ud += xd[j] * wd[j];
-                    th_d += xt[j] * wd[j];
-                }
-                total += mk;
-                first += u * mk;
-                let ut = skew(&u);
-                m_oo += ut.transpose() * ut * mk;
-                for i in 0..3 {
-                    m_oo[(i, i)] += jk[i];
-                }
-                for j in 0..nm {
-                    let uxd = u.cross(&xd[j]) * mk;
-                    for i in 0..3 {
-                        s_d[(i, j)] += xd[j][i] * mk;
-                        m_ow[(i, j)] += uxd[i] + jk[i] * xt[j][i];
-                    }
-                    for l in j..nm {
-                        let mut x = xd[j].dot(&xd[l]) * mk;
-                        for i in 0..3 {
-                            x += xt[j][i] * jk[i] * xt[l][i];
-                        }
-                        m_ww[(j, l)] += x;
-                    }
-                }
-                let c = om.cross(&om.cross(&u)) + om.cross(&ud) * S::from_f64(2.0);
-                qc += c * mk;
-                s_o += u.cross(&c) * mk;
-                let omega_k = om + th_d;
-                hj += omega_k.component_mul(&jk);
-                // gravity on the ω and ẇ rows
-                let gu = u.cross(&g_body) * mk;
-                for i in 0..3 {
-                    force[off + 3 + i] += gu[i];
-                }
-                for j in 0..nm {
-                    s_w[j] += xd[j].dot(&(g_body - c)) * mk;
-                }
-            }
-            // mass matrix blocks
-            let a_first = a * skew(&first); // A Σ m ũ
-            for i in 0..3 {
-                mass[(off + i, off + i)] = total;
-                for k in 0..3 {
-                    mass[(off + i, off + 3 + k)] = -a_first[(i, k)];
-                    mass[(off + 3 + k, off + i)] = -a_first[(i, k)];
-                    mass[(off + 3 + i, off + 3 + k)] = m_oo[(i, k)];
-                }
-            }
+            let inv = invariants.get_or_init(|| ModalInvariants::new(&b.modal));
+            flexible_dynamics(&b.modal, inv, &a, q, v, g, mass, off, force);
+        }
+    }
+}
+
+/// Sums over the nodes of a flexible body that do not depend on the state (the inertia
+/// invariants of the floating frame of reference): with `u_k = u0_k + Σ_j X_kj w_j` the
+/// deformed position of node `k` (mass `m_k`, rotary inertias `μ_k`, rotation mode vectors
+/// `T_kj`), every nodal sum of the mass matrix and the inertia forces is a polynomial in `w`
+/// and `ẇ` with these coefficients, so an evaluation costs `O(n_modes²)` whatever the number
+/// of nodes.
+#[derive(Clone, Debug)]
+pub(crate) struct ModalInvariants<P: Scalar> {
+    n_modes: usize,
+    /// `Σ m_k`.
+    total: f64,
+    /// `Σ m_k u0_k`.
+    first: Vector3<f64>,
+    /// `Σ μ_k`.
+    inertia: Vector3<f64>,
+    /// `Σ m_k u0_k u0_kᵀ`.
+    second: Matrix3<f64>,
+    /// `Σ_k m_k X_kj` for each mode `j`.
+    mode_first: Vec<Vector3<P>>,
+    /// `Σ_k m_k u0_k X_kjᵀ` for each mode `j`.
+    mode_cross: Vec<Matrix3<P>>,
+    /// `Σ_k m_k X_kj X_klᵀ` at `j · n_modes + l`.
+    mode_second: Vec<Matrix3<P>>,
+    /// `Σ_k μ_k ∘ T_kj` for each mode `j`.
+    mode_spin: Vec<Vector3<P>>,
+    /// The modal mass matrix `Σ_k m_k X_kjᵀ X_kl + T_kjᵀ diag(μ_k) T_kl` (row-major).
+    modal_mass: Vec<P>,
+}
+
+impl<P: Scalar> ModalInvariants<P> {
+    pub(crate) fn new(modal: &ModalBody<P>) -> Self {
+        let nm = modal.n_modes();
+        let mut inv = Self {
+            n_modes: nm,
+            total: 0.0,
+            first: Vector3::zeros(),
+            inertia: Vector3::zeros(),
+            second: Matrix3::zeros(),
+            mode_first: vec![Vector3::zeros(); nm],
+            mode_cross: vec![Matrix3::zeros(); nm],
+            mode_second: vec![Matrix3::zeros(); nm * nm],
+            mode_spin: vec![Vector3::zeros(); nm],
+            modal_mass: vec![P::zero(); nm * nm],
+        };
+        for k in 0..modal.n_nodes() {
+            let m = modal.node_masses[k];
+            let mu = modal.node_inertias[k];
+            let u0 = modal.node_positions[k];
+            let x: Vec<Vector3<P>> = (0..nm).map(|j| mode_vec(modal, k, j, false)).collect();
+            let t: Vec<Vector3<P>> = (0..nm).map(|j| mode_vec(modal, k, j, true)).collect();
+            let u0p: Vector3<P> = vec3f(&u0);
+            let mp = P::from_f64(m);
+            let mup: Vector3<P> = vec3f(&mu);
+            inv.total += m;
+            inv.first += u0 * m;
+            inv.inertia += mu;
+            inv.second += u0 * u0.transpose() * m;
             for j in 0..nm {
-                let col = Vector3::new(s_d[(0, j)], s_d[(1, j)], s_d[(2, j)]);
-                let acol = a * col;
-                for i in 0..3 {
-                    mass[(off + i, off + 6 + j)] = acol[i];
-                    mass[(off + 6 + j, off + i)] = acol[i];
-                    mass[(off + 3 + i, off + 6 + j)] = m_ow[(i, j)];
-                    mass[(off + 6 + j, off + 3 + i)] = m_ow[(i, j)];
+                inv.mode_first[j] += x[j] * mp;
+                inv.mode_cross[j] += outer(&u0p, &x[j]) * mp;
+                inv.mode_spin[j] += t[j].component_mul(&mup);
+                for l in 0..nm {
+                    inv.mode_second[j * nm + l] += outer(&x[j], &x[l]) * mp;
+                    inv.modal_mass[j * nm + l] +=
+                        x[j].dot(&x[l]) * mp + t[j].dot(&t[l].component_mul(&mup));
                 }
-                for l in j..nm {
-                    mass[(off + 6 + j, off + 6 + l)] = m_ww[(j, l)];
-                    mass[(off + 6 + l, off + 6 + j)] = m_ww[(j, l)];
-                }
-            }
-            // forces: gravity on r, quadratic velocity terms, elastic and damping
-            let s_r = a * qc;
-            let s_om = s_o + om.cross(&hj);
-            for i in 0..3 {
-                force[off + i] += g[i] * total - s_r[i];
-                force[off + 3 + i] -= s_om[i];
-            }
-            for j in 0..nm {
-                let lam: S = lift(modal.eigenvalues[j]);
-                let damp: S = lift(modal.modal_damping[j]);
-                force[off + 6 + j] += s_w[j] - lam * w[j] - damp * wd[j];
             }
         }
+        inv
+    }
+}
+
+/// `a bᵀ`.
+#[inline]
+fn outer<S: Scalar>(a: &Vector3<S>, b: &Vector3<S>) -> Matrix3<S> {
+    Matrix3::from_fn(|i, j| a[i] * b[j])
+}
+
+/// `Σ m a × b` from `M = Σ m a bᵀ`.
+#[inline]
+fn axial<S: Scalar>(m: &Matrix3<S>) -> Vector3<S> {
+    Vector3::new(
+        m[(1, 2)] - m[(2, 1)],
+        m[(2, 0)] - m[(0, 2)],
+        m[(0, 1)] - m[(1, 0)],
+    )
+}
+
+/// `A x` written out (nalgebra's generic product goes through a slow path for dual numbers).
+#[inline]
+fn mv<S: Scalar>(a: &Matrix3<S>, x: &Vector3<S>) -> Vector3<S> {
+    Vector3::new(
+        a[(0, 0)] * x[0] + a[(0, 1)] * x[1] + a[(0, 2)] * x[2],
+        a[(1, 0)] * x[0] + a[(1, 1)] * x[1] + a[(1, 2)] * x[2],
+        a[(2, 0)] * x[0] + a[(2, 1)] * x[1] + a[(2, 2)] * x[2],
+    )
+}
+
+/// `Aᵀ x` written out.
+#[inline]
+fn mtv<S: Scalar>(a: &Matrix3<S>, x: &Vector3<S>) -> Vector3<S> {
+    Vector3::new(
+        a[(0, 0)] * x[0] + a[(1, 0)] * x[1] + a[(2, 0)] * x[2],
+        a[(0, 1)] * x[0] + a[(1, 1)] * x[1] + a[(2, 1)] * x[2],
+        a[(0, 2)] * x[0] + a[(1, 2)] * x[1] + a[(2, 2)] * x[2],
+    )
+}
+
+/// The mass matrix block and generalised forces of a flexible body from its invariants:
+/// the nodal sums of Eq. (2) (lumped masses and rotary inertias at the deformed nodes)
+/// written as polynomials in `w` and `ẇ`.
+#[allow(clippy::too_many_arguments)]
+fn flexible_dynamics<P: Scalar, S: Scalar + From<P>>(
+    modal: &ModalBody<P>,
+    inv: &ModalInvariants<P>,
+    a: &Matrix3<S>,
+    q: &[S],
+    v: &[S],
+    g: Vector3<S>,
+    mass: &mut DMatrix<S>,
+    off: usize,
+    force: &mut [S],
+) {
+    let nm = inv.n_modes;
+    let w = &q[7..7 + nm];
+    let wd = &v[6..6 + nm];
+    let om = vec3(&v[3..6]);
+    let two = S::from_f64(2.0);
+    let total = S::from_f64(inv.total);
+    let c2: Vec<Vector3<S>> = inv.mode_first.iter().map(|x| x.map(lift)).collect();
+    let q2 = |j: usize, l: usize| -> Matrix3<S> { inv.mode_second[j * nm + l].map(lift) };
+    // Σ m u = Σ m u0 + Σ_j (Σ m X_j) w_j
+    let mut first: Vector3<S> = vec3f(&inv.first);
+    for j in 0..nm {
+        first += c2[j] * w[j];
+    }
+    // G_j = Σ m u X_jᵀ = Σ m u0 X_jᵀ + Σ_l w_l Σ m X_l X_jᵀ
+    let mut gj: Vec<Matrix3<S>> = inv.mode_cross.iter().map(|x| x.map(lift)).collect();
+    let mut second: Matrix3<S> = inv.second.map(S::from_f64); // Σ m u uᵀ
+    for j in 0..nm {
+        let pj = gj[j];
+        second += (pj + pj.transpose()) * w[j];
+    }
+    for l in 0..nm {
+        for j in 0..nm {
+            let qlj = q2(l, j);
+            gj[j] += qlj * w[l];
+            second += qlj * (w[l] * w[j]);
+        }
+    }
+    // Σ m u u̇ᵀ = Σ_j ẇ_j G_j
+    let mut u_ud = Matrix3::<S>::zeros();
+    for j in 0..nm {
+        u_ud += gj[j] * wd[j];
+    }
+    // rotational inertia: Σ m ũᵀũ + Σ μ = (tr Σ m u uᵀ) I − Σ m u uᵀ + diag(Σ μ)
+    let tr = second.trace();
+    let mut m_oo = -second;
+    for i in 0..3 {
+        m_oo[(i, i)] += tr + S::from_f64(inv.inertia[i]);
+    }
+    // coupling ω–ẇ: Σ m u × X_j + Σ μ ∘ T_j
+    let m_ow: Vec<Vector3<S>> = (0..nm)
+        .map(|j| axial(&gj[j]) + inv.mode_spin[j].map(lift))
+        .collect();
+    // Σ m ω × (ω × u) + 2 ω × u̇
+    let c2_wd = (0..nm).fold(Vector3::<S>::zeros(), |acc, j| acc + c2[j] * wd[j]);
+    let qc = om.cross(&om.cross(&first)) + om.cross(&c2_wd) * two;
+    // Σ m u × c: (Σ m u uᵀ ω) × ω + 2 (ω tr(Σ m u u̇ᵀ) − Σ m u̇ uᵀ ω)
+    let s_o = mv(&second, &om).cross(&om) + (om * u_ud.trace() - mtv(&u_ud, &om)) * two;
+    // Σ μ ∘ (ω + θ̇_k)
+    let mut hj = om.component_mul(&vec3f(&inv.inertia));
+    for j in 0..nm {
+        hj += inv.mode_spin[j].map(lift) * wd[j];
+    }
+    let g_body = mtv(a, &g);
+    let gu = first.cross(&g_body);
+    // mass matrix blocks
+    let a_first = a * skew(&first); // A Σ m ũ
+    for i in 0..3 {
+        mass[(off + i, off + i)] = total;
+        for k in 0..3 {
+            mass[(off + i, off + 3 + k)] = -a_first[(i, k)];
+            mass[(off + 3 + k, off + i)] = -a_first[(i, k)];
+            mass[(off + 3 + i, off + 3 + k)] = m_oo[(i, k)];
+        }
+    }
+    for j in 0..nm {
+        let acol = mv(a, &c2[j]);
+        for i in 0..3 {
+            mass[(off + i, off + 6 + j)] = acol[i];
+            mass[(off + 6 + j, off + i)] = acol[i];
+            mass[(off + 3 + i, off + 6 + j)] = m_ow[j][i];
+            mass[(off + 6 + j, off + 3 + i)] = m_ow[j][i];
+        }
+        for l in j..nm {
+            let x: S = lift(inv.modal_mass[j * nm + l]);
+            mass[(off + 6 + j, off + 6 + l)] = x;
+            mass[(off + 6 + l, off + 6 + j)] = x;
+        }
+    }
+    // forces: gravity, quadratic velocity terms, elastic and damping
+    let s_r = mv(a, &qc);
+    let s_om = s_o + om.cross(&hj);
+    for i in 0..3 {
+        force[off + i] += g[i] * total - s_r[i];
+        force[off + 3 + i] += gu[i] - s_om[i];
+    }
+    let om2 = om.dot(&om);
+    for j in 0..nm {
+        // Σ m X_j · (g' − ω × (ω × u) − 2 ω × u̇)
+        let centripetal = mv(&gj[j], &om).dot(&om) - om2 * gj[j].trace();
+        let mut coriolis = S::zero();
+        for l in 0..nm {
+            coriolis += om.dot(&axial(&q2(l, j))) * wd[l];
+        }
+        let lam: S = lift(modal.eigenvalues[j]);
+        let damp: S = lift(modal.modal_damping[j]);
+        force[off + 6 + j] +=
+            c2[j].dot(&g_body) - centripetal - coriolis * two - lam * w[j] - damp * wd[j];
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sens::Dual;
+
+    /// The nodal sums of Eq. (2), node by node (the reference for the invariants).
+    fn nodal_dynamics<P: Scalar, S: Scalar + From<P>>(
+        modal: &ModalBody<P>,
+        q: &[S],
+        v: &[S],
+        gravity: &Vector3<f64>,
+        mass: &mut DMatrix<S>,
+        off: usize,
+        force: &mut [S],
+    ) {
+        let Pose { a, .. } = pose(q);
+        let g: Vector3<S> = vec3f(gravity);
+
+        let nm = modal.n_modes();
+        let w = &q[7..7 + nm];
+        let wd = &v[6..6 + nm];
+        let om = vec3(&v[3..6]);
+        let g_body = a.transpose() * g;
+        let mut total = S::zero();
+        let mut first = Vector3::<S>::zeros(); // Σ m_k u_k
+        let mut m_oo = Matrix3::<S>::zeros();
+        let mut s_d = DMatrix::<S>::zeros(3, nm); // Σ m_k Xδ_k
+        let mut m_ow = DMatrix::<S>::zeros(3, nm);
+        let mut m_ww = DMatrix::<S>::zeros(nm, nm);
+        let mut qc = Vector3::<S>::zeros(); // Σ m_k c'_k
+        let mut s_o = Vector3::<S>::zeros(); // Σ m_k u_k × c'_k + ω × Σ J Ω_k
+        let mut hj = Vector3::<S>::zeros(); // Σ J_k Ω_k
+        let mut s_w = vec![S::zero(); nm];
+        let mut xd = vec![Vector3::<S>::zeros(); nm];
+        let mut xt = vec![Vector3::<S>::zeros(); nm];
+        for k in 0..modal.n_nodes() {
+            let mk: S = S::from_f64(modal.node_masses[k]);
+            let jk: Vector3<S> = vec3f(&modal.node_inertias[k]);
+            let mut u: Vector3<S> = vec3f(&modal.node_positions[k]);
+            let mut ud = Vector3::<S>::zeros();
+            let mut th_d = Vector3::<S>::zeros();
+            for j in 0..nm {
+                xd[j] = mode_vec(modal, k, j, false);
+                xt[j] = mode_vec(modal, k, j, true);
+                u += xd[j] * w[j];
+                ud += xd[j] * wd[j];
+                th_d += xt[j] * wd[j];
+            }
+            total += mk;
+            first += u * mk;
+            let ut = skew(&u);
+            m_oo += ut.transpose() * ut * mk;
+            for i in 0..3 {
+                m_oo[(i, i)] += jk[i];
+            }
+            for j in 0..nm {
+                let uxd = u.cross(&xd[j]) * mk;
+                for i in 0..3 {
+                    s_d[(i, j)] += xd[j][i] * mk;
+                    m_ow[(i, j)] += uxd[i] + jk[i] * xt[j][i];
+                }
+                for l in j..nm {
+                    let mut x = xd[j].dot(&xd[l]) * mk;
+                    for i in 0..3 {
+                        x += xt[j][i] * jk[i] * xt[l][i];
+                    }
+                    m_ww[(j, l)] += x;
+                }
+            }
+            let c = om.cross(&om.cross(&u)) + om.cross(&ud) * S::from_f64(2.0);
+            qc += c * mk;
+            s_o += u.cross(&c) * mk;
+            let omega_k = om + th_d;
+            hj += omega_k.component_mul(&jk);
+            // gravity on the ω and ẇ rows
+            let gu = u.cross(&g_body) * mk;
+            for i in 0..3 {
+                force[off + 3 + i] += gu[i];
+            }
+            for j in 0..nm {
+                s_w[j] += xd[j].dot(&(g_body - c)) * mk;
+            }
+        }
+        // mass matrix blocks
+        let a_first = a * skew(&first); // A Σ m ũ
+        for i in 0..3 {
+            mass[(off + i, off + i)] = total;
+            for k in 0..3 {
+                mass[(off + i, off + 3 + k)] = -a_first[(i, k)];
+                mass[(off + 3 + k, off + i)] = -a_first[(i, k)];
+                mass[(off + 3 + i, off + 3 + k)] = m_oo[(i, k)];
+            }
+        }
+        for j in 0..nm {
+            let col = Vector3::new(s_d[(0, j)], s_d[(1, j)], s_d[(2, j)]);
+            let acol = a * col;
+            for i in 0..3 {
+                mass[(off + i, off + 6 + j)] = acol[i];
+                mass[(off + 6 + j, off + i)] = acol[i];
+                mass[(off + 3 + i, off + 6 + j)] = m_ow[(i, j)];
+                mass[(off + 6 + j, off + 3 + i)] = m_ow[(i, j)];
+            }
+            for l in j..nm {
+                mass[(off + 6 + j, off + 6 + l)] = m_ww[(j, l)];
+                mass[(off + 6 + l, off + 6 + j)] = m_ww[(j, l)];
+            }
+        }
+        // forces: gravity on r, quadratic velocity terms, elastic and damping
+        let s_r = a * qc;
+        let s_om = s_o + om.cross(&hj);
+        for i in 0..3 {
+            force[off + i] += g[i] * total - s_r[i];
+            force[off + 3 + i] -= s_om[i];
+        }
+        for j in 0..nm {
+            let lam: S = lift(modal.eigenvalues[j]);
+            let damp: S = lift(modal.modal_damping[j]);
+            force[off + 6 + j] += s_w[j] - lam * w[j] - damp * wd[j];
+        }
+    }
+
+    /// A free-free beam-like body: 7 nodes along x with arbitrary (non-orthogonal) modes.
+    fn body() -> ModalBody<f64> {
+        let nodes = 7;
+        let nm = 3;
+        let modes = DMatrix::from_fn(6 * nodes, nm, |r, j| {
+            ((r * 7 + j * 13) as f64 * 0.37).sin() * if r % 6 < 3 { 0.05 } else { 0.3 }
+        });
+        ModalBody {
+            node_positions: (0..nodes)
+                .map(|k| Vector3::new(0.1 * k as f64, 0.01 * (k as f64).cos(), -0.02))
+                .collect(),
+            node_masses: (0..nodes).map(|k| 0.2 + 0.03 * k as f64).collect(),
+            node_inertias: (0..nodes)
+                .map(|k| Vector3::new(1e-4, 2e-4 + 1e-5 * k as f64, 3e-4))
+                .collect(),
+            modes,
+            eigenvalues: vec![100.0, 400.0, 900.0],
+            modal_damping: vec![0.1, 0.2, 0.3],
+        }
+    }
+
+    fn state(nm: usize) -> (Vec<f64>, Vec<f64>) {
+        let p = Vector4::new(0.9, 0.2, -0.3, 0.1).normalize();
+        let mut q = vec![0.3, -0.2, 0.1, p[0], p[1], p[2], p[3]];
+        q.extend((0..nm).map(|j| 0.02 * (j as f64 + 1.0) * if j % 2 == 0 { 1.0 } else { -1.0 }));
+        let mut v = vec![1.0, -2.0, 0.5, 3.0, -1.5, 2.5];
+        v.extend((0..nm).map(|j| 0.7 - 0.4 * j as f64));
+        (q, v)
+    }
+
+    type Dynamics<S> = (DMatrix<S>, Vec<S>);
+
+    /// `(invariants, nodal sums)`.
+    fn both<P: Scalar, S: Scalar + From<P>>(
+        modal: &ModalBody<P>,
+        q: &[S],
+        v: &[S],
+    ) -> (Dynamics<S>, Dynamics<S>) {
+        let n = 6 + modal.n_modes();
+        let gravity = Vector3::new(0.0, -9.81, 1.0);
+        let body = Body::Flexible(FlexibleBody::new("rod", modal.clone()));
+        let (mut m1, mut f1) = (DMatrix::zeros(n, n), vec![S::zero(); n]);
+        body_dynamics(&body, &OnceLock::new(), q, v, &gravity, &mut m1, 0, &mut f1);
+        let (mut m2, mut f2) = (DMatrix::zeros(n, n), vec![S::zero(); n]);
+        nodal_dynamics(modal, q, v, &gravity, &mut m2, 0, &mut f2);
+        ((m1, f1), (m2, f2))
+    }
+
+    /// The invariants give the nodal sums' mass matrix and forces (values and tangents).
+    #[test]
+    fn invariants_reproduce_the_nodal_sums() {
+        let modal = body();
+        let (q, v) = state(modal.n_modes());
+        let ((m1, f1), (m2, f2)) = both(&modal, &q, &v);
+        let scale_m = m2.amax();
+        assert!(
+            (&m1 - &m2).amax() <= 1e-14 * scale_m,
+            "{}",
+            (&m1 - &m2).amax()
+        );
+        let scale_f = f2.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+        for (a, b) in f1.iter().zip(&f2) {
+            assert!((a - b).abs() <= 1e-13 * scale_f, "{a} vs {b}");
+        }
+        // tangents along arbitrary directions of q and v
+        let qd: Vec<Dual<2>> = q
+            .iter()
+            .enumerate()
+            .map(|(i, &x)| Dual::new(x, [0.1 * (i as f64).sin(), 0.0]))
+            .collect();
+        let vd: Vec<Dual<2>> = v
+            .iter()
+            .enumerate()
+            .map(|(i, &x)| Dual::new(x, [0.0, 0.3 * (i as f64).cos()]))
+            .collect();
+        let ((m1, f1), (m2, f2)) = both(&modal, &qd, &vd);
+        let close = |a: &[Dual<2>], b: &[Dual<2>], tol: f64| {
+            for (a, b) in a.iter().zip(b) {
+                for k in 0..2 {
+                    assert!((a.d[k] - b.d[k]).abs() <= tol, "{a} vs {b}");
+                }
+            }
+        };
+        close(m1.as_slice(), m2.as_slice(), 1e-13 * scale_m);
+        close(&f1, &f2, 1e-12 * scale_f);
+        // design-dependent modes (as in updated-mode sensitivities): the tangents of the
+        // invariants carry the modes' derivatives
+        let dual_modal = ModalBody {
+            node_positions: modal.node_positions.clone(),
+            node_masses: modal.node_masses.clone(),
+            node_inertias: modal.node_inertias.clone(),
+            modes: modal
+                .modes
+                .map_with_location(|r, j, x| Dual::new(x, [0.0, 0.2 * ((r + 3 * j) as f64).cos()])),
+            eigenvalues: modal
+                .eigenvalues
+                .iter()
+                .map(|&x| Dual::new(x, [0.0, 5.0]))
+                .collect(),
+            modal_damping: modal
+                .modal_damping
+                .iter()
+                .map(|&x| Dual::new(x, [0.0, 0.1]))
+                .collect(),
+        };
+        let ((m1, f1), (m2, f2)) = both(&dual_modal, &qd, &vd);
+        close(m1.as_slice(), m2.as_slice(), 1e-13 * scale_m);
+        close(&f1, &f2, 1e-12 * scale_f);
+        assert!(m1.iter().any(|x| x.d[1].abs() > 1e-3 * scale_m));
+    }
+
+    /// `vᵀ M v / 2` is the kinetic energy of the lumped nodal masses and rotary inertias.
+    #[test]
+    fn mass_matrix_gives_the_nodal_kinetic_energy() {
+        let modal = body();
+        let nm = modal.n_modes();
+        let (q, v) = state(nm);
+        let ((m, _), _) = both(&modal, &q, &v);
+        let vv = nalgebra::DVector::from_column_slice(&v);
+        let t = 0.5 * vv.dot(&(&m * &vv));
+        let a = pose(&q).a;
+        let om = vec3(&v[3..6]);
+        let mut expected = 0.0;
+        for k in 0..modal.n_nodes() {
+            let mut u = modal.node_positions[k];
+            let mut ud = Vector3::zeros();
+            let mut thd = Vector3::zeros();
+            for j in 0..nm {
+                let x: Vector3<f64> = mode_vec(&modal, k, j, false);
+                let r: Vector3<f64> = mode_vec(&modal, k, j, true);
+                u += x * q[7 + j];
+                ud += x * v[6 + j];
+                thd += r * v[6 + j];
+            }
+            let vel = vec3(&v[0..3]) + a * (om.cross(&u) + ud);
+            let spin = om + thd;
+            expected += 0.5 * modal.node_masses[k] * vel.norm_squared()
+                + 0.5 * spin.dot(&spin.component_mul(&modal.node_inertias[k]));
+        }
+        assert!(
+            (t - expected).abs() <= 1e-13 * expected,
+            "{t} vs {expected}"
+        );
     }
 }

@@ -2,11 +2,14 @@
 //! parameter scalar `P` (the model's data) and the evaluation scalar `S` (the state).
 
 use std::ops::Range;
+use std::sync::OnceLock;
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3, Vector4};
 use sens::Scalar;
 
-use crate::body::{Body, BodyId, FlexibleBody, RigidBody, body_dynamics, lift, pose, vec3, vec3f};
+use crate::body::{
+    Body, BodyId, FlexibleBody, ModalInvariants, RigidBody, body_dynamics, lift, pose, vec3, vec3f,
+};
 use crate::error::ModelError;
 use crate::force::{Force, ForceId, LoadFrame};
 use crate::joint::{JointId, JointKind, TimeFunction, joint_equations};
@@ -66,6 +69,9 @@ struct BodySlot<P: Scalar> {
     body: Body<P>,
     q_off: usize,
     v_off: usize,
+    /// A flexible body's inertia invariants, made at the first evaluation (reset by
+    /// [`Model::body_mut`]).
+    invariants: OnceLock<ModalInvariants<P>>,
 }
 
 /// Bodies, joints, forces, gravity and Baumgarte constants.
@@ -151,6 +157,7 @@ impl<P: Scalar> Model<P> {
             body,
             q_off: self.n_q,
             v_off: self.n_v,
+            invariants: OnceLock::new(),
         });
         self.n_q += 7 + nm;
         self.n_v += 6 + nm;
@@ -287,7 +294,9 @@ impl<P: Scalar> Model<P> {
     /// Mutable access to a body's parameters (e.g. to seed design tangents in the modal data).
     /// The number of modes must not change: it fixes the state layout.
     pub fn body_mut(&mut self, id: BodyId) -> &mut Body<P> {
-        &mut self.bodies[id.0].body
+        let slot = &mut self.bodies[id.0];
+        slot.invariants = OnceLock::new();
+        &mut slot.body
     }
     pub fn body_ids(&self) -> impl Iterator<Item = BodyId> + use<P> {
         (0..self.bodies.len()).map(BodyId)
@@ -344,6 +353,7 @@ impl<P: Scalar> Model<P> {
                     body: s.body.map(&f),
                     q_off: s.q_off,
                     v_off: s.v_off,
+                    invariants: OnceLock::new(),
                 })
                 .collect(),
             joints: self.joints.clone(),
@@ -487,6 +497,7 @@ impl<P: Scalar> Model<P> {
         for s in &self.bodies {
             body_dynamics(
                 &s.body,
+                &s.invariants,
                 &q[s.q_off..],
                 &v[s.v_off..],
                 &self.gravity,
