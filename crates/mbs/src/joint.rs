@@ -112,11 +112,6 @@ impl JointKind {
             JointKind::AngleDriver(_) | JointKind::DistanceDriver(_) => 1,
         }
     }
-
-    /// Whether the equations need the marker axes.
-    pub(crate) fn needs_axes(&self) -> bool {
-        !matches!(self, JointKind::Spherical)
-    }
 }
 
 /// Append the constraint equations of a joint of kind `kind` between markers `a` and `b`.
@@ -128,47 +123,51 @@ pub(crate) fn joint_equations<S: Scalar>(
     out: &mut Vec<Kin<S>>,
 ) {
     let d: Kin3<S> = b.point.sub(&a.point);
-    let [a1, a2, a3] = &a.axes;
-    let [b1, b2, b3] = &b.axes;
     let sph = |out: &mut Vec<Kin<S>>| {
         for i in 0..3 {
             out.push(d.component(i));
         }
     };
+    // the marker axes e1, e2, e3 are indices 0, 1, 2; each computed only if used
     match kind {
         JointKind::Spherical => sph(out),
         JointKind::Revolute => {
             sph(out);
-            out.push(a1.dot(b3));
-            out.push(a2.dot(b3));
+            let b3 = b.axis(2);
+            out.push(a.axis(0).dot(&b3));
+            out.push(a.axis(1).dot(&b3));
         }
         JointKind::Universal => {
             sph(out);
-            out.push(a3.dot(b3));
+            out.push(a.axis(2).dot(&b.axis(2)));
         }
         JointKind::Cylindrical => {
-            out.push(a1.dot(b3));
-            out.push(a2.dot(b3));
+            let (a1, a2, b3) = (a.axis(0), a.axis(1), b.axis(2));
+            out.push(a1.dot(&b3));
+            out.push(a2.dot(&b3));
             out.push(a1.dot(&d));
             out.push(a2.dot(&d));
         }
         JointKind::Translational => {
-            out.push(a1.dot(b3));
-            out.push(a2.dot(b3));
+            let (a1, a2, b3) = (a.axis(0), a.axis(1), b.axis(2));
+            out.push(a1.dot(&b3));
+            out.push(a2.dot(&b3));
             out.push(a1.dot(&d));
             out.push(a2.dot(&d));
-            out.push(a1.dot(b2));
+            out.push(a1.dot(&b.axis(1)));
         }
         JointKind::Fixed => {
             sph(out);
-            out.push(a2.dot(b3));
-            out.push(a3.dot(b1));
-            out.push(a1.dot(b2));
+            let a3 = a.axis(2);
+            out.push(a.axis(1).dot(&b.axis(2)));
+            out.push(a3.dot(&b.axis(0)));
+            out.push(a.axis(0).dot(&b.axis(1)));
         }
         JointKind::AngleDriver(f) => {
             // ρ sin(f − θ) with ρ cos θ = e1A·e1B, ρ sin θ = e2A·e1B
-            let c = a1.dot(b1);
-            let s = a2.dot(b1);
+            let b1 = b.axis(0);
+            let c = a.axis(0).dot(&b1);
+            let s = a.axis(1).dot(&b1);
             let [fv, fd, fdd] = f.eval(t);
             let (sf, cf) = fv.sin_cos();
             let sin_f = Kin::of_time([
@@ -184,7 +183,7 @@ pub(crate) fn joint_equations<S: Scalar>(
             out.push(c.mul(&sin_f).sub(&s.mul(&cos_f)));
         }
         JointKind::DistanceDriver(f) => {
-            let x = a3.dot(&d);
+            let x = a.axis(2).dot(&d);
             let [fv, fd, fdd] = f.eval(t);
             let ft = Kin::of_time([S::from_f64(fv), S::from_f64(fd), S::from_f64(fdd)]);
             out.push(x.sub(&ft));

@@ -102,15 +102,53 @@ fn omega_columns<S: Scalar>(a: &Matrix3<S>, w: &Vector3<S>, out: &mut [Vector3<S
     out[2] = c(1) * w[0] - c(0) * w[1];
 }
 
-/// Kinematics of a marker: global point and axes with rates, quadratic terms, Jacobians.
+/// Kinematics of a marker: global point with rate, quadratic term and Jacobian; its axes on
+/// demand ([`MarkerKin::axis`], only those a joint uses are computed).
 pub(crate) struct MarkerKin<S: Scalar> {
     pub point: Kin3<S>,
-    pub axes: [Kin3<S>; 3],
     /// Rotation body → global of the body (identity for ground).
     pub a: Matrix3<S>,
     /// Velocity offset of the body, modal rotation columns of the node (body components).
     pub v_off: usize,
     pub node_rot_modes: Vec<Vector3<S>>,
+    /// The marker's axes in body (ground: global) components.
+    axes0: [Vector3<S>; 3],
+    /// Small nodal rotation `θ` and its rate (zero at a point site), body angular velocity.
+    th: Vector3<S>,
+    thd: Vector3<S>,
+    om: Vector3<S>,
+    /// The body's velocity columns (empty for ground).
+    cols: Cols,
+}
+
+impl<S: Scalar> MarkerKin<S> {
+    /// Axis `e_i` of the marker (global components) with its rate, quadratic term and
+    /// Jacobian: `A e'` with `e' = e0 + θ × e0` (small nodal rotation).
+    pub(crate) fn axis(&self, i: usize) -> Kin3<S> {
+        let e0 = self.axes0[i];
+        if self.cols.is_empty() {
+            return Kin3::constant(e0);
+        }
+        let (a, om) = (&self.a, &self.om);
+        let two = S::from_f64(2.0);
+        let ep = e0 + self.th.cross(&e0);
+        let epd = self.thd.cross(&e0);
+        // no translation columns (kept, zero, so that all the marker's quantities share its
+        // columns)
+        let nm = self.node_rot_modes.len();
+        let mut jac = vec![Vector3::zeros(); self.cols.len()];
+        // ω columns: A (e_i × e')
+        omega_columns(a, &ep, &mut jac[3..6]);
+        for (j, t) in self.node_rot_modes.iter().enumerate().take(nm) {
+            jac[6 + j] = mv(a, &t.cross(&e0));
+        }
+        Kin3 {
+            val: mv(a, &ep),
+            rate: mv(a, &(om.cross(&ep) + epd)),
+            quad: mv(a, &(om.cross(&om.cross(&ep)) + om.cross(&epd) * two)),
+            jac: Jac::from_entries(self.cols.clone(), jac),
+        }
+    }
 }
 
 /// Marker kinematics at the state `(q, v)`. `body` is the marker's body with its coordinate
@@ -120,7 +158,6 @@ pub(crate) fn marker_kin<P: Scalar, S: Scalar + From<P>>(
     body: Option<(&Body<P>, usize, usize)>,
     q: &[S],
     v: &[S],
-    with_axes: bool,
 ) -> MarkerKin<S> {
     let axes0: [Vector3<S>; 3] =
         std::array::from_fn(|i| vec3f(&marker.axes.column(i).into_owned()));
@@ -131,10 +168,14 @@ pub(crate) fn marker_kin<P: Scalar, S: Scalar + From<P>>(
         };
         return MarkerKin {
             point: Kin3::constant(p),
-            axes: axes0.map(Kin3::constant),
             a: Matrix3::identity(),
             v_off: 0,
             node_rot_modes: Vec::new(),
+            axes0,
+            th: Vector3::zeros(),
+            thd: Vector3::zeros(),
+            om: Vector3::zeros(),
+            cols: Cols::none(),
         };
     };
     let ps = pose(&q[qo..]);
@@ -168,7 +209,7 @@ pub(crate) fn marker_kin<P: Scalar, S: Scalar + From<P>>(
     }
     let two = S::from_f64(2.0);
     // the body's velocity columns: translation, rotation (ω'), modes
-    let cols = vo..vo + 6 + nm;
+    let cols = Cols::of(vo..vo + 6 + nm);
     let mut jac = vec![Vector3::zeros(); 6 + nm];
     for (i, e) in jac.iter_mut().take(3).enumerate() {
         e[i] = S::one();
@@ -182,36 +223,17 @@ pub(crate) fn marker_kin<P: Scalar, S: Scalar + From<P>>(
         val: ps.r + mv(&a, &u),
         rate: rd + mv(&a, &(om.cross(&u) + ud)),
         quad: mv(&a, &(om.cross(&om.cross(&u)) + om.cross(&ud) * two)),
-        jac: Jac::from_entries(Cols::of(cols.clone()), jac),
-    };
-    let axes = if with_axes {
-        axes0.map(|e0| {
-            // e' = e0 + θ × e0 (small nodal rotation)
-            let ep = e0 + th.cross(&e0);
-            let epd = thd.cross(&e0);
-            // no translation columns (kept, zero, so that all the marker's quantities share
-            // its columns)
-            let mut jac = vec![Vector3::zeros(); 6 + nm];
-            // ω columns: A (e_i × e')
-            omega_columns(&a, &ep, &mut jac[3..6]);
-            for j in 0..xt.len() {
-                jac[6 + j] = mv(&a, &xt[j].cross(&e0));
-            }
-            Kin3 {
-                val: mv(&a, &ep),
-                rate: mv(&a, &(om.cross(&ep) + epd)),
-                quad: mv(&a, &(om.cross(&om.cross(&ep)) + om.cross(&epd) * two)),
-                jac: Jac::from_entries(Cols::of(cols.clone()), jac),
-            }
-        })
-    } else {
-        axes0.map(Kin3::constant)
+        jac: Jac::from_entries(cols.clone(), jac),
     };
     MarkerKin {
         point,
-        axes,
         a,
         v_off: vo,
         node_rot_modes: xt,
+        axes0,
+        th,
+        thd,
+        om,
+        cols,
     }
 }

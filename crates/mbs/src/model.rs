@@ -419,14 +419,8 @@ impl<P: Scalar> Model<P> {
         })
     }
 
-    pub(crate) fn marker<S: Scalar + From<P>>(
-        &self,
-        m: &Marker,
-        q: &[S],
-        v: &[S],
-        with_axes: bool,
-    ) -> MarkerKin<S> {
-        marker_kin(m, self.slot_of(m), q, v, with_axes)
+    pub(crate) fn marker<S: Scalar + From<P>>(&self, m: &Marker, q: &[S], v: &[S]) -> MarkerKin<S> {
+        marker_kin(m, self.slot_of(m), q, v)
     }
 
     /// `q̇` from `(q, v)`: `ṙ`, `ṗ = ½ L(p)ᵀ ω'`, `ẇ`.
@@ -454,9 +448,8 @@ impl<P: Scalar> Model<P> {
     ) -> Vec<Kin<S>> {
         let mut out = Vec::with_capacity(self.n_c);
         for j in &self.joints {
-            let axes = j.kind.needs_axes();
-            let a = self.marker(&j.a, q, v, axes);
-            let b = self.marker(&j.b, q, v, axes);
+            let a = self.marker(&j.a, q, v);
+            let b = self.marker(&j.b, q, v);
             joint_equations(&j.kind, &a, &b, t, &mut out);
         }
         out
@@ -526,7 +519,7 @@ impl<P: Scalar> Model<P> {
                 load,
                 frame,
             } => {
-                let k = self.marker(marker, q, v, false);
+                let k = self.marker(marker, q, v);
                 let l: Vector3<S> = vec3f(&load.at(t));
                 let fg = match frame {
                     LoadFrame::Global => l,
@@ -541,7 +534,7 @@ impl<P: Scalar> Model<P> {
                 load,
                 frame,
             } => {
-                let k = self.marker(marker, q, v, false);
+                let k = self.marker(marker, q, v);
                 let l: Vector3<S> = vec3f(&load.at(t));
                 let tb = match frame {
                     LoadFrame::Global => k.a.transpose() * l,
@@ -561,8 +554,8 @@ impl<P: Scalar> Model<P> {
                 damping,
                 free_length,
             } => {
-                let ka = self.marker(a, q, v, false);
-                let kb = self.marker(b, q, v, false);
+                let ka = self.marker(a, q, v);
+                let kb = self.marker(b, q, v);
                 let d = kb.point.sub(&ka.point);
                 let l = d.val.dot(&d.val).sqrt();
                 let ld = d.val.dot(&d.rate) / l;
@@ -610,23 +603,41 @@ impl<P: Scalar> Model<P> {
         k: &[Kin<S>],
         rows: &[usize],
     ) -> Equations<S> {
+        self.assemble_as(m, f, k, rows, |x| x)
+    }
+
+    /// [`Model::assemble`] converting every entry with `conv` (e.g. the values of dual
+    /// blocks), the same operations on the converted entries.
+    pub(crate) fn assemble_as<S: Scalar, T: Scalar>(
+        &self,
+        m: &DMatrix<S>,
+        f: &[S],
+        k: &[Kin<S>],
+        rows: &[usize],
+        conv: impl Fn(S) -> T,
+    ) -> Equations<T> {
         let nv = self.n_v;
         let n = nv + rows.len();
         let mut matrix = DMatrix::zeros(n, n);
-        matrix.view_mut((0, 0), (nv, nv)).copy_from(m);
+        for j in 0..nv {
+            for i in 0..nv {
+                matrix[(i, j)] = conv(m[(i, j)]);
+            }
+        }
         let mut rhs = DVector::zeros(n);
         for i in 0..nv {
-            rhs[i] = f[i];
+            rhs[i] = conv(f[i]);
         }
-        let two_alpha = S::from_f64(2.0 * self.baumgarte.alpha);
-        let beta2 = S::from_f64(self.baumgarte.beta * self.baumgarte.beta);
+        let two_alpha = T::from_f64(2.0 * self.baumgarte.alpha);
+        let beta2 = T::from_f64(self.baumgarte.beta * self.baumgarte.beta);
         for (r, &row) in rows.iter().enumerate() {
             let c = &k[row];
             for (col, &x) in c.jac.iter() {
+                let x = conv(x);
                 matrix[(nv + r, col)] = x;
                 matrix[(col, nv + r)] = x;
             }
-            rhs[nv + r] = -c.quad - two_alpha * c.rate - beta2 * c.val;
+            rhs[nv + r] = -conv(c.quad) - two_alpha * conv(c.rate) - beta2 * conv(c.val);
         }
         Equations { matrix, rhs }
     }
@@ -731,8 +742,8 @@ impl Model<f64> {
                 ..
             } = force
             {
-                let ka = self.marker(a, q, v, false);
-                let kb = self.marker(b, q, v, false);
+                let ka = self.marker(a, q, v);
+                let kb = self.marker(b, q, v);
                 let l = (kb.point.val - ka.point.val).norm();
                 spring += 0.5 * stiffness * (l - free_length).powi(2);
             }
@@ -748,7 +759,7 @@ impl Model<f64> {
     /// Global position of a marker point (m).
     pub fn marker_position(&self, m: &Marker, q: &[f64]) -> Vector3<f64> {
         let v = vec![0.0; self.n_v];
-        self.marker(m, q, &v, false).point.val
+        self.marker(m, q, &v).point.val
     }
 
     /// Global position, velocity of a marker point (m, m/s).
@@ -758,7 +769,7 @@ impl Model<f64> {
         q: &[f64],
         v: &[f64],
     ) -> (Vector3<f64>, Vector3<f64>) {
-        let k = self.marker(m, q, v, false);
+        let k = self.marker(m, q, v);
         (k.point.val, k.point.rate)
     }
 

@@ -891,7 +891,11 @@ impl<const N: usize> StepExtension<MultibodySystem> for Extension<'_, N> {
             return Ok(0.0); // the state's iteration alone (see `newton_rhs`)
         };
         it.corrections += 1;
-        let mut r = g - &it.s * it.c0 - &it.psi;
+        // r = g − c_0 S − ψ, in place
+        let mut r = g;
+        for ((x, s), p) in r.iter_mut().zip(it.s.iter()).zip(it.psi.iter()) {
+            *x = *x - s * it.c0 - p;
+        }
         if !newton_matrix.solve_mut(&mut r) {
             return Err(IntegrationFailure::SingularNewtonMatrix);
         }
@@ -899,16 +903,16 @@ impl<const N: usize> StepExtension<MultibodySystem> for Extension<'_, N> {
             r *= scale;
         }
         self.stats.corrector_iterations += 1;
-        let norm = wrms_matrix(&r, &self.hist[0], rtol, &self.sensitivity_atol(atol));
-        let it = self.newton.as_mut().expect("checked above");
-        it.s += r;
+        it.s += &r;
         // in the convergence test with error control; otherwise a single update (its remaining
         // iteration error is the chord rate times this update, the order of the sensitivities'
         // local truncation error), non-finite updates still fail the iteration
-        Ok(if self.options.error_control || !norm.is_finite() {
-            norm
-        } else {
+        Ok(if self.options.error_control {
+            wrms_matrix(&r, &self.hist[0], rtol, &self.sensitivity_atol(atol))
+        } else if r.iter().all(|x| x.is_finite()) {
             0.0
+        } else {
+            f64::INFINITY
         })
     }
 

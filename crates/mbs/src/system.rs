@@ -219,12 +219,16 @@ impl MultibodySystem {
         self.select_rows(&k)
     }
 
-    fn select_rows(&self, k: &[Kin<f64>]) -> Vec<usize> {
+    /// The rows of Eq. (12) for the constraint kinematics `k` (their values).
+    fn select_rows<S: Scalar>(&self, k: &[Kin<S>]) -> Vec<usize> {
         match self.policy {
             RedundancyPolicy::Error | RedundancyPolicy::Remove => self.rows.clone(),
             RedundancyPolicy::Reselect => {
                 let n_v = self.model.n_v();
-                let dense: Vec<Vec<f64>> = k.iter().map(|r| r.jac.dense(n_v, 0.0)).collect();
+                let dense: Vec<Vec<f64>> = k
+                    .iter()
+                    .map(|r| r.jac.map(|x| x.value()).dense(n_v, 0.0))
+                    .collect();
                 independent_rows_of(dense.iter().map(Vec::as_slice), n_v, STATE_DEPENDENCE_TOL).0
             }
         }
@@ -243,18 +247,8 @@ impl MultibodySystem {
     ) -> Result<(Solution, Vec<Dual<N>>), ConstraintError> {
         let k = model.constraint_kin(t, q, v);
         let (m, f) = model.mass_and_forces(t, q, v);
-        let kv: Vec<Kin<f64>> = k
-            .iter()
-            .map(|r| Kin {
-                val: r.val.value(),
-                rate: r.rate.value(),
-                quad: r.quad.value(),
-                jac: r.jac.map(|x| x.value()),
-            })
-            .collect();
-        let rows = self.select_rows(&kv);
-        let fv: Vec<f64> = f.iter().map(|x| x.value()).collect();
-        let e = self.model.assemble(&m.map(|x| x.value()), &fv, &kv, &rows);
+        let rows = self.select_rows(&k);
+        let e = self.model.assemble_as(&m, &f, &k, &rows, |x| x.value());
         let sol = self.factor_and_solve(t, e, rows)?;
         let res = model.residual_from(&m, &f, &k, &sol.rows, &sol.x);
         Ok((sol, res))
