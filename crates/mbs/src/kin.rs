@@ -263,13 +263,15 @@ impl<T: Copy> Jac<T> {
         out
     }
 
-    /// `f(x_c, y_c)` on the union of the columns of `x` and `y`.
+    /// `f(x_c, y_c)` on the union of the columns of `x` and `y`; where only one of them has
+    /// the column, `fx(x_c)` or `fy(y_c)`: `f` with the other entry zero, written without the
+    /// zero term (the same value up to the sign of a zero).
     fn combine<U: Copy, V: Copy>(
         x: &Self,
         y: &Jac<U>,
-        zx: T,
-        zy: U,
-        mut f: impl FnMut(T, U) -> V,
+        fx: impl Fn(T) -> V,
+        fy: impl Fn(U) -> V,
+        f: impl Fn(T, U) -> V,
     ) -> Jac<V> {
         if x.cols == y.cols {
             return Jac {
@@ -283,7 +285,12 @@ impl<T: Copy> Jac<T> {
             };
         }
         let cols = x.cols.union(&y.cols);
-        Jac::from_fn(cols, |c| f(x.get(c, zx), y.get(c, zy)))
+        Jac::from_fn(cols, |c| match (x.cols.position(c), y.cols.position(c)) {
+            (Some(i), Some(j)) => f(x.entries[i], y.entries[j]),
+            (Some(i), None) => fx(x.entries[i]),
+            (None, Some(j)) => fy(y.entries[j]),
+            (None, None) => unreachable!("a column of the union"),
+        })
     }
 }
 
@@ -322,7 +329,7 @@ impl<S: Scalar> Kin<S> {
             val: self.val + o.val,
             rate: self.rate + o.rate,
             quad: self.quad + o.quad,
-            jac: Jac::combine(&self.jac, &o.jac, S::zero(), S::zero(), |a, b| a + b),
+            jac: Jac::combine(&self.jac, &o.jac, |a| a, |b| b, |a, b| a + b),
         }
     }
 
@@ -331,7 +338,7 @@ impl<S: Scalar> Kin<S> {
             val: self.val - o.val,
             rate: self.rate - o.rate,
             quad: self.quad - o.quad,
-            jac: Jac::combine(&self.jac, &o.jac, S::zero(), S::zero(), |a, b| a - b),
+            jac: Jac::combine(&self.jac, &o.jac, |a| a, |b| -b, |a, b| a - b),
         }
     }
 
@@ -341,9 +348,13 @@ impl<S: Scalar> Kin<S> {
             val: self.val * o.val,
             rate: self.rate * o.val + self.val * o.rate,
             quad: self.quad * o.val + S::from_f64(2.0) * self.rate * o.rate + self.val * o.quad,
-            jac: Jac::combine(&self.jac, &o.jac, S::zero(), S::zero(), |a, b| {
-                a * o.val + self.val * b
-            }),
+            jac: Jac::combine(
+                &self.jac,
+                &o.jac,
+                |a| a * o.val,
+                |b| self.val * b,
+                |a, b| a * o.val + self.val * b,
+            ),
         }
     }
 }
@@ -364,13 +375,7 @@ impl<S: Scalar> Kin3<S> {
             val: self.val - o.val,
             rate: self.rate - o.rate,
             quad: self.quad - o.quad,
-            jac: Jac::combine(
-                &self.jac,
-                &o.jac,
-                Vector3::zeros(),
-                Vector3::zeros(),
-                |a, b| a - b,
-            ),
+            jac: Jac::combine(&self.jac, &o.jac, |a| a, |b| -b, |a, b| a - b),
         }
     }
 
@@ -385,8 +390,8 @@ impl<S: Scalar> Kin3<S> {
             jac: Jac::combine(
                 &self.jac,
                 &o.jac,
-                Vector3::zeros(),
-                Vector3::zeros(),
+                |a| a.dot(&o.val),
+                |b| self.val.dot(&b),
                 |a, b| a.dot(&o.val) + self.val.dot(&b),
             ),
         }
