@@ -658,8 +658,8 @@ impl<P: Scalar> Model<P> {
     }
 
     /// [`Model::residual`] from the blocks of Eq. (12) (see [`Model::assemble`]): applied to x̂
-    /// without assembling the augmented matrix (the same operations, in the same order, as
-    /// `rhs − matrix · x̂`).
+    /// without assembling the augmented matrix (the operations of `rhs − matrix · x̂` on its
+    /// nonzero entries, in the same order).
     pub(crate) fn residual_from<S: Scalar>(
         &self,
         m: &DMatrix<S>,
@@ -670,14 +670,18 @@ impl<P: Scalar> Model<P> {
     ) -> Vec<S> {
         let nv = self.n_v;
         let mut out = Vec::with_capacity(nv + rows.len());
-        for i in 0..nv {
-            let mut r = f[i];
-            for j in 0..nv {
-                if x_hat[j] != 0.0 {
-                    r -= m[(i, j)] * x_hat[j];
+        // the mass matrix is block diagonal, one block per body
+        for s in &self.bodies {
+            let block = s.v_off..s.v_off + 6 + s.body.n_modes();
+            for i in block.clone() {
+                let mut r = f[i];
+                for j in block.clone() {
+                    if x_hat[j] != 0.0 {
+                        r -= m[(i, j)] * x_hat[j];
+                    }
                 }
+                out.push(r);
             }
-            out.push(r);
         }
         for (a, &row) in rows.iter().enumerate() {
             let lambda = x_hat[nv + a];
