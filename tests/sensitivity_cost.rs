@@ -46,10 +46,12 @@ fn bench(c: &mut Criterion) {
     group.sample_size(10);
     group.warm_up_time(Duration::from_millis(500));
     group.measurement_time(Duration::from_secs(3));
-    group.bench_function("analysis", |b| {
-        b.iter(|| simulate_steps(&mut nominal, &state, 0.0, T_END, options()).unwrap())
-    });
     for &n in &NS {
+        // the analysis again next to each row's runs: its ratios then hold on a machine whose
+        // speed drifts during the benchmark
+        group.bench_function(format!("analysis_{n}"), |b| {
+            b.iter(|| simulate_steps(&mut nominal, &state, 0.0, T_END, options()).unwrap())
+        });
         for (label, method) in [
             ("direct", SensitivityOptions::default()),
             ("corrector", SensitivityOptions::corrector()),
@@ -102,11 +104,12 @@ fn main() {
         .configure_from_args();
     bench(&mut c);
     c.final_summary();
-    let Some(base) = mean_seconds(&dir, "analysis") else {
+    let Some(base) = mean_seconds(&dir, "analysis_1") else {
         return; // e.g. `cargo test --benches`, or a filter that skipped the analysis
     };
     println!(
-        "\nanalysis alone: {:.3} s (t_end = {T_END} s, rtol 1e-6)",
+        "\nanalysis alone: {:.3} s (t_end = {T_END} s, rtol 1e-6); each row relative to the \
+         analysis timed with it",
         base
     );
     println!(
@@ -114,6 +117,9 @@ fn main() {
         "N", "simultaneous", "corrector", "direct", "forward FD", "1 + 0.25 N"
     );
     for n in NS {
+        let Some(base) = mean_seconds(&dir, &format!("analysis_{n}")) else {
+            continue;
+        };
         let r = |id: String| {
             mean_seconds(&dir, &id).map_or("-".to_string(), |t| format!("{:.2}", t / base))
         };
