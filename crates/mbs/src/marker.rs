@@ -5,7 +5,7 @@
 use nalgebra::{Matrix3, Vector3};
 use sens::Scalar;
 
-use crate::body::{Body, BodyId, mode_vec, pose, vec3, vec3f};
+use crate::body::{Body, BodyId, Pose, mode_vec, vec3, vec3f};
 use crate::kin::{Cols, Jac, Kin3};
 
 /// Where a marker sits on its body.
@@ -152,10 +152,11 @@ impl<S: Scalar> MarkerKin<S> {
 }
 
 /// Marker kinematics at the state `(q, v)`. `body` is the marker's body with its coordinate
-/// and velocity offsets (`None` for ground).
+/// and velocity offsets and `pose` its pose at `q` (both `None` for ground).
 pub(crate) fn marker_kin<P: Scalar, S: Scalar + From<P>>(
     marker: &Marker,
     body: Option<(&Body<P>, usize, usize)>,
+    pose: Option<&Pose<S>>,
     q: &[S],
     v: &[S],
 ) -> MarkerKin<S> {
@@ -178,7 +179,7 @@ pub(crate) fn marker_kin<P: Scalar, S: Scalar + From<P>>(
             cols: Cols::none(),
         };
     };
-    let ps = pose(&q[qo..]);
+    let ps = pose.expect("a body marker comes with its body's pose");
     let a = ps.a;
     let om = vec3(&v[vo + 3..vo + 6]);
     let rd = vec3(&v[vo..vo + 3]);

@@ -8,7 +8,8 @@ use nalgebra::{DMatrix, DVector, Matrix3, Vector3, Vector4};
 use sens::Scalar;
 
 use crate::body::{
-    Body, BodyId, FlexibleBody, ModalInvariants, RigidBody, body_dynamics, lift, pose, vec3, vec3f,
+    Body, BodyId, FlexibleBody, ModalInvariants, Pose, RigidBody, body_dynamics, lift, pose, vec3,
+    vec3f,
 };
 use crate::error::ModelError;
 use crate::force::{Force, ForceId, LoadFrame};
@@ -420,7 +421,8 @@ impl<P: Scalar> Model<P> {
     }
 
     pub(crate) fn marker<S: Scalar + From<P>>(&self, m: &Marker, q: &[S], v: &[S]) -> MarkerKin<S> {
-        marker_kin(m, self.slot_of(m), q, v)
+        let pose = m.body.map(|b| pose(&q[self.bodies[b.0].q_off..]));
+        marker_kin(m, self.slot_of(m), pose.as_ref(), q, v)
     }
 
     /// `q̇` from `(q, v)`: `ṙ`, `ṗ = ½ L(p)ᵀ ω'`, `ẇ`.
@@ -447,9 +449,15 @@ impl<P: Scalar> Model<P> {
         v: &[S],
     ) -> Vec<Kin<S>> {
         let mut out = Vec::with_capacity(self.n_c);
+        // each body's pose once (a body carries several markers)
+        let poses: Vec<Pose<S>> = self.bodies.iter().map(|s| pose(&q[s.q_off..])).collect();
+        let marker = |m: &Marker| {
+            let pose = m.body.map(|b| &poses[b.0]);
+            marker_kin(m, self.slot_of(m), pose, q, v)
+        };
         for j in &self.joints {
-            let a = self.marker(&j.a, q, v);
-            let b = self.marker(&j.b, q, v);
+            let a = marker(&j.a);
+            let b = marker(&j.b);
             joint_equations(&j.kind, &a, &b, t, &mut out);
         }
         out
