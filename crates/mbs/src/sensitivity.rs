@@ -545,6 +545,13 @@ impl ExactMatrix {
     }
 }
 
+/// `acc += a x`, in place.
+fn add_scaled(acc: &mut DMatrix<f64>, a: f64, x: &DMatrix<f64>) {
+    for (y, x) in acc.iter_mut().zip(x.iter()) {
+        *y += x * a;
+    }
+}
+
 fn wrms_matrix(e: &DMatrix<f64>, reference: &DMatrix<f64>, rtol: f64, atol: &[f64]) -> f64 {
     let n = e.nrows();
     let mut sum = 0.0;
@@ -572,7 +579,7 @@ impl<const N: usize> Extension<'_, N> {
         let w = lagrange_weights(&history_times[..np], t);
         let mut s = &self.hist[0] * w[0];
         for i in 1..np {
-            s += &self.hist[i] * w[i];
+            add_scaled(&mut s, w[i], &self.hist[i]);
         }
         s
     }
@@ -581,7 +588,7 @@ impl<const N: usize> Extension<'_, N> {
     fn formula_constant(&self, coefficients: &[f64]) -> DMatrix<f64> {
         let mut psi = &self.hist[0] * coefficients[1];
         for j in 2..coefficients.len() {
-            psi += &self.hist[j - 1] * coefficients[j];
+            add_scaled(&mut psi, coefficients[j], &self.hist[j - 1]);
         }
         psi
     }
@@ -602,7 +609,7 @@ impl<const N: usize> Extension<'_, N> {
             Some(w) if self.hist.len() > k => {
                 let mut e = s * w[0];
                 for i in 1..w.len() {
-                    e += &self.hist[i - 1] * w[i];
+                    add_scaled(&mut e, w[i], &self.hist[i - 1]);
                 }
                 wrms_matrix(&e, &self.hist[0], step.rtol, atol)
             }
