@@ -547,7 +547,7 @@ impl ExactMatrix {
 
 /// `acc += a x`, in place.
 fn add_scaled(acc: &mut DMatrix<f64>, a: f64, x: &DMatrix<f64>) {
-    for (y, x) in acc.iter_mut().zip(x.iter()) {
+    for (y, x) in acc.as_mut_slice().iter_mut().zip(x.as_slice()) {
         *y += x * a;
     }
 }
@@ -900,7 +900,12 @@ impl<const N: usize> StepExtension<MultibodySystem> for Extension<'_, N> {
         it.corrections += 1;
         // r = g − c_0 S − ψ, in place
         let mut r = g;
-        for ((x, s), p) in r.iter_mut().zip(it.s.iter()).zip(it.psi.iter()) {
+        for ((x, s), p) in r
+            .as_mut_slice()
+            .iter_mut()
+            .zip(it.s.as_slice())
+            .zip(it.psi.as_slice())
+        {
             *x = *x - s * it.c0 - p;
         }
         if !newton_matrix.solve_mut(&mut r) {
