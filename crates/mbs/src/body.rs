@@ -11,7 +11,7 @@ use std::sync::OnceLock;
 use nalgebra::{DMatrix, Matrix3, Vector3, Vector4};
 use sens::Scalar;
 
-use crate::kin::{rotation, skew};
+use crate::kin::{mtv, mv, rotation, skew};
 
 /// Handle of a body in a [`crate::Model`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -299,26 +299,6 @@ fn axial<S: Scalar>(m: &Matrix3<S>) -> Vector3<S> {
         m[(1, 2)] - m[(2, 1)],
         m[(2, 0)] - m[(0, 2)],
         m[(0, 1)] - m[(1, 0)],
-    )
-}
-
-/// `A x` written out (nalgebra's generic product goes through a slow path for dual numbers).
-#[inline]
-fn mv<S: Scalar>(a: &Matrix3<S>, x: &Vector3<S>) -> Vector3<S> {
-    Vector3::new(
-        a[(0, 0)] * x[0] + a[(0, 1)] * x[1] + a[(0, 2)] * x[2],
-        a[(1, 0)] * x[0] + a[(1, 1)] * x[1] + a[(1, 2)] * x[2],
-        a[(2, 0)] * x[0] + a[(2, 1)] * x[1] + a[(2, 2)] * x[2],
-    )
-}
-
-/// `Aᵀ x` written out.
-#[inline]
-fn mtv<S: Scalar>(a: &Matrix3<S>, x: &Vector3<S>) -> Vector3<S> {
-    Vector3::new(
-        a[(0, 0)] * x[0] + a[(1, 0)] * x[1] + a[(2, 0)] * x[2],
-        a[(0, 1)] * x[0] + a[(1, 1)] * x[1] + a[(2, 1)] * x[2],
-        a[(0, 2)] * x[0] + a[(1, 2)] * x[1] + a[(2, 2)] * x[2],
     )
 }
 

@@ -43,6 +43,26 @@ pub fn rotation<S: Scalar>(p: &Vector4<S>) -> Matrix3<S> {
     )
 }
 
+/// `A x` written out (nalgebra's generic product goes through a slow path for dual numbers).
+#[inline]
+pub(crate) fn mv<S: Scalar>(a: &Matrix3<S>, x: &Vector3<S>) -> Vector3<S> {
+    Vector3::new(
+        a[(0, 0)] * x[0] + a[(0, 1)] * x[1] + a[(0, 2)] * x[2],
+        a[(1, 0)] * x[0] + a[(1, 1)] * x[1] + a[(1, 2)] * x[2],
+        a[(2, 0)] * x[0] + a[(2, 1)] * x[1] + a[(2, 2)] * x[2],
+    )
+}
+
+/// `Aᵀ x` written out.
+#[inline]
+pub(crate) fn mtv<S: Scalar>(a: &Matrix3<S>, x: &Vector3<S>) -> Vector3<S> {
+    Vector3::new(
+        a[(0, 0)] * x[0] + a[(1, 0)] * x[1] + a[(2, 0)] * x[2],
+        a[(0, 1)] * x[0] + a[(1, 1)] * x[1] + a[(2, 1)] * x[2],
+        a[(0, 2)] * x[0] + a[(1, 2)] * x[1] + a[(2, 2)] * x[2],
+    )
+}
+
 /// `L(p)` of Nikravesh: `ω' = 2 L ṗ` (body-frame angular velocity), `ṗ = ½ Lᵀ ω'`.
 pub fn l_matrix<S: Scalar>(p: &Vector4<S>) -> Matrix3x4<S> {
     let (e0, e1, e2, e3) = (p[0], p[1], p[2], p[3]);

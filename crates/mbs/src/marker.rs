@@ -6,7 +6,7 @@ use nalgebra::{Matrix3, Vector3};
 use sens::Scalar;
 
 use crate::body::{Body, BodyId, Pose, mode_vec, vec3, vec3f};
-use crate::kin::{Cols, Jac, Kin3};
+use crate::kin::{Cols, Jac, Kin3, mv};
 
 /// Where a marker sits on its body.
 #[derive(Clone, Debug, PartialEq)]
@@ -79,16 +79,6 @@ impl Marker {
         self.axes = Matrix3::from_columns(&[e1, e2, e1.cross(&e2)]);
         self
     }
-}
-
-/// `A x` written out (nalgebra's generic product goes through a slow path for dual numbers).
-#[inline]
-fn mv<S: Scalar>(a: &Matrix3<S>, x: &Vector3<S>) -> Vector3<S> {
-    Vector3::new(
-        a[(0, 0)] * x[0] + a[(0, 1)] * x[1] + a[(0, 2)] * x[2],
-        a[(1, 0)] * x[0] + a[(1, 1)] * x[1] + a[(1, 2)] * x[2],
-        a[(2, 0)] * x[0] + a[(2, 1)] * x[1] + a[(2, 2)] * x[2],
-    )
 }
 
 /// `A (e_i × w)` for `i = 0, 1, 2` into `out` (the Jacobian columns of `A w` with respect to the
