@@ -125,11 +125,10 @@ impl<S: Scalar> MarkerKin<S> {
         let epd = self.thd.cross(&e0);
         // no translation columns (kept, zero, so that all the marker's quantities share its
         // columns)
-        let nm = self.node_rot_modes.len();
         let mut jac = vec![Vector3::zeros(); self.cols.len()];
-        // ω columns: A (e_i × e')
+        // ω columns: A (e_i × e'); mode columns (zero at a point site, which has no modes)
         omega_columns(a, &ep, &mut jac[3..6]);
-        for (j, t) in self.node_rot_modes.iter().enumerate().take(nm) {
+        for (j, t) in self.node_rot_modes.iter().enumerate() {
             jac[6 + j] = mv(a, &t.cross(&e0));
         }
         Kin3 {
