@@ -861,7 +861,6 @@ impl<const N: usize> StepExtension<MultibodySystem> for Extension<'_, N> {
         y: &[f64],
         dy: &mut [f64],
     ) -> Result<(), RhsError> {
-        sys.report_progress(t);
         let it = self
             .newton
             .as_mut()
@@ -872,13 +871,11 @@ impl<const N: usize> StepExtension<MultibodySystem> for Extension<'_, N> {
             it.g = None;
             return OdeSystem::rhs(sys, t, y, dy);
         }
+        sys.report_progress(t);
         let (sol, _, g) =
             fused_rhs(sys, self.design, t, y, &it.s).map_err(|e| RhsError(e.to_string()))?;
         self.stats.dual_evaluations += self.design.chunks.len();
-        let nq = sys.model().n_q();
-        let (q, v) = y.split_at(nq);
-        sys.model().kinematic_rates(q, v, &mut dy[..nq]);
-        dy[nq..].copy_from_slice(&sol.x[..sys.model().n_v()]);
+        sys.write_rates(y, &sol, dy);
         it.g = Some(g);
         Ok(())
     }

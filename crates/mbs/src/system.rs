@@ -234,6 +234,14 @@ impl MultibodySystem {
         }
     }
 
+    /// `ẏ = [q̇; v̇]` at `y = [q; v]` into `dy`, with `v̇` from the solution of Eq. (12) there.
+    pub(crate) fn write_rates(&self, y: &[f64], sol: &Solution, dy: &mut [f64]) {
+        let nq = self.model.n_q();
+        let (q, v) = y.split_at(nq);
+        self.model.kinematic_rates(q, v, &mut dy[..nq]);
+        dy[nq..].copy_from_slice(&sol.x[..self.model.n_v()]);
+    }
+
     /// [`MultibodySystem::solve`] and the dual residual of `model` (this system's model with
     /// design tangents) at the seeded state `(q, v)` from one dual evaluation: the `f64`
     /// equations are the values of the dual ones. Returns the solution and the residual
@@ -650,14 +658,10 @@ impl OdeSystem for MultibodySystem {
     }
 
     fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), RhsError> {
-        if let Some(p) = &self.progress {
-            p(t);
-        }
-        let nq = self.model.n_q();
-        let (q, v) = y.split_at(nq);
+        self.report_progress(t);
+        let (q, v) = y.split_at(self.model.n_q());
         let sol = self.solve(t, q, v).map_err(|e| RhsError(e.to_string()))?;
-        self.model.kinematic_rates(q, v, &mut dy[..nq]);
-        dy[nq..].copy_from_slice(&sol.x[..self.model.n_v()]);
+        self.write_rates(y, &sol, dy);
         Ok(())
     }
 
