@@ -188,7 +188,6 @@ pub(crate) fn body_dynamics<P: Scalar, S: Scalar + From<P>>(
     off: usize,
     force: &mut [S],
 ) {
-    let Pose { a, .. } = pose(q);
     let rd_omega = vec3(&v[3..6]);
     let g: Vector3<S> = vec3f(gravity);
     match body {
@@ -209,6 +208,7 @@ pub(crate) fn body_dynamics<P: Scalar, S: Scalar + From<P>>(
         }
         Body::Flexible(b) => {
             let inv = invariants.get_or_init(|| ModalInvariants::new(&b.modal));
+            let Pose { a, .. } = pose(q);
             flexible_dynamics(&b.modal, inv, &a, q, v, g, mass, off, force);
         }
     }
