@@ -918,7 +918,7 @@ impl<const N: usize> StepExtension<MultibodySystem> for Extension<'_, N> {
         // local truncation error), non-finite updates still fail the iteration
         Ok(if self.options.error_control {
             wrms_matrix(&r, &self.hist[0], rtol, &self.sensitivity_atol(atol))
-        } else if r.iter().all(|x| x.is_finite()) {
+        } else if r.as_slice().iter().all(|x| x.is_finite()) {
             0.0
         } else {
             f64::INFINITY
