@@ -29,6 +29,23 @@ pub enum ConstraintError {
         "position assembly did not converge: |Φ| = {residual:.3e} after {iterations} iterations"
     )]
     AssemblyFailed { residual: f64, iterations: usize },
+    /// The initial state cannot satisfy a constraint by moving the rigid-body coordinates
+    /// alone (the elastic coordinates are held at their stated values).
+    #[error(
+        "the constraints cannot be met with the stated elastic state: joint `{joint}` equation \
+         {equation} ({bodies}) keeps |{quantity}| = {residual:.3e} after the rigid-body \
+         coordinates were adjusted; check the joint's points and the initial modal coordinates \
+         and rates of its flexible bodies"
+    )]
+    Inconsistent {
+        joint: String,
+        equation: usize,
+        /// The bodies the joint connects, e.g. "bodies `crank` and `rod`".
+        bodies: String,
+        /// `Φ` (positions) or `Φ̇` (velocities).
+        quantity: &'static str,
+        residual: f64,
+    },
     #[error("the augmented matrix of Eq. (12) is singular at t = {t} s")]
     Singular { t: f64 },
     #[error("non-finite accelerations at t = {t} s")]

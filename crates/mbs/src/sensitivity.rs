@@ -417,75 +417,94 @@ fn fused_rhs<const N: usize>(
 /// slider-crank's 40 × 40 Eq. 12: unpacking costs about five of nalgebra's column solves).
 const UNPACK_COLUMNS: usize = 9;
 
-/// Pseudo-inverse solve `−J⁺ R` column by column (minimum norm, tolerant of dependent rows).
-fn min_norm_columns(jac: &DMatrix<f64>, r: &DMatrix<f64>) -> DMatrix<f64> {
-    if jac.nrows() == 0 {
-        return DMatrix::zeros(jac.ncols(), r.ncols());
-    }
-    let svd = jac.clone().svd(true, true);
-    let eps = 1e-10 * svd.singular_values.max();
-    -svd.solve(r, eps).expect("u and vᵀ were computed")
-}
-
-/// Initial sensitivities consistent with the constraints (Eq. 44): the minimum-norm solutions
-/// of `Φ_q q_b = −Φ_b` (as increments in the velocity variables, mapped to `q` by the
-/// kinematic rates) and `Φ_v v_b = −(Φ̇_q q_b + Φ̇_b)`, which is what the assembly of
-/// [`MultibodySystem::assemble`] gives to first order when a perturbed design is assembled from
-/// the nominal state. `state` must already be assembled. Returns `n × m`.
+/// Initial sensitivities consistent with the constraints (Eq. 44), by the rule of
+/// [`MultibodySystem::assemble`]: the elastic coordinates and rates are the user's (design
+/// independent, so their sensitivities are zero) and only the rigid-body coordinates move.
+///
+/// - Positions: `Φ_q q_b = −Φ_b` solved for the rigid coordinates with the smallest
+///   `q_bᵀ W q_b` (`W` the mass matrix's rigid block), the first-order change of the assembly
+///   started from the assembled positions.
+/// - Velocities: the derivative of the assembly's velocity projection started from the
+///   velocities it was given (kept by [`MultibodySystem::assemble`]): with `Δ̂ = v̂ − v_guess`
+///   and the projection's multipliers `μ̂`, `[W J_Iᵀ; J_I 0] [v_b; μ_b] = −∂/∂b [W Δ̂ + J_Iᵀ μ̂;
+///   Φ̇_I(q(b), v̂)]`, the tangents evaluated by one dual evaluation per chunk (paper §4, the
+///   pattern of Eq. 40). Exact for designs that change masses and joint geometry too.
+///
+/// `state` must be the state assembled by `sys` (if `sys` assembled another state, or none,
+/// the velocities are taken as given: `Δ̂ = 0`). Returns `n × m`.
 pub fn initial_sensitivities<const N: usize>(
     sys: &MultibodySystem,
     design: &DesignModel<N>,
     t0: f64,
     state: &State,
-) -> DMatrix<f64> {
+) -> Result<DMatrix<f64>, SensitivityError> {
     let model = sys.model();
-    let (nq, nv, nc) = (model.n_q(), model.n_v(), model.n_constraints());
+    let (nq, nv) = (model.n_q(), model.n_v());
     let m = design.n_variables();
+    let cols = sys.rigid_columns();
+    let nr = cols.len();
     let c = model.constraints(t0, &state.q, &state.v);
-    let jac = c.jacobian;
-    let zero = DMatrix::zeros(nq + nv, m);
-    // Φ_b
-    let mut phi_b = DMatrix::zeros(nc, m);
+    let kkt = sys.start_projection(t0, &state.q, &c.jacobian, &cols)?;
+    let k = kkt.rows.len();
     let y = state.to_vec();
+    let mut s = DMatrix::zeros(nq + nv, m);
+    // positions: Φ_b with the state held, then the W-smallest rigid q_b
+    let mut col = vec![0.0; nq];
     for (dm, range) in design.chunk_ranges() {
-        let yd = seeded::<N>(&y, &zero, &range);
+        let yd = seeded::<N>(&y, &s, &range);
         let (qd, vd) = yd.split_at(nq);
-        let cd = dm.constraints(t0, qd, vd);
-        for (k, j) in range.enumerate() {
-            for r in 0..nc {
-                phi_b[(r, j)] = cd.phi[r].d[k];
+        let phi = dm.constraints(t0, qd, vd).phi;
+        for (t, j) in range.enumerate() {
+            let b: Vec<f64> = kkt.rows.iter().map(|&r| -phi[r].d[t]).collect();
+            let (dr, _) = kkt.solve(&vec![0.0; nr], &b);
+            let mut d = vec![0.0; nv];
+            for (&ci, x) in cols.iter().zip(dr) {
+                d[ci] = x;
+            }
+            model.kinematic_rates(&state.q, &d, &mut col);
+            for i in 0..nq {
+                s[(i, j)] = col[i];
             }
         }
     }
-    let d_b = min_norm_columns(&jac, &phi_b);
-    let mut s = DMatrix::zeros(nq + nv, m);
-    let mut col = vec![0.0; nq];
-    for j in 0..m {
-        let d: Vec<f64> = d_b.column(j).iter().copied().collect();
-        model.kinematic_rates(&state.q, &d, &mut col);
-        for i in 0..nq {
-            s[(i, j)] = col[i];
-        }
-    }
-    // Φ̇_q q_b + Φ̇_b
-    let mut r = DMatrix::zeros(nc, m);
+    // velocities: the projection's increment and multipliers from the guess
+    let guess = match sys.start_guess() {
+        Some(g) if g.t == t0 && g.q == state.q => g.v.clone(),
+        _ => state.v.clone(),
+    };
+    let cg = model.constraints(t0, &state.q, &guess);
+    let b: Vec<f64> = kkt.rows.iter().map(|&r| -cg.phi_dot[r]).collect();
+    let (dv, mu) = kkt.solve(&vec![0.0; nr], &b);
     for (dm, range) in design.chunk_ranges() {
         let yd = seeded::<N>(&y, &s, &range);
         let (qd, vd) = yd.split_at(nq);
         let cd = dm.constraints(t0, qd, vd);
-        for (k, j) in range.enumerate() {
-            for row in 0..nc {
-                r[(row, j)] = cd.phi_dot[row].d[k];
+        let (md, _) = dm.mass_and_forces(t0, qd, vd);
+        // −(W Δ̂ + J_Iᵀ μ̂) on the rigid columns, −Φ̇_I
+        let r1: Vec<Dual<N>> = cols
+            .iter()
+            .map(|&ci| {
+                let mut a = Dual::<N>::constant(0.0);
+                for (&cj, &x) in cols.iter().zip(&dv) {
+                    a += md[(ci, cj)] * x;
+                }
+                for (&r, &u) in kkt.rows.iter().zip(&mu) {
+                    a += cd.jacobian[(r, ci)] * u;
+                }
+                -a
+            })
+            .collect();
+        for (t, j) in range.enumerate() {
+            let a: Vec<f64> = r1.iter().map(|x| x.d[t]).collect();
+            let b: Vec<f64> = kkt.rows.iter().map(|&r| -cd.phi_dot[r].d[t]).collect();
+            let (vb, _) = kkt.solve(&a, &b);
+            for (&ci, x) in cols.iter().zip(vb) {
+                s[(nq + ci, j)] = x;
             }
         }
     }
-    let v_b = min_norm_columns(&jac, &r);
-    for j in 0..m {
-        for i in 0..nv {
-            s[(nq + i, j)] = v_b[(i, j)];
-        }
-    }
-    s
+    debug_assert_eq!(k, mu.len());
+    Ok(s)
 }
 
 /// The sensitivities as a [`StepExtension`] of the integrator.
@@ -1008,7 +1027,7 @@ pub fn simulate_sensitivities<const N: usize>(
     options: &SensitivityOptions,
 ) -> Result<SensitivityRun, SensitivityError> {
     design.check(sys)?;
-    let s0 = initial_sensitivities(sys, design, t0, state);
+    let s0 = initial_sensitivities(sys, design, t0, state)?;
     simulate_sensitivities_from(sys, design, state, &s0, t0, t_end, bdf_options, options)
 }
 

@@ -95,6 +95,8 @@ pub struct MultibodySystem {
     removed: Vec<usize>,
     policy: RedundancyPolicy,
     progress: Option<Progress>,
+    /// What the last [`MultibodySystem::assemble`] started from.
+    start: Option<StartGuess>,
 }
 
 /// A progress observer: called with the time of every right-hand-side evaluation.
@@ -152,6 +154,7 @@ impl MultibodySystem {
             removed,
             policy,
             progress: None,
+            start: None,
         })
     }
 
@@ -184,6 +187,7 @@ impl MultibodySystem {
             removed: self.removed.clone(),
             policy: self.policy,
             progress: self.progress.clone(),
+            start: self.start.clone(),
         }
     }
 
@@ -295,27 +299,56 @@ impl MultibodySystem {
         })
     }
 
-    /// Project `state` onto the position and velocity constraints, to `tol` in `max |Φ|` and
-    /// `max |Φ̇|`: Gauss–Newton steps `Δ = −Φ_v⁺ Φ` (minimum norm in the velocity variables,
-    /// pseudo-inverse over all rows, so redundant equations are satisfied too), then
-    /// `v ← v − Φ_v⁺ Φ̇`. Redundancy is then re-checked at the assembled state (with the policy
-    /// given at construction), since rows dependent there may differ from those at an
-    /// inconsistent starting guess.
+    /// Make `state` consistent with the constraints at time `t`, moving only the rigid-body
+    /// coordinates: every body's frame position, orientation and velocity `(ṙ, ω')`. The
+    /// elastic (modal) coordinates and their rates are the user's and are held at their values
+    /// in `state` (zero: undeformed and at rest in the body frame).
+    ///
+    /// Positions: Gauss–Newton steps `Δ` of the rigid coordinates, each the smallest in the
+    /// mass (kinetic-energy) metric `ΔᵀWΔ` that satisfies the linearised constraints, until
+    /// `max |Φ| ≤ tol`. Velocities: `Δv` minimising `Δvᵀ W Δv` with `Φ̇ = 0`, i.e. the
+    /// velocity change an impulse of the constraint forces would make (momentum is conserved
+    /// by it, and no rigid motion is put into the modes). `W` is the rigid-coordinate block of
+    /// the mass matrix at the state. Both solve `[W J_Iᵀ; J_I 0]` with `J_I` the independent
+    /// rows of the constraint Jacobian's rigid-coordinate columns; the dependent rows must then
+    /// hold too, else the error names the joint ([`ConstraintError::Inconsistent`]), as it does
+    /// when a constraint cannot be met with the stated elastic state.
+    ///
+    /// Redundancy is then re-checked at the assembled state (with the policy given at
+    /// construction), since rows dependent there may differ from those at an inconsistent
+    /// starting guess. The velocities before the projection are kept, so that
+    /// [`crate::initial_sensitivities`] differentiates the same projection.
     pub fn assemble(&mut self, t: f64, state: &mut State, tol: f64) -> Result<(), ConstraintError> {
         let max_it = 50;
+        let cols = self.rigid_columns();
+        let mut stalled = 0;
+        let mut last = f64::INFINITY;
         for it in 0..=max_it {
             let c = self.model.constraints(t, &state.q, &state.v);
             let res = max_abs(&c.phi);
             if res <= tol {
                 break;
             }
-            if it == max_it || !res.is_finite() {
+            if !res.is_finite() {
                 return Err(ConstraintError::AssemblyFailed {
                     residual: res,
                     iterations: it,
                 });
             }
-            let d = min_norm(&c.jacobian, &c.phi);
+            // Gauss–Newton converges quadratically on consistent equations; a residual that
+            // stops falling belongs to an equation the rigid coordinates cannot satisfy
+            stalled = if res > 0.5 * last { stalled + 1 } else { 0 };
+            last = res;
+            if it == max_it || stalled >= 4 {
+                return Err(self.inconsistent(&c.phi, "Φ"));
+            }
+            let kkt = self.start_projection(t, &state.q, &c.jacobian, &cols)?;
+            let b: Vec<f64> = kkt.rows.iter().map(|&r| -c.phi[r]).collect();
+            let (dr, _) = kkt.solve(&vec![0.0; cols.len()], &b);
+            let mut d = vec![0.0; self.model.n_v()];
+            for (&col, x) in cols.iter().zip(dr) {
+                d[col] = x;
+            }
             self.apply_increment(&mut state.q, &d);
         }
         let c = self.model.constraints(t, &state.q, &state.v);
@@ -327,11 +360,102 @@ impl MultibodySystem {
         }
         self.rows = rows;
         self.removed = removed;
-        let d = min_norm(&c.jacobian, &c.phi_dot);
-        for (a, b) in state.v.iter_mut().zip(&d) {
-            *a += b;
+        let guess = state.v.clone();
+        let kkt = self.start_projection(t, &state.q, &c.jacobian, &cols)?;
+        let b: Vec<f64> = kkt.rows.iter().map(|&r| -c.phi_dot[r]).collect();
+        let (dv, _) = kkt.solve(&vec![0.0; cols.len()], &b);
+        for (&col, x) in cols.iter().zip(dv) {
+            state.v[col] += x;
         }
+        let c = self.model.constraints(t, &state.q, &state.v);
+        let scale = cols.iter().fold(1.0f64, |m, &i| m.max(state.v[i].abs()));
+        if !(max_abs(&c.phi_dot) <= tol.max(1e-9 * scale)) {
+            return Err(self.inconsistent(&c.phi_dot, "Φ̇"));
+        }
+        self.start = Some(StartGuess {
+            t,
+            q: state.q.clone(),
+            v: guess,
+        });
         Ok(())
+    }
+
+    /// The velocity variables of the rigid-body coordinates: `(ṙ, ω')` of every body.
+    pub(crate) fn rigid_columns(&self) -> Vec<usize> {
+        self.model
+            .body_ids()
+            .flat_map(|b| {
+                let r = self.model.v_range(b);
+                r.start..r.start + 6
+            })
+            .collect()
+    }
+
+    /// The assembly's projection matrix at `q`: `[W J_Iᵀ; J_I 0]` with `W` the mass matrix's
+    /// rigid-coordinate block and `J_I` the independent rows of `jac`'s columns `cols`.
+    pub(crate) fn start_projection(
+        &self,
+        t: f64,
+        q: &[f64],
+        jac: &DMatrix<f64>,
+        cols: &[usize],
+    ) -> Result<StartProjection, ConstraintError> {
+        let v = vec![0.0; self.model.n_v()];
+        let (m, _) = self.model.mass_and_forces(t, q, &v);
+        let w = m.select_rows(cols).select_columns(cols);
+        let jr = jac.select_columns(cols);
+        let dense: Vec<Vec<f64>> = (0..jr.nrows())
+            .map(|r| jr.row(r).iter().copied().collect())
+            .collect();
+        let (rows, _) = independent_rows_of(
+            dense.iter().map(Vec::as_slice),
+            cols.len(),
+            ASSEMBLY_DEPENDENCE_TOL,
+        );
+        let (n, k) = (cols.len(), rows.len());
+        let mut a = DMatrix::zeros(n + k, n + k);
+        a.view_mut((0, 0), (n, n)).copy_from(&w);
+        for (i, &r) in rows.iter().enumerate() {
+            for j in 0..n {
+                a[(n + i, j)] = jr[(r, j)];
+                a[(j, n + i)] = jr[(r, j)];
+            }
+        }
+        let lu = a.lu();
+        if !lu.is_invertible() {
+            return Err(ConstraintError::Singular { t });
+        }
+        Ok(StartProjection { rows, lu, n })
+    }
+
+    /// The error for the constraint row with the largest `|values|`.
+    fn inconsistent(&self, values: &[f64], quantity: &'static str) -> ConstraintError {
+        let (row, residual) = values
+            .iter()
+            .enumerate()
+            .fold((0, -1.0), |(br, bv), (r, &x)| {
+                let a = if x.is_nan() { f64::INFINITY } else { x.abs() };
+                if a > bv { (r, a) } else { (br, bv) }
+            });
+        let j = self.model.joint_of_row(row);
+        let joint = self.model.joint(j);
+        let name = |m: &crate::Marker| match m.body {
+            Some(b) => format!("`{}`", self.model.body(b).name()),
+            None => "ground".to_string(),
+        };
+        ConstraintError::Inconsistent {
+            joint: joint.name.clone(),
+            equation: row - self.model.joint_rows(j).start,
+            bodies: format!("between {} and {}", name(&joint.a), name(&joint.b)),
+            quantity,
+            residual,
+        }
+    }
+
+    /// The time, assembled positions and velocities before the projection of the last
+    /// [`MultibodySystem::assemble`].
+    pub(crate) fn start_guess(&self) -> Option<&StartGuess> {
+        self.start.as_ref()
     }
 
     /// `q ← q ⊕ Δ` for an increment `Δ` in the velocity variables (rotations exact).
@@ -586,17 +710,33 @@ pub(crate) fn lu_tangents<const N: usize>(
         .collect()
 }
 
-/// `−J⁺ r` (minimum-norm least squares; tolerant of dependent rows).
-fn min_norm(jac: &DMatrix<f64>, r: &[f64]) -> Vec<f64> {
-    if jac.nrows() == 0 {
-        return vec![0.0; jac.ncols()];
+/// The assembly's projection `[W J_Iᵀ; J_I 0]`, factorised ([`MultibodySystem::start_projection`]).
+pub(crate) struct StartProjection {
+    /// The independent constraint rows `I`.
+    pub(crate) rows: Vec<usize>,
+    lu: LU<f64, Dyn, Dyn>,
+    /// Number of rigid-coordinate columns.
+    n: usize,
+}
+
+impl StartProjection {
+    /// `(x, μ)` with `W x + J_Iᵀ μ = a`, `J_I x = b`.
+    pub(crate) fn solve(&self, a: &[f64], b: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        let mut r = DVector::from_iterator(self.n + b.len(), a.iter().chain(b).copied());
+        self.lu.solve_mut(&mut r);
+        let (x, mu) = r.as_slice().split_at(self.n);
+        (x.to_vec(), mu.to_vec())
     }
-    let svd = jac.clone().svd(true, true);
-    let eps = 1e-10 * svd.singular_values.max();
-    let x = svd
-        .solve(&DVector::from_column_slice(r), eps)
-        .expect("u and vᵀ were computed");
-    (-x).as_slice().to_vec()
+}
+
+/// What [`MultibodySystem::assemble`] started from.
+#[derive(Clone, Debug)]
+pub(crate) struct StartGuess {
+    pub(crate) t: f64,
+    /// The assembled positions.
+    pub(crate) q: Vec<f64>,
+    /// The velocities before the projection.
+    pub(crate) v: Vec<f64>,
 }
 
 /// Greedy modified Gram–Schmidt on the rows of `jac`: `(independent, dependent)` row indices.

@@ -189,11 +189,25 @@ pub const ROD: f64 = 0.304;
 /// yet assembled) and the slider's body id. With `flexible_rod = Some(n_modes)` the rod is the
 /// fixture's beam clamped at its centre node with joints at its end nodes.
 pub fn slider_crank(omega: f64, flexible_rod: Option<usize>) -> (Model<f64>, State, mbs::BodyId) {
+    slider_crank_framed(omega, flexible_rod.map(|n| (n, 5)))
+}
+
+/// As [`slider_crank`], with the flexible rod's `(modes, clamped node)`: its body frame sits at
+/// that node of the 10-element rod (5: the centre).
+pub fn slider_crank_framed(
+    omega: f64,
+    flexible_rod: Option<(usize, usize)>,
+) -> (Model<f64>, State, mbs::BodyId) {
     let mut model = Model::new();
     let crank = model
         .add_rigid_body(RigidBody::new("crank", 0.38, rod_inertia(0.38, CRANK)))
         .unwrap();
     let beam = Beam::slider_crank_rod(10);
+    let le = ROD / beam.elements as f64;
+    let frame_x = match flexible_rod {
+        Some((_, node)) => node as f64 * le,
+        None => ROD / 2.0,
+    };
     let (rod, rod_a, rod_b) = match flexible_rod {
         None => {
             let rod = model
@@ -205,8 +219,8 @@ pub fn slider_crank(omega: f64, flexible_rod: Option<usize>) -> (Model<f64>, Sta
                 Marker::on(rod, Vector3::new(ROD / 2.0, 0.0, 0.0)),
             )
         }
-        Some(n) => {
-            let modal = beam.modal_body(-ROD / 2.0, beam.elements / 2, n, 0.01);
+        Some((n, node)) => {
+            let modal = beam.modal_body(-frame_x, node, n, 0.01);
             let rod = model
                 .add_flexible_body(FlexibleBody::new("rod", modal))
                 .unwrap();
@@ -261,7 +275,7 @@ pub fn slider_crank(omega: f64, flexible_rod: Option<usize>) -> (Model<f64>, Sta
     model.set_pose(
         &mut state,
         rod,
-        Vector3::new(CRANK + ROD / 2.0, 0.0, 0.0),
+        Vector3::new(CRANK + frame_x, 0.0, 0.0),
         &id,
     );
     model.set_pose(&mut state, slider, Vector3::new(CRANK + ROD, 0.0, 0.0), &id);
