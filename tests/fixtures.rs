@@ -219,7 +219,7 @@ fn modal_setup(
     let mo = if opts.planar {
         ModalOptions {
             planar: Some(Vector3::z()),
-            damping: Some(rayleigh_planar()),
+            damping: Some(rayleigh_planar().into()),
             ..ModalOptions::new(opts.modes)
         }
     } else {

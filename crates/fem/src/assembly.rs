@@ -12,7 +12,7 @@ use laminate::LaminateStiffness;
 use nalgebra::DMatrix;
 use sens::Scalar;
 
-use crate::beam::{BeamError, BeamSection, beam_frame, beam_local, to_global};
+use crate::beam::{BeamError, BeamSection, beam_frame, beam_local, release_shear, to_global};
 use crate::mesh::{Element, Mesh, MeshError, NodeId};
 use crate::shell::{
     DEFAULT_DRILLING, Membrane, ShellError, TriGeometry, shell_lumped, shell_mass_local,
@@ -54,6 +54,11 @@ pub struct ElementOptions {
     pub drilling: f64,
     /// Membrane formulation of the shell triangle.
     pub membrane: Membrane,
+    /// Planar analysis about this global axis (set by [`crate::modal_analysis`] from
+    /// [`crate::ModalOptions::planar`]): beam elements release the transverse shear strain out
+    /// of the plane ([`crate::beam::release_shear`]), so that fixing the out-of-plane dof at the
+    /// nodes does not suppress a section's shear–bending coupling.
+    pub planar_axis: Option<usize>,
 }
 
 impl Default for ElementOptions {
@@ -61,6 +66,7 @@ impl Default for ElementOptions {
         Self {
             drilling: DEFAULT_DRILLING,
             membrane: Membrane::default(),
+            planar_axis: None,
         }
     }
 }
@@ -192,6 +198,14 @@ pub fn element_matrices<S: Scalar>(
                     available: props.sections.len(),
                 })?;
             let (l, lam) = beam_frame(&mesh.nodes[nodes[0]], &mesh.nodes[nodes[1]], &orientation);
+            let released;
+            let sec = match opts.planar_axis {
+                Some(axis) => {
+                    released = release_shear(sec, &lam, axis, e)?;
+                    &released
+                }
+                None => sec,
+            };
             let loc = beam_local(sec, l, e)?;
             let k = to_global(&loc.stiffness, &lam);
             let m = match mass {

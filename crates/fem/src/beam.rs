@@ -214,6 +214,12 @@ pub enum BeamError {
     SingularSection { element: usize },
     #[error("beam element {element}: zero length")]
     ZeroLength { element: usize },
+    #[error(
+        "beam element {element}: the planar analysis needs the plane's normal along one of the \
+         element's section axes (the beam must lie in the plane, its orientation vector in the \
+         plane or along the normal)"
+    )]
+    NotInPlane { element: usize },
 }
 
 /// Stiffness and consistent mass of a beam segment of length `l` in its local frame.
@@ -255,6 +261,55 @@ pub fn beam_local<S: Scalar>(
     let stiffness = (stiffness + stiffness.transpose()) * S::from_f64(0.5);
     let mass = (mass + mass.transpose()) * S::from_f64(0.5);
     Ok(BeamLocal { stiffness, mass })
+}
+
+/// The section of a beam element in a planar analysis about global `axis` (the plane's
+/// normal), with the transverse shear strain out of the plane released: that strain is
+/// condensed out of the stiffness with its shear force zero, `C ← C − C[:,s] C[s,:] / C[s,s]`,
+/// and kept only on the diagonal, so the in-plane strains no longer couple to it.
+///
+/// Why: a planar analysis fixes the out-of-plane translation and rotations at every node. On a
+/// section whose transverse shear couples to bending in the other plane (an angle-ply tube:
+/// `γ₁₃`–`κ₃` and `γ₁₂`–`κ₂`) that would hold the out-of-plane shear at zero everywhere and
+/// stiffen in-plane bending up to the uncoupled `EI` (twice the classical value of a [15°]
+/// tube), by an amount that grows as the mesh is refined. In the real beam that shear is
+/// relieved locally by the section rotation `θ` at a cost of order `EI / (GA L²)` (about 1e-3
+/// for the paper's rod) even when the ends are held out of the plane, so its force is zero to
+/// that order. Twist and out-of-plane curvature stay fixed: their relief needs end rotations
+/// that the joints of a planar mechanism hold.
+///
+/// `lam` is the element frame ([`beam_frame`]); the normal must be the element's `e₂` or `e₃`
+/// axis (a beam along the normal, or skew to it, has no out-of-plane shear of its own).
+pub fn release_shear<S: Scalar>(
+    section: &BeamSection<S>,
+    lam: &Matrix3<f64>,
+    axis: usize,
+    element: usize,
+) -> Result<BeamSection<S>, BeamError> {
+    let along = |k: usize| (lam[(k, axis)].abs() - 1.0).abs() <= 1e-9;
+    let s = if along(1) {
+        1
+    } else if along(2) {
+        2
+    } else {
+        return Err(BeamError::NotInPlane { element });
+    };
+    let c = &section.stiffness;
+    let css = c[(s, s)];
+    if !(css.value() > 0.0) {
+        return Err(BeamError::SingularSection { element });
+    }
+    let mut out = section.clone();
+    for i in 0..6 {
+        for j in 0..6 {
+            out.stiffness[(i, j)] = if i == s || j == s {
+                if i == j { css } else { S::zero() }
+            } else {
+                c[(i, j)] - c[(i, s)] * c[(s, j)] / css
+            };
+        }
+    }
+    Ok(out)
 }
 
 /// Rotate a 12×12 local matrix to global axes: `Tᵀ A T` with `T = diag(Λ, Λ, Λ, Λ)`.

@@ -64,19 +64,59 @@ impl RayleighDamping {
         let beta = (wj * zj - wi * zi) * 2.0 / den;
         Ok((alpha, beta))
     }
+}
+
+/// Proportional damping `C = αM + βK` of a body's elastic modes: modal damping
+/// `2ζ_k ω_k = α + β λ_k`.
+///
+/// `β` (stiffness-proportional) damps strain rates and is the same whatever the body frame;
+/// `α` (mass-proportional) damps the velocity of the elastic motion relative to the body frame,
+/// which depends on the reference condition. For results that do not depend on the frame, use
+/// [`Damping::Coefficients`] with `α = 0`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Damping {
+    /// `α`, `β` fitted to damping ratios at two modes (the paper's way).
+    Ratios(RayleighDamping),
+    /// `α` (1/s) and `β` (s) given.
+    Coefficients { alpha: f64, beta: f64 },
+}
+
+impl From<RayleighDamping> for Damping {
+    fn from(d: RayleighDamping) -> Self {
+        Damping::Ratios(d)
+    }
+}
+
+impl Damping {
+    /// `(α, β)` for the retained eigenvalues `lambdas`.
+    pub fn coefficients<S: Scalar>(&self, lambdas: &[S]) -> Result<(S, S), FemError> {
+        match *self {
+            Damping::Ratios(d) => {
+                let [i, j] = d.modes;
+                if i >= lambdas.len() || j >= lambdas.len() {
+                    return Err(FemError::Invalid(format!(
+                        "Rayleigh damping refers to modes {} and {}, only {} retained",
+                        i + 1,
+                        j + 1,
+                        lambdas.len()
+                    )));
+                }
+                d.coefficients(lambdas[i], lambdas[j])
+            }
+            Damping::Coefficients { alpha, beta } => {
+                if !(alpha.is_finite() && alpha >= 0.0 && beta.is_finite() && beta >= 0.0) {
+                    return Err(FemError::Invalid(format!(
+                        "damping coefficients alpha = {alpha}, beta = {beta} must be finite and ≥ 0"
+                    )));
+                }
+                Ok((S::from_f64(alpha), S::from_f64(beta)))
+            }
+        }
+    }
 
     /// Modal damping `2ζ_k ω_k = α + β λ_k` of every mode.
     pub fn modal_damping<S: Scalar>(&self, lambdas: &[S]) -> Result<Vec<S>, FemError> {
-        let [i, j] = self.modes;
-        if i >= lambdas.len() || j >= lambdas.len() {
-            return Err(FemError::Invalid(format!(
-                "Rayleigh damping refers to modes {} and {}, only {} retained",
-                i + 1,
-                j + 1,
-                lambdas.len()
-            )));
-        }
-        let (a, b) = self.coefficients(lambdas[i], lambdas[j])?;
+        let (a, b) = self.coefficients(lambdas)?;
         Ok(lambdas.iter().map(|&l| a + b * l).collect())
     }
 }
@@ -87,7 +127,7 @@ pub struct ModalOptions {
     pub reference: ReferenceCondition,
     /// Number of (elastic) modes retained.
     pub n_modes: usize,
-    pub damping: Option<RayleighDamping>,
+    pub damping: Option<Damping>,
     /// Consistent or lumped mass; `ModalBody` requires lumped (the paper's diagonalised mass).
     pub mass: MassKind,
     pub element: ElementOptions,
@@ -219,21 +259,14 @@ impl ModalAnalysis {
     pub fn mode_shapes(&self) -> DMatrix<f64> {
         self.expand(&self.pairs.vectors.columns(0, self.n_modes).into_owned())
     }
-    /// The Rayleigh damping matrix `C = αM + βK` on the free dof (`None` without damping).
+    /// The damping matrix `C = αM + βK` on the free dof (`None` without damping).
     pub fn damping_matrix(
         &self,
     ) -> Result<Option<faer::sparse::SparseColMat<usize, f64>>, FemError> {
         let Some(d) = self.options.damping else {
             return Ok(None);
         };
-        let [i, j] = d.modes;
-        let lam = self.eigenvalues();
-        if i >= lam.len() || j >= lam.len() {
-            return Err(FemError::Invalid(
-                "Rayleigh damping refers to modes that were not retained".into(),
-            ));
-        }
-        let (alpha, beta) = d.coefficients(lam[i], lam[j])?;
+        let (alpha, beta) = d.coefficients(self.eigenvalues())?;
         let v = self
             .m
             .val()
@@ -364,6 +397,11 @@ pub fn modal_analysis(
     opts: &ModalOptions,
 ) -> Result<ModalAnalysis, FemError> {
     let (constraints, origin) = analysis_constraints(mesh, props, opts)?;
+    // beams of a planar analysis release their out-of-plane shear (`beam::release_shear`);
+    // the options kept in the analysis carry it to every later assembly (derivatives)
+    let mut opts = *opts;
+    opts.element.planar_axis = opts.planar.as_ref().map(planar_axis).transpose()?;
+    let opts = &opts;
     let assembly = Assembly::new(mesh, &constraints)?;
     let (kv, mv) = assembly.values(mesh, props, &opts.element, opts.mass)?;
     let k = assembly.matrix(kv);

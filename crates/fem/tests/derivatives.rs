@@ -82,10 +82,13 @@ fn stiffness_derivative_matches_closed_form_laminate_derivative() {
 fn strip_analysis(b: &[f64], mass: MassKind) -> fem::ModalAnalysis {
     let mut o = ModalOptions::new(5);
     o.mass = mass;
-    o.damping = Some(RayleighDamping {
-        modes: [0, 3],
-        ratios: [0.01, 0.03],
-    });
+    o.damping = Some(
+        RayleighDamping {
+            modes: [0, 3],
+            ratios: [0.01, 0.03],
+        }
+        .into(),
+    );
     modal_analysis(&strip(), &strip_props(b), &o).unwrap()
 }
 

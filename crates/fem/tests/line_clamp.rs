@@ -261,10 +261,13 @@ fn modal_body_with_a_line_clamp() {
     let props = two_half_props(&b0);
     let mut o = ModalOptions::new(6);
     o.reference = ReferenceCondition::ClampedSectionAtCentre;
-    o.damping = Some(fem::RayleighDamping {
-        modes: [0, 3],
-        ratios: [0.01, 0.03],
-    });
+    o.damping = Some(
+        fem::RayleighDamping {
+            modes: [0, 3],
+            ratios: [0.01, 0.03],
+        }
+        .into(),
+    );
     let an = modal_analysis(&mesh, &props, &o).unwrap();
     // the clamped nodes: the ny + 1 nodes at x = L/2, all six dof
     let line: Vec<usize> = (0..=ny).map(|j| j * (nx + 1) + nx / 2).collect();
