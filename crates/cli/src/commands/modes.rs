@@ -7,7 +7,7 @@ use std::path::Path;
 
 use fem::{
     BeamSection, ModalAnalysis, ModalOptions, ModeDerivatives, ModeUpdate, Properties,
-    RayleighDamping, ReferenceCondition,
+    ReferenceCondition,
 };
 use laminate::PlyStack;
 use section::{DesignMap, SectionSensitivities};
@@ -316,9 +316,7 @@ pub(crate) fn build(
     let mut options = ModalOptions::new(def.modes);
     options.reference = reference;
     options.planar = def.planar;
-    options.damping = def
-        .damping
-        .map(|(modes, ratios)| RayleighDamping { modes, ratios });
+    options.damping = def.damping;
     options.mass = if def.lumped {
         fem::MassKind::Lumped
     } else {

@@ -760,6 +760,7 @@ pub(crate) fn build_mechanism(
     let mut bodies = BTreeMap::new();
     let mut body_order = Vec::new();
     let mut placements = Vec::new();
+    let mut modal_starts = Vec::new();
     // flexible bodies: modes of the mesh as given (global coordinates at t = 0)
     for (name, b) in &raw.body {
         let def = validate_body(src, raw, name, b, &lam)?;
@@ -787,6 +788,11 @@ pub(crate) fn build_mechanism(
             })?;
         let origin = analysis.origin;
         let frequencies = analysis.frequencies_hz();
+        modal_starts.push((
+            id,
+            def.initial_modal.clone(),
+            def.initial_modal_rates.clone(),
+        ));
         placements.push((
             id,
             analysis.origin,
@@ -1138,7 +1144,11 @@ pub(crate) fn build_mechanism(
             CliError::Input(src.error(Some(f.span()), Some(format!("force.{name}")), e.to_string()))
         })?;
     }
-    let state = initial_state(&model, &placements);
+    let mut state = initial_state(&model, &placements);
+    // the elastic state is the user's; the assembly moves only the rigid-body coordinates
+    for (id, w, wd) in &modal_starts {
+        model.set_modal(&mut state, *id, w, wd);
+    }
     let responses = responses(src, raw, &model, &bodies, &joint_names)?;
     check_design(
         src,

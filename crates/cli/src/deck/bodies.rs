@@ -47,18 +47,28 @@ pub struct RawBody {
     pub planar: Option<Spanned<[f64; 3]>>,
     /// Pinned ends: the two node indices (default: the beam's end nodes).
     pub pinned: Option<Spanned<[i64; 2]>>,
-    /// Rayleigh damping from two modal damping ratios.
+    /// Proportional damping: two modal damping ratios, or the coefficients `alpha`, `beta`.
     pub damping: Option<Spanned<RawDamping>>,
     /// `"lumped"` (default; the floating frame needs it) or `"consistent"`.
     pub mass: Option<Spanned<String>>,
+    /// Initial modal coordinates by mode number (first entry: mode 1; missing ones are zero),
+    /// in the mass-normalised coordinates of `flexsens modes` (√kg·m). Default: undeformed.
+    pub initial_modal: Option<Spanned<Vec<f64>>>,
+    /// Initial modal rates by mode number (√kg·m/s). Default: at rest in the body frame.
+    pub initial_modal_rates: Option<Spanned<Vec<f64>>>,
 }
 
-/// `{ modes = [i, j], ratios = [ζi, ζj] }`, modes counted from 1.
+/// `{ modes = [i, j], ratios = [ζi, ζj] }` (modes counted from 1), or
+/// `{ alpha = α, beta = β }` (`C = αM + βK`; either may be left out, meaning 0).
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawDamping {
     pub modes: Option<Spanned<[i64; 2]>>,
     pub ratios: Option<Spanned<[f64; 2]>>,
+    /// Mass-proportional coefficient (1/s).
+    pub alpha: Option<Spanned<f64>>,
+    /// Stiffness-proportional coefficient (s).
+    pub beta: Option<Spanned<f64>>,
 }
 
 /// How a body is meshed.
@@ -97,9 +107,11 @@ pub struct BodyDef {
     pub reference: Reference,
     /// Normal of the plane the modes are restricted to.
     pub planar: Option<Vector3<f64>>,
-    /// Zero-based mode indices and ratios.
-    pub damping: Option<([usize; 2], [f64; 2])>,
+    pub damping: Option<fem::Damping>,
     pub lumped: bool,
+    /// Initial modal coordinates and rates, one per retained mode (zero-padded).
+    pub initial_modal: Vec<f64>,
+    pub initial_modal_rates: Vec<f64>,
 }
 
 /// Reference condition as written.
@@ -437,6 +449,41 @@ pub fn validate_one(
     }
     let damping = match &raw.damping {
         None => None,
+        Some(d) if d.get_ref().alpha.is_some() || d.get_ref().beta.is_some() => {
+            let dk = |key: &str| format!("body.{name}.damping.{key}");
+            let rd = d.get_ref();
+            if let Some(m) = &rd.modes {
+                return Err(src.error(
+                    span(m),
+                    Some(dk("modes")),
+                    "give either modes and ratios, or alpha and beta, not both",
+                ));
+            }
+            if let Some(r) = &rd.ratios {
+                return Err(src.error(
+                    span(r),
+                    Some(dk("ratios")),
+                    "give either modes and ratios, or alpha and beta, not both",
+                ));
+            }
+            let coefficient = |key: &str, v: &Option<Spanned<f64>>, unit: &str| {
+                let Some(v) = v else { return Ok(0.0) };
+                let x = *v.get_ref();
+                if x.is_finite() && x >= 0.0 {
+                    Ok(x)
+                } else {
+                    Err(src.error(
+                        span(v),
+                        Some(dk(key)),
+                        format!("{x} must be a finite coefficient ≥ 0 ({unit})"),
+                    ))
+                }
+            };
+            Some(fem::Damping::Coefficients {
+                alpha: coefficient("alpha", &rd.alpha, "1/s")?,
+                beta: coefficient("beta", &rd.beta, "s")?,
+            })
+        }
         Some(d) => {
             let dk = |key: &str| format!("body.{name}.damping.{key}");
             let m = required(
@@ -471,7 +518,10 @@ pub fn validate_one(
                     ));
                 }
             }
-            Some(([i as usize - 1, j as usize - 1], ratios))
+            Some(fem::Damping::Ratios(fem::RayleighDamping {
+                modes: [i as usize - 1, j as usize - 1],
+                ratios,
+            }))
         }
     };
     let lumped = match raw.mass.as_ref().map(|m| (m, m.get_ref().as_str())) {
@@ -501,6 +551,37 @@ pub fn validate_one(
             Ok(n.normalize())
         })
         .transpose()?;
+    let initial = |key: &str, v: &Option<Spanned<Vec<f64>>>, unit: &str| {
+        let mut out = vec![0.0; modes];
+        let Some(v) = v else { return Ok(out) };
+        if v.get_ref().len() > modes {
+            return Err(src.error(
+                span(v),
+                Some(k(key)),
+                format!(
+                    "{} values for {modes} retained modes (one per mode number, from mode 1)",
+                    v.get_ref().len()
+                ),
+            ));
+        }
+        for (i, &x) in v.get_ref().iter().enumerate() {
+            if !x.is_finite() {
+                return Err(src.error(
+                    span(v),
+                    Some(format!("{}[{i}]", k(key))),
+                    format!("{x} must be a finite modal {unit}"),
+                ));
+            }
+            out[i] = x;
+        }
+        Ok(out)
+    };
+    let initial_modal = initial("initial_modal", &raw.initial_modal, "coordinate (√kg·m)")?;
+    let initial_modal_rates = initial(
+        "initial_modal_rates",
+        &raw.initial_modal_rates,
+        "rate (√kg·m/s)",
+    )?;
     Ok(BodyDef {
         shape,
         modes,
@@ -508,5 +589,7 @@ pub fn validate_one(
         planar,
         damping,
         lumped,
+        initial_modal,
+        initial_modal_rates,
     })
 }
