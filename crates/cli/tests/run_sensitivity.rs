@@ -321,7 +321,7 @@ const BAD: [(&str, &str, &str, &str, &str); 7] = [
         "did you mean `updated`",
     ),
     (
-        "scheme = \"forward\"",
+        "scheme = \"central\"",
         "scheme = \"backward\"",
         "scheme = \"backward\"",
         "finite_differences.scheme",
@@ -505,7 +505,7 @@ print(json.dumps(out))
         "/design/values",
         "/objectives/peak_deflection/gradient",
         "/bodies/rod/frequency_derivatives",
-        "/finite_differences/forward_relative_0.01_replay/mid_deflection",
+        "/finite_differences/central_relative_0.0001_replay/mid_deflection",
     ] {
         assert!(!doc["datasets"][p].is_null(), "{p}");
         if p != "/design/values" {
