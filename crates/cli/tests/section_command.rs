@@ -215,3 +215,47 @@ fn a_mesh_file_is_read_relative_to_the_deck_and_its_errors_name_the_mesh_line() 
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(err.contains("square.txt:7"), "{err}");
 }
+
+/// `shape = "circle"`: a solid rod needs no tube with a tiny hole. Through the command line
+/// against the closed forms of a solid circle (a circle does not warp in torsion), and the
+/// element counts checked with a message that names the key.
+#[test]
+fn solid_circle_through_the_command_line_matches_the_closed_forms() {
+    let text = r#"
+[material.steel]
+E = 210.0e9
+nu = 0.3
+density = 7850.0
+
+[section.rod]
+shape = "circle"
+radius = 0.005
+material = "steel"
+elements = [24, 6]
+"#;
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("rod.toml");
+    std::fs::write(&path, text).unwrap();
+    let doc = json(&["section", path.to_str().unwrap(), "--format", "json"]);
+    let v = &doc["sections"]["rod"]["values"];
+    let k = |i: usize| v["stiffness"][i][i].as_f64().unwrap();
+    let (e, g, r) = (210e9, 210e9 / 2.6, 0.005f64);
+    let (a, i) = (
+        std::f64::consts::PI * r * r,
+        std::f64::consts::PI * r.powi(4) / 4.0,
+    );
+    let rel = |x: f64, y: f64| ((x - y) / y).abs();
+    assert!(rel(k(0), e * a) < 5e-5, "EA {}", k(0));
+    assert!(rel(k(4), e * i) < 5e-5 && rel(k(5), e * i) < 5e-5, "EI");
+    assert!(rel(k(3), 2.0 * g * i) < 5e-5, "GJ {}", k(3));
+    assert!(rel(v["mass_per_length"].as_f64().unwrap(), 7850.0 * a) < 5e-5);
+    for (elements, message) in [
+        ("[10, 2]", "a multiple of 4"),
+        ("[16]", "[around the rim, from the core to the rim]"),
+    ] {
+        let bad = text.replace("elements = [24, 6]", &format!("elements = {elements}"));
+        let (_, err) = bad_deck(&bad, |p| with_deck("section", p, &[]));
+        assert!(err.contains("section.rod.elements"), "{err}");
+        assert!(err.contains(message), "{err}");
+    }
+}

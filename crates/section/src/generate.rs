@@ -1,5 +1,5 @@
-//! Mesh generators: solid rectangle, layered circular tube, thin-walled box. All produce
-//! 8-node quadrilaterals, centred on the origin.
+//! Mesh generators: solid rectangle, solid circle, layered circular tube, thin-walled box. All
+//! produce 8-node quadrilaterals, centred on the origin.
 
 use std::collections::HashMap;
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -161,6 +161,116 @@ pub fn rectangle(
     }
     Ok(SectionMesh {
         nodes: grid.nodes,
+        elements,
+        regions: vec![Region::new(
+            "solid",
+            material,
+            ply_angle,
+            WallFrame::Tangent(0.0),
+        )],
+    })
+}
+
+/// A solid circle of `radius` centred on the origin, meshed as an O-grid of 8-node
+/// quadrilaterals: a central square of half-side `radius / 2` with `around / 4` cells per side,
+/// and four curved patches of `radial` cells blending its sides into the circle (mid-side nodes
+/// of the rim on the exact circle). `around` (cells around the rim) must be a multiple of 4,
+/// at least 8. One region `"solid"`, material axes along `(x₁, x₂, x₃)` rotated by
+/// `ply_angle` about `x₃`, as for [`rectangle`].
+pub fn circle(
+    radius: f64,
+    around: usize,
+    radial: usize,
+    material: OrthotropicMaterial,
+    ply_angle: f64,
+) -> Result<SectionMesh, SectionError> {
+    positive("circle radius", radius)?;
+    at_least("elements around the circle", around, 8)?;
+    at_least("elements from the core to the rim", radial, 1)?;
+    if around % 4 != 0 {
+        return Err(SectionError::InvalidInput(format!(
+            "elements around the circle = {around} must be a multiple of 4"
+        )));
+    }
+    let n = around / 4;
+    let half = 0.5 * radius;
+    // nodes shared between the core and the patches are found by their coordinates
+    let mut nodes: Vec<[f64; 2]> = Vec::new();
+    let mut index: HashMap<(i64, i64), usize> = HashMap::new();
+    let quantum = radius * 1e-9;
+    let mut node = |p: [f64; 2]| -> usize {
+        let key = (
+            (p[0] / quantum).round() as i64,
+            (p[1] / quantum).round() as i64,
+        );
+        *index.entry(key).or_insert_with(|| {
+            nodes.push(p);
+            nodes.len() - 1
+        })
+    };
+    let mut elements = Vec::with_capacity(n * n + 4 * n * radial);
+    // a Q8 cell of a patch: `at(u, v)` maps the cell's local coordinates in [0, 1]²; corners
+    // and mid-sides, counterclockwise
+    let mut cell = |at: &dyn Fn(f64, f64) -> [f64; 2]| {
+        let uv = [
+            (0.0, 0.0),
+            (1.0, 0.0),
+            (1.0, 1.0),
+            (0.0, 1.0),
+            (0.5, 0.0),
+            (1.0, 0.5),
+            (0.5, 1.0),
+            (0.0, 0.5),
+        ];
+        let mut ids: Vec<usize> = uv.iter().map(|&(u, v)| node(at(u, v))).collect();
+        let p: Vec<[f64; 2]> = uv.iter().take(4).map(|&(u, v)| at(u, v)).collect();
+        let area2: f64 = (0..4)
+            .map(|k| {
+                let (a, b) = (p[k], p[(k + 1) % 4]);
+                a[0] * b[1] - b[0] * a[1]
+            })
+            .sum();
+        if area2 < 0.0 {
+            // clockwise in the section plane: reverse the order
+            ids = vec![
+                ids[0], ids[3], ids[2], ids[1], ids[7], ids[6], ids[5], ids[4],
+            ];
+        }
+        elements.push(Element {
+            kind: ElementKind::Quad8,
+            nodes: ids,
+            region: 0,
+        });
+    };
+    let h = 2.0 * half / n as f64;
+    for j in 0..n {
+        for i in 0..n {
+            let at = |u: f64, v: f64| [-half + h * (i as f64 + u), -half + h * (j as f64 + v)];
+            cell(&at);
+        }
+    }
+    for side in 0..4 {
+        let rot = FRAC_PI_2 * side as f64;
+        let (c, s) = (rot.cos(), rot.sin());
+        for j in 0..radial {
+            for i in 0..n {
+                // ξ along the side (counterclockwise), η from the core to the rim
+                let at = |u: f64, v: f64| {
+                    let xi = (i as f64 + u) / n as f64;
+                    let eta = (j as f64 + v) / radial as f64;
+                    let inner = [half, -half + 2.0 * half * xi];
+                    let phi = -0.25 * PI + FRAC_PI_2 * xi;
+                    let outer = [radius * phi.cos(), radius * phi.sin()];
+                    let x = inner[0] + eta * (outer[0] - inner[0]);
+                    let y = inner[1] + eta * (outer[1] - inner[1]);
+                    [c * x - s * y, s * x + c * y]
+                };
+                cell(&at);
+            }
+        }
+    }
+    Ok(SectionMesh {
+        nodes,
         elements,
         regions: vec![Region::new(
             "solid",

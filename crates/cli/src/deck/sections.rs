@@ -16,17 +16,20 @@ use super::{DeckError, Source};
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawSection {
-    /// `"rectangle"`, `"tube"`, `"box"` or `"mesh"`.
+    /// `"rectangle"`, `"circle"`, `"tube"`, `"box"` or `"mesh"`.
     pub shape: Option<Spanned<String>>,
+    /// Circle: radius (m).
+    pub radius: Option<Spanned<f64>>,
     /// Rectangle and box: width along x₂ (m).
     pub width: Option<Spanned<f64>>,
     /// Rectangle and box: height along x₃ (m).
     pub height: Option<Spanned<f64>>,
-    /// Rectangle: material name.
+    /// Rectangle and circle: material name.
     pub material: Option<Spanned<String>>,
-    /// Rectangle: fibre angle from the beam axis about x₃ (degrees, default 0).
+    /// Rectangle and circle: fibre angle from the beam axis about x₃ (degrees, default 0).
     pub angle: Option<Spanned<f64>>,
-    /// Rectangle and box: elements `[along the width, along the height]`.
+    /// Rectangle and box: elements `[along the width, along the height]`; circle: `[around the
+    /// rim, from the core to the rim]`.
     pub elements: Option<Spanned<Vec<Spanned<i64>>>>,
     /// Tube: inner radius (m).
     pub inner_radius: Option<Spanned<f64>>,
@@ -166,13 +169,14 @@ pub fn validate_one(
         table.clone(),
         &k("shape"),
         &raw.shape,
-        "shape (\"rectangle\", \"tube\", \"box\" or \"mesh\")",
+        "shape (\"rectangle\", \"circle\", \"tube\", \"box\" or \"mesh\")",
     )?;
     let shape_name = shape.get_ref().as_str();
     // keys that belong to some shapes only
     let sp = |x: Option<std::ops::Range<usize>>| x;
     let specific = [
         ("width", sp(raw.width.as_ref().map(|x| x.span()))),
+        ("radius", raw.radius.as_ref().map(|x| x.span())),
         ("height", raw.height.as_ref().map(|x| x.span())),
         ("material", raw.material.as_ref().map(|x| x.span())),
         ("angle", raw.angle.as_ref().map(|x| x.span())),
@@ -195,6 +199,7 @@ pub fn validate_one(
     ];
     let allowed: &[&str] = match shape_name {
         "rectangle" => &["width", "height", "material", "angle", "elements"],
+        "circle" => &["radius", "material", "angle", "elements"],
         "tube" => &[
             "inner_radius",
             "elements_around",
@@ -234,7 +239,11 @@ pub fn validate_one(
             Some(e) => Err(src.error(
                 span(e),
                 Some(k("elements")),
-                "expected two counts: [along the width, along the height]",
+                if shape_name == "circle" {
+                    "expected two counts: [around the rim, from the core to the rim]"
+                } else {
+                    "expected two counts: [along the width, along the height]"
+                },
             )),
         }
     };
@@ -246,6 +255,44 @@ pub fn validate_one(
         )
     };
     let mesh = match shape_name {
+        "circle" => {
+            let r = positive(
+                src,
+                &k("radius"),
+                required(src, table.clone(), &k("radius"), &raw.radius, "radius (m)")?,
+                "m",
+            )?;
+            let m = material(
+                src,
+                &k("material"),
+                required(
+                    src,
+                    table.clone(),
+                    &k("material"),
+                    &raw.material,
+                    "material",
+                )?,
+                model,
+            )?;
+            let angle = raw
+                .angle
+                .as_ref()
+                .map(|a| finite(src, &k("angle"), a, "degrees"))
+                .transpose()?
+                .unwrap_or(0.0);
+            let [around, radial] = elements_pair([16, 4])?;
+            if around % 4 != 0 || around < 8 {
+                return Err(src.error(
+                    raw.elements.as_ref().map(|e| e.span()),
+                    Some(k("elements[0]")),
+                    format!(
+                        "{around} elements around the circle: a multiple of 4, at least 8, is \
+                         needed (the mesh is a square core with four curved patches)"
+                    ),
+                ));
+            }
+            section::circle(r, around, radial, *m, angle.to_radians()).map_err(bad)?
+        }
         "rectangle" => {
             let w = positive(
                 src,
@@ -584,8 +631,8 @@ pub fn validate_one(
                 span(shape),
                 Some(k("shape")),
                 format!(
-                    "unknown shape `{other}`: expected \"rectangle\", \"tube\", \"box\" or \"mesh\"{}",
-                    suggestion(other, &["rectangle", "tube", "box", "mesh"])
+                    "unknown shape `{other}`: expected \"rectangle\", \"circle\", \"tube\", \"box\" or \"mesh\"{}",
+                    suggestion(other, &["rectangle", "circle", "tube", "box", "mesh"])
                 ),
             ));
         }
