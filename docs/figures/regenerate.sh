@@ -6,11 +6,11 @@ set -eu
 cd "$(dirname "$0")/../.."
 out=$(mktemp -d)
 cargo run --release -q -p flexsens -- report decks/slider_crank_beam.toml --layups 0,15,30 -o "$out/beam" --quiet
-cargo run --release -q -p flexsens -- report decks/slider_crank_plate.toml --layups 0,15,30,75,90 -o "$out/plate" --quiet
+cargo run --release -q -p flexsens -- report decks/slider_crank_plate.toml --layups 0,15,30,75 -o "$out/plate" --quiet
 for f in displacement integrators_15deg integrators_30deg modes_15deg perturbations_15deg; do
   cp "$out/beam/$f.png" "docs/figures/beam_$f.png"
 done
-for f in displacement modes_0deg modes_90deg perturbations_15deg perturbations_30deg perturbations_75deg; do
+for f in displacement modes_0deg perturbations_15deg perturbations_30deg perturbations_75deg; do
   cp "$out/plate/$f.png" "docs/figures/plate_$f.png"
 done
 cp "$out/beam/summary.md" docs/figures/beam_summary.md
