@@ -122,11 +122,18 @@ impl Damping {
 }
 
 /// Options of a body modal analysis.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct ModalOptions {
     pub reference: ReferenceCondition,
-    /// Number of (elastic) modes retained.
+    /// Number of lowest (elastic) modes computed; all of them are retained unless `kept` says
+    /// otherwise.
     pub n_modes: usize,
+    /// Retain only these of the `n_modes` lowest modes (zero-based, strictly ascending), e.g.
+    /// `[0, 1, 4]` to keep an axial mode without the bending modes between; the body's modes
+    /// are then these, in this order. `None` (the default): all `n_modes`. Set with
+    /// [`ModalOptions::select`]. Damping fitted to two modes ([`Damping::Ratios`]) refers to the
+    /// computed modes' numbers.
+    pub kept: Option<Vec<usize>>,
     pub damping: Option<Damping>,
     /// Consistent or lumped mass; `ModalBody` requires lumped (the paper's diagonalised mass).
     pub mass: MassKind,
@@ -157,12 +164,21 @@ impl ModalOptions {
         Self {
             reference: ReferenceCondition::ClampedAtCentreOfMass,
             n_modes,
+            kept: None,
             damping: None,
             mass: MassKind::Lumped,
             element: ElementOptions::default(),
             eigen: EigenOptions::default(),
             planar: None,
         }
+    }
+
+    /// The paper's setting retaining only the modes `kept` (zero-based indices of the lowest
+    /// modes, strictly ascending): computes the lowest `max + 1`.
+    pub fn select(kept: Vec<usize>) -> Self {
+        let mut o = Self::new(kept.iter().max().map_or(0, |m| m + 1));
+        o.kept = Some(kept);
+        o
     }
 }
 
@@ -226,8 +242,11 @@ pub struct ModalAnalysis {
     /// Retained elastic eigenpairs on the free dof (plus guard modes beyond `n_modes`, kept so
     /// that clusters are complete: use [`Self::n_modes`]).
     pub pairs: Eigenpairs,
-    /// Number of retained modes.
+    /// Number of lowest modes computed (the retained ones are [`Self::kept`] of them).
     pub n_modes: usize,
+    /// The retained modes: zero-based indices into `pairs`, ascending (all `0..n_modes` unless
+    /// [`ModalOptions::kept`] selects some).
+    pub kept: Vec<usize>,
     /// Rigid-body modes discarded (free-free).
     pub n_rigid: usize,
     /// Body-frame origin (mesh coordinates).
@@ -238,8 +257,21 @@ pub struct ModalAnalysis {
 
 impl ModalAnalysis {
     /// Eigenvalues `ω²` of the retained modes.
-    pub fn eigenvalues(&self) -> &[f64] {
+    pub fn eigenvalues(&self) -> Vec<f64> {
+        self.kept.iter().map(|&i| self.pairs.values[i]).collect()
+    }
+    /// Eigenvalues `ω²` of all `n_modes` lowest modes computed (retained or not).
+    pub fn computed_eigenvalues(&self) -> &[f64] {
         &self.pairs.values[..self.n_modes]
+    }
+    /// Modal damping `2ζω` of the retained modes (`None` without damping); a fit to two modes
+    /// refers to the computed modes' numbers.
+    pub fn modal_damping(&self) -> Result<Option<Vec<f64>>, FemError> {
+        let Some(d) = self.options.damping else {
+            return Ok(None);
+        };
+        let all = d.modal_damping(self.computed_eigenvalues())?;
+        Ok(Some(self.kept.iter().map(|&i| all[i]).collect()))
     }
     /// Natural frequencies in Hz.
     pub fn frequencies_hz(&self) -> Vec<f64> {
@@ -250,14 +282,13 @@ impl ModalAnalysis {
     }
     /// Modal masses `xᵢᵀ M xᵢ` (1 for mass-normalised modes; kept for reporting).
     pub fn modal_masses(&self) -> Vec<f64> {
-        let p = self.n_modes;
-        let x = self.pairs.vectors.columns(0, p).into_owned();
+        let x = self.pairs.vectors.select_columns(&self.kept);
         let mm = crate::eigen::project(&self.m, &x, &x);
-        (0..p).map(|i| mm[(i, i)]).collect()
+        (0..self.kept.len()).map(|i| mm[(i, i)]).collect()
     }
-    /// Mode shapes on all dof, `6 n_nodes × n_modes`, node by node `[u, θ]`.
+    /// Mode shapes of the retained modes on all dof, `6 n_nodes × kept`, node by node `[u, θ]`.
     pub fn mode_shapes(&self) -> DMatrix<f64> {
-        self.expand(&self.pairs.vectors.columns(0, self.n_modes).into_owned())
+        self.expand(&self.pairs.vectors.select_columns(&self.kept))
     }
     /// The damping matrix `C = αM + βK` on the free dof (`None` without damping).
     pub fn damping_matrix(
@@ -266,7 +297,7 @@ impl ModalAnalysis {
         let Some(d) = self.options.damping else {
             return Ok(None);
         };
-        let (alpha, beta) = d.coefficients(self.eigenvalues())?;
+        let (alpha, beta) = d.coefficients(self.computed_eigenvalues())?;
         let v = self
             .m
             .val()
@@ -399,7 +430,7 @@ pub fn modal_analysis(
     let (constraints, origin) = analysis_constraints(mesh, props, opts)?;
     // beams of a planar analysis release their out-of-plane shear (`beam::release_shear`);
     // the options kept in the analysis carry it to every later assembly (derivatives)
-    let mut opts = *opts;
+    let mut opts = opts.clone();
     opts.element.planar_axis = opts.planar.as_ref().map(planar_axis).transpose()?;
     let opts = &opts;
     let assembly = Assembly::new(mesh, &constraints)?;
@@ -412,6 +443,23 @@ pub fn modal_analysis(
         (ReferenceCondition::FreeFree, None) => 6,
         (ReferenceCondition::FreeFree, Some(_)) => 3,
         _ => 0,
+    };
+    let kept = match &opts.kept {
+        None => (0..opts.n_modes).collect(),
+        Some(k) => {
+            if k.is_empty()
+                || k.windows(2).any(|w| w[1] <= w[0])
+                || k.last().is_some_and(|&m| m >= opts.n_modes)
+            {
+                return Err(FemError::Invalid(format!(
+                    "retained modes {:?}: strictly ascending mode indices below the {} computed \
+                     are needed",
+                    k.iter().map(|i| i + 1).collect::<Vec<_>>(),
+                    opts.n_modes
+                )));
+            }
+            k.clone()
+        }
     };
     let want = (opts.n_modes + rigid + GUARD_MODES).min(assembly.n_free());
     if opts.n_modes + rigid > assembly.n_free() {
@@ -447,10 +495,11 @@ pub fn modal_analysis(
         m,
         pairs,
         n_modes: opts.n_modes,
+        kept,
         n_rigid,
         origin,
         constraints,
-        options: *opts,
+        options: opts.clone(),
     })
 }
 
@@ -497,11 +546,10 @@ pub fn modal_body(
     props: &Properties<f64>,
     analysis: &ModalAnalysis,
 ) -> Result<ModalBody<f64>, FemError> {
-    let lam: Vec<f64> = analysis.eigenvalues().to_vec();
-    let damping = match analysis.options.damping {
-        Some(d) => d.modal_damping(&lam)?,
-        None => vec![0.0; lam.len()],
-    };
+    let lam: Vec<f64> = analysis.eigenvalues();
+    let damping = analysis
+        .modal_damping()?
+        .unwrap_or_else(|| vec![0.0; lam.len()]);
     let (masses, inertias) = lumped_nodal_masses(mesh, props, &analysis.options.element)?;
     Ok(ModalBody {
         node_positions: mesh.nodes.iter().map(|p| p - analysis.origin).collect(),
@@ -534,9 +582,11 @@ pub fn modal_body_dual<const N: usize>(
 ) -> Result<ModalBody<Dual<N>>, FemError> {
     let base = modal_body(mesh, props, analysis)?;
     let p = analysis.n_modes;
+    let kept = &analysis.kept;
     let nvar = derivs.eigenvalues.len();
     let vars: Vec<usize> = (chunk_start..(chunk_start + N).min(nvar)).collect();
-    let lam: Vec<Dual<N>> = (0..p)
+    // every computed mode (a damping fit refers to their numbers), then the retained ones
+    let computed: Vec<Dual<N>> = (0..p)
         .map(|i| {
             let mut d = [0.0; N];
             for (t, &v) in vars.iter().enumerate() {
@@ -545,6 +595,7 @@ pub fn modal_body_dual<const N: usize>(
             Dual::new(analysis.pairs.values[i], d)
         })
         .collect();
+    let lam: Vec<Dual<N>> = kept.iter().map(|&i| computed[i]).collect();
     let mut modes = base.modes.map(Dual::<N>::constant);
     if update == ModeUpdate::Updated {
         let xb = derivs.eigenvectors.as_ref().ok_or_else(|| {
@@ -559,17 +610,20 @@ pub fn modal_body_dual<const N: usize>(
                 Some(g) if g.nrows() == xb[v].ncols() => &xb[v] * g.transpose(),
                 _ => xb[v].clone(),
             };
-            let full = analysis.expand(&back.columns(0, p).into_owned());
+            let full = analysis.expand(&back.select_columns(kept));
             for i in 0..full.nrows() {
-                for j in 0..p {
+                for j in 0..kept.len() {
                     modes[(i, j)].d[t] = full[(i, j)];
                 }
             }
         }
     }
     let damping = match analysis.options.damping {
-        Some(d) => d.modal_damping(&lam)?,
-        None => vec![Dual::constant(0.0); p],
+        Some(d) => {
+            let all = d.modal_damping(&computed)?;
+            kept.iter().map(|&i| all[i]).collect()
+        }
+        None => vec![Dual::constant(0.0); kept.len()],
     };
     Ok(ModalBody {
         node_positions: base.node_positions,

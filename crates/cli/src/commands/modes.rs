@@ -313,7 +313,8 @@ pub(crate) fn build(
             }
         },
     };
-    let mut options = ModalOptions::new(def.modes);
+    let mut options = ModalOptions::new(def.computed);
+    options.kept = def.kept.clone();
     options.reference = reference;
     options.planar = def.planar;
     options.damping = def.damping;
@@ -338,15 +339,14 @@ fn frequency_derivative(lambda: f64, d_lambda: f64) -> f64 {
 
 fn report(name: &str, b: &Built, a: &ModalAnalysis, d: Option<&ModeDerivatives>) -> Report {
     let lam = a.eigenvalues();
+    let lam = lam.as_slice();
     let f = a.frequencies_hz();
     let mut values = vec![
         Quantity::vector("frequencies", "Hz", &f),
         Quantity::vector("eigenvalues", "rad^2/s^2", lam),
         Quantity::vector("modal_masses", "1", &a.modal_masses()),
     ];
-    if let Some(damping) = a.options.damping
-        && let Ok(c) = damping.modal_damping(lam)
-    {
+    if let Ok(Some(c)) = a.modal_damping() {
         let zeta: Vec<f64> = c
             .iter()
             .zip(lam)
@@ -370,10 +370,10 @@ fn report(name: &str, b: &Built, a: &ModalAnalysis, d: Option<&ModeDerivatives>)
         ),
         format!("{:>4} {:>14} {:>14}", "mode", "f/Hz", "omega/(rad/s)"),
     ];
-    for (i, (fi, l)) in f.iter().zip(lam).enumerate() {
+    for ((fi, l), k) in f.iter().zip(lam).zip(&a.kept) {
         preamble.push(format!(
             "{:>4} {:>14.6} {:>14.6}",
-            i + 1,
+            k + 1,
             fi,
             l.max(0.0).sqrt()
         ));
@@ -398,7 +398,7 @@ fn report(name: &str, b: &Built, a: &ModalAnalysis, d: Option<&ModeDerivatives>)
             ));
         }
         for (var, name) in b.design.names().iter().enumerate() {
-            let dl: Vec<f64> = d.eigenvalues[var][..a.n_modes].to_vec();
+            let dl: Vec<f64> = a.kept.iter().map(|&i| d.eigenvalues[var][i]).collect();
             let df: Vec<f64> = dl
                 .iter()
                 .zip(lam)

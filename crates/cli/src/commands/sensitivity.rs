@@ -85,10 +85,11 @@ fn analyse_chunked<const N: usize>(
         )
         .map_err(fem_error)?;
         // the retained modes (the analysis also computes a few guard modes)
-        let lambdas = &part.analysis.pairs.values[..part.analysis.n_modes];
-        let mut df = DMatrix::zeros(lambdas.len(), m);
+        let kept = &part.analysis.kept;
+        let mut df = DMatrix::zeros(kept.len(), m);
         for (j, dl) in derivs.eigenvalues.iter().enumerate() {
-            for (k, (&l, &d)) in lambdas.iter().zip(dl).enumerate() {
+            for (k, &i) in kept.iter().enumerate() {
+                let (l, d) = (part.analysis.pairs.values[i], dl[i]);
                 // f = √λ / 2π ⇒ df = dλ / (4π √λ)
                 df[(k, j)] = d / (4.0 * std::f64::consts::PI * l.max(0.0).sqrt());
             }

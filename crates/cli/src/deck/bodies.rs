@@ -6,7 +6,7 @@ use nalgebra::Vector3;
 use serde::Deserialize;
 use toml::Spanned;
 
-use super::check::{count, nonzero_vector, positive, required, span, vector};
+use super::check::{nonzero_vector, positive, required, span, vector};
 use super::laminates::{LaminateModel, suggestion};
 use super::raw::RawDeck;
 use super::sections::{self, SectionDef};
@@ -38,8 +38,9 @@ pub struct RawBody {
     pub material_axis: Option<Spanned<[f64; 3]>>,
     /// Beam: number of elements; shell rectangle: `[along x, along y]`.
     pub elements: Option<Spanned<toml::Value>>,
-    /// Number of elastic modes retained.
-    pub modes: Option<Spanned<i64>>,
+    /// Number of elastic modes retained (the lowest), or the mode numbers retained, e.g.
+    /// `[1, 2, 5]` (counted from 1, ascending).
+    pub modes: Option<Spanned<toml::Value>>,
     /// `"centre-of-mass"` (default), `"clamped-section"`, `"free-free"` or `"pinned-ends"`.
     pub reference: Option<Spanned<String>>,
     /// Keep only modes of motion in the plane with this normal (a global axis): translations
@@ -51,10 +52,11 @@ pub struct RawBody {
     pub damping: Option<Spanned<RawDamping>>,
     /// `"lumped"` (default; the floating frame needs it) or `"consistent"`.
     pub mass: Option<Spanned<String>>,
-    /// Initial modal coordinates by mode number (first entry: mode 1; missing ones are zero),
+    /// Initial modal coordinates of the retained modes in order (missing ones are zero),
     /// in the mass-normalised coordinates of `flexsens modes` (√kg·m). Default: undeformed.
     pub initial_modal: Option<Spanned<Vec<f64>>>,
-    /// Initial modal rates by mode number (√kg·m/s). Default: at rest in the body frame.
+    /// Initial modal rates of the retained modes in order (√kg·m/s). Default: at rest in the
+    /// body frame.
     pub initial_modal_rates: Option<Spanned<Vec<f64>>>,
 }
 
@@ -103,7 +105,12 @@ pub enum BodyShape {
 #[derive(Debug, Clone)]
 pub struct BodyDef {
     pub shape: BodyShape,
+    /// Number of modes retained.
     pub modes: usize,
+    /// Number of lowest modes computed (the highest retained mode number).
+    pub computed: usize,
+    /// Zero-based retained modes when the deck lists mode numbers (`None`: the lowest `modes`).
+    pub kept: Option<Vec<usize>>,
     pub reference: Reference,
     /// Normal of the plane the modes are restricted to.
     pub planar: Option<Vector3<f64>>,
@@ -392,18 +399,46 @@ pub fn validate_one(
             }
         }
     };
-    let modes = count(
+    let modes_value = required(
         src,
+        table.clone(),
         &k("modes"),
-        required(
-            src,
-            table.clone(),
-            &k("modes"),
-            &raw.modes,
-            "modes (number of elastic modes retained)",
-        )?,
-        1,
+        &raw.modes,
+        "modes (number of elastic modes retained, or a list of mode numbers)",
     )?;
+    let modes_error = |m: String| src.error(span(modes_value), Some(k("modes")), m);
+    let (modes, computed, kept) = match modes_value.get_ref() {
+        toml::Value::Integer(n) => match int(&toml::Value::Integer(*n), 1) {
+            Some(n) => (n, n, None),
+            None => {
+                return Err(modes_error(format!(
+                    "{n} must be a whole number of at least 1"
+                )));
+            }
+        },
+        toml::Value::Array(list) => {
+            let numbers: Option<Vec<usize>> = list.iter().map(|v| int(v, 1)).collect();
+            match numbers {
+                Some(n) if !n.is_empty() && n.windows(2).all(|w| w[1] > w[0]) => {
+                    let last = *n.last().expect("non-empty");
+                    (n.len(), last, Some(n.iter().map(|i| i - 1).collect()))
+                }
+                _ => {
+                    return Err(modes_error(
+                        "a list of mode numbers needs whole numbers from 1, strictly ascending, \
+                         e.g. [1, 2, 5]"
+                            .into(),
+                    ));
+                }
+            }
+        }
+        _ => {
+            return Err(modes_error(
+                "expected a number of modes (e.g. 4) or a list of mode numbers (e.g. [1, 2, 5])"
+                    .into(),
+            ));
+        }
+    };
     let reference = match raw.reference.as_ref().map(|r| (r, r.get_ref().as_str())) {
         None | Some((_, "centre-of-mass")) => Reference::CentreOfMass,
         Some((_, "clamped-section")) => Reference::ClampedSection,
@@ -501,11 +536,11 @@ pub fn validate_one(
                 "ratios = [ζi, ζj]",
             )?;
             let [i, j] = *m.get_ref();
-            if i < 1 || j < 1 || i == j || i as usize > modes || j as usize > modes {
+            if i < 1 || j < 1 || i == j || i as usize > computed || j as usize > computed {
                 return Err(src.error(
                     span(m),
                     Some(dk("modes")),
-                    format!("two different retained modes, between 1 and {modes}, are needed"),
+                    format!("two different mode numbers, between 1 and {computed}, are needed"),
                 ));
             }
             let ratios = *r.get_ref();
@@ -559,7 +594,7 @@ pub fn validate_one(
                 span(v),
                 Some(k(key)),
                 format!(
-                    "{} values for {modes} retained modes (one per mode number, from mode 1)",
+                    "{} values for {modes} retained modes (one per retained mode, in order)",
                     v.get_ref().len()
                 ),
             ));
@@ -585,6 +620,8 @@ pub fn validate_one(
     Ok(BodyDef {
         shape,
         modes,
+        computed,
+        kept,
         reference,
         planar,
         damping,
