@@ -187,7 +187,7 @@ pub fn circle(
     positive("circle radius", radius)?;
     at_least("elements around the circle", around, 8)?;
     at_least("elements from the core to the rim", radial, 1)?;
-    if around % 4 != 0 {
+    if !around.is_multiple_of(4) {
         return Err(SectionError::InvalidInput(format!(
             "elements around the circle = {around} must be a multiple of 4"
         )));

@@ -281,7 +281,7 @@ pub fn validate_one(
                 .transpose()?
                 .unwrap_or(0.0);
             let [around, radial] = elements_pair([16, 4])?;
-            if around % 4 != 0 || around < 8 {
+            if !around.is_multiple_of(4) || around < 8 {
                 return Err(src.error(
                     raw.elements.as_ref().map(|e| e.span()),
                     Some(k("elements[0]")),
