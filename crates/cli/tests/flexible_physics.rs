@@ -58,13 +58,18 @@ fn history(
     let args: Vec<&str> = args.iter().map(String::as_str).collect();
     let o = run(&args);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    column(&out, "mid_deflection")
+}
+
+/// `(t, response)` of the `history.csv` in `out` for the response named `name`.
+fn column(out: &Path, name: &str) -> Vec<(f64, f64)> {
     let text = std::fs::read_to_string(out.join("history.csv")).unwrap();
     let mut lines = text.lines();
     let head: Vec<&str> = lines.next().unwrap().split(',').collect();
     let col = head
         .iter()
-        .position(|h| h.starts_with("mid_deflection"))
-        .unwrap();
+        .position(|h| h.starts_with(&format!("{name} [")))
+        .unwrap_or_else(|| panic!("no column {name} in {head:?}"));
     lines
         .map(|l| {
             let v: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
@@ -205,16 +210,7 @@ fn a_stated_initial_elastic_state_is_kept() {
     args.extend(sets);
     let o = run(&args);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let text = std::fs::read_to_string(out.join("history.csv")).unwrap();
-    let head: Vec<&str> = text.lines().next().unwrap().split(',').collect();
-    let first: Vec<f64> = text
-        .lines()
-        .nth(1)
-        .unwrap()
-        .split(',')
-        .map(|x| x.parse().unwrap())
-        .collect();
-    let at = |name: &str| first[head.iter().position(|h| h.starts_with(name)).unwrap()];
+    let at = |name: &str| column(&out, name)[0].1;
     assert_eq!(at("w1"), 1e-4);
     assert_eq!(at("w3"), -2e-5);
     // too many values for the retained modes: bad input, named
@@ -258,17 +254,7 @@ fn the_start_has_the_rigid_mechanisms_kinetic_energy_for_every_frame() {
             "response.energy={ kind = \"energy\" }",
         ]);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let text = std::fs::read_to_string(out.join("history.csv")).unwrap();
-        let head: Vec<&str> = text.lines().next().unwrap().split(',').collect();
-        let col = head.iter().position(|h| h.starts_with("energy")).unwrap();
-        let first: Vec<f64> = text
-            .lines()
-            .nth(1)
-            .unwrap()
-            .split(',')
-            .map(|x| x.parse().unwrap())
-            .collect();
-        first[col]
+        column(&out, "energy")[0].1
     };
     // the deck: crank 0.038 kg, I_zz 7.32e-5 kg·m² about its centre 0.076 m from the pivot;
     // rod 0.304 m of 0.05011 kg/m in 8 elements (lumped: half masses at the end nodes)

@@ -46,6 +46,12 @@ pub enum ConstraintError {
         quantity: &'static str,
         residual: f64,
     },
+    #[error(
+        "the initial state cannot be projected onto the joints at t = {t} s: the mass matrix of \
+         the rigid-body coordinates is singular on the motion the joints leave free (a body with \
+         a zero mass or a zero principal inertia?)"
+    )]
+    SingularStart { t: f64 },
     #[error("the augmented matrix of Eq. (12) is singular at t = {t} s")]
     Singular { t: f64 },
     #[error("non-finite accelerations at t = {t} s")]

@@ -337,9 +337,9 @@ impl MultibodySystem {
             }
             // Gauss–Newton converges quadratically on consistent equations; a residual that
             // stops falling belongs to an equation the rigid coordinates cannot satisfy
-            stalled = if res > 0.5 * last { stalled + 1 } else { 0 };
+            stalled = if res > 0.9 * last { stalled + 1 } else { 0 };
             last = res;
-            if it == max_it || stalled >= 4 {
+            if it == max_it || stalled >= 5 {
                 return Err(self.inconsistent(&c.phi, "Φ"));
             }
             let kkt = self.start_projection(t, &state.q, &c.jacobian, &cols)?;
@@ -423,7 +423,7 @@ impl MultibodySystem {
         }
         let lu = a.lu();
         if !lu.is_invertible() {
-            return Err(ConstraintError::Singular { t });
+            return Err(ConstraintError::SingularStart { t });
         }
         Ok(StartProjection { rows, lu, n })
     }

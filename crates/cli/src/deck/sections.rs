@@ -254,6 +254,28 @@ pub fn validate_one(
             e.to_string(),
         )
     };
+    // the material and fibre angle (degrees) of a solid section
+    let solid = || {
+        let m = material(
+            src,
+            &k("material"),
+            required(
+                src,
+                table.clone(),
+                &k("material"),
+                &raw.material,
+                "material",
+            )?,
+            model,
+        )?;
+        let angle = raw
+            .angle
+            .as_ref()
+            .map(|a| finite(src, &k("angle"), a, "degrees"))
+            .transpose()?
+            .unwrap_or(0.0);
+        Ok::<_, DeckError>((m, angle))
+    };
     let mesh = match shape_name {
         "circle" => {
             let r = positive(
@@ -262,24 +284,7 @@ pub fn validate_one(
                 required(src, table.clone(), &k("radius"), &raw.radius, "radius (m)")?,
                 "m",
             )?;
-            let m = material(
-                src,
-                &k("material"),
-                required(
-                    src,
-                    table.clone(),
-                    &k("material"),
-                    &raw.material,
-                    "material",
-                )?,
-                model,
-            )?;
-            let angle = raw
-                .angle
-                .as_ref()
-                .map(|a| finite(src, &k("angle"), a, "degrees"))
-                .transpose()?
-                .unwrap_or(0.0);
+            let (m, angle) = solid()?;
             let [around, radial] = elements_pair([16, 4])?;
             if !around.is_multiple_of(4) || around < 8 {
                 return Err(src.error(
@@ -306,24 +311,7 @@ pub fn validate_one(
                 required(src, table.clone(), &k("height"), &raw.height, "height (m)")?,
                 "m",
             )?;
-            let m = material(
-                src,
-                &k("material"),
-                required(
-                    src,
-                    table.clone(),
-                    &k("material"),
-                    &raw.material,
-                    "material",
-                )?,
-                model,
-            )?;
-            let angle = raw
-                .angle
-                .as_ref()
-                .map(|a| finite(src, &k("angle"), a, "degrees"))
-                .transpose()?
-                .unwrap_or(0.0);
+            let (m, angle) = solid()?;
             // default: about square elements, 8 along the longer side
             let (n2, n3) = if w >= h {
                 (8, ((8.0 * h / w).round() as usize).max(2))
