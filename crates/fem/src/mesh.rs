@@ -293,7 +293,9 @@ pub fn parse_gmsh_v4(text: &str) -> Result<GmshTriangles, MeshError> {
                     }
                     let parametric = blk[2] != 0.0;
                     let count = blk[3] as usize;
-                    let mut tags = Vec::with_capacity(count);
+                    // grown as the tags are read: the count comes from the file and must not
+                    // reserve memory before the lines are there
+                    let mut tags = Vec::new();
                     for _ in 0..count {
                         let (tl, t) = next("$Nodes")?;
                         let v = nums(tl, t)?;

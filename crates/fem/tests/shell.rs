@@ -388,6 +388,18 @@ fn gmsh_v4_text_is_parsed() {
     }
 }
 
+/// Counts read from a Gmsh file reserve no memory before their lines are read: a crafted
+/// header is an error with its line, not an allocation abort.
+#[test]
+fn a_gmsh_header_with_an_absurd_node_count_is_an_error_not_an_abort() {
+    let text = "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 100000000000000 1 \
+                100000000000000\n2 1 0 100000000000000000\n1\n$EndNodes\n";
+    assert!(matches!(
+        fem::parse_gmsh_v4(text),
+        Err(fem::MeshError::Gmsh { .. })
+    ));
+}
+
 #[test]
 fn frequencies_do_not_depend_on_the_orientation_in_space() {
     // a free-free laminated plate and a free-free beam, rotated arbitrarily in space (consistent

@@ -155,7 +155,9 @@ pub fn parse_gmsh(text: &str, regions: &[RegionSpec]) -> Result<SectionMesh, Sec
                     need(&c, 2, n0, "number of surfaces")?,
                     need(&c, 3, n0, "number of volumes")?,
                 );
-                for _ in 0..np + nc {
+                // counts from the file: their sum must not overflow (each line is read, so a
+                // count beyond the file ends with a missing line)
+                for _ in 0..np.saturating_add(nc) {
                     lines.next_line()?;
                 }
                 for _ in 0..ns {

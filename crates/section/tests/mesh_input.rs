@@ -131,6 +131,14 @@ fn simple_format_round_trip() {
     );
 }
 
+/// Entity counts whose sum overflows are an error, not a panic (debug) or a misleading error.
+#[test]
+fn gmsh_entity_counts_that_overflow_are_an_error() {
+    let text = "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Entities\n18446744073709551615 1 0 0\n\
+                $EndEntities\n";
+    assert!(section::parse_gmsh(text, &[]).is_err());
+}
+
 #[test]
 fn a_gmsh_header_with_an_absurd_node_count_is_an_error_not_an_abort() {
     let text = "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 100000000000 1 100000000000\n2 1 0 100000000000\n1\n$EndNodes\n";
