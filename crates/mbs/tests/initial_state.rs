@@ -9,10 +9,11 @@ mod common;
 use common::{CRANK, ROD, slider_crank_framed};
 use fem::ModalBody;
 use mbs::{
-    Body, ConstraintError, FlexibleBody, Joint, JointKind, Marker, Model, MultibodySystem,
-    RedundancyPolicy, RigidBody,
+    Body, ConstraintError, DesignModel, FlexibleBody, Joint, JointKind, Marker, Model,
+    MultibodySystem, RedundancyPolicy, RigidBody,
 };
 use nalgebra::{DMatrix, Matrix3, Vector3};
+use sens::{Dual, Scalar};
 
 /// The flexible slider-crank at crank angle 0 (a dead centre: the slider is at rest, the rod
 /// turns about the wrist pin) starts with rigid-body motion only, whatever node carries the rod's
@@ -84,25 +85,21 @@ fn slider_crank_starts_with_rigid_motion_only_for_every_frame() {
     }
 }
 
-/// Two free rigid bodies of unequal mass, given velocities that a spherical joint between them
-/// forbids: the projection is the impulse of the joint's reaction, so linear momentum and the
-/// angular momentum about the joint are unchanged and kinetic energy is lost (a plastic
-/// impact). A Euclidean projection would create momentum.
-#[test]
-fn velocity_projection_is_a_constraint_impulse() {
+/// Two free rigid bodies joined by a spherical joint, with velocities the joint forbids.
+fn impact_pair<S: Scalar>(heavy_mass: S) -> Model<S> {
     let mut model = Model::new();
     let a = model
         .add_rigid_body(RigidBody::new(
             "light",
-            1.0,
-            Matrix3::from_diagonal(&Vector3::new(0.01, 0.02, 0.03)),
+            S::from_f64(1.0),
+            Matrix3::from_diagonal(&Vector3::new(0.01, 0.02, 0.03)).map(S::from_f64),
         ))
         .unwrap();
     let b = model
         .add_rigid_body(RigidBody::new(
             "heavy",
-            5.0,
-            Matrix3::from_diagonal(&Vector3::new(0.2, 0.1, 0.15)),
+            heavy_mass,
+            Matrix3::from_diagonal(&Vector3::new(0.2, 0.1, 0.15)).map(S::from_f64),
         ))
         .unwrap();
     model
@@ -113,22 +110,79 @@ fn velocity_projection_is_a_constraint_impulse() {
             Marker::on(b, Vector3::new(-0.2, 0.1, 0.0)),
         ))
         .unwrap();
+    model
+}
+
+/// The pair's poses, and velocities its joint forbids.
+fn impact_start(model: &Model<f64>) -> mbs::State {
     let mut state = model.rest_state();
+    let ids: Vec<_> = model.body_ids().collect();
     let id = Matrix3::identity();
-    model.set_pose(&mut state, a, Vector3::zeros(), &id);
-    model.set_pose(&mut state, b, Vector3::new(0.5, -0.1, 0.0), &id);
+    model.set_pose(&mut state, ids[0], Vector3::zeros(), &id);
+    model.set_pose(&mut state, ids[1], Vector3::new(0.5, -0.1, 0.0), &id);
     model.set_velocity(
         &mut state,
-        a,
+        ids[0],
         Vector3::new(1.0, -2.0, 0.5),
         Vector3::new(0.3, 0.0, 2.0),
     );
     model.set_velocity(
         &mut state,
-        b,
+        ids[1],
         Vector3::new(-0.5, 1.0, 0.0),
         Vector3::new(0.0, -1.0, 0.4),
     );
+    state
+}
+
+/// The initial sensitivities differentiate the mass-metric projection exactly, the metric's
+/// own dependence on the design included: the heavy body's mass is the design variable, and
+/// the velocities after the projection (a plastic impact) depend on it.
+#[test]
+fn initial_sensitivities_differentiate_the_mass_metric() {
+    let m = 5.0;
+    let design = DesignModel::new(vec![impact_pair(Dual::<1>::new(m, [1.0]))], 1).unwrap();
+    let plain = design.values();
+    let mut state = impact_start(&plain);
+    let mut sys = MultibodySystem::new(plain, &state, RedundancyPolicy::Remove).unwrap();
+    sys.assemble(0.0, &mut state, 1e-14).unwrap();
+    let s0 = mbs::initial_sensitivities(&sys, &design, 0.0, &state).unwrap();
+    let assembled = |mm: f64| {
+        let model = impact_pair(mm);
+        let mut st = impact_start(&model);
+        let mut p = MultibodySystem::new(model, &st, RedundancyPolicy::Remove).unwrap();
+        p.assemble(0.0, &mut st, 1e-15).unwrap();
+        st.to_vec()
+    };
+    let d = 1e-4;
+    let (yp, ym) = (assembled(m + d), assembled(m - d));
+    let fd: Vec<f64> = yp
+        .iter()
+        .zip(&ym)
+        .map(|(a, c)| (a - c) / (2.0 * d))
+        .collect();
+    let scale = fd.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+    let err = fd
+        .iter()
+        .zip(s0.column(0).iter())
+        .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()));
+    eprintln!("mass-metric projection: max |S0 − FD| {err:.2e}, max |FD| {scale:.2e}");
+    assert!(
+        scale > 1e-2,
+        "the projection must depend on the mass: {scale:e}"
+    );
+    assert!(err < 1e-8 * scale, "{err:e}");
+}
+
+/// Two free rigid bodies of unequal mass, given velocities that a spherical joint between them
+/// forbids: the projection is the impulse of the joint's reaction, so linear momentum and the
+/// angular momentum about the joint are unchanged and kinetic energy is lost (a plastic
+/// impact). A Euclidean projection would create momentum.
+#[test]
+fn velocity_projection_is_a_constraint_impulse() {
+    let model = impact_pair(5.0);
+    let mut state = impact_start(&model);
+    let (a, b) = (mbs::BodyId::from(0), mbs::BodyId::from(1));
     let momentum = |m: &Model<f64>, s: &mbs::State| {
         // linear momentum and angular momentum about the joint point (0.3, 0, 0)
         let p0 = Vector3::new(0.3, 0.0, 0.0);
