@@ -156,6 +156,16 @@ pub struct ModalOptions {
     /// normalisation); any other normal is rejected with [`FemError::Invalid`]. Free-free bodies
     /// then have 3 rigid-body modes instead of 6. `None` (the default): full 3-D motion.
     pub planar: Option<Vector3<f64>>,
+    /// Static correction: nodes (e.g. those the body's joints act at) whose static shapes are
+    /// added to the retained modes. For every free dof of these nodes the static displacement
+    /// under a unit load, `ψ = K⁻¹ e`, is made mass-orthogonal to the retained modes and the
+    /// span of those shapes is diagonalised (Ritz vectors): the body then has the retained
+    /// eigenmodes followed by correction modes, still mass-normalised with a diagonal modal
+    /// stiffness (their eigenvalues are Ritz values). A point load at a correction node is then
+    /// represented exactly by the reduced body, as are the deformations its joints impose (the
+    /// field's static-correction, or attachment-mode, enrichment). Needs a reference condition
+    /// that holds the body (not free-free). Empty (the default): none.
+    pub correction: Vec<NodeId>,
 }
 
 impl ModalOptions {
@@ -170,6 +180,7 @@ impl ModalOptions {
             element: ElementOptions::default(),
             eigen: EigenOptions::default(),
             planar: None,
+            correction: Vec::new(),
         }
     }
 
@@ -247,6 +258,10 @@ pub struct ModalAnalysis {
     /// The retained modes: zero-based indices into `pairs`, ascending (all `0..n_modes` unless
     /// [`ModalOptions::kept`] selects some).
     pub kept: Vec<usize>,
+    /// Static correction modes ([`ModalOptions::correction`]), after the retained eigenmodes:
+    /// their Ritz values `μ` and shapes on the free dof (`n_free × s`, mass-normalised,
+    /// mass-orthogonal to the retained modes).
+    pub correction: Option<(Vec<f64>, DMatrix<f64>)>,
     /// Rigid-body modes discarded (free-free).
     pub n_rigid: usize,
     /// Body-frame origin (mesh coordinates).
@@ -256,9 +271,27 @@ pub struct ModalAnalysis {
 }
 
 impl ModalAnalysis {
-    /// Eigenvalues `ω²` of the retained modes.
+    /// Eigenvalues `ω²` of the body's modes: the retained eigenmodes, then the Ritz values of
+    /// the static correction modes, if any.
     pub fn eigenvalues(&self) -> Vec<f64> {
-        self.kept.iter().map(|&i| self.pairs.values[i]).collect()
+        let mut l: Vec<f64> = self.kept.iter().map(|&i| self.pairs.values[i]).collect();
+        if let Some((mu, _)) = &self.correction {
+            l.extend(mu);
+        }
+        l
+    }
+    /// The body's mode shapes on the free dof: retained eigenvectors, then correction modes.
+    fn free_shapes(&self) -> DMatrix<f64> {
+        let x = self.pairs.vectors.select_columns(&self.kept);
+        match &self.correction {
+            None => x,
+            Some((_, phi)) => {
+                let mut out = DMatrix::zeros(x.nrows(), x.ncols() + phi.ncols());
+                out.columns_mut(0, x.ncols()).copy_from(&x);
+                out.columns_mut(x.ncols(), phi.ncols()).copy_from(phi);
+                out
+            }
+        }
     }
     /// Eigenvalues `ω²` of all `n_modes` lowest modes computed (retained or not).
     pub fn computed_eigenvalues(&self) -> &[f64] {
@@ -270,8 +303,8 @@ impl ModalAnalysis {
         let Some(d) = self.options.damping else {
             return Ok(None);
         };
-        let all = d.modal_damping(self.computed_eigenvalues())?;
-        Ok(Some(self.kept.iter().map(|&i| all[i]).collect()))
+        let (a, b) = d.coefficients(self.computed_eigenvalues())?;
+        Ok(Some(self.eigenvalues().iter().map(|l| a + b * l).collect()))
     }
     /// Natural frequencies in Hz.
     pub fn frequencies_hz(&self) -> Vec<f64> {
@@ -282,13 +315,14 @@ impl ModalAnalysis {
     }
     /// Modal masses `xᵢᵀ M xᵢ` (1 for mass-normalised modes; kept for reporting).
     pub fn modal_masses(&self) -> Vec<f64> {
-        let x = self.pairs.vectors.select_columns(&self.kept);
+        let x = self.free_shapes();
         let mm = crate::eigen::project(&self.m, &x, &x);
-        (0..self.kept.len()).map(|i| mm[(i, i)]).collect()
+        (0..x.ncols()).map(|i| mm[(i, i)]).collect()
     }
-    /// Mode shapes of the retained modes on all dof, `6 n_nodes × kept`, node by node `[u, θ]`.
+    /// The body's mode shapes on all dof (retained eigenmodes, then correction modes),
+    /// `6 n_nodes × modes`, node by node `[u, θ]`.
     pub fn mode_shapes(&self) -> DMatrix<f64> {
-        self.expand(&self.pairs.vectors.select_columns(&self.kept))
+        self.expand(&self.free_shapes())
     }
     /// The damping matrix `C = αM + βK` on the free dof (`None` without damping).
     pub fn damping_matrix(
@@ -489,6 +523,25 @@ pub fn modal_analysis(
             .columns(n_rigid, pairs.vectors.ncols() - n_rigid)
             .into_owned();
     }
+    let correction = if opts.correction.is_empty() {
+        None
+    } else {
+        if rigid > 0 {
+            return Err(FemError::Invalid(
+                "static correction needs a reference condition that holds the body (not \
+                 free-free): its static shapes are K⁻¹ of unit loads"
+                    .into(),
+            ));
+        }
+        Some(static_correction(
+            &assembly,
+            &k,
+            &m,
+            &pairs.vectors.select_columns(&kept),
+            &opts.correction,
+            mesh.nodes.len(),
+        )?)
+    };
     Ok(ModalAnalysis {
         assembly,
         k,
@@ -496,11 +549,102 @@ pub fn modal_analysis(
         pairs,
         n_modes: opts.n_modes,
         kept,
+        correction,
         n_rigid,
         origin,
         constraints,
         options: opts.clone(),
     })
+}
+
+/// Static correction modes at `nodes` ([`ModalOptions::correction`]): `K⁻¹` of a unit load at
+/// every free dof of the nodes, made `M`-orthogonal to `x` (the retained eigenvectors, which
+/// makes them `K`-orthogonal too) and to each other (shapes dependent within 1e-8 are dropped),
+/// then diagonalised: `(μ, Φ)` with `Φᵀ M Φ = I`, `Φᵀ K Φ = diag(μ)`, `μ` ascending.
+fn static_correction(
+    assembly: &Assembly,
+    k: &faer::sparse::SparseColMat<usize, f64>,
+    m: &faer::sparse::SparseColMat<usize, f64>,
+    x: &DMatrix<f64>,
+    nodes: &[NodeId],
+    n_nodes: usize,
+) -> Result<(Vec<f64>, DMatrix<f64>), FemError> {
+    use faer::linalg::solvers::SolveCore;
+    use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
+    let n = assembly.n_free();
+    let mut loads = Vec::new();
+    for &node in nodes {
+        if node >= n_nodes {
+            return Err(FemError::Invalid(format!(
+                "static correction at node {node}: the mesh has {n_nodes} nodes"
+            )));
+        }
+        for d in 0..6 {
+            if let Some(i) = assembly.free_index(6 * node + d) {
+                loads.push(i);
+            }
+        }
+    }
+    if loads.is_empty() {
+        return Err(FemError::Invalid(
+            "static correction: every dof of the correction nodes is fixed by the reference \
+             condition"
+                .into(),
+        ));
+    }
+    let symbolic = SymbolicLlt::try_new(k.symbolic(), faer::Side::Lower)
+        .map_err(|e| FemError::Eigen(format!("{e:?}")))?;
+    let llt =
+        Llt::try_new_with_symbolic(symbolic, k.as_ref(), faer::Side::Lower).map_err(|_| {
+            FemError::Invalid(
+                "static correction: the stiffness matrix is not positive definite (the reference \
+             condition must hold the body)"
+                    .into(),
+            )
+        })?;
+    let mut psi = DMatrix::zeros(n, loads.len());
+    for (c, &i) in loads.iter().enumerate() {
+        let mut col = vec![0.0; n];
+        col[i] = 1.0;
+        let mat = faer::MatMut::from_column_major_slice_mut(&mut col, n, 1);
+        llt.solve_in_place_with_conj(faer::Conj::No, mat);
+        psi.column_mut(c).copy_from_slice(&col);
+    }
+    // M-Gram–Schmidt against the retained modes and each other (twice, for round-off)
+    let m_dot = |a: &DMatrix<f64>, b: &DMatrix<f64>| crate::eigen::project(m, a, b);
+    let mut basis: Vec<nalgebra::DVector<f64>> = Vec::new();
+    for c in 0..psi.ncols() {
+        let mut v = psi.column(c).into_owned();
+        let v0 = DMatrix::from_column_slice(n, 1, v.as_slice());
+        let norm0 = m_dot(&v0, &v0)[(0, 0)].max(0.0).sqrt();
+        for _ in 0..2 {
+            if x.ncols() > 0 {
+                let vm = DMatrix::from_column_slice(n, 1, v.as_slice());
+                let c_x = m_dot(x, &vm);
+                v -= x * c_x.column(0);
+            }
+            for b in &basis {
+                let bm = DMatrix::from_column_slice(n, 1, b.as_slice());
+                let vm = DMatrix::from_column_slice(n, 1, v.as_slice());
+                let p = m_dot(&bm, &vm)[(0, 0)];
+                v -= b * p;
+            }
+        }
+        let vm = DMatrix::from_column_slice(n, 1, v.as_slice());
+        let norm = m_dot(&vm, &vm)[(0, 0)].max(0.0).sqrt();
+        if norm > 1e-8 * norm0 && norm > 0.0 {
+            basis.push(v / norm);
+        }
+    }
+    let q = DMatrix::from_columns(&basis);
+    let kr = crate::eigen::project(k, &q, &q);
+    let kr = (&kr + kr.transpose()) * 0.5;
+    let eig = kr.symmetric_eigen();
+    let mut order: Vec<usize> = (0..eig.eigenvalues.len()).collect();
+    order.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
+    let mu: Vec<f64> = order.iter().map(|&i| eig.eigenvalues[i]).collect();
+    let z = eig.eigenvectors.select_columns(&order);
+    Ok((mu, q * z))
 }
 
 /// `K_b`, `M_b` of the free dof for every design variable, evaluating the element matrices on
@@ -580,6 +724,7 @@ pub fn modal_body_dual<const N: usize>(
     chunk_start: usize,
     update: ModeUpdate,
 ) -> Result<ModalBody<Dual<N>>, FemError> {
+    no_correction(analysis)?;
     let base = modal_body(mesh, props, analysis)?;
     let p = analysis.n_modes;
     let kept = &analysis.kept;
@@ -635,6 +780,18 @@ pub fn modal_body_dual<const N: usize>(
     })
 }
 
+/// Design derivatives are not available for static correction modes yet.
+fn no_correction(analysis: &ModalAnalysis) -> Result<(), FemError> {
+    match analysis.correction {
+        None => Ok(()),
+        Some(_) => Err(FemError::Invalid(
+            "design derivatives of static correction modes are not available yet: remove the \
+             correction for a sensitivity analysis (retain more modes instead)"
+                .into(),
+        )),
+    }
+}
+
 /// Derivatives of the retained (and guard) modes of an analysis for all design variables.
 ///
 /// For [`ModeUpdate::Updated`] and clusters of repeated eigenvalues, Dailey's second-derivative
@@ -650,6 +807,7 @@ pub fn analysis_derivatives<const N: usize, F>(
 where
     F: FnMut(&[Dual<N>]) -> Properties<Dual<N>>,
 {
+    no_correction(analysis)?;
     let (el, mass) = (&analysis.options.element, analysis.options.mass);
     let dm = design_matrices::<N, _>(mesh, &analysis.assembly, b, &mut props, el, mass)?;
     let updated = update == ModeUpdate::Updated;

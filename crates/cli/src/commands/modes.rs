@@ -315,6 +315,7 @@ pub(crate) fn build(
     };
     let mut options = ModalOptions::new(def.computed);
     options.kept = def.kept.clone();
+    options.correction = def.correction.clone();
     options.reference = reference;
     options.planar = def.planar;
     options.damping = def.damping;
@@ -370,10 +371,16 @@ fn report(name: &str, b: &Built, a: &ModalAnalysis, d: Option<&ModeDerivatives>)
         ),
         format!("{:>4} {:>14} {:>14}", "mode", "f/Hz", "omega/(rad/s)"),
     ];
-    for ((fi, l), k) in f.iter().zip(lam).zip(&a.kept) {
+    // retained modes by their number; static correction modes as c1, c2, …
+    let labels = a
+        .kept
+        .iter()
+        .map(|k| (k + 1).to_string())
+        .chain((1..).map(|c| format!("c{c}")));
+    for ((fi, l), label) in f.iter().zip(lam).zip(labels) {
         preamble.push(format!(
             "{:>4} {:>14.6} {:>14.6}",
-            k + 1,
+            label,
             fi,
             l.max(0.0).sqrt()
         ));

@@ -1147,7 +1147,14 @@ pub(crate) fn build_mechanism(
     let mut state = initial_state(&model, &placements);
     // the elastic state is the user's; the assembly moves only the rigid-body coordinates
     for (id, w, wd) in &modal_starts {
-        model.set_modal(&mut state, *id, w, wd);
+        // static correction modes (after the retained ones) start at zero
+        let n = model.body(*id).n_modes();
+        let pad = |x: &Vec<f64>| {
+            let mut x = x.clone();
+            x.resize(n, 0.0);
+            x
+        };
+        model.set_modal(&mut state, *id, &pad(w), &pad(wd));
     }
     let responses = responses(src, raw, &model, &bodies, &joint_names)?;
     check_design(

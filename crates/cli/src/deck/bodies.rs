@@ -52,6 +52,9 @@ pub struct RawBody {
     pub damping: Option<Spanned<RawDamping>>,
     /// `"lumped"` (default; the floating frame needs it) or `"consistent"`.
     pub mass: Option<Spanned<String>>,
+    /// Static correction: node indices (from 0) whose static shapes are added to the modes,
+    /// typically the nodes the body's joints act at.
+    pub correction: Option<Spanned<Vec<i64>>>,
     /// Initial modal coordinates of the retained modes in order (missing ones are zero),
     /// in the mass-normalised coordinates of `flexsens modes` (√kg·m). Default: undeformed.
     pub initial_modal: Option<Spanned<Vec<f64>>>,
@@ -116,6 +119,8 @@ pub struct BodyDef {
     pub planar: Option<Vector3<f64>>,
     pub damping: Option<fem::Damping>,
     pub lumped: bool,
+    /// Static correction nodes.
+    pub correction: Vec<usize>,
     /// Initial modal coordinates and rates, one per retained mode (zero-padded).
     pub initial_modal: Vec<f64>,
     pub initial_modal_rates: Vec<f64>,
@@ -611,6 +616,20 @@ pub fn validate_one(
         }
         Ok(out)
     };
+    let correction = match &raw.correction {
+        None => Vec::new(),
+        Some(c) => {
+            let list = c.get_ref();
+            if list.is_empty() || list.iter().any(|&n| n < 0) {
+                return Err(src.error(
+                    span(c),
+                    Some(k("correction")),
+                    "a list of node indices (from 0), e.g. the nodes the body's joints act at",
+                ));
+            }
+            list.iter().map(|&n| n as usize).collect()
+        }
+    };
     let initial_modal = initial("initial_modal", &raw.initial_modal, "coordinate (√kg·m)")?;
     let initial_modal_rates = initial(
         "initial_modal_rates",
@@ -626,6 +645,7 @@ pub fn validate_one(
         planar,
         damping,
         lumped,
+        correction,
         initial_modal,
         initial_modal_rates,
     })
