@@ -88,14 +88,15 @@ impl From<RayleighDamping> for Damping {
 }
 
 impl Damping {
-    /// `(α, β)` for the retained eigenvalues `lambdas`.
+    /// `(α, β)` given the eigenvalues `lambdas` of the computed modes (a fit refers to their
+    /// numbers).
     pub fn coefficients<S: Scalar>(&self, lambdas: &[S]) -> Result<(S, S), FemError> {
         match *self {
             Damping::Ratios(d) => {
                 let [i, j] = d.modes;
                 if i >= lambdas.len() || j >= lambdas.len() {
                     return Err(FemError::Invalid(format!(
-                        "Rayleigh damping refers to modes {} and {}, only {} retained",
+                        "Rayleigh damping refers to modes {} and {}, only {} computed",
                         i + 1,
                         j + 1,
                         lambdas.len()
