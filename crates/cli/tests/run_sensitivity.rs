@@ -57,6 +57,18 @@ fn read_csv(path: &std::path::Path) -> (Vec<String>, Vec<Vec<String>>) {
     (head, rows)
 }
 
+/// The mid-node deflection's direct sensitivities against the replayed central differences of
+/// relative size `size` in a run's results: `(max |CD − direct| / max |direct|, max |direct|)`.
+fn direct_vs_central(g: &Group, size: &str) -> (f64, f64) {
+    let direct = f64s(g, "sensitivities/mid_deflection");
+    let fd = f64s(
+        g,
+        &format!("finite_differences/central_relative_{size}_replay/mid_deflection"),
+    );
+    let scale = direct.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    (worst_relative(&fd, &direct), scale)
+}
+
 #[test]
 fn beam_deck_sensitivities_match_replayed_central_differences_and_converge() {
     let dir = tempfile::tempdir().unwrap();
@@ -77,13 +89,7 @@ fn beam_deck_sensitivities_match_replayed_central_differences_and_converge() {
     assert_eq!(units(&g, "sensitivities/mid_deflection"), "1/deg");
     assert_eq!(units(&g, "sensitivities/slider_x"), "m/deg");
     assert_eq!(f64s(&g, "design/values"), [15.0]);
-    let error = |size: &str| {
-        let fd = f64s(
-            &g,
-            &format!("finite_differences/central_relative_{size}_replay/mid_deflection"),
-        );
-        worst_relative(&fd, &direct)
-    };
+    let error = |size: &str| direct_vs_central(&g, size).0;
     let (e_coarse, e_mid, e_fine) = (error("0.01"), error("0.001"), error("0.0001"));
     eprintln!(
         "mid-node deflection vs central differences: δ = 0.15° {e_coarse:.2e}, 0.015° \
@@ -387,16 +393,10 @@ fn plate_deck_sensitivities_match_replayed_central_differences() {
         ],
     );
     let g = Group::read_hdf5(&out.join("results.h5")).unwrap();
-    let direct = f64s(&g, "sensitivities/mid_deflection");
-    let fd = f64s(
-        &g,
-        "finite_differences/central_relative_0.0001_replay/mid_deflection",
-    );
-    let err = worst_relative(&fd, &direct);
+    let (err, scale) = direct_vs_central(&g, "0.0001");
     eprintln!("plate: mid-node deflection vs central differences {err:.2e}");
     // measured 2026-11-21: 1.3e-8
     assert!(err < 1e-6, "{err:e}");
-    let scale = direct.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     assert!(scale > 1e-6, "{scale:e}");
     // six modes with their derivatives, the frame constraints kept tight
     assert_eq!(f64s(&g, "bodies/rod/frequency_derivatives").len(), 6);
@@ -568,16 +568,10 @@ fn modes_chosen_by_number_keep_exact_sensitivities() {
         ],
     );
     let g = Group::read_hdf5(&out.join("results.h5")).unwrap();
-    let direct = f64s(&g, "sensitivities/mid_deflection");
-    let fd = f64s(
-        &g,
-        "finite_differences/central_relative_0.001_replay/mid_deflection",
-    );
-    let err = worst_relative(&fd, &direct);
+    let (err, scale) = direct_vs_central(&g, "0.001");
     eprintln!("modes [1, 2, 4]: direct vs central differences {err:.2e}");
     assert!(err < 2e-6, "{err:e}");
     assert!(summary["finite_differences"].as_array().unwrap().len() == 1);
-    let scale = direct.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     assert!(scale > 1e-6, "{scale:e}");
     // a list that is not ascending is bad input, named
     let (_, err) = bad_deck(
