@@ -611,30 +611,36 @@ fn static_correction(
         llt.solve_in_place_with_conj(faer::Conj::No, mat);
         psi.column_mut(c).copy_from_slice(&col);
     }
-    // M-Gram–Schmidt against the retained modes and each other (twice, for round-off)
-    let m_dot = |a: &DMatrix<f64>, b: &DMatrix<f64>| crate::eigen::project(m, a, b);
+    // M-Gram–Schmidt against the retained modes and each other (twice, for round-off), with
+    // the products by M kept beside the vectors
+    let times_m = |v: &nalgebra::DVector<f64>| {
+        let mut out = nalgebra::DVector::zeros(n);
+        crate::eigen::spmv(m, v.as_slice(), out.as_mut_slice());
+        out
+    };
+    let mx = DMatrix::from_columns(
+        &x.column_iter()
+            .map(|c| times_m(&c.into_owned()))
+            .collect::<Vec<_>>(),
+    );
     let mut basis: Vec<nalgebra::DVector<f64>> = Vec::new();
+    let mut m_basis: Vec<nalgebra::DVector<f64>> = Vec::new();
     for c in 0..psi.ncols() {
         let mut v = psi.column(c).into_owned();
-        let v0 = DMatrix::from_column_slice(n, 1, v.as_slice());
-        let norm0 = m_dot(&v0, &v0)[(0, 0)].max(0.0).sqrt();
+        let norm0 = v.dot(&times_m(&v)).max(0.0).sqrt();
         for _ in 0..2 {
             if x.ncols() > 0 {
-                let vm = DMatrix::from_column_slice(n, 1, v.as_slice());
-                let c_x = m_dot(x, &vm);
-                v -= x * c_x.column(0);
+                v -= x * mx.tr_mul(&v);
             }
-            for b in &basis {
-                let bm = DMatrix::from_column_slice(n, 1, b.as_slice());
-                let vm = DMatrix::from_column_slice(n, 1, v.as_slice());
-                let p = m_dot(&bm, &vm)[(0, 0)];
-                v -= b * p;
+            for (b, mb) in basis.iter().zip(&m_basis) {
+                v -= b * mb.dot(&v);
             }
         }
-        let vm = DMatrix::from_column_slice(n, 1, v.as_slice());
-        let norm = m_dot(&vm, &vm)[(0, 0)].max(0.0).sqrt();
+        let mv = times_m(&v);
+        let norm = v.dot(&mv).max(0.0).sqrt();
         if norm > 1e-8 * norm0 && norm > 0.0 {
             basis.push(v / norm);
+            m_basis.push(mv / norm);
         }
     }
     let q = DMatrix::from_columns(&basis);

@@ -413,7 +413,7 @@ pub fn validate_one(
     )?;
     let modes_error = |m: String| src.error(span(modes_value), Some(k("modes")), m);
     let (modes, computed, kept) = match modes_value.get_ref() {
-        toml::Value::Integer(n) => match int(&toml::Value::Integer(*n), 1) {
+        v @ toml::Value::Integer(n) => match int(v, 1) {
             Some(n) => (n, n, None),
             None => {
                 return Err(modes_error(format!(
@@ -487,10 +487,10 @@ pub fn validate_one(
             "pinned is only used with reference = \"pinned-ends\"",
         ));
     }
+    let dk = |key: &str| format!("body.{name}.damping.{key}");
     let damping = match &raw.damping {
         None => None,
         Some(d) if d.get_ref().alpha.is_some() || d.get_ref().beta.is_some() => {
-            let dk = |key: &str| format!("body.{name}.damping.{key}");
             let rd = d.get_ref();
             if let Some(m) = &rd.modes {
                 return Err(src.error(
@@ -525,7 +525,6 @@ pub fn validate_one(
             })
         }
         Some(d) => {
-            let dk = |key: &str| format!("body.{name}.damping.{key}");
             let m = required(
                 src,
                 span(d),
