@@ -59,6 +59,13 @@ fn history_with(
         "analysis.atol=1e-12".to_string(),
         BETA.to_string(),
     ];
+    let sets: Vec<&str> = sets.iter().chain(extra).map(String::as_str).collect();
+    run_beam(&out, &sets);
+    column(&out, "mid_deflection")
+}
+
+/// `flexsens run` of the beam deck into `out` with `--set` values, expecting success.
+fn run_beam(out: &Path, sets: &[&str]) {
     let mut args = vec![
         "run".to_string(),
         deck("slider_crank_beam.toml").display().to_string(),
@@ -66,14 +73,12 @@ fn history_with(
         out.display().to_string(),
         "--quiet".to_string(),
     ];
-    for s in sets.iter().chain(extra) {
-        args.push("--set".into());
-        args.push(s.clone());
+    for s in sets {
+        args.extend(["--set".to_string(), s.to_string()]);
     }
     let args: Vec<&str> = args.iter().map(String::as_str).collect();
     let o = run(&args);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    column(&out, "mid_deflection")
 }
 
 /// `(t, response)` of the `history.csv` in `out` for the response named `name`.
@@ -195,36 +200,18 @@ fn every_reference_condition_converges_to_one_curve() {
 fn a_stated_initial_elastic_state_is_kept() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
-    let sets = [
-        "--set",
-        "sensitivity.enabled=false",
-        "--set",
-        "finite_differences.enabled=false",
-        "--set",
-        "analysis.t_end=1e-3",
-        "--set",
-        "body.rod.initial_modal=[1e-4, 0.0, -2e-5]",
-        "--set",
-        "body.rod.initial_modal_rates=[0.0, 0.3]",
-        "--set",
-        "response.w1={ kind = \"modal\", body = \"rod\", mode = 1 }",
-        "--set",
-        "response.w3={ kind = \"modal\", body = \"rod\", mode = 3 }",
-    ];
-    let mut args = vec![
-        "run",
-        deck("slider_crank_beam.toml")
-            .to_str()
-            .unwrap()
-            .to_string()
-            .leak(),
-        "-o",
-        out.to_str().unwrap().to_string().leak(),
-        "--quiet",
-    ];
-    args.extend(sets);
-    let o = run(&args);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    run_beam(
+        &out,
+        &[
+            "sensitivity.enabled=false",
+            "finite_differences.enabled=false",
+            "analysis.t_end=1e-3",
+            "body.rod.initial_modal=[1e-4, 0.0, -2e-5]",
+            "body.rod.initial_modal_rates=[0.0, 0.3]",
+            "response.w1={ kind = \"modal\", body = \"rod\", mode = 1 }",
+            "response.w3={ kind = \"modal\", body = \"rod\", mode = 3 }",
+        ],
+    );
     let at = |name: &str| column(&out, name)[0].1;
     assert_eq!(at("w1"), 1e-4);
     assert_eq!(at("w3"), -2e-5);
@@ -251,24 +238,16 @@ fn the_start_has_the_rigid_mechanisms_kinetic_energy_for_every_frame() {
     let dir = tempfile::tempdir().unwrap();
     let energy_at_start = |reference: &str| {
         let out = dir.path().join(reference);
-        let o = run(&[
-            "run",
-            deck("slider_crank_beam.toml").to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-            "--quiet",
-            "--set",
-            "sensitivity.enabled=false",
-            "--set",
-            "finite_differences.enabled=false",
-            "--set",
-            "analysis.t_end=1e-4",
-            "--set",
-            &format!("body.rod.reference=\"{reference}\""),
-            "--set",
-            "response.energy={ kind = \"energy\" }",
-        ]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        run_beam(
+            &out,
+            &[
+                "sensitivity.enabled=false",
+                "finite_differences.enabled=false",
+                "analysis.t_end=1e-4",
+                &format!("body.rod.reference=\"{reference}\""),
+                "response.energy={ kind = \"energy\" }",
+            ],
+        );
         column(&out, "energy")[0].1
     };
     // the deck: crank 0.038 kg, I_zz 7.32e-5 kg·m² about its centre 0.076 m from the pivot;
