@@ -47,3 +47,28 @@ fn selected_modes_are_the_full_analysis_columns() {
         "beyond the computed modes"
     );
 }
+
+/// Damping by coefficients: `2ζω = α + βλ` for every mode (stiffness-proportional damping gives
+/// `ζ = βω/2`, growing with frequency), and bad coefficients are refused.
+#[test]
+fn damping_by_coefficients_is_alpha_plus_beta_lambda() {
+    let mesh = beam(12);
+    let props = slender().props();
+    let (alpha, beta) = (3.0, 2e-5);
+    let mut o = ModalOptions::new(4);
+    o.damping = Some(Damping::Coefficients { alpha, beta });
+    let a = modal_analysis(&mesh, &props, &o).unwrap();
+    let body = modal_body(&mesh, &props, &a).unwrap();
+    for (c, l) in body.modal_damping.iter().zip(&body.eigenvalues) {
+        assert!(
+            (c - (alpha + beta * l)).abs() <= 1e-14 * c.abs(),
+            "{c} vs {l}"
+        );
+    }
+    o.damping = Some(Damping::Coefficients {
+        alpha: -1.0,
+        beta: 0.0,
+    });
+    let a = modal_analysis(&mesh, &props, &o).unwrap();
+    assert!(modal_body(&mesh, &props, &a).is_err());
+}
