@@ -22,7 +22,7 @@ use crate::deck::check::{count, direction, finite, positive, required, span, vec
 use crate::deck::design::FdSteps;
 use crate::deck::design::{DesignDef, validate as validate_design};
 use crate::deck::laminates::{suggestion, validate as validate_laminates};
-use crate::deck::mechanism::{RawAnalysis, RawMarker, RawMotion, RawResponse, RawRotation};
+use crate::deck::raw::{RawAnalysis, RawMarker, RawMotion, RawResponse, RawRotation};
 use crate::deck::{self, DeckError, RawDeck, Source};
 use crate::error::CliError;
 use crate::files::write_atomic;

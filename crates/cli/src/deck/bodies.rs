@@ -3,78 +3,13 @@
 
 use laminate::PlyStack;
 use nalgebra::Vector3;
-use serde::Deserialize;
 use toml::Spanned;
 
 use super::check::{nonzero_vector, positive, required, span, vector};
 use super::laminates::{LaminateModel, suggestion};
-use super::raw::RawDeck;
+use super::raw::{RawBody, RawDeck};
 use super::sections::{self, SectionDef};
 use super::{DeckError, Source};
-
-/// A flexible body as written.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RawBody {
-    /// `"beam"` or `"shell"`.
-    pub kind: Option<Spanned<String>>,
-    /// Beam: a `[section.*]` name.
-    pub section: Option<Spanned<String>>,
-    /// Beam: first end (m).
-    pub start: Option<Spanned<[f64; 3]>>,
-    /// Beam: second end (m).
-    pub end: Option<Spanned<[f64; 3]>>,
-    /// Beam: direction of the section's x₂ axis (its part normal to the beam is used).
-    pub orientation: Option<Spanned<[f64; 3]>>,
-    /// Shell: a `[laminate.*]` name.
-    pub laminate: Option<Spanned<String>>,
-    /// Shell rectangle: extent along x (m).
-    pub length: Option<Spanned<f64>>,
-    /// Shell rectangle: extent along y (m).
-    pub width: Option<Spanned<f64>>,
-    /// Shell: a Gmsh `.msh` v4 triangle mesh, relative to the deck (instead of length/width).
-    pub file: Option<Spanned<String>>,
-    /// Shell: the laminate's reference axis (ply angles are measured from it), default x.
-    pub material_axis: Option<Spanned<[f64; 3]>>,
-    /// Beam: number of elements; shell rectangle: `[along x, along y]`.
-    pub elements: Option<Spanned<toml::Value>>,
-    /// Number of elastic modes retained (the lowest), or the mode numbers retained, e.g.
-    /// `[1, 2, 5]` (counted from 1, ascending).
-    pub modes: Option<Spanned<toml::Value>>,
-    /// `"centre-of-mass"` (default), `"clamped-section"`, `"free-free"` or `"pinned-ends"`.
-    pub reference: Option<Spanned<String>>,
-    /// Keep only modes of motion in the plane with this normal (a global axis): translations
-    /// in the plane and rotations about the normal.
-    pub planar: Option<Spanned<[f64; 3]>>,
-    /// Pinned ends: the two node indices (default: the beam's end nodes).
-    pub pinned: Option<Spanned<[i64; 2]>>,
-    /// Proportional damping: two modal damping ratios, or the coefficients `alpha`, `beta`.
-    pub damping: Option<Spanned<RawDamping>>,
-    /// `"lumped"` (default; the floating frame needs it) or `"consistent"`.
-    pub mass: Option<Spanned<String>>,
-    /// Static correction: node indices (from 0) whose static shapes are added to the modes,
-    /// typically the nodes the body's joints act at.
-    pub correction: Option<Spanned<Vec<i64>>>,
-    /// Initial modal coordinates of the retained modes in order (missing ones are zero),
-    /// in the mass-normalised coordinates of `flexsens modes` (√kg·m). Default: undeformed.
-    pub initial_modal: Option<Spanned<Vec<f64>>>,
-    /// Initial modal rates of the retained modes in order (√kg·m/s). Default: at rest in the
-    /// body frame.
-    pub initial_modal_rates: Option<Spanned<Vec<f64>>>,
-}
-
-/// `{ modes = [i, j], ratios = [ζi, ζj] }` (modes counted from 1), or
-/// `{ alpha = α, beta = β }` (`C = αM + βK`; either may be left out, meaning 0).
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RawDamping {
-    pub modes: Option<Spanned<[i64; 2]>>,
-    pub ratios: Option<Spanned<[f64; 2]>>,
-    /// Mass-proportional coefficient (1/s).
-    pub alpha: Option<Spanned<f64>>,
-    /// Stiffness-proportional coefficient (s).
-    pub beta: Option<Spanned<f64>>,
-}
 
 /// How a body is meshed.
 #[derive(Debug, Clone)]

@@ -6,71 +6,12 @@
 //! factor. Every section built from the laminate (tube, box) and every shell body laminated
 //! with it follows; the derivatives are per degree.
 
-use serde::Deserialize;
 use toml::Spanned;
 
 use super::check::{finite, positive, span};
 use super::laminates::{LaminateModel, suggestion};
+use super::raw::{RawDesign, RawFiniteDifferences, RawObjective};
 use super::{DeckError, RawDeck, Source};
-
-/// A design variable as written.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RawDesign {
-    /// `"ply-angle"` (the default and, for now, the only kind).
-    pub kind: Option<Spanned<String>>,
-    /// The laminate whose plies move.
-    pub laminate: Option<Spanned<String>>,
-    /// Indices of the plies (as listed in the deck, from 0); default: all of them.
-    pub plies: Option<Spanned<Vec<i64>>>,
-    /// `dθ_i/db` of each listed ply (default 1; e.g. `[1, -1]` for a `[θ/−θ]` pair).
-    pub factors: Option<Spanned<Vec<f64>>>,
-}
-
-/// A scalar objective of a response history.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RawObjective {
-    /// A `[response.*]` name.
-    pub response: Option<Spanned<String>>,
-    /// `"integral"`, `"mean"`, `"rms"`, `"max"`, `"min"` or `"at"`.
-    pub kind: Option<Spanned<String>>,
-    /// With `kind = "at"`: the time (s).
-    pub time: Option<Spanned<f64>>,
-}
-
-/// Settings of the direct sensitivity analysis.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RawSensitivity {
-    /// `false` skips the sensitivities (e.g. in a sweep); default `true` when the deck declares
-    /// design variables.
-    pub enabled: Option<Spanned<bool>>,
-    /// `"direct"` (exact derivative of the discrete solution, default), `"simultaneous"` or
-    /// `"corrector"`.
-    pub method: Option<Spanned<String>>,
-    /// Mode derivatives: `"updated"` (default) or `"fixed"`.
-    pub modes: Option<Spanned<String>>,
-    /// Include the sensitivities in the step-size control (default `false`).
-    pub error_control: Option<Spanned<bool>>,
-}
-
-/// Finite-difference comparisons to run.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RawFiniteDifferences {
-    /// `false` skips the comparisons (default `true`).
-    pub enabled: Option<Spanned<bool>>,
-    /// `"forward"` (default) or `"central"`.
-    pub scheme: Option<Spanned<String>>,
-    /// `"relative"` (default: δ = size·|b|) or `"absolute"` (δ = size, degrees).
-    pub perturbation: Option<Spanned<String>>,
-    /// Perturbation sizes.
-    pub sizes: Option<Spanned<Vec<f64>>>,
-    /// `"replay"` (the nominal step sequence, default), `"adaptive"` (independent runs) or
-    /// `"both"`.
-    pub steps: Option<Spanned<String>>,
-}
 
 /// A validated design variable.
 #[derive(Debug, Clone, PartialEq)]

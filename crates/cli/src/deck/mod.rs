@@ -11,7 +11,6 @@ pub mod bodies;
 pub mod check;
 pub mod design;
 pub mod laminates;
-pub mod mechanism;
 pub mod overrides;
 pub mod raw;
 pub mod sections;

@@ -1,5 +1,9 @@
 //! The deck as written: serde mirrors of the TOML tables. Every key is documented in
-//! `docs/decks.md`.
+//! `docs/decks.md`. The validation modules read these; none of them is read from here.
+//!
+//! Positions and axes are given in global coordinates in the initial configuration (where the
+//! joint is, where the body is); angles are degrees, angular rates degrees per second, unless a
+//! string with a unit is given (`"150 rad/s"`, `"30 deg"`).
 
 use std::collections::BTreeMap;
 
@@ -20,34 +24,34 @@ pub struct RawDeck {
     pub laminate: BTreeMap<String, Spanned<RawLaminate>>,
     /// Beam cross-sections by name.
     #[serde(default)]
-    pub section: BTreeMap<String, Spanned<super::sections::RawSection>>,
+    pub section: BTreeMap<String, Spanned<RawSection>>,
     /// Flexible bodies by name.
     #[serde(default)]
-    pub body: BTreeMap<String, Spanned<super::bodies::RawBody>>,
+    pub body: BTreeMap<String, Spanned<RawBody>>,
     /// Rigid bodies by name.
     #[serde(default)]
-    pub rigid: BTreeMap<String, Spanned<super::mechanism::RawRigid>>,
+    pub rigid: BTreeMap<String, Spanned<RawRigid>>,
     /// Joints and drivers by name.
     #[serde(default)]
-    pub joint: BTreeMap<String, Spanned<super::mechanism::RawJoint>>,
+    pub joint: BTreeMap<String, Spanned<RawJoint>>,
     /// Force elements by name.
     #[serde(default)]
-    pub force: BTreeMap<String, Spanned<super::mechanism::RawForce>>,
+    pub force: BTreeMap<String, Spanned<RawForce>>,
     /// Requested responses by name.
     #[serde(default)]
-    pub response: BTreeMap<String, Spanned<super::mechanism::RawResponse>>,
+    pub response: BTreeMap<String, Spanned<RawResponse>>,
     /// Time integration settings of `flexsens run`.
-    pub analysis: Option<Spanned<super::mechanism::RawAnalysis>>,
+    pub analysis: Option<Spanned<RawAnalysis>>,
     /// Design variables by name (ply angles, degrees).
     #[serde(default)]
-    pub design: BTreeMap<String, Spanned<super::design::RawDesign>>,
+    pub design: BTreeMap<String, Spanned<RawDesign>>,
     /// Scalar objectives of responses by name.
     #[serde(default)]
-    pub objective: BTreeMap<String, Spanned<super::design::RawObjective>>,
+    pub objective: BTreeMap<String, Spanned<RawObjective>>,
     /// Settings of the direct sensitivity analysis.
-    pub sensitivity: Option<Spanned<super::design::RawSensitivity>>,
+    pub sensitivity: Option<Spanned<RawSensitivity>>,
     /// Finite-difference comparisons.
-    pub finite_differences: Option<Spanned<super::design::RawFiniteDifferences>>,
+    pub finite_differences: Option<Spanned<RawFiniteDifferences>>,
 }
 
 /// A material: isotropic (`E`, `nu`) or orthotropic (the nine constants), with `density`.
@@ -99,4 +103,359 @@ pub struct RawPly {
     pub thickness: Option<Spanned<f64>>,
     /// Fibre angle from the reference axis (degrees).
     pub angle: Option<Spanned<f64>>,
+}
+
+/// A flexible body as written.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawBody {
+    /// `"beam"` or `"shell"`.
+    pub kind: Option<Spanned<String>>,
+    /// Beam: a `[section.*]` name.
+    pub section: Option<Spanned<String>>,
+    /// Beam: first end (m).
+    pub start: Option<Spanned<[f64; 3]>>,
+    /// Beam: second end (m).
+    pub end: Option<Spanned<[f64; 3]>>,
+    /// Beam: direction of the section's x₂ axis (its part normal to the beam is used).
+    pub orientation: Option<Spanned<[f64; 3]>>,
+    /// Shell: a `[laminate.*]` name.
+    pub laminate: Option<Spanned<String>>,
+    /// Shell rectangle: extent along x (m).
+    pub length: Option<Spanned<f64>>,
+    /// Shell rectangle: extent along y (m).
+    pub width: Option<Spanned<f64>>,
+    /// Shell: a Gmsh `.msh` v4 triangle mesh, relative to the deck (instead of length/width).
+    pub file: Option<Spanned<String>>,
+    /// Shell: the laminate's reference axis (ply angles are measured from it), default x.
+    pub material_axis: Option<Spanned<[f64; 3]>>,
+    /// Beam: number of elements; shell rectangle: `[along x, along y]`.
+    pub elements: Option<Spanned<toml::Value>>,
+    /// Number of elastic modes retained (the lowest), or the mode numbers retained, e.g.
+    /// `[1, 2, 5]` (counted from 1, ascending).
+    pub modes: Option<Spanned<toml::Value>>,
+    /// `"centre-of-mass"` (default), `"clamped-section"`, `"free-free"` or `"pinned-ends"`.
+    pub reference: Option<Spanned<String>>,
+    /// Keep only modes of motion in the plane with this normal (a global axis): translations
+    /// in the plane and rotations about the normal.
+    pub planar: Option<Spanned<[f64; 3]>>,
+    /// Pinned ends: the two node indices (default: the beam's end nodes).
+    pub pinned: Option<Spanned<[i64; 2]>>,
+    /// Proportional damping: two modal damping ratios, or the coefficients `alpha`, `beta`.
+    pub damping: Option<Spanned<RawDamping>>,
+    /// `"lumped"` (default; the floating frame needs it) or `"consistent"`.
+    pub mass: Option<Spanned<String>>,
+    /// Static correction: node indices (from 0) whose static shapes are added to the modes,
+    /// typically the nodes the body's joints act at.
+    pub correction: Option<Spanned<Vec<i64>>>,
+    /// Initial modal coordinates of the retained modes in order (missing ones are zero),
+    /// in the mass-normalised coordinates of `flexsens modes` (√kg·m). Default: undeformed.
+    pub initial_modal: Option<Spanned<Vec<f64>>>,
+    /// Initial modal rates of the retained modes in order (√kg·m/s). Default: at rest in the
+    /// body frame.
+    pub initial_modal_rates: Option<Spanned<Vec<f64>>>,
+}
+
+/// `{ modes = [i, j], ratios = [ζi, ζj] }` (modes counted from 1), or
+/// `{ alpha = α, beta = β }` (`C = αM + βK`; either may be left out, meaning 0).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawDamping {
+    pub modes: Option<Spanned<[i64; 2]>>,
+    pub ratios: Option<Spanned<[f64; 2]>>,
+    /// Mass-proportional coefficient (1/s).
+    pub alpha: Option<Spanned<f64>>,
+    /// Stiffness-proportional coefficient (s).
+    pub beta: Option<Spanned<f64>>,
+}
+
+/// A beam cross-section: a generated shape or a mesh file.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawSection {
+    /// `"rectangle"`, `"circle"`, `"tube"`, `"box"` or `"mesh"`.
+    pub shape: Option<Spanned<String>>,
+    /// Circle: radius (m).
+    pub radius: Option<Spanned<f64>>,
+    /// Rectangle and box: width along x₂ (m).
+    pub width: Option<Spanned<f64>>,
+    /// Rectangle and box: height along x₃ (m).
+    pub height: Option<Spanned<f64>>,
+    /// Rectangle and circle: material name.
+    pub material: Option<Spanned<String>>,
+    /// Rectangle and circle: fibre angle from the beam axis about x₃ (degrees, default 0).
+    pub angle: Option<Spanned<f64>>,
+    /// Rectangle and box: elements `[along the width, along the height]`; circle: `[around the
+    /// rim, from the core to the rim]`.
+    pub elements: Option<Spanned<Vec<Spanned<i64>>>>,
+    /// Tube: inner radius (m).
+    pub inner_radius: Option<Spanned<f64>>,
+    /// Tube: elements around the circumference (default 48).
+    pub elements_around: Option<Spanned<i64>>,
+    /// Tube: plies from the inside out.
+    pub plies: Option<Spanned<Vec<Spanned<RawSectionPly>>>>,
+    /// Tube (instead of `plies`) and box (all four walls): a `[laminate.*]` name, bottom ply
+    /// innermost.
+    pub laminate: Option<Spanned<String>>,
+    /// Tube with `laminate`, and box: elements through each ply's thickness (default 2 / 1).
+    pub elements_per_ply: Option<Spanned<i64>>,
+    /// Box: a laminate name per wall (`top`, `bottom`, `left`, `right`), innermost ply first.
+    pub walls: Option<Spanned<RawWalls>>,
+    /// Mesh: path of a Gmsh `.msh` (v4.1 ASCII) or simple-format file, relative to the deck.
+    pub file: Option<Spanned<String>>,
+    /// Mesh: `"gmsh"` or `"simple"` (default from the extension: `.msh` is Gmsh).
+    pub format: Option<Spanned<String>>,
+    /// Mesh (Gmsh): the properties of each physical surface group, by name.
+    pub regions: Option<Spanned<BTreeMap<String, Spanned<RawRegion>>>>,
+}
+
+/// A ply of a tube wall.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawSectionPly {
+    pub material: Option<Spanned<String>>,
+    pub thickness: Option<Spanned<f64>>,
+    /// Fibre angle from the beam axis about the wall normal (degrees).
+    pub angle: Option<Spanned<f64>>,
+    /// Elements through the thickness (default 2).
+    pub elements: Option<Spanned<i64>>,
+}
+
+/// Laminates of the four walls of a box.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawWalls {
+    pub top: Option<Spanned<String>>,
+    pub bottom: Option<Spanned<String>>,
+    pub left: Option<Spanned<String>>,
+    pub right: Option<Spanned<String>>,
+}
+
+/// A Gmsh physical group's material, ply angle and wall frame.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawRegion {
+    pub material: Option<Spanned<String>>,
+    /// Ply angle (degrees, default 0).
+    pub angle: Option<Spanned<f64>>,
+    /// `"tangent"` (straight wall, default) or `"radial"` (wall curved around `centre`).
+    pub frame: Option<Spanned<String>>,
+    /// With `frame = "tangent"`: angle of the wall tangent from x₂ towards x₃ (degrees, default 0).
+    pub tangent_angle: Option<Spanned<f64>>,
+    /// With `frame = "radial"`: the centre `[x₂, x₃]` (m, default `[0, 0]`).
+    pub centre: Option<Spanned<[f64; 2]>>,
+}
+
+/// A design variable as written.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawDesign {
+    /// `"ply-angle"` (the default and, for now, the only kind).
+    pub kind: Option<Spanned<String>>,
+    /// The laminate whose plies move.
+    pub laminate: Option<Spanned<String>>,
+    /// Indices of the plies (as listed in the deck, from 0); default: all of them.
+    pub plies: Option<Spanned<Vec<i64>>>,
+    /// `dθ_i/db` of each listed ply (default 1; e.g. `[1, -1]` for a `[θ/−θ]` pair).
+    pub factors: Option<Spanned<Vec<f64>>>,
+}
+
+/// A scalar objective of a response history.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawObjective {
+    /// A `[response.*]` name.
+    pub response: Option<Spanned<String>>,
+    /// `"integral"`, `"mean"`, `"rms"`, `"max"`, `"min"` or `"at"`.
+    pub kind: Option<Spanned<String>>,
+    /// With `kind = "at"`: the time (s).
+    pub time: Option<Spanned<f64>>,
+}
+
+/// Settings of the direct sensitivity analysis.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawSensitivity {
+    /// `false` skips the sensitivities (e.g. in a sweep); default `true` when the deck declares
+    /// design variables.
+    pub enabled: Option<Spanned<bool>>,
+    /// `"direct"` (exact derivative of the discrete solution, default), `"simultaneous"` or
+    /// `"corrector"`.
+    pub method: Option<Spanned<String>>,
+    /// Mode derivatives: `"updated"` (default) or `"fixed"`.
+    pub modes: Option<Spanned<String>>,
+    /// Include the sensitivities in the step-size control (default `false`).
+    pub error_control: Option<Spanned<bool>>,
+}
+
+/// Finite-difference comparisons to run.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawFiniteDifferences {
+    /// `false` skips the comparisons (default `true`).
+    pub enabled: Option<Spanned<bool>>,
+    /// `"forward"` (default) or `"central"`.
+    pub scheme: Option<Spanned<String>>,
+    /// `"relative"` (default: δ = size·|b|) or `"absolute"` (δ = size, degrees).
+    pub perturbation: Option<Spanned<String>>,
+    /// Perturbation sizes.
+    pub sizes: Option<Spanned<Vec<f64>>>,
+    /// `"replay"` (the nominal step sequence, default), `"adaptive"` (independent runs) or
+    /// `"both"`.
+    pub steps: Option<Spanned<String>>,
+}
+
+/// A rigid body.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawRigid {
+    /// Mass (kg).
+    pub mass: Option<Spanned<f64>>,
+    /// Inertia about the centre of mass in body axes (kg·m²): `[Ixx, Iyy, Izz]` or a 3×3 matrix.
+    pub inertia: Option<Spanned<toml::Value>>,
+    /// Initial position of the centre of mass (m).
+    pub position: Option<Spanned<[f64; 3]>>,
+    /// Initial orientation: rotation about `axis` by `angle` (body axes → global).
+    pub orientation: Option<Spanned<RawRotation>>,
+    /// Initial velocity of the centre of mass (m/s).
+    pub velocity: Option<Spanned<[f64; 3]>>,
+    /// Initial angular velocity, global components (deg/s, or strings with units).
+    pub angular_velocity: Option<Spanned<[toml::Value; 3]>>,
+}
+
+/// A rotation by `angle` about `axis`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawRotation {
+    pub axis: Option<Spanned<[f64; 3]>>,
+    pub angle: Option<Spanned<toml::Value>>,
+}
+
+/// Where a joint or force acts.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawMarker {
+    /// A rigid or flexible body name, or `"ground"`.
+    pub body: Option<Spanned<String>>,
+    /// A point, global coordinates in the initial configuration (m).
+    pub point: Option<Spanned<[f64; 3]>>,
+    /// A node of a flexible body (index from 0), instead of `point`.
+    pub node: Option<Spanned<i64>>,
+    /// The joint axis, global components (default z).
+    pub axis: Option<Spanned<[f64; 3]>>,
+    /// A direction normal to the axis from which driver angles are measured (default: any).
+    pub reference: Option<Spanned<[f64; 3]>>,
+}
+
+/// A joint or driver between two markers.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawJoint {
+    /// `"spherical"`, `"revolute"`, `"universal"`, `"cylindrical"`, `"translational"`,
+    /// `"fixed"`, `"angle-driver"` or `"distance-driver"`.
+    pub kind: Option<Spanned<String>>,
+    pub a: Option<Spanned<RawMarker>>,
+    pub b: Option<Spanned<RawMarker>>,
+    /// Drivers: the prescribed relative angle (degrees) or distance (m) in time.
+    pub motion: Option<Spanned<RawMotion>>,
+}
+
+/// A prescribed motion `f(t)`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawMotion {
+    /// `"constant-speed"`, `"polynomial"` or `"ramp"`.
+    pub kind: Option<Spanned<String>>,
+    /// Constant speed: value at t = 0.
+    pub initial: Option<Spanned<toml::Value>>,
+    /// Constant speed: rate (deg/s or m/s; strings with units for angles).
+    pub rate: Option<Spanned<toml::Value>>,
+    /// Polynomial: `f = Σ c_i tⁱ` (degrees·s⁻ⁱ or m·s⁻ⁱ).
+    pub coefficients: Option<Spanned<Vec<f64>>>,
+    /// Ramp: from `from` (held until `t0`) to `to` (reached at `t1`) with zero end velocity and
+    /// acceleration.
+    pub from: Option<Spanned<toml::Value>>,
+    pub to: Option<Spanned<toml::Value>>,
+    pub t0: Option<Spanned<f64>>,
+    pub t1: Option<Spanned<f64>>,
+}
+
+/// A force element.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawForce {
+    /// `"gravity"`, `"point-force"`, `"point-torque"` or `"spring-damper"`.
+    pub kind: Option<Spanned<String>>,
+    /// Gravity: acceleration (m/s²).
+    pub acceleration: Option<Spanned<[f64; 3]>>,
+    /// Point force/torque: where.
+    pub at: Option<Spanned<RawMarker>>,
+    /// Point force/torque: constant value (N or N·m).
+    pub value: Option<Spanned<[f64; 3]>>,
+    /// Point force/torque: piecewise-linear table.
+    pub table: Option<Spanned<RawTable>>,
+    /// Point force/torque: `"global"` (default) or `"body"` components.
+    pub frame: Option<Spanned<String>>,
+    /// Spring–damper ends.
+    pub a: Option<Spanned<RawMarker>>,
+    pub b: Option<Spanned<RawMarker>>,
+    /// Spring–damper: stiffness (N/m), damping (N·s/m), free length (m, default: the initial
+    /// distance).
+    pub stiffness: Option<Spanned<f64>>,
+    pub damping: Option<Spanned<f64>>,
+    pub free_length: Option<Spanned<f64>>,
+}
+
+/// `{ times = [...], values = [[x, y, z], ...] }`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawTable {
+    pub times: Option<Spanned<Vec<f64>>>,
+    pub values: Option<Spanned<Vec<[f64; 3]>>>,
+}
+
+/// A requested response (time history).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawResponse {
+    /// `"position"`, `"velocity"`, `"nodal-displacement"`, `"mid-node-deflection"`,
+    /// `"reaction"`, `"modal"`, `"energy"` or `"constraint-violation"`.
+    pub kind: Option<Spanned<String>>,
+    pub body: Option<Spanned<String>>,
+    pub joint: Option<Spanned<String>>,
+    /// `"x"`, `"y"`, `"z"` (positions, velocities, forces), `"ux"`…`"rz"` (nodal
+    /// displacements), `"fx"`…`"mz"` (reactions).
+    pub component: Option<Spanned<String>>,
+    pub node: Option<Spanned<i64>>,
+    /// Mid-node deflection: `[first, middle, last]` nodes (default for a beam: ends and middle).
+    pub nodes: Option<Spanned<[i64; 3]>>,
+    /// Mid-node deflection: normal of the mechanism plane (default z).
+    pub normal: Option<Spanned<[f64; 3]>>,
+    /// Modal coordinate: mode number from 1.
+    pub mode: Option<Spanned<i64>>,
+}
+
+/// Settings of the time integration.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawAnalysis {
+    /// Start time (s, default 0).
+    pub t_start: Option<Spanned<f64>>,
+    /// End time (s).
+    pub t_end: Option<Spanned<f64>>,
+    /// Interval of the output times (s, default (t_end − t_start)/500).
+    pub output_step: Option<Spanned<f64>>,
+    /// `"adaptive"` (default) or `"fixed"`.
+    pub integrator: Option<Spanned<String>>,
+    /// Adaptive: relative and absolute tolerances (defaults 1e-6, 1e-8).
+    pub rtol: Option<Spanned<f64>>,
+    pub atol: Option<Spanned<f64>>,
+    /// Adaptive: highest BDF order (1–5, default 5); fixed: the order (default 2).
+    pub order: Option<Spanned<i64>>,
+    /// Fixed: the step (s).
+    pub step: Option<Spanned<f64>>,
+    /// Baumgarte stabilisation `{ alpha, beta }` (1/s, default 1 and 1), or `false`.
+    pub baumgarte: Option<Spanned<toml::Value>>,
+    /// Redundant constraint equations: `"remove"` (default) or `"error"`.
+    pub redundant: Option<Spanned<String>>,
 }

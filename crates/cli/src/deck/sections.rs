@@ -5,89 +5,12 @@ use std::path::Path;
 
 use laminate::OrthotropicMaterial;
 use section::{BoxWalls, PlySpec, RegionSpec, SectionMesh, WallFrame};
-use serde::Deserialize;
 use toml::Spanned;
 
 use super::check::{count, finite, not_applicable, positive, required, span};
 use super::laminates::{LaminateModel, suggestion};
+use super::raw::RawSection;
 use super::{DeckError, Source};
-
-/// A beam cross-section: a generated shape or a mesh file.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RawSection {
-    /// `"rectangle"`, `"circle"`, `"tube"`, `"box"` or `"mesh"`.
-    pub shape: Option<Spanned<String>>,
-    /// Circle: radius (m).
-    pub radius: Option<Spanned<f64>>,
-    /// Rectangle and box: width along x₂ (m).
-    pub width: Option<Spanned<f64>>,
-    /// Rectangle and box: height along x₃ (m).
-    pub height: Option<Spanned<f64>>,
-    /// Rectangle and circle: material name.
-    pub material: Option<Spanned<String>>,
-    /// Rectangle and circle: fibre angle from the beam axis about x₃ (degrees, default 0).
-    pub angle: Option<Spanned<f64>>,
-    /// Rectangle and box: elements `[along the width, along the height]`; circle: `[around the
-    /// rim, from the core to the rim]`.
-    pub elements: Option<Spanned<Vec<Spanned<i64>>>>,
-    /// Tube: inner radius (m).
-    pub inner_radius: Option<Spanned<f64>>,
-    /// Tube: elements around the circumference (default 48).
-    pub elements_around: Option<Spanned<i64>>,
-    /// Tube: plies from the inside out.
-    pub plies: Option<Spanned<Vec<Spanned<RawSectionPly>>>>,
-    /// Tube (instead of `plies`) and box (all four walls): a `[laminate.*]` name, bottom ply
-    /// innermost.
-    pub laminate: Option<Spanned<String>>,
-    /// Tube with `laminate`, and box: elements through each ply's thickness (default 2 / 1).
-    pub elements_per_ply: Option<Spanned<i64>>,
-    /// Box: a laminate name per wall (`top`, `bottom`, `left`, `right`), innermost ply first.
-    pub walls: Option<Spanned<RawWalls>>,
-    /// Mesh: path of a Gmsh `.msh` (v4.1 ASCII) or simple-format file, relative to the deck.
-    pub file: Option<Spanned<String>>,
-    /// Mesh: `"gmsh"` or `"simple"` (default from the extension: `.msh` is Gmsh).
-    pub format: Option<Spanned<String>>,
-    /// Mesh (Gmsh): the properties of each physical surface group, by name.
-    pub regions: Option<Spanned<BTreeMap<String, Spanned<RawRegion>>>>,
-}
-
-/// A ply of a tube wall.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RawSectionPly {
-    pub material: Option<Spanned<String>>,
-    pub thickness: Option<Spanned<f64>>,
-    /// Fibre angle from the beam axis about the wall normal (degrees).
-    pub angle: Option<Spanned<f64>>,
-    /// Elements through the thickness (default 2).
-    pub elements: Option<Spanned<i64>>,
-}
-
-/// Laminates of the four walls of a box.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RawWalls {
-    pub top: Option<Spanned<String>>,
-    pub bottom: Option<Spanned<String>>,
-    pub left: Option<Spanned<String>>,
-    pub right: Option<Spanned<String>>,
-}
-
-/// A Gmsh physical group's material, ply angle and wall frame.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RawRegion {
-    pub material: Option<Spanned<String>>,
-    /// Ply angle (degrees, default 0).
-    pub angle: Option<Spanned<f64>>,
-    /// `"tangent"` (straight wall, default) or `"radial"` (wall curved around `centre`).
-    pub frame: Option<Spanned<String>>,
-    /// With `frame = "tangent"`: angle of the wall tangent from x₂ towards x₃ (degrees, default 0).
-    pub tangent_angle: Option<Spanned<f64>>,
-    /// With `frame = "radial"`: the centre `[x₂, x₃]` (m, default `[0, 0]`).
-    pub centre: Option<Spanned<[f64; 2]>>,
-}
 
 /// A validated section.
 #[derive(Debug, Clone)]
