@@ -17,7 +17,7 @@ use crate::body::{BodyId, mode_vec, pose};
 use crate::joint::JointId;
 use crate::model::Model;
 use crate::sensitivity::{DesignModel, SensitivityError, SensitivityRun, seeded};
-use crate::system::MultibodySystem;
+use crate::system::{MultibodySystem, Output};
 
 /// An output quantity of the model at one state.
 #[derive(Clone, Debug, PartialEq)]
@@ -47,9 +47,66 @@ pub enum Response {
     ReactionForce { joint: JointId, axis: usize },
     /// Component `i` of the state `y = [q; v]`.
     State(usize),
+    /// Component `axis` of the reaction moment of a joint on the body of its marker `b` about
+    /// that marker's point, global (N·m). Values only: no sensitivities.
+    ReactionMoment { joint: JointId, axis: usize },
+    /// Total mechanical energy (J). Values only: no sensitivities.
+    Energy,
+    /// `max |Φ|` over all constraint rows (m). Values only: no sensitivities.
+    ConstraintViolation,
 }
 
 impl Response {
+    /// Whether the response has design sensitivities ([`Self::evaluate`] refuses the others).
+    pub fn differentiable(&self) -> bool {
+        !matches!(
+            self,
+            Response::ReactionMoment { .. } | Response::Energy | Response::ConstraintViolation
+        )
+    }
+
+    /// The value of the response in a recorded output of `model` (the same value
+    /// [`Self::evaluate`] gives at that state, for the responses that have one).
+    pub fn value(&self, model: &Model<f64>, o: &Output) -> f64 {
+        match *self {
+            Response::BodyPosition { body, axis } => o.positions[body.0][axis],
+            Response::NodalDisplacement { body, node, dof } => {
+                o.nodal_displacements[body.0][node][dof]
+            }
+            Response::MidNodeDeflection {
+                body,
+                first,
+                mid,
+                last,
+                normal,
+            } => {
+                let crate::Body::Flexible(f) = model.body(body) else {
+                    return f64::NAN;
+                };
+                let x0 = &f.modal.node_positions;
+                let x = |k: usize| {
+                    let u = o.nodal_displacements[body.0][k];
+                    o.positions[body.0]
+                        + o.orientations[body.0] * (x0[k] + Vector3::new(u[0], u[1], u[2]))
+                };
+                let (a, m, b) = (x(first), x(mid), x(last));
+                let dir = (b - a).normalize();
+                dir.cross(&(m - a)).dot(&normal.normalize()) / (x0[last] - x0[first]).norm()
+            }
+            Response::ReactionForce { joint, axis } => o.reactions[joint.0].force_on_b[axis],
+            Response::ReactionMoment { joint, axis } => o.reactions[joint.0].moment_on_b[axis],
+            Response::State(i) => {
+                if i < o.q.len() {
+                    o.q[i]
+                } else {
+                    o.v[i - o.q.len()]
+                }
+            }
+            Response::Energy => o.energy.total(),
+            Response::ConstraintViolation => o.position_violation,
+        }
+    }
+
     /// The response at `(t, q, v)` with the multipliers `lambda` (one per constraint row, zero
     /// for removed rows).
     pub fn evaluate<P: Scalar, S: Scalar + From<P>>(
@@ -141,6 +198,11 @@ impl Response {
                 } else {
                     Err(bad("state index out of range"))
                 }
+            }
+            Response::ReactionMoment { .. } | Response::Energy | Response::ConstraintViolation => {
+                Err(bad(
+                    "reaction moments, energies and constraint violations have no sensitivities",
+                ))
             }
         }
     }
