@@ -16,3 +16,4 @@ pub mod files;
 pub mod plot;
 mod progress;
 pub mod results;
+pub(crate) mod study;

@@ -42,7 +42,7 @@ pub fn run(path: &Path, overrides: &[String]) -> Result<String, CliError> {
     );
     let mechanism = raw.analysis.is_some() || !raw.joint.is_empty() || !raw.rigid.is_empty();
     if mechanism {
-        let mech = super::run::build_mechanism(&src, &raw, true)?;
+        let mech = crate::study::Study::validate(&src, &raw, true)?;
         let t0 = mech.times[0];
         let fail = |m: String| CliError::Runtime(format!("{}: {m}", src.file.display()));
         let mut system = MultibodySystem::new_at(mech.model.clone(), t0, &mech.state, mech.policy)

@@ -2,11 +2,13 @@
 
 pub mod check;
 pub mod compare;
+mod compute;
 pub mod laminate;
 pub mod modes;
 pub mod output;
 pub mod report;
 pub mod run;
+mod run_files;
 pub mod section;
 pub(crate) mod sensitivity;
 pub mod sweep;

@@ -22,13 +22,14 @@ use std::time::Instant;
 
 use serde_json::json;
 
-use super::run::{Mechanism, Response, build_mechanism, compute};
+use super::compute::compute;
 use super::sensitivity::relative_difference;
 use crate::deck::design::{FdDef, FdSteps};
 use crate::deck::{self, RawDeck, Source};
 use crate::error::CliError;
 use crate::files::write_atomic;
 use crate::plot::{Figure, Panel, Series};
+use crate::study::Study;
 
 /// Forward-difference sizes of Figs. 11–13 (relative).
 const SIZES: [f64; 3] = [0.001, 0.01, 0.05];
@@ -143,13 +144,13 @@ fn default_out(deck: &Path) -> PathBuf {
 struct Subject {
     variable: String,
     laminate: String,
-    /// Index in `Mechanism::responses`.
+    /// Index in `Study::responses`.
     response: usize,
     response_name: String,
     other_variables: Vec<String>,
 }
 
-fn subject(src: &Source, mech: &Mechanism) -> Result<Subject, CliError> {
+fn subject(src: &Source, mech: &Study) -> Result<Subject, CliError> {
     let Some(var) = mech.design.variables.first() else {
         return Err(CliError::Input(src.error(
             None,
@@ -161,7 +162,7 @@ fn subject(src: &Source, mech: &Mechanism) -> Result<Subject, CliError> {
     let Some(response) = mech
         .responses
         .iter()
-        .position(|(_, r, _)| matches!(r, Response::MidNodeDeflection { .. }))
+        .position(|r| matches!(r.response, mbs::Response::MidNodeDeflection { .. }))
     else {
         return Err(CliError::Input(src.error(
             None,
@@ -175,7 +176,7 @@ fn subject(src: &Source, mech: &Mechanism) -> Result<Subject, CliError> {
         variable: var.name.clone(),
         laminate: var.laminate.clone(),
         response,
-        response_name: mech.responses[response].0.clone(),
+        response_name: mech.responses[response].name.clone(),
         other_variables: mech.design.variables[1..]
             .iter()
             .map(|v| v.name.clone())
@@ -184,7 +185,7 @@ fn subject(src: &Source, mech: &Mechanism) -> Result<Subject, CliError> {
 }
 
 /// The overrides that put the first design variable at `b`.
-fn layup_overrides(mech: &Mechanism, b: f64) -> Vec<String> {
+fn layup_overrides(mech: &Study, b: f64) -> Vec<String> {
     mech.design.variables[0].overrides(b)
 }
 
@@ -205,7 +206,7 @@ fn run_one(
         args.push(format!("analysis.step={fixed_step:?}"));
     }
     let (src, raw) = deck::load(path, &args)?;
-    let mut mech = build_mechanism(&src, &raw, true)?;
+    let mut mech = Study::validate(&src, &raw, true)?;
     let d = &mut mech.design;
     d.enabled = true;
     d.fixed_modes = kind == Kind::FixedModes;
@@ -232,7 +233,7 @@ fn run_one(
             steps: vec![FdSteps::Replay],
         }),
     };
-    let c = compute(&src, &mech)?;
+    let c = compute(&src, &raw, &mech)?;
     let sens = c
         .sensitivities
         .as_ref()
@@ -557,7 +558,7 @@ pub fn run(path: &Path, overrides: &[String], req: &ReportRequest) -> Result<Str
     let started = Instant::now();
     let angles = parse_layups(req.layups)?;
     let (src, raw) = deck::load(path, overrides)?;
-    let nominal = build_mechanism(&src, &raw, false)?;
+    let nominal = Study::validate(&src, &raw, false)?;
     let s = subject(&src, &nominal)?;
     let output_step = match nominal.times.as_slice() {
         [a, b, ..] => b - a,
@@ -589,7 +590,7 @@ pub fn run(path: &Path, overrides: &[String], req: &ReportRequest) -> Result<Str
         let mut all = overrides.to_vec();
         all.extend_from_slice(args);
         let (src, raw) = deck::load(path, &all)?;
-        build_mechanism(&src, &raw, false)?;
+        Study::validate(&src, &raw, false)?;
     }
     let results = run_all(
         path,
@@ -687,7 +688,7 @@ pub fn run(path: &Path, overrides: &[String], req: &ReportRequest) -> Result<Str
 
 struct Settings<'a> {
     raw: &'a RawDeck,
-    nominal: &'a Mechanism,
+    nominal: &'a Study,
     output_step: f64,
     fixed_step: f64,
     jobs: usize,

@@ -11,15 +11,15 @@
 use nalgebra::DMatrix;
 
 use mbs::{
-    BdfOptions, Body, DesignModel, FdScheme, FlexibleBody, Model, MultibodySystem, Objective,
-    Output, Perturbation, SensitivityOptions, SensitivityStatistics, State, Statistics,
+    BdfOptions, Body, DesignModel, FdScheme, FlexibleBody, Model, MultibodySystem, Output,
+    Perturbation, SensitivityOptions, SensitivityStatistics, State, Statistics,
 };
 use sens::Dual;
 
-use super::run::{Mechanism, build_mechanism, evaluate};
-use crate::deck::Source;
-use crate::deck::design::{FdSteps, ObjectiveKind, SensitivityScheme};
+use crate::deck::design::{FdSteps, SensitivityScheme};
+use crate::deck::{RawDeck, Source};
 use crate::error::CliError;
+use crate::study::Study;
 
 /// Results of the direct sensitivity analysis, at the output times.
 pub(crate) struct Sensitivities {
@@ -42,7 +42,7 @@ fn runtime(src: &Source, m: impl std::fmt::Display) -> CliError {
 /// The analysis with its direct sensitivities, from the assembled `state`.
 pub(crate) fn analyse(
     src: &Source,
-    mech: &Mechanism,
+    mech: &Study,
     system: &mut MultibodySystem,
     state: &State,
 ) -> Result<Sensitivities, CliError> {
@@ -57,7 +57,7 @@ pub(crate) fn analyse(
 
 fn analyse_chunked<const N: usize>(
     src: &Source,
-    mech: &Mechanism,
+    mech: &Study,
     system: &mut MultibodySystem,
     state: &State,
 ) -> Result<Sensitivities, CliError> {
@@ -74,7 +74,8 @@ fn analyse_chunked<const N: usize>(
         .collect();
     let mut frequencies = Vec::new();
     for part in &mech.flexible {
-        let fem_error = |e| super::modes::fem_error(src, &part.name, part.span.clone(), e);
+        let fem_error =
+            |e| crate::study::flexible::fem_error(src, &part.name, part.span.clone(), e);
         let built = &part.built;
         let (_, derivs) = fem::analysis_derivatives::<N, _>(
             &built.mesh,
@@ -144,14 +145,15 @@ fn analyse_chunked<const N: usize>(
         .collect::<Result<Vec<_>, _>>()
         .map_err(|e| runtime(src, e))?;
     let mut responses = Vec::new();
-    for (_, r, _) in &mech.responses {
-        responses.push(match r.differentiable(&mech.model, &mech.joint_ids) {
-            None => None,
-            Some(resp) => Some(
-                mbs::response_history(system, &design, &sampled, &resp)
+    for r in &mech.responses {
+        responses.push(if r.response.differentiable() {
+            Some(
+                mbs::response_history(system, &design, &sampled, &r.response)
                     .map_err(|e| runtime(src, e))?
                     .gradients,
-            ),
+            )
+        } else {
+            None
         });
     }
     Ok(Sensitivities {
@@ -169,7 +171,7 @@ pub(crate) struct ObjectiveResult {
     pub(crate) name: String,
     pub(crate) response: String,
     pub(crate) unit: &'static str,
-    pub(crate) kind: ObjectiveKind,
+    pub(crate) kind: mbs::Objective,
     pub(crate) value: f64,
     /// Where a maximum or minimum occurs.
     pub(crate) time: Option<f64>,
@@ -177,22 +179,11 @@ pub(crate) struct ObjectiveResult {
     pub(crate) gradient: Vec<f64>,
 }
 
-fn objective(kind: ObjectiveKind) -> Objective {
-    match kind {
-        ObjectiveKind::Integral => Objective::Integral,
-        ObjectiveKind::Mean => Objective::Mean,
-        ObjectiveKind::Rms => Objective::Rms,
-        ObjectiveKind::Max => Objective::Max,
-        ObjectiveKind::Min => Objective::Min,
-        ObjectiveKind::At(t) => Objective::At(t),
-    }
-}
-
 /// The deck's objectives of the response histories `values` (one per response, at the output
 /// times) with their gradients from `gradients` when given.
 pub(crate) fn objectives(
     src: &Source,
-    mech: &Mechanism,
+    mech: &Study,
     values: &[Vec<f64>],
     gradients: Option<&[Option<DMatrix<f64>>]>,
 ) -> Result<Vec<ObjectiveResult>, CliError> {
@@ -203,22 +194,20 @@ pub(crate) fn objectives(
             let i = mech
                 .responses
                 .iter()
-                .position(|(n, _, _)| *n == o.response)
+                .position(|r| r.name == o.response)
                 .expect("validated objective");
             let g = gradients.and_then(|g| g[i].as_ref());
-            let v = objective(o.kind)
-                .evaluate(&mech.times, &values[i], g)
-                .map_err(|e| {
-                    CliError::Input(src.error(
-                        None,
-                        Some(format!("objective.{}", o.name)),
-                        e.to_string(),
-                    ))
-                })?;
+            let v = o.kind.evaluate(&mech.times, &values[i], g).map_err(|e| {
+                CliError::Input(src.error(
+                    None,
+                    Some(format!("objective.{}", o.name)),
+                    e.to_string(),
+                ))
+            })?;
             Ok(ObjectiveResult {
                 name: o.name.clone(),
                 response: o.response.clone(),
-                unit: mech.responses[i].2,
+                unit: mech.responses[i].unit,
                 kind: o.kind,
                 value: v.value,
                 time: v.time,
@@ -244,55 +233,22 @@ pub(crate) struct FdCase {
     pub(crate) objectives: Vec<Vec<f64>>,
 }
 
-/// Relative gap below which eigenvalues count as repeated when perturbed modes are tracked.
-const CLUSTER_TOL: f64 = 1e-6;
-
 /// The response histories (differentiable responses, concatenated) and objective values of
-/// the deck with the design `b`: the whole chain rebuilt from a perturbed deck.
+/// the deck with the design `b`: the flexible bodies rebuilt at `b` ([`Study::model_at`]).
 fn perturbed_outputs(
     src: &Source,
-    mech: &Mechanism,
+    raw: &RawDeck,
+    mech: &Study,
     nominal: &MultibodySystem,
     state: &State,
     b: &[f64],
     options: &BdfOptions,
 ) -> Result<Vec<f64>, CliError> {
-    let args: Vec<String> = mech
-        .design
-        .variables
-        .iter()
-        .zip(b)
-        .flat_map(|(v, &bj)| {
-            if bj == v.value {
-                Vec::new()
-            } else {
-                v.overrides(bj)
-            }
-        })
-        .collect();
-    let psrc = Source {
-        file: src.file.clone(),
-        text: src.text.clone(),
-        overrides: Vec::new(),
-    }
-    .with_overrides(&args)?;
-    let raw = psrc.parse()?;
-    let mut pmech = build_mechanism(&psrc, &raw, false)?;
-    // the perturbed modes in the nominal modes' basis (any basis of a repeated frequency, any
-    // sign), so that the nominal state means the same motion
-    for part in &mech.flexible {
-        if let (Body::Flexible(reference), Body::Flexible(body)) =
-            (mech.model.body(part.id), pmech.model.body_mut(part.id))
-        {
-            body.modal
-                .align_to(&reference.modal, CLUSTER_TOL)
-                .map_err(|e| runtime(src, format!("body `{}`: {e}", part.name)))?;
-        }
-    }
+    let model = mech.model_at(src, raw, b)?;
     if let Some(p) = &mech.progress {
         p.next_phase();
     }
-    let mut sys = nominal.with_model(pmech.model);
+    let mut sys = nominal.with_model(model);
     let mut st = state.clone();
     let t0 = mech.times[0];
     sys.assemble(t0, &mut st, 1e-10)
@@ -301,9 +257,13 @@ fn perturbed_outputs(
         .map_err(|e| runtime(src, format!("perturbed design {b:?}: {e}")))?;
     let mut out = Vec::new();
     let mut values = Vec::new();
-    for (_, r, _) in &mech.responses {
-        let v: Vec<f64> = sim.outputs.iter().map(|o| evaluate(r, o)).collect();
-        if r.differentiable(&mech.model, &mech.joint_ids).is_some() {
+    for r in &mech.responses {
+        let v: Vec<f64> = sim
+            .outputs
+            .iter()
+            .map(|o| r.response.value(sys.model(), o))
+            .collect();
+        if r.response.differentiable() {
             out.extend_from_slice(&v);
         }
         values.push(v);
@@ -317,7 +277,8 @@ fn perturbed_outputs(
 /// Run the deck's finite-difference comparisons.
 pub(crate) fn finite_differences(
     src: &Source,
-    mech: &Mechanism,
+    raw: &RawDeck,
+    mech: &Study,
     nominal: &MultibodySystem,
     state: &State,
     replay: &BdfOptions,
@@ -325,7 +286,7 @@ pub(crate) fn finite_differences(
     let Some(fd) = &mech.design.finite_differences else {
         return Ok(Vec::new());
     };
-    let b: Vec<f64> = mech.design.variables.iter().map(|v| v.value).collect();
+    let b = mech.design_values();
     let m = b.len();
     let n = mech.times.len();
     let scheme = if fd.central {
@@ -351,13 +312,13 @@ pub(crate) fn finite_differences(
             FdSteps::Adaptive => mech.options.clone(),
         };
         let results = mbs::finite_differences(&b, scheme, &perturbations, |bb| {
-            perturbed_outputs(src, mech, nominal, state, bb, &options)
+            perturbed_outputs(src, raw, mech, nominal, state, bb, &options)
         })?;
         for r in results {
             let mut responses = Vec::new();
             let mut row = 0;
-            for (_, resp, _) in &mech.responses {
-                if resp.differentiable(&mech.model, &mech.joint_ids).is_some() {
+            for resp in &mech.responses {
+                if resp.response.differentiable() {
                     responses.push(Some(r.derivative.rows(row, n).into_owned()));
                     row += n;
                 } else {

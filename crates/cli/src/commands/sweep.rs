@@ -14,10 +14,11 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use serde_json::Value;
 
-use super::run::{RunRequest, build_mechanism};
+use super::run::RunRequest;
 use crate::deck::{self, DeckError};
 use crate::error::CliError;
 use crate::files::write_atomic;
+use crate::study::Study;
 
 /// What `flexsens sweep` was asked for.
 pub struct SweepRequest<'a> {
@@ -187,7 +188,7 @@ pub fn run(
     for c in &cases {
         let s = case_overrides(path, overrides, &axes, c)?;
         let (src, raw) = deck::load(path, &s)?;
-        build_mechanism(&src, &raw, true)?;
+        Study::validate(&src, &raw, true)?;
         sets.push(s);
     }
     let out = req.out.map(Path::to_path_buf).unwrap_or_else(|| {

@@ -6,6 +6,8 @@
 //! factor. Every section built from the laminate (tube, box) and every shell body laminated
 //! with it follows; the derivatives are per degree.
 
+use laminate::LaminateError;
+use mbs::Objective;
 use toml::Spanned;
 
 use super::check::{finite, positive, span};
@@ -28,7 +30,8 @@ pub struct DesignVariable {
 }
 
 impl DesignVariable {
-    /// `--set` overrides of the deck for the design `b` of this variable.
+    /// `--set` overrides of the deck that put this variable at `b` (the lay-ups of
+    /// `flexsens report`, which runs whole decks).
     pub fn overrides(&self, b: f64) -> Vec<String> {
         self.deck_plies
             .iter()
@@ -41,29 +44,35 @@ impl DesignVariable {
             })
             .collect()
     }
-}
 
-/// What an objective computes.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum ObjectiveKind {
-    Integral,
-    Mean,
-    Rms,
-    Max,
-    Min,
-    At(f64),
-}
-
-impl ObjectiveKind {
-    pub fn label(&self) -> String {
-        match self {
-            ObjectiveKind::Integral => "integral".into(),
-            ObjectiveKind::Mean => "mean".into(),
-            ObjectiveKind::Rms => "rms".into(),
-            ObjectiveKind::Max => "max".into(),
-            ObjectiveKind::Min => "min".into(),
-            ObjectiveKind::At(t) => format!("at {t} s"),
+    /// Move the laminates to the value `b` of this variable (from the nominal laminates: each
+    /// linked ply turns by `dθ/db · (b − b0)`).
+    pub fn apply(&self, model: &mut LaminateModel, b: f64) -> Result<(), LaminateError> {
+        if b == self.value {
+            return Ok(());
         }
+        let def = model
+            .laminates
+            .get_mut(&self.laminate)
+            .expect("a validated variable names a laminate of the model");
+        let mut angles: Vec<f64> = def.stack.plies().iter().map(|p| p.angle).collect();
+        for &(p, f) in &self.stack_plies {
+            angles[p] += f * (b - self.value);
+        }
+        def.stack = def.stack.with_angles(&angles)?;
+        Ok(())
+    }
+}
+
+/// How an objective is written in tables and summaries.
+pub fn objective_label(o: &Objective) -> String {
+    match o {
+        Objective::Integral => "integral".into(),
+        Objective::Mean => "mean".into(),
+        Objective::Rms => "rms".into(),
+        Objective::Max => "max".into(),
+        Objective::Min => "min".into(),
+        Objective::At(t) => format!("at {t} s"),
     }
 }
 
@@ -72,7 +81,7 @@ impl ObjectiveKind {
 pub struct ObjectiveDef {
     pub name: String,
     pub response: String,
-    pub kind: ObjectiveKind,
+    pub kind: Objective,
 }
 
 /// Where the perturbed runs of a finite-difference comparison take their steps.
@@ -297,11 +306,11 @@ fn objective(
         )
     })?;
     let kind = match choice(src, &k("kind"), Some(kind_v), &kinds)?.unwrap_or_default() {
-        "integral" => ObjectiveKind::Integral,
-        "mean" => ObjectiveKind::Mean,
-        "rms" => ObjectiveKind::Rms,
-        "max" => ObjectiveKind::Max,
-        "min" => ObjectiveKind::Min,
+        "integral" => Objective::Integral,
+        "mean" => Objective::Mean,
+        "rms" => Objective::Rms,
+        "max" => Objective::Max,
+        "min" => Objective::Min,
         _ => {
             let t = ro.time.as_ref().ok_or_else(|| {
                 src.error(
@@ -310,10 +319,10 @@ fn objective(
                     "missing value: time (s) for kind = \"at\"",
                 )
             })?;
-            ObjectiveKind::At(finite(src, &k("time"), t, "s")?)
+            Objective::At(finite(src, &k("time"), t, "s")?)
         }
     };
-    if !matches!(kind, ObjectiveKind::At(_))
+    if !matches!(kind, Objective::At(_))
         && let Some(t) = &ro.time
     {
         return Err(src.error(

@@ -7,12 +7,15 @@
 //!
 //! Only this module knows TOML; the engine crates never see it.
 
+pub mod analysis;
 pub mod bodies;
 pub mod check;
 pub mod design;
 pub mod laminates;
+pub mod mechanism;
 pub mod overrides;
 pub mod raw;
+pub mod responses;
 pub mod sections;
 
 use std::fmt;

@@ -1,0 +1,541 @@
+//! The files and the summary of `flexsens run`: the result file (HDF5), the CSV tables, and
+//! the JSON and text summaries.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use nalgebra::DMatrix;
+
+use super::compute::Computed;
+use super::sensitivity;
+use crate::deck::design::FdSteps;
+use crate::deck::design::objective_label;
+use crate::deck::responses::ResponseDef;
+use crate::deck::{RawDeck, Source};
+use crate::results::{Attr, Group};
+use crate::study::Study;
+
+/// Unit of a derivative per degree.
+pub(crate) fn per_degree(unit: &str) -> String {
+    if unit == "1" {
+        "1/deg".into()
+    } else {
+        format!("{unit}/deg")
+    }
+}
+
+/// A row-major copy of a matrix.
+pub(crate) fn row_major(m: &DMatrix<f64>) -> Vec<f64> {
+    m.transpose().iter().copied().collect()
+}
+
+/// The result file's contents.
+pub(crate) fn results(src: &Source, mech: &Study, c: &Computed) -> Group {
+    let n = mech.times.len();
+    let outputs = &c.outputs;
+    let mut g = Group::default();
+    g.attrs.insert(
+        "flexsens_version".into(),
+        Attr::Text(env!("CARGO_PKG_VERSION").into()),
+    );
+    g.put("time", &[n], mech.times.clone()).units("s");
+    for (ResponseDef { name, unit, .. }, v) in mech.responses.iter().zip(&c.values) {
+        g.put(&format!("responses/{name}"), &[n], v.clone())
+            .units(unit);
+    }
+    for name in &mech.body_order {
+        let b = &mech.bodies[name];
+        let i = b.id.index();
+        g.put(
+            &format!("bodies/{name}/position"),
+            &[n, 3],
+            outputs
+                .iter()
+                .flat_map(|o| o.positions[i].iter().copied().collect::<Vec<_>>())
+                .collect(),
+        )
+        .units("m");
+        g.put(
+            &format!("bodies/{name}/orientation"),
+            &[n, 3, 3],
+            outputs
+                .iter()
+                .flat_map(|o| {
+                    o.orientations[i]
+                        .transpose()
+                        .iter()
+                        .copied()
+                        .collect::<Vec<_>>()
+                })
+                .collect(),
+        )
+        .units("1");
+        if b.nodes.is_some() {
+            let m = outputs[0].modal[i].len();
+            g.put(
+                &format!("bodies/{name}/modal_coordinates"),
+                &[n, m],
+                outputs.iter().flat_map(|o| o.modal[i].clone()).collect(),
+            )
+            .units("1");
+            g.put(
+                &format!("bodies/{name}/frequencies"),
+                &[b.frequencies.len()],
+                b.frequencies.clone(),
+            )
+            .units("Hz");
+        }
+    }
+    for (j, name) in mech.joint_names.iter().enumerate() {
+        g.put(
+            &format!("joints/{name}/reaction_on_b"),
+            &[n, 6],
+            outputs
+                .iter()
+                .flat_map(|o| {
+                    let r = &o.reactions[j];
+                    [
+                        r.force_on_b[0],
+                        r.force_on_b[1],
+                        r.force_on_b[2],
+                        r.moment_on_b[0],
+                        r.moment_on_b[1],
+                        r.moment_on_b[2],
+                    ]
+                })
+                .collect(),
+        )
+        .units("N, N*m");
+    }
+    g.put(
+        "constraints/position_violation",
+        &[n],
+        outputs.iter().map(|o| o.position_violation).collect(),
+    )
+    .units("m");
+    g.put(
+        "constraints/removed_position_violation",
+        &[n],
+        outputs
+            .iter()
+            .map(|o| o.removed_position_violation)
+            .collect(),
+    )
+    .units("m");
+    g.put(
+        "constraints/velocity_violation",
+        &[n],
+        outputs.iter().map(|o| o.velocity_violation).collect(),
+    )
+    .units("m/s");
+    g.put(
+        "energy/total",
+        &[n],
+        outputs.iter().map(|o| o.energy.total()).collect(),
+    )
+    .units("J");
+    let st = &c.statistics;
+    let mut counters = vec![
+        ("steps", st.steps),
+        ("rejected_steps", st.rejected_steps),
+        ("newton_failures", st.newton_failures),
+        ("newton_iterations", st.newton_iterations),
+        ("rhs_evaluations", st.rhs_evaluations),
+        ("jacobians", st.jacobians),
+        ("factorizations", st.factorizations),
+    ];
+    if let Some(s) = &c.sensitivities {
+        let ss = &s.sensitivity_statistics;
+        counters.extend([
+            ("sensitivity_dual_evaluations", ss.dual_evaluations),
+            ("sensitivity_corrector_iterations", ss.corrector_iterations),
+            ("sensitivity_direct_solves", ss.direct_solves),
+        ]);
+    }
+    for (k, v) in counters {
+        g.group("statistics")
+            .attrs
+            .insert(k.into(), Attr::I64(v as i64));
+    }
+    let vars = &mech.design.variables;
+    let m = vars.len();
+    if m > 0 {
+        g.put_text(
+            "design/names",
+            vars.iter().map(|v| v.name.clone()).collect(),
+        );
+        g.put(
+            "design/values",
+            &[m],
+            vars.iter().map(|v| v.value).collect(),
+        )
+        .units("deg");
+        g.put_text(
+            "design/laminates",
+            vars.iter().map(|v| v.laminate.clone()).collect(),
+        );
+    }
+    if let Some(s) = &c.sensitivities {
+        let method = format!(
+            "{}, {} modes",
+            mech.design.method.name(),
+            if mech.design.fixed_modes {
+                "fixed"
+            } else {
+                "updated"
+            }
+        );
+        g.group("sensitivities")
+            .attrs
+            .insert("method".into(), Attr::Text(method));
+        for (ResponseDef { name, unit, .. }, d) in mech.responses.iter().zip(&s.responses) {
+            if let Some(d) = d {
+                g.put(&format!("sensitivities/{name}"), &[n, m], row_major(d))
+                    .units(&per_degree(unit));
+            }
+        }
+        for (body, df) in &s.frequencies {
+            g.put(
+                &format!("bodies/{body}/frequency_derivatives"),
+                &[df.nrows(), m],
+                row_major(df),
+            )
+            .units("Hz/deg");
+        }
+    }
+    for o in &c.objectives {
+        let base = format!("objectives/{}", o.name);
+        g.put(&format!("{base}/value"), &[1], vec![o.value])
+            .units(o.unit);
+        if let Some(t) = o.time {
+            g.put(&format!("{base}/time"), &[1], vec![t]).units("s");
+        }
+        if !o.gradient.is_empty() {
+            g.put(&format!("{base}/gradient"), &[m], o.gradient.clone())
+                .units(&per_degree(o.unit));
+        }
+        let og = g.group(&base);
+        og.attrs
+            .insert("response".into(), Attr::Text(o.response.clone()));
+        og.attrs
+            .insert("kind".into(), Attr::Text(objective_label(&o.kind)));
+    }
+    for case in &c.fd {
+        let base = format!("finite_differences/{}", case.label);
+        for (ResponseDef { name, unit, .. }, d) in mech.responses.iter().zip(&case.responses) {
+            if let Some(d) = d {
+                g.put(&format!("{base}/{name}"), &[n, m], row_major(d))
+                    .units(&per_degree(unit));
+            }
+        }
+        for (o, d) in c.objectives.iter().zip(&case.objectives) {
+            g.put(&format!("{base}/objectives/{}", o.name), &[m], d.clone())
+                .units(&per_degree(o.unit));
+        }
+        g.put(&format!("{base}/perturbations"), &[m], case.deltas.clone())
+            .units("deg");
+        let cg = g.group(&base);
+        for (k, v) in [
+            ("scheme", if case.central { "central" } else { "forward" }),
+            (
+                "perturbation",
+                if case.relative {
+                    "relative"
+                } else {
+                    "absolute"
+                },
+            ),
+            (
+                "steps",
+                match case.steps {
+                    FdSteps::Replay => "replay",
+                    FdSteps::Adaptive => "adaptive",
+                },
+            ),
+        ] {
+            cg.attrs.insert(k.into(), Attr::Text(v.into()));
+        }
+        cg.attrs.insert("size".into(), Attr::F64(case.size));
+    }
+    g.put_text("meta/deck", vec![src.text.clone()]);
+    g.put_text("meta/deck_path", vec![src.file.display().to_string()]);
+    g.put_text("meta/overrides", src.overrides.clone());
+    g
+}
+
+/// `history.csv`: time and every response.
+pub(crate) fn history_csv(mech: &Study, c: &Computed) -> String {
+    let mut csv = String::from("time [s]");
+    for ResponseDef { name, unit, .. } in &mech.responses {
+        let _ = write!(csv, ",{name} [{unit}]");
+    }
+    csv.push('\n');
+    for (i, t) in mech.times.iter().enumerate() {
+        let _ = write!(csv, "{t:e}");
+        for v in &c.values {
+            let _ = write!(csv, ",{:e}", v[i]);
+        }
+        csv.push('\n');
+    }
+    csv
+}
+
+/// `sensitivities.csv`: time and `d(response)/d(variable)` for every response that has
+/// sensitivities and every design variable.
+pub(crate) fn sensitivities_csv(mech: &Study, c: &Computed) -> Option<String> {
+    let s = c.sensitivities.as_ref()?;
+    let vars = &mech.design.variables;
+    let mut csv = String::from("time [s]");
+    let mut columns = Vec::new();
+    for (ResponseDef { name, unit, .. }, d) in mech.responses.iter().zip(&s.responses) {
+        if let Some(d) = d {
+            for (j, v) in vars.iter().enumerate() {
+                let _ = write!(csv, ",d {name}/d {} [{}]", v.name, per_degree(unit));
+                columns.push((d, j));
+            }
+        }
+    }
+    csv.push('\n');
+    for (i, t) in mech.times.iter().enumerate() {
+        let _ = write!(csv, "{t:e}");
+        for (d, j) in &columns {
+            let _ = write!(csv, ",{:e}", d[(i, *j)]);
+        }
+        csv.push('\n');
+    }
+    Some(csv)
+}
+
+/// `gradients.csv`: one row per objective, its value and one column per design variable.
+pub(crate) fn gradients_csv(mech: &Study, c: &Computed) -> String {
+    let mut csv = String::from("objective,response,kind,value,unit,time [s]");
+    let with_gradients = c.sensitivities.is_some();
+    if with_gradients {
+        for v in &mech.design.variables {
+            let _ = write!(csv, ",d/d {} [unit/deg]", v.name);
+        }
+    }
+    csv.push('\n');
+    for o in &c.objectives {
+        let _ = write!(
+            csv,
+            "{},{},{},{:e},{},{}",
+            o.name,
+            o.response,
+            objective_label(&o.kind),
+            o.value,
+            o.unit,
+            o.time.map(|t| format!("{t:e}")).unwrap_or_default()
+        );
+        for g in &o.gradient {
+            let _ = write!(csv, ",{g:e}");
+        }
+        csv.push('\n');
+    }
+    csv
+}
+
+/// The machine-readable summary (`--json`), also the source of the table.
+pub(crate) fn summary(src: &Source, mech: &Study, c: &Computed, out: &Path) -> serde_json::Value {
+    use serde_json::json;
+    let st = &c.statistics;
+    let responses: serde_json::Map<_, _> = mech
+        .responses
+        .iter()
+        .zip(&c.values)
+        .map(|(ResponseDef { name, unit, .. }, v)| {
+            (
+                name.clone(),
+                json!({
+                    "unit": unit,
+                    "final": v.last(),
+                    "min": v.iter().copied().fold(f64::INFINITY, f64::min),
+                    "max": v.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+                }),
+            )
+        })
+        .collect();
+    let design: Vec<_> = mech
+        .design
+        .variables
+        .iter()
+        .map(|v| json!({"name": v.name, "laminate": v.laminate, "value": v.value, "unit": "deg"}))
+        .collect();
+    let objectives: Vec<_> = c
+        .objectives
+        .iter()
+        .map(|o| {
+            json!({
+                "name": o.name, "response": o.response, "kind": objective_label(&o.kind),
+                "value": o.value, "unit": o.unit, "time": o.time, "gradient": o.gradient,
+            })
+        })
+        .collect();
+    let fd: Vec<_> =
+        c.fd.iter()
+            .map(|case| {
+                let s = c
+                    .sensitivities
+                    .as_ref()
+                    .expect("comparisons need sensitivities");
+                let worst: serde_json::Map<_, _> = mech
+                    .responses
+                    .iter()
+                    .zip(case.responses.iter().zip(&s.responses))
+                    .filter_map(|(ResponseDef { name, .. }, (f, d))| {
+                        Some((
+                            name.clone(),
+                            json!(sensitivity::relative_difference(f.as_ref()?, d.as_ref()?)),
+                        ))
+                    })
+                    .collect();
+                let absolute: serde_json::Map<_, _> = mech
+                    .responses
+                    .iter()
+                    .zip(case.responses.iter().zip(&s.responses))
+                    .filter_map(|(ResponseDef { name, .. }, (f, d))| {
+                        let (f, d) = (f.as_ref()?, d.as_ref()?);
+                        Some((
+                            name.clone(),
+                            json!({"difference": (f - d).amax(), "sensitivity": d.amax()}),
+                        ))
+                    })
+                    .collect();
+                json!({
+                    "case": case.label,
+                    "max_relative_difference": worst,
+                    "max_absolute": absolute,
+                })
+            })
+            .collect();
+    json!({
+        "deck": src.file.display().to_string(),
+        "output": out.display().to_string(),
+        "t_end": mech.times.last(),
+        "outputs": mech.times.len(),
+        "steps": st.steps,
+        "rejected_steps": st.rejected_steps,
+        "rhs_evaluations": st.rhs_evaluations,
+        "max_position_violation": c.outputs.iter().map(|o| o.position_violation).fold(0.0, f64::max),
+        "max_removed_position_violation": c.outputs.iter().map(|o| o.removed_position_violation).fold(0.0, f64::max),
+        "responses": responses,
+        "design": design,
+        "objectives": objectives,
+        "finite_differences": fd,
+    })
+}
+
+/// The one-screen summary for people.
+pub(crate) fn summary_text(
+    raw: &RawDeck,
+    mech: &Study,
+    c: &Computed,
+    summary: &serde_json::Value,
+    written: &[PathBuf],
+) -> String {
+    let n = mech.times.len();
+    let st = &c.statistics;
+    let mut s = String::new();
+    if let Some(t) = &raw.title {
+        let _ = writeln!(s, "{t}");
+    }
+    let _ = writeln!(
+        s,
+        "{} bodies, {} joints; t = {} … {} s, {} output times",
+        mech.body_order.len(),
+        mech.joint_names.len(),
+        mech.times[0],
+        mech.times[n - 1],
+        n
+    );
+    let _ = writeln!(
+        s,
+        "integrator: {} steps ({} rejected), {} right-hand sides, {} Jacobians",
+        st.steps, st.rejected_steps, st.rhs_evaluations, st.jacobians
+    );
+    let _ = writeln!(
+        s,
+        "largest position-constraint violation: {:.3e} (equations dropped as redundant: {:.3e})",
+        summary["max_position_violation"].as_f64().unwrap_or(0.0),
+        summary["max_removed_position_violation"]
+            .as_f64()
+            .unwrap_or(0.0)
+    );
+    if !c.values.is_empty() {
+        let _ = writeln!(
+            s,
+            "{:<24} {:>14} {:>14} {:>14}  unit",
+            "response", "min", "max", "final"
+        );
+        for (ResponseDef { name, unit, .. }, v) in mech.responses.iter().zip(&c.values) {
+            let r = &summary["responses"][name];
+            let _ = writeln!(
+                s,
+                "{name:<24} {:>14.6e} {:>14.6e} {:>14.6e}  {unit}",
+                r["min"].as_f64().unwrap_or(0.0),
+                r["max"].as_f64().unwrap_or(0.0),
+                v.last().copied().unwrap_or(0.0)
+            );
+        }
+    }
+    let vars = &mech.design.variables;
+    if c.sensitivities.is_some() {
+        let names: Vec<String> = vars
+            .iter()
+            .map(|v| format!("{} = {}°", v.name, v.value))
+            .collect();
+        let _ = writeln!(
+            s,
+            "sensitivities with respect to {} ({})",
+            names.join(", "),
+            if mech.design.fixed_modes {
+                "fixed modes"
+            } else {
+                "updated modes"
+            }
+        );
+    }
+    if !c.objectives.is_empty() {
+        let _ = write!(s, "{:<24} {:>14}", "objective", "value");
+        if c.sensitivities.is_some() {
+            for v in vars {
+                let _ = write!(s, " {:>14}", format!("d/d {}", v.name));
+            }
+        }
+        let _ = writeln!(s, "  unit");
+        for o in &c.objectives {
+            let _ = write!(s, "{:<24} {:>14.6e}", o.name, o.value);
+            for g in &o.gradient {
+                let _ = write!(s, " {g:>14.6e}");
+            }
+            let at = o
+                .time
+                .map(|t| format!(" (at {t:.6} s)"))
+                .unwrap_or_default();
+            let _ = writeln!(s, "  {}{at}", o.unit);
+        }
+    }
+    if let Some(cases) = summary["finite_differences"].as_array()
+        && !cases.is_empty()
+    {
+        let _ = writeln!(
+            s,
+            "finite differences: largest |FD − direct| / max |direct| per response"
+        );
+        for case in cases {
+            let worst = case["max_relative_difference"]
+                .as_object()
+                .map(|m| {
+                    m.iter()
+                        .map(|(k, v)| format!("{k} {:.2e}", v.as_f64().unwrap_or(f64::NAN)))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                })
+                .unwrap_or_default();
+            let _ = writeln!(s, "  {:<36} {worst}", case["case"].as_str().unwrap_or(""));
+        }
+    }
+    let files: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
+    let _ = writeln!(s, "written: {}", files.join(", "));
+    s
+}

@@ -1,0 +1,200 @@
+//! `[analysis]`: the output times, the integrator's settings, Baumgarte stabilisation and the
+//! handling of redundant constraints.
+
+use mbs::{Baumgarte, BdfOptions, RedundancyPolicy, StepControl};
+
+use super::check::{count, finite, positive, required, span};
+use super::laminates::suggestion;
+use super::raw::RawDeck;
+use super::{DeckError, Source};
+
+/// The validated analysis settings.
+#[derive(Debug, Clone)]
+pub struct AnalysisDef {
+    /// Output times (s), increasing, the first the start time.
+    pub times: Vec<f64>,
+    pub options: BdfOptions,
+    pub baumgarte: Baumgarte,
+    pub policy: RedundancyPolicy,
+}
+
+/// Validate `[analysis]`.
+pub fn validate(src: &Source, raw: &RawDeck) -> Result<AnalysisDef, DeckError> {
+    let a = raw.analysis.as_ref();
+    let a = a.ok_or_else(|| {
+        src.error(
+            None,
+            Some("analysis".into()),
+            "missing table [analysis] (at least t_end)",
+        )
+    })?;
+    let raw = a.get_ref();
+    let k = |s: &str| format!("analysis.{s}");
+    let t0 = raw
+        .t_start
+        .as_ref()
+        .map(|t| finite(src, &k("t_start"), t, "s"))
+        .transpose()?
+        .unwrap_or(0.0);
+    let t_end_v = required(src, span(a), &k("t_end"), &raw.t_end, "t_end (s)")?;
+    let t_end = finite(src, &k("t_end"), t_end_v, "s")?;
+    if t_end <= t0 {
+        return Err(src.error(
+            span(t_end_v),
+            Some(k("t_end")),
+            format!("t_end = {t_end} must be later than t_start = {t0}"),
+        ));
+    }
+    let dt = raw
+        .output_step
+        .as_ref()
+        .map(|d| positive(src, &k("output_step"), d, "s"))
+        .transpose()?
+        .unwrap_or((t_end - t0) / 500.0);
+    let n = ((t_end - t0) / dt).round().max(1.0) as usize;
+    if n > 10_000_000 {
+        return Err(src.error(
+            raw.output_step.as_ref().map(|d| d.span()),
+            Some(k("output_step")),
+            format!("{n} output times: choose a larger output_step"),
+        ));
+    }
+    let times: Vec<f64> = (0..=n)
+        .map(|i| {
+            if i == n {
+                t_end
+            } else {
+                t0 + i as f64 * (t_end - t0) / n as f64
+            }
+        })
+        .collect();
+    let rtol = raw
+        .rtol
+        .as_ref()
+        .map(|r| positive(src, &k("rtol"), r, "1"))
+        .transpose()?
+        .unwrap_or(1e-6);
+    let atol = raw
+        .atol
+        .as_ref()
+        .map(|r| positive(src, &k("atol"), r, "state units"))
+        .transpose()?
+        .unwrap_or(1e-8);
+    let order = raw
+        .order
+        .as_ref()
+        .map(|o| count(src, &k("order"), o, 1))
+        .transpose()?;
+    if let (Some(o), Some(ov)) = (order, &raw.order)
+        && o > 5
+    {
+        return Err(src.error(
+            span(ov),
+            Some(k("order")),
+            format!("{o}: BDF orders are 1 to 5"),
+        ));
+    }
+    let options = match raw.integrator.as_ref().map(|i| (i, i.get_ref().as_str())) {
+        None | Some((_, "adaptive")) => {
+            if let Some(s) = &raw.step {
+                return Err(src.error(
+                    span(s),
+                    Some(k("step")),
+                    "step is for integrator = \"fixed\"",
+                ));
+            }
+            let mut o = BdfOptions::adaptive(rtol, atol);
+            if let StepControl::Adaptive { max_order, .. } = &mut o.control {
+                *max_order = order.unwrap_or(5);
+            }
+            o
+        }
+        Some((_, "fixed")) => {
+            let h = positive(
+                src,
+                &k("step"),
+                required(
+                    src,
+                    span(a),
+                    &k("step"),
+                    &raw.step,
+                    "step (s) for a fixed-step run",
+                )?,
+                "s",
+            )?;
+            let mut o = BdfOptions::fixed(h, order.unwrap_or(2));
+            o.rtol = rtol.min(1e-10);
+            o
+        }
+        Some((i, other)) => {
+            return Err(src.error(
+                span(i),
+                Some(k("integrator")),
+                format!("unknown integrator `{other}`: expected \"adaptive\" or \"fixed\""),
+            ));
+        }
+    };
+    let baumgarte = match raw.baumgarte.as_ref().map(|b| (b, b.get_ref())) {
+        None => Baumgarte::default(),
+        Some((_, toml::Value::Boolean(false))) => Baumgarte::off(),
+        Some((_, toml::Value::Boolean(true))) => Baumgarte::default(),
+        Some((b, toml::Value::Table(t))) => {
+            let get = |name: &str| -> Result<f64, DeckError> {
+                match t.get(name) {
+                    None => Ok(1.0),
+                    Some(v) => v
+                        .as_float()
+                        .or_else(|| v.as_integer().map(|i| i as f64))
+                        .filter(|x| x.is_finite() && *x >= 0.0)
+                        .ok_or_else(|| {
+                            src.error(
+                                span(b),
+                                Some(k(&format!("baumgarte.{name}"))),
+                                "must be a finite number ≥ 0 (1/s)",
+                            )
+                        }),
+                }
+            };
+            if let Some(extra) = t.keys().find(|n| *n != "alpha" && *n != "beta") {
+                return Err(src.error(
+                    span(b),
+                    Some(k(&format!("baumgarte.{extra}"))),
+                    "unknown key: expected alpha and beta",
+                ));
+            }
+            Baumgarte {
+                alpha: get("alpha")?,
+                beta: get("beta")?,
+            }
+        }
+        Some((b, _)) => {
+            return Err(src.error(
+                span(b),
+                Some(k("baumgarte")),
+                "expected { alpha, beta } or false",
+            ));
+        }
+    };
+    let policy = match raw.redundant.as_ref().map(|r| (r, r.get_ref().as_str())) {
+        None | Some((_, "remove")) => RedundancyPolicy::Remove,
+        Some((_, "error")) => RedundancyPolicy::Error,
+        Some((_, "reselect")) => RedundancyPolicy::Reselect,
+        Some((r, other)) => {
+            let choices = ["remove", "reselect", "error"];
+            return Err(src.error(
+                span(r),
+                Some(k("redundant")),
+                format!(
+                    "unknown policy `{other}`: expected \"remove\", \"reselect\" or \"error\"{}",
+                    suggestion(other, &choices)
+                ),
+            ));
+        }
+    };
+    Ok(AnalysisDef {
+        times,
+        options,
+        baumgarte,
+        policy,
+    })
+}

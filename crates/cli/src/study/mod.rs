@@ -1,0 +1,368 @@
+//! The study: a deck validated into what every command works on. [`Study::validate`] checks
+//! every table (errors name the file, line, column and key) and builds the nominal mechanism;
+//! [`Study::model_at`] rebuilds its flexible bodies at another design, from the laminates moved
+//! by the design variables (no re-parse, no text edits), for finite differences. The dual
+//! model of the direct sensitivities is built from the same parts in
+//! `commands::sensitivity`. `docs/architecture.md` follows one design variable through it.
+
+pub mod flexible;
+
+use std::collections::BTreeMap;
+use std::ops::Range;
+
+use mbs::{
+    BdfOptions, Body, BodyId, FlexibleBody, JointId, Model, Output, RedundancyPolicy, RigidBody,
+    State,
+};
+use nalgebra::{Matrix3, Vector3};
+
+use crate::deck::analysis::{self, AnalysisDef};
+use crate::deck::bodies::{BodyDef, validate_one as validate_body};
+use crate::deck::check::span;
+use crate::deck::design::{DesignDef, validate as validate_design};
+use crate::deck::laminates::{LaminateModel, validate as validate_laminates};
+use crate::deck::mechanism::{self, BodyInfo};
+use crate::deck::responses::{self, ResponseDef};
+use crate::deck::{DeckError, RawDeck, Source};
+use crate::error::CliError;
+use crate::progress::RunProgress;
+use flexible::{Built, DesignRequest, fem_error};
+
+/// A flexible body of the mechanism with what its design derivatives need.
+pub(crate) struct FlexiblePart {
+    pub(crate) id: BodyId,
+    pub(crate) name: String,
+    pub(crate) built: Built,
+    pub(crate) analysis: fem::ModalAnalysis,
+    /// The body's table in the deck.
+    pub(crate) span: Range<usize>,
+}
+
+/// The validated deck with its nominal mechanism.
+pub(crate) struct Study {
+    pub(crate) model: Model<f64>,
+    pub(crate) flexible: Vec<FlexiblePart>,
+    /// The laminates as the deck gives them (the design variables move them).
+    pub(crate) laminates: LaminateModel,
+    pub(crate) design: DesignDef,
+    /// The initial state: rigid-body coordinates as placed (not yet assembled), elastic state
+    /// as given.
+    pub(crate) state: State,
+    pub(crate) bodies: BTreeMap<String, BodyInfo>,
+    /// Body names in model order.
+    pub(crate) body_order: Vec<String>,
+    pub(crate) joint_names: Vec<String>,
+    pub(crate) responses: Vec<ResponseDef>,
+    pub(crate) times: Vec<f64>,
+    pub(crate) options: BdfOptions,
+    pub(crate) policy: RedundancyPolicy,
+    /// The progress bar, when one is wanted.
+    pub(crate) progress: Option<RunProgress>,
+}
+
+/// A body's initial placement: frame origin, orientation (body → global), velocity of the
+/// origin, angular velocity (global components).
+struct Placement {
+    id: BodyId,
+    position: Vector3<f64>,
+    rotation: Matrix3<f64>,
+    velocity: Vector3<f64>,
+    angular_velocity: Vector3<f64>,
+}
+
+fn initial_state(model: &Model<f64>, placements: &[Placement]) -> State {
+    let mut s = model.rest_state();
+    for p in placements {
+        model.set_pose(&mut s, p.id, p.position, &p.rotation);
+        // ω' in body components from the global angular velocity
+        model.set_velocity(
+            &mut s,
+            p.id,
+            p.velocity,
+            p.rotation.transpose() * p.angular_velocity,
+        );
+    }
+    s
+}
+
+/// A model error of a deck table as bad input at that table.
+fn at_table(src: &Source, span: Range<usize>, key: String, e: impl ToString) -> CliError {
+    CliError::Input(src.error(Some(span), Some(key), e.to_string()))
+}
+
+/// The modal analysis and body of one validated flexible body.
+fn flexible_body(
+    src: &Source,
+    name: &str,
+    span: Range<usize>,
+    def: &BodyDef,
+    request: DesignRequest,
+) -> Result<(Built, fem::ModalAnalysis, fem::ModalBody<f64>), CliError> {
+    let built = flexible::build(src, name, def, request)?;
+    if built.options.mass != fem::MassKind::Lumped {
+        return Err(CliError::Input(src.error(
+            Some(span),
+            Some(format!("body.{name}.mass")),
+            "the floating frame of reference needs mass = \"lumped\"",
+        )));
+    }
+    let analysis = fem::modal_analysis(&built.mesh, &built.props, &built.options)
+        .map_err(|e| fem_error(src, name, span.clone(), e))?;
+    let modal = fem::modal_body(&built.mesh, &built.props, &analysis)
+        .map_err(|e| fem_error(src, name, span, e))?;
+    Ok((built, analysis, modal))
+}
+
+/// Relative gap below which eigenvalues count as repeated when perturbed modes are tracked.
+const CLUSTER_TOL: f64 = 1e-6;
+
+impl Study {
+    /// Validate the deck and build its nominal mechanism; with `derivatives`, each flexible
+    /// body also gets its derivatives with respect to the deck's design variables ready
+    /// (section derivatives).
+    pub(crate) fn validate(
+        src: &Source,
+        raw: &RawDeck,
+        derivatives: bool,
+    ) -> Result<Study, CliError> {
+        let laminates = validate_laminates(src, raw)?;
+        let design = validate_design(src, raw, &laminates)?;
+        let request = if derivatives && design.enabled {
+            DesignRequest::Variables(&design.variables)
+        } else {
+            DesignRequest::None
+        };
+        let mut flexible = Vec::new();
+        let mut model = Model::<f64>::new();
+        let mut bodies = BTreeMap::new();
+        let mut body_order = Vec::new();
+        let mut placements = Vec::new();
+        let mut modal_starts = Vec::new();
+        // flexible bodies: modes of the mesh as given (global coordinates at t = 0)
+        for (name, b) in &raw.body {
+            let def = validate_body(src, raw, name, b, &laminates)?;
+            let (built, analysis, modal) = flexible_body(src, name, b.span(), &def, request)?;
+            let nodes = modal.node_positions.clone();
+            let id = model
+                .add_flexible_body(FlexibleBody::new(name.clone(), modal))
+                .map_err(|e| at_table(src, b.span(), format!("body.{name}"), e))?;
+            modal_starts.push((id, def.initial_modal, def.initial_modal_rates));
+            placements.push(Placement {
+                id,
+                position: analysis.origin,
+                rotation: Matrix3::identity(),
+                velocity: Vector3::zeros(),
+                angular_velocity: Vector3::zeros(),
+            });
+            bodies.insert(
+                name.clone(),
+                BodyInfo {
+                    id,
+                    position: analysis.origin,
+                    rotation: Matrix3::identity(),
+                    nodes: Some(nodes),
+                    frequencies: analysis.frequencies_hz(),
+                },
+            );
+            body_order.push(name.clone());
+            flexible.push(FlexiblePart {
+                id,
+                name: name.clone(),
+                built,
+                analysis,
+                span: b.span(),
+            });
+        }
+        for r in mechanism::rigid_bodies(src, raw)? {
+            let id = model
+                .add_rigid_body(RigidBody::new(r.name.clone(), r.mass, r.inertia))
+                .map_err(|e| at_table(src, r.span.clone(), format!("rigid.{}", r.name), e))?;
+            placements.push(Placement {
+                id,
+                position: r.position,
+                rotation: r.orientation,
+                velocity: r.velocity,
+                angular_velocity: r.angular_velocity,
+            });
+            bodies.insert(
+                r.name.clone(),
+                BodyInfo {
+                    id,
+                    position: r.position,
+                    rotation: r.orientation,
+                    nodes: None,
+                    frequencies: Vec::new(),
+                },
+            );
+            body_order.push(r.name);
+        }
+        let AnalysisDef {
+            times,
+            options,
+            baumgarte,
+            policy,
+        } = analysis::validate(src, raw)?;
+        model.baumgarte = baumgarte;
+        let mut joint_names = Vec::new();
+        let mut joint_ids = Vec::new();
+        for joint in mechanism::joints(src, raw, &bodies)? {
+            let name = joint.name.clone();
+            let id = model
+                .add_joint(joint)
+                .map_err(|e| at_table(src, raw.joint[&name].span(), format!("joint.{name}"), e))?;
+            joint_names.push(name);
+            joint_ids.push(id);
+        }
+        let q0 = initial_state(&model, &placements).q;
+        let mechanism::ForceDefs { gravity, forces } =
+            mechanism::forces(src, raw, &bodies, |a, b| {
+                (model.marker_position(a, &q0) - model.marker_position(b, &q0)).norm()
+            })?;
+        model.gravity += gravity;
+        for (name, force) in forces {
+            model
+                .add_force(force)
+                .map_err(|e| at_table(src, raw.force[&name].span(), format!("force.{name}"), e))?;
+        }
+        let mut state = initial_state(&model, &placements);
+        // the elastic state is the user's; the assembly moves only the rigid-body coordinates
+        for (id, w, wd) in &modal_starts {
+            // static correction modes (after the retained ones) start at zero
+            let n = model.body(*id).n_modes();
+            let pad = |x: &Vec<f64>| {
+                let mut x = x.clone();
+                x.resize(n, 0.0);
+                x
+            };
+            model.set_modal(&mut state, *id, &pad(w), &pad(wd));
+        }
+        let named_joints: Vec<(String, JointId)> = joint_names
+            .iter()
+            .cloned()
+            .zip(joint_ids.iter().copied())
+            .collect();
+        let responses = responses::validate(src, raw, &model, &bodies, &named_joints)?;
+        let study = Study {
+            model,
+            flexible,
+            laminates,
+            design,
+            state,
+            bodies,
+            body_order,
+            joint_names,
+            responses,
+            times,
+            options,
+            policy,
+            progress: None,
+        };
+        if derivatives && study.design.enabled {
+            study.check_design(src, raw)?;
+        }
+        Ok(study)
+    }
+
+    /// Design variables must move some flexible body; objectives of a run with sensitivities
+    /// need responses that have them.
+    fn check_design(&self, src: &Source, raw: &RawDeck) -> Result<(), DeckError> {
+        for (j, v) in self.design.variables.iter().enumerate() {
+            if !self.flexible.iter().any(|p| p.built.design.depends_on(j)) {
+                return Err(src.error(
+                    Some(raw.design[&v.name].span()),
+                    Some(format!("design.{}", v.name)),
+                    format!(
+                        "the design variable changes no flexible body: laminate `{}` laminates \
+                         no shell body and builds no beam body's section",
+                        v.laminate
+                    ),
+                ));
+            }
+        }
+        for o in &self.design.objectives {
+            let r = self.response(&o.response);
+            if !r.response.differentiable() {
+                let ro = raw.objective[&o.name].get_ref();
+                return Err(src.error(
+                    ro.response.as_ref().and_then(span),
+                    Some(format!("objective.{}.response", o.name)),
+                    format!(
+                        "response `{}` has no design sensitivities (energies, constraint \
+                         violations and reaction moments have none), so its objective has no \
+                         gradient",
+                        o.response
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The response of this name (objectives refer to validated names).
+    pub(crate) fn response(&self, name: &str) -> &ResponseDef {
+        self.responses
+            .iter()
+            .find(|r| r.name == name)
+            .expect("objective responses are validated")
+    }
+
+    /// The value of response `i` at one output.
+    pub(crate) fn value(&self, i: usize, o: &Output) -> f64 {
+        self.responses[i].response.value(&self.model, o)
+    }
+
+    /// The nominal values of the design variables.
+    pub(crate) fn design_values(&self) -> Vec<f64> {
+        self.design.variables.iter().map(|v| v.value).collect()
+    }
+
+    /// The laminates moved to the design `b`.
+    pub(crate) fn laminates_at(&self, src: &Source, b: &[f64]) -> Result<LaminateModel, CliError> {
+        let mut lam = self.laminates.clone();
+        for (v, &bj) in self.design.variables.iter().zip(b) {
+            v.apply(&mut lam, bj).map_err(|e| {
+                CliError::Runtime(format!(
+                    "{}: design variable `{}` = {bj}: {e}",
+                    src.file.display(),
+                    v.name
+                ))
+            })?;
+        }
+        Ok(lam)
+    }
+
+    /// The mechanism's model at the design `b`: every flexible body rebuilt from the laminates
+    /// at `b`, its modes expressed in the nominal modes' basis (any basis of a repeated
+    /// frequency, any sign), so that the nominal state means the same motion.
+    pub(crate) fn model_at(
+        &self,
+        src: &Source,
+        raw: &RawDeck,
+        b: &[f64],
+    ) -> Result<Model<f64>, CliError> {
+        let lam = self.laminates_at(src, b)?;
+        let mut model = self.model.clone();
+        for part in &self.flexible {
+            let rb = &raw.body[&part.name];
+            let def = validate_body(src, raw, &part.name, rb, &lam)?;
+            let (_, _, mut body) = flexible_body(
+                src,
+                &part.name,
+                part.span.clone(),
+                &def,
+                DesignRequest::None,
+            )?;
+            if let Body::Flexible(reference) = self.model.body(part.id) {
+                body.align_to(&reference.modal, CLUSTER_TOL).map_err(|e| {
+                    CliError::Runtime(format!(
+                        "{}: body `{}` at the design {b:?}: {e}",
+                        src.file.display(),
+                        part.name
+                    ))
+                })?;
+            }
+            *model.body_mut(part.id) = Body::Flexible(FlexibleBody::new(part.name.clone(), body));
+        }
+        Ok(model)
+    }
+}
