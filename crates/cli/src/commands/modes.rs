@@ -263,16 +263,13 @@ pub fn run(path: &Path, overrides: &[String], req: &ModesRequest) -> Result<Stri
         let analysis = fem::modal_analysis(&built.mesh, &built.props, &built.options)
             .map_err(|e| fem_error(&src, name, b.span(), e))?;
         let derivs = if req.derivatives {
-            let values = built.design.values().to_vec();
-            let (dm, d) = fem::analysis_derivatives::<CHUNK, _>(
-                &built.mesh,
+            Some(built.mode_derivatives::<CHUNK>(
+                &src,
+                name,
+                b.span(),
                 &analysis,
-                &values,
-                |bd| built.design.properties(bd),
                 ModeUpdate::Updated,
-            )
-            .map_err(|e| fem_error(&src, name, b.span(), e))?;
-            Some((dm, d))
+            )?)
         } else {
             None
         };

@@ -77,14 +77,13 @@ fn analyse_chunked<const N: usize>(
         let fem_error =
             |e| crate::study::flexible::fem_error(src, &part.name, part.span.clone(), e);
         let built = &part.built;
-        let (_, derivs) = fem::analysis_derivatives::<N, _>(
-            &built.mesh,
+        let (_, derivs) = built.mode_derivatives::<N>(
+            src,
+            &part.name,
+            part.span.clone(),
             &part.analysis,
-            built.design.values(),
-            |bd| built.design.properties(bd),
             update,
-        )
-        .map_err(fem_error)?;
+        )?;
         // the retained modes (the analysis also computes a few guard modes)
         let kept = &part.analysis.kept;
         let mut df = DMatrix::zeros(kept.len(), m);

@@ -238,6 +238,12 @@ pub struct RawRegion {
     pub material: Option<Spanned<String>>,
     /// Ply angle (degrees, default 0).
     pub angle: Option<Spanned<f64>>,
+    /// Instead of `material` and `angle`: the region is ply `ply` of this laminate (its
+    /// material and angle, moved by the laminate's design variables).
+    pub laminate: Option<Spanned<String>>,
+    /// With `laminate`: the ply's index in the laminate's stack (from 0, bottom first, the
+    /// mirrored plies of a symmetric laminate included).
+    pub ply: Option<Spanned<i64>>,
     /// `"tangent"` (straight wall, default) or `"radial"` (wall curved around `centre`).
     pub frame: Option<Spanned<String>>,
     /// With `frame = "tangent"`: angle of the wall tangent from x₂ towards x₃ (degrees, default 0).

@@ -1,6 +1,6 @@
 //! Validation of `[section.*]` into `section` meshes.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::path::Path;
 
 use laminate::OrthotropicMaterial;
@@ -9,14 +9,26 @@ use toml::Spanned;
 
 use super::check::{count, finite, not_applicable, positive, required, span};
 use super::laminates::{LaminateModel, suggestion};
-use super::raw::RawSection;
+use super::raw::{RawRegion, RawSection};
 use super::{DeckError, Source};
+
+/// A ply of a laminate: the laminate's name and the ply's index in its stack (bottom first,
+/// the mirrored plies of a symmetric laminate included).
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+pub struct PlyRef {
+    pub laminate: String,
+    pub ply: usize,
+}
 
 /// A validated section.
 #[derive(Debug, Clone)]
 pub struct SectionDef {
     pub shape: String,
     pub mesh: SectionMesh,
+    /// For each region of the mesh, the laminate ply it is (regions of a laminate's tube or
+    /// box walls, mesh regions given as `laminate` and `ply`), or `None` (a material of its
+    /// own). Design variables move the regions through these.
+    pub plies: Vec<Option<PlyRef>>,
 }
 
 fn material<'m>(
@@ -46,6 +58,7 @@ fn laminate_plies(
     name: &Spanned<String>,
     model: &LaminateModel,
     elements: usize,
+    tags: &mut HashMap<String, PlyRef>,
 ) -> Result<Vec<PlySpec>, DeckError> {
     let def = model.laminates.get(name.get_ref()).ok_or_else(|| {
         let known: Vec<&str> = model.laminates.keys().map(String::as_str).collect();
@@ -65,15 +78,85 @@ fn laminate_plies(
         .iter()
         .enumerate()
         .map(|(i, p)| {
-            PlySpec::new(
-                format!("{}.plies[{i}]", name.get_ref()),
-                p.material,
-                p.angle,
-                p.thickness,
-                elements,
-            )
+            let region = format!("{}.plies[{i}]", name.get_ref());
+            tags.insert(
+                region.clone(),
+                PlyRef {
+                    laminate: name.get_ref().clone(),
+                    ply: i,
+                },
+            );
+            PlySpec::new(region, p.material, p.angle, p.thickness, elements)
         })
         .collect())
+}
+
+/// A mesh region given as a laminate ply: the ply, its material and its angle (radians).
+/// `key` is the region's key with a trailing dot.
+fn laminate_ply(
+    src: &Source,
+    key: &str,
+    r: &RawRegion,
+    lam: &Spanned<String>,
+    model: &LaminateModel,
+) -> Result<(PlyRef, OrthotropicMaterial, f64), DeckError> {
+    for (k, given) in [
+        ("material", r.material.as_ref().and_then(span)),
+        ("angle", r.angle.as_ref().and_then(span)),
+    ] {
+        if given.is_some() {
+            return Err(src.error(
+                given,
+                Some(format!("{key}{k}")),
+                "a region given as a laminate ply takes the ply's material and angle: give                  either material and angle, or laminate and ply",
+            ));
+        }
+    }
+    let def = model.laminates.get(lam.get_ref()).ok_or_else(|| {
+        let known: Vec<&str> = model.laminates.keys().map(String::as_str).collect();
+        src.error(
+            span(lam),
+            Some(format!("{key}laminate")),
+            format!(
+                "undefined laminate `{}`{}",
+                lam.get_ref(),
+                suggestion(lam.get_ref(), &known)
+            ),
+        )
+    })?;
+    let plies = def.stack.plies();
+    let ply = r.ply.as_ref().ok_or_else(|| {
+        src.error(
+            span(lam),
+            Some(format!("{key}ply")),
+            format!(
+                "missing value: ply (the ply's index in laminate `{}`, 0 to {})",
+                lam.get_ref(),
+                plies.len() - 1
+            ),
+        )
+    })?;
+    let i = *ply.get_ref();
+    if i < 0 || i as usize >= plies.len() {
+        return Err(src.error(
+            span(ply),
+            Some(format!("{key}ply")),
+            format!(
+                "ply {i} does not exist: laminate `{}` has plies 0 to {} (counting the mirrored                  plies of a symmetric laminate)",
+                lam.get_ref(),
+                plies.len() - 1
+            ),
+        ));
+    }
+    let p = &plies[i as usize];
+    Ok((
+        PlyRef {
+            laminate: lam.get_ref().clone(),
+            ply: i as usize,
+        },
+        p.material,
+        p.angle,
+    ))
 }
 
 /// Validate one section (building its mesh; mesh files are read relative to the deck).
@@ -199,6 +282,8 @@ pub fn validate_one(
             .unwrap_or(0.0);
         Ok::<_, DeckError>((m, angle))
     };
+    // region name → laminate ply, for the regions made of laminate plies
+    let mut tags: HashMap<String, PlyRef> = HashMap::new();
     let mesh = match shape_name {
         "circle" => {
             let r = positive(
@@ -278,7 +363,7 @@ pub fn validate_one(
                         .map(|n| count(src, &k("elements_per_ply"), n, 1))
                         .transpose()?
                         .unwrap_or(2);
-                    laminate_plies(src, &k("laminate"), l, model, n)?
+                    laminate_plies(src, &k("laminate"), l, model, n, &mut tags)?
                 }
                 (Some(plies), None) => {
                     not_applicable(
@@ -388,16 +473,16 @@ pub fn validate_one(
                     ));
                 }
                 (None, Some(l)) => {
-                    BoxWalls::uniform(laminate_plies(src, &k("laminate"), l, model, n)?)
+                    BoxWalls::uniform(laminate_plies(src, &k("laminate"), l, model, n, &mut tags)?)
                 }
                 (Some(wt), None) => {
                     let wr = wt.get_ref();
-                    let wall = |key: &str,
-                                f: &Option<Spanned<String>>|
+                    let mut wall = |key: &str,
+                                    f: &Option<Spanned<String>>|
                      -> Result<Vec<PlySpec>, DeckError> {
                         let wk = format!("section.{name}.walls.{key}");
                         let l = required(src, span(wt), &wk, f, "a laminate name")?;
-                        laminate_plies(src, &wk, l, model, n)
+                        laminate_plies(src, &wk, l, model, n, &mut tags)
                     };
                     BoxWalls {
                         top: wall("top", &wr.top)?,
@@ -474,18 +559,36 @@ pub fn validate_one(
                 for (rname, r) in regions.get_ref() {
                     let rk = |key: &str| format!("section.{name}.regions.{rname}.{key}");
                     let rr = r.get_ref();
-                    let m = material(
-                        src,
-                        &rk("material"),
-                        required(src, span(r), &rk("material"), &rr.material, "material")?,
-                        model,
-                    )?;
-                    let angle = rr
-                        .angle
-                        .as_ref()
-                        .map(|a| finite(src, &rk("angle"), a, "degrees"))
-                        .transpose()?
-                        .unwrap_or(0.0);
+                    let (m, angle) = match &rr.laminate {
+                        Some(l) => {
+                            let p = laminate_ply(src, &rk(""), rr, l, model)?;
+                            tags.insert(rname.clone(), p.0);
+                            (p.1, p.2)
+                        }
+                        None => {
+                            not_applicable(src, &rk("ply"), &rr.ply, "a region without laminate")?;
+                            let m = material(
+                                src,
+                                &rk("material"),
+                                required(
+                                    src,
+                                    span(r),
+                                    &rk("material"),
+                                    &rr.material,
+                                    "material (or laminate and ply)",
+                                )?,
+                                model,
+                            )?;
+                            let angle = rr
+                                .angle
+                                .as_ref()
+                                .map(|a| finite(src, &rk("angle"), a, "degrees"))
+                                .transpose()?
+                                .unwrap_or(0.0)
+                                .to_radians();
+                            (*m, angle)
+                        }
+                    };
                     let frame = match rr.frame.as_ref().map(|f| f.get_ref().as_str()) {
                         None | Some("tangent") => {
                             not_applicable(src, &rk("centre"), &rr.centre, "frame = \"tangent\"")?;
@@ -515,8 +618,8 @@ pub fn validate_one(
                     };
                     specs.push(RegionSpec {
                         name: rname.clone(),
-                        material: *m,
-                        ply_angle: angle.to_radians(),
+                        material: m,
+                        ply_angle: angle,
                         frame,
                     });
                 }
@@ -549,9 +652,19 @@ pub fn validate_one(
         }
     };
     mesh.validate().map_err(bad)?;
+    // a box names its regions "<wall>/<ply name>"
+    let plies = mesh
+        .regions
+        .iter()
+        .map(|r| {
+            let ply = r.name.rsplit_once('/').map_or(r.name.as_str(), |(_, p)| p);
+            tags.get(&r.name).or_else(|| tags.get(ply)).cloned()
+        })
+        .collect();
     Ok(SectionDef {
         shape: shape_name.to_string(),
         mesh,
+        plies,
     })
 }
 

@@ -10,6 +10,7 @@ use sens::Dual;
 use crate::deck::Source;
 use crate::deck::bodies::{BodyDef, BodyShape, Reference};
 use crate::deck::design::DesignVariable;
+use crate::deck::sections::SectionDef;
 use crate::error::CliError;
 
 /// Width of the dual-number chunks (results do not depend on it).
@@ -27,11 +28,15 @@ pub enum DesignRequest<'a> {
 
 /// The design of a body: how its stiffness depends on the design variables.
 pub enum Design {
-    /// A beam: the section's values and derivatives with respect to each variable.
+    /// A beam: the section's values and derivatives with respect to each variable at the
+    /// nominal design `values`, and what the section at another design needs (its mesh and
+    /// design map).
     Beam {
         sens: Box<SectionSensitivities>,
         names: Vec<String>,
         values: Vec<f64>,
+        mesh: Box<section::SectionMesh>,
+        map: DesignMap,
     },
     /// A shell: the laminate's ply angles move with the variables, `θ_p = θ_p0 + Σ_j f (b_j −
     /// b_j0)` for each `(p, f)` of `links[j]` (θ in radians).
@@ -50,8 +55,7 @@ impl Design {
         }
     }
 
-    /// The design variables' values (beams: only their tangents enter, see
-    /// `BeamSection::from_sensitivities`).
+    /// The nominal values of the design variables.
     pub fn values(&self) -> &[f64] {
         match self {
             Design::Beam { values, .. } | Design::Shell { values, .. } => values,
@@ -69,49 +73,120 @@ impl Design {
         }
     }
 
-    /// Element properties on dual numbers seeded with the design variables `b`.
-    pub fn properties<const N: usize>(&self, b: &[Dual<N>]) -> Properties<Dual<N>> {
-        match self {
-            Design::Beam { sens, .. } => Properties {
-                sections: vec![BeamSection::from_sensitivities(sens, b)],
-                laminates: Vec::new(),
-            },
-            Design::Shell { stack, links, .. } => {
+    /// Element properties at the design `b` (values and tangents): at the nominal design from
+    /// the stored derivatives; elsewhere (Dailey's second-derivative terms perturb the design)
+    /// beams analyse their section at `b` again.
+    pub fn properties<const N: usize>(
+        &self,
+        b: &[Dual<N>],
+    ) -> Result<Properties<Dual<N>>, section::SectionError> {
+        Ok(match self {
+            Design::Beam {
+                sens,
+                values,
+                mesh,
+                map,
+                ..
+            } => {
+                let moved = b.iter().zip(values.iter()).any(|(bj, b0)| bj.v != *b0);
+                let section = if moved {
+                    let mut at = (**mesh).clone();
+                    for (j, (bj, b0)) in b.iter().zip(values.iter()).enumerate() {
+                        at = map.step(&at, j, bj.v - b0);
+                    }
+                    BeamSection::from_sensitivities(
+                        &section::analyse_with_derivatives::<CHUNK>(&at, map)?,
+                        b,
+                    )
+                } else {
+                    BeamSection::from_sensitivities(sens, b)
+                };
+                Properties {
+                    sections: vec![section],
+                    laminates: Vec::new(),
+                }
+            }
+            Design::Shell {
+                stack,
+                links,
+                values,
+                ..
+            } => {
                 let mut angles: Vec<Dual<N>> = stack
                     .plies()
                     .iter()
                     .map(|p| Dual::constant(p.angle))
                     .collect();
-                for (bj, l) in b.iter().zip(links) {
-                    let step = *bj - Dual::constant(bj.v);
+                for ((bj, l), b0) in b.iter().zip(links).zip(values) {
+                    let step = *bj - Dual::constant(*b0);
                     for &(p, f) in l {
                         angles[p] += step * Dual::constant(f);
                     }
                 }
                 let dual = stack
                     .with_angles(&angles)
-                    .expect("angles of a validated stack stay valid");
+                    .map_err(|e| section::SectionError::InvalidInput(e.to_string()))?;
                 Properties {
                     sections: Vec::new(),
                     laminates: vec![dual.stiffness()],
                 }
             }
+        })
+    }
+}
+
+impl Built {
+    /// The derivatives of the modes of `analysis` (this body's) with respect to every design
+    /// variable (`fem::analysis_derivatives` through [`Design::properties`]).
+    pub fn mode_derivatives<const N: usize>(
+        &self,
+        src: &Source,
+        name: &str,
+        span: std::ops::Range<usize>,
+        analysis: &fem::ModalAnalysis,
+        update: fem::ModeUpdate,
+    ) -> Result<(Vec<fem::DesignMatrices>, fem::ModeDerivatives), CliError> {
+        let mut failed = None;
+        let d = fem::analysis_derivatives::<N, _>(
+            &self.mesh,
+            analysis,
+            self.design.values(),
+            |bd| {
+                self.design.properties(bd).unwrap_or_else(|e| {
+                    failed.get_or_insert(e);
+                    // the nominal properties stand in; the error is returned below
+                    let nominal: Vec<Dual<N>> = bd
+                        .iter()
+                        .zip(self.design.values())
+                        .map(|(x, &b0)| Dual::new(b0, x.d))
+                        .collect();
+                    self.design.properties(&nominal).unwrap_or_default()
+                })
+            },
+            update,
+        );
+        if let Some(e) = failed {
+            return Err(CliError::Runtime(format!(
+                "{}: body `{name}`: the section at a perturbed design: {e}",
+                src.file.display()
+            )));
         }
+        d.map_err(|e| fem_error(src, name, span, e))
     }
 }
 
 /// The section design map of the deck's variables: region `r` moves with variable `j` when it
-/// is a ply of `j`'s laminate (regions of sections built from a laminate are named
-/// `<laminate>.plies[i]`, or `<wall>/<laminate>.plies[i]` in a box).
-fn section_design(mesh: &section::SectionMesh, vars: &[DesignVariable]) -> DesignMap {
+/// is a ply of `j` (the section's region tags, [`SectionDef::plies`]).
+fn section_design(section: &SectionDef, vars: &[DesignVariable]) -> DesignMap {
     let mut map = DesignMap::new();
     for v in vars {
         let mut links = Vec::new();
         for &(p, f) in &v.stack_plies {
-            let tag = format!("{}.plies[{p}]", v.laminate);
-            let nested = format!("/{tag}");
-            for (r, region) in mesh.regions.iter().enumerate() {
-                if region.name == tag || region.name.ends_with(&nested) {
+            for (r, tag) in section.plies.iter().enumerate() {
+                if tag
+                    .as_ref()
+                    .is_some_and(|t| t.laminate == v.laminate && t.ply == p)
+                {
                     links.push((r, f));
                 }
             }
@@ -201,7 +276,7 @@ pub fn build(
             let map = match request {
                 DesignRequest::None => None,
                 DesignRequest::EachPly => Some(DesignMap::each_region(&section.mesh)),
-                DesignRequest::Variables(vars) => Some(section_design(&section.mesh, vars)),
+                DesignRequest::Variables(vars) => Some(section_design(section, vars)),
             };
             let s = match &map {
                 Some(map) => section::analyse_with_derivatives::<CHUNK>(&section.mesh, map),
@@ -230,6 +305,8 @@ pub fn build(
                 sens: Box::new(s),
                 names,
                 values,
+                mesh: Box::new(section.mesh.clone()),
+                map: map.unwrap_or_default(),
             };
             (mesh, props, design, "beam")
         }
@@ -328,5 +405,193 @@ pub fn fem_error(
         other => {
             CliError::Input(src.error(Some(span), Some(format!("body.{name}")), other.to_string()))
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    //! Dailey's second-derivative terms through the deck's own properties: a splitting pair of
+    //! repeated frequencies, its eigenvector derivatives against central differences of the
+    //! tracked branches of perturbed decks.
+
+    use nalgebra::DMatrix;
+
+    use super::*;
+    use crate::deck::bodies::validate_one;
+    use crate::deck::design::validate as validate_design;
+    use crate::deck::laminates::validate as validate_laminates;
+
+    /// A free square plate of a [0/90] cross-ply: a 90° turn with a flip is a symmetry, so it
+    /// has repeated pairs; turning ply 0 alone breaks the symmetry and splits them.
+    const DECK: &str = r#"
+[material.ud]
+E1 = 128.0e9
+E2 = 10.1e9
+E3 = 10.1e9
+G12 = 5.36e9
+G13 = 5.36e9
+G23 = 3.0e9
+nu12 = 0.23
+nu13 = 0.23
+nu23 = 0.3
+density = 1586.0
+[laminate.plate]
+plies = [
+  { material = "ud", thickness = 1e-3, angle = 0.0 },
+  { material = "ud", thickness = 1e-3, angle = 90.0 },
+]
+[body.p]
+kind = "shell"
+laminate = "plate"
+length = 0.2
+width = 0.2
+elements = [8, 8]
+modes = 8
+reference = "free-free"
+mass = "consistent"
+[design.a]
+laminate = "plate"
+plies = [0]
+"#;
+
+    fn source() -> (Source, crate::deck::RawDeck) {
+        let src = Source {
+            file: "square.toml".into(),
+            text: DECK.into(),
+            overrides: Vec::new(),
+        };
+        let raw = src.parse().unwrap();
+        (src, raw)
+    }
+
+    /// The body's modal analysis with ply 0 turned by `delta` degrees (from the laminates moved
+    /// by the design variable, as finite differences of a run do).
+    fn analysis_at(delta: f64, request: DesignRequest) -> (Built, fem::ModalAnalysis) {
+        let (src, raw) = source();
+        let mut lam = validate_laminates(&src, &raw).unwrap();
+        let design = validate_design(&src, &raw, &lam).unwrap();
+        let v = &design.variables[0];
+        v.apply(&mut lam, v.value + delta).unwrap();
+        let def = validate_one(&src, &raw, "p", &raw.body["p"], &lam).unwrap();
+        let request = match request {
+            DesignRequest::Variables(_) => DesignRequest::Variables(&design.variables),
+            other => other,
+        };
+        let built = build(&src, "p", &def, request).unwrap();
+        let a = fem::modal_analysis(&built.mesh, &built.props, &built.options).unwrap();
+        (built, a)
+    }
+
+    #[test]
+    fn eigenvector_derivatives_of_a_splitting_pair_follow_the_branches() {
+        let (src, _) = source();
+        let (built, a) = analysis_at(0.0, DesignRequest::Variables(&[]));
+        let lam = &a.pairs.values;
+        // modes 4 and 5 (from 1) are a repeated pair
+        assert!((lam[4] - lam[3]).abs() < 1e-9 * lam[3], "{lam:?}");
+        let (_, d) = built
+            .mode_derivatives::<1>(&src, "p", 0..1, &a, fem::ModeUpdate::Updated)
+            .unwrap();
+        let dl = &d.eigenvalues[0];
+        assert!(
+            (dl[4] - dl[3]).abs() > 0.5 * dl[3].abs().max(dl[4].abs()),
+            "the pair splits: {dl:?}"
+        );
+        let z = &a.pairs.vectors * &d.rotations[0];
+        let xb = &d.eigenvectors.as_ref().unwrap()[0];
+        // the branches at ±h (degrees), matched to the rotated nominal basis by M-overlap
+        let branch = |h: f64| -> DMatrix<f64> {
+            let (_, p) = analysis_at(h, DesignRequest::None);
+            let overlap = fem::eigen::project(&a.m, &z, &p.pairs.vectors);
+            let mut out = DMatrix::zeros(z.nrows(), 2);
+            for (c, j) in [3, 4].into_iter().enumerate() {
+                let i = if overlap[(j, 3)].abs() > overlap[(j, 4)].abs() {
+                    3
+                } else {
+                    4
+                };
+                let sign = overlap[(j, i)].signum();
+                out.column_mut(c)
+                    .copy_from(&(p.pairs.vectors.column(i) * sign));
+            }
+            out
+        };
+        let h = 0.05;
+        let (p1, m1, p2, m2) = (branch(h), branch(-h), branch(2.0 * h), branch(-2.0 * h));
+        let fd = ((&p1 - &m1) / (2.0 * h) * 4.0 - (&p2 - &m2) / (4.0 * h)) / 3.0;
+        for (c, j) in [3, 4].into_iter().enumerate() {
+            let exact = xb.column(j);
+            let err = (exact - fd.column(c)).norm() / exact.norm();
+            eprintln!("mode {}: |x_b − FD| / |x_b| = {err:.1e}", j + 1);
+            assert!(err < 1e-6, "mode {}: {err:e}", j + 1);
+        }
+    }
+
+    /// Away from the nominal design a beam's properties are its section analysed at that
+    /// design (values and derivatives), as a deck with the turned plies gives them.
+    #[test]
+    fn beam_properties_at_a_perturbed_design_are_those_of_the_perturbed_deck() {
+        let text = std::fs::read_to_string(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../decks/modes_beam_rod.toml"
+        ))
+        .unwrap()
+            + "\n[design.theta]\nlaminate = \"tube_wall\"\n";
+        let at = |delta: f64| {
+            let src = Source {
+                file: "rod.toml".into(),
+                text: text.clone(),
+                overrides: Vec::new(),
+            };
+            let raw = src.parse().unwrap();
+            let mut lam = validate_laminates(&src, &raw).unwrap();
+            let design = validate_design(&src, &raw, &lam).unwrap();
+            let nominal = lam.clone();
+            let v = &design.variables[0];
+            v.apply(&mut lam, v.value + delta).unwrap();
+            let built = |lam| {
+                let def = validate_one(&src, &raw, "rod", &raw.body["rod"], lam).unwrap();
+                build(
+                    &src,
+                    "rod",
+                    &def,
+                    DesignRequest::Variables(&design.variables),
+                )
+                .unwrap()
+            };
+            (built(&nominal), built(&lam), v.value)
+        };
+        let delta = 3.0;
+        let (nominal, moved, b0) = at(delta);
+        let b = [Dual::<1>::new(b0 + delta, [1.0])];
+        let p = nominal.design.properties(&b).unwrap();
+        // `moved` was built from the turned laminates: its stored derivatives are at b0 + δ
+        let q = moved
+            .design
+            .properties(&[Dual::<1>::new(b0, [1.0])])
+            .unwrap();
+        let (s, t) = (&p.sections[0], &q.sections[0]);
+        let scale = t.stiffness.map(|x| x.v.abs()).max();
+        let dscale = t.stiffness.map(|x| x.d[0].abs()).max();
+        for (x, y) in s.stiffness.iter().zip(t.stiffness.iter()) {
+            assert!((x.v - y.v).abs() < 1e-9 * scale, "{} vs {}", x.v, y.v);
+            assert!(
+                (x.d[0] - y.d[0]).abs() < 1e-8 * dscale,
+                "{} vs {}",
+                x.d[0],
+                y.d[0]
+            );
+        }
+        // and the move is not nothing: 3° changes the stiffness
+        let p0 = nominal
+            .design
+            .properties(&[Dual::<1>::new(b0, [1.0])])
+            .unwrap();
+        let moved_by = p0.sections[0]
+            .stiffness
+            .iter()
+            .zip(s.stiffness.iter())
+            .fold(0.0f64, |m, (x, y)| m.max((x.v - y.v).abs()));
+        assert!(moved_by > 1e-3 * scale, "{moved_by:e}");
     }
 }
