@@ -113,7 +113,7 @@ fn frequency_derivatives_match_central_differences_of_command_line_runs() {
     let p = p.to_str().unwrap();
     let doc = json(&["modes", p, "--format", "json", "--derivatives"]);
     let d = &doc["bodies"]["rod"]["derivatives"];
-    assert_eq!(d[1]["wrt"], "plate.plies[1].angle");
+    assert_eq!(d[1]["wrt"], "plate.plies.1.angle");
     // a step large enough that the eigen solver's convergence tolerance does not show in the
     // difference quotient, small enough that the truncation error (∝ h²) stays below 1e-7
     let h = 0.02; // degrees

@@ -86,7 +86,7 @@ fn command_line_derivatives_match_central_differences_of_command_line_runs() {
     let doc = json(&["section", p, "--format", "json", "--derivatives"]);
     let d = &doc["sections"]["rod"]["derivatives"];
     assert_eq!(d.as_array().unwrap().len(), 4, "one derivative per ply");
-    assert_eq!(d[2]["wrt"], "tube_wall.plies[2].angle");
+    assert_eq!(d[2]["wrt"], "tube_wall.plies.2.angle");
     // central difference in degrees on ply 2, converted to per radian
     let h = 1e-3;
     let at = |angle: f64| {

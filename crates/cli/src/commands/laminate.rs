@@ -3,11 +3,12 @@
 use std::path::Path;
 
 use laminate::{LaminateStiffness, PlyStack};
-use sens::{chunk_ranges, seed_chunk};
+use sens::{Dual, chunk_ranges};
 use serde_json::json;
 
 use super::Format;
-use super::output::{self, Quantity, Report};
+use super::output::{self, Derivative, Quantity, Report};
+use crate::deck::design::{DesignVariable, validate as validate_design};
 use crate::deck::laminates::{LaminateDef, validate};
 use crate::deck::{self, DeckError};
 
@@ -30,14 +31,26 @@ fn quantities(k: &LaminateStiffness<f64>) -> Vec<Quantity> {
     ]
 }
 
-/// Derivatives of the laminate's stiffness with respect to each ply's angle (per radian).
-pub fn ply_angle_derivatives(stack: &PlyStack<f64>) -> Vec<LaminateStiffness<f64>> {
-    let angles: Vec<f64> = stack.plies().iter().map(|p| p.angle).collect();
-    let mut out = Vec::with_capacity(angles.len());
-    for range in chunk_ranges(angles.len(), CHUNK) {
-        let seeded = seed_chunk::<CHUNK>(&angles, range.start);
+/// Derivatives of the laminate's stiffness with respect to variables that turn its plies:
+/// variable `j` turns ply `p` by `f` radians per unit for each `(p, f)` of `links[j]`.
+pub fn angle_derivatives(
+    stack: &PlyStack<f64>,
+    links: &[Vec<(usize, f64)>],
+) -> Vec<LaminateStiffness<f64>> {
+    let mut out = Vec::with_capacity(links.len());
+    for range in chunk_ranges(links.len(), CHUNK) {
+        let mut angles: Vec<Dual<CHUNK>> = stack
+            .plies()
+            .iter()
+            .map(|p| Dual::constant(p.angle))
+            .collect();
+        for (k, j) in range.clone().enumerate() {
+            for &(p, f) in &links[j] {
+                angles[p].d[k] += f;
+            }
+        }
         let dual = stack
-            .with_angles(&seeded)
+            .with_angles(&angles)
             .expect("angles of a validated stack stay valid")
             .stiffness();
         for k in 0..range.len() {
@@ -47,7 +60,38 @@ pub fn ply_angle_derivatives(stack: &PlyStack<f64>) -> Vec<LaminateStiffness<f64
     out
 }
 
-fn report(name: &str, def: &LaminateDef, derivatives: bool) -> Report {
+/// The derivative blocks of a laminate: per ply angle (per radian), or with `[design.*]`
+/// variables per variable that moves this laminate (per degree).
+fn derivative_blocks(
+    name: &str,
+    stack: &PlyStack<f64>,
+    vars: &[DesignVariable],
+) -> Vec<Derivative> {
+    if vars.is_empty() {
+        let each: Vec<_> = (0..stack.plies().len()).map(|i| vec![(i, 1.0)]).collect();
+        return angle_derivatives(stack, &each)
+            .iter()
+            .enumerate()
+            .map(|(i, d)| Derivative {
+                wrt: format!("plies.{i}.angle"),
+                per: "rad",
+                values: quantities(d),
+            })
+            .collect();
+    }
+    let mine: Vec<&DesignVariable> = vars.iter().filter(|v| v.laminate == name).collect();
+    let links: Vec<_> = mine.iter().map(|v| v.stack_plies.clone()).collect();
+    mine.iter()
+        .zip(angle_derivatives(stack, &links))
+        .map(|(v, d)| Derivative {
+            wrt: v.name.clone(),
+            per: "deg",
+            values: quantities(&d),
+        })
+        .collect()
+}
+
+fn report(name: &str, def: &LaminateDef, derivatives: bool, vars: &[DesignVariable]) -> Report {
     let stack = &def.stack;
     let mut preamble = vec![
         format!(
@@ -78,11 +122,7 @@ fn report(name: &str, def: &LaminateDef, derivatives: bool) -> Report {
     let mut info = serde_json::Map::new();
     info.insert("plies".into(), json!(plies));
     let derivatives = if derivatives {
-        ply_angle_derivatives(stack)
-            .iter()
-            .enumerate()
-            .map(|(i, d)| (format!("plies[{i}].angle"), quantities(d)))
-            .collect()
+        derivative_blocks(name, stack, vars)
     } else {
         Vec::new()
     };
@@ -106,10 +146,11 @@ pub fn run(
 ) -> Result<String, DeckError> {
     let (src, raw) = deck::load(path, overrides)?;
     let model = validate(&src, &raw)?;
+    let design = validate_design(&src, &raw, &model)?;
     let selected = deck::select(&src, &model.laminates, only, "laminate")?;
     let reports: Vec<Report> = selected
         .iter()
-        .map(|(name, def)| report(name, def, derivatives))
+        .map(|(name, def)| report(name, def, derivatives, &design.variables))
         .collect();
     Ok(output::render(
         format,

@@ -9,9 +9,10 @@ use fem::{ModalAnalysis, ModeDerivatives, ModeUpdate};
 use serde_json::json;
 
 use super::Format;
-use super::output::{self, Quantity, Report};
+use super::output::{self, Derivative, Quantity, Report};
 use crate::deck;
 use crate::deck::bodies::validate_one;
+use crate::deck::design::validate as validate_design;
 use crate::deck::laminates::validate as validate_laminates;
 use crate::error::CliError;
 use crate::files::write_atomic;
@@ -30,7 +31,13 @@ fn frequency_derivative(lambda: f64, d_lambda: f64) -> f64 {
     d_lambda / (4.0 * std::f64::consts::PI * lambda.max(0.0).sqrt())
 }
 
-fn report(name: &str, b: &Built, a: &ModalAnalysis, d: Option<&ModeDerivatives>) -> Report {
+fn report(
+    name: &str,
+    b: &Built,
+    a: &ModalAnalysis,
+    d: Option<&ModeDerivatives>,
+    per: &'static str,
+) -> Report {
     let lam = a.eigenvalues();
     let lam = lam.as_slice();
     let f = a.frequencies_hz();
@@ -103,13 +110,14 @@ fn report(name: &str, b: &Built, a: &ModalAnalysis, d: Option<&ModeDerivatives>)
                 .zip(lam)
                 .map(|(&x, &l)| frequency_derivative(l, x))
                 .collect();
-            derivatives.push((
-                name.clone(),
-                vec![
+            derivatives.push(Derivative {
+                wrt: name.clone(),
+                per,
+                values: vec![
                     Quantity::vector("frequencies", "Hz", &df),
                     Quantity::vector("eigenvalues", "rad^2/s^2", &dl),
                 ],
-            ));
+            });
         }
     }
     let mut info = serde_json::Map::new();
@@ -190,6 +198,7 @@ fn export(
     b: &Built,
     a: &ModalAnalysis,
     dm: Option<&[fem::DesignMatrices]>,
+    per: &str,
 ) -> Result<(), CliError> {
     const DOF: [&str; 6] = ["ux", "uy", "uz", "rx", "ry", "rz"];
     let mut dofs = String::from("row,node,dof\n");
@@ -224,7 +233,7 @@ fn export(
         for (var, (d, vname)) in dm.iter().zip(b.design.names()).enumerate() {
             let text = matrix_market(
                 &d.k,
-                &format!("flexsens: dK/d({vname}) of body {name}, per radian; {what}"),
+                &format!("flexsens: dK/d({vname}) of body {name}, per {per}; {what}"),
             );
             write_atomic(&dir.join(format!("{name}.dK_{var}.mtx")), text.as_bytes())?;
         }
@@ -236,6 +245,7 @@ fn export(
 pub fn run(path: &Path, overrides: &[String], req: &ModesRequest) -> Result<String, CliError> {
     let (src, raw) = deck::load(path, overrides)?;
     let model = validate_laminates(&src, &raw)?;
+    let design = validate_design(&src, &raw, &model)?;
     let only = req.only;
     let selected = deck::select(&src, &raw.body, only, "body")?;
     if req.vtk.is_some() && selected.len() > 1 {
@@ -254,10 +264,11 @@ pub fn run(path: &Path, overrides: &[String], req: &ModesRequest) -> Result<Stri
     let mut reports = Vec::new();
     for (name, b) in selected {
         let def = validate_one(&src, &raw, name, b, &model)?;
-        let request = if req.derivatives {
-            DesignRequest::EachPly
-        } else {
-            DesignRequest::None
+        // per ply angle (radian), or per [design.*] variable (its unit)
+        let (request, per) = match (req.derivatives, design.variables.is_empty()) {
+            (false, _) => (DesignRequest::None, "rad"),
+            (true, true) => (DesignRequest::EachPly, "rad"),
+            (true, false) => (DesignRequest::Variables(&design.variables), "deg"),
         };
         let built = build(&src, name, &def, request)?;
         let analysis = fem::modal_analysis(&built.mesh, &built.props, &built.options)
@@ -283,6 +294,7 @@ pub fn run(path: &Path, overrides: &[String], req: &ModesRequest) -> Result<Stri
                 &built,
                 &analysis,
                 derivs.as_ref().map(|(dm, _)| dm.as_slice()),
+                per,
             )?;
         }
         reports.push(report(
@@ -290,6 +302,7 @@ pub fn run(path: &Path, overrides: &[String], req: &ModesRequest) -> Result<Stri
             &built,
             &analysis,
             derivs.as_ref().map(|(_, d)| d),
+            per,
         ));
     }
     Ok(output::render(

@@ -138,8 +138,16 @@ pub struct Report {
     /// Extra JSON members describing the object (plies, mesh size, …).
     pub info: Map<String, Value>,
     pub values: Vec<Quantity>,
-    /// `(design variable, quantities differentiated with respect to it, per radian)`.
-    pub derivatives: Vec<(String, Vec<Quantity>)>,
+    pub derivatives: Vec<Derivative>,
+}
+
+/// The quantities of a report differentiated with respect to one design variable.
+pub struct Derivative {
+    /// The variable: a `[design.*]` name, or a ply (`rod.plies.2.angle`).
+    pub wrt: String,
+    /// The variable's unit: the derivatives are per one of it (`"deg"`, `"rad"`).
+    pub per: &'static str,
+    pub values: Vec<Quantity>,
 }
 
 /// The reports in the requested format; `collection` names them in JSON (`"sections"`), `kind`
@@ -178,9 +186,9 @@ pub fn table(title: Option<&str>, reports: &[Report]) -> String {
         for q in &r.values {
             write_quantity(&mut s, q, width);
         }
-        for (wrt, qs) in &r.derivatives {
-            let _ = writeln!(s, "  -- d/d {wrt} (per rad)");
-            for q in qs {
+        for d in &r.derivatives {
+            let _ = writeln!(s, "  -- d/d {} (per {})", d.wrt, d.per);
+            for q in &d.values {
                 write_quantity(&mut s, q, width);
             }
         }
@@ -235,12 +243,13 @@ pub fn json_doc(collection: &str, reports: &[Report]) -> String {
             let d: Vec<Value> = r
                 .derivatives
                 .iter()
-                .map(|(wrt, qs)| {
-                    let values: Map<String, Value> = qs
+                .map(|d| {
+                    let values: Map<String, Value> = d
+                        .values
                         .iter()
                         .map(|q| (q.name.to_string(), q.json_value()))
                         .collect();
-                    json!({"wrt": wrt, "per": "rad", "values": values})
+                    json!({"wrt": d.wrt, "per": d.per, "values": values})
                 })
                 .collect();
             o.insert("derivatives".into(), json!(d));
@@ -257,9 +266,9 @@ pub fn json_doc(collection: &str, reports: &[Report]) -> String {
 pub fn csv(kind: &str, reports: &[Report]) -> String {
     let mut s = format!("{kind},quantity,row,col,unit,wrt,value\n");
     for r in reports {
-        let mut blocks = vec![("", "", &r.values)];
-        for (wrt, qs) in &r.derivatives {
-            blocks.push((wrt.as_str(), "/rad", qs));
+        let mut blocks = vec![("", String::new(), &r.values)];
+        for d in &r.derivatives {
+            blocks.push((d.wrt.as_str(), format!("/{}", d.per), &d.values));
         }
         for (wrt, per, qs) in blocks {
             for q in qs {

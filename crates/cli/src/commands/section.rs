@@ -7,13 +7,13 @@ use section::{DesignMap, SectionProperties};
 use serde_json::json;
 
 use super::Format;
-use super::output::{self, Quantity, Report};
+use super::output::{self, Derivative, Quantity, Report};
+use crate::deck::design::{DesignVariable, validate as validate_design};
 use crate::deck::laminates::validate as validate_laminates;
 use crate::deck::sections::{SectionDef, validate_one};
 use crate::deck::{self, DeckError};
 
-/// Width of the dual-number chunks (results do not depend on it).
-const CHUNK: usize = 8;
+use crate::study::flexible::{CHUNK, section_design};
 
 /// Unit of entry (r, c) of a stiffness relating `[ε, γ₂, γ₃ | κ₁, κ₂, κ₃]` to
 /// `[F₁, F₂, F₃ | M₁, M₂, M₃]`: force rows and strain columns carry N, moments and curvatures
@@ -43,17 +43,37 @@ fn quantities(p: &SectionProperties) -> Vec<Quantity> {
     ]
 }
 
-fn report(name: &str, def: &SectionDef, derivatives: bool) -> Result<Report, String> {
+fn report(
+    name: &str,
+    def: &SectionDef,
+    derivatives: bool,
+    vars: &[DesignVariable],
+) -> Result<Report, String> {
     let mesh = &def.mesh;
     let (values, derivs) = if derivatives {
-        let design = DesignMap::each_region(mesh);
+        // per region's ply angle, or per [design.*] variable that moves the section
+        let (design, per) = if vars.is_empty() {
+            (DesignMap::each_region(mesh), "rad")
+        } else {
+            let mut map = section_design(def, vars);
+            map.variables.retain(|v| !v.links.is_empty());
+            (map, "deg")
+        };
         let s =
             section::analyse_with_derivatives::<CHUNK>(mesh, &design).map_err(|e| e.to_string())?;
         let d = s
             .variables
             .iter()
             .zip(&s.derivatives)
-            .map(|(v, d)| (format!("{v}.angle"), quantities(d)))
+            .map(|(v, d)| Derivative {
+                wrt: if vars.is_empty() {
+                    format!("{v}.angle")
+                } else {
+                    v.clone()
+                },
+                per,
+                values: quantities(d),
+            })
             .collect();
         (s.properties, d)
     } else {
@@ -98,11 +118,12 @@ pub fn run(
 ) -> Result<String, DeckError> {
     let (src, raw) = deck::load(path, overrides)?;
     let model = validate_laminates(&src, &raw)?;
+    let design = validate_design(&src, &raw, &model)?;
     let selected = deck::select(&src, &raw.section, only, "section")?;
     let mut reports = Vec::new();
     for (name, s) in selected {
         let def = validate_one(&src, name, s, &model)?;
-        let r = report(name, &def, derivatives)
+        let r = report(name, &def, derivatives, &design.variables)
             .map_err(|e| src.error(Some(s.span()), Some(format!("section.{name}")), e))?;
         reports.push(r);
     }

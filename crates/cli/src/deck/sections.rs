@@ -78,7 +78,7 @@ fn laminate_plies(
         .iter()
         .enumerate()
         .map(|(i, p)| {
-            let region = format!("{}.plies[{i}]", name.get_ref());
+            let region = format!("{}.plies.{i}", name.get_ref());
             tags.insert(
                 region.clone(),
                 PlyRef {
@@ -413,13 +413,7 @@ pub fn validate_one(
                             .map(|n| count(src, &pk("elements"), n, 1))
                             .transpose()?
                             .unwrap_or(2);
-                        out.push(PlySpec::new(
-                            format!("plies[{i}]"),
-                            *m,
-                            a.to_radians(),
-                            t,
-                            n,
-                        ));
+                        out.push(PlySpec::new(format!("plies.{i}"), *m, a.to_radians(), t, n));
                     }
                     out
                 }

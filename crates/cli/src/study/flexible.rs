@@ -177,7 +177,7 @@ impl Built {
 
 /// The section design map of the deck's variables: region `r` moves with variable `j` when it
 /// is a ply of `j` (the section's region tags, [`SectionDef::plies`]).
-fn section_design(section: &SectionDef, vars: &[DesignVariable]) -> DesignMap {
+pub fn section_design(section: &SectionDef, vars: &[DesignVariable]) -> DesignMap {
     let mut map = DesignMap::new();
     for v in vars {
         let mut links = Vec::new();
@@ -221,7 +221,7 @@ fn shell(
         DesignRequest::None => (Vec::new(), Vec::new(), Vec::new()),
         DesignRequest::EachPly => (
             (0..plies.len())
-                .map(|i| format!("{laminate}.plies[{i}].angle"))
+                .map(|i| format!("{laminate}.plies.{i}.angle"))
                 .collect(),
             plies.iter().map(|p| p.angle).collect(),
             (0..plies.len()).map(|i| vec![(i, 1.0)]).collect(),
