@@ -79,8 +79,11 @@ fn derivative_blocks(
             })
             .collect();
     }
-    let mine: Vec<&DesignVariable> = vars.iter().filter(|v| v.laminate == name).collect();
-    let links: Vec<_> = mine.iter().map(|v| v.stack_plies.clone()).collect();
+    let mine: Vec<&DesignVariable> = vars
+        .iter()
+        .filter(|v| !v.ply_links(name).is_empty())
+        .collect();
+    let links: Vec<_> = mine.iter().map(|v| v.ply_links(name).to_vec()).collect();
     mine.iter()
         .zip(angle_derivatives(stack, &links))
         .map(|(v, d)| Derivative {

@@ -172,9 +172,17 @@ fn subject(src: &Source, mech: &Study) -> Result<Subject, CliError> {
              \"mid-node-deflection\", body = \"rod\")",
         )));
     };
+    let crate::deck::design::Target::PlyAngle { laminate, .. } = &var.target else {
+        return Err(CliError::Input(src.error(
+            None,
+            Some(format!("design.{}", var.name)),
+            "`flexsens report` varies the lay-up: its first [design.*] variable must be of kind \
+             \"ply-angle\"",
+        )));
+    };
     Ok(Subject {
         variable: var.name.clone(),
-        laminate: var.laminate.clone(),
+        laminate: laminate.clone(),
         response,
         response_name: mech.responses[response].name.clone(),
         other_variables: mech.design.variables[1..]

@@ -9,18 +9,36 @@ use nalgebra::DMatrix;
 use super::compute::Computed;
 use super::sensitivity;
 use crate::deck::design::FdSteps;
-use crate::deck::design::objective_label;
+use crate::deck::design::{DesignVariable, objective_label};
 use crate::deck::responses::ResponseDef;
 use crate::deck::{RawDeck, Source};
 use crate::results::{Attr, Group};
 use crate::study::Study;
 
-/// Unit of a derivative per degree.
-pub(crate) fn per_degree(unit: &str) -> String {
-    if unit == "1" {
-        "1/deg".into()
+/// Unit of a derivative of a quantity in `unit` per one `per` (`"1/deg"`, `"m/kg"`).
+pub(crate) fn per(unit: &str, per: &str) -> String {
+    let per = if per.contains('*') {
+        format!("({per})")
     } else {
-        format!("{unit}/deg")
+        per.to_string()
+    };
+    format!("{unit}/{per}")
+}
+
+/// The design variables' unit when they share one (`"deg"`), else a pointer to
+/// `design/units`.
+fn common_unit(vars: &[DesignVariable]) -> String {
+    match vars.split_first() {
+        Some((first, rest)) if rest.iter().all(|v| v.unit == first.unit) => first.unit.into(),
+        _ => "per variable: design/units".into(),
+    }
+}
+
+/// Unit of the derivatives of a quantity in `unit` with respect to every design variable.
+fn per_design(unit: &str, vars: &[DesignVariable]) -> String {
+    match vars.split_first() {
+        Some((first, rest)) if rest.iter().all(|v| v.unit == first.unit) => per(unit, first.unit),
+        _ => format!("{unit} per unit of each design variable (design/units)"),
     }
 }
 
@@ -169,10 +187,14 @@ pub(crate) fn results(src: &Source, mech: &Study, c: &Computed) -> Group {
             &[m],
             vars.iter().map(|v| v.value).collect(),
         )
-        .units("deg");
+        .units(&common_unit(vars));
         g.put_text(
-            "design/laminates",
-            vars.iter().map(|v| v.laminate.clone()).collect(),
+            "design/units",
+            vars.iter().map(|v| v.unit.to_string()).collect(),
+        );
+        g.put_text(
+            "design/targets",
+            vars.iter().map(DesignVariable::describe).collect(),
         );
     }
     if let Some(s) = &c.sensitivities {
@@ -191,7 +213,7 @@ pub(crate) fn results(src: &Source, mech: &Study, c: &Computed) -> Group {
         for (ResponseDef { name, unit, .. }, d) in mech.responses.iter().zip(&s.responses) {
             if let Some(d) = d {
                 g.put(&format!("sensitivities/{name}"), &[n, m], row_major(d))
-                    .units(&per_degree(unit));
+                    .units(&per_design(unit, vars));
             }
         }
         for (body, df) in &s.frequencies {
@@ -200,7 +222,7 @@ pub(crate) fn results(src: &Source, mech: &Study, c: &Computed) -> Group {
                 &[df.nrows(), m],
                 row_major(df),
             )
-            .units("Hz/deg");
+            .units(&per_design("Hz", vars));
         }
     }
     for o in &c.objectives {
@@ -212,7 +234,7 @@ pub(crate) fn results(src: &Source, mech: &Study, c: &Computed) -> Group {
         }
         if !o.gradient.is_empty() {
             g.put(&format!("{base}/gradient"), &[m], o.gradient.clone())
-                .units(&per_degree(o.unit));
+                .units(&per_design(o.unit, vars));
         }
         let og = g.group(&base);
         og.attrs
@@ -225,15 +247,15 @@ pub(crate) fn results(src: &Source, mech: &Study, c: &Computed) -> Group {
         for (ResponseDef { name, unit, .. }, d) in mech.responses.iter().zip(&case.responses) {
             if let Some(d) = d {
                 g.put(&format!("{base}/{name}"), &[n, m], row_major(d))
-                    .units(&per_degree(unit));
+                    .units(&per_design(unit, vars));
             }
         }
         for (o, d) in c.objectives.iter().zip(&case.objectives) {
             g.put(&format!("{base}/objectives/{}", o.name), &[m], d.clone())
-                .units(&per_degree(o.unit));
+                .units(&per_design(o.unit, vars));
         }
         g.put(&format!("{base}/perturbations"), &[m], case.deltas.clone())
-            .units("deg");
+            .units(&common_unit(vars));
         let cg = g.group(&base);
         for (k, v) in [
             ("scheme", if case.central { "central" } else { "forward" }),
@@ -290,7 +312,7 @@ pub(crate) fn sensitivities_csv(mech: &Study, c: &Computed) -> Option<String> {
     for (ResponseDef { name, unit, .. }, d) in mech.responses.iter().zip(&s.responses) {
         if let Some(d) = d {
             for (j, v) in vars.iter().enumerate() {
-                let _ = write!(csv, ",d {name}/d {} [{}]", v.name, per_degree(unit));
+                let _ = write!(csv, ",d {name}/d {} [{}]", v.name, per(unit, v.unit));
                 columns.push((d, j));
             }
         }
@@ -312,7 +334,7 @@ pub(crate) fn gradients_csv(mech: &Study, c: &Computed) -> String {
     let with_gradients = c.sensitivities.is_some();
     if with_gradients {
         for v in &mech.design.variables {
-            let _ = write!(csv, ",d/d {} [unit/deg]", v.name);
+            let _ = write!(csv, ",d/d {} [unit/{}]", v.name, v.unit);
         }
     }
     csv.push('\n');
@@ -359,7 +381,7 @@ pub(crate) fn summary(src: &Source, mech: &Study, c: &Computed, out: &Path) -> s
         .design
         .variables
         .iter()
-        .map(|v| json!({"name": v.name, "laminate": v.laminate, "value": v.value, "unit": "deg"}))
+        .map(|v| json!({"name": v.name, "target": v.describe(), "value": v.value, "unit": v.unit}))
         .collect();
     let objectives: Vec<_> = c
         .objectives
@@ -482,7 +504,13 @@ pub(crate) fn summary_text(
     if c.sensitivities.is_some() {
         let names: Vec<String> = vars
             .iter()
-            .map(|v| format!("{} = {}°", v.name, v.value))
+            .map(|v| {
+                if v.unit == "deg" {
+                    format!("{} = {}°", v.name, v.value)
+                } else {
+                    format!("{} = {} {}", v.name, v.value, v.unit)
+                }
+            })
             .collect();
         let _ = writeln!(
             s,

@@ -108,6 +108,15 @@ fn analyse_chunked<const N: usize>(
             *model.body_mut(part.id) = Body::Flexible(FlexibleBody::new(part.name.clone(), body));
         }
     }
+    // rigid bodies' masses and inertias, seeded in the chunk of their variable
+    for (model, range) in chunks.iter_mut().zip(&ranges) {
+        for (k, j) in range.clone().enumerate() {
+            let v = &mech.design.variables[j];
+            let mut d = [0.0; N];
+            d[k] = 1.0;
+            crate::study::set_rigid(model, &mech.bodies, &v.target, Dual::new(v.value, d));
+        }
+    }
     let design = DesignModel::new(chunks, m).map_err(|e| runtime(src, e))?;
     let mut options = match mech.design.method {
         SensitivityScheme::Direct => SensitivityOptions::default(),

@@ -100,7 +100,7 @@ fn round(x: f64) -> f64 {
 }
 
 /// The `--set` arguments of one case: the varied deck keys, and each varied design variable
-/// expanded into its ply angles.
+/// expanded into the deck entries it sets (its ply angles, a rigid body's mass or inertia).
 fn case_overrides(
     path: &Path,
     global: &[String],

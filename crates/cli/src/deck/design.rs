@@ -10,35 +10,91 @@ use laminate::LaminateError;
 use mbs::Objective;
 use toml::Spanned;
 
-use super::check::{finite, positive, span};
+use super::check::{finite, positive, required, span};
 use super::laminates::{LaminateModel, suggestion};
 use super::raw::{RawDesign, RawFiniteDifferences, RawObjective};
 use super::{DeckError, RawDeck, Source};
+
+/// What a design variable moves.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Target {
+    /// Ply angles of a laminate: `(ply index in the stack, dθ/db)`, θ in radians and b in
+    /// degrees (mirrored plies of a symmetric laminate included). Every section built from the
+    /// laminate (tube, box, mesh regions given as its plies) and every shell body laminated
+    /// with it follows.
+    PlyAngle {
+        laminate: String,
+        stack_plies: Vec<(usize, f64)>,
+        /// `(ply index in the deck, θ_i0 in degrees, f_i)`: the plies as written.
+        deck_plies: Vec<(usize, f64, f64)>,
+    },
+    /// The mass of a rigid body (kg).
+    RigidMass { body: String },
+    /// A principal moment of inertia of a rigid body (`axis` 0, 1, 2: the diagonal entry of
+    /// its inertia tensor in body axes, kg·m²); `key` is the entry's `--set` path.
+    RigidInertia {
+        body: String,
+        axis: usize,
+        key: String,
+    },
+}
 
 /// A validated design variable.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DesignVariable {
     pub name: String,
-    pub laminate: String,
-    /// `(ply index in the stack, dθ/db)`, θ in radians and b in degrees (mirrored plies of a
-    /// symmetric laminate included).
-    pub stack_plies: Vec<(usize, f64)>,
-    /// `(ply index in the deck, θ_i0 in degrees, f_i)`: what a perturbed deck changes.
-    pub deck_plies: Vec<(usize, f64, f64)>,
-    /// `b0` (degrees).
+    pub target: Target,
+    /// The nominal value `b0`, in [`Self::unit`].
     pub value: f64,
+    /// The variable's unit; derivatives are per one of it (`"deg"`, `"kg"`, `"kg*m^2"`).
+    pub unit: &'static str,
 }
 
 impl DesignVariable {
+    /// The plies of `laminate` this variable turns, `(stack ply, dθ/db)` (empty when it moves
+    /// something else).
+    pub fn ply_links(&self, laminate: &str) -> &[(usize, f64)] {
+        match &self.target {
+            Target::PlyAngle {
+                laminate: l,
+                stack_plies,
+                ..
+            } if l == laminate => stack_plies,
+            _ => &[],
+        }
+    }
+
+    /// What the variable moves, for tables and messages.
+    pub fn describe(&self) -> String {
+        match &self.target {
+            Target::PlyAngle { laminate, .. } => format!("ply angles of laminate `{laminate}`"),
+            Target::RigidMass { body } => format!("mass of rigid body `{body}`"),
+            Target::RigidInertia { body, axis, .. } => {
+                format!(
+                    "inertia I{0}{0} of rigid body `{body}`",
+                    ["x", "y", "z"][*axis]
+                )
+            }
+        }
+    }
+
     /// `--set` overrides of the deck that put this variable at `b` (the lay-ups of
-    /// `flexsens report`, which runs whole decks).
+    /// `flexsens report` and the cases of `flexsens sweep`, which run whole decks).
     pub fn overrides(&self, b: f64) -> Vec<String> {
-        self.deck_plies
+        let (laminate, deck_plies) = match &self.target {
+            Target::PlyAngle {
+                laminate,
+                deck_plies,
+                ..
+            } => (laminate, deck_plies),
+            Target::RigidMass { body } => return vec![format!("rigid.{body}.mass={b:?}")],
+            Target::RigidInertia { key, .. } => return vec![format!("{key}={b:?}")],
+        };
+        deck_plies
             .iter()
             .map(|&(i, theta0, f)| {
                 format!(
-                    "laminate.{}.plies.{i}.angle={:?}",
-                    self.laminate,
+                    "laminate.{laminate}.plies.{i}.angle={:?}",
                     theta0 + f * (b - self.value)
                 )
             })
@@ -46,17 +102,25 @@ impl DesignVariable {
     }
 
     /// Move the laminates to the value `b` of this variable (from the nominal laminates: each
-    /// linked ply turns by `dθ/db · (b − b0)`).
+    /// linked ply turns by `dθ/db · (b − b0)`); other variables leave them.
     pub fn apply(&self, model: &mut LaminateModel, b: f64) -> Result<(), LaminateError> {
+        let Target::PlyAngle {
+            laminate,
+            stack_plies,
+            ..
+        } = &self.target
+        else {
+            return Ok(());
+        };
         if b == self.value {
             return Ok(());
         }
         let def = model
             .laminates
-            .get_mut(&self.laminate)
+            .get_mut(laminate)
             .expect("a validated variable names a laminate of the model");
         let mut angles: Vec<f64> = def.stack.plies().iter().map(|p| p.angle).collect();
-        for &(p, f) in &self.stack_plies {
+        for &(p, f) in stack_plies {
             angles[p] += f * (b - self.value);
         }
         def.stack = def.stack.with_angles(&angles)?;
@@ -167,7 +231,37 @@ fn variable(
 ) -> Result<DesignVariable, DeckError> {
     let k = |s: &str| format!("design.{name}.{s}");
     let rd = d.get_ref();
-    choice(src, &k("kind"), rd.kind.as_ref(), &["ply-angle"])?;
+    let kind = choice(
+        src,
+        &k("kind"),
+        rd.kind.as_ref(),
+        &["ply-angle", "rigid-mass", "rigid-inertia"],
+    )?
+    .unwrap_or("ply-angle");
+    // keys of the other kinds
+    let keys = [
+        ("laminate", rd.laminate.as_ref().and_then(span), "ply-angle"),
+        ("plies", rd.plies.as_ref().and_then(span), "ply-angle"),
+        ("factors", rd.factors.as_ref().and_then(span), "ply-angle"),
+        (
+            "body",
+            rd.body.as_ref().and_then(span),
+            "rigid-mass rigid-inertia",
+        ),
+        ("axis", rd.axis.as_ref().and_then(span), "rigid-inertia"),
+    ];
+    for (key, at, kinds) in keys {
+        if at.is_some() && !kinds.split(' ').any(|x| x == kind) {
+            return Err(src.error(
+                at,
+                Some(k(key)),
+                format!("this key does not apply to kind = \"{kind}\""),
+            ));
+        }
+    }
+    if kind != "ply-angle" {
+        return rigid_variable(src, raw, name, d, kind);
+    }
     let lam = rd.laminate.as_ref().ok_or_else(|| {
         src.error(
             span(d),
@@ -263,10 +357,92 @@ fn variable(
     let value = deck_plies[0].1 / deck_plies[0].2;
     Ok(DesignVariable {
         name: name.to_string(),
-        laminate: lname.clone(),
-        stack_plies,
-        deck_plies,
+        target: Target::PlyAngle {
+            laminate: lname.clone(),
+            stack_plies,
+            deck_plies,
+        },
         value,
+        unit: "deg",
+    })
+}
+
+/// A rigid body's mass or principal inertia as a design variable.
+fn rigid_variable(
+    src: &Source,
+    raw: &RawDeck,
+    name: &str,
+    d: &Spanned<RawDesign>,
+    kind: &str,
+) -> Result<DesignVariable, DeckError> {
+    let k = |s: &str| format!("design.{name}.{s}");
+    let rd = d.get_ref();
+    let body = required(
+        src,
+        span(d),
+        &k("body"),
+        &rd.body,
+        "body (a rigid body's name)",
+    )?;
+    let rigid = super::mechanism::rigid_bodies(src, raw)?;
+    let Some(r) = rigid.iter().find(|r| r.name == *body.get_ref()) else {
+        let known: Vec<&str> = rigid.iter().map(|r| r.name.as_str()).collect();
+        let what = if raw.body.contains_key(body.get_ref()) {
+            " (a flexible body: its mass comes from its laminates)".to_string()
+        } else {
+            suggestion(body.get_ref(), &known)
+        };
+        return Err(src.error(
+            span(body),
+            Some(k("body")),
+            format!("undefined rigid body `{}`{what}", body.get_ref()),
+        ));
+    };
+    let body = body.get_ref().clone();
+    Ok(if kind == "rigid-mass" {
+        DesignVariable {
+            name: name.to_string(),
+            value: r.mass,
+            target: Target::RigidMass { body },
+            unit: "kg",
+        }
+    } else {
+        let axis = required(
+            src,
+            span(d),
+            &k("axis"),
+            &rd.axis,
+            "axis (\"x\", \"y\" or \"z\")",
+        )?;
+        let axis = choice(src, &k("axis"), Some(axis), &["x", "y", "z"])?
+            .map_or(0, |a| (a.as_bytes()[0] - b'x') as usize);
+        let off = (0..3).any(|j| j != axis && r.inertia[(axis, j)] != 0.0);
+        if off {
+            return Err(src.error(
+                rd.axis.as_ref().and_then(span),
+                Some(k("axis")),
+                "the inertia has products of inertia on this axis: a principal moment is a \
+                 design variable only where the tensor is diagonal",
+            ));
+        }
+        // the entry as written: [Ixx, Iyy, Izz] or a 3×3 matrix
+        let matrix = raw.rigid[&body]
+            .get_ref()
+            .inertia
+            .as_ref()
+            .and_then(|v| v.get_ref().as_array())
+            .is_some_and(|a| a.first().is_some_and(toml::Value::is_array));
+        let key = if matrix {
+            format!("rigid.{body}.inertia.{axis}.{axis}")
+        } else {
+            format!("rigid.{body}.inertia.{axis}")
+        };
+        DesignVariable {
+            name: name.to_string(),
+            value: r.inertia[(axis, axis)],
+            target: Target::RigidInertia { body, axis, key },
+            unit: "kg*m^2",
+        }
     })
 }
 

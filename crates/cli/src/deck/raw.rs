@@ -256,7 +256,7 @@ pub struct RawRegion {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawDesign {
-    /// `"ply-angle"` (the default and, for now, the only kind).
+    /// `"ply-angle"` (the default), `"rigid-mass"` or `"rigid-inertia"`.
     pub kind: Option<Spanned<String>>,
     /// The laminate whose plies move.
     pub laminate: Option<Spanned<String>>,
@@ -264,6 +264,10 @@ pub struct RawDesign {
     pub plies: Option<Spanned<Vec<i64>>>,
     /// `dθ_i/db` of each listed ply (default 1; e.g. `[1, -1]` for a `[θ/−θ]` pair).
     pub factors: Option<Spanned<Vec<f64>>>,
+    /// Rigid-body kinds: the rigid body.
+    pub body: Option<Spanned<String>>,
+    /// `"rigid-inertia"`: the principal axis (`"x"`, `"y"` or `"z"`, body axes).
+    pub axis: Option<Spanned<String>>,
 }
 
 /// A scalar objective of a response history.

@@ -181,12 +181,10 @@ pub fn section_design(section: &SectionDef, vars: &[DesignVariable]) -> DesignMa
     let mut map = DesignMap::new();
     for v in vars {
         let mut links = Vec::new();
-        for &(p, f) in &v.stack_plies {
-            for (r, tag) in section.plies.iter().enumerate() {
-                if tag
-                    .as_ref()
-                    .is_some_and(|t| t.laminate == v.laminate && t.ply == p)
-                {
+        for (r, tag) in section.plies.iter().enumerate() {
+            let Some(tag) = tag else { continue };
+            for &(p, f) in v.ply_links(&tag.laminate) {
+                if p == tag.ply {
                     links.push((r, f));
                 }
             }
@@ -230,13 +228,7 @@ fn shell(
             vars.iter().map(|v| v.name.clone()).collect(),
             vars.iter().map(|v| v.value).collect(),
             vars.iter()
-                .map(|v| {
-                    if v.laminate == laminate {
-                        v.stack_plies.clone()
-                    } else {
-                        Vec::new()
-                    }
-                })
+                .map(|v| v.ply_links(laminate).to_vec())
                 .collect(),
         ),
     };

@@ -19,7 +19,7 @@ use nalgebra::{Matrix3, Vector3};
 use crate::deck::analysis::{self, AnalysisDef};
 use crate::deck::bodies::{BodyDef, validate_one as validate_body};
 use crate::deck::check::span;
-use crate::deck::design::{DesignDef, validate as validate_design};
+use crate::deck::design::{DesignDef, Target, validate as validate_design};
 use crate::deck::laminates::{LaminateModel, validate as validate_laminates};
 use crate::deck::mechanism::{self, BodyInfo};
 use crate::deck::responses::{self, ResponseDef};
@@ -111,6 +111,27 @@ fn flexible_body(
     let modal = fem::modal_body(&built.mesh, &built.props, &analysis)
         .map_err(|e| fem_error(src, name, span, e))?;
     Ok((built, analysis, modal))
+}
+
+/// Put a rigid body's mass or principal inertia (a design variable's `target`) at `value`, in
+/// any scalar (a seeded dual for the sensitivities); other targets leave the model.
+pub(crate) fn set_rigid<P: sens::Scalar>(
+    model: &mut Model<P>,
+    bodies: &BTreeMap<String, BodyInfo>,
+    target: &Target,
+    value: P,
+) {
+    let (body, axis) = match target {
+        Target::RigidMass { body } => (body, None),
+        Target::RigidInertia { body, axis, .. } => (body, Some(*axis)),
+        Target::PlyAngle { .. } => return,
+    };
+    if let Body::Rigid(r) = model.body_mut(bodies[body].id) {
+        match axis {
+            None => r.mass = value,
+            Some(a) => r.inertia[(a, a)] = value,
+        }
+    }
 }
 
 /// Relative gap below which eigenvalues count as repeated when perturbed modes are tracked.
@@ -267,14 +288,15 @@ impl Study {
     /// need responses that have them.
     fn check_design(&self, src: &Source, raw: &RawDeck) -> Result<(), DeckError> {
         for (j, v) in self.design.variables.iter().enumerate() {
-            if !self.flexible.iter().any(|p| p.built.design.depends_on(j)) {
+            let rigid = !matches!(v.target, Target::PlyAngle { .. });
+            if !rigid && !self.flexible.iter().any(|p| p.built.design.depends_on(j)) {
                 return Err(src.error(
                     Some(raw.design[&v.name].span()),
                     Some(format!("design.{}", v.name)),
                     format!(
-                        "the design variable changes no flexible body: laminate `{}` laminates \
-                         no shell body and builds no beam body's section",
-                        v.laminate
+                        "the design variable changes no flexible body: the {} laminate no shell \
+                         body and build no beam body's section",
+                        v.describe()
                     ),
                 ));
             }
@@ -362,6 +384,9 @@ impl Study {
                 })?;
             }
             *model.body_mut(part.id) = Body::Flexible(FlexibleBody::new(part.name.clone(), body));
+        }
+        for (v, &bj) in self.design.variables.iter().zip(b) {
+            set_rigid(&mut model, &self.bodies, &v.target, bj);
         }
         Ok(model)
     }
