@@ -5,19 +5,8 @@
 
 mod common;
 
-use common::{bad_deck, json, with_deck};
+use common::{bad_deck, f64s, json, with_deck};
 use flexsens::results::{Data, Group};
-
-fn f64s(g: &Group, path: &str) -> Vec<f64> {
-    match &g
-        .get(path)
-        .unwrap_or_else(|| panic!("no dataset {path}"))
-        .data
-    {
-        Data::F64(v) => v.clone(),
-        Data::Text(_) => panic!("{path} is text"),
-    }
-}
 
 /// Pendulum: a bob of mass M and inertia I about its centre, its centre D from a revolute
 /// pivot, released at rest THETA0 from the downward vertical under gravity G.

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{bad_deck, deck, run, with_deck};
+use common::{bad_deck, deck, f64s, run, with_deck};
 use flexsens::results::{Attr, Data, Group};
 
 /// A short run of the beam slider-crank: about 0.6 of a crank revolution.
@@ -13,17 +13,6 @@ const T_END: &str = "analysis.t_end=0.003";
 /// Largest relative difference between the sensitivity methods' mid-node deflection histories
 /// (measured 2026-11-21: simultaneous 3.0e-7, corrector 2.1e-7 against direct).
 const TOL_METHODS: f64 = 3e-6;
-
-fn f64s(g: &Group, path: &str) -> Vec<f64> {
-    match &g
-        .get(path)
-        .unwrap_or_else(|| panic!("no dataset {path}"))
-        .data
-    {
-        Data::F64(v) => v.clone(),
-        Data::Text(_) => panic!("{path} is text"),
-    }
-}
 
 fn units(g: &Group, path: &str) -> String {
     match g.get(path).unwrap().attrs.get("units") {

@@ -4,6 +4,8 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+use flexsens::results::{Data, Group};
+
 /// A shipped deck.
 pub fn deck(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -97,4 +99,16 @@ pub fn run_json(deck_name: &str, out: &Path, sets: &[&str]) -> serde_json::Value
     }
     let args: Vec<&str> = args.iter().map(String::as_str).collect();
     json(&args)
+}
+
+/// A numeric dataset of a result file.
+pub fn f64s(g: &Group, path: &str) -> Vec<f64> {
+    match &g
+        .get(path)
+        .unwrap_or_else(|| panic!("no dataset {path}"))
+        .data
+    {
+        Data::F64(v) => v.clone(),
+        Data::Text(_) => panic!("{path} is text"),
+    }
 }
