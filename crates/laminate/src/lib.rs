@@ -21,7 +21,7 @@ mod stack;
 pub use error::LaminateError;
 pub use material::OrthotropicMaterial;
 pub use rotation::{
-    bond_stress_matrix, plane_stress, rotate_stiffness, rotated_stiffness_angle_derivative,
-    rotation_about_normal, transverse_shear,
+    bond_stress_matrix, plane_stress, rotate_stiffness, rotate_stiffness_of,
+    rotated_stiffness_angle_derivative, rotation_about_normal, transverse_shear,
 };
 pub use stack::{DEFAULT_SHEAR_CORRECTION, LaminateStiffness, Ply, PlyStack, ReferenceSurface};

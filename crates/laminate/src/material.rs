@@ -89,6 +89,51 @@ impl OrthotropicMaterial {
         Self::new([e, e, e], [g, g, g], [nu, nu, nu], density)
     }
 
+    /// The nine elastic constants `[E1, E2, E3, G12, G13, G23, ν12, ν13, ν23]`.
+    pub fn constants(&self) -> [f64; 9] {
+        [
+            self.e1, self.e2, self.e3, self.g12, self.g13, self.g23, self.nu12, self.nu13,
+            self.nu23,
+        ]
+    }
+
+    /// The material with other elastic constants (order of [`Self::constants`]), the density
+    /// kept; validated as [`Self::new`].
+    pub fn with_constants(&self, c: [f64; 9]) -> Result<Self, LaminateError> {
+        Self::new(
+            [c[0], c[1], c[2]],
+            [c[3], c[4], c[5]],
+            [c[6], c[7], c[8]],
+            self.density,
+        )
+    }
+
+    /// The derivative of the stiffness `C̄` for a change `dc` of the elastic constants (order
+    /// of [`Self::constants`]): `dC̄ = −C̄ dS̄ C̄` on the normal block, `dG` on the shear
+    /// diagonal.
+    pub fn stiffness_derivative(&self, dc: &[f64; 9]) -> Matrix6<f64> {
+        let [e1, e2, e3, _, _, _, n12, n13, n23] = self.constants();
+        let [de1, de2, de3, dg12, dg13, dg23, dn12, dn13, dn23] = *dc;
+        let mut ds = Matrix3::zeros();
+        ds[(0, 0)] = -de1 / (e1 * e1);
+        ds[(1, 1)] = -de2 / (e2 * e2);
+        ds[(2, 2)] = -de3 / (e3 * e3);
+        ds[(0, 1)] = -dn12 / e1 + n12 * de1 / (e1 * e1);
+        ds[(0, 2)] = -dn13 / e1 + n13 * de1 / (e1 * e1);
+        ds[(1, 2)] = -dn23 / e2 + n23 * de2 / (e2 * e2);
+        ds[(1, 0)] = ds[(0, 1)];
+        ds[(2, 0)] = ds[(0, 2)];
+        ds[(2, 1)] = ds[(1, 2)];
+        let c = self.stiffness();
+        let cn: Matrix3<f64> = c.fixed_view::<3, 3>(0, 0).into_owned();
+        let mut d = Matrix6::zeros();
+        d.fixed_view_mut::<3, 3>(0, 0).copy_from(&(-(cn * ds * cn)));
+        d[(3, 3)] = dg23;
+        d[(4, 4)] = dg13;
+        d[(5, 5)] = dg12;
+        d
+    }
+
     /// `[E1, E2, E3]` (Pa).
     pub fn young_moduli(&self) -> [f64; 3] {
         [self.e1, self.e2, self.e3]

@@ -37,9 +37,14 @@ pub fn bond_stress_matrix<S: Scalar>(r: &Matrix3<S>) -> Matrix6<S> {
 /// The stiffness `C = T C̄ Tᵀ` of a material with stiffness `c_bar` in its own axes, seen in the
 /// frame in which its axes are the columns of `r` (Eqs. 14–15).
 pub fn rotate_stiffness<S: Scalar>(c_bar: &Matrix6<f64>, r: &Matrix3<S>) -> Matrix6<S> {
+    rotate_stiffness_of(&c_bar.map(S::from_f64), r)
+}
+
+/// [`rotate_stiffness`] of a material stiffness in the same scalar (e.g. a dual `C̄` whose
+/// tangents are derivatives with respect to material constants).
+pub fn rotate_stiffness_of<S: Scalar>(c_bar: &Matrix6<S>, r: &Matrix3<S>) -> Matrix6<S> {
     let t = bond_stress_matrix(r);
-    let c: Matrix6<S> = c_bar.map(S::from_f64);
-    t * c * t.transpose()
+    t * c_bar * t.transpose()
 }
 
 /// Closed-form derivative of `C(θ) = T(θ) C̄ T(θ)ᵀ` for a rotation about the normal (Eq. 50):

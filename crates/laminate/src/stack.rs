@@ -4,8 +4,8 @@ use nalgebra::{Matrix2, Matrix3, Matrix6};
 use sens::Scalar;
 
 use crate::rotation::{
-    plane_stress, rotate_stiffness, rotated_stiffness_angle_derivative, rotation_about_normal,
-    transverse_shear,
+    plane_stress, rotate_stiffness, rotate_stiffness_of, rotated_stiffness_angle_derivative,
+    rotation_about_normal, transverse_shear,
 };
 use crate::{LaminateError, OrthotropicMaterial};
 
@@ -203,6 +203,19 @@ impl<S: Scalar> PlyStack<S> {
 
     /// A, B, D, transverse shear, mass and rotary inertia (Eqs. 20–21).
     pub fn stiffness(&self) -> LaminateStiffness<S> {
+        let c_bar: Vec<Matrix6<S>> = self
+            .plies
+            .iter()
+            .map(|p| p.material.stiffness().map(S::from_f64))
+            .collect();
+        self.stiffness_with_materials(&c_bar)
+    }
+
+    /// [`Self::stiffness`] with each ply's material stiffness `C̄` (material axes) given, e.g. a
+    /// dual `C̄` whose tangents are derivatives with respect to material constants; densities
+    /// are the plies' own.
+    pub fn stiffness_with_materials(&self, c_bar: &[Matrix6<S>]) -> LaminateStiffness<S> {
+        assert_eq!(c_bar.len(), self.plies.len(), "one stiffness per ply");
         let z = self.interfaces();
         let mut out = LaminateStiffness {
             a: Matrix3::zeros(),
@@ -220,7 +233,7 @@ impl<S: Scalar> PlyStack<S> {
             let h1 = z1 - z0;
             let h2 = (z1 * z1 - z0 * z0) * 0.5;
             let h3 = (z1 * z1 * z1 - z0 * z0 * z0) * (1.0 / 3.0);
-            let c = ply.stiffness();
+            let c = rotate_stiffness_of(&c_bar[k], &rotation_about_normal(ply.angle));
             let q = plane_stress(&c);
             out.a += q * h1;
             out.b += q * h2;

@@ -370,3 +370,71 @@ fn invalid_plies_are_rejected_with_the_bad_value() {
     assert!(PlyStack::with_options(vec![ok], ReferenceSurface::MidPlane, 0.0).is_err());
     assert!(PlyStack::with_options(vec![ok], ReferenceSurface::Offset(f64::NAN), 0.8).is_err());
 }
+
+#[test]
+fn stiffness_derivative_of_each_elastic_constant_matches_central_differences() {
+    let m = paper_composite();
+    let c0 = m.constants();
+    for i in 0..9 {
+        let mut dc = [0.0; 9];
+        dc[i] = 1.0;
+        let exact = m.stiffness_derivative(&dc);
+        let h = 1e-6 * c0[i].abs();
+        let at = |s: f64| {
+            let mut c = c0;
+            c[i] += s;
+            m.with_constants(c).unwrap().stiffness()
+        };
+        let fd = (at(h) - at(-h)) / (2.0 * h);
+        let scale = exact.abs().max();
+        assert!(scale > 0.0, "constant {i}");
+        assert!(
+            (exact - fd).abs().max() <= 1e-7 * scale,
+            "constant {i}: {exact} vs {fd}"
+        );
+    }
+    // an isotropic material's stiffness is linear in E at fixed ν: dC/dE = C/E
+    let iso = OrthotropicMaterial::isotropic(70e9, 0.3, 2700.0).unwrap();
+    let g = 1.0 / (2.0 * 1.3);
+    let d = iso.stiffness_derivative(&[1.0, 1.0, 1.0, g, g, g, 0.0, 0.0, 0.0]);
+    let expected = iso.stiffness() / 70e9;
+    assert!((d - expected).abs().max() <= 1e-12 * expected.abs().max());
+}
+
+#[test]
+fn stack_stiffness_with_dual_materials_carries_the_material_derivative() {
+    let m = paper_composite();
+    let st = stack(m, &[0.0, 45.0, -45.0, 90.0], 0.25e-3);
+    // E2 of every ply as one variable
+    let mut dc = [0.0; 9];
+    dc[1] = 1.0;
+    let dcbar = m.stiffness_derivative(&dc);
+    let c_bar: Vec<Matrix6<Dual<1>>> = (0..4)
+        .map(|_| m.stiffness().zip_map(&dcbar, |v, d| Dual::new(v, [d])))
+        .collect();
+    let angles: Vec<Dual<1>> = st.plies().iter().map(|p| Dual::constant(p.angle)).collect();
+    let dual = st
+        .with_angles(&angles)
+        .unwrap()
+        .stiffness_with_materials(&c_bar);
+    assert_eq!(dual.a.map(|x| x.v), st.stiffness().a);
+    let h = 1e-4 * m.constants()[1];
+    let at = |s: f64| {
+        let mut c = m.constants();
+        c[1] += s;
+        stack(
+            m.with_constants(c).unwrap(),
+            &[0.0, 45.0, -45.0, 90.0],
+            0.25e-3,
+        )
+        .stiffness()
+    };
+    let (p, q) = (at(h), at(-h));
+    for (d, plus, minus) in [
+        (dual.a.map(|x| x.d[0]), p.a, q.a),
+        (dual.d.map(|x| x.d[0]), p.d, q.d),
+    ] {
+        let fd = (plus - minus) / (2.0 * h);
+        assert!((d - fd).abs().max() <= 1e-7 * d.abs().max(), "{d} vs {fd}");
+    }
+}
