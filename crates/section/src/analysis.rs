@@ -7,7 +7,7 @@
 use faer::Side;
 use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
-use laminate::{bond_stress_matrix, rotate_stiffness};
+use laminate::{bond_stress_matrix, rotate_stiffness, rotate_stiffness_of};
 use std::ops::Mul;
 
 use nalgebra::{Matrix6, SMatrix};
@@ -327,7 +327,8 @@ impl SectionAnalysis {
         let mass = self.model.mass_properties();
         let mut derivatives = vec![SectionProperties::default(); m];
         for range in chunk_ranges(m, N) {
-            // Dual ply angles: tangent k of region r is dθ_r/db_{start+k}.
+            // Dual ply angles and material stiffnesses: tangent k of region r is dθ_r/db and
+            // dC̄_r/db of variable start + k.
             let mut angles: Vec<Dual<N>> = self
                 .model
                 .mesh
@@ -335,12 +336,23 @@ impl SectionAnalysis {
                 .iter()
                 .map(|r| Dual::constant(r.ply_angle))
                 .collect();
+            let mut c_bar: Vec<Matrix6<Dual<N>>> = self
+                .model
+                .c_bar
+                .iter()
+                .map(|c| c.map(Dual::constant))
+                .collect();
             for (k, v) in range.clone().enumerate() {
                 for &(r, factor) in &design.variables[v].links {
                     angles[r].d[k] += factor;
                 }
+                for (r, dc) in &design.variables[v].materials {
+                    for (x, d) in c_bar[*r].iter_mut().zip(dc.iter()) {
+                        x.d[k] += d;
+                    }
+                }
             }
-            let compliance = self.compliance_dual(&angles);
+            let compliance = self.compliance_dual(&angles, &c_bar);
             let props =
                 Props::from_compliance(compliance).ok_or(SectionError::SingularCompliance)?;
             for (k, v) in range.enumerate() {
@@ -355,11 +367,15 @@ impl SectionAnalysis {
     }
 
     /// The compliance with dual ply angles: tangents of both solves through the factorisation.
-    fn compliance_dual<const N: usize>(&self, angles: &[Dual<N>]) -> Matrix6<Dual<N>> {
+    fn compliance_dual<const N: usize>(
+        &self,
+        angles: &[Dual<N>],
+        c_bar: &[Matrix6<Dual<N>>],
+    ) -> Matrix6<Dual<N>> {
         let q_ply: Vec<Matrix6<Dual<N>>> = angles
             .iter()
-            .zip(&self.model.c_bar)
-            .map(|(&a, c)| rotate_stiffness(c, &Region::ply_rotation(a)))
+            .zip(c_bar)
+            .map(|(&a, c)| rotate_stiffness_of(c, &Region::ply_rotation(a)))
             .collect();
         let nd = 3 * self.model.mesh.nodes.len();
         let zero = Dual::<N>::constant(0.0);

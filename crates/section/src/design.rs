@@ -1,15 +1,27 @@
-//! Design variables: which ply angles move with which variable.
+//! Design variables: which ply angles and material stiffnesses move with which variable.
+
+use nalgebra::Matrix6;
 
 use crate::{SectionError, SectionMesh};
 
 /// One design variable `b`: it moves the ply angle of each linked region by
 /// `dθ_region/db = factor` (so `[θ/−θ]` is one variable linked to two plies with factors
-/// `+1` and `−1`).
+/// `+1` and `−1`), and the material stiffness `C̄` (material axes) of each region of
+/// `materials` by `dC̄/db` (a material constant as a design variable).
 #[derive(Clone, Debug, PartialEq)]
 pub struct DesignVariable {
     pub name: String,
     /// `(region index, dθ_region/db)`.
     pub links: Vec<(usize, f64)>,
+    /// `(region index, dC̄_region/db)`.
+    pub materials: Vec<(usize, Matrix6<f64>)>,
+}
+
+impl DesignVariable {
+    /// Whether the variable moves anything.
+    pub fn is_empty(&self) -> bool {
+        self.links.is_empty() && self.materials.is_empty()
+    }
 }
 
 /// The design variables of a section analysis (ply angles, radians).
@@ -34,6 +46,7 @@ impl DesignMap {
                 .map(|(i, r)| DesignVariable {
                     name: r.name.clone(),
                     links: vec![(i, 1.0)],
+                    materials: Vec::new(),
                 })
                 .collect(),
         }
@@ -44,6 +57,21 @@ impl DesignMap {
         self.variables.push(DesignVariable {
             name: name.into(),
             links,
+            materials: Vec::new(),
+        });
+        self
+    }
+
+    /// Add a variable that moves the material stiffness of regions: `(region, dC̄/db)`.
+    pub fn with_material_variable(
+        mut self,
+        name: impl Into<String>,
+        materials: Vec<(usize, Matrix6<f64>)>,
+    ) -> Self {
+        self.variables.push(DesignVariable {
+            name: name.into(),
+            links: Vec::new(),
+            materials,
         });
         self
     }
@@ -62,6 +90,7 @@ impl DesignMap {
         self.variables.push(DesignVariable {
             name: name.into(),
             links,
+            materials: Vec::new(),
         });
         Ok(self)
     }
@@ -69,6 +98,16 @@ impl DesignMap {
     /// Check that every link names an existing region with a finite factor.
     pub fn validate(&self, mesh: &SectionMesh) -> Result<(), SectionError> {
         for v in &self.variables {
+            for (r, d) in &v.materials {
+                if *r >= mesh.regions.len() || d.iter().any(|x| !x.is_finite()) {
+                    return Err(SectionError::InvalidInput(format!(
+                        "design variable '{}': material link to region {r} invalid (the mesh \
+                         has {} regions; derivatives must be finite)",
+                        v.name,
+                        mesh.regions.len()
+                    )));
+                }
+            }
             for &(r, factor) in &v.links {
                 if r >= mesh.regions.len() {
                     return Err(SectionError::InvalidInput(format!(

@@ -37,6 +37,17 @@ pub fn angle_derivatives(
     stack: &PlyStack<f64>,
     links: &[Vec<(usize, f64)>],
 ) -> Vec<LaminateStiffness<f64>> {
+    design_derivatives(stack, links, &vec![Vec::new(); links.len()])
+}
+
+/// [`angle_derivatives`] for variables that also move the elastic constants of plies'
+/// materials: variable `j` changes the constants of ply `p` by `dc` per unit for each
+/// `(p, dc)` of `materials[j]`.
+pub fn design_derivatives(
+    stack: &PlyStack<f64>,
+    links: &[Vec<(usize, f64)>],
+    materials: &[Vec<(usize, [f64; 9])>],
+) -> Vec<LaminateStiffness<f64>> {
     let mut out = Vec::with_capacity(links.len());
     for range in chunk_ranges(links.len(), CHUNK) {
         let mut angles: Vec<Dual<CHUNK>> = stack
@@ -44,15 +55,26 @@ pub fn angle_derivatives(
             .iter()
             .map(|p| Dual::constant(p.angle))
             .collect();
+        let mut c_bar: Vec<nalgebra::Matrix6<Dual<CHUNK>>> = stack
+            .plies()
+            .iter()
+            .map(|p| p.material.stiffness().map(Dual::constant))
+            .collect();
         for (k, j) in range.clone().enumerate() {
             for &(p, f) in &links[j] {
                 angles[p].d[k] += f;
+            }
+            for (p, dc) in &materials[j] {
+                let d = stack.plies()[*p].material.stiffness_derivative(dc);
+                for (x, y) in c_bar[*p].iter_mut().zip(d.iter()) {
+                    x.d[k] += y;
+                }
             }
         }
         let dual = stack
             .with_angles(&angles)
             .expect("angles of a validated stack stay valid")
-            .stiffness();
+            .stiffness_with_materials(&c_bar);
         for k in 0..range.len() {
             out.push(dual.tangent(k));
         }
@@ -62,11 +84,8 @@ pub fn angle_derivatives(
 
 /// The derivative blocks of a laminate: per ply angle (per radian), or with `[design.*]`
 /// variables per variable that moves this laminate (per degree).
-fn derivative_blocks(
-    name: &str,
-    stack: &PlyStack<f64>,
-    vars: &[DesignVariable],
-) -> Vec<Derivative> {
+fn derivative_blocks(name: &str, def: &LaminateDef, vars: &[DesignVariable]) -> Vec<Derivative> {
+    let stack = &def.stack;
     if vars.is_empty() {
         let each: Vec<_> = (0..stack.plies().len()).map(|i| vec![(i, 1.0)]).collect();
         return angle_derivatives(stack, &each)
@@ -79,16 +98,24 @@ fn derivative_blocks(
             })
             .collect();
     }
+    let materials_of = |v: &DesignVariable| -> Vec<(usize, [f64; 9])> {
+        def.ply_materials
+            .iter()
+            .enumerate()
+            .filter_map(|(p, m)| Some((p, *v.material_links(m)?)))
+            .collect()
+    };
     let mine: Vec<&DesignVariable> = vars
         .iter()
-        .filter(|v| !v.ply_links(name).is_empty())
+        .filter(|v| !v.ply_links(name).is_empty() || !materials_of(v).is_empty())
         .collect();
     let links: Vec<_> = mine.iter().map(|v| v.ply_links(name).to_vec()).collect();
+    let materials: Vec<_> = mine.iter().map(|v| materials_of(v)).collect();
     mine.iter()
-        .zip(angle_derivatives(stack, &links))
+        .zip(design_derivatives(stack, &links, &materials))
         .map(|(v, d)| Derivative {
             wrt: v.name.clone(),
-            per: "deg",
+            per: v.unit,
             values: quantities(&d),
         })
         .collect()
@@ -125,7 +152,7 @@ fn report(name: &str, def: &LaminateDef, derivatives: bool, vars: &[DesignVariab
     let mut info = serde_json::Map::new();
     info.insert("plies".into(), json!(plies));
     let derivatives = if derivatives {
-        derivative_blocks(name, stack, vars)
+        derivative_blocks(name, def, vars)
     } else {
         Vec::new()
     };

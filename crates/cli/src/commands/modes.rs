@@ -36,7 +36,7 @@ fn report(
     b: &Built,
     a: &ModalAnalysis,
     d: Option<&ModeDerivatives>,
-    per: &'static str,
+    per: &[&'static str],
 ) -> Report {
     let lam = a.eigenvalues();
     let lam = lam.as_slice();
@@ -112,7 +112,7 @@ fn report(
                 .collect();
             derivatives.push(Derivative {
                 wrt: name.clone(),
-                per,
+                per: per[var],
                 values: vec![
                     Quantity::vector("frequencies", "Hz", &df),
                     Quantity::vector("eigenvalues", "rad^2/s^2", &dl),
@@ -198,7 +198,7 @@ fn export(
     b: &Built,
     a: &ModalAnalysis,
     dm: Option<&[fem::DesignMatrices]>,
-    per: &str,
+    per: &[&'static str],
 ) -> Result<(), CliError> {
     const DOF: [&str; 6] = ["ux", "uy", "uz", "rx", "ry", "rz"];
     let mut dofs = String::from("row,node,dof\n");
@@ -233,7 +233,10 @@ fn export(
         for (var, (d, vname)) in dm.iter().zip(b.design.names()).enumerate() {
             let text = matrix_market(
                 &d.k,
-                &format!("flexsens: dK/d({vname}) of body {name}, per {per}; {what}"),
+                &format!(
+                    "flexsens: dK/d({vname}) of body {name}, per {}; {what}",
+                    per[var]
+                ),
             );
             write_atomic(&dir.join(format!("{name}.dK_{var}.mtx")), text.as_bytes())?;
         }
@@ -265,12 +268,16 @@ pub fn run(path: &Path, overrides: &[String], req: &ModesRequest) -> Result<Stri
     for (name, b) in selected {
         let def = validate_one(&src, &raw, name, b, &model)?;
         // per ply angle (radian), or per [design.*] variable (its unit)
-        let (request, per) = match (req.derivatives, design.variables.is_empty()) {
-            (false, _) => (DesignRequest::None, "rad"),
-            (true, true) => (DesignRequest::EachPly, "rad"),
-            (true, false) => (DesignRequest::Variables(&design.variables), "deg"),
+        let request = match (req.derivatives, design.variables.is_empty()) {
+            (false, _) => DesignRequest::None,
+            (true, true) => DesignRequest::EachPly,
+            (true, false) => DesignRequest::Variables(&design.variables),
         };
         let built = build(&src, name, &def, request)?;
+        let per: Vec<&'static str> = match request {
+            DesignRequest::Variables(vars) => vars.iter().map(|v| v.unit).collect(),
+            _ => vec!["rad"; built.design.names().len()],
+        };
         let analysis = fem::modal_analysis(&built.mesh, &built.props, &built.options)
             .map_err(|e| fem_error(&src, name, b.span(), e))?;
         let derivs = if req.derivatives {
@@ -294,7 +301,7 @@ pub fn run(path: &Path, overrides: &[String], req: &ModesRequest) -> Result<Stri
                 &built,
                 &analysis,
                 derivs.as_ref().map(|(dm, _)| dm.as_slice()),
-                per,
+                &per,
             )?;
         }
         reports.push(report(
@@ -302,7 +309,7 @@ pub fn run(path: &Path, overrides: &[String], req: &ModesRequest) -> Result<Stri
             &built,
             &analysis,
             derivs.as_ref().map(|(_, d)| d),
-            per,
+            &per,
         ));
     }
     Ok(output::render(

@@ -145,7 +145,7 @@ pub struct Report {
 pub struct Derivative {
     /// The variable: a `[design.*]` name, or a ply (`rod.plies.2.angle`).
     pub wrt: String,
-    /// The variable's unit: the derivatives are per one of it (`"deg"`, `"rad"`).
+    /// The variable's unit: the derivatives are per one of it (`"deg"`, `"rad"`, `"Pa"`).
     pub per: &'static str,
     pub values: Vec<Quantity>,
 }

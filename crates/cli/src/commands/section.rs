@@ -52,12 +52,18 @@ fn report(
     let mesh = &def.mesh;
     let (values, derivs) = if derivatives {
         // per region's ply angle, or per [design.*] variable that moves the section
-        let (design, per) = if vars.is_empty() {
-            (DesignMap::each_region(mesh), "rad")
+        let design = if vars.is_empty() {
+            DesignMap::each_region(mesh)
         } else {
-            let mut map = section_design(def, vars);
-            map.variables.retain(|v| !v.links.is_empty());
-            (map, "deg")
+            let (mut map, _) = section_design(def, vars);
+            map.variables.retain(|v| !v.is_empty());
+            map
+        };
+        // a region's angle per radian, a design variable per its unit
+        let per = |name: &str| {
+            vars.iter()
+                .find(|v| v.name == name)
+                .map_or("rad", |v| v.unit)
         };
         let s =
             section::analyse_with_derivatives::<CHUNK>(mesh, &design).map_err(|e| e.to_string())?;
@@ -71,7 +77,7 @@ fn report(
                 } else {
                     v.clone()
                 },
-                per,
+                per: per(v),
                 values: quantities(d),
             })
             .collect();

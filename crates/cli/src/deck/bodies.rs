@@ -25,6 +25,8 @@ pub enum BodyShape {
     ShellRectangle {
         laminate: String,
         stack: PlyStack<f64>,
+        /// The material name of each ply of the stack.
+        ply_materials: Vec<String>,
         length: f64,
         width: f64,
         elements: [usize; 2],
@@ -33,6 +35,8 @@ pub enum BodyShape {
     ShellMesh {
         laminate: String,
         stack: PlyStack<f64>,
+        /// The material name of each ply of the stack.
+        ply_materials: Vec<String>,
         mesh_text: String,
         file: String,
         axis: Vector3<f64>,
@@ -216,23 +220,19 @@ pub fn validate_one(
                 &raw.laminate,
                 "laminate (a [laminate.*] name)",
             )?;
-            let stack = model
-                .laminates
-                .get(lname.get_ref())
-                .ok_or_else(|| {
-                    let known: Vec<&str> = model.laminates.keys().map(String::as_str).collect();
-                    src.error(
-                        span(lname),
-                        Some(k("laminate")),
-                        format!(
-                            "undefined laminate `{}`{}",
-                            lname.get_ref(),
-                            suggestion(lname.get_ref(), &known)
-                        ),
-                    )
-                })?
-                .stack
-                .clone();
+            let def = model.laminates.get(lname.get_ref()).ok_or_else(|| {
+                let known: Vec<&str> = model.laminates.keys().map(String::as_str).collect();
+                src.error(
+                    span(lname),
+                    Some(k("laminate")),
+                    format!(
+                        "undefined laminate `{}`{}",
+                        lname.get_ref(),
+                        suggestion(lname.get_ref(), &known)
+                    ),
+                )
+            })?;
+            let (stack, ply_materials) = (def.stack.clone(), def.ply_materials.clone());
             let axis = raw
                 .material_axis
                 .as_ref()
@@ -272,6 +272,7 @@ pub fn validate_one(
                     BodyShape::ShellMesh {
                         laminate: lname.get_ref().clone(),
                         stack,
+                        ply_materials: ply_materials.clone(),
                         mesh_text,
                         file: path.display().to_string(),
                         axis,
@@ -330,6 +331,7 @@ pub fn validate_one(
                     BodyShape::ShellRectangle {
                         laminate: lname.get_ref().clone(),
                         stack,
+                        ply_materials: ply_materials.clone(),
                         length,
                         width,
                         elements,

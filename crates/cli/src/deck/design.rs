@@ -28,6 +28,10 @@ pub enum Target {
         /// `(ply index in the deck, θ_i0 in degrees, f_i)`: the plies as written.
         deck_plies: Vec<(usize, f64, f64)>,
     },
+    /// An elastic constant of a material: `dc` is the derivative of its nine constants
+    /// (`OrthotropicMaterial::constants` order) with respect to the variable. Every ply and
+    /// section region of the material follows.
+    Material { material: String, dc: [f64; 9] },
     /// The mass of a rigid body (kg).
     RigidMass { body: String },
     /// A principal moment of inertia of a rigid body (`axis` 0, 1, 2: the diagonal entry of
@@ -46,8 +50,12 @@ pub struct DesignVariable {
     pub target: Target,
     /// The nominal value `b0`, in [`Self::unit`].
     pub value: f64,
-    /// The variable's unit; derivatives are per one of it (`"deg"`, `"kg"`, `"kg*m^2"`).
+    /// The variable's unit; derivatives are per one of it (`"deg"`, `"kg"`, `"kg*m^2"`,
+    /// `"Pa"`, `"1"`).
     pub unit: &'static str,
+    /// A material variable's constant as the deck names it (`"E1"`, `"nu12"`, `"E"`); empty
+    /// for other kinds.
+    pub constant: &'static str,
 }
 
 impl DesignVariable {
@@ -64,10 +72,20 @@ impl DesignVariable {
         }
     }
 
+    /// `dc/db` of the nine elastic constants of `material` (none when the variable moves
+    /// something else).
+    pub fn material_links(&self, material: &str) -> Option<&[f64; 9]> {
+        match &self.target {
+            Target::Material { material: m, dc } if m == material => Some(dc),
+            _ => None,
+        }
+    }
+
     /// What the variable moves, for tables and messages.
     pub fn describe(&self) -> String {
         match &self.target {
             Target::PlyAngle { laminate, .. } => format!("ply angles of laminate `{laminate}`"),
+            Target::Material { material, .. } => format!("constant of material `{material}`"),
             Target::RigidMass { body } => format!("mass of rigid body `{body}`"),
             Target::RigidInertia { body, axis, .. } => {
                 format!(
@@ -88,6 +106,9 @@ impl DesignVariable {
                 ..
             } => (laminate, deck_plies),
             Target::RigidMass { body } => return vec![format!("rigid.{body}.mass={b:?}")],
+            Target::Material { material, .. } => {
+                return vec![format!("material.{material}.{}={b:?}", self.name_in_deck())];
+            }
             Target::RigidInertia { key, .. } => return vec![format!("{key}={b:?}")],
         };
         deck_plies
@@ -101,9 +122,48 @@ impl DesignVariable {
             .collect()
     }
 
+    /// The deck key of a material variable's constant (`E1`, `nu12`, `E`).
+    fn name_in_deck(&self) -> &'static str {
+        self.constant
+    }
+
     /// Move the laminates to the value `b` of this variable (from the nominal laminates: each
-    /// linked ply turns by `dθ/db · (b − b0)`); other variables leave them.
+    /// linked ply turns by `dθ/db · (b − b0)`; a material's constants move by
+    /// `dc/db · (b − b0)`, in every ply made of it); other variables leave them.
     pub fn apply(&self, model: &mut LaminateModel, b: f64) -> Result<(), LaminateError> {
+        if b == self.value {
+            return Ok(());
+        }
+        if let Target::Material { material, dc } = &self.target {
+            let m0 = model.materials[material];
+            let mut c = m0.constants();
+            for (ci, d) in c.iter_mut().zip(dc) {
+                *ci += d * (b - self.value);
+            }
+            let m = m0.with_constants(c)?;
+            model.materials.insert(material.clone(), m);
+            for def in model.laminates.values_mut() {
+                if !def.ply_materials.contains(material) {
+                    continue;
+                }
+                let plies = def
+                    .stack
+                    .plies()
+                    .iter()
+                    .zip(&def.ply_materials)
+                    .map(|(p, name)| laminate::Ply {
+                        material: if name == material { m } else { p.material },
+                        ..*p
+                    })
+                    .collect();
+                def.stack = laminate::PlyStack::with_options(
+                    plies,
+                    def.stack.reference(),
+                    def.stack.shear_correction(),
+                )?;
+            }
+            return Ok(());
+        }
         let Target::PlyAngle {
             laminate,
             stack_plies,
@@ -112,9 +172,6 @@ impl DesignVariable {
         else {
             return Ok(());
         };
-        if b == self.value {
-            return Ok(());
-        }
         let def = model
             .laminates
             .get_mut(laminate)
@@ -235,7 +292,7 @@ fn variable(
         src,
         &k("kind"),
         rd.kind.as_ref(),
-        &["ply-angle", "rigid-mass", "rigid-inertia"],
+        &["ply-angle", "material", "rigid-mass", "rigid-inertia"],
     )?
     .unwrap_or("ply-angle");
     // keys of the other kinds
@@ -249,6 +306,8 @@ fn variable(
             "rigid-mass rigid-inertia",
         ),
         ("axis", rd.axis.as_ref().and_then(span), "rigid-inertia"),
+        ("material", rd.material.as_ref().and_then(span), "material"),
+        ("constant", rd.constant.as_ref().and_then(span), "material"),
     ];
     for (key, at, kinds) in keys {
         if at.is_some() && !kinds.split(' ').any(|x| x == kind) {
@@ -258,6 +317,9 @@ fn variable(
                 format!("this key does not apply to kind = \"{kind}\""),
             ));
         }
+    }
+    if kind == "material" {
+        return material_variable(src, raw, name, d, model);
     }
     if kind != "ply-angle" {
         return rigid_variable(src, raw, name, d, kind);
@@ -364,6 +426,112 @@ fn variable(
         },
         value,
         unit: "deg",
+        constant: "",
+    })
+}
+
+/// The elastic constants a material variable may move: deck name, index in
+/// `OrthotropicMaterial::constants`, unit.
+const ORTHOTROPIC: [(&str, usize, &str); 9] = [
+    ("E1", 0, "Pa"),
+    ("E2", 1, "Pa"),
+    ("E3", 2, "Pa"),
+    ("G12", 3, "Pa"),
+    ("G13", 4, "Pa"),
+    ("G23", 5, "Pa"),
+    ("nu12", 6, "1"),
+    ("nu13", 7, "1"),
+    ("nu23", 8, "1"),
+];
+
+/// An elastic constant of a material as a design variable.
+fn material_variable(
+    src: &Source,
+    raw: &RawDeck,
+    name: &str,
+    d: &Spanned<RawDesign>,
+    model: &LaminateModel,
+) -> Result<DesignVariable, DeckError> {
+    let k = |s: &str| format!("design.{name}.{s}");
+    let rd = d.get_ref();
+    let mat = required(
+        src,
+        span(d),
+        &k("material"),
+        &rd.material,
+        "material (a [material.*] name)",
+    )?;
+    let Some(m) = model.materials.get(mat.get_ref()) else {
+        let known: Vec<&str> = model.materials.keys().map(String::as_str).collect();
+        return Err(src.error(
+            span(mat),
+            Some(k("material")),
+            format!(
+                "undefined material `{}`{}",
+                mat.get_ref(),
+                suggestion(mat.get_ref(), &known)
+            ),
+        ));
+    };
+    let isotropic = raw.material[mat.get_ref()].get_ref().e.is_some();
+    let c = required(src, span(d), &k("constant"), &rd.constant, "constant")?;
+    let c0 = m.constants();
+    let (constant, dc, value, unit) = match (isotropic, c.get_ref().as_str()) {
+        (true, "E") => {
+            // E1 = E2 = E3 = E and G = E / (2(1 + ν)) at fixed ν
+            let g = 1.0 / (2.0 * (1.0 + c0[6]));
+            ("E", [1.0, 1.0, 1.0, g, g, g, 0.0, 0.0, 0.0], c0[0], "Pa")
+        }
+        (false, other) if ORTHOTROPIC.iter().any(|(n, _, _)| *n == other) => {
+            let &(n, i, unit) = ORTHOTROPIC
+                .iter()
+                .find(|(n, _, _)| *n == other)
+                .expect("matched");
+            let mut dc = [0.0; 9];
+            dc[i] = 1.0;
+            (n, dc, c0[i], unit)
+        }
+        (_, "density") => {
+            return Err(src.error(
+                span(c),
+                Some(k("constant")),
+                "the density as a design variable is not available yet: it changes the \
+                 bodies' masses, whose derivatives the floating frame does not carry yet",
+            ));
+        }
+        (true, other) => {
+            return Err(src.error(
+                span(c),
+                Some(k("constant")),
+                format!(
+                    "`{other}`: material `{}` is isotropic: its design constant is \"E\" (to vary \
+                     a Poisson ratio, give the material's nine orthotropic constants)",
+                    mat.get_ref()
+                ),
+            ));
+        }
+        (false, other) => {
+            let names: Vec<&str> = ORTHOTROPIC.iter().map(|(n, _, _)| *n).collect();
+            return Err(src.error(
+                span(c),
+                Some(k("constant")),
+                format!(
+                    "unknown constant `{other}`: expected one of {}{}",
+                    names.join(", "),
+                    suggestion(other, &names)
+                ),
+            ));
+        }
+    };
+    Ok(DesignVariable {
+        name: name.to_string(),
+        target: Target::Material {
+            material: mat.get_ref().clone(),
+            dc,
+        },
+        value,
+        unit,
+        constant,
     })
 }
 
@@ -405,6 +573,7 @@ fn rigid_variable(
             value: r.mass,
             target: Target::RigidMass { body },
             unit: "kg",
+            constant: "",
         }
     } else {
         let axis = required(
@@ -442,6 +611,7 @@ fn rigid_variable(
             value: r.inertia[(axis, axis)],
             target: Target::RigidInertia { body, axis, key },
             unit: "kg*m^2",
+            constant: "",
         }
     })
 }

@@ -256,7 +256,7 @@ pub struct RawRegion {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawDesign {
-    /// `"ply-angle"` (the default), `"rigid-mass"` or `"rigid-inertia"`.
+    /// `"ply-angle"` (the default), `"material"`, `"rigid-mass"` or `"rigid-inertia"`.
     pub kind: Option<Spanned<String>>,
     /// The laminate whose plies move.
     pub laminate: Option<Spanned<String>>,
@@ -268,6 +268,10 @@ pub struct RawDesign {
     pub body: Option<Spanned<String>>,
     /// `"rigid-inertia"`: the principal axis (`"x"`, `"y"` or `"z"`, body axes).
     pub axis: Option<Spanned<String>>,
+    /// `"material"`: the material.
+    pub material: Option<Spanned<String>>,
+    /// `"material"`: the elastic constant (`"E1"` … `"nu23"`, or `"E"` of an isotropic one).
+    pub constant: Option<Spanned<String>>,
 }
 
 /// A scalar objective of a response history.

@@ -29,6 +29,9 @@ pub struct SectionDef {
     /// box walls, mesh regions given as `laminate` and `ply`), or `None` (a material of its
     /// own). Design variables move the regions through these.
     pub plies: Vec<Option<PlyRef>>,
+    /// For each region, the name of its `[material.*]` (`None` for the materials a
+    /// simple-format mesh defines itself): material design variables move it.
+    pub materials: Vec<Option<String>>,
 }
 
 fn material<'m>(
@@ -282,8 +285,11 @@ pub fn validate_one(
             .unwrap_or(0.0);
         Ok::<_, DeckError>((m, angle))
     };
-    // region name → laminate ply, for the regions made of laminate plies
+    // region name → laminate ply, for the regions made of laminate plies; region name → deck
+    // material for the others (a solid section: one material for all)
     let mut tags: HashMap<String, PlyRef> = HashMap::new();
+    let mut materials: HashMap<String, String> = HashMap::new();
+    let solid_material = raw.material.as_ref().map(|m| m.get_ref().clone());
     let mesh = match shape_name {
         "circle" => {
             let r = positive(
@@ -383,12 +389,10 @@ pub fn validate_one(
                     for (i, p) in plies.get_ref().iter().enumerate() {
                         let pk = |key: &str| format!("section.{name}.plies[{i}].{key}");
                         let r = p.get_ref();
-                        let m = material(
-                            src,
-                            &pk("material"),
-                            required(src, span(p), &pk("material"), &r.material, "material")?,
-                            model,
-                        )?;
+                        let mname =
+                            required(src, span(p), &pk("material"), &r.material, "material")?;
+                        let m = material(src, &pk("material"), mname, model)?;
+                        materials.insert(format!("plies.{i}"), mname.get_ref().clone());
                         let t = positive(
                             src,
                             &pk("thickness"),
@@ -561,18 +565,15 @@ pub fn validate_one(
                         }
                         None => {
                             not_applicable(src, &rk("ply"), &rr.ply, "a region without laminate")?;
-                            let m = material(
+                            let mname = required(
                                 src,
+                                span(r),
                                 &rk("material"),
-                                required(
-                                    src,
-                                    span(r),
-                                    &rk("material"),
-                                    &rr.material,
-                                    "material (or laminate and ply)",
-                                )?,
-                                model,
+                                &rr.material,
+                                "material (or laminate and ply)",
                             )?;
+                            let m = material(src, &rk("material"), mname, model)?;
+                            materials.insert(rname.clone(), mname.get_ref().clone());
                             let angle = rr
                                 .angle
                                 .as_ref()
@@ -647,7 +648,7 @@ pub fn validate_one(
     };
     mesh.validate().map_err(bad)?;
     // a box names its regions "<wall>/<ply name>"
-    let plies = mesh
+    let plies: Vec<Option<PlyRef>> = mesh
         .regions
         .iter()
         .map(|r| {
@@ -655,10 +656,24 @@ pub fn validate_one(
             tags.get(&r.name).or_else(|| tags.get(ply)).cloned()
         })
         .collect();
+    let materials = mesh
+        .regions
+        .iter()
+        .zip(&plies)
+        .map(|(r, tag): (_, &Option<PlyRef>)| match tag {
+            Some(t) => Some(model.laminates[&t.laminate].ply_materials[t.ply].clone()),
+            None if shape_name == "mesh" => materials.get(&r.name).cloned(),
+            None => materials
+                .get(&r.name)
+                .cloned()
+                .or_else(|| solid_material.clone()),
+        })
+        .collect();
     Ok(SectionDef {
         shape: shape_name.to_string(),
         mesh,
         plies,
+        materials,
     })
 }
 

@@ -26,6 +26,10 @@ pub enum DesignRequest<'a> {
     Variables(&'a [DesignVariable]),
 }
 
+/// Per design variable, `(part, dc/db)` of the parts (plies, section regions) whose material's
+/// nine elastic constants it moves.
+pub type MaterialLinks = Vec<Vec<(usize, [f64; 9])>>;
+
 /// The design of a body: how its stiffness depends on the design variables.
 pub enum Design {
     /// A beam: the section's values and derivatives with respect to each variable at the
@@ -37,6 +41,9 @@ pub enum Design {
         values: Vec<f64>,
         mesh: Box<section::SectionMesh>,
         map: DesignMap,
+        /// Per variable, `(region, dc/db)` of the regions whose material it moves (the nine
+        /// elastic constants).
+        materials: MaterialLinks,
     },
     /// A shell: the laminate's ply angles move with the variables, `θ_p = θ_p0 + Σ_j f (b_j −
     /// b_j0)` for each `(p, f)` of `links[j]` (θ in radians).
@@ -45,6 +52,8 @@ pub enum Design {
         names: Vec<String>,
         values: Vec<f64>,
         links: Vec<Vec<(usize, f64)>>,
+        /// Per variable, `(ply, dc/db)` of the plies whose material it moves.
+        materials: MaterialLinks,
     },
 }
 
@@ -69,7 +78,12 @@ impl Design {
                 .derivatives
                 .get(j)
                 .is_some_and(|d| d.stiffness.iter().any(|x| *x != 0.0)),
-            Design::Shell { links, .. } => links.get(j).is_some_and(|l| !l.is_empty()),
+            Design::Shell {
+                links, materials, ..
+            } => {
+                links.get(j).is_some_and(|l| !l.is_empty())
+                    || materials.get(j).is_some_and(|m| !m.is_empty())
+            }
         }
     }
 
@@ -86,6 +100,7 @@ impl Design {
                 values,
                 mesh,
                 map,
+                materials,
                 ..
             } => {
                 let moved = b.iter().zip(values.iter()).any(|(bj, b0)| bj.v != *b0);
@@ -94,8 +109,18 @@ impl Design {
                     for (j, (bj, b0)) in b.iter().zip(values.iter()).enumerate() {
                         at = map.step(&at, j, bj.v - b0);
                     }
+                    let steps: Vec<f64> = b.iter().zip(values).map(|(bj, b0)| bj.v - b0).collect();
+                    for (r, c) in moved_constants(mesh.regions.len(), materials, &steps, |r| {
+                        mesh.regions[r].material.constants()
+                    }) {
+                        at.regions[r].material = at.regions[r]
+                            .material
+                            .with_constants(c)
+                            .map_err(|e| section::SectionError::InvalidInput(e.to_string()))?;
+                    }
+                    let map_at = with_materials(map, &at, materials);
                     BeamSection::from_sensitivities(
-                        &section::analyse_with_derivatives::<CHUNK>(&at, map)?,
+                        &section::analyse_with_derivatives::<CHUNK>(&at, &map_at)?,
                         b,
                     )
                 } else {
@@ -110,6 +135,7 @@ impl Design {
                 stack,
                 links,
                 values,
+                materials,
                 ..
             } => {
                 let mut angles: Vec<Dual<N>> = stack
@@ -123,16 +149,83 @@ impl Design {
                         angles[p] += step * Dual::constant(f);
                     }
                 }
-                let dual = stack
-                    .with_angles(&angles)
-                    .map_err(|e| section::SectionError::InvalidInput(e.to_string()))?;
+                let bad =
+                    |e: laminate::LaminateError| section::SectionError::InvalidInput(e.to_string());
+                // each ply's material at b, with its tangents dC̄/db · db
+                let steps: Vec<f64> = b.iter().zip(values).map(|(bj, b0)| bj.v - b0).collect();
+                let plies = stack.plies();
+                let mut at: Vec<laminate::OrthotropicMaterial> =
+                    plies.iter().map(|p| p.material).collect();
+                for (p, c) in moved_constants(plies.len(), materials, &steps, |p| {
+                    plies[p].material.constants()
+                }) {
+                    at[p] = at[p].with_constants(c).map_err(bad)?;
+                }
+                let mut c_bar: Vec<nalgebra::Matrix6<Dual<N>>> = at
+                    .iter()
+                    .map(|m| m.stiffness().map(Dual::constant))
+                    .collect();
+                for (bj, m) in b.iter().zip(materials) {
+                    let db = *bj - Dual::constant(bj.v);
+                    for (p, dc) in m {
+                        let d = at[*p].stiffness_derivative(dc);
+                        for (x, y) in c_bar[*p].iter_mut().zip(d.iter()) {
+                            *x += db * Dual::constant(*y);
+                        }
+                    }
+                }
+                let dual = stack.with_angles(&angles).map_err(bad)?;
                 Properties {
                     sections: Vec::new(),
-                    laminates: vec![dual.stiffness()],
+                    laminates: vec![dual.stiffness_with_materials(&c_bar)],
                 }
             }
         })
     }
+}
+
+/// The elastic constants of the parts (plies, regions) that material variables move, at the
+/// design steps `b − b0`: `(part, c0 + Σ_j dc_j (b_j − b_j0))` for each part moved.
+fn moved_constants(
+    parts: usize,
+    materials: &[Vec<(usize, [f64; 9])>],
+    steps: &[f64],
+    nominal: impl Fn(usize) -> [f64; 9],
+) -> Vec<(usize, [f64; 9])> {
+    let mut moved: Vec<Option<[f64; 9]>> = vec![None; parts];
+    for (m, &step) in materials.iter().zip(steps) {
+        if step == 0.0 {
+            continue;
+        }
+        for (part, dc) in m {
+            let c = moved[*part].get_or_insert_with(|| nominal(*part));
+            for (ci, d) in c.iter_mut().zip(dc) {
+                *ci += d * step;
+            }
+        }
+    }
+    moved
+        .into_iter()
+        .enumerate()
+        .filter_map(|(p, c)| c.map(|c| (p, c)))
+        .collect()
+}
+
+/// The section design map `map` (ply-angle links) with the material links of `materials`,
+/// their `dC̄/db` taken at the materials of `mesh`.
+fn with_materials(
+    map: &DesignMap,
+    mesh: &section::SectionMesh,
+    materials: &[Vec<(usize, [f64; 9])>],
+) -> DesignMap {
+    let mut out = map.clone();
+    for (v, m) in out.variables.iter_mut().zip(materials) {
+        v.materials = m
+            .iter()
+            .map(|(r, dc)| (*r, mesh.regions[*r].material.stiffness_derivative(dc)))
+            .collect();
+    }
+    out
 }
 
 impl Built {
@@ -175,10 +268,16 @@ impl Built {
     }
 }
 
-/// The section design map of the deck's variables: region `r` moves with variable `j` when it
-/// is a ply of `j` (the section's region tags, [`SectionDef::plies`]).
-pub fn section_design(section: &SectionDef, vars: &[DesignVariable]) -> DesignMap {
+/// The section design map of the deck's variables: region `r` turns with variable `j` when it
+/// is a ply of `j` ([`SectionDef::plies`]) and its material moves with `j` when `j` is a
+/// constant of its material ([`SectionDef::materials`]); with, per variable, the
+/// `(region, dc/db)` of those materials.
+pub fn section_design(
+    section: &SectionDef,
+    vars: &[DesignVariable],
+) -> (DesignMap, MaterialLinks) {
     let mut map = DesignMap::new();
+    let mut materials = Vec::new();
     for v in vars {
         let mut links = Vec::new();
         for (r, tag) in section.plies.iter().enumerate() {
@@ -190,8 +289,17 @@ pub fn section_design(section: &SectionDef, vars: &[DesignVariable]) -> DesignMa
             }
         }
         map = map.with_variable(v.name.clone(), links);
+        materials.push(
+            section
+                .materials
+                .iter()
+                .enumerate()
+                .filter_map(|(r, m)| Some((r, *v.material_links(m.as_deref()?)?)))
+                .collect(),
+        );
     }
-    map
+    let map = with_materials(&map, &section.mesh, &materials);
+    (map, materials)
 }
 
 /// A body ready for the finite-element analysis.
@@ -208,6 +316,7 @@ fn shell(
     mesh: fem::Mesh,
     stack: &PlyStack<f64>,
     laminate: &str,
+    ply_materials: &[String],
     request: DesignRequest,
 ) -> (fem::Mesh, Properties<f64>, Design, &'static str) {
     let props = Properties {
@@ -232,6 +341,19 @@ fn shell(
                 .collect(),
         ),
     };
+    let materials = match request {
+        DesignRequest::Variables(vars) => vars
+            .iter()
+            .map(|v| {
+                ply_materials
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(p, m)| Some((p, *v.material_links(m)?)))
+                    .collect()
+            })
+            .collect(),
+        _ => vec![Vec::new(); links.len()],
+    };
     (
         mesh,
         props,
@@ -240,6 +362,7 @@ fn shell(
             names,
             values,
             links,
+            materials,
         },
         "shell",
     )
@@ -265,10 +388,17 @@ pub fn build(
         } => {
             let mesh = fem::Mesh::straight_beam(*start, *end, *elements, 0, *orientation)
                 .map_err(|e| input(".elements", e.to_string()))?;
-            let map = match request {
-                DesignRequest::None => None,
-                DesignRequest::EachPly => Some(DesignMap::each_region(&section.mesh)),
-                DesignRequest::Variables(vars) => Some(section_design(section, vars)),
+            let (map, materials) = match request {
+                DesignRequest::None => (None, Vec::new()),
+                DesignRequest::EachPly => {
+                    let map = DesignMap::each_region(&section.mesh);
+                    let none = vec![Vec::new(); map.variables.len()];
+                    (Some(map), none)
+                }
+                DesignRequest::Variables(vars) => {
+                    let (map, materials) = section_design(section, vars);
+                    (Some(map), materials)
+                }
             };
             let s = match &map {
                 Some(map) => section::analyse_with_derivatives::<CHUNK>(&section.mesh, map),
@@ -299,12 +429,14 @@ pub fn build(
                 values,
                 mesh: Box::new(section.mesh.clone()),
                 map: map.unwrap_or_default(),
+                materials,
             };
             (mesh, props, design, "beam")
         }
         BodyShape::ShellRectangle {
             laminate,
             stack,
+            ply_materials,
             length,
             width,
             elements,
@@ -317,18 +449,25 @@ pub fn build(
                     *material_axis = *axis;
                 }
             }
-            shell(mesh, stack, laminate, request)
+            shell(mesh, stack, laminate, ply_materials, request)
         }
         BodyShape::ShellMesh {
             laminate,
             stack,
+            ply_materials,
             mesh_text,
             file,
             axis,
         } => {
             let tri = fem::parse_gmsh_v4(mesh_text)
                 .map_err(|e| input(".file", format!("in the mesh {file}: {e}")))?;
-            shell(tri.to_mesh(0, *axis), stack, laminate, request)
+            shell(
+                tri.to_mesh(0, *axis),
+                stack,
+                laminate,
+                ply_materials,
+                request,
+            )
         }
     };
     let reference = match def.reference {

@@ -124,7 +124,7 @@ pub(crate) fn set_rigid<P: sens::Scalar>(
     let (body, axis) = match target {
         Target::RigidMass { body } => (body, None),
         Target::RigidInertia { body, axis, .. } => (body, Some(*axis)),
-        Target::PlyAngle { .. } => return,
+        Target::PlyAngle { .. } | Target::Material { .. } => return,
     };
     if let Body::Rigid(r) = model.body_mut(bodies[body].id) {
         match axis {
@@ -288,14 +288,17 @@ impl Study {
     /// need responses that have them.
     fn check_design(&self, src: &Source, raw: &RawDeck) -> Result<(), DeckError> {
         for (j, v) in self.design.variables.iter().enumerate() {
-            let rigid = !matches!(v.target, Target::PlyAngle { .. });
+            let rigid = matches!(
+                v.target,
+                Target::RigidMass { .. } | Target::RigidInertia { .. }
+            );
             if !rigid && !self.flexible.iter().any(|p| p.built.design.depends_on(j)) {
                 return Err(src.error(
                     Some(raw.design[&v.name].span()),
                     Some(format!("design.{}", v.name)),
                     format!(
-                        "the design variable changes no flexible body: the {} laminate no shell \
-                         body and build no beam body's section",
+                        "the design variable ({}) changes no flexible body: no shell body and no \
+                         beam body's section is made of it",
                         v.describe()
                     ),
                 ));

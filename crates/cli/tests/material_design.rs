@@ -1,0 +1,297 @@
+//! A material's elastic constant as a design variable (`kind = "material"`): through the
+//! section, laminate and shell analyses and a whole run, against closed forms (stiffness and
+//! frequencies scale with E at fixed ν) and central differences of command-line runs.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use common::{bad_deck, deck, f64s, json, with_deck};
+use flexsens::results::Group;
+
+/// The shipped deck `name` with `extra` appended, written in a fresh directory.
+fn with_design(name: &str, extra: &str) -> (tempfile::TempDir, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(deck(name)).unwrap() + extra;
+    let path = dir.path().join(name);
+    std::fs::write(&path, text).unwrap();
+    (dir, path)
+}
+
+fn report(command: &str, path: &Path, extra: &[String]) -> serde_json::Value {
+    let mut args = vec![command.to_string(), path.display().to_string()];
+    args.extend(["--format".to_string(), "json".to_string()]);
+    args.extend_from_slice(extra);
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    json(&args)
+}
+
+fn matrix(v: &serde_json::Value) -> Vec<Vec<f64>> {
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|r| {
+            r.as_array()
+                .unwrap()
+                .iter()
+                .map(|x| x.as_f64().unwrap())
+                .collect()
+        })
+        .collect()
+}
+
+#[test]
+fn isotropic_section_stiffness_is_linear_in_e() {
+    let (_dir, path) = with_design(
+        "section_isotropic_rectangle.toml",
+        "\n[design.modulus]\nkind = \"material\"\nmaterial = \"aluminium\"\nconstant = \"E\"\n",
+    );
+    let doc = report("section", &path, &["--derivatives".into()]);
+    let bar = &doc["sections"]["bar"];
+    let d = &bar["derivatives"][0];
+    assert_eq!(d["wrt"], "modulus");
+    assert_eq!(d["per"], "Pa");
+    // at fixed ν every stiffness entry is proportional to E: dK/dE = K/E
+    let k = matrix(&bar["values"]["stiffness"]);
+    let dk = matrix(&d["values"]["stiffness"]);
+    let scale = k.iter().flatten().fold(0.0f64, |a, x| a.max(x.abs())) / 70e9;
+    for i in 0..6 {
+        for j in 0..6 {
+            let expected = k[i][j] / 70e9;
+            assert!(
+                (dk[i][j] - expected).abs() <= 1e-9 * scale,
+                "K{i}{j}: {} vs {expected}",
+                dk[i][j]
+            );
+        }
+    }
+    // the mass does not depend on the modulus
+    assert_eq!(d["values"]["mass_per_length"].as_f64().unwrap(), 0.0);
+}
+
+#[test]
+fn orthotropic_constants_move_sections_and_laminates_as_central_differences_do() {
+    let extra = "
+[design.e1]
+kind = \"material\"
+material = \"paper_composite\"
+constant = \"E1\"
+
+[design.g12]
+kind = \"material\"
+material = \"paper_composite\"
+constant = \"G12\"
+
+[design.nu12]
+kind = \"material\"
+material = \"paper_composite\"
+constant = \"nu12\"
+";
+    let (_dir, path) = with_design("section_composite_tube.toml", extra);
+    let sec = report("section", &path, &["--derivatives".into()]);
+    let lam = report("laminate", &path, &["--derivatives".into()]);
+    for (k, (name, constant, value, unit)) in [
+        ("e1", "E1", 128.0e9, "Pa"),
+        ("g12", "G12", 5.36e9, "Pa"),
+        ("nu12", "nu12", 0.23, "1"),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let h = 1e-5 * value;
+        let at = |s: f64, command: &str| {
+            report(
+                command,
+                &path,
+                &[
+                    "--set".into(),
+                    format!("material.paper_composite.{constant}={:?}", value + s),
+                ],
+            )
+        };
+        // section: the 6×6 stiffness
+        let d = &sec["sections"]["rod"]["derivatives"][k];
+        assert_eq!(d["wrt"], name);
+        assert_eq!(d["per"], unit);
+        let exact = matrix(&d["values"]["stiffness"]);
+        let (p, m) = (at(h, "section"), at(-h, "section"));
+        let (kp, km) = (
+            matrix(&p["sections"]["rod"]["values"]["stiffness"]),
+            matrix(&m["sections"]["rod"]["values"]["stiffness"]),
+        );
+        let scale = exact.iter().flatten().fold(0.0f64, |a, x| a.max(x.abs()));
+        assert!(scale > 0.0, "{name}");
+        for i in 0..6 {
+            for j in 0..6 {
+                let fd = (kp[i][j] - km[i][j]) / (2.0 * h);
+                assert!(
+                    (exact[i][j] - fd).abs() <= 1e-6 * scale,
+                    "section {name} K{i}{j}: {} vs {fd}",
+                    exact[i][j]
+                );
+            }
+        }
+        // laminate: A and D
+        let d = &lam["laminates"]["tube_wall"]["derivatives"][k];
+        assert_eq!(d["wrt"], name);
+        let (p, m) = (at(h, "laminate"), at(-h, "laminate"));
+        for what in ["A", "D"] {
+            let exact = matrix(&d["values"][what]);
+            let (xp, xm) = (
+                matrix(&p["laminates"]["tube_wall"]["values"][what]),
+                matrix(&m["laminates"]["tube_wall"]["values"][what]),
+            );
+            let scale = exact.iter().flatten().fold(0.0f64, |a, x| a.max(x.abs()));
+            for i in 0..3 {
+                for j in 0..3 {
+                    let fd = (xp[i][j] - xm[i][j]) / (2.0 * h);
+                    assert!(
+                        (exact[i][j] - fd).abs() <= 1e-6 * scale,
+                        "laminate {name} {what}{i}{j}: {} vs {fd}",
+                        exact[i][j]
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// An isotropic square plate: its frequencies are proportional to √E at fixed ν and density,
+/// so df/dE = f / (2E).
+#[test]
+fn shell_frequencies_follow_the_square_root_of_e() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("plate.toml");
+    std::fs::write(
+        &path,
+        "[material.steel]
+E = 210e9
+nu = 0.3
+density = 7850.0
+
+[laminate.sheet]
+plies = [{ material = \"steel\", thickness = 2e-3, angle = 0.0 }]
+
+[body.plate]
+kind = \"shell\"
+laminate = \"sheet\"
+length = 0.3
+width = 0.2
+elements = [6, 4]
+modes = 4
+reference = \"free-free\"
+
+[design.modulus]
+kind = \"material\"
+material = \"steel\"
+constant = \"E\"
+",
+    )
+    .unwrap();
+    let doc = report("modes", &path, &["--derivatives".into()]);
+    let body = &doc["bodies"]["plate"];
+    let f: Vec<f64> = body["values"]["frequencies"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    let d = &body["derivatives"][0];
+    assert_eq!(d["wrt"], "modulus");
+    assert_eq!(d["per"], "Pa");
+    for (i, x) in d["values"]["frequencies"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .enumerate()
+    {
+        let expected = f[i] / (2.0 * 210e9);
+        let got = x.as_f64().unwrap();
+        assert!(
+            (got - expected).abs() <= 1e-8 * expected,
+            "mode {}: {got} vs {expected} Hz/Pa",
+            i + 1
+        );
+    }
+}
+
+#[test]
+fn run_sensitivities_to_e1_match_replayed_central_differences() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let text = std::fs::read_to_string(deck("slider_crank_beam.toml")).unwrap()
+        + "\n[design.e1]\nkind = \"material\"\nmaterial = \"paper_composite\"\nconstant = \"E1\"\n";
+    let path = dir.path().join("beam.toml");
+    std::fs::write(&path, text).unwrap();
+    json(&[
+        "run",
+        path.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--json",
+        "--set",
+        "analysis.t_end=0.003",
+        "--set",
+        "finite_differences.scheme=central",
+        "--set",
+        "finite_differences.sizes=[1e-4]",
+    ]);
+    let g = Group::read_hdf5(&out.join("results.h5")).unwrap();
+    let direct = f64s(&g, "sensitivities/mid_deflection");
+    let fd = f64s(
+        &g,
+        "finite_differences/central_relative_0.0001_replay/mid_deflection",
+    );
+    // columns: e1, theta
+    for (v, name) in ["e1", "theta"].iter().enumerate() {
+        let col = |m: &[f64]| -> Vec<f64> { m.iter().skip(v).step_by(2).copied().collect() };
+        let (d, f) = (col(&direct), col(&fd));
+        let scale = d.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+        let err = d
+            .iter()
+            .zip(&f)
+            .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()))
+            / scale;
+        eprintln!("{name}: direct vs central differences {err:.1e} (max {scale:.2e})");
+        assert!(scale > 0.0);
+        assert!(err < 1e-5, "{name}: {err:e}");
+    }
+    // a stiffer rod deflects less: the sensitivity to E1 has the opposite sign of the deflection
+    let x = f64s(&g, "responses/mid_deflection");
+    let (i, _) = x.iter().enumerate().fold((0, 0.0f64), |(bi, bx), (i, v)| {
+        if v.abs() > bx { (i, v.abs()) } else { (bi, bx) }
+    });
+    assert!(x[i] * direct[2 * i] < 0.0, "{} {}", x[i], direct[2 * i]);
+}
+
+#[test]
+fn bad_material_variables_are_located() {
+    let base = std::fs::read_to_string(deck("section_isotropic_rectangle.toml")).unwrap();
+    for (table, key, words) in [
+        (
+            "kind = \"material\"\nmaterial = \"aluminium\"\nconstant = \"nu\"",
+            "design.v.constant",
+            "is isotropic",
+        ),
+        (
+            "kind = \"material\"\nmaterial = \"aluminium\"\nconstant = \"density\"",
+            "design.v.constant",
+            "not available yet",
+        ),
+        (
+            "kind = \"material\"\nmaterial = \"alu\"\nconstant = \"E\"",
+            "design.v.material",
+            "undefined material `alu`",
+        ),
+        (
+            "kind = \"material\"\nmaterial = \"aluminium\"",
+            "design.v.constant",
+            "missing value",
+        ),
+    ] {
+        let text = format!("{base}\n[design.v]\n{table}\n");
+        let (_dir, err) = bad_deck(&text, |p| with_deck("section", p, &[]));
+        assert!(err.contains(&format!("key `{key}`")), "{err}");
+        assert!(err.contains(words), "{err}");
+    }
+}
