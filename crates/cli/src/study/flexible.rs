@@ -272,10 +272,7 @@ impl Built {
 /// is a ply of `j` ([`SectionDef::plies`]) and its material moves with `j` when `j` is a
 /// constant of its material ([`SectionDef::materials`]); with, per variable, the
 /// `(region, dc/db)` of those materials.
-pub fn section_design(
-    section: &SectionDef,
-    vars: &[DesignVariable],
-) -> (DesignMap, MaterialLinks) {
+pub fn section_design(section: &SectionDef, vars: &[DesignVariable]) -> (DesignMap, MaterialLinks) {
     let mut map = DesignMap::new();
     let mut materials = Vec::new();
     for v in vars {
