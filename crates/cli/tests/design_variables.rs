@@ -5,18 +5,9 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-use common::{deck, json, run};
-
-/// The shipped deck `name` with `extra` appended, written in a fresh directory.
-fn with_design(name: &str, extra: &str) -> (tempfile::TempDir, PathBuf) {
-    let dir = tempfile::tempdir().unwrap();
-    let text = std::fs::read_to_string(deck(name)).unwrap() + extra;
-    let path = dir.path().join(name);
-    std::fs::write(&path, text).unwrap();
-    (dir, path)
-}
+use common::{report, run, with_extra};
 
 /// Two variables of the tube's laminate: the outer pair as `[+δ/−δ]`, the innermost ply alone.
 const TUBE_DESIGN: &str = "
@@ -44,15 +35,6 @@ fn tube_plies(angles: [f64; 4]) -> Vec<String> {
         .collect()
 }
 
-/// The JSON report of `command` on `path` with extra arguments.
-fn report(command: &str, path: &Path, extra: &[String]) -> serde_json::Value {
-    let mut args = vec![command.to_string(), path.display().to_string()];
-    args.extend(["--format".to_string(), "json".to_string()]);
-    args.extend_from_slice(extra);
-    let args: Vec<&str> = args.iter().map(String::as_str).collect();
-    json(&args)
-}
-
 /// Ply angles of the tube at the design `(outer, inner)` moved by `(d_outer, d_inner)`.
 fn moved(d_outer: f64, d_inner: f64) -> [f64; 4] {
     [15.0 + d_inner, 15.0, 15.0 + d_outer, 15.0 - d_outer]
@@ -60,7 +42,7 @@ fn moved(d_outer: f64, d_inner: f64) -> [f64; 4] {
 
 #[test]
 fn section_derivatives_per_design_variable_match_central_differences() {
-    let (_dir, path) = with_design("section_composite_tube.toml", TUBE_DESIGN);
+    let (_dir, path) = with_extra("section_composite_tube.toml", TUBE_DESIGN);
     let doc = report("section", &path, &["--derivatives".into()]);
     let d = doc["sections"]["rod"]["derivatives"].as_array().unwrap();
     let names: Vec<&str> = d.iter().map(|b| b["wrt"].as_str().unwrap()).collect();
@@ -112,7 +94,7 @@ fn section_derivatives_per_design_variable_match_central_differences() {
 
 #[test]
 fn laminate_derivatives_per_design_variable_match_central_differences() {
-    let (_dir, path) = with_design("section_composite_tube.toml", TUBE_DESIGN);
+    let (_dir, path) = with_extra("section_composite_tube.toml", TUBE_DESIGN);
     let doc = report("laminate", &path, &["--derivatives".into()]);
     let d = doc["laminates"]["tube_wall"]["derivatives"]
         .as_array()
@@ -152,7 +134,7 @@ fn laminate_derivatives_per_design_variable_match_central_differences() {
 
 #[test]
 fn mode_derivatives_per_design_variable_match_central_differences() {
-    let (_dir, path) = with_design(
+    let (_dir, path) = with_extra(
         "modes_beam_rod.toml",
         "\n[design.theta]\nlaminate = \"tube_wall\"\n",
     );

@@ -112,3 +112,69 @@ pub fn f64s(g: &Group, path: &str) -> Vec<f64> {
         Data::Text(_) => panic!("{path} is text"),
     }
 }
+
+/// The shipped deck `name` with `extra` appended, written in a fresh directory (kept alive by
+/// the returned guard).
+pub fn with_extra(name: &str, extra: &str) -> (tempfile::TempDir, std::path::PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(deck(name)).unwrap() + extra;
+    let path = dir.path().join(name);
+    std::fs::write(&path, text).unwrap();
+    (dir, path)
+}
+
+/// `flexsens COMMAND PATH --format json EXTRA…`, expecting success.
+pub fn report(command: &str, path: &Path, extra: &[String]) -> serde_json::Value {
+    let mut args = vec![command.to_string(), path.display().to_string()];
+    args.extend(["--format".to_string(), "json".to_string()]);
+    args.extend_from_slice(extra);
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    json(&args)
+}
+
+/// The beam slider-crank with `extra` tables, run for 3 ms with central differences of relative
+/// size `size` on the replayed steps; per design variable (`names`, in the deck's order), the
+/// largest difference between the direct sensitivities of the mid-node deflection and the
+/// differences, relative to the largest sensitivity, with that largest sensitivity.
+pub fn beam_direct_vs_central(extra: &str, size: &str, names: &[&str]) -> Vec<(f64, f64)> {
+    let (dir, path) = with_extra("slider_crank_beam.toml", extra);
+    let out = dir.path().join("out");
+    json(&[
+        "run",
+        path.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--json",
+        "--set",
+        "analysis.t_end=0.003",
+        "--set",
+        "finite_differences.scheme=central",
+        "--set",
+        &format!("finite_differences.sizes=[{size}]"),
+    ]);
+    let g = Group::read_hdf5(&out.join("results.h5")).unwrap();
+    let direct = f64s(&g, "sensitivities/mid_deflection");
+    let label = format!("{}", size.parse::<f64>().unwrap());
+    let fd = f64s(
+        &g,
+        &format!("finite_differences/central_relative_{label}_replay/mid_deflection"),
+    );
+    let m = names.len();
+    (0..m)
+        .map(|v| {
+            let col = |x: &[f64]| -> Vec<f64> { x.iter().skip(v).step_by(m).copied().collect() };
+            let (d, f) = (col(&direct), col(&fd));
+            let scale = d.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+            let err = d
+                .iter()
+                .zip(&f)
+                .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()))
+                / scale;
+            eprintln!(
+                "{}: direct vs central differences {err:.1e} (max {scale:.2e})",
+                names[v]
+            );
+            (err, scale)
+        })
+        .collect()
+}
