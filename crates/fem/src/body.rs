@@ -779,8 +779,18 @@ pub fn modal_body_dual<const N: usize>(
     };
     Ok(ModalBody {
         node_positions: base.node_positions,
-        node_masses: base.node_masses,
-        node_inertias: base.node_inertias,
+        // constant masses: the callers' variables leave them (`ModalBody::set_lumped_masses`
+        // differentiates them)
+        node_masses: base
+            .node_masses
+            .iter()
+            .map(|&m| Dual::constant(m))
+            .collect(),
+        node_inertias: base
+            .node_inertias
+            .iter()
+            .map(|m| m.map(Dual::constant))
+            .collect(),
         modes,
         eigenvalues: lam,
         modal_damping: damping,

@@ -26,10 +26,11 @@ pub const NODE_DOFS: usize = 6;
 pub struct ModalBody<S: Scalar> {
     /// Undeformed node positions in the body frame (m).
     pub node_positions: Vec<Vector3<f64>>,
-    /// Lumped nodal masses `m_k` (kg).
-    pub node_masses: Vec<f64>,
+    /// Lumped nodal masses `m_k` (kg), in the scalar of the design (a material's density or a
+    /// ply's thickness moves them).
+    pub node_masses: Vec<S>,
     /// Lumped nodal rotary inertias `μ_k` about the body axes through the node (kg·m²).
-    pub node_inertias: Vec<Vector3<f64>>,
+    pub node_inertias: Vec<Vector3<S>>,
     /// Mode shapes `X`, `6 · n_nodes × n_modes`.
     pub modes: DMatrix<S>,
     /// `ω_i²` for each retained mode (rad²/s²).
@@ -82,9 +83,9 @@ impl<S: Scalar> ModalBody<S> {
         self.modes.ncols()
     }
 
-    /// Total mass `Σ m_k` (kg).
+    /// Total mass `Σ m_k` (kg), value only.
     pub fn total_mass(&self) -> f64 {
-        self.node_masses.iter().sum()
+        self.node_masses.iter().map(|m| m.value()).sum()
     }
 
     /// Check that the sizes agree and the masses are physical.
@@ -112,7 +113,8 @@ impl<S: Scalar> ModalBody<S> {
                 damping: self.modal_damping.len(),
             });
         }
-        for (k, (&mk, mu)) in self.node_masses.iter().zip(&self.node_inertias).enumerate() {
+        for (k, (mk, mu)) in self.node_masses.iter().zip(&self.node_inertias).enumerate() {
+            let mk = mk.value();
             if !(mk.is_finite() && mk >= 0.0) {
                 return Err(ModalBodyError::BadMass {
                     node: k,
@@ -120,7 +122,7 @@ impl<S: Scalar> ModalBody<S> {
                     value: mk,
                 });
             }
-            for &v in mu.iter() {
+            for v in mu.iter().map(|x| x.value()) {
                 if !(v.is_finite() && v >= 0.0) {
                     return Err(ModalBodyError::BadMass {
                         node: k,

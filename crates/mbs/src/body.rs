@@ -115,8 +115,8 @@ impl<P: Scalar> Body<P> {
                 name: b.name.clone(),
                 modal: ModalBody {
                     node_positions: b.modal.node_positions.clone(),
-                    node_masses: b.modal.node_masses.clone(),
-                    node_inertias: b.modal.node_inertias.clone(),
+                    node_masses: b.modal.node_masses.iter().map(|&x| f(x)).collect(),
+                    node_inertias: b.modal.node_inertias.iter().map(|x| x.map(f)).collect(),
                     modes: b.modal.modes.map(f),
                     eigenvalues: b.modal.eigenvalues.iter().map(|&x| f(x)).collect(),
                     modal_damping: b.modal.modal_damping.iter().map(|&x| f(x)).collect(),
@@ -224,13 +224,13 @@ pub(crate) fn body_dynamics<P: Scalar, S: Scalar + From<P>>(
 pub(crate) struct ModalInvariants<P: Scalar> {
     n_modes: usize,
     /// `Σ m_k`.
-    total: f64,
+    total: P,
     /// `Σ m_k u0_k`.
-    first: Vector3<f64>,
+    first: Vector3<P>,
     /// `Σ μ_k`.
-    inertia: Vector3<f64>,
+    inertia: Vector3<P>,
     /// `Σ m_k u0_k u0_kᵀ`.
-    second: Matrix3<f64>,
+    second: Matrix3<P>,
     /// `Σ_k m_k X_kj` for each mode `j`.
     mode_first: Vec<Vector3<P>>,
     /// `Σ_k m_k u0_k X_kjᵀ` for each mode `j`.
@@ -248,7 +248,7 @@ impl<P: Scalar> ModalInvariants<P> {
         let nm = modal.n_modes();
         let mut inv = Self {
             n_modes: nm,
-            total: 0.0,
+            total: P::zero(),
             first: Vector3::zeros(),
             inertia: Vector3::zeros(),
             second: Matrix3::zeros(),
@@ -265,12 +265,11 @@ impl<P: Scalar> ModalInvariants<P> {
             let x: Vec<Vector3<P>> = (0..nm).map(|j| mode_vec(modal, k, j, false)).collect();
             let t: Vec<Vector3<P>> = (0..nm).map(|j| mode_vec(modal, k, j, true)).collect();
             let u0p: Vector3<P> = vec3f(&u0);
-            let mp = P::from_f64(m);
-            let mup: Vector3<P> = vec3f(&mu);
+            let (mp, mup) = (m, mu);
             inv.total += m;
-            inv.first += u0 * m;
+            inv.first += u0p * m;
             inv.inertia += mu;
-            inv.second += u0 * u0.transpose() * m;
+            inv.second += outer(&u0p, &u0p) * m;
             for j in 0..nm {
                 inv.mode_first[j] += x[j] * mp;
                 inv.mode_cross[j] += outer(&u0p, &x[j]) * mp;
@@ -322,17 +321,17 @@ fn flexible_dynamics<P: Scalar, S: Scalar + From<P>>(
     let wd = &v[6..6 + nm];
     let om = vec3(&v[3..6]);
     let two = S::from_f64(2.0);
-    let total = S::from_f64(inv.total);
+    let total: S = lift(inv.total);
     let c2: Vec<Vector3<S>> = inv.mode_first.iter().map(|x| x.map(lift)).collect();
     let q2 = |j: usize, l: usize| -> Matrix3<S> { inv.mode_second[j * nm + l].map(lift) };
     // Σ m u = Σ m u0 + Σ_j (Σ m X_j) w_j
-    let mut first: Vector3<S> = vec3f(&inv.first);
+    let mut first: Vector3<S> = inv.first.map(lift);
     for j in 0..nm {
         first += c2[j] * w[j];
     }
     // G_j = Σ m u X_jᵀ = Σ m u0 X_jᵀ + Σ_l w_l Σ m X_l X_jᵀ
     let mut gj: Vec<Matrix3<S>> = inv.mode_cross.iter().map(|x| x.map(lift)).collect();
-    let mut second: Matrix3<S> = inv.second.map(S::from_f64); // Σ m u uᵀ
+    let mut second: Matrix3<S> = inv.second.map(lift); // Σ m u uᵀ
     for j in 0..nm {
         let pj = gj[j];
         second += (pj + pj.transpose()) * w[j];
@@ -353,7 +352,7 @@ fn flexible_dynamics<P: Scalar, S: Scalar + From<P>>(
     let tr = second.trace();
     let mut m_oo = -second;
     for i in 0..3 {
-        m_oo[(i, i)] += tr + S::from_f64(inv.inertia[i]);
+        m_oo[(i, i)] += tr + lift::<P, S>(inv.inertia[i]);
     }
     // coupling ω–ẇ: Σ m u × X_j + Σ μ ∘ T_j
     let m_ow: Vec<Vector3<S>> = (0..nm)
@@ -365,7 +364,7 @@ fn flexible_dynamics<P: Scalar, S: Scalar + From<P>>(
     // Σ m u × c: (Σ m u uᵀ ω) × ω + 2 (ω tr(Σ m u u̇ᵀ) − Σ m u̇ uᵀ ω)
     let s_o = mv(&second, &om).cross(&om) + (om * u_ud.trace() - mtv(&u_ud, &om)) * two;
     // Σ μ ∘ (ω + θ̇_k)
-    let mut hj = om.component_mul(&vec3f(&inv.inertia));
+    let mut hj = om.component_mul(&inv.inertia.map(lift));
     for j in 0..nm {
         hj += inv.mode_spin[j].map(lift) * wd[j];
     }
@@ -453,8 +452,8 @@ mod tests {
         let mut xd = vec![Vector3::<S>::zeros(); nm];
         let mut xt = vec![Vector3::<S>::zeros(); nm];
         for k in 0..modal.n_nodes() {
-            let mk: S = S::from_f64(modal.node_masses[k]);
-            let jk: Vector3<S> = vec3f(&modal.node_inertias[k]);
+            let mk: S = lift(modal.node_masses[k]);
+            let jk: Vector3<S> = modal.node_inertias[k].map(lift);
             let mut u: Vector3<S> = vec3f(&modal.node_positions[k]);
             let mut ud = Vector3::<S>::zeros();
             let mut th_d = Vector3::<S>::zeros();
@@ -623,12 +622,22 @@ mod tests {
         };
         close(m1.as_slice(), m2.as_slice(), 1e-13 * scale_m);
         close(&f1, &f2, 1e-12 * scale_f);
-        // design-dependent modes (as in updated-mode sensitivities): the tangents of the
-        // invariants carry the modes' derivatives
+        // design-dependent modes (as in updated-mode sensitivities) and masses (a density or a
+        // thickness as a design variable): the tangents of the invariants carry their
+        // derivatives
         let dual_modal = ModalBody {
             node_positions: modal.node_positions.clone(),
-            node_masses: modal.node_masses.clone(),
-            node_inertias: modal.node_inertias.clone(),
+            node_masses: modal
+                .node_masses
+                .iter()
+                .enumerate()
+                .map(|(k, &m)| Dual::new(m, [0.0, 0.1 * m * (1.0 + (k as f64).sin())]))
+                .collect(),
+            node_inertias: modal
+                .node_inertias
+                .iter()
+                .map(|mu| mu.map(|x| Dual::new(x, [0.0, 0.2 * x])))
+                .collect(),
             modes: modal
                 .modes
                 .map_with_location(|r, j, x| Dual::new(x, [0.0, 0.2 * ((r + 3 * j) as f64).cos()])),

@@ -27,8 +27,8 @@ fn oscillator<S: Scalar>(lambda: S) -> Model<S> {
     modes[(1, 0)] = S::from_f64(phi);
     let modal = ModalBody {
         node_positions: vec![Vector3::zeros()],
-        node_masses: vec![MASS],
-        node_inertias: vec![Vector3::new(1e-3, 1e-3, 1e-3)],
+        node_masses: vec![S::from_f64(MASS)],
+        node_inertias: vec![Vector3::from_element(S::from_f64(1e-3))],
         modes,
         eigenvalues: vec![lambda],
         modal_damping: vec![S::zero()],
@@ -158,8 +158,8 @@ fn initial_sensitivities_are_the_derivatives_of_the_assembly() {
         modes[(5, 0)] = b * b;
         let modal = ModalBody {
             node_positions: vec![Vector3::new(-0.5, 0.0, 0.0), Vector3::new(0.5, 0.0, 0.0)],
-            node_masses: vec![1.0, 1.0],
-            node_inertias: vec![Vector3::new(1e-3, 1e-3, 1e-3); 2],
+            node_masses: vec![S::one(); 2],
+            node_inertias: vec![Vector3::from_element(S::from_f64(1e-3)); 2],
             modes,
             eigenvalues: vec![S::from_f64(100.0)],
             modal_damping: vec![S::zero()],
