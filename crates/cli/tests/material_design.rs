@@ -219,11 +219,6 @@ fn bad_material_variables_are_located() {
             "is isotropic",
         ),
         (
-            "kind = \"material\"\nmaterial = \"aluminium\"\nconstant = \"density\"",
-            "design.v.constant",
-            "not available yet",
-        ),
-        (
             "kind = \"material\"\nmaterial = \"alu\"\nconstant = \"E\"",
             "design.v.material",
             "undefined material `alu`",
@@ -238,5 +233,78 @@ fn bad_material_variables_are_located() {
         let (_dir, err) = bad_deck(&text, |p| with_deck("section", p, &[]));
         assert!(err.contains(&format!("key `{key}`")), "{err}");
         assert!(err.contains(words), "{err}");
+    }
+}
+
+/// The density: the section's mass per length moves by its area, the stiffness not; a plate's
+/// frequencies go as 1/√ρ; the run's sensitivities (the rod's inertia loads) against replayed
+/// central differences.
+#[test]
+fn density_moves_masses_through_sections_shells_and_runs() {
+    let (_dir, path) = with_extra(
+        "section_isotropic_rectangle.toml",
+        "\n[design.rho]\nkind = \"material\"\nmaterial = \"aluminium\"\nconstant = \"density\"\n",
+    );
+    let doc = report("section", &path, &["--derivatives".into()]);
+    let d = &doc["sections"]["bar"]["derivatives"][0];
+    assert_eq!(d["per"], "kg/m^3");
+    let area = 0.04 * 0.0075;
+    let dm = d["values"]["mass_per_length"].as_f64().unwrap();
+    assert!((dm - area).abs() < 1e-12 * area, "{dm} vs {area}");
+    // the mass inertia about x2 is ρ w h³/12 per length
+    let di = d["values"]["mass_inertia"][0].as_f64().unwrap();
+    let expected = 0.04 * 0.0075f64.powi(3) / 12.0;
+    assert!(
+        (di - expected).abs() < 1e-9 * expected,
+        "{di} vs {expected}"
+    );
+    assert!(
+        matrix(&d["values"]["stiffness"])
+            .iter()
+            .flatten()
+            .all(|&x| x == 0.0)
+    );
+
+    // an isotropic plate: ω² = k/(ρ …), so df/dρ = −f/(2ρ)
+    let dir = tempfile::tempdir().unwrap();
+    let plate = dir.path().join("plate.toml");
+    std::fs::write(
+        &plate,
+        "[material.steel]\nE = 210e9\nnu = 0.3\ndensity = 7850.0\n\
+         [laminate.sheet]\nplies = [{ material = \"steel\", thickness = 2e-3, angle = 0.0 }]\n\
+         [body.plate]\nkind = \"shell\"\nlaminate = \"sheet\"\nlength = 0.3\nwidth = 0.2\n\
+         elements = [6, 4]\nmodes = 4\nreference = \"free-free\"\n\
+         [design.rho]\nkind = \"material\"\nmaterial = \"steel\"\nconstant = \"density\"\n",
+    )
+    .unwrap();
+    let doc = report("modes", &plate, &["--derivatives".into()]);
+    let body = &doc["bodies"]["plate"];
+    for (f, df) in body["values"]["frequencies"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(
+            body["derivatives"][0]["values"]["frequencies"]
+                .as_array()
+                .unwrap(),
+        )
+    {
+        let expected = -f.as_f64().unwrap() / (2.0 * 7850.0);
+        let got = df.as_f64().unwrap();
+        assert!(
+            (got - expected).abs() <= 1e-8 * expected.abs(),
+            "{got} vs {expected}"
+        );
+    }
+
+    // the beam slider-crank: the rod's density through its section, modes and masses
+    let errors = beam_direct_vs_central(
+        "\n[design.rho]\nkind = \"material\"\nmaterial = \"paper_composite\"\nconstant = \"density\"\n",
+        "1e-4",
+        &["rho", "theta"],
+    );
+    for (err, scale) in errors {
+        assert!(scale > 0.0);
+        assert!(err < 1e-5, "{err:e}");
     }
 }

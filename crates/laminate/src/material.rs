@@ -108,6 +108,17 @@ impl OrthotropicMaterial {
         )
     }
 
+    /// The material with another density (kg/m³), validated as [`Self::new`].
+    pub fn with_density(&self, density: f64) -> Result<Self, LaminateError> {
+        let c = self.constants();
+        Self::new(
+            [c[0], c[1], c[2]],
+            [c[3], c[4], c[5]],
+            [c[6], c[7], c[8]],
+            density,
+        )
+    }
+
     /// The derivative of the stiffness `C̄` for a change `dc` of the elastic constants (order
     /// of [`Self::constants`]): `dC̄ = −C̄ dS̄ C̄` on the normal block, `dG` on the shear
     /// diagonal.

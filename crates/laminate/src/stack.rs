@@ -208,14 +208,23 @@ impl<S: Scalar> PlyStack<S> {
             .iter()
             .map(|p| p.material.stiffness().map(S::from_f64))
             .collect();
-        self.stiffness_with_materials(&c_bar)
+        let density: Vec<S> = self
+            .plies
+            .iter()
+            .map(|p| S::from_f64(p.material.density()))
+            .collect();
+        self.stiffness_with_materials(&c_bar, &density)
     }
 
-    /// [`Self::stiffness`] with each ply's material stiffness `C̄` (material axes) given, e.g. a
-    /// dual `C̄` whose tangents are derivatives with respect to material constants; densities
-    /// are the plies' own.
-    pub fn stiffness_with_materials(&self, c_bar: &[Matrix6<S>]) -> LaminateStiffness<S> {
+    /// [`Self::stiffness`] with each ply's material stiffness `C̄` (material axes) and density
+    /// given, e.g. duals whose tangents are derivatives with respect to material constants.
+    pub fn stiffness_with_materials(
+        &self,
+        c_bar: &[Matrix6<S>],
+        density: &[S],
+    ) -> LaminateStiffness<S> {
         assert_eq!(c_bar.len(), self.plies.len(), "one stiffness per ply");
+        assert_eq!(density.len(), self.plies.len(), "one density per ply");
         let z = self.interfaces();
         let mut out = LaminateStiffness {
             a: Matrix3::zeros(),
@@ -239,7 +248,7 @@ impl<S: Scalar> PlyStack<S> {
             out.b += q * h2;
             out.d += q * h3;
             out.shear += transverse_shear(&c) * (h1 * self.shear_correction);
-            let rho = ply.material.density();
+            let rho = density[k];
             out.mass_per_area += h1 * rho;
             out.first_moment += h2 * rho;
             out.rotary_inertia += h3 * rho;

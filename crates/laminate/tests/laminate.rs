@@ -413,11 +413,25 @@ fn stack_stiffness_with_dual_materials_carries_the_material_derivative() {
         .map(|_| m.stiffness().zip_map(&dcbar, |v, d| Dual::new(v, [d])))
         .collect();
     let angles: Vec<Dual<1>> = st.plies().iter().map(|p| Dual::constant(p.angle)).collect();
+    let rho = vec![Dual::constant(m.density()); 4];
     let dual = st
         .with_angles(&angles)
         .unwrap()
-        .stiffness_with_materials(&c_bar);
+        .stiffness_with_materials(&c_bar, &rho);
     assert_eq!(dual.a.map(|x| x.v), st.stiffness().a);
+    // a dual density: ∂I0/∂ρ = h, ∂I1/∂ρ = 0 and ∂I2/∂ρ = h³/12 about the mid-plane
+    let constant: Vec<Matrix6<Dual<1>>> =
+        (0..4).map(|_| m.stiffness().map(Dual::constant)).collect();
+    let rho = vec![Dual::new(m.density(), [1.0]); 4];
+    let mass = st
+        .with_angles(&angles)
+        .unwrap()
+        .stiffness_with_materials(&constant, &rho);
+    let h = 4.0 * 0.25e-3;
+    assert!((mass.mass_per_area.d[0] - h).abs() < 1e-15);
+    assert!(mass.first_moment.d[0].abs() < 1e-18);
+    assert!((mass.rotary_inertia.d[0] - h * h * h / 12.0).abs() < 1e-12 * h * h * h);
+    assert_eq!(mass.a.map(|x| x.d[0]), nalgebra::Matrix3::zeros());
     let h = 1e-4 * m.constants()[1];
     let at = |s: f64| {
         let mut c = m.constants();

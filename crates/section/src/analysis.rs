@@ -324,7 +324,7 @@ impl SectionAnalysis {
         assert!(N > 0, "Dual<0> carries no tangents");
         design.validate(&self.model.mesh)?;
         let m = design.variables.len();
-        let mass = self.model.mass_properties();
+        let integrals = self.model.region_mass_integrals();
         let mut derivatives = vec![SectionProperties::default(); m];
         for range in chunk_ranges(m, N) {
             // Dual ply angles and material stiffnesses: tangent k of region r is dθ_r/db and
@@ -342,6 +342,13 @@ impl SectionAnalysis {
                 .iter()
                 .map(|c| c.map(Dual::constant))
                 .collect();
+            let mut density: Vec<Dual<N>> = self
+                .model
+                .mesh
+                .regions
+                .iter()
+                .map(|r| Dual::constant(r.material.density()))
+                .collect();
             for (k, v) in range.clone().enumerate() {
                 for &(r, factor) in &design.variables[v].links {
                     angles[r].d[k] += factor;
@@ -351,12 +358,16 @@ impl SectionAnalysis {
                         x.d[k] += d;
                     }
                 }
+                for &(r, drho) in &design.variables[v].densities {
+                    density[r].d[k] += drho;
+                }
             }
+            let mass = MassProperties::scaled_sum(&integrals, &density);
             let compliance = self.compliance_dual(&angles, &c_bar);
             let props =
                 Props::from_compliance(compliance).ok_or(SectionError::SingularCompliance)?;
             for (k, v) in range.enumerate() {
-                derivatives[v] = SectionProperties::from_props(&props, &mass.zero(), |s| s.d[k]);
+                derivatives[v] = SectionProperties::from_props(&props, &mass, |s| s.d[k]);
             }
         }
         Ok(SectionSensitivities {
@@ -839,22 +850,34 @@ impl Model {
         }
     }
 
-    fn mass_properties(&self) -> MassProperties {
-        let mut mp = MassProperties::default();
+    /// Unit-density integrals `∫1, ∫x₂, …` of each region (`m…` with ρ = 1).
+    fn region_mass_integrals(&self) -> Vec<MassProperties> {
+        let mut out = vec![MassProperties::default(); self.mesh.regions.len()];
         for (e, el) in self.mesh.elements.iter().enumerate() {
-            let rho = self.mesh.regions[el.region].material.density();
+            let mp = &mut out[el.region];
             for gp in &self.gps[self.gp_start[e]..self.gp_start[e + 1]] {
                 let [x2, x3] = gp.x;
                 mp.area += gp.w;
-                mp.m += rho * gp.w;
-                mp.m2 += rho * gp.w * x2;
-                mp.m3 += rho * gp.w * x3;
-                mp.m22 += rho * gp.w * x2 * x2;
-                mp.m33 += rho * gp.w * x3 * x3;
-                mp.m23 += rho * gp.w * x2 * x3;
+                mp.m += gp.w;
+                mp.m2 += gp.w * x2;
+                mp.m3 += gp.w * x3;
+                mp.m22 += gp.w * x2 * x2;
+                mp.m33 += gp.w * x3 * x3;
+                mp.m23 += gp.w * x2 * x3;
             }
         }
-        mp
+        out
+    }
+
+    /// The mass integrals with the regions' densities.
+    fn mass_properties(&self) -> MassProperties {
+        let rho: Vec<f64> = self
+            .mesh
+            .regions
+            .iter()
+            .map(|r| r.material.density())
+            .collect();
+        MassProperties::scaled_sum(&self.region_mass_integrals(), &rho)
     }
 }
 

@@ -15,12 +15,14 @@ pub struct DesignVariable {
     pub links: Vec<(usize, f64)>,
     /// `(region index, dC̄_region/db)`.
     pub materials: Vec<(usize, Matrix6<f64>)>,
+    /// `(region index, dρ_region/db)`: a material's density as a design variable.
+    pub densities: Vec<(usize, f64)>,
 }
 
 impl DesignVariable {
     /// Whether the variable moves anything.
     pub fn is_empty(&self) -> bool {
-        self.links.is_empty() && self.materials.is_empty()
+        self.links.is_empty() && self.materials.is_empty() && self.densities.is_empty()
     }
 }
 
@@ -47,6 +49,7 @@ impl DesignMap {
                     name: r.name.clone(),
                     links: vec![(i, 1.0)],
                     materials: Vec::new(),
+                    densities: Vec::new(),
                 })
                 .collect(),
         }
@@ -58,6 +61,7 @@ impl DesignMap {
             name: name.into(),
             links,
             materials: Vec::new(),
+            densities: Vec::new(),
         });
         self
     }
@@ -72,6 +76,7 @@ impl DesignMap {
             name: name.into(),
             links: Vec::new(),
             materials,
+            densities: Vec::new(),
         });
         self
     }
@@ -91,6 +96,7 @@ impl DesignMap {
             name: name.into(),
             links,
             materials: Vec::new(),
+            densities: Vec::new(),
         });
         Ok(self)
     }
@@ -98,6 +104,16 @@ impl DesignMap {
     /// Check that every link names an existing region with a finite factor.
     pub fn validate(&self, mesh: &SectionMesh) -> Result<(), SectionError> {
         for v in &self.variables {
+            for &(r, d) in &v.densities {
+                if r >= mesh.regions.len() || !d.is_finite() {
+                    return Err(SectionError::InvalidInput(format!(
+                        "design variable '{}': density link to region {r} invalid (the mesh \
+                         has {} regions; derivatives must be finite)",
+                        v.name,
+                        mesh.regions.len()
+                    )));
+                }
+            }
             for (r, d) in &v.materials {
                 if *r >= mesh.regions.len() || d.iter().any(|x| !x.is_finite()) {
                     return Err(SectionError::InvalidInput(format!(

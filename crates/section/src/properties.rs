@@ -218,25 +218,25 @@ impl SectionProperties {
 
     pub(crate) fn from_props<S: Scalar>(
         p: &Props<S>,
-        mass: &MassProperties,
+        mass: &MassProperties<S>,
         f: impl Fn(S) -> f64,
     ) -> Self {
-        let (c2, c3) = if mass.m > 0.0 {
+        let (c2, c3) = if mass.m.value() > 0.0 {
             (mass.m2 / mass.m, mass.m3 / mass.m)
         } else {
-            (0.0, 0.0)
+            (S::zero(), S::zero())
         };
         SectionProperties {
             stiffness: p.stiffness.map(&f),
             compliance: p.compliance.map(&f),
             classical_stiffness: p.classical.map(&f),
-            area: mass.area,
-            mass_per_length: mass.m,
-            mass_centre: [c2, c3],
+            area: f(mass.area),
+            mass_per_length: f(mass.m),
+            mass_centre: [f(c2), f(c3)],
             mass_inertia: [
-                mass.m33 - mass.m * c3 * c3,
-                mass.m22 - mass.m * c2 * c2,
-                mass.m23 - mass.m * c2 * c3,
+                f(mass.m33 - mass.m * c3 * c3),
+                f(mass.m22 - mass.m * c2 * c2),
+                f(mass.m23 - mass.m * c2 * c3),
             ],
             tension_centre: p.tension_centre.map(&f),
             shear_centre: p.shear_centre.map(&f),
@@ -244,22 +244,52 @@ impl SectionProperties {
     }
 }
 
-/// Integrals `∫ρ`, `∫ρx₂`, … over the section.
-#[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct MassProperties {
-    pub area: f64,
-    pub m: f64,
-    pub m2: f64,
-    pub m3: f64,
-    pub m22: f64,
-    pub m33: f64,
-    pub m23: f64,
+/// Integrals `∫ρ`, `∫ρx₂`, … over the section (in any scalar: a dual density carries the
+/// derivatives with respect to material densities).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct MassProperties<S: Scalar = f64> {
+    pub area: S,
+    pub m: S,
+    pub m2: S,
+    pub m3: S,
+    pub m22: S,
+    pub m33: S,
+    pub m23: S,
 }
 
-impl MassProperties {
-    /// All zero: the derivative of the mass properties with respect to a ply angle.
-    pub fn zero(&self) -> MassProperties {
-        MassProperties::default()
+impl<S: Scalar> Default for MassProperties<S> {
+    fn default() -> Self {
+        let z = S::zero();
+        Self {
+            area: z,
+            m: z,
+            m2: z,
+            m3: z,
+            m22: z,
+            m33: z,
+            m23: z,
+        }
+    }
+}
+
+impl MassProperties<f64> {
+    /// `Σ_r ρ_r I_r` over regions with unit-density integrals `I_r` (this for one region), in
+    /// the scalar of the densities.
+    pub fn scaled_sum<S: Scalar>(
+        regions: &[MassProperties<f64>],
+        density: &[S],
+    ) -> MassProperties<S> {
+        let mut out = MassProperties::<S>::default();
+        for (i, &rho) in regions.iter().zip(density) {
+            out.area += S::from_f64(i.area);
+            out.m += rho * i.m;
+            out.m2 += rho * i.m2;
+            out.m3 += rho * i.m3;
+            out.m22 += rho * i.m22;
+            out.m33 += rho * i.m33;
+            out.m23 += rho * i.m23;
+        }
+        out
     }
 }
 

@@ -178,3 +178,60 @@ fn stiffness_about_moving_centres_matches_central_differences() {
         }
     }
 }
+
+/// A region's density as a design variable: the mass per length, mass centre and inertias move
+/// (against central differences and the closed form of a thin ring's mass), the stiffness not.
+#[test]
+fn density_derivatives_of_the_mass_properties() {
+    let (mesh, _) = layered_tube();
+    let rho = mesh.regions[0].material.density();
+    let design = DesignMap {
+        variables: vec![section::DesignVariable {
+            name: "rho0".into(),
+            links: Vec::new(),
+            materials: Vec::new(),
+            densities: vec![(0, 1.0)],
+        }],
+    };
+    let d = &analyse_with_derivatives::<1>(&mesh, &design)
+        .unwrap()
+        .derivatives[0];
+    let at = |r: f64| {
+        let mut m = mesh.clone();
+        m.regions[0].material = m.regions[0].material.with_density(r).unwrap();
+        analyse(&m).unwrap()
+    };
+    let h = 1e-3 * rho;
+    let (p, q) = (at(rho + h), at(rho - h));
+    let fd = |f: &dyn Fn(&SectionProperties) -> f64| (f(&p) - f(&q)) / (2.0 * h);
+    let checks: [(&str, f64, f64); 3] = [
+        (
+            "mass per length",
+            d.mass_per_length,
+            fd(&|s| s.mass_per_length),
+        ),
+        ("I22", d.mass_inertia[0], fd(&|s| s.mass_inertia[0])),
+        ("I33", d.mass_inertia[1], fd(&|s| s.mass_inertia[1])),
+    ];
+    for (what, exact, diff) in checks {
+        assert!(
+            (exact - diff).abs() <= 1e-7 * exact.abs().max(1e-12),
+            "{what}: {exact} vs {diff}"
+        );
+    }
+    // the innermost ply's area (inner radius 10 mm, 0.5 mm thick): the mass per length moves
+    // by the ply's area per unit density (the 24-sided mesh's chords: within 1 %)
+    let ring = std::f64::consts::PI * (0.0105f64.powi(2) - 0.01f64.powi(2));
+    assert!(
+        (d.mass_per_length - ring).abs() < 1e-2 * ring,
+        "{}",
+        d.mass_per_length
+    );
+    // the plies are concentric: the mass centre does not move; nor does the stiffness
+    assert!(
+        d.mass_centre.iter().all(|x| x.abs() < 1e-15),
+        "{:?}",
+        d.mass_centre
+    );
+    assert_eq!(d.stiffness, nalgebra::Matrix6::zeros());
+}

@@ -8,7 +8,7 @@ use serde_json::json;
 
 use super::Format;
 use super::output::{self, Derivative, Quantity, Report};
-use crate::deck::design::{DesignVariable, validate as validate_design};
+use crate::deck::design::{DesignVariable, elastic, validate as validate_design};
 use crate::deck::laminates::{LaminateDef, validate};
 use crate::deck::{self, DeckError};
 
@@ -41,12 +41,12 @@ pub fn angle_derivatives(
 }
 
 /// [`angle_derivatives`] for variables that also move the elastic constants of plies'
-/// materials: variable `j` changes the constants of ply `p` by `dc` per unit for each
-/// `(p, dc)` of `materials[j]`.
+/// materials: variable `j` changes the constants of ply `p` (the nine elastic ones and the
+/// density) by `dc` per unit for each `(p, dc)` of `materials[j]`.
 pub fn design_derivatives(
     stack: &PlyStack<f64>,
     links: &[Vec<(usize, f64)>],
-    materials: &[Vec<(usize, [f64; 9])>],
+    materials: &[Vec<(usize, [f64; 10])>],
 ) -> Vec<LaminateStiffness<f64>> {
     let mut out = Vec::with_capacity(links.len());
     for range in chunk_ranges(links.len(), CHUNK) {
@@ -60,21 +60,29 @@ pub fn design_derivatives(
             .iter()
             .map(|p| p.material.stiffness().map(Dual::constant))
             .collect();
+        let mut density: Vec<Dual<CHUNK>> = stack
+            .plies()
+            .iter()
+            .map(|p| Dual::constant(p.material.density()))
+            .collect();
         for (k, j) in range.clone().enumerate() {
             for &(p, f) in &links[j] {
                 angles[p].d[k] += f;
             }
             for (p, dc) in &materials[j] {
-                let d = stack.plies()[*p].material.stiffness_derivative(dc);
+                let d = stack.plies()[*p]
+                    .material
+                    .stiffness_derivative(&elastic(dc));
                 for (x, y) in c_bar[*p].iter_mut().zip(d.iter()) {
                     x.d[k] += y;
                 }
+                density[*p].d[k] += dc[9];
             }
         }
         let dual = stack
             .with_angles(&angles)
             .expect("angles of a validated stack stay valid")
-            .stiffness_with_materials(&c_bar);
+            .stiffness_with_materials(&c_bar, &density);
         for k in 0..range.len() {
             out.push(dual.tangent(k));
         }
@@ -98,7 +106,7 @@ fn derivative_blocks(name: &str, def: &LaminateDef, vars: &[DesignVariable]) -> 
             })
             .collect();
     }
-    let materials_of = |v: &DesignVariable| -> Vec<(usize, [f64; 9])> {
+    let materials_of = |v: &DesignVariable| -> Vec<(usize, [f64; 10])> {
         def.ply_materials
             .iter()
             .enumerate()

@@ -96,7 +96,7 @@ fn analyse_chunked<const N: usize>(
         }
         frequencies.push((part.name.clone(), df));
         for (model, range) in chunks.iter_mut().zip(&ranges) {
-            let body = fem::modal_body_dual::<N>(
+            let mut body = fem::modal_body_dual::<N>(
                 &built.mesh,
                 &built.props,
                 &part.analysis,
@@ -105,6 +105,20 @@ fn analyse_chunked<const N: usize>(
                 update,
             )
             .map_err(fem_error)?;
+            // the lumped masses with their design derivatives (a density moves them)
+            let seeded = sens::seed_chunk::<N>(built.design.values(), range.start);
+            let props = built
+                .design
+                .properties(&seeded)
+                .map_err(|e| runtime(src, format!("body `{}`: its section: {e}", part.name)))?;
+            let (m, mu) =
+                fem::lumped_nodal_masses(&built.mesh, &props, &part.analysis.options.element)
+                    .map_err(fem_error)?;
+            body.node_masses = m;
+            body.node_inertias = mu
+                .iter()
+                .map(|x| nalgebra::Vector3::new(x[0], x[1], x[2]))
+                .collect();
             *model.body_mut(part.id) = Body::Flexible(FlexibleBody::new(part.name.clone(), body));
         }
     }

@@ -28,10 +28,11 @@ pub enum Target {
         /// `(ply index in the deck, θ_i0 in degrees, f_i)`: the plies as written.
         deck_plies: Vec<(usize, f64, f64)>,
     },
-    /// An elastic constant of a material: `dc` is the derivative of its nine constants
-    /// (`OrthotropicMaterial::constants` order) with respect to the variable. Every ply and
-    /// section region of the material follows.
-    Material { material: String, dc: [f64; 9] },
+    /// An elastic constant or the density of a material: `dc` is the derivative of its nine
+    /// elastic constants (`OrthotropicMaterial::constants` order) and its density with respect
+    /// to the variable ([`material_constants`]). Every ply and section region of the material
+    /// follows.
+    Material { material: String, dc: [f64; 10] },
     /// The mass of a rigid body (kg).
     RigidMass { body: String },
     /// A principal moment of inertia of a rigid body (`axis` 0, 1, 2: the diagonal entry of
@@ -72,9 +73,9 @@ impl DesignVariable {
         }
     }
 
-    /// `dc/db` of the nine elastic constants of `material` (none when the variable moves
-    /// something else).
-    pub fn material_links(&self, material: &str) -> Option<&[f64; 9]> {
+    /// `dc/db` of the nine elastic constants and the density of `material` (none when the
+    /// variable moves something else).
+    pub fn material_links(&self, material: &str) -> Option<&[f64; 10]> {
         match &self.target {
             Target::Material { material: m, dc } if m == material => Some(dc),
             _ => None,
@@ -136,11 +137,11 @@ impl DesignVariable {
         }
         if let Target::Material { material, dc } = &self.target {
             let m0 = model.materials[material];
-            let mut c = m0.constants();
+            let mut c = material_constants(&m0);
             for (ci, d) in c.iter_mut().zip(dc) {
                 *ci += d * (b - self.value);
             }
-            let m = m0.with_constants(c)?;
+            let m = with_material_constants(&m0, &c)?;
             model.materials.insert(material.clone(), m);
             for def in model.laminates.values_mut() {
                 if !def.ply_materials.contains(material) {
@@ -430,6 +431,36 @@ fn variable(
     })
 }
 
+/// A material's nine elastic constants (`OrthotropicMaterial::constants`) and its density.
+pub fn material_constants(m: &laminate::OrthotropicMaterial) -> [f64; 10] {
+    let c = m.constants();
+    [
+        c[0],
+        c[1],
+        c[2],
+        c[3],
+        c[4],
+        c[5],
+        c[6],
+        c[7],
+        c[8],
+        m.density(),
+    ]
+}
+
+/// The elastic part of [`material_constants`].
+pub fn elastic(c: &[f64; 10]) -> [f64; 9] {
+    [c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8]]
+}
+
+/// The material with the constants `c` ([`material_constants`] order).
+pub fn with_material_constants(
+    m: &laminate::OrthotropicMaterial,
+    c: &[f64; 10],
+) -> Result<laminate::OrthotropicMaterial, LaminateError> {
+    m.with_constants(elastic(c))?.with_density(c[9])
+}
+
 /// The elastic constants a material variable may move: deck name, index in
 /// `OrthotropicMaterial::constants`, unit.
 const ORTHOTROPIC: [(&str, usize, &str); 9] = [
@@ -480,24 +511,26 @@ fn material_variable(
         (true, "E") => {
             // E1 = E2 = E3 = E and G = E / (2(1 + ν)) at fixed ν
             let g = 1.0 / (2.0 * (1.0 + c0[6]));
-            ("E", [1.0, 1.0, 1.0, g, g, g, 0.0, 0.0, 0.0], c0[0], "Pa")
+            (
+                "E",
+                [1.0, 1.0, 1.0, g, g, g, 0.0, 0.0, 0.0, 0.0],
+                c0[0],
+                "Pa",
+            )
         }
         (false, other) if ORTHOTROPIC.iter().any(|(n, _, _)| *n == other) => {
             let &(n, i, unit) = ORTHOTROPIC
                 .iter()
                 .find(|(n, _, _)| *n == other)
                 .expect("matched");
-            let mut dc = [0.0; 9];
+            let mut dc = [0.0; 10];
             dc[i] = 1.0;
             (n, dc, c0[i], unit)
         }
         (_, "density") => {
-            return Err(src.error(
-                span(c),
-                Some(k("constant")),
-                "the density as a design variable is not available yet: it changes the \
-                 bodies' masses, whose derivatives the floating frame does not carry yet",
-            ));
+            let mut dc = [0.0; 10];
+            dc[9] = 1.0;
+            ("density", dc, m.density(), "kg/m^3")
         }
         (true, other) => {
             return Err(src.error(

@@ -270,7 +270,7 @@ pub struct RawDesign {
     pub axis: Option<Spanned<String>>,
     /// `"material"`: the material.
     pub material: Option<Spanned<String>>,
-    /// `"material"`: the elastic constant (`"E1"` … `"nu23"`, or `"E"` of an isotropic one).
+    /// `"material"`: the constant (`"E1"` … `"nu23"`, `"E"` of an isotropic one, `"density"`).
     pub constant: Option<Spanned<String>>,
 }
 

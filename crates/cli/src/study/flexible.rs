@@ -9,7 +9,7 @@ use sens::Dual;
 
 use crate::deck::Source;
 use crate::deck::bodies::{BodyDef, BodyShape, Reference};
-use crate::deck::design::DesignVariable;
+use crate::deck::design::{DesignVariable, elastic, material_constants, with_material_constants};
 use crate::deck::sections::SectionDef;
 use crate::error::CliError;
 
@@ -27,8 +27,8 @@ pub enum DesignRequest<'a> {
 }
 
 /// Per design variable, `(part, dc/db)` of the parts (plies, section regions) whose material's
-/// nine elastic constants it moves.
-pub type MaterialLinks = Vec<Vec<(usize, [f64; 9])>>;
+/// nine elastic constants and density it moves (`deck::design::material_constants` order).
+pub type MaterialLinks = Vec<Vec<(usize, [f64; 10])>>;
 
 /// The design of a body: how its stiffness depends on the design variables.
 pub enum Design {
@@ -74,10 +74,11 @@ impl Design {
     /// Whether variable `j` changes this body's stiffness.
     pub fn depends_on(&self, j: usize) -> bool {
         match self {
-            Design::Beam { sens, .. } => sens
-                .derivatives
-                .get(j)
-                .is_some_and(|d| d.stiffness.iter().any(|x| *x != 0.0)),
+            Design::Beam { sens, .. } => sens.derivatives.get(j).is_some_and(|d| {
+                d.stiffness.iter().any(|x| *x != 0.0)
+                    || d.mass_per_length != 0.0
+                    || d.mass_inertia.iter().any(|x| *x != 0.0)
+            }),
             Design::Shell {
                 links, materials, ..
             } => {
@@ -111,12 +112,11 @@ impl Design {
                     }
                     let steps: Vec<f64> = b.iter().zip(values).map(|(bj, b0)| bj.v - b0).collect();
                     for (r, c) in moved_constants(mesh.regions.len(), materials, &steps, |r| {
-                        mesh.regions[r].material.constants()
+                        material_constants(&mesh.regions[r].material)
                     }) {
-                        at.regions[r].material = at.regions[r]
-                            .material
-                            .with_constants(c)
-                            .map_err(|e| section::SectionError::InvalidInput(e.to_string()))?;
+                        at.regions[r].material =
+                            with_material_constants(&at.regions[r].material, &c)
+                                .map_err(|e| section::SectionError::InvalidInput(e.to_string()))?;
                     }
                     let map_at = with_materials(map, &at, materials);
                     BeamSection::from_sensitivities(
@@ -157,27 +157,30 @@ impl Design {
                 let mut at: Vec<laminate::OrthotropicMaterial> =
                     plies.iter().map(|p| p.material).collect();
                 for (p, c) in moved_constants(plies.len(), materials, &steps, |p| {
-                    plies[p].material.constants()
+                    material_constants(&plies[p].material)
                 }) {
-                    at[p] = at[p].with_constants(c).map_err(bad)?;
+                    at[p] = with_material_constants(&at[p], &c).map_err(bad)?;
                 }
                 let mut c_bar: Vec<nalgebra::Matrix6<Dual<N>>> = at
                     .iter()
                     .map(|m| m.stiffness().map(Dual::constant))
                     .collect();
+                let mut density: Vec<Dual<N>> =
+                    at.iter().map(|m| Dual::constant(m.density())).collect();
                 for (bj, m) in b.iter().zip(materials) {
                     let db = *bj - Dual::constant(bj.v);
                     for (p, dc) in m {
-                        let d = at[*p].stiffness_derivative(dc);
+                        let d = at[*p].stiffness_derivative(&elastic(dc));
                         for (x, y) in c_bar[*p].iter_mut().zip(d.iter()) {
                             *x += db * Dual::constant(*y);
                         }
+                        density[*p] += db * Dual::constant(dc[9]);
                     }
                 }
                 let dual = stack.with_angles(&angles).map_err(bad)?;
                 Properties {
                     sections: Vec::new(),
-                    laminates: vec![dual.stiffness_with_materials(&c_bar)],
+                    laminates: vec![dual.stiffness_with_materials(&c_bar, &density)],
                 }
             }
         })
@@ -188,11 +191,11 @@ impl Design {
 /// design steps `b − b0`: `(part, c0 + Σ_j dc_j (b_j − b_j0))` for each part moved.
 fn moved_constants(
     parts: usize,
-    materials: &[Vec<(usize, [f64; 9])>],
+    materials: &[Vec<(usize, [f64; 10])>],
     steps: &[f64],
-    nominal: impl Fn(usize) -> [f64; 9],
-) -> Vec<(usize, [f64; 9])> {
-    let mut moved: Vec<Option<[f64; 9]>> = vec![None; parts];
+    nominal: impl Fn(usize) -> [f64; 10],
+) -> Vec<(usize, [f64; 10])> {
+    let mut moved: Vec<Option<[f64; 10]>> = vec![None; parts];
     for (m, &step) in materials.iter().zip(steps) {
         if step == 0.0 {
             continue;
@@ -216,13 +219,22 @@ fn moved_constants(
 fn with_materials(
     map: &DesignMap,
     mesh: &section::SectionMesh,
-    materials: &[Vec<(usize, [f64; 9])>],
+    materials: &[Vec<(usize, [f64; 10])>],
 ) -> DesignMap {
     let mut out = map.clone();
     for (v, m) in out.variables.iter_mut().zip(materials) {
         v.materials = m
             .iter()
-            .map(|(r, dc)| (*r, mesh.regions[*r].material.stiffness_derivative(dc)))
+            .filter(|(_, dc)| dc[..9].iter().any(|&x| x != 0.0))
+            .map(|(r, dc)| {
+                let d = mesh.regions[*r].material.stiffness_derivative(&elastic(dc));
+                (*r, d)
+            })
+            .collect();
+        v.densities = m
+            .iter()
+            .filter(|(_, dc)| dc[9] != 0.0)
+            .map(|(r, dc)| (*r, dc[9]))
             .collect();
     }
     out
