@@ -256,6 +256,28 @@ impl<S: Scalar> PlyStack<S> {
         out
     }
 
+    /// The same stack with every ply's angle (radians) and thickness (m) replaced, e.g. by dual
+    /// numbers seeded with design variables.
+    pub fn with_plies<T: Scalar>(
+        &self,
+        angles: &[T],
+        thicknesses: &[T],
+    ) -> Result<PlyStack<T>, LaminateError> {
+        assert_eq!(angles.len(), self.plies.len(), "one angle per ply");
+        assert_eq!(thicknesses.len(), self.plies.len(), "one thickness per ply");
+        let plies = self
+            .plies
+            .iter()
+            .zip(angles.iter().zip(thicknesses))
+            .map(|(p, (&angle, &thickness))| Ply {
+                material: p.material,
+                thickness,
+                angle,
+            })
+            .collect();
+        PlyStack::with_options(plies, self.reference, self.shear_correction)
+    }
+
     /// The same stack with every ply's angle replaced (radians), e.g. by dual numbers seeded with
     /// design variables; thicknesses are carried over as constants of the new scalar type.
     pub fn with_angles<T: Scalar>(&self, angles: &[T]) -> Result<PlyStack<T>, LaminateError> {

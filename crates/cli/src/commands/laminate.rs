@@ -37,7 +37,9 @@ pub fn angle_derivatives(
     stack: &PlyStack<f64>,
     links: &[Vec<(usize, f64)>],
 ) -> Vec<LaminateStiffness<f64>> {
-    design_derivatives(stack, links, &vec![Vec::new(); links.len()])
+    let (no_materials, no_thicknesses) =
+        (vec![Vec::new(); links.len()], vec![Vec::new(); links.len()]);
+    design_derivatives(stack, links, &no_materials, &no_thicknesses)
 }
 
 /// [`angle_derivatives`] for variables that also move the elastic constants of plies'
@@ -47,6 +49,7 @@ pub fn design_derivatives(
     stack: &PlyStack<f64>,
     links: &[Vec<(usize, f64)>],
     materials: &[Vec<(usize, [f64; 10])>],
+    thicknesses: &[Vec<(usize, f64)>],
 ) -> Vec<LaminateStiffness<f64>> {
     let mut out = Vec::with_capacity(links.len());
     for range in chunk_ranges(links.len(), CHUNK) {
@@ -65,9 +68,17 @@ pub fn design_derivatives(
             .iter()
             .map(|p| Dual::constant(p.material.density()))
             .collect();
+        let mut thickness: Vec<Dual<CHUNK>> = stack
+            .plies()
+            .iter()
+            .map(|p| Dual::constant(p.thickness))
+            .collect();
         for (k, j) in range.clone().enumerate() {
             for &(p, f) in &links[j] {
                 angles[p].d[k] += f;
+            }
+            for &(p, f) in &thicknesses[j] {
+                thickness[p].d[k] += f;
             }
             for (p, dc) in &materials[j] {
                 let d = stack.plies()[*p]
@@ -80,8 +91,8 @@ pub fn design_derivatives(
             }
         }
         let dual = stack
-            .with_angles(&angles)
-            .expect("angles of a validated stack stay valid")
+            .with_plies(&angles, &thickness)
+            .expect("the plies of a validated stack stay valid")
             .stiffness_with_materials(&c_bar, &density);
         for k in 0..range.len() {
             out.push(dual.tangent(k));
@@ -115,12 +126,20 @@ fn derivative_blocks(name: &str, def: &LaminateDef, vars: &[DesignVariable]) -> 
     };
     let mine: Vec<&DesignVariable> = vars
         .iter()
-        .filter(|v| !v.ply_links(name).is_empty() || !materials_of(v).is_empty())
+        .filter(|v| {
+            !v.ply_links(name).is_empty()
+                || !v.thickness_links(name).is_empty()
+                || !materials_of(v).is_empty()
+        })
         .collect();
     let links: Vec<_> = mine.iter().map(|v| v.ply_links(name).to_vec()).collect();
     let materials: Vec<_> = mine.iter().map(|v| materials_of(v)).collect();
+    let thicknesses: Vec<_> = mine
+        .iter()
+        .map(|v| v.thickness_links(name).to_vec())
+        .collect();
     mine.iter()
-        .zip(design_derivatives(stack, &links, &materials))
+        .zip(design_derivatives(stack, &links, &materials, &thicknesses))
         .map(|(v, d)| Derivative {
             wrt: v.name.clone(),
             per: v.unit,

@@ -55,7 +55,7 @@ fn report(
         let design = if vars.is_empty() {
             DesignMap::each_region(mesh)
         } else {
-            let (mut map, _) = section_design(def, vars);
+            let (mut map, _) = section_design(def, vars)?;
             map.variables.retain(|v| !v.is_empty());
             map
         };

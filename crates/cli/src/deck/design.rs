@@ -28,6 +28,15 @@ pub enum Target {
         /// `(ply index in the deck, θ_i0 in degrees, f_i)`: the plies as written.
         deck_plies: Vec<(usize, f64, f64)>,
     },
+    /// Ply thicknesses of a laminate: `(ply index in the stack, dt/db)` (m per m; mirrored
+    /// plies of a symmetric laminate included). Shells laminated with it follow; a beam
+    /// section made of it is refused (no geometry derivatives of sections yet).
+    PlyThickness {
+        laminate: String,
+        stack_plies: Vec<(usize, f64)>,
+        /// `(ply index in the deck, t_i0 in m, f_i)`.
+        deck_plies: Vec<(usize, f64, f64)>,
+    },
     /// An elastic constant or the density of a material: `dc` is the derivative of its nine
     /// elastic constants (`OrthotropicMaterial::constants` order) and its density with respect
     /// to the variable ([`material_constants`]). Every ply and section region of the material
@@ -73,6 +82,18 @@ impl DesignVariable {
         }
     }
 
+    /// The plies of `laminate` whose thickness this variable moves, `(stack ply, dt/db)`.
+    pub fn thickness_links(&self, laminate: &str) -> &[(usize, f64)] {
+        match &self.target {
+            Target::PlyThickness {
+                laminate: l,
+                stack_plies,
+                ..
+            } if l == laminate => stack_plies,
+            _ => &[],
+        }
+    }
+
     /// `dc/db` of the nine elastic constants and the density of `material` (none when the
     /// variable moves something else).
     pub fn material_links(&self, material: &str) -> Option<&[f64; 10]> {
@@ -86,6 +107,9 @@ impl DesignVariable {
     pub fn describe(&self) -> String {
         match &self.target {
             Target::PlyAngle { laminate, .. } => format!("ply angles of laminate `{laminate}`"),
+            Target::PlyThickness { laminate, .. } => {
+                format!("ply thicknesses of laminate `{laminate}`")
+            }
             Target::Material { material, .. } => format!("constant of material `{material}`"),
             Target::RigidMass { body } => format!("mass of rigid body `{body}`"),
             Target::RigidInertia { body, axis, .. } => {
@@ -100,12 +124,17 @@ impl DesignVariable {
     /// `--set` overrides of the deck that put this variable at `b` (the lay-ups of
     /// `flexsens report` and the cases of `flexsens sweep`, which run whole decks).
     pub fn overrides(&self, b: f64) -> Vec<String> {
-        let (laminate, deck_plies) = match &self.target {
+        let (laminate, deck_plies, key) = match &self.target {
             Target::PlyAngle {
                 laminate,
                 deck_plies,
                 ..
-            } => (laminate, deck_plies),
+            } => (laminate, deck_plies, "angle"),
+            Target::PlyThickness {
+                laminate,
+                deck_plies,
+                ..
+            } => (laminate, deck_plies, "thickness"),
             Target::RigidMass { body } => return vec![format!("rigid.{body}.mass={b:?}")],
             Target::Material { material, .. } => {
                 return vec![format!("material.{material}.{}={b:?}", self.name_in_deck())];
@@ -116,7 +145,7 @@ impl DesignVariable {
             .iter()
             .map(|&(i, theta0, f)| {
                 format!(
-                    "laminate.{laminate}.plies.{i}.angle={:?}",
+                    "laminate.{laminate}.plies.{i}.{key}={:?}",
                     theta0 + f * (b - self.value)
                 )
             })
@@ -163,6 +192,27 @@ impl DesignVariable {
                     def.stack.shear_correction(),
                 )?;
             }
+            return Ok(());
+        }
+        if let Target::PlyThickness {
+            laminate,
+            stack_plies,
+            ..
+        } = &self.target
+        {
+            let def = model
+                .laminates
+                .get_mut(laminate)
+                .expect("a validated variable names a laminate of the model");
+            let mut plies = def.stack.plies().to_vec();
+            for &(p, f) in stack_plies {
+                plies[p].thickness += f * (b - self.value);
+            }
+            def.stack = laminate::PlyStack::with_options(
+                plies,
+                def.stack.reference(),
+                def.stack.shear_correction(),
+            )?;
             return Ok(());
         }
         let Target::PlyAngle {
@@ -293,14 +343,32 @@ fn variable(
         src,
         &k("kind"),
         rd.kind.as_ref(),
-        &["ply-angle", "material", "rigid-mass", "rigid-inertia"],
+        &[
+            "ply-angle",
+            "ply-thickness",
+            "material",
+            "rigid-mass",
+            "rigid-inertia",
+        ],
     )?
     .unwrap_or("ply-angle");
     // keys of the other kinds
     let keys = [
-        ("laminate", rd.laminate.as_ref().and_then(span), "ply-angle"),
-        ("plies", rd.plies.as_ref().and_then(span), "ply-angle"),
-        ("factors", rd.factors.as_ref().and_then(span), "ply-angle"),
+        (
+            "laminate",
+            rd.laminate.as_ref().and_then(span),
+            "ply-angle ply-thickness",
+        ),
+        (
+            "plies",
+            rd.plies.as_ref().and_then(span),
+            "ply-angle ply-thickness",
+        ),
+        (
+            "factors",
+            rd.factors.as_ref().and_then(span),
+            "ply-angle ply-thickness",
+        ),
         (
             "body",
             rd.body.as_ref().and_then(span),
@@ -322,9 +390,10 @@ fn variable(
     if kind == "material" {
         return material_variable(src, raw, name, d, model);
     }
-    if kind != "ply-angle" {
+    if kind != "ply-angle" && kind != "ply-thickness" {
         return rigid_variable(src, raw, name, d, kind);
     }
+    let thickness = kind == "ply-thickness";
     let lam = rd.laminate.as_ref().ok_or_else(|| {
         src.error(
             span(d),
@@ -404,29 +473,43 @@ fn variable(
     let mut stack_plies = Vec::new();
     let mut deck_plies = Vec::new();
     let rad = std::f64::consts::PI / 180.0;
+    // dθ/db in rad/deg; dt/db in m/m
+    let scale = if thickness { 1.0 } else { rad };
     for (&i, &f) in plies.iter().zip(&factors) {
-        stack_plies.push((i, f * rad));
+        stack_plies.push((i, f * scale));
         if symmetric {
-            stack_plies.push((n_stack - 1 - i, f * rad));
+            stack_plies.push((n_stack - 1 - i, f * scale));
         }
-        // the angle as written (degrees), not a round trip through radians
-        let written = raw_lam
-            .plies
-            .as_ref()
-            .and_then(|p| p.get_ref()[i].get_ref().angle.as_ref())
-            .map_or(stack[i].angle.to_degrees(), |a| *a.get_ref());
+        // the value as written (degrees, metres), not a round trip through radians
+        let ply = raw_lam.plies.as_ref().map(|p| p.get_ref()[i].get_ref());
+        let written = if thickness {
+            ply.and_then(|p| p.thickness.as_ref())
+                .map_or(stack[i].thickness, |t| *t.get_ref())
+        } else {
+            ply.and_then(|p| p.angle.as_ref())
+                .map_or(stack[i].angle.to_degrees(), |a| *a.get_ref())
+        };
         deck_plies.push((i, written, f));
     }
     let value = deck_plies[0].1 / deck_plies[0].2;
+    let laminate = lname.clone();
     Ok(DesignVariable {
         name: name.to_string(),
-        target: Target::PlyAngle {
-            laminate: lname.clone(),
-            stack_plies,
-            deck_plies,
+        target: if thickness {
+            Target::PlyThickness {
+                laminate,
+                stack_plies,
+                deck_plies,
+            }
+        } else {
+            Target::PlyAngle {
+                laminate,
+                stack_plies,
+                deck_plies,
+            }
         },
         value,
-        unit: "deg",
+        unit: if thickness { "m" } else { "deg" },
         constant: "",
     })
 }

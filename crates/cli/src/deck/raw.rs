@@ -256,7 +256,8 @@ pub struct RawRegion {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawDesign {
-    /// `"ply-angle"` (the default), `"material"`, `"rigid-mass"` or `"rigid-inertia"`.
+    /// `"ply-angle"` (the default), `"ply-thickness"`, `"material"`, `"rigid-mass"` or
+    /// `"rigid-inertia"`.
     pub kind: Option<Spanned<String>>,
     /// The laminate whose plies move.
     pub laminate: Option<Spanned<String>>,

@@ -54,6 +54,8 @@ pub enum Design {
         links: Vec<Vec<(usize, f64)>>,
         /// Per variable, `(ply, dc/db)` of the plies whose material it moves.
         materials: MaterialLinks,
+        /// Per variable, `(ply, dt/db)` of the plies whose thickness it moves.
+        thicknesses: Vec<Vec<(usize, f64)>>,
     },
 }
 
@@ -80,10 +82,14 @@ impl Design {
                     || d.mass_inertia.iter().any(|x| *x != 0.0)
             }),
             Design::Shell {
-                links, materials, ..
+                links,
+                materials,
+                thicknesses,
+                ..
             } => {
                 links.get(j).is_some_and(|l| !l.is_empty())
                     || materials.get(j).is_some_and(|m| !m.is_empty())
+                    || thicknesses.get(j).is_some_and(|t| !t.is_empty())
             }
         }
     }
@@ -136,8 +142,20 @@ impl Design {
                 links,
                 values,
                 materials,
+                thicknesses,
                 ..
             } => {
+                let mut thickness: Vec<Dual<N>> = stack
+                    .plies()
+                    .iter()
+                    .map(|p| Dual::constant(p.thickness))
+                    .collect();
+                for ((bj, l), b0) in b.iter().zip(thicknesses).zip(values) {
+                    let step = *bj - Dual::constant(*b0);
+                    for &(p, f) in l {
+                        thickness[p] += step * Dual::constant(f);
+                    }
+                }
                 let mut angles: Vec<Dual<N>> = stack
                     .plies()
                     .iter()
@@ -177,7 +195,7 @@ impl Design {
                         density[*p] += db * Dual::constant(dc[9]);
                     }
                 }
-                let dual = stack.with_angles(&angles).map_err(bad)?;
+                let dual = stack.with_plies(&angles, &thickness).map_err(bad)?;
                 Properties {
                     sections: Vec::new(),
                     laminates: vec![dual.stiffness_with_materials(&c_bar, &density)],
@@ -284,10 +302,25 @@ impl Built {
 /// is a ply of `j` ([`SectionDef::plies`]) and its material moves with `j` when `j` is a
 /// constant of its material ([`SectionDef::materials`]); with, per variable, the
 /// `(region, dc/db)` of those materials.
-pub fn section_design(section: &SectionDef, vars: &[DesignVariable]) -> (DesignMap, MaterialLinks) {
+pub fn section_design(
+    section: &SectionDef,
+    vars: &[DesignVariable],
+) -> Result<(DesignMap, MaterialLinks), String> {
     let mut map = DesignMap::new();
     let mut materials = Vec::new();
     for v in vars {
+        if let Some(tag) = section.plies.iter().flatten().find(|t| {
+            v.thickness_links(&t.laminate)
+                .iter()
+                .any(|&(p, _)| p == t.ply)
+        }) {
+            return Err(format!(
+                "design variable `{}` moves the thickness of ply {} of laminate `{}`, which \
+                 builds this section: ply thicknesses can move shells only for now (a section's \
+                 geometry derivatives are not available yet)",
+                v.name, tag.ply, tag.laminate
+            ));
+        }
         let mut links = Vec::new();
         for (r, tag) in section.plies.iter().enumerate() {
             let Some(tag) = tag else { continue };
@@ -308,7 +341,7 @@ pub fn section_design(section: &SectionDef, vars: &[DesignVariable]) -> (DesignM
         );
     }
     let map = with_materials(&map, &section.mesh, &materials);
-    (map, materials)
+    Ok((map, materials))
 }
 
 /// A body ready for the finite-element analysis.
@@ -363,6 +396,13 @@ fn shell(
             .collect(),
         _ => vec![Vec::new(); links.len()],
     };
+    let thicknesses = match request {
+        DesignRequest::Variables(vars) => vars
+            .iter()
+            .map(|v| v.thickness_links(laminate).to_vec())
+            .collect(),
+        _ => vec![Vec::new(); links.len()],
+    };
     (
         mesh,
         props,
@@ -372,6 +412,7 @@ fn shell(
             values,
             links,
             materials,
+            thicknesses,
         },
         "shell",
     )
@@ -405,7 +446,8 @@ pub fn build(
                     (Some(map), none)
                 }
                 DesignRequest::Variables(vars) => {
-                    let (map, materials) = section_design(section, vars);
+                    let (map, materials) = section_design(section, vars)
+                        .map_err(|e| input(".section", format!("section `{section_name}`: {e}")))?;
                     (Some(map), materials)
                 }
             };

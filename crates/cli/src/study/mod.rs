@@ -124,7 +124,9 @@ pub(crate) fn set_rigid<P: sens::Scalar>(
     let (body, axis) = match target {
         Target::RigidMass { body } => (body, None),
         Target::RigidInertia { body, axis, .. } => (body, Some(*axis)),
-        Target::PlyAngle { .. } | Target::Material { .. } => return,
+        Target::PlyAngle { .. } | Target::PlyThickness { .. } | Target::Material { .. } => {
+            return;
+        }
     };
     if let Body::Rigid(r) = model.body_mut(bodies[body].id) {
         match axis {

@@ -137,7 +137,17 @@ pub fn report(command: &str, path: &Path, extra: &[String]) -> serde_json::Value
 /// largest difference between the direct sensitivities of the mid-node deflection and the
 /// differences, relative to the largest sensitivity, with that largest sensitivity.
 pub fn beam_direct_vs_central(extra: &str, size: &str, names: &[&str]) -> Vec<(f64, f64)> {
-    let (dir, path) = with_extra("slider_crank_beam.toml", extra);
+    direct_vs_central("slider_crank_beam.toml", extra, size, names)
+}
+
+/// [`beam_direct_vs_central`] for the shipped deck `deck_name`.
+pub fn direct_vs_central(
+    deck_name: &str,
+    extra: &str,
+    size: &str,
+    names: &[&str],
+) -> Vec<(f64, f64)> {
+    let (dir, path) = with_extra(deck_name, extra);
     let out = dir.path().join("out");
     json(&[
         "run",

@@ -1,0 +1,180 @@
+//! A ply's thickness as a design variable (`kind = "ply-thickness"`): through laminates and
+//! shells (stiffness, mass and the floating frame), against closed forms (a plate's bending
+//! frequencies are proportional to its thickness) and central differences; refused, with a
+//! message, where it would move a beam section's geometry.
+
+mod common;
+
+use common::{direct_vs_central, report, run, with_extra};
+
+fn matrix(v: &serde_json::Value) -> Vec<Vec<f64>> {
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|r| {
+            r.as_array()
+                .unwrap()
+                .iter()
+                .map(|x| x.as_f64().unwrap())
+                .collect()
+        })
+        .collect()
+}
+
+#[test]
+fn laminate_thickness_derivatives_match_central_differences() {
+    // the two outer plies of the tube's wall, one variable (m)
+    let (_dir, path) = with_extra(
+        "section_composite_tube.toml",
+        "\n[design.outer]\nkind = \"ply-thickness\"\nlaminate = \"tube_wall\"\nplies = [2, 3]\n",
+    );
+    let doc = report("laminate", &path, &["--derivatives".into()]);
+    let d = &doc["laminates"]["tube_wall"]["derivatives"][0];
+    assert_eq!(d["wrt"], "outer");
+    assert_eq!(d["per"], "m");
+    // one ply thicker by δ adds δ to the total and to the mass per area ρ δ … for two plies 2δ
+    assert!((d["values"]["thickness"].as_f64().unwrap() - 2.0).abs() < 1e-12);
+    let rho = 1586.0;
+    assert!((d["values"]["mass_per_area"].as_f64().unwrap() - 2.0 * rho).abs() < 1e-9 * rho);
+    let t = 0.25e-3;
+    let h = 1e-3 * t;
+    let at = |s: f64| {
+        let sets: Vec<String> = [2, 3]
+            .iter()
+            .flat_map(|i| {
+                [
+                    "--set".to_string(),
+                    format!("laminate.tube_wall.plies.{i}.thickness={:?}", t + s),
+                ]
+            })
+            .collect();
+        report("laminate", &path, &sets)
+    };
+    let (p, m) = (at(h), at(-h));
+    for what in ["A", "B", "D", "As"] {
+        let exact = matrix(&d["values"][what]);
+        let (xp, xm) = (
+            matrix(&p["laminates"]["tube_wall"]["values"][what]),
+            matrix(&m["laminates"]["tube_wall"]["values"][what]),
+        );
+        // B of the single-angle wall stays zero whatever the thicknesses (dB/dt is then
+        // measured against A, of the same unit)
+        let max = |m: &[Vec<f64>]| m.iter().flatten().fold(0.0f64, |a, x| a.max(x.abs()));
+        let a = matrix(&doc["laminates"]["tube_wall"]["values"]["A"]);
+        let scale = if what == "B" {
+            assert!(max(&exact) < 1e-9 * max(&a), "{exact:?}");
+            max(&a)
+        } else {
+            max(&exact)
+        };
+        assert!(scale > 0.0, "{what}");
+        for (i, row) in exact.iter().enumerate() {
+            for (j, e) in row.iter().enumerate() {
+                let fd = (xp[i][j] - xm[i][j]) / (2.0 * h);
+                assert!((e - fd).abs() <= 1e-6 * scale, "{what}{i}{j}: {e} vs {fd}");
+            }
+        }
+    }
+}
+
+/// A thin isotropic plate's bending frequencies are proportional to its thickness:
+/// df/dt = f/t, to the transverse-shear correction of the Mindlin element (0.3 % here); the
+/// derivative itself against central differences of command-line runs.
+#[test]
+fn plate_frequencies_grow_with_the_thickness() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("plate.toml");
+    std::fs::write(
+        &path,
+        "[material.steel]\nE = 210e9\nnu = 0.3\ndensity = 7850.0\n\
+         [laminate.sheet]\nplies = [{ material = \"steel\", thickness = 2e-3, angle = 0.0 }]\n\
+         [body.plate]\nkind = \"shell\"\nlaminate = \"sheet\"\nlength = 0.3\nwidth = 0.2\n\
+         elements = [12, 8]\nmodes = 4\nreference = \"free-free\"\n\
+         [design.t]\nkind = \"ply-thickness\"\nlaminate = \"sheet\"\n",
+    )
+    .unwrap();
+    let doc = report("modes", &path, &["--derivatives".into()]);
+    let body = &doc["bodies"]["plate"];
+    let d = &body["derivatives"][0];
+    assert_eq!(d["per"], "m");
+    let freqs = |doc: &serde_json::Value| -> Vec<f64> {
+        doc["bodies"]["plate"]["values"]["frequencies"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect()
+    };
+    let h = 2e-6;
+    let at = |t: f64| {
+        report(
+            "modes",
+            &path,
+            &[
+                "--set".into(),
+                format!("laminate.sheet.plies.0.thickness={t:?}"),
+            ],
+        )
+    };
+    let (fp, fm) = (freqs(&at(2e-3 + h)), freqs(&at(2e-3 - h)));
+    for (i, (f, df)) in freqs(&doc)
+        .iter()
+        .zip(d["values"]["frequencies"].as_array().unwrap())
+        .enumerate()
+    {
+        let got = df.as_f64().unwrap();
+        let expected = f / 2e-3;
+        assert!(
+            (got - expected).abs() <= 1e-2 * expected,
+            "mode {}: {got} vs {expected} Hz/m",
+            i + 1
+        );
+        let fd = (fp[i] - fm[i]) / (2.0 * h);
+        assert!(
+            (got - fd).abs() <= 1e-5 * got,
+            "mode {}: {got} vs central differences {fd}",
+            i + 1
+        );
+    }
+}
+
+#[test]
+fn plate_deck_thickness_sensitivities_match_replayed_central_differences() {
+    let errors = direct_vs_central(
+        "slider_crank_plate.toml",
+        "\n[design.t0]\nkind = \"ply-thickness\"\nlaminate = \"plate\"\nplies = [0]\n",
+        "1e-4",
+        &["t0", "theta"],
+    );
+    for (err, scale) in errors {
+        assert!(scale > 0.0);
+        assert!(err < 1e-5, "{err:e}");
+    }
+}
+
+#[test]
+fn a_thickness_that_would_move_a_beam_section_is_refused() {
+    let (_dir, path) = with_extra(
+        "slider_crank_beam.toml",
+        "\n[design.t]\nkind = \"ply-thickness\"\nlaminate = \"tube_wall\"\n",
+    );
+    let o = run(&["run", path.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("ply thicknesses can move shells only"),
+        "{err}"
+    );
+    // `flexsens section --derivatives` says the same
+    let (_dir, path) = with_extra(
+        "section_composite_tube.toml",
+        "\n[design.t]\nkind = \"ply-thickness\"\nlaminate = \"tube_wall\"\n",
+    );
+    let o = run(&["section", path.to_str().unwrap(), "--derivatives"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("ply thicknesses can move shells only"),
+        "{err}"
+    );
+}
