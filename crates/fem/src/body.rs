@@ -737,6 +737,7 @@ pub fn modal_body_dual<const N: usize>(
     let kept = &analysis.kept;
     let nvar = derivs.eigenvalues.len();
     let vars: Vec<usize> = (chunk_start..(chunk_start + N).min(nvar)).collect();
+    no_split(analysis, derivs, &vars)?;
     // every computed mode (a damping fit refers to their numbers), then the retained ones
     let computed: Vec<Dual<N>> = (0..p)
         .map(|i| {
@@ -795,6 +796,46 @@ pub fn modal_body_dual<const N: usize>(
         eigenvalues: lam,
         modal_damping: damping,
     })
+}
+
+/// A body keeps a diagonal modal stiffness: where a variable splits a cluster of repeated
+/// eigenvalues among the retained modes, the derivative of the modal stiffness in the basis
+/// of the values is `Γ diag(λ_b) Γᵀ`, not diagonal, and the dual body would be wrong at first
+/// order. Refused until bodies carry a full modal stiffness.
+fn no_split(
+    analysis: &ModalAnalysis,
+    derivs: &ModeDerivatives,
+    vars: &[usize],
+) -> Result<(), FemError> {
+    let scale = analysis
+        .pairs
+        .values
+        .iter()
+        .fold(0.0f64, |a, x| a.max(x.abs()));
+    for c in derivs.clusters.iter().filter(|c| c.len() > 1) {
+        if !c.iter().any(|i| analysis.kept.contains(i)) {
+            continue;
+        }
+        for &v in vars {
+            let d: Vec<f64> = c.iter().map(|&i| derivs.eigenvalues[v][i]).collect();
+            let spread = d.iter().fold(f64::MIN, |a, &x| a.max(x))
+                - d.iter().fold(f64::MAX, |a, &x| a.min(x));
+            let size = d.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+            if spread > 1e-6 * size.max(1e-12 * scale) {
+                let modes: Vec<String> = c.iter().map(|i| (i + 1).to_string()).collect();
+                return Err(FemError::Invalid(format!(
+                    "design variable {} (in the order given) splits the repeated frequencies of \
+                     modes {}: the \
+                     sensitivities of a body whose repeated modes split are not available yet \
+                     (its modal stiffness would need off-diagonal terms); break the symmetry \
+                     of the nominal design or retain modes outside the pair",
+                    v + 1,
+                    modes.join(", ")
+                )));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Design derivatives are not available for static correction modes yet.

@@ -776,4 +776,36 @@ plies = [0]
             .fold(0.0f64, |m, (x, y)| m.max((x.v - y.v).abs()));
         assert!(moved_by > 1e-3 * scale, "{moved_by:e}");
     }
+
+    /// A body whose repeated modes a variable splits would need an off-diagonal modal
+    /// stiffness derivative: its dual body is refused rather than silently wrong.
+    #[test]
+    fn a_dual_body_whose_repeated_modes_split_is_refused() {
+        let (src, raw) = source();
+        let lam = validate_laminates(&src, &raw).unwrap();
+        let design = validate_design(&src, &raw, &lam).unwrap();
+        let mut def = validate_one(&src, &raw, "p", &raw.body["p"], &lam).unwrap();
+        def.lumped = true;
+        let built = build(&src, "p", &def, DesignRequest::Variables(&design.variables)).unwrap();
+        let a = fem::modal_analysis(&built.mesh, &built.props, &built.options).unwrap();
+        let lam = &a.pairs.values;
+        assert!((lam[4] - lam[3]).abs() < 1e-9 * lam[3], "{lam:?}");
+        let (_, d) = built
+            .mode_derivatives::<1>(&src, "p", 0..1, &a, fem::ModeUpdate::Updated)
+            .unwrap();
+        let e = fem::modal_body_dual::<1>(
+            &built.mesh,
+            &built.props,
+            &a,
+            &d,
+            0,
+            fem::ModeUpdate::Updated,
+        )
+        .unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("splits the repeated frequencies of modes 4, 5"),
+            "{e}"
+        );
+    }
 }
