@@ -46,6 +46,8 @@ pub enum BodyShape {
 /// A validated flexible body.
 #[derive(Debug, Clone)]
 pub struct BodyDef {
+    /// The body's table in the deck (where errors found while building it point).
+    pub span: std::ops::Range<usize>,
     pub shape: BodyShape,
     /// Number of modes retained.
     pub modes: usize,
@@ -573,6 +575,7 @@ pub fn validate_one(
         "rate (√kg·m/s)",
     )?;
     Ok(BodyDef {
+        span: b.span(),
         shape,
         modes,
         computed,

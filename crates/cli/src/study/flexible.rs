@@ -425,7 +425,7 @@ pub fn build(
     request: DesignRequest,
 ) -> Result<Built, CliError> {
     let input = |key: &str, m: String| {
-        CliError::Input(src.error(None, Some(format!("body.{name}{key}")), m))
+        CliError::Input(src.error(Some(def.span.clone()), Some(format!("body.{name}{key}")), m))
     };
     let (mesh, props, design, kind) = match &def.shape {
         BodyShape::Beam {
