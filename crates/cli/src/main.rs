@@ -39,7 +39,8 @@ enum Command {
         /// Output format.
         #[arg(long, value_enum, default_value_t = Format::Table)]
         format: Format,
-        /// Also print the derivatives with respect to each ply angle (per radian).
+        /// Also print the derivatives with respect to each ply angle (per radian), or to each
+        /// [design.*] variable that moves the laminate (per its unit).
         #[arg(long)]
         derivatives: bool,
     },
@@ -54,7 +55,8 @@ enum Command {
         /// Output format.
         #[arg(long, value_enum, default_value_t = Format::Table)]
         format: Format,
-        /// Also print the derivatives with respect to each ply (region) angle, per radian.
+        /// Also print the derivatives with respect to each ply (region) angle, per radian, or
+        /// to each [design.*] variable that moves the section (per its unit).
         #[arg(long)]
         derivatives: bool,
     },
@@ -69,7 +71,8 @@ enum Command {
         /// Output format.
         #[arg(long, value_enum, default_value_t = Format::Table)]
         format: Format,
-        /// Also print the derivatives of the frequencies with respect to each ply angle.
+        /// Also print the derivatives of the frequencies with respect to each ply angle, or to
+        /// each [design.*] variable (per its unit).
         #[arg(long)]
         derivatives: bool,
         /// Write the mesh and mode shapes as a legacy VTK file (ParaView); needs one body.

@@ -1,10 +1,11 @@
 //! `[design.*]`, `[objective.*]`, `[sensitivity]` and `[finite_differences]`: what `flexsens run`
 //! differentiates, with respect to what, and how it compares with finite differences.
 //!
-//! A design variable `b` (degrees) moves the angles of plies of one laminate:
-//! `θ_i(b) = θ_i0 + f_i (b − b0)`, with `b0` the angle of the first listed ply divided by its
-//! factor. Every section built from the laminate (tube, box) and every shell body laminated
-//! with it follows; the derivatives are per degree.
+//! A design variable `b` moves one thing of the model ([`Target`]): the angles (degrees) or
+//! thicknesses (m) of plies of one laminate, `x_i(b) = x_i0 + f_i (b − b0)` with `b0` the
+//! first listed ply's value divided by its factor; a material's elastic constant or density;
+//! a rigid body's mass or principal inertia. Every section and shell made of what it moves
+//! follows; the derivatives are per unit of the variable.
 
 use laminate::LaminateError;
 use mbs::Objective;
