@@ -26,6 +26,25 @@ fn every_shipped_deck_passes_check() {
 }
 
 #[test]
+fn check_lists_the_design_variables_with_what_they_move() {
+    let (_dir, path) = with_extra(
+        "slider_crank_beam.toml",
+        "\n[design.slider_mass]\nkind = \"rigid-mass\"\nbody = \"slider\"\n\
+         [design.e1]\nkind = \"material\"\nmaterial = \"paper_composite\"\nconstant = \"E1\"\n",
+    );
+    let o = run(&["check", path.to_str().unwrap()]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for line in [
+        "design variable theta = 15 deg: ply angles of laminate `tube_wall`",
+        "design variable slider_mass = 0.038 kg: mass of rigid body `slider`",
+        "design variable e1 = 128000000000 Pa: E1 of material `paper_composite`",
+    ] {
+        assert!(out.contains(line), "{line}\n{out}");
+    }
+}
+
+#[test]
 fn check_names_redundant_equations_and_can_refuse_them() {
     let p = deck("slider_crank_rigid.toml");
     let o = run(&["check", p.to_str().unwrap()]);

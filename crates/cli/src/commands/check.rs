@@ -4,8 +4,8 @@
 //! in the file: syntax and types, unknown keys, missing values, undefined names, physically
 //! invalid values; for a mechanism, the modal analyses of its flexible bodies, the assembly of
 //! the initial configuration (a mechanism that cannot be assembled is an error) and redundant
-//! joint equations (reported; `analysis.redundant = "error"` makes them an error). Nothing is
-//! integrated and nothing is written.
+//! joint equations (reported; `analysis.redundant = "error"` makes them an error). It lists
+//! the design variables with what they move. Nothing is integrated and nothing is written.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -40,6 +40,18 @@ pub fn run(path: &Path, overrides: &[String]) -> Result<String, CliError> {
         raw.force.len(),
         raw.response.len()
     );
+    // what each design variable moves, at which value, in which unit
+    let design = crate::deck::design::validate(&src, &raw, &model)?;
+    for v in &design.variables {
+        let _ = writeln!(
+            s,
+            "design variable {} = {} {}: {}",
+            v.name,
+            v.value,
+            v.unit,
+            v.describe()
+        );
+    }
     let mechanism = raw.analysis.is_some() || !raw.joint.is_empty() || !raw.rigid.is_empty();
     if mechanism {
         let mech = crate::study::Study::validate(&src, &raw, true)?;

@@ -111,7 +111,9 @@ impl DesignVariable {
             Target::PlyThickness { laminate, .. } => {
                 format!("ply thicknesses of laminate `{laminate}`")
             }
-            Target::Material { material, .. } => format!("constant of material `{material}`"),
+            Target::Material { material, .. } => {
+                format!("{} of material `{material}`", self.constant)
+            }
             Target::RigidMass { body } => format!("mass of rigid body `{body}`"),
             Target::RigidInertia { body, axis, .. } => {
                 format!(
