@@ -807,21 +807,21 @@ fn no_split(
     derivs: &ModeDerivatives,
     vars: &[usize],
 ) -> Result<(), FemError> {
-    let scale = analysis
-        .pairs
-        .values
-        .iter()
-        .fold(0.0f64, |a, x| a.max(x.abs()));
     for c in derivs.clusters.iter().filter(|c| c.len() > 1) {
         if !c.iter().any(|i| analysis.kept.contains(i)) {
             continue;
         }
+        let lambda = analysis.pairs.values[c[0]].abs();
         for &v in vars {
             let d: Vec<f64> = c.iter().map(|&i| derivs.eigenvalues[v][i]).collect();
             let spread = d.iter().fold(f64::MIN, |a, &x| a.max(x))
                 - d.iter().fold(f64::MAX, |a, &x| a.min(x));
-            let size = d.iter().fold(0.0f64, |a, x| a.max(x.abs()));
-            if spread > 1e-6 * size.max(1e-12 * scale) {
+            let size = derivs.eigenvalues[v]
+                .iter()
+                .fold(0.0f64, |a, x| a.max(x.abs()));
+            // a split against the variable's derivatives of the body, above the round-off of
+            // derivatives that vanish by symmetry (1e-9 λ per unit of the variable)
+            if spread > (1e-6 * size).max(1e-9 * lambda) {
                 let modes: Vec<String> = c.iter().map(|i| (i + 1).to_string()).collect();
                 return Err(FemError::Invalid(format!(
                     "design variable {} (in the order given) splits the repeated frequencies of \
