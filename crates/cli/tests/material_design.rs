@@ -4,21 +4,7 @@
 
 mod common;
 
-use common::{bad_deck, beam_direct_vs_central, deck, report, with_deck, with_extra};
-
-fn matrix(v: &serde_json::Value) -> Vec<Vec<f64>> {
-    v.as_array()
-        .unwrap()
-        .iter()
-        .map(|r| {
-            r.as_array()
-                .unwrap()
-                .iter()
-                .map(|x| x.as_f64().unwrap())
-                .collect()
-        })
-        .collect()
-}
+use common::{bad_deck, beam_direct_vs_central, deck, matrix, report, with_deck, with_extra};
 
 #[test]
 fn isotropic_section_stiffness_is_linear_in_e() {

@@ -5,21 +5,7 @@
 
 mod common;
 
-use common::{direct_vs_central, report, run, with_extra};
-
-fn matrix(v: &serde_json::Value) -> Vec<Vec<f64>> {
-    v.as_array()
-        .unwrap()
-        .iter()
-        .map(|r| {
-            r.as_array()
-                .unwrap()
-                .iter()
-                .map(|x| x.as_f64().unwrap())
-                .collect()
-        })
-        .collect()
-}
+use common::{direct_vs_central, matrix, report, run, with_extra};
 
 #[test]
 fn laminate_thickness_derivatives_match_central_differences() {

@@ -188,3 +188,18 @@ pub fn direct_vs_central(
         })
         .collect()
 }
+
+/// A JSON array of arrays of numbers (a matrix in a report).
+pub fn matrix(v: &serde_json::Value) -> Vec<Vec<f64>> {
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|r| {
+            r.as_array()
+                .unwrap()
+                .iter()
+                .map(|x| x.as_f64().unwrap())
+                .collect()
+        })
+        .collect()
+}
