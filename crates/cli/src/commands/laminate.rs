@@ -3,14 +3,15 @@
 use std::path::Path;
 
 use laminate::{LaminateStiffness, PlyStack};
-use sens::{Dual, chunk_ranges};
+use sens::{chunk_ranges, seed_chunk};
 use serde_json::json;
 
 use super::Format;
 use super::output::{self, Derivative, Quantity, Report};
-use crate::deck::design::{DesignVariable, elastic, validate as validate_design};
+use crate::deck::design::{DesignVariable, validate as validate_design};
 use crate::deck::laminates::{LaminateDef, validate};
 use crate::deck::{self, DeckError};
+use crate::study::flexible::{Design, DesignRequest, shell_design};
 
 /// Width of the dual-number chunks (results do not depend on it).
 const CHUNK: usize = 8;
@@ -37,77 +38,40 @@ pub fn angle_derivatives(
     stack: &PlyStack<f64>,
     links: &[Vec<(usize, f64)>],
 ) -> Vec<LaminateStiffness<f64>> {
-    let (no_materials, no_thicknesses) =
-        (vec![Vec::new(); links.len()], vec![Vec::new(); links.len()]);
-    design_derivatives(stack, links, &no_materials, &no_thicknesses)
+    let n = links.len();
+    derivatives(&Design::Shell {
+        stack: stack.clone(),
+        names: vec![String::new(); n],
+        values: vec![0.0; n],
+        links: links.to_vec(),
+        materials: vec![Vec::new(); n],
+        thicknesses: vec![Vec::new(); n],
+    })
 }
 
-/// [`angle_derivatives`] for variables that also move the elastic constants of plies'
-/// materials: variable `j` changes the constants of ply `p` (the nine elastic ones and the
-/// density) by `dc` per unit for each `(p, dc)` of `materials[j]`.
-pub fn design_derivatives(
-    stack: &PlyStack<f64>,
-    links: &[Vec<(usize, f64)>],
-    materials: &[Vec<(usize, [f64; 10])>],
-    thicknesses: &[Vec<(usize, f64)>],
-) -> Vec<LaminateStiffness<f64>> {
-    let mut out = Vec::with_capacity(links.len());
-    for range in chunk_ranges(links.len(), CHUNK) {
-        let mut angles: Vec<Dual<CHUNK>> = stack
-            .plies()
-            .iter()
-            .map(|p| Dual::constant(p.angle))
-            .collect();
-        let mut c_bar: Vec<nalgebra::Matrix6<Dual<CHUNK>>> = stack
-            .plies()
-            .iter()
-            .map(|p| p.material.stiffness().map(Dual::constant))
-            .collect();
-        let mut density: Vec<Dual<CHUNK>> = stack
-            .plies()
-            .iter()
-            .map(|p| Dual::constant(p.material.density()))
-            .collect();
-        let mut thickness: Vec<Dual<CHUNK>> = stack
-            .plies()
-            .iter()
-            .map(|p| Dual::constant(p.thickness))
-            .collect();
-        for (k, j) in range.clone().enumerate() {
-            for &(p, f) in &links[j] {
-                angles[p].d[k] += f;
-            }
-            for &(p, f) in &thicknesses[j] {
-                thickness[p].d[k] += f;
-            }
-            for (p, dc) in &materials[j] {
-                let d = stack.plies()[*p]
-                    .material
-                    .stiffness_derivative(&elastic(dc));
-                for (x, y) in c_bar[*p].iter_mut().zip(d.iter()) {
-                    x.d[k] += y;
-                }
-                density[*p].d[k] += dc[9];
-            }
-        }
-        let dual = stack
-            .with_plies(&angles, &thickness)
-            .expect("the plies of a validated stack stay valid")
-            .stiffness_with_materials(&c_bar, &density);
+/// The laminate stiffness's derivatives with respect to each variable of a shell design,
+/// through the shell bodies' own `Design::properties`.
+fn derivatives(design: &Design) -> Vec<LaminateStiffness<f64>> {
+    let values = design.values();
+    let mut out = Vec::with_capacity(values.len());
+    for range in chunk_ranges(values.len(), CHUNK) {
+        let seeded = seed_chunk::<CHUNK>(values, range.start);
+        let props = design
+            .properties(&seeded)
+            .expect("the plies of a validated stack stay valid");
         for k in 0..range.len() {
-            out.push(dual.tangent(k));
+            out.push(props.laminates[0].tangent(k));
         }
     }
     out
 }
 
 /// The derivative blocks of a laminate: per ply angle (per radian), or with `[design.*]`
-/// variables per variable that moves this laminate (per degree).
+/// variables per variable that moves this laminate (per its unit).
 fn derivative_blocks(name: &str, def: &LaminateDef, vars: &[DesignVariable]) -> Vec<Derivative> {
-    let stack = &def.stack;
     if vars.is_empty() {
-        let each: Vec<_> = (0..stack.plies().len()).map(|i| vec![(i, 1.0)]).collect();
-        return angle_derivatives(stack, &each)
+        let design = shell_design(&def.stack, name, &def.ply_materials, DesignRequest::EachPly);
+        return derivatives(&design)
             .iter()
             .enumerate()
             .map(|(i, d)| Derivative {
@@ -117,30 +81,17 @@ fn derivative_blocks(name: &str, def: &LaminateDef, vars: &[DesignVariable]) -> 
             })
             .collect();
     }
-    let materials_of = |v: &DesignVariable| -> Vec<(usize, [f64; 10])> {
-        def.ply_materials
-            .iter()
-            .enumerate()
-            .filter_map(|(p, m)| Some((p, *v.material_links(m)?)))
-            .collect()
-    };
-    let mine: Vec<&DesignVariable> = vars
-        .iter()
-        .filter(|v| {
-            !v.ply_links(name).is_empty()
-                || !v.thickness_links(name).is_empty()
-                || !materials_of(v).is_empty()
-        })
-        .collect();
-    let links: Vec<_> = mine.iter().map(|v| v.ply_links(name).to_vec()).collect();
-    let materials: Vec<_> = mine.iter().map(|v| materials_of(v)).collect();
-    let thicknesses: Vec<_> = mine
-        .iter()
-        .map(|v| v.thickness_links(name).to_vec())
-        .collect();
-    mine.iter()
-        .zip(design_derivatives(stack, &links, &materials, &thicknesses))
-        .map(|(v, d)| Derivative {
+    let design = shell_design(
+        &def.stack,
+        name,
+        &def.ply_materials,
+        DesignRequest::Variables(vars),
+    );
+    vars.iter()
+        .zip(derivatives(&design))
+        .enumerate()
+        .filter(|(j, _)| design.depends_on(*j))
+        .map(|(_, (v, d))| Derivative {
             wrt: v.name.clone(),
             per: v.unit,
             values: quantities(&d),

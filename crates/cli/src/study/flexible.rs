@@ -365,6 +365,18 @@ fn shell(
         sections: Vec::new(),
         laminates: vec![stack.stiffness()],
     };
+    let design = shell_design(stack, laminate, ply_materials, request);
+    (mesh, props, design, "shell")
+}
+
+/// The design of a laminate `laminate` (a shell body's, or the `laminate` command's): how its
+/// plies turn, thicken and change material with the requested variables.
+pub fn shell_design(
+    stack: &PlyStack<f64>,
+    laminate: &str,
+    ply_materials: &[String],
+    request: DesignRequest,
+) -> Design {
     let plies = stack.plies();
     let (names, values, links) = match request {
         DesignRequest::None => (Vec::new(), Vec::new(), Vec::new()),
@@ -403,19 +415,14 @@ fn shell(
             .collect(),
         _ => vec![Vec::new(); links.len()],
     };
-    (
-        mesh,
-        props,
-        Design::Shell {
-            stack: stack.clone(),
-            names,
-            values,
-            links,
-            materials,
-            thicknesses,
-        },
-        "shell",
-    )
+    Design::Shell {
+        stack: stack.clone(),
+        names,
+        values,
+        links,
+        materials,
+        thicknesses,
+    }
 }
 
 pub fn build(
