@@ -197,44 +197,35 @@ impl DesignVariable {
             }
             return Ok(());
         }
-        if let Target::PlyThickness {
-            laminate,
-            stack_plies,
-            ..
-        } = &self.target
-        {
-            let def = model
-                .laminates
-                .get_mut(laminate)
-                .expect("a validated variable names a laminate of the model");
-            let mut plies = def.stack.plies().to_vec();
-            for &(p, f) in stack_plies {
-                plies[p].thickness += f * (b - self.value);
-            }
-            def.stack = laminate::PlyStack::with_options(
-                plies,
-                def.stack.reference(),
-                def.stack.shear_correction(),
-            )?;
-            return Ok(());
-        }
-        let Target::PlyAngle {
-            laminate,
-            stack_plies,
-            ..
-        } = &self.target
-        else {
-            return Ok(());
+        let (laminate, stack_plies, thickness) = match &self.target {
+            Target::PlyAngle {
+                laminate,
+                stack_plies,
+                ..
+            } => (laminate, stack_plies, false),
+            Target::PlyThickness {
+                laminate,
+                stack_plies,
+                ..
+            } => (laminate, stack_plies, true),
+            _ => return Ok(()),
         };
         let def = model
             .laminates
             .get_mut(laminate)
             .expect("a validated variable names a laminate of the model");
-        let mut angles: Vec<f64> = def.stack.plies().iter().map(|p| p.angle).collect();
+        let plies = def.stack.plies();
+        let mut angles: Vec<f64> = plies.iter().map(|p| p.angle).collect();
+        let mut thicknesses: Vec<f64> = plies.iter().map(|p| p.thickness).collect();
+        let moved = if thickness {
+            &mut thicknesses
+        } else {
+            &mut angles
+        };
         for &(p, f) in stack_plies {
-            angles[p] += f * (b - self.value);
+            moved[p] += f * (b - self.value);
         }
-        def.stack = def.stack.with_angles(&angles)?;
+        def.stack = def.stack.with_plies(&angles, &thicknesses)?;
         Ok(())
     }
 }
