@@ -41,8 +41,13 @@ pub enum Target {
     /// An elastic constant or the density of a material: `dc` is the derivative of its nine
     /// elastic constants (`OrthotropicMaterial::constants` order) and its density with respect
     /// to the variable ([`material_constants`]). Every ply and section region of the material
-    /// follows.
-    Material { material: String, dc: [f64; 10] },
+    /// follows. `constant` is the deck's name of the constant (`"E1"`, `"nu12"`, `"E"`,
+    /// `"density"`).
+    Material {
+        material: String,
+        constant: &'static str,
+        dc: [f64; 10],
+    },
     /// The mass of a rigid body (kg).
     RigidMass { body: String },
     /// A principal moment of inertia of a rigid body (`axis` 0, 1, 2: the diagonal entry of
@@ -64,9 +69,6 @@ pub struct DesignVariable {
     /// The variable's unit; derivatives are per one of it (`"deg"`, `"kg"`, `"kg*m^2"`,
     /// `"Pa"`, `"1"`).
     pub unit: &'static str,
-    /// A material variable's constant as the deck names it (`"E1"`, `"nu12"`, `"E"`); empty
-    /// for other kinds.
-    pub constant: &'static str,
 }
 
 impl DesignVariable {
@@ -99,7 +101,9 @@ impl DesignVariable {
     /// variable moves something else).
     pub fn material_links(&self, material: &str) -> Option<&[f64; 10]> {
         match &self.target {
-            Target::Material { material: m, dc } if m == material => Some(dc),
+            Target::Material {
+                material: m, dc, ..
+            } if m == material => Some(dc),
             _ => None,
         }
     }
@@ -111,9 +115,9 @@ impl DesignVariable {
             Target::PlyThickness { laminate, .. } => {
                 format!("ply thicknesses of laminate `{laminate}`")
             }
-            Target::Material { material, .. } => {
-                format!("{} of material `{material}`", self.constant)
-            }
+            Target::Material {
+                material, constant, ..
+            } => format!("{constant} of material `{material}`"),
             Target::RigidMass { body } => format!("mass of rigid body `{body}`"),
             Target::RigidInertia { body, axis, .. } => {
                 format!(
@@ -139,9 +143,9 @@ impl DesignVariable {
                 ..
             } => (laminate, deck_plies, "thickness"),
             Target::RigidMass { body } => return vec![format!("rigid.{body}.mass={b:?}")],
-            Target::Material { material, .. } => {
-                return vec![format!("material.{material}.{}={b:?}", self.name_in_deck())];
-            }
+            Target::Material {
+                material, constant, ..
+            } => return vec![format!("material.{material}.{constant}={b:?}")],
             Target::RigidInertia { key, .. } => return vec![format!("{key}={b:?}")],
         };
         deck_plies
@@ -155,11 +159,6 @@ impl DesignVariable {
             .collect()
     }
 
-    /// The deck key of a material variable's constant (`E1`, `nu12`, `E`).
-    fn name_in_deck(&self) -> &'static str {
-        self.constant
-    }
-
     /// Move the laminates to the value `b` of this variable (from the nominal laminates: each
     /// linked ply turns by `dθ/db · (b − b0)`; a material's constants move by
     /// `dc/db · (b − b0)`, in every ply made of it); other variables leave them.
@@ -167,7 +166,7 @@ impl DesignVariable {
         if b == self.value {
             return Ok(());
         }
-        if let Target::Material { material, dc } = &self.target {
+        if let Target::Material { material, dc, .. } = &self.target {
             let m0 = model.materials[material];
             let mut c = material_constants(&m0);
             for (ci, d) in c.iter_mut().zip(dc) {
@@ -504,7 +503,6 @@ fn variable(
         },
         value,
         unit: if thickness { "m" } else { "deg" },
-        constant: "",
     })
 }
 
@@ -637,11 +635,11 @@ fn material_variable(
         name: name.to_string(),
         target: Target::Material {
             material: mat.get_ref().clone(),
+            constant,
             dc,
         },
         value,
         unit,
-        constant,
     })
 }
 
@@ -683,7 +681,6 @@ fn rigid_variable(
             value: r.mass,
             target: Target::RigidMass { body },
             unit: "kg",
-            constant: "",
         }
     } else {
         let axis = required(
@@ -721,7 +718,6 @@ fn rigid_variable(
             value: r.inertia[(axis, axis)],
             target: Target::RigidInertia { body, axis, key },
             unit: "kg*m^2",
-            constant: "",
         }
     })
 }
