@@ -110,13 +110,12 @@ impl Design {
                 materials,
                 ..
             } => {
-                let moved = b.iter().zip(values.iter()).any(|(bj, b0)| bj.v != *b0);
-                let section = if moved {
+                let steps: Vec<f64> = b.iter().zip(values).map(|(bj, b0)| bj.v - b0).collect();
+                let section = if steps.iter().any(|&s| s != 0.0) {
                     let mut at = (**mesh).clone();
-                    for (j, (bj, b0)) in b.iter().zip(values.iter()).enumerate() {
-                        at = map.step(&at, j, bj.v - b0);
+                    for (j, &step) in steps.iter().enumerate() {
+                        at = map.step(&at, j, step);
                     }
-                    let steps: Vec<f64> = b.iter().zip(values).map(|(bj, b0)| bj.v - b0).collect();
                     for (r, c) in moved_constants(mesh.regions.len(), materials, &steps, |r| {
                         material_constants(&mesh.regions[r].material)
                     }) {
