@@ -38,6 +38,9 @@ pub enum ReferenceCondition {
     /// node `b` its translations normal to the a–b axis. The axis must be parallel to a global
     /// axis. The frame sits at node `a`.
     PinnedEnds { a: NodeId, b: NodeId },
+    /// One node clamped (all six dof), the body frame there, parallel to the mesh axes: a
+    /// cantilever's root (e.g. a blade on its hub).
+    ClampedNode(NodeId),
 }
 
 /// Proportional damping `C = αM + βK` fitted to two modal damping ratios.
@@ -426,6 +429,16 @@ pub fn reference_constraints(
             Ok((c, mesh.nodes[node]))
         }
         ReferenceCondition::FreeFree => Ok((c, com)),
+        ReferenceCondition::ClampedNode(node) => {
+            if node >= mesh.nodes.len() {
+                return Err(FemError::Invalid(format!(
+                    "clamped node {node} does not exist ({} nodes)",
+                    mesh.nodes.len()
+                )));
+            }
+            c.clamp(node);
+            Ok((c, mesh.nodes[node]))
+        }
         ReferenceCondition::PinnedEnds { a, b } => {
             let n = mesh.nodes.len();
             if a >= n || b >= n || a == b {

@@ -19,7 +19,8 @@
 //! [`analysis_derivatives`] evaluates the properties on `Dual<N>` numbers seeded with the design
 //! variables (in chunks of `N`), assembles `K_b`, `M_b` on the same sparse pattern and returns
 //! eigenvalue and (Nelson/Dailey) eigenvector derivatives; [`modal_body_dual`] packs them into a
-//! `ModalBody<Dual<N>>` (fixed-mode or updated-mode).
+//! `ModalBody<Dual<N>>` (fixed-mode or updated-mode); [`geometric_stiffness`] gives a beam
+//! body's modal geometric-stiffness matrices for unit load parameters (stress stiffening).
 //!
 //! Conventions: dof node by node `[u_x, u_y, u_z, θ_x, θ_y, θ_z]` (small rotation vector),
 //! global axes; matrices act on the free dof of an [`Assembly`] (constrained dof eliminated);
@@ -32,6 +33,7 @@ pub mod assembly;
 pub mod beam;
 pub mod body;
 pub mod eigen;
+pub mod geometric;
 pub mod mesh;
 mod modal;
 pub mod sensitivity;
@@ -50,6 +52,7 @@ pub use body::{
     second_derivative_terms,
 };
 pub use eigen::{EigenMethod, EigenOptions, Eigenpairs, lowest_modes};
+pub use geometric::{GeometricStiffness, geometric_stiffness};
 pub use mesh::{Element, GmshTriangles, Mesh, MeshError, NodeId, parse_gmsh_v4};
 pub use modal::{ModalBody, ModalBodyError, NODE_DOFS};
 pub use sensitivity::{

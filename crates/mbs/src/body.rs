@@ -5,7 +5,7 @@
 //! variables: `v_b = (ṙ, ω', ẇ)` — global velocity of the origin, angular velocity in body
 //! components, modal velocities.
 
-use fem::ModalBody;
+use fem::{GeometricStiffness, ModalBody};
 use std::sync::OnceLock;
 
 use nalgebra::{DMatrix, Matrix3, Vector3, Vector4};
@@ -57,10 +57,17 @@ impl<P: Scalar> RigidBody<P> {
 /// the mass matrix is the modal form of Eq. (2) built from the lumped nodal masses and
 /// inertias, evaluated at the deformed nodal positions; the elastic and damping forces are
 /// `Λ w` and `diag(2ζω) ẇ`.
+///
+/// With [`FlexibleBody::geometric`] the modal stiffness also carries the geometric stiffness of
+/// the body's current axial forces (stress stiffening, docs/geometric-stiffening.md): `K_G w`
+/// with `K_G` linear in the frame's accelerations, its angular velocity and the joint and
+/// applied forces at the body's nodes.
 #[derive(Clone, Debug)]
 pub struct FlexibleBody<P: Scalar> {
     pub name: String,
     pub modal: ModalBody<P>,
+    /// Modal geometric stiffness for unit load parameters (`None`: linear floating frame).
+    pub geometric: Option<Box<GeometricStiffness<P>>>,
 }
 
 impl<P: Scalar> FlexibleBody<P> {
@@ -68,7 +75,14 @@ impl<P: Scalar> FlexibleBody<P> {
         Self {
             name: name.into(),
             modal,
+            geometric: None,
         }
+    }
+
+    /// The same body with geometric stiffening ([`fem::geometric_stiffness`] of its modes).
+    pub fn with_geometric_stiffness(mut self, g: GeometricStiffness<P>) -> Self {
+        self.geometric = Some(Box::new(g));
+        self
     }
 }
 
@@ -121,6 +135,7 @@ impl<P: Scalar> Body<P> {
                     eigenvalues: b.modal.eigenvalues.iter().map(|&x| f(x)).collect(),
                     modal_damping: b.modal.modal_damping.iter().map(|&x| f(x)).collect(),
                 },
+                geometric: b.geometric.as_ref().map(|g| Box::new(g.map(f))),
             }),
         }
     }

@@ -33,6 +33,10 @@ pub enum TimeFunction {
         t0: f64,
         t1: f64,
     },
+    /// A spin-up from rest: the rate rises from 0 to `speed` over `[0, duration]` along the
+    /// cycloidal step, `ḟ = speed · (τ − sin(2πτ)/(2π))` with `τ = t/duration`, and stays at
+    /// `speed` after (Kane, Ryan & Banerjee 1987); `f(0) = 0`.
+    SpinUp { speed: f64, duration: f64 },
 }
 
 impl TimeFunction {
@@ -58,6 +62,19 @@ impl TimeFunction {
                     let sdd = w * (w * tau).sin() / (span * span);
                     let dv = to - from;
                     [from + dv * s, dv * sd, dv * sdd]
+                }
+            }
+            TimeFunction::SpinUp { speed, duration } => {
+                let (w, d) = (2.0 * std::f64::consts::PI, *duration);
+                if t >= d {
+                    // f(d) = speed · (d/2 + (cos 2π − 1) d/(2π)²) = speed · d / 2
+                    [speed * (0.5 * d + (t - d)), *speed, 0.0]
+                } else {
+                    let tau = t / d;
+                    let f = speed * d * (0.5 * tau * tau + ((w * tau).cos() - 1.0) / (w * w));
+                    let fd = speed * (tau - (w * tau).sin() / w);
+                    let fdd = speed * (1.0 - (w * tau).cos()) / d;
+                    [f, fd, fdd]
                 }
             }
         }

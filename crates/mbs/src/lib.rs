@@ -86,6 +86,7 @@ mod marker;
 mod model;
 mod response;
 mod sensitivity;
+mod stiffening;
 mod system;
 
 pub use bdf::{

@@ -16,6 +16,7 @@ use crate::force::{Force, ForceId, LoadFrame};
 use crate::joint::{JointId, JointKind, TimeFunction, joint_equations};
 use crate::kin::{Kin, l_matrix, quat_from_matrix};
 use crate::marker::{Marker, MarkerKin, Site, marker_kin};
+use crate::stiffening::{BodyLoads, Stiffening, body_stiffening, load_node};
 
 /// Baumgarte stabilisation constants of Eq. (10a): `γ − 2αΦ̇ − β²Φ`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -186,6 +187,16 @@ impl<P: Scalar> Model<P> {
             return Err(ModelError::BadBody {
                 name: body.name,
                 reason: "mass must be positive",
+            });
+        }
+        if let Some(g) = &body.geometric
+            && (g.n_modes != body.modal.n_modes()
+                || g.nodal.len() != 3 * body.modal.n_nodes()
+                || g.spin.len() != 9)
+        {
+            return Err(ModelError::BadBody {
+                name: body.name,
+                reason: "its geometric stiffness was made for other modes or nodes",
             });
         }
         Ok(self.push_body(Body::Flexible(body)))
@@ -576,6 +587,86 @@ impl<P: Scalar> Model<P> {
         }
     }
 
+    /// The geometric-stiffness forces of the stiffened flexible bodies at `(t, q, v)` (empty
+    /// when no body is stiffened), with the constraint kinematics `k` of all rows (their
+    /// Jacobians carry the joint forces per unit multiplier).
+    pub(crate) fn stiffening<S: Scalar + From<P>>(
+        &self,
+        t: f64,
+        q: &[S],
+        v: &[S],
+        k: &[Kin<S>],
+    ) -> Vec<Stiffening<S>> {
+        let mut out = Vec::new();
+        for (index, s) in self.bodies.iter().enumerate() {
+            let Body::Flexible(body) = &s.body else {
+                continue;
+            };
+            let Some(geometric) = &body.geometric else {
+                continue;
+            };
+            let id = BodyId(index);
+            let a = pose(&q[s.q_off..]).a;
+            let at = a.transpose();
+            // the one marker of a force or joint on this body (none, or both ends on it: no
+            // load from outside)
+            let only = |ms: &[&Marker]| -> Option<usize> {
+                let on: Vec<&&Marker> = ms.iter().filter(|m| m.body == Some(id)).collect();
+                (on.len() == 1).then(|| load_node(&body.modal, &on[0].site))
+            };
+            let trans = s.v_off..s.v_off + 3;
+            let mut forces = Vec::new();
+            for force in &self.forces {
+                if matches!(force, Force::PointTorque { .. }) {
+                    continue;
+                }
+                if let Some(node) = only(&force.markers()) {
+                    let mut f = vec![S::zero(); self.n_v];
+                    self.apply_force(force, t, q, v, &mut f);
+                    forces.push((node, at * vec3(&f[trans.clone()])));
+                }
+            }
+            let mut joints = Vec::new();
+            for (ji, joint) in self.joints.iter().enumerate() {
+                let Some(node) = only(&[&joint.a, &joint.b]) else {
+                    continue;
+                };
+                for row in self.joint_rows[ji].clone() {
+                    // the force on the body per unit multiplier is −Φ_rᵀ on its translations
+                    let mut fg = Vector3::<S>::zeros();
+                    for (col, &x) in k[row].jac.iter() {
+                        if trans.contains(&col) {
+                            fg[col - s.v_off] = -x;
+                        }
+                    }
+                    joints.push((node, row, at * fg));
+                }
+            }
+            let nm = body.modal.n_modes();
+            out.push(body_stiffening(
+                geometric,
+                &q[s.q_off + 7..s.q_off + 7 + nm],
+                &vec3(&v[s.v_off + 3..s.v_off + 6]),
+                s.v_off,
+                &self.gravity,
+                &BodyLoads { a, forces, joints },
+            ));
+        }
+        out
+    }
+
+    /// Position of each constraint row among `rows` (only made when `g` is not empty).
+    fn row_positions<S: Scalar>(&self, g: &[Stiffening<S>], rows: &[usize]) -> Vec<Option<usize>> {
+        let mut position = Vec::new();
+        if !g.is_empty() {
+            position = vec![None; self.n_c];
+            for (r, &row) in rows.iter().enumerate() {
+                position[row] = Some(r);
+            }
+        }
+        position
+    }
+
     /// The augmented system of Eq. (12) at `(t, q, v)` for constraint rows `rows`.
     pub fn equations<S: Scalar + From<P>>(
         &self,
@@ -599,7 +690,8 @@ impl<P: Scalar> Model<P> {
         rows: &[usize],
     ) -> Equations<S> {
         let (m, f) = self.mass_and_forces(t, q, v);
-        self.assemble(&m, &f, k, rows)
+        let g = self.stiffening(t, q, v, k);
+        self.assemble(&m, &f, k, &g, rows)
     }
 
     /// Eq. (12) from its blocks: the mass matrix, generalised forces and constraint
@@ -609,9 +701,10 @@ impl<P: Scalar> Model<P> {
         m: &DMatrix<S>,
         f: &[S],
         k: &[Kin<S>],
+        g: &[Stiffening<S>],
         rows: &[usize],
     ) -> Equations<S> {
-        self.assemble_as(m, f, k, rows, |x| x)
+        self.assemble_as(m, f, k, g, rows, |x| x)
     }
 
     /// [`Model::assemble`] converting every entry with `conv` (e.g. the values of dual
@@ -621,6 +714,7 @@ impl<P: Scalar> Model<P> {
         m: &DMatrix<S>,
         f: &[S],
         k: &[Kin<S>],
+        g: &[Stiffening<S>],
         rows: &[usize],
         conv: impl Fn(S) -> T,
     ) -> Equations<T> {
@@ -647,6 +741,25 @@ impl<P: Scalar> Model<P> {
             }
             rhs[nv + r] = -conv(c.quad) - two_alpha * conv(c.rate) - beta2 * conv(c.val);
         }
+        // geometric stiffening: M v̇ + Φᵀλ = f + f_G(v̇, λ) with f_G affine
+        let position = self.row_positions(g, rows);
+        for s in g {
+            for (j, &x) in s.known.iter().enumerate() {
+                rhs[s.row + j] += conv(x);
+            }
+            for (col, c) in &s.accel {
+                for (j, &x) in c.iter().enumerate() {
+                    matrix[(s.row + j, *col)] -= conv(x);
+                }
+            }
+            for (row, c) in &s.lambda {
+                if let Some(r) = position[*row] {
+                    for (j, &x) in c.iter().enumerate() {
+                        matrix[(s.row + j, nv + r)] -= conv(x);
+                    }
+                }
+            }
+        }
         Equations { matrix, rhs }
     }
 
@@ -662,7 +775,8 @@ impl<P: Scalar> Model<P> {
     ) -> Vec<S> {
         let (m, f) = self.mass_and_forces(t, q, v);
         let k = self.constraint_kin(t, q, v);
-        self.residual_from(&m, &f, &k, rows, x_hat)
+        let g = self.stiffening(t, q, v, &k);
+        self.residual_from(&m, &f, &k, &g, rows, x_hat)
     }
 
     /// [`Model::residual`] from the blocks of Eq. (12) (see [`Model::assemble`]): applied to x̂
@@ -673,6 +787,7 @@ impl<P: Scalar> Model<P> {
         m: &DMatrix<S>,
         f: &[S],
         k: &[Kin<S>],
+        g: &[Stiffening<S>],
         rows: &[usize],
         x_hat: &[f64],
     ) -> Vec<S> {
@@ -696,6 +811,26 @@ impl<P: Scalar> Model<P> {
             if lambda != 0.0 {
                 for (col, &x) in k[row].jac.iter() {
                     out[col] -= x * lambda;
+                }
+            }
+        }
+        let position = self.row_positions(g, rows);
+        for s in g {
+            for (j, &x) in s.known.iter().enumerate() {
+                out[s.row + j] += x;
+            }
+            for (col, c) in &s.accel {
+                if x_hat[*col] != 0.0 {
+                    for (j, &x) in c.iter().enumerate() {
+                        out[s.row + j] += x * x_hat[*col];
+                    }
+                }
+            }
+            for (row, c) in &s.lambda {
+                if let Some(r) = position[*row] {
+                    for (j, &x) in c.iter().enumerate() {
+                        out[s.row + j] += x * x_hat[nv + r];
+                    }
                 }
             }
         }
