@@ -11,8 +11,13 @@ use flexsens::results::{Attr, Data, Group};
 const T_END: &str = "analysis.t_end=0.003";
 
 /// Largest relative difference between the sensitivity methods' mid-node deflection histories
-/// (measured 2026-11-21: simultaneous 3.0e-7, corrector 2.1e-7 against direct).
-const TOL_METHODS: f64 = 3e-6;
+/// (measured 2026-11-21, linear rod: simultaneous 3.0e-7, corrector 2.1e-7 against direct;
+/// 2026-11-23 with the rod's geometric stiffening: simultaneous 1.1e-6 in a release build and
+/// 8.4e-6 in the test profile, corrector 8e-8). The simultaneous method converges the
+/// sensitivities inside the state's modified Newton iteration, whose matrix is not refreshed
+/// every step; stiffening makes the Jacobian move faster (the multipliers enter it), so its
+/// differences grow with the step sequence. A wrong Jacobian term shows at 1e-2 and above.
+const TOL_METHODS: f64 = 2e-5;
 
 fn units(g: &Group, path: &str) -> String {
     match g.get(path).unwrap().attrs.get("units") {

@@ -11,8 +11,8 @@
 use nalgebra::DMatrix;
 
 use mbs::{
-    BdfOptions, Body, DesignModel, FdScheme, FlexibleBody, Model, MultibodySystem, Output,
-    Perturbation, SensitivityOptions, SensitivityStatistics, State, Statistics,
+    BdfOptions, Body, DesignModel, FdScheme, Model, MultibodySystem, Output, Perturbation,
+    SensitivityOptions, SensitivityStatistics, State, Statistics,
 };
 use sens::Dual;
 
@@ -119,7 +119,10 @@ fn analyse_chunked<const N: usize>(
                 .iter()
                 .map(|x| nalgebra::Vector3::new(x[0], x[1], x[2]))
                 .collect();
-            *model.body_mut(part.id) = Body::Flexible(FlexibleBody::new(part.name.clone(), body));
+            let body =
+                crate::study::flexible_model_body(&part.name, &built.mesh, body, part.stiffening)
+                    .map_err(fem_error)?;
+            *model.body_mut(part.id) = Body::Flexible(body);
         }
     }
     // rigid bodies' masses and inertias, seeded in the chunk of their variable

@@ -65,6 +65,8 @@ pub struct BodyDef {
     /// Initial modal coordinates and rates, one per retained mode (zero-padded).
     pub initial_modal: Vec<f64>,
     pub initial_modal_rates: Vec<f64>,
+    /// Geometric stiffening of the modal stiffness by the body's axial forces.
+    pub stiffening: bool,
 }
 
 /// Reference condition as written.
@@ -74,6 +76,7 @@ pub enum Reference {
     ClampedSection,
     FreeFree,
     PinnedEnds(Option<[usize; 2]>),
+    ClampedNode(usize),
 }
 
 /// Validate one body.
@@ -401,12 +404,24 @@ pub fn validate_one(
                 Some([a as usize, b as usize])
             }
         }),
+        Some((_, "clamped-node")) => Reference::ClampedNode(match &raw.clamped {
+            None => 0,
+            Some(c) if *c.get_ref() >= 0 => *c.get_ref() as usize,
+            Some(c) => {
+                return Err(src.error(
+                    span(c),
+                    Some(k("clamped")),
+                    "a node index (from 0) is needed",
+                ));
+            }
+        }),
         Some((r, other)) => {
             let choices = [
                 "centre-of-mass",
                 "clamped-section",
                 "free-free",
                 "pinned-ends",
+                "clamped-node",
             ];
             return Err(src.error(
                 span(r),
@@ -426,6 +441,26 @@ pub fn validate_one(
             "pinned is only used with reference = \"pinned-ends\"",
         ));
     }
+    if let (Some(c), false) = (&raw.clamped, matches!(reference, Reference::ClampedNode(_))) {
+        return Err(src.error(
+            span(c),
+            Some(k("clamped")),
+            "clamped is only used with reference = \"clamped-node\"",
+        ));
+    }
+    let beam = matches!(shape, BodyShape::Beam { .. });
+    let stiffening = match &raw.stiffening {
+        None => beam && STIFFENING_DEFAULT,
+        Some(s) if *s.get_ref() && !beam => {
+            return Err(src.error(
+                span(s),
+                Some(k("stiffening")),
+                "geometric stiffening is available for beam bodies only (a shell's membrane \
+                 stresses are not computed yet): remove the key or set it to false",
+            ));
+        }
+        Some(s) => *s.get_ref(),
+    };
     let dk = |key: &str| format!("body.{name}.damping.{key}");
     let damping = match &raw.damping {
         None => None,
@@ -587,5 +622,9 @@ pub fn validate_one(
         correction,
         initial_modal,
         initial_modal_rates,
+        stiffening,
     })
 }
+
+/// Whether beam bodies are stiffened when the deck does not say (docs/geometric-stiffening.md).
+pub const STIFFENING_DEFAULT: bool = true;

@@ -134,8 +134,13 @@ pub struct RawBody {
     /// Number of elastic modes retained (the lowest), or the mode numbers retained, e.g.
     /// `[1, 2, 5]` (counted from 1, ascending).
     pub modes: Option<Spanned<toml::Value>>,
-    /// `"centre-of-mass"` (default), `"clamped-section"`, `"free-free"` or `"pinned-ends"`.
+    /// `"centre-of-mass"` (default), `"clamped-section"`, `"free-free"`, `"pinned-ends"` or
+    /// `"clamped-node"`.
     pub reference: Option<Spanned<String>>,
+    /// Clamped node: the node index (default 0, a generated beam's start).
+    pub clamped: Option<Spanned<i64>>,
+    /// Geometric (stress) stiffening from the body's axial forces (beams).
+    pub stiffening: Option<Spanned<bool>>,
     /// Keep only modes of motion in the plane with this normal (a global axis): translations
     /// in the plane and rotations about the normal.
     pub planar: Option<Spanned<[f64; 3]>>,

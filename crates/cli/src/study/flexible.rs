@@ -531,6 +531,18 @@ pub fn build(
         Reference::CentreOfMass => ReferenceCondition::ClampedAtCentreOfMass,
         Reference::ClampedSection => ReferenceCondition::ClampedSectionAtCentre,
         Reference::FreeFree => ReferenceCondition::FreeFree,
+        Reference::ClampedNode(node) => {
+            if node >= mesh.nodes.len() {
+                return Err(input(
+                    ".clamped",
+                    format!(
+                        "node {node} does not exist (the mesh has {} nodes)",
+                        mesh.nodes.len()
+                    ),
+                ));
+            }
+            ReferenceCondition::ClampedNode(node)
+        }
         Reference::PinnedEnds(Some([a, b])) => {
             if a.max(b) >= mesh.nodes.len() {
                 return Err(input(

@@ -36,6 +36,28 @@ pub(crate) struct FlexiblePart {
     pub(crate) analysis: fem::ModalAnalysis,
     /// The body's table in the deck.
     pub(crate) span: Range<usize>,
+    /// Geometric stiffening on.
+    pub(crate) stiffening: bool,
+}
+
+/// The multibody body of a flexible body's modes `modal` (mesh `mesh`), with its modal
+/// geometric stiffness when `stiffening` (load cases reacted at the node at the body frame).
+pub(crate) fn flexible_model_body<S: sens::Scalar>(
+    name: &str,
+    mesh: &fem::Mesh,
+    modal: fem::ModalBody<S>,
+    stiffening: bool,
+) -> Result<FlexibleBody<S>, fem::FemError> {
+    let body = FlexibleBody::new(name, modal);
+    if !stiffening {
+        return Ok(body);
+    }
+    let p = &body.modal.node_positions;
+    let clamp = (0..p.len())
+        .min_by(|&a, &b| p[a].norm().total_cmp(&p[b].norm()))
+        .unwrap_or(0);
+    let g = fem::geometric_stiffness(mesh, &body.modal, clamp)?;
+    Ok(body.with_geometric_stiffness(g))
 }
 
 /// The validated deck with its nominal mechanism.
@@ -166,8 +188,10 @@ impl Study {
             let def = validate_body(src, raw, name, b, &laminates)?;
             let (built, analysis, modal) = flexible_body(src, name, b.span(), &def, request)?;
             let nodes = modal.node_positions.clone();
+            let body = flexible_model_body(name, &built.mesh, modal, def.stiffening)
+                .map_err(|e| fem_error(src, name, b.span(), e))?;
             let id = model
-                .add_flexible_body(FlexibleBody::new(name.clone(), modal))
+                .add_flexible_body(body)
                 .map_err(|e| at_table(src, b.span(), format!("body.{name}"), e))?;
             modal_starts.push((id, def.initial_modal, def.initial_modal_rates));
             placements.push(Placement {
@@ -194,6 +218,7 @@ impl Study {
                 built,
                 analysis,
                 span: b.span(),
+                stiffening: def.stiffening,
             });
         }
         for r in mechanism::rigid_bodies(src, raw)? {
@@ -372,7 +397,7 @@ impl Study {
         for part in &self.flexible {
             let rb = &raw.body[&part.name];
             let def = validate_body(src, raw, &part.name, rb, &lam)?;
-            let (_, _, mut body) = flexible_body(
+            let (built, _, mut body) = flexible_body(
                 src,
                 &part.name,
                 part.span.clone(),
@@ -388,7 +413,9 @@ impl Study {
                     ))
                 })?;
             }
-            *model.body_mut(part.id) = Body::Flexible(FlexibleBody::new(part.name.clone(), body));
+            let body = flexible_model_body(&part.name, &built.mesh, body, def.stiffening)
+                .map_err(|e| fem_error(src, &part.name, part.span.clone(), e))?;
+            *model.body_mut(part.id) = Body::Flexible(body);
         }
         for (v, &bj) in self.design.variables.iter().zip(b) {
             set_rigid(&mut model, &self.bodies, &v.target, bj);
