@@ -39,6 +39,7 @@ fn check_lists_the_design_variables_with_what_they_move() {
         "design variable theta = 15 deg: ply angles of laminate `tube_wall`",
         "design variable slider_mass = 0.038 kg: mass of rigid body `slider`",
         "design variable e1 = 128000000000 Pa: E1 of material `paper_composite`",
+        "geometric stiffening: rod on",
     ] {
         assert!(out.contains(line), "{line}\n{out}");
     }

@@ -23,8 +23,13 @@ pub fn run(path: &Path, overrides: &[String]) -> Result<String, CliError> {
     for (name, s) in &raw.section {
         sections::validate_one(&src, name, s, &model)?;
     }
+    let mut stiffened = Vec::new();
     for (name, b) in &raw.body {
-        bodies::validate_one(&src, &raw, name, b, &model)?;
+        let def = bodies::validate_one(&src, &raw, name, b, &model)?;
+        stiffened.push(format!(
+            "{name} {}",
+            if def.stiffening { "on" } else { "off" }
+        ));
     }
     let mut s = String::new();
     let _ = writeln!(
@@ -40,6 +45,9 @@ pub fn run(path: &Path, overrides: &[String]) -> Result<String, CliError> {
         raw.force.len(),
         raw.response.len()
     );
+    if !stiffened.is_empty() {
+        let _ = writeln!(s, "geometric stiffening: {}", stiffened.join(", "));
+    }
     // what each design variable moves, at which value, in which unit
     let design = crate::deck::design::validate(&src, &raw, &model)?;
     for v in &design.variables {
