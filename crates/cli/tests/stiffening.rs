@@ -77,3 +77,31 @@ fn stiffening_keys_are_checked() {
     let (_d, err) = bad_deck(&text, |p| with_deck("check", p, &[]));
     assert!(err.contains("node 99 does not exist"), "{err}");
 }
+
+#[test]
+fn spin_up_deck_stays_bounded_and_the_linear_model_fails_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let summary = run_json("spin_up_beam.toml", &out, &[]);
+    let tip = &summary["responses"]["tip_deflection"];
+    let (min, fin) = (tip["min"].as_f64().unwrap(), tip["final"].as_f64().unwrap());
+    // the same benchmark as crates/mbs/tests/stiffening.rs, through the deck's section analysis
+    assert!((-0.80..-0.70).contains(&min), "{min}");
+    assert!(fin.abs() < 0.02, "{fin}");
+    // without stiffening the in-plane mode diverges past 2.91 rad/s: a runtime failure that
+    // leaves no output behind
+    let lin = dir.path().join("linear");
+    let o = common::run(&[
+        "run",
+        deck("spin_up_beam.toml").to_str().unwrap(),
+        "-o",
+        lin.to_str().unwrap(),
+        "--set",
+        "body.beam.stiffening=false",
+        "-q",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("integration failed"), "{err}");
+    assert!(!lin.join("results.h5").exists());
+}

@@ -315,7 +315,7 @@ fn motion(
         span(m),
         &k("kind"),
         &raw.kind,
-        "kind (\"constant-speed\", \"polynomial\" or \"ramp\")",
+        "kind (\"constant-speed\", \"polynomial\", \"ramp\" or \"spin-up\")",
     )?;
     let value = |key: &str, v: &Spanned<toml::Value>| -> Result<f64, DeckError> {
         if angular {
@@ -392,8 +392,26 @@ fn motion(
                 t1,
             }
         }
+        "spin-up" => {
+            let dv = required(src, span(m), &k("duration"), &raw.duration, "duration (s)")?;
+            let duration = finite(src, &k("duration"), dv, "s")?;
+            if duration <= 0.0 {
+                return Err(src.error(
+                    span(dv),
+                    Some(k("duration")),
+                    format!("duration = {duration} must be positive"),
+                ));
+            }
+            TimeFunction::SpinUp {
+                speed: rate(
+                    &k("rate"),
+                    required(src, span(m), &k("rate"), &raw.rate, "rate")?,
+                )?,
+                duration,
+            }
+        }
         other => {
-            let c = ["constant-speed", "polynomial", "ramp"];
+            let c = ["constant-speed", "polynomial", "ramp", "spin-up"];
             return Err(src.error(
                 span(kind),
                 Some(k("kind")),

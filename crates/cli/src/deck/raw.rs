@@ -384,12 +384,15 @@ pub struct RawJoint {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawMotion {
-    /// `"constant-speed"`, `"polynomial"` or `"ramp"`.
+    /// `"constant-speed"`, `"polynomial"`, `"ramp"` or `"spin-up"`.
     pub kind: Option<Spanned<String>>,
     /// Constant speed: value at t = 0.
     pub initial: Option<Spanned<toml::Value>>,
-    /// Constant speed: rate (deg/s or m/s; strings with units for angles).
+    /// Constant speed, spin-up: rate (deg/s or m/s; strings with units for angles); the final
+    /// rate of a spin-up.
     pub rate: Option<Spanned<toml::Value>>,
+    /// Spin-up: time to reach the rate from rest (s).
+    pub duration: Option<Spanned<f64>>,
     /// Polynomial: `f = Σ c_i tⁱ` (degrees·s⁻ⁱ or m·s⁻ⁱ).
     pub coefficients: Option<Spanned<Vec<f64>>>,
     /// Ramp: from `from` (held until `t0`) to `to` (reached at `t1`) with zero end velocity and
