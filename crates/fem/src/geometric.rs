@@ -288,3 +288,90 @@ fn element_modal<S: Scalar>(
     }
     g
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{BeamSection, ModalOptions, Properties, ReferenceCondition, modal_analysis};
+
+    fn cantilever(n: usize) -> (Mesh, ModalBody<f64>) {
+        let mesh = Mesh::straight_beam(Vector3::zeros(), Vector3::x(), n, 0, Vector3::y()).unwrap();
+        let props = Properties {
+            sections: vec![BeamSection::diagonal(
+                [1e6, 1e6, 1e6, 1e3, 1.0, 2.0],
+                1.0,
+                1e-6,
+                1e-6,
+            )],
+            laminates: vec![],
+        };
+        let mut options = ModalOptions::new(4);
+        options.reference = ReferenceCondition::ClampedNode(0);
+        let analysis = modal_analysis(&mesh, &props, &options).unwrap();
+        let body = crate::modal_body(&mesh, &props, &analysis).unwrap();
+        (mesh, body)
+    }
+
+    /// The inertia load cases are sums of nodal force cases: a uniform acceleration `a` is the
+    /// force `−m_k a` at every node, a spin `Ω` about z the force `m_k Ω² x_k` along x.
+    #[test]
+    fn inertia_load_cases_are_the_sums_of_their_nodal_forces() {
+        let (mesh, body) = cantilever(10);
+        let g = geometric_stiffness(&mesh, &body, 0).unwrap();
+        let n = body.n_modes();
+        for i in 0..3 {
+            let mut sum = DMatrix::zeros(n, n);
+            for (k, m) in body.node_masses.iter().enumerate() {
+                sum -= &g.nodal[3 * k + i] * *m;
+            }
+            assert!((&sum - &g.acceleration[i]).amax() < 1e-12 * sum.amax().max(1.0));
+        }
+        let mut spin = DMatrix::zeros(n, n);
+        for (k, m) in body.node_masses.iter().enumerate() {
+            spin += &g.nodal[3 * k] * (m * body.node_positions[k].x);
+        }
+        assert!((&spin - &g.spin[8]).amax() < 1e-12 * spin.amax());
+        assert!(spin.amax() > 0.0);
+        // a tension at the tip stiffens every mode; loads at the clamp do nothing
+        assert!((0..n).all(|j| g.nodal[3 * 10][(j, j)] > 0.0));
+        assert!(g.nodal[..3].iter().all(|k| k.amax() == 0.0));
+    }
+
+    /// The unit-tension matrix of a straight beam pulled at its tip is `∫ X'ᵀ X' dx` of the
+    /// modes: for the first mode of a uniform cantilever, `∫ φ'² dx / ∫ φ² dx = 4.6477 / L²`
+    /// (the closed-form mode; mass-normalised here with m = L = 1, so `∫ φ² dx = 1`).
+    #[test]
+    fn tip_tension_matrix_is_the_slope_integral_of_the_modes() {
+        let (mesh, body) = cantilever(40);
+        let g = geometric_stiffness(&mesh, &body, 0).unwrap();
+        let tip = 40;
+        // the first mode bends in x–z (EI₂ = 1 < EI₃ = 2)
+        let value = g.nodal[3 * tip][(0, 0)];
+        // 40 lumped-mass elements: 4.6457
+        assert!((value / 4.6477 - 1.0).abs() < 1e-3, "{value}");
+    }
+
+    #[test]
+    fn shells_and_closed_loops_are_refused() {
+        let (mut mesh, body) = cantilever(4);
+        mesh.elements.push(Element::Beam {
+            nodes: [0, 4],
+            property: 0,
+            orientation: Vector3::y(),
+        });
+        let e = geometric_stiffness(&mesh, &body, 0)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("closed loops"), "{e}");
+        let (mut mesh, body) = cantilever(4);
+        mesh.elements.push(Element::Shell {
+            nodes: [0, 1, 2],
+            property: 0,
+            material_axis: Vector3::x(),
+        });
+        let e = geometric_stiffness(&mesh, &body, 0)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("beam bodies only"), "{e}");
+    }
+}
