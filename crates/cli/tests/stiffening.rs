@@ -85,10 +85,11 @@ fn spin_up_deck_stays_bounded_and_the_linear_model_fails_cleanly() {
     let summary = run_json("spin_up_beam.toml", &out, &[]);
     let tip = &summary["responses"]["tip_deflection"];
     let (min, fin) = (tip["min"].as_f64().unwrap(), tip["final"].as_f64().unwrap());
-    // the same benchmark as crates/mbs/tests/stiffening.rs, through the deck's section analysis
-    assert!((-0.80..-0.70).contains(&min), "{min}");
-    assert!(fin.abs() < 0.02, "{fin}");
-    // without stiffening the in-plane mode diverges past 2.91 rad/s: a runtime failure that
+    // the benchmark of crates/mbs/tests/stiffening.rs through the deck's section analysis:
+    // its independent Galerkin solution lags by 0.5743 m
+    assert!((min / -0.5743 - 1.0).abs() < 5e-3, "{min}");
+    assert!(fin.abs() < 0.01, "{fin}");
+    // without stiffening the in-plane mode diverges past 3.80 rad/s: a runtime failure that
     // leaves no output behind
     let lin = dir.path().join("linear");
     let o = common::run(&[
