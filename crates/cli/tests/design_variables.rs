@@ -279,3 +279,36 @@ regions.outer = { laminate = \"wall\", ply = 7 }",
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(err.contains("section.tube.regions.inner.angle"), "{err}");
 }
+
+/// Gmsh regions take every wall frame of the simple format, the element-aligned ones
+/// (`"xi"`, `"eta"`) included (their numbers are checked on a structured half tube in
+/// `crates/section/tests/mesh_input.rs`; this tube mesh is not structured, so its elements'
+/// directions vary and the result is not the radial frame's).
+#[test]
+fn mesh_regions_accept_element_aligned_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    for frame in ["xi", "eta"] {
+        let p = dir.path().join(format!("{frame}.toml"));
+        std::fs::write(
+            &p,
+            mesh_deck(&format!(
+                "regions.inner = {{ laminate = \"wall\", ply = 0, frame = \"{frame}\" }}
+regions.outer = {{ laminate = \"wall\", ply = 1, frame = \"{frame}\" }}"
+            )),
+        )
+        .unwrap();
+        let doc = report("section", &p, &[]);
+        let ea = doc["sections"]["tube"]["values"]["stiffness"][0][0]
+            .as_f64()
+            .unwrap();
+        assert!(ea > 0.0, "{frame}: {ea}");
+    }
+    // keys of another frame are refused
+    let text = mesh_deck(
+        "regions.inner = { laminate = \"wall\", ply = 0, frame = \"xi\", centre = [0.0, 0.0] }
+regions.outer = { laminate = \"wall\", ply = 1, frame = \"xi\" }",
+    );
+    let (_d, err) = common::bad_deck(&text, |q| common::with_deck("section", q, &[]));
+    assert!(err.contains("section.tube.regions.inner.centre"), "{err}");
+    assert!(err.contains("frame = \"xi\""), "{err}");
+}

@@ -404,9 +404,21 @@ pub fn parse_simple(
                 name: w[2].to_string(),
                 line: Some(line),
             })?;
-        let angle = num(3, "ply angle")?.to_radians();
+        // angles are written in degrees; a non-finite one is named in the unit it was written in
+        let degrees = |k: usize, what: &str| -> Result<f64, SectionError> {
+            let x = num(k, what)?;
+            if x.is_finite() {
+                Ok(x.to_radians())
+            } else {
+                Err(parse_err(
+                    line,
+                    format!("{what} {x} is not a finite number (degrees)"),
+                ))
+            }
+        };
+        let angle = degrees(3, "ply angle")?;
         let frame = match w[4] {
-            "tangent" => WallFrame::Tangent(num(5, "tangent angle")?.to_radians()),
+            "tangent" => WallFrame::Tangent(degrees(5, "tangent angle")?),
             "radial" => WallFrame::Radial {
                 centre: [num(5, "centre x2")?, num(6, "centre x3")?],
             },

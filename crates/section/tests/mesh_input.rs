@@ -181,6 +181,20 @@ fn simple_format_errors_name_the_line() {
     assert!(matches!(err, SectionError::Parse { line: 9, .. }), "{err}");
     let err = parse_simple(&format!("{base}element tri6 solid 1 2 3 4 5 7\n"), &[]).unwrap_err();
     assert!(err.to_string().contains("node 7 is not defined"), "{err}");
+    // angles are degrees, as in the deck: 90 turns the material axes a quarter turn
+    let turned = parse_simple(&ok.replace("al 0 tangent 0", "al 90 tangent 0"), &[]).unwrap();
+    assert!((turned.regions[0].ply_angle - std::f64::consts::FRAC_PI_2).abs() < 1e-15);
+    let turned = parse_simple(&ok.replace("al 0 tangent 0", "al 0 tangent 45"), &[]).unwrap();
+    assert_eq!(
+        turned.regions[0].frame,
+        section::WallFrame::Tangent(std::f64::consts::FRAC_PI_4)
+    );
+    // and a non-finite one is named in that unit, with its line
+    for bad in ["al nan tangent 0", "al 0 tangent inf"] {
+        let err = parse_simple(&ok.replace("al 0 tangent 0", bad), &[]).unwrap_err();
+        assert!(matches!(err, SectionError::Parse { line: 2, .. }), "{err}");
+        assert!(err.to_string().contains("(degrees)"), "{err}");
+    }
 }
 
 /// The rectangle mesh written as Gmsh 4.1 text (one surface in physical group "web").
@@ -408,5 +422,90 @@ fn a_non_finite_wall_frame_is_rejected_by_validation() {
     assert!(
         e.to_string().contains("region 'p'") && e.to_string().contains("not finite"),
         "{e}"
+    );
+}
+
+/// A half tube (an open section) from a Gmsh file whose regions take their wall frame along the
+/// elements (`ξ` or `η`): the same stiffness as the generator's radial frame, and the thin-wall
+/// closed forms `EA = E₁ A` and the open-section torsion of an orthotropic strip,
+/// `GJ = G₁₂ s t³/3 (1 − 0.630 (t/s) √(G₁₂/G₁₃))` (Lekhnitskii; the end correction of the
+/// isotropic strip stretched by the ratio of the wall's shear moduli).
+#[test]
+fn open_half_tube_from_gmsh_with_element_frames_matches_the_thin_wall_closed_form() {
+    // shear moduli far apart, so that a wrong wall frame shows
+    let mat = laminate::OrthotropicMaterial::new(
+        [128e9, 10e9, 10e9],
+        [5e9, 2e9, 3e9],
+        [0.25, 0.25, 0.3],
+        1600.0,
+    )
+    .unwrap();
+    let (ri, t) = (0.01, 0.001);
+    let full = section::tube(ri, &[section::PlySpec::new("wall", mat, 0.0, t, 2)], 96).unwrap();
+    // the upper half (x₃ > 0), nodes renumbered
+    let mut keep: Vec<Element> = full
+        .elements
+        .iter()
+        .filter(|e| e.nodes.iter().map(|&n| full.nodes[n][1]).sum::<f64>() > 0.0)
+        .cloned()
+        .collect();
+    let mut index = vec![usize::MAX; full.nodes.len()];
+    let mut nodes = Vec::new();
+    for e in &mut keep {
+        for n in &mut e.nodes {
+            if index[*n] == usize::MAX {
+                index[*n] = nodes.len();
+                nodes.push(full.nodes[*n]);
+            }
+            *n = index[*n];
+        }
+    }
+    let half = SectionMesh {
+        nodes,
+        elements: keep,
+        regions: full.regions.clone(),
+    };
+    let text = gmsh_text(&half);
+    let with = |frame: WallFrame| {
+        let spec = RegionSpec {
+            name: "web".into(),
+            material: mat,
+            ply_angle: 0.0,
+            frame,
+        };
+        analyse(&parse_gmsh(&text, &[spec]).unwrap()).unwrap()
+    };
+    let radial = with(WallFrame::Radial { centre: [0.0, 0.0] });
+    let along = [
+        section::ElementDirection::Xi,
+        section::ElementDirection::Eta,
+    ]
+    .map(|d| with(WallFrame::AlongElement(d)));
+    // one of ξ, η runs round the wall (the other through it)
+    let diff = along
+        .iter()
+        .map(|p| scaled_diff(&p.stiffness, &radial.stiffness, &radial.stiffness))
+        .fold(f64::INFINITY, f64::min);
+    assert!(diff < 1e-9, "{diff:e}");
+    let p = along
+        .iter()
+        .find(|p| scaled_diff(&p.stiffness, &radial.stiffness, &radial.stiffness) < 1e-9)
+        .unwrap();
+    // closed forms of the thin open wall
+    let area = PI * ((ri + t).powi(2) - ri * ri) / 2.0;
+    // (quadratic edges on the circles: 4e-8)
+    assert!(rel(p.area, area) < 1e-6, "{} {area}", p.area);
+    let ea = p.classical_stiffness[(0, 0)];
+    assert!(rel(ea, 128e9 * p.area) < 1e-9, "EA {ea:e}");
+    let s = PI * (ri + t / 2.0);
+    let gj_closed = 5e9 * s * t.powi(3) / 3.0 * (1.0 - 0.630 * t / s * (5.0f64 / 2.0).sqrt());
+    let gj = p.classical_stiffness[(1, 1)];
+    // measured: 4e-4
+    assert!(rel(gj, gj_closed) < 3e-3, "GJ {gj:e} against {gj_closed:e}");
+    // the x₂-aligned frame of a solid section puts G₁₃ into part of the wall's shear
+    let wrong = with(WallFrame::Tangent(0.0)).classical_stiffness[(1, 1)];
+    assert!(
+        rel(wrong, gj_closed) > 0.1,
+        "GJ with the wrong frame {wrong:e}"
     );
 }

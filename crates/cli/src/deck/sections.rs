@@ -4,7 +4,7 @@ use std::collections::{BTreeMap, HashMap};
 use std::path::Path;
 
 use laminate::OrthotropicMaterial;
-use section::{BoxWalls, PlySpec, RegionSpec, SectionMesh, WallFrame};
+use section::{BoxWalls, ElementDirection, PlySpec, RegionSpec, SectionMesh, WallFrame};
 use toml::Spanned;
 
 use super::check::{count, finite, not_applicable, positive, required, span};
@@ -606,9 +606,19 @@ pub fn validate_one(
                                 centre: rr.centre.as_ref().map_or([0.0, 0.0], |c| *c.get_ref()),
                             }
                         }
+                        Some(dir @ ("xi" | "eta")) => {
+                            let context = format!("frame = \"{dir}\"");
+                            not_applicable(src, &rk("tangent_angle"), &rr.tangent_angle, &context)?;
+                            not_applicable(src, &rk("centre"), &rr.centre, &context)?;
+                            WallFrame::AlongElement(if dir == "xi" {
+                                ElementDirection::Xi
+                            } else {
+                                ElementDirection::Eta
+                            })
+                        }
                         Some(other) => {
                             let f = rr.frame.as_ref().expect("matched Some");
-                            return Err(src.error(span(f), Some(rk("frame")), format!("unknown wall frame `{other}`: expected \"tangent\" or \"radial\"")));
+                            return Err(src.error(span(f), Some(rk("frame")), format!("unknown wall frame `{other}`: expected \"tangent\", \"radial\", \"xi\" or \"eta\"")));
                         }
                     };
                     specs.push(RegionSpec {
