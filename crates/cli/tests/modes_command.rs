@@ -107,6 +107,46 @@ fn shipped_modes_decks_run_in_every_format() {
     );
 }
 
+/// Repeated frequencies are marked in every format, and the JSON says what their derivatives
+/// mean: the round tube rod clamped at its middle has its first four modes at one frequency
+/// (two halves × two bending planes); the pinned beam's are all single.
+#[test]
+fn repeated_frequencies_are_marked_in_json_and_csv() {
+    let p = deck("modes_beam_rod.toml");
+    let doc = json(&[
+        "modes",
+        p.to_str().unwrap(),
+        "--format",
+        "json",
+        "--derivatives",
+    ]);
+    let rod = &doc["bodies"]["rod"];
+    let f = floats(&rod["values"]["frequencies"]);
+    assert!(f.iter().all(|x| (x / f[0] - 1.0).abs() < 1e-6), "{f:?}");
+    assert_eq!(floats(&rod["values"]["repeated_group"]), [1.0; 4]);
+    assert_eq!(rod["repeated"], serde_json::json!([[1, 2, 3, 4]]));
+    let note = rod["repeated_derivatives"].as_str().unwrap();
+    assert!(note.starts_with("directional"), "{note}");
+    let csv =
+        String::from_utf8(run(&["modes", p.to_str().unwrap(), "--format", "csv"]).stdout).unwrap();
+    assert_eq!(
+        csv.lines()
+            .filter(|l| l.starts_with("rod,repeated_group,"))
+            .count(),
+        4
+    );
+    assert!(csv.contains("rod,repeated_group,0,3,1,,1e0"), "{csv}");
+
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("beam.toml");
+    std::fs::write(&path, PINNED_BEAM).unwrap();
+    let doc = json(&["modes", path.to_str().unwrap(), "--format", "json"]);
+    let beam = &doc["bodies"]["beam"];
+    assert_eq!(floats(&beam["values"]["repeated_group"]), [0.0; 3]);
+    assert_eq!(beam["repeated"], serde_json::json!([]));
+    assert!(beam.get("repeated_derivatives").is_none());
+}
+
 #[test]
 fn frequency_derivatives_match_central_differences_of_command_line_runs() {
     let p = deck("modes_plate_rod.toml");

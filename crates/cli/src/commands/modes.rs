@@ -26,6 +26,13 @@ pub struct ModesRequest<'a> {
     pub vtk: Option<&'a Path>,
     pub export_matrices: Option<&'a Path>,
 }
+/// What the derivatives of repeated frequencies mean (the JSON says it beside them).
+const REPEATED_DERIVATIVES: &str = "directional: within a group of repeated frequencies each \
+     variable's derivatives are those of the eigenvalues along that variable (in the basis of \
+     the group that its perturbation diagonalises), not of fixed modes; a variable that splits \
+     the group gives different values to its modes, and only their sum is independent of the \
+     basis";
+
 fn frequency_derivative(lambda: f64, d_lambda: f64) -> f64 {
     // f = √λ / 2π ⇒ df = dλ / (4π √λ)
     d_lambda / (4.0 * std::f64::consts::PI * lambda.max(0.0).sqrt())
@@ -46,6 +53,19 @@ fn report(
         Quantity::vector("eigenvalues", "rad^2/s^2", lam),
         Quantity::vector("modal_masses", "1", &a.modal_masses()),
     ];
+    // groups of repeated frequencies among the retained modes (e.g. the two bending planes of
+    // a round tube): 0 for a single mode, else the group's number from 1
+    let groups: Vec<Vec<usize>> = fem::sensitivity::clusters(lam, fem::sensitivity::CLUSTER_RTOL)
+        .into_iter()
+        .filter(|g| g.len() > 1)
+        .collect();
+    let mut group_of = vec![0.0; lam.len()];
+    for (k, g) in groups.iter().enumerate() {
+        for &i in g {
+            group_of[i] = (k + 1) as f64;
+        }
+    }
+    values.push(Quantity::vector("repeated_group", "1", &group_of));
     if let Ok(Some(c)) = a.modal_damping() {
         let zeta: Vec<f64> = c
             .iter()
@@ -84,25 +104,36 @@ fn report(
             l.max(0.0).sqrt()
         ));
     }
+    // mode numbers as the table counts them
+    let numbers: Vec<String> = a
+        .kept
+        .iter()
+        .map(|k| (k + 1).to_string())
+        .chain((1..).map(|c| format!("c{c}")))
+        .take(lam.len())
+        .collect();
+    let repeated: Vec<String> = groups
+        .iter()
+        .map(|g| {
+            g.iter()
+                .map(|&i| numbers[i].clone())
+                .collect::<Vec<_>>()
+                .join(", ")
+        })
+        .collect();
+    if !repeated.is_empty() {
+        preamble.push(format!(
+            "repeated frequencies (modes {}){}",
+            repeated.join("; "),
+            if d.is_some() {
+                ": their derivatives are directional, per design variable"
+            } else {
+                ""
+            }
+        ));
+    }
     let mut derivatives = Vec::new();
     if let Some(d) = d {
-        let repeated: Vec<String> = d
-            .clusters
-            .iter()
-            .filter(|c| c.len() > 1 && c[0] < a.n_modes)
-            .map(|c| {
-                c.iter()
-                    .map(|i| (i + 1).to_string())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            })
-            .collect();
-        if !repeated.is_empty() {
-            preamble.push(format!(
-                "repeated eigenvalues (modes {}): their derivatives are directional, per design variable",
-                repeated.join("; ")
-            ));
-        }
         for (var, name) in b.design.names().iter().enumerate() {
             let dl: Vec<f64> = a.kept.iter().map(|&i| d.eigenvalues[var][i]).collect();
             let df: Vec<f64> = dl
@@ -125,6 +156,22 @@ fn report(
     info.insert("nodes".into(), json!(b.mesh.nodes.len()));
     info.insert("elements".into(), json!(b.mesh.elements.len()));
     info.insert("free_dofs".into(), json!(a.assembly.n_free()));
+    // retained modes by their number, static correction modes as "c1", …
+    let listed: Vec<Vec<serde_json::Value>> = groups
+        .iter()
+        .map(|g| {
+            g.iter()
+                .map(|&i| match a.kept.get(i) {
+                    Some(k) => json!(k + 1),
+                    None => json!(numbers[i]),
+                })
+                .collect()
+        })
+        .collect();
+    info.insert("repeated".into(), json!(listed));
+    if d.is_some() && !groups.is_empty() {
+        info.insert("repeated_derivatives".into(), json!(REPEATED_DERIVATIVES));
+    }
     Report {
         kind: "body",
         name: name.into(),
