@@ -203,6 +203,13 @@ fn laminate(
                 format!("angle = {a} must be a finite number (degrees)"),
             ));
         }
+        if a.abs() > 360.0 {
+            src.warn(
+                span(angle),
+                Some(pk("angle")),
+                format!("angle = {a}° is more than a full turn (angles are in degrees)"),
+            );
+        }
         stack.push(Ply {
             material,
             thickness: t,

@@ -73,9 +73,41 @@ pub struct Source {
     pub text: String,
     /// The `--set` arguments applied to `text`, if any.
     pub overrides: Vec<String>,
+    /// Warnings already printed: each once per run, however often the deck is validated
+    /// (finite differences rebuild the model).
+    warned: std::sync::Mutex<std::collections::BTreeSet<String>>,
 }
 
 impl Source {
+    /// A deck's text and its file name (for messages).
+    pub fn new(file: impl Into<PathBuf>, text: impl Into<String>) -> Self {
+        Self {
+            file: file.into(),
+            text: text.into(),
+            overrides: Vec::new(),
+            warned: Default::default(),
+        }
+    }
+
+    /// Print a warning on stderr (`warning: file:line:col: key …: message`): something legal
+    /// but probably not meant. Each warning once.
+    pub fn warn(
+        &self,
+        span: Option<Range<usize>>,
+        key: Option<String>,
+        message: impl Into<String>,
+    ) {
+        let text = self.error(span, key, message).to_string();
+        let new = self
+            .warned
+            .lock()
+            .map(|mut w| w.insert(text.clone()))
+            .unwrap_or(false);
+        if new {
+            eprintln!("warning: {text}");
+        }
+    }
+
     /// Read a deck file.
     pub fn read(path: &Path) -> Result<Self, DeckError> {
         let text = std::fs::read_to_string(path).map_err(|e| DeckError {
@@ -86,11 +118,7 @@ impl Source {
             snippet: None,
             note: None,
         })?;
-        Ok(Self {
-            file: path.to_path_buf(),
-            text,
-            overrides: Vec::new(),
-        })
+        Ok(Self::new(path, text))
     }
 
     /// Apply `--set KEY=VALUE` overrides to the text (see [`overrides`]).

@@ -12,6 +12,43 @@ use super::laminates::{LaminateModel, suggestion};
 use super::raw::{RawRegion, RawSection};
 use super::{DeckError, Source};
 
+/// Fewer elements around a tube than this draw a warning (see [`validate_one`]).
+const COARSE_AROUND: usize = 8;
+
+/// Warn about nodes of a section mesh that no element uses and regions without elements:
+/// legal, but usually a meshing mistake (a stray point, a physical group left empty).
+fn warn_unused(src: &Source, at: Option<std::ops::Range<usize>>, key: &str, mesh: &SectionMesh) {
+    let mut used = vec![false; mesh.nodes.len()];
+    let mut filled = vec![false; mesh.regions.len()];
+    for e in &mesh.elements {
+        filled[e.region] = true;
+        for &n in &e.nodes {
+            used[n] = true;
+        }
+    }
+    let unused: Vec<usize> = (0..used.len()).filter(|&n| !used[n]).collect();
+    if let Some(first) = unused.first() {
+        src.warn(
+            at.clone(),
+            Some(key.into()),
+            format!(
+                "{} node(s) of the mesh belong to no element (the first at ({:e}, {:e})); they \
+                 are left out",
+                unused.len(),
+                mesh.nodes[*first][0],
+                mesh.nodes[*first][1]
+            ),
+        );
+    }
+    for (r, _) in filled.iter().enumerate().filter(|(_, f)| !**f) {
+        src.warn(
+            at.clone(),
+            Some(key.into()),
+            format!("region `{}` has no elements", mesh.regions[r].name),
+        );
+    }
+}
+
 /// A ply of a laminate: the laminate's name and the ply's index in its stack (bottom first,
 /// the mirrored plies of a symmetric laminate included).
 #[derive(Debug, Clone, PartialEq, Eq, Hash)]
@@ -354,6 +391,17 @@ pub fn validate_one(
                 .map(|n| count(src, &k("elements_around"), n, 3))
                 .transpose()?
                 .unwrap_or(48);
+            if let (Some(n), true) = (&raw.elements_around, around < COARSE_AROUND) {
+                src.warn(
+                    span(n),
+                    Some(k("elements_around")),
+                    format!(
+                        "{around} elements around the tube is coarse: on the paper's tube the \
+                         stiffness is 2.4 % low with 4, 0.5 % with 6, 0.16 % with 8 (48 is the \
+                         default)"
+                    ),
+                );
+            }
             let plies = match (&raw.plies, &raw.laminate) {
                 (Some(_), Some(l)) => {
                     return Err(src.error(
@@ -628,7 +676,9 @@ pub fn validate_one(
                         frame,
                     });
                 }
-                section::parse_gmsh(&text, &specs).map_err(in_mesh)?
+                let mesh = section::parse_gmsh(&text, &specs).map_err(in_mesh)?;
+                warn_unused(src, span(file), &k("file"), &mesh);
+                mesh
             } else {
                 if let Some(r) = &raw.regions {
                     return Err(src.error(
@@ -642,7 +692,9 @@ pub fn validate_one(
                     .iter()
                     .map(|(n, m)| (n.as_str(), *m))
                     .collect();
-                section::parse_simple(&text, &mats).map_err(in_mesh)?
+                let mesh = section::parse_simple(&text, &mats).map_err(in_mesh)?;
+                warn_unused(src, span(file), &k("file"), &mesh);
+                mesh
             }
         }
         other => {

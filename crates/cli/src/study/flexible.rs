@@ -655,11 +655,7 @@ plies = [0]
 "#;
 
     fn source() -> (Source, crate::deck::RawDeck) {
-        let src = Source {
-            file: "square.toml".into(),
-            text: DECK.into(),
-            overrides: Vec::new(),
-        };
+        let src = Source::new("square.toml", DECK);
         let raw = src.parse().unwrap();
         (src, raw)
     }
@@ -738,11 +734,7 @@ plies = [0]
         .unwrap()
             + "\n[design.theta]\nlaminate = \"tube_wall\"\n";
         let at = |delta: f64| {
-            let src = Source {
-                file: "rod.toml".into(),
-                text: text.clone(),
-                overrides: Vec::new(),
-            };
+            let src = Source::new("rod.toml", text.clone());
             let raw = src.parse().unwrap();
             let mut lam = validate_laminates(&src, &raw).unwrap();
             let design = validate_design(&src, &raw, &lam).unwrap();
