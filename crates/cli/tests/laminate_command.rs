@@ -254,11 +254,7 @@ mod no_panic {
     const VALID: &str = include_str!("../../../decks/laminate_quasi_isotropic.toml");
 
     fn check(text: String) {
-        let src = Source {
-            file: "fuzz.toml".into(),
-            text,
-            overrides: Vec::new(),
-        };
+        let src = Source::new("fuzz.toml", text);
         if let Ok(raw) = src.parse() {
             let _ = validate(&src, &raw);
         }
