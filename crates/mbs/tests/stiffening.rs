@@ -41,24 +41,39 @@ fn beam() -> Properties<f64> {
     }
 }
 
+/// A model holding one beam body: `modes` modes of `mesh` in the plane with normal `plane`,
+/// held by `reference`, stiffened (load cases reacted at node 0) or not. Returns the model and
+/// the body.
+fn beam_model(
+    mesh: &Mesh,
+    props: &Properties<f64>,
+    modes: usize,
+    reference: ReferenceCondition,
+    plane: Vector3<f64>,
+    stiffened: bool,
+) -> (Model<f64>, mbs::BodyId) {
+    let mut options = ModalOptions::new(modes);
+    options.reference = reference;
+    options.planar = Some(plane);
+    let analysis = modal_analysis(mesh, props, &options).unwrap();
+    let modal = modal_body(mesh, props, &analysis).unwrap();
+    let mut body = FlexibleBody::new("beam", modal.clone());
+    if stiffened {
+        body = body.with_geometric_stiffness(geometric_stiffness(mesh, &modal, 0).unwrap());
+    }
+    let mut model = Model::new();
+    let id = model.add_flexible_body(body).unwrap();
+    (model, id)
+}
+
 /// The cantilever with `elements` elements and `modes` modes in the plane with normal `plane`,
 /// stiffened or not.
 fn cantilever(elements: usize, modes: usize, plane: Vector3<f64>, stiffened: bool) -> Model<f64> {
     let mesh =
         Mesh::straight_beam(Vector3::zeros(), Vector3::x(), elements, 0, Vector3::y()).unwrap();
     let props = beam();
-    let mut options = ModalOptions::new(modes);
-    options.reference = ReferenceCondition::ClampedNode(0);
-    options.planar = Some(plane);
-    let analysis = modal_analysis(&mesh, &props, &options).unwrap();
-    let modal = modal_body(&mesh, &props, &analysis).unwrap();
-    let mut body = FlexibleBody::new("blade", modal.clone());
-    if stiffened {
-        body = body.with_geometric_stiffness(geometric_stiffness(&mesh, &modal, 0).unwrap());
-    }
-    let mut model = Model::new();
-    model.add_flexible_body(body).unwrap();
-    model
+    let reference = ReferenceCondition::ClampedNode(0);
+    beam_model(&mesh, &props, modes, reference, plane, stiffened).0
 }
 
 const N: usize = 6;
@@ -218,17 +233,8 @@ fn compressed_beam_period(p: f64, stiffened: bool) -> f64 {
     let n = 20;
     let mesh = Mesh::straight_beam(Vector3::zeros(), Vector3::x(), n, 0, Vector3::y()).unwrap();
     let props = beam();
-    let mut options = ModalOptions::new(3);
-    options.reference = ReferenceCondition::PinnedEnds { a: 0, b: n };
-    options.planar = Some(Vector3::y());
-    let analysis = modal_analysis(&mesh, &props, &options).unwrap();
-    let modal = modal_body(&mesh, &props, &analysis).unwrap();
-    let mut body = FlexibleBody::new("beam", modal.clone());
-    if stiffened {
-        body = body.with_geometric_stiffness(geometric_stiffness(&mesh, &modal, 0).unwrap());
-    }
-    let mut model = Model::new();
-    let b = model.add_flexible_body(body).unwrap();
+    let reference = ReferenceCondition::PinnedEnds { a: 0, b: n };
+    let (mut model, b) = beam_model(&mesh, &props, 3, reference, Vector3::y(), stiffened);
     let inertia = Matrix3::identity() * 1e-4;
     let slider = model
         .add_rigid_body(RigidBody::new("slider", 1e-3, inertia))
@@ -323,17 +329,8 @@ fn spin_up(
         )],
         laminates: vec![],
     };
-    let mut options = ModalOptions::new(3);
-    options.reference = ReferenceCondition::ClampedNode(0);
-    options.planar = Some(Vector3::z());
-    let analysis = modal_analysis(&mesh, &props, &options).unwrap();
-    let modal = modal_body(&mesh, &props, &analysis).unwrap();
-    let mut body = FlexibleBody::new("beam", modal.clone());
-    if stiffened {
-        body = body.with_geometric_stiffness(geometric_stiffness(&mesh, &modal, 0).unwrap());
-    }
-    let mut model = Model::new();
-    let b = model.add_flexible_body(body).unwrap();
+    let reference = ReferenceCondition::ClampedNode(0);
+    let (mut model, b) = beam_model(&mesh, &props, 3, reference, Vector3::z(), stiffened);
     let hub = || Marker::ground(Vector3::zeros()).with_axes(Vector3::x(), Vector3::y());
     let root = || Marker::on(b, Vector3::zeros()).with_axes(Vector3::x(), Vector3::y());
     model
