@@ -41,6 +41,18 @@ pub enum ReferenceCondition {
     /// One node clamped (all six dof), the body frame there, parallel to the mesh axes: a
     /// cantilever's root (e.g. a blade on its hub).
     ClampedNode(NodeId),
+    /// Only the [`ModalOptions::supports`] hold the body (edges, lines, symmetry planes, single
+    /// dof); the body frame sits at the node nearest the centre of mass, parallel to the mesh
+    /// axes. The supports must hold every rigid motion, else the analysis fails.
+    Supports,
+}
+
+/// Dof fixed at a set of nodes: local dof indices `0..6` (`[u_x, u_y, u_z, θ_x, θ_y, θ_z]`,
+/// global axes) at every node of `nodes`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Support {
+    pub nodes: Vec<NodeId>,
+    pub dofs: Vec<usize>,
 }
 
 /// Proportional damping `C = αM + βK` fitted to two modal damping ratios.
@@ -170,6 +182,10 @@ pub struct ModalOptions {
     /// field's static-correction, or attachment-mode, enrichment). Needs a reference condition
     /// that holds the body (not free-free). Empty (the default): none.
     pub correction: Vec<NodeId>,
+    /// Supports added to the reference condition (with [`ReferenceCondition::Supports`] they
+    /// alone hold the body): simply supported or clamped edges, pinned lines, symmetry planes,
+    /// single dof. Empty (the default): none.
+    pub supports: Vec<Support>,
 }
 
 impl ModalOptions {
@@ -185,6 +201,7 @@ impl ModalOptions {
             eigen: EigenOptions::default(),
             planar: None,
             correction: Vec::new(),
+            supports: Vec::new(),
         }
     }
 
@@ -243,6 +260,30 @@ pub fn analysis_constraints(
     let (mut c, origin) = reference_constraints(mesh, props, opts.reference, &opts.element)?;
     if let Some(axis) = axis {
         add_planar_constraints(mesh, axis, &mut c);
+    }
+    if opts.reference == ReferenceCondition::Supports && opts.supports.is_empty() {
+        return Err(FemError::Invalid(
+            "reference condition `supports` without any support".into(),
+        ));
+    }
+    if opts.reference == ReferenceCondition::FreeFree && !opts.supports.is_empty() {
+        return Err(FemError::Invalid(
+            "supports on a free-free body: use the reference condition `supports`".into(),
+        ));
+    }
+    for s in &opts.supports {
+        if let Some(&n) = s.nodes.iter().find(|&&n| n >= mesh.nodes.len()) {
+            return Err(FemError::Invalid(format!(
+                "support at node {n}: the mesh has {} nodes",
+                mesh.nodes.len()
+            )));
+        }
+        if let Some(&d) = s.dofs.iter().find(|&&d| d >= 6) {
+            return Err(FemError::Invalid(format!(
+                "support of dof {d}: dof are 0 to 5"
+            )));
+        }
+        c.fix_nodes(&s.nodes, &s.dofs);
     }
     Ok((c, origin))
 }
@@ -429,6 +470,12 @@ pub fn reference_constraints(
             Ok((c, mesh.nodes[node]))
         }
         ReferenceCondition::FreeFree => Ok((c, com)),
+        ReferenceCondition::Supports => {
+            let node = mesh
+                .closest_node(&com)
+                .ok_or(FemError::Invalid("empty mesh".into()))?;
+            Ok((c, mesh.nodes[node]))
+        }
         ReferenceCondition::ClampedNode(node) => {
             if node >= mesh.nodes.len() {
                 return Err(FemError::Invalid(format!(
@@ -536,6 +583,21 @@ pub fn modal_analysis(
             .vectors
             .columns(n_rigid, pairs.vectors.ncols() - n_rigid)
             .into_owned();
+    }
+    if opts.reference == ReferenceCondition::Supports {
+        // supports that leave a rigid motion free show it as a zero frequency
+        let lmax = pairs.values.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+        let free = pairs
+            .values
+            .iter()
+            .take_while(|l| l.abs() <= 1e-8 * lmax)
+            .count();
+        if free > 0 {
+            return Err(FemError::Invalid(format!(
+                "the supports leave {free} rigid-body motion(s) free (zero frequencies): fix \
+                 more dof, or use the free-free reference condition"
+            )));
+        }
     }
     let correction = if opts.correction.is_empty() {
         None

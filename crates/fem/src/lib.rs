@@ -46,7 +46,7 @@ pub use assembly::{
 };
 pub use beam::BeamSection;
 pub use body::{
-    Damping, ModalAnalysis, ModalOptions, ModeUpdate, RayleighDamping, ReferenceCondition,
+    Damping, ModalAnalysis, ModalOptions, ModeUpdate, RayleighDamping, ReferenceCondition, Support,
     add_planar_constraints, analysis_constraints, analysis_derivatives, design_matrices,
     modal_analysis, modal_body, modal_body_dual, planar_axis, reference_constraints,
     second_derivative_terms,

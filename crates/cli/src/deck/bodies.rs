@@ -7,7 +7,7 @@ use toml::Spanned;
 
 use super::check::{nonzero_vector, positive, required, span, vector};
 use super::laminates::{LaminateModel, suggestion};
-use super::raw::{RawBody, RawDeck};
+use super::raw::{RawBody, RawDeck, RawSupport};
 use super::sections::{self, SectionDef};
 use super::{DeckError, Source};
 
@@ -67,6 +67,7 @@ pub struct BodyDef {
     pub initial_modal_rates: Vec<f64>,
     /// Geometric stiffening of the modal stiffness by the body's axial forces.
     pub stiffening: bool,
+    pub supports: Vec<SupportDef>,
 }
 
 /// Reference condition as written.
@@ -77,6 +78,28 @@ pub enum Reference {
     FreeFree,
     PinnedEnds(Option<[usize; 2]>),
     ClampedNode(usize),
+    Supports,
+}
+
+/// Which nodes a support holds.
+#[derive(Debug, Clone, PartialEq)]
+pub enum NodeSet {
+    Nodes(Vec<usize>),
+    /// The nodes with coordinate `axis` (0, 1, 2) equal to `value`.
+    Plane {
+        axis: usize,
+        value: f64,
+    },
+    Inside([[f64; 3]; 2]),
+}
+
+/// A validated support: its nodes, the local dof fixed there, and its place in the deck.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SupportDef {
+    pub nodes: NodeSet,
+    pub dofs: Vec<usize>,
+    pub key: String,
+    pub span: std::ops::Range<usize>,
 }
 
 /// Validate one body.
@@ -415,6 +438,7 @@ pub fn validate_one(
                 ));
             }
         }),
+        Some((_, "supports")) => Reference::Supports,
         Some((r, other)) => {
             let choices = [
                 "centre-of-mass",
@@ -422,6 +446,7 @@ pub fn validate_one(
                 "free-free",
                 "pinned-ends",
                 "clamped-node",
+                "supports",
             ];
             return Err(src.error(
                 span(r),
@@ -461,6 +486,24 @@ pub fn validate_one(
         }
         Some(s) => *s.get_ref(),
     };
+    let supports = supports(src, name, raw.supports.as_deref().unwrap_or(&[]))?;
+    match (&reference, supports.is_empty(), &raw.reference) {
+        (Reference::Supports, true, r) => {
+            return Err(src.error(
+                r.as_ref().map(span).unwrap_or(table.clone()),
+                Some(k("reference")),
+                "reference = \"supports\" needs supports = [{ plane | nodes | box, fix }, …]",
+            ));
+        }
+        (Reference::FreeFree, false, r) => {
+            return Err(src.error(
+                r.as_ref().map(span).unwrap_or(table.clone()),
+                Some(k("reference")),
+                "a free-free body has no supports: use reference = \"supports\"",
+            ));
+        }
+        _ => {}
+    }
     let dk = |key: &str| format!("body.{name}.damping.{key}");
     let damping = match &raw.damping {
         None => None,
@@ -623,7 +666,122 @@ pub fn validate_one(
         initial_modal,
         initial_modal_rates,
         stiffening,
+        supports,
     })
+}
+
+/// The dof names of a support's `fix` list, in the order of the nodal dof.
+const DOF_NAMES: [&str; 6] = ["ux", "uy", "uz", "rx", "ry", "rz"];
+
+/// Validate `supports = [ … ]` of body `name`.
+fn supports(
+    src: &Source,
+    name: &str,
+    raw: &[Spanned<RawSupport>],
+) -> Result<Vec<SupportDef>, DeckError> {
+    let mut out = Vec::new();
+    for (i, s) in raw.iter().enumerate() {
+        let key = format!("body.{name}.supports[{i}]");
+        let sk = |k: &str| format!("{key}.{k}");
+        let r = s.get_ref();
+        let nodes = match (&r.nodes, &r.plane, &r.inside) {
+            (Some(n), None, None) => {
+                let list = n.get_ref();
+                if list.is_empty() || list.iter().any(|&x| x < 0) {
+                    return Err(src.error(
+                        span(n),
+                        Some(sk("nodes")),
+                        "a list of node indices (from 0)",
+                    ));
+                }
+                NodeSet::Nodes(list.iter().map(|&x| x as usize).collect())
+            }
+            (None, Some(p), None) => {
+                let pr = p.get_ref();
+                let given: Vec<(usize, f64)> = [pr.x, pr.y, pr.z]
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(a, v)| v.map(|v| (a, v)))
+                    .collect();
+                match given.as_slice() {
+                    [(axis, value)] if value.is_finite() => NodeSet::Plane {
+                        axis: *axis,
+                        value: *value,
+                    },
+                    _ => {
+                        return Err(src.error(
+                            span(p),
+                            Some(sk("plane")),
+                            "one finite coordinate of a plane normal to a global axis, e.g. \
+                             { x = 0.0 }",
+                        ));
+                    }
+                }
+            }
+            (None, None, Some(b)) => {
+                let [lo, hi] = *b.get_ref();
+                if (0..3).any(|a| !(lo[a].is_finite() && hi[a].is_finite() && lo[a] <= hi[a])) {
+                    return Err(src.error(
+                        span(b),
+                        Some(sk("box")),
+                        "[[x0, y0, z0], [x1, y1, z1]] with finite corners, x0 ≤ x1, y0 ≤ y1, \
+                         z0 ≤ z1",
+                    ));
+                }
+                NodeSet::Inside([lo, hi])
+            }
+            _ => {
+                return Err(src.error(
+                    span(s),
+                    Some(key.clone()),
+                    "give the nodes of the support in one way: nodes = [...], plane = { x = … } \
+                     or box = [[…], […]]",
+                ));
+            }
+        };
+        let fix = required(
+            src,
+            span(s),
+            &sk("fix"),
+            &r.fix,
+            "fix (\"clamped\", \"pinned\" or a list of dof)",
+        )?;
+        let bad_fix = || {
+            src.error(
+                span(fix),
+                Some(sk("fix")),
+                format!(
+                    "expected \"clamped\", \"pinned\" or a list of dof names from {}",
+                    DOF_NAMES.join(", ")
+                ),
+            )
+        };
+        let dofs: Vec<usize> = match fix.get_ref() {
+            toml::Value::String(w) if w == "clamped" => (0..6).collect(),
+            toml::Value::String(w) if w == "pinned" => (0..3).collect(),
+            toml::Value::Array(list) if !list.is_empty() => {
+                let mut d = Vec::new();
+                for v in list {
+                    let n = v
+                        .as_str()
+                        .and_then(|w| DOF_NAMES.iter().position(|x| *x == w));
+                    match n {
+                        Some(n) if !d.contains(&n) => d.push(n),
+                        _ => return Err(bad_fix()),
+                    }
+                }
+                d
+            }
+            _ => return Err(bad_fix()),
+        };
+        out.push(SupportDef {
+            nodes,
+            dofs,
+            key,
+            span: s.span(),
+        });
+    }
+    Ok(out)
 }
 
 /// Whether beam bodies are stiffened when the deck does not say (docs/geometric-stiffening.md).

@@ -141,6 +141,9 @@ pub struct RawBody {
     pub clamped: Option<Spanned<i64>>,
     /// Geometric (stress) stiffening from the body's axial forces (beams).
     pub stiffening: Option<Spanned<bool>>,
+    /// Supports: dof fixed at sets of nodes (with `reference = "supports"` they alone hold the
+    /// body; otherwise they add to the reference condition).
+    pub supports: Option<Vec<Spanned<RawSupport>>>,
     /// Keep only modes of motion in the plane with this normal (a global axis): translations
     /// in the plane and rotations about the normal.
     pub planar: Option<Spanned<[f64; 3]>>,
@@ -159,6 +162,31 @@ pub struct RawBody {
     /// Initial modal rates of the retained modes in order (√kg·m/s). Default: at rest in the
     /// body frame.
     pub initial_modal_rates: Option<Spanned<Vec<f64>>>,
+}
+
+/// A support: a set of nodes (`nodes`, `plane` or `box`) and the dof fixed there (`fix`).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawSupport {
+    /// Node indices (from 0).
+    pub nodes: Option<Spanned<Vec<i64>>>,
+    /// The nodes on a plane normal to a global axis: `{ x = 0.0 }`, `{ y = … }` or `{ z = … }`.
+    pub plane: Option<Spanned<RawPlane>>,
+    /// The nodes inside the box `[[x0, y0, z0], [x1, y1, z1]]` (m).
+    #[serde(rename = "box")]
+    pub inside: Option<Spanned<[[f64; 3]; 2]>>,
+    /// `"clamped"` (all six dof), `"pinned"` (the three translations) or a list of dof names
+    /// `["ux", "uy", "uz", "rx", "ry", "rz"]` (global axes).
+    pub fix: Option<Spanned<toml::Value>>,
+}
+
+/// A plane normal to a global axis: one of `x`, `y`, `z` (m).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawPlane {
+    pub x: Option<f64>,
+    pub y: Option<f64>,
+    pub z: Option<f64>,
 }
 
 /// `{ modes = [i, j], ratios = [ζi, ζj] }` (modes counted from 1), or
@@ -580,6 +608,8 @@ mod tests {
             ("[section.NAME]", fields::<RawRegion>()),
             ("[body.NAME]", fields::<RawBody>()),
             ("[body.NAME]", fields::<RawDamping>()),
+            ("[body.NAME]", fields::<RawSupport>()),
+            ("[body.NAME]", fields::<RawPlane>()),
             ("[rigid.NAME]", fields::<RawRigid>()),
             ("[rigid.NAME]", fields::<RawRotation>()),
             ("### Markers", fields::<RawMarker>()),

@@ -531,6 +531,7 @@ pub fn build(
         Reference::CentreOfMass => ReferenceCondition::ClampedAtCentreOfMass,
         Reference::ClampedSection => ReferenceCondition::ClampedSectionAtCentre,
         Reference::FreeFree => ReferenceCondition::FreeFree,
+        Reference::Supports => ReferenceCondition::Supports,
         Reference::ClampedNode(node) => {
             if node >= mesh.nodes.len() {
                 return Err(input(
@@ -569,7 +570,13 @@ pub fn build(
             }
         },
     };
+    let supports = def
+        .supports
+        .iter()
+        .map(|sd| support_nodes(src, sd, &mesh))
+        .collect::<Result<Vec<_>, _>>()?;
     let mut options = ModalOptions::new(def.computed);
+    options.supports = supports;
     options.kept = def.kept.clone();
     options.correction = def.correction.clone();
     options.reference = reference;
@@ -586,6 +593,56 @@ pub fn build(
         options,
         design,
         kind,
+    })
+}
+
+/// The nodes of `mesh` a support holds (an error naming the support when there are none).
+fn support_nodes(
+    src: &Source,
+    sd: &crate::deck::bodies::SupportDef,
+    mesh: &fem::Mesh,
+) -> Result<fem::Support, CliError> {
+    use crate::deck::bodies::NodeSet;
+    let fail =
+        |m: String| CliError::Input(src.error(Some(sd.span.clone()), Some(sd.key.clone()), m));
+    let n = mesh.nodes.len();
+    let (lo, hi) = mesh.nodes.iter().fold(
+        (
+            nalgebra::Vector3::repeat(f64::INFINITY),
+            nalgebra::Vector3::repeat(f64::NEG_INFINITY),
+        ),
+        |(lo, hi), p| (lo.inf(p), hi.sup(p)),
+    );
+    // coordinates within 1e-9 of the mesh's size count as on a plane or in a box
+    let tol = 1e-9 * (hi - lo).norm().max(f64::MIN_POSITIVE);
+    let nodes: Vec<usize> = match &sd.nodes {
+        NodeSet::Nodes(list) => {
+            if let Some(&k) = list.iter().find(|&&k| k >= n) {
+                return Err(fail(format!(
+                    "node {k} does not exist (the mesh has {n} nodes)"
+                )));
+            }
+            list.clone()
+        }
+        NodeSet::Plane { axis, value } => (0..n)
+            .filter(|&k| (mesh.nodes[k][*axis] - value).abs() <= tol)
+            .collect(),
+        NodeSet::Inside([a, b]) => (0..n)
+            .filter(|&k| {
+                (0..3).all(|i| mesh.nodes[k][i] >= a[i] - tol && mesh.nodes[k][i] <= b[i] + tol)
+            })
+            .collect(),
+    };
+    if nodes.is_empty() {
+        return Err(fail(format!(
+            "no node of the body lies there (its mesh spans [{:e}, {:e}, {:e}] to [{:e}, {:e}, \
+             {:e}] m)",
+            lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
+        )));
+    }
+    Ok(fem::Support {
+        nodes,
+        dofs: sd.dofs.clone(),
     })
 }
 
