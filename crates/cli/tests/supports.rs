@@ -169,3 +169,123 @@ fn bad_supports_are_reported_with_their_key() {
         assert!(err.contains(key) && err.contains(words), "{extra}: {err}");
     }
 }
+
+/// A simply supported thick cross-ply plate, [0/90/90/0], a/h = 10, E₁/E₂ = 40.
+const CROSS_PLY: &str = r#"
+[material.ud]
+E1 = 400.0e9
+E2 = 10.0e9
+E3 = 10.0e9
+G12 = 6.0e9
+G13 = 6.0e9
+G23 = 5.0e9
+nu12 = 0.25
+nu13 = 0.25
+nu23 = 0.25
+density = 1500.0
+
+[laminate.xply]
+plies = [
+  { material = "ud", thickness = 0.025, angle = 0.0 },
+  { material = "ud", thickness = 0.025, angle = 90.0 },
+  { material = "ud", thickness = 0.025, angle = 90.0 },
+  { material = "ud", thickness = 0.025, angle = 0.0 },
+]
+
+[body.plate]
+kind = "shell"
+laminate = "xply"
+length = 1.0
+width = 1.0
+elements = [32, 32]
+modes = 8
+mass = "consistent"
+reference = "supports"
+supports = [
+  { plane = { x = 0.0 }, fix = ["uy", "uz", "rx"] },
+  { plane = { x = 1.0 }, fix = ["uy", "uz", "rx"] },
+  { plane = { y = 0.0 }, fix = ["ux", "uz", "ry"] },
+  { plane = { y = 1.0 }, fix = ["ux", "uz", "ry"] },
+]
+"#;
+
+/// The Navier solution of first-order shear deformation theory for a simply supported
+/// symmetric cross-ply plate (SS-1; Reddy, *Mechanics of Laminated Composite Plates and Shells*,
+/// §6.3): `w = W sin αx sin βy`, `φx = X cos αx sin βy`, `φy = Y sin αx cos βy` turn the
+/// equations of motion into `(S − ω² M) [W, X, Y] = 0` with the plate stiffnesses `D`, the
+/// transverse shear stiffnesses `A₅₅` (xz), `A₄₄` (yz) and the inertias `I₀`, `I₂`. Returns the
+/// lowest (bending) frequency of the half-wave numbers `(m, n)` in Hz.
+fn navier_fsdt(d: &[Vec<f64>], a55: f64, a44: f64, i0: f64, i2: f64, m: f64, n: f64) -> f64 {
+    let (al, be) = (m * std::f64::consts::PI, n * std::f64::consts::PI);
+    let s = nalgebra::Matrix3::new(
+        a55 * al * al + a44 * be * be,
+        a55 * al,
+        a44 * be,
+        a55 * al,
+        d[0][0] * al * al + d[2][2] * be * be + a55,
+        (d[0][1] + d[2][2]) * al * be,
+        a44 * be,
+        (d[0][1] + d[2][2]) * al * be,
+        d[2][2] * al * al + d[1][1] * be * be + a44,
+    );
+    // M^(-1/2) S M^(-1/2), M = diag(I₀, I₂, I₂)
+    let r = nalgebra::Vector3::new(i0, i2, i2).map(|x| 1.0 / x.sqrt());
+    let scaled = nalgebra::Matrix3::from_fn(|i, j| s[(i, j)] * r[i] * r[j]);
+    let w2 = nalgebra::SymmetricEigen::new(scaled).eigenvalues.min();
+    w2.sqrt() / (2.0 * std::f64::consts::PI)
+}
+
+#[test]
+fn simply_supported_cross_ply_plate_matches_the_navier_solution() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("deck.toml");
+    std::fs::write(&p, CROSS_PLY).unwrap();
+    // the plate's stiffness and inertia as flexsens computes them
+    let lam = json(&["laminate", p.to_str().unwrap(), "--format", "json"]);
+    let v = &lam["laminates"]["xply"]["values"];
+    let rows = |x: &serde_json::Value| -> Vec<Vec<f64>> {
+        x.as_array()
+            .unwrap()
+            .iter()
+            .map(|r| {
+                r.as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|y| y.as_f64().unwrap())
+                    .collect()
+            })
+            .collect()
+    };
+    let (d, shear) = (rows(&v["D"]), rows(&v["As"]));
+    let (i0, i2) = (
+        v["mass_per_area"].as_f64().unwrap(),
+        v["rotary_inertia"].as_f64().unwrap(),
+    );
+    let exact: Vec<f64> = [(1.0, 1.0), (1.0, 2.0), (2.0, 1.0)]
+        .iter()
+        .map(|&(m, n)| navier_fsdt(&d, shear[0][0], shear[1][1], i0, i2, m, n))
+        .collect();
+    // the plate also has in-plane shear modes (its edges hold only the tangential in-plane
+    // displacement): each bending frequency is compared with the nearest one found
+    let nearest = |got: &[f64], f: f64| {
+        got.iter()
+            .map(|g| g / f - 1.0)
+            .min_by(|a, b| a.abs().total_cmp(&b.abs()))
+            .unwrap()
+    };
+    let coarse = frequencies(CROSS_PLY, &["body.plate.elements=[16, 16]"], "plate");
+    let fine = frequencies(CROSS_PLY, &["body.plate.elements=[48, 48]"], "plate");
+    for &f in &exact {
+        let (e16, e48) = (nearest(&coarse, f), nearest(&fine, f));
+        eprintln!("Navier {f:.2} Hz: 16 cells {e16:.2e}, 48 cells {e48:.2e}");
+        // measured: (1, 1) 8.8e-3 and 9.7e-4, (1, 2) 2.0e-2 and 2.2e-3 (32 cells: 2.2e-3, 5.0e-3)
+        assert!(
+            e48.abs() < 5e-3 && e48.abs() < e16.abs() / 4.0,
+            "{f}: {e16:e} {e48:e}"
+        );
+    }
+    assert!(
+        (fine[0] / exact[0] - 1.0).abs() < 5e-3,
+        "{fine:?} against {exact:?}"
+    );
+}
