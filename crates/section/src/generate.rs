@@ -416,9 +416,16 @@ fn box_axis(
 
 /// A thin-walled rectangular box, outer size `width` (along `x₂`) × `height` (along `x₃`),
 /// centred on the origin, with a ply stack per wall and `n_width`, `n_height` elements along
-/// the flat part of the horizontal and vertical walls. The top and bottom walls (flanges) own
-/// the corners. Regions are named `"top/<ply>"`, `"bottom/<ply>"`, `"left/<ply>"`,
-/// `"right/<ply>"`; wall frames have outward normals (tangents run clockwise).
+/// the flat part of the horizontal and vertical walls. Regions are named `"top/<ply>"`,
+/// `"bottom/<ply>"`, `"left/<ply>"`, `"right/<ply>"`; wall frames have outward normals
+/// (tangents run clockwise).
+///
+/// Corners: where the two walls meeting there have as many plies, the plies **wrap round the
+/// corner** as L-shaped bands (ply `k`, counted from the inside, takes the corner cells whose
+/// larger ply index is `k`): the cells along a wall keep that wall's ply and frame, and the
+/// cell at the bend of the L takes the horizontal wall's ply with the frame turned half way
+/// (regions `"bottom-left/<ply>"` etc.). Otherwise the top and bottom walls (flanges) own the
+/// corners.
 pub fn thin_walled_box(
     width: f64,
     height: f64,
@@ -470,18 +477,66 @@ pub fn thin_walled_box(
             regions.len() - 1
         })
     };
+    // the frames of the walls, and of the bends of the wrapped plies (half way between)
+    let bottom = WallFrame::Tangent(PI);
+    let top = WallFrame::Tangent(0.0);
+    let left = WallFrame::Tangent(FRAC_PI_2);
+    let right = WallFrame::Tangent(-FRAC_PI_2);
+    let wraps = |h: &[PlySpec], v: &[PlySpec]| h.len() == v.len();
     let mut elements = Vec::new();
     for (j, &row) in rows.iter().enumerate() {
         for (i, &col) in cols.iter().enumerate() {
+            // corners: (row ply, column ply, horizontal wall, vertical wall, bend frame)
+            let corner = match (row, col) {
+                (Band::Low(kr), Band::Low(kc)) => Some((kr, kc, "bottom", "left", 0.75 * PI)),
+                (Band::Low(kr), Band::High(kc)) => Some((kr, kc, "bottom", "right", -0.75 * PI)),
+                (Band::High(kr), Band::Low(kc)) => Some((kr, kc, "top", "left", 0.25 * PI)),
+                (Band::High(kr), Band::High(kc)) => Some((kr, kc, "top", "right", -0.25 * PI)),
+                _ => None,
+            };
+            if let Some((kr, kc, h, v, bend)) = corner {
+                let (hs, hf) = if h == "bottom" {
+                    (&walls.bottom, bottom)
+                } else {
+                    (&walls.top, top)
+                };
+                let (vs, vf) = if v == "left" {
+                    (&walls.left, left)
+                } else {
+                    (&walls.right, right)
+                };
+                if wraps(hs, vs) {
+                    let r = if kr > kc {
+                        region(h, kr, hs, hf)
+                    } else if kc > kr {
+                        region(v, kc, vs, vf)
+                    } else {
+                        let name = if h == "bottom" {
+                            if v == "left" {
+                                "bottom-left"
+                            } else {
+                                "bottom-right"
+                            }
+                        } else if v == "left" {
+                            "top-left"
+                        } else {
+                            "top-right"
+                        };
+                        region(name, kr, hs, WallFrame::Tangent(bend))
+                    };
+                    elements.push(Element {
+                        kind: ElementKind::Quad8,
+                        nodes: grid.quad8(i, j),
+                        region: r,
+                    });
+                    continue;
+                }
+            }
             let r = match (row, col) {
-                (Band::Low(k), _) => region("bottom", k, &walls.bottom, WallFrame::Tangent(PI)),
-                (Band::High(k), _) => region("top", k, &walls.top, WallFrame::Tangent(0.0)),
-                (Band::Mid, Band::Low(k)) => {
-                    region("left", k, &walls.left, WallFrame::Tangent(FRAC_PI_2))
-                }
-                (Band::Mid, Band::High(k)) => {
-                    region("right", k, &walls.right, WallFrame::Tangent(-FRAC_PI_2))
-                }
+                (Band::Low(k), _) => region("bottom", k, &walls.bottom, bottom),
+                (Band::High(k), _) => region("top", k, &walls.top, top),
+                (Band::Mid, Band::Low(k)) => region("left", k, &walls.left, left),
+                (Band::Mid, Band::High(k)) => region("right", k, &walls.right, right),
                 (Band::Mid, Band::Mid) => continue,
             };
             elements.push(Element {
