@@ -5,10 +5,9 @@
 
 mod common;
 
-use common::{bad_deck, json, with_deck};
+use common::{ALUMINIUM_BEAM, bad_deck, json, with_deck};
 
-/// A simply supported (hard: `w` and the rotation about the edge normal fixed; in-plane
-/// displacement along the edge fixed too) square isotropic plate, 1 m × 1 m × 10 mm.
+/// A square isotropic plate, 1 m × 1 m × 10 mm (simply supported with [`SS_EDGES`]).
 const SS_PLATE: &str = r#"
 [material.al]
 E = 70.0e9
@@ -26,7 +25,11 @@ width = 1.0
 elements = [16, 16]
 modes = 4
 mass = "consistent"
-reference = "supports"
+"#;
+
+/// The simple supports of the 1 m × 1 m plates (hard: `w` and the rotation about the edge
+/// normal fixed; the in-plane displacement along the edge fixed too).
+const SS_EDGES: &str = r#"reference = "supports"
 supports = [
   { plane = { x = 0.0 }, fix = ["uy", "uz", "rx"] },
   { plane = { x = 1.0 }, fix = ["uy", "uz", "rx"] },
@@ -62,7 +65,7 @@ fn simply_supported_square_plate_matches_the_closed_form_and_converges() {
         .iter()
         .map(|n| {
             let set = format!("body.plate.elements=[{n}, {n}]");
-            let got = frequencies(SS_PLATE, &[&set], "plate");
+            let got = frequencies(&format!("{SS_PLATE}{SS_EDGES}"), &[&set], "plate");
             got.iter().zip(&exact).map(|(g, e)| g / e - 1.0).collect()
         })
         .collect();
@@ -77,51 +80,33 @@ fn simply_supported_square_plate_matches_the_closed_form_and_converges() {
     assert!(errors[1][0] < 5e-3, "{errors:?}");
 }
 
-/// A slender aluminium beam held by supports that state the pinned-ends reference condition.
-const BEAM: &str = r#"
-[material.alu]
-E = 70e9
-nu = 0.33
-density = 2700
-
-[section.bar]
-shape = "rectangle"
-width = 0.02
-height = 0.01
-material = "alu"
-elements = [8, 4]
-
-[body.beam]
-kind = "beam"
-section = "bar"
-start = [0, 0, 0]
-end = [1.0, 0, 0]
-orientation = [0, 1, 0]
-elements = 40
-modes = 4
-"#;
+/// The aluminium beam of the modes tests with four modes (the tests add its supports).
+fn beam() -> String {
+    format!("{ALUMINIUM_BEAM}modes = 4\n")
+}
 
 #[test]
 fn supports_can_state_a_built_in_reference_condition() {
-    let pinned = frequencies(&format!("{BEAM}reference = \"pinned-ends\"\n"), &[], "beam");
+    let b = beam();
+    let pinned = frequencies(&format!("{b}reference = \"pinned-ends\"\n"), &[], "beam");
     let stated = frequencies(
         &format!(
-            "{BEAM}reference = \"supports\"\nsupports = [\n  {{ nodes = [0], fix = [\"ux\", \
+            "{b}reference = \"supports\"\nsupports = [\n  {{ nodes = [0], fix = [\"ux\", \
              \"uy\", \"uz\", \"rx\"] }},\n  {{ box = [[0.99, -1, -1], [1.01, 1, 1]], fix = \
              [\"uy\", \"uz\"] }},\n]\n"
         ),
         &[],
         "beam",
     );
-    for (a, b) in pinned.iter().zip(&stated) {
-        assert!((a / b - 1.0).abs() < 1e-10, "{pinned:?} against {stated:?}");
+    for (x, y) in pinned.iter().zip(&stated) {
+        assert!((x / y - 1.0).abs() < 1e-10, "{pinned:?} against {stated:?}");
     }
     // supports add to a reference condition: a beam clamped at its centre vibrates as two equal
     // cantilevers (its modes in pairs); pinning the far end stiffens that half only, and the
     // pairs split
-    let centre = frequencies(&format!("{BEAM}\n"), &[], "beam");
+    let centre = frequencies(&format!("{b}\n"), &[], "beam");
     let held = frequencies(
-        &format!("{BEAM}supports = [{{ plane = {{ x = 1.0 }}, fix = \"pinned\" }}]\n"),
+        &format!("{b}supports = [{{ plane = {{ x = 1.0 }}, fix = \"pinned\" }}]\n"),
         &[],
         "beam",
     );
@@ -132,6 +117,7 @@ fn supports_can_state_a_built_in_reference_condition() {
 
 #[test]
 fn bad_supports_are_reported_with_their_key() {
+    let b = beam();
     let cases: [(&str, &str, &str); 6] = [
         (
             "reference = \"supports\"\n",
@@ -165,12 +151,13 @@ fn bad_supports_are_reported_with_their_key() {
         ),
     ];
     for (extra, key, words) in cases {
-        let (_d, err) = bad_deck(&format!("{BEAM}{extra}"), |p| with_deck("modes", p, &[]));
+        let (_d, err) = bad_deck(&format!("{b}{extra}"), |p| with_deck("modes", p, &[]));
         assert!(err.contains(key) && err.contains(words), "{extra}: {err}");
     }
 }
 
-/// A simply supported thick cross-ply plate, [0/90/90/0], a/h = 10, E₁/E₂ = 40.
+/// A thick cross-ply plate, [0/90/90/0], a/h = 10, E₁/E₂ = 40 (simply supported with
+/// [`SS_EDGES`]).
 const CROSS_PLY: &str = r#"
 [material.ud]
 E1 = 400.0e9
@@ -200,13 +187,6 @@ width = 1.0
 elements = [32, 32]
 modes = 8
 mass = "consistent"
-reference = "supports"
-supports = [
-  { plane = { x = 0.0 }, fix = ["uy", "uz", "rx"] },
-  { plane = { x = 1.0 }, fix = ["uy", "uz", "rx"] },
-  { plane = { y = 0.0 }, fix = ["ux", "uz", "ry"] },
-  { plane = { y = 1.0 }, fix = ["ux", "uz", "ry"] },
-]
 "#;
 
 /// The Navier solution of first-order shear deformation theory for a simply supported
@@ -273,8 +253,9 @@ fn simply_supported_cross_ply_plate_matches_the_navier_solution() {
             .min_by(|a, b| a.abs().total_cmp(&b.abs()))
             .unwrap()
     };
-    let coarse = frequencies(CROSS_PLY, &["body.plate.elements=[16, 16]"], "plate");
-    let fine = frequencies(CROSS_PLY, &["body.plate.elements=[48, 48]"], "plate");
+    let plate = format!("{CROSS_PLY}{SS_EDGES}");
+    let coarse = frequencies(&plate, &["body.plate.elements=[16, 16]"], "plate");
+    let fine = frequencies(&plate, &["body.plate.elements=[48, 48]"], "plate");
     for &f in &exact {
         let (e16, e48) = (nearest(&coarse, f), nearest(&fine, f));
         eprintln!("Navier {f:.2} Hz: 16 cells {e16:.2e}, 48 cells {e48:.2e}");

@@ -203,3 +203,27 @@ pub fn matrix(v: &serde_json::Value) -> Vec<Vec<f64>> {
         })
         .collect()
 }
+
+/// A slender aluminium beam, 1 m, 20 mm × 10 mm, 40 elements, without its `modes`, reference
+/// condition or supports (the tests add them).
+pub const ALUMINIUM_BEAM: &str = r#"
+[material.alu]
+E = 70e9
+nu = 0.33
+density = 2700
+
+[section.bar]
+shape = "rectangle"
+width = 0.02
+height = 0.01
+material = "alu"
+elements = [8, 4]
+
+[body.beam]
+kind = "beam"
+section = "bar"
+start = [0, 0, 0]
+end = [1.0, 0, 0]
+orientation = [0, 1, 0]
+elements = 40
+"#;
