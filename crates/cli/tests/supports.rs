@@ -223,20 +223,7 @@ fn simply_supported_cross_ply_plate_matches_the_navier_solution() {
     // the plate's stiffness and inertia as flexsens computes them
     let lam = json(&["laminate", p.to_str().unwrap(), "--format", "json"]);
     let v = &lam["laminates"]["xply"]["values"];
-    let rows = |x: &serde_json::Value| -> Vec<Vec<f64>> {
-        x.as_array()
-            .unwrap()
-            .iter()
-            .map(|r| {
-                r.as_array()
-                    .unwrap()
-                    .iter()
-                    .map(|y| y.as_f64().unwrap())
-                    .collect()
-            })
-            .collect()
-    };
-    let (d, shear) = (rows(&v["D"]), rows(&v["As"]));
+    let (d, shear) = (common::matrix(&v["D"]), common::matrix(&v["As"]));
     let (i0, i2) = (
         v["mass_per_area"].as_f64().unwrap(),
         v["rotary_inertia"].as_f64().unwrap(),
