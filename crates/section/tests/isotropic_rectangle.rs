@@ -142,3 +142,42 @@ fn wide_rectangle_shear_coefficients_frozen() {
     assert!((k2 - K2_FROZEN).abs() < 1e-6, "k2 = {k2}");
     assert!((k3 - K3_FROZEN).abs() < 1e-6, "k3 = {k3}");
 }
+
+/// The shear stiffness against the shear modulus, E fixed (issue 18 asked whether its fall at
+/// very large G was a conditioning fault). Without Poisson's ratio the Saint-Venant shear
+/// stiffness of a rectangle is exactly (5/6) G A (Cowper's κ at ν = 0) for every G. With ν ≠ 0
+/// the shear flexibility gains a Poisson term that grows like G/E² (the lateral contraction
+/// under the bending stress varies along the beam and must be sheared), so for G ≫ E the
+/// shear stiffness falls as 1/G: a property of the model, converged with the mesh, not
+/// round-off.
+#[test]
+fn shear_stiffness_against_the_shear_modulus() {
+    let (w, h, e) = (0.02, 0.01, 70e9);
+    let material = |g: f64, nu: f64| {
+        laminate::OrthotropicMaterial::new([e, e, e], [g, g, g], [nu, nu, nu], 2700.0).unwrap()
+    };
+    let shear = |g: f64, nu: f64, n: usize| {
+        let k = analyse(&rectangle(w, h, 2 * n, n, material(g, nu), 0.0).unwrap())
+            .unwrap()
+            .stiffness;
+        (k[(1, 1)], k[(2, 2)])
+    };
+    for g in [2.69e10, 7.7e11, 7.7e12] {
+        let (k2, k3) = shear(g, 0.0, 8);
+        for k in [k2, k3] {
+            assert!(rel(k, 5.0 / 6.0 * g * w * h) < 1e-4, "G = {g:e}: {k:e}");
+        }
+    }
+    // with ν = 0.3: at G = 110 E the stiffness has fallen ~100-fold below (5/6) G A, the same on
+    // a mesh twice as fine
+    let g = 7.7e12;
+    let (_, coarse) = shear(g, 0.3, 8);
+    let (_, fine) = shear(g, 0.3, 16);
+    assert!(coarse < 0.01 * 5.0 / 6.0 * g * w * h, "{coarse:e}");
+    assert!(rel(coarse, fine) < 1e-3, "{coarse:e} against {fine:e}");
+    let (_, tenfold) = shear(10.0 * g, 0.3, 8);
+    assert!(
+        rel(tenfold, coarse / 10.0) < 0.05,
+        "{tenfold:e} against {coarse:e}"
+    );
+}
