@@ -259,3 +259,46 @@ elements = [24, 6]
         assert!(err.contains(message), "{err}");
     }
 }
+
+/// `shape = "channel"`: the box without its right wall; its shear centre lies outside the web,
+/// and a right wall is refused with its key.
+#[test]
+fn channel_sections_are_open_and_refuse_a_right_wall() {
+    let deck = r#"
+[material.al]
+E = 70.0e9
+nu = 0.3
+density = 2700.0
+
+[laminate.skin]
+plies = [{ material = "al", thickness = 0.001, angle = 0.0 }]
+
+[section.c]
+shape = "channel"
+width = 0.05
+height = 0.06
+laminate = "skin"
+elements_per_ply = 2
+elements = [32, 32]
+"#;
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("c.toml");
+    std::fs::write(&p, deck).unwrap();
+    let doc = json(&["section", p.to_str().unwrap(), "--format", "json"]);
+    let sc = doc["sections"]["c"]["values"]["shear_centre"][0]
+        .as_f64()
+        .unwrap();
+    // 3b²/(h + 6b) outside the web (crates/section/tests/box_and_warping.rs: to 8e-4)
+    let (b, h) = (0.05 - 0.0005, 0.06 - 0.001);
+    let expected = -0.025 + 0.0005 - 3.0 * b * b / (h + 6.0 * b);
+    assert!((sc - expected).abs() < 1e-4, "{sc} against {expected}");
+    let walls = deck.replace(
+        "laminate = \"skin\"\nelements_per_ply",
+        "walls = { top = \"skin\", bottom = \"skin\", left = \"skin\", right = \"skin\" }\nelements_per_ply",
+    );
+    let (_d, err) = bad_deck(&walls, |q| with_deck("section", q, &[]));
+    assert!(
+        err.contains("section.c.walls.right") && err.contains("open"),
+        "{err}"
+    );
+}

@@ -433,6 +433,36 @@ pub fn thin_walled_box(
     n_width: usize,
     n_height: usize,
 ) -> Result<SectionMesh, SectionError> {
+    walled(width, height, walls, n_width, n_height, false)
+}
+
+/// A channel (C section) open towards `+x₂`: the box of [`thin_walled_box`] without its right
+/// wall (`walls.right` must be empty), the flanges (top, bottom) running to `x₂ = width/2` and
+/// the web on the left; the plies wrap round its two corners as in the box.
+pub fn channel(
+    width: f64,
+    height: f64,
+    walls: &BoxWalls,
+    n_width: usize,
+    n_height: usize,
+) -> Result<SectionMesh, SectionError> {
+    if !walls.right.is_empty() {
+        return Err(SectionError::InvalidInput(
+            "a channel has no right wall: it is open towards +x2".into(),
+        ));
+    }
+    walled(width, height, walls, n_width, n_height, true)
+}
+
+/// The box, or with `open` the channel without its right wall.
+fn walled(
+    width: f64,
+    height: f64,
+    walls: &BoxWalls,
+    n_width: usize,
+    n_height: usize,
+    open: bool,
+) -> Result<SectionMesh, SectionError> {
     positive("box width", width)?;
     positive("box height", height)?;
     at_least("elements along the box width", n_width, 1)?;
@@ -443,6 +473,9 @@ pub fn thin_walled_box(
         ("left", &walls.left),
         ("right", &walls.right),
     ] {
+        if name == "right" && open {
+            continue;
+        }
         if stack.is_empty() {
             return Err(SectionError::InvalidInput(format!(
                 "the {name} wall has no plies"

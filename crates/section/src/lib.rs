@@ -72,7 +72,7 @@ pub use analysis::{SectionAnalysis, analyse, analyse_with_derivatives};
 pub use design::{DesignMap, DesignVariable};
 pub use element::ElementKind;
 pub use error::SectionError;
-pub use generate::{BoxWalls, PlySpec, circle, rectangle, thin_walled_box, tube};
+pub use generate::{BoxWalls, PlySpec, channel, circle, rectangle, thin_walled_box, tube};
 pub use mesh::{Element, ElementDirection, Region, SectionMesh, WallFrame};
 pub use parse::{RegionSpec, parse_gmsh, parse_simple, write_simple};
 pub use properties::{Entry, ReferencePoint, SectionProperties, SectionSensitivities};

@@ -179,3 +179,40 @@ fn entries_name_every_result_once() {
     names.dedup();
     assert_eq!(names.len(), e.len());
 }
+
+/// An isotropic channel (the box without its right wall) against the thin-walled closed forms
+/// of an open section: area exactly, the shear centre `e = 3b²/(h + 6b)` outside the web
+/// (mid-line flange width `b`, web height `h`, equal thicknesses), and the open-section
+/// torsion `GJ = G t³ (2b + h)/3`.
+#[test]
+fn channel_matches_the_open_section_closed_forms() {
+    let (w, h, t) = (0.05, 0.06, 0.001);
+    let walls = BoxWalls {
+        right: Vec::new(),
+        ..BoxWalls::uniform(vec![PlySpec::new("skin", isotropic(E, NU), 0.0, t, 2)])
+    };
+    let mesh = section::channel(w, h, &walls, 32, 32).unwrap();
+    let p = analyse(&mesh).unwrap();
+    let area = w * h - (w - t) * (h - 2.0 * t);
+    assert!(rel(p.area, area) < 1e-12, "{} {area}", p.area);
+    assert!(rel(p.stiffness[(0, 0)], E * area) < 1e-8);
+    let (b, hm) = (w - t / 2.0, h - t);
+    let e = 3.0 * b * b / (hm + 6.0 * b);
+    let web = -w / 2.0 + t / 2.0;
+    let sc = p.shear_centre;
+    eprintln!("shear centre {sc:?}, closed form {}", web - e);
+    assert!(sc[1].abs() < 1e-9, "{sc:?}");
+    // measured: 8e-4 of e; GJ 2.4e-4
+    assert!(
+        (sc[0] - (web - e)).abs() < 5e-3 * e,
+        "{} against {}",
+        sc[0],
+        web - e
+    );
+    let gj = E / (2.0 * (1.0 + NU)) * t.powi(3) * (2.0 * b + hm) / 3.0;
+    let k = p.classical_stiffness[(1, 1)];
+    eprintln!("GJ {k:e}, closed form {gj:e}");
+    assert!(rel(k, gj) < 1e-2, "GJ {k:e} against {gj:e}");
+    // a right wall is refused
+    assert!(section::channel(w, h, &BoxWalls::uniform(walls.top.clone()), 8, 8).is_err());
+}

@@ -253,7 +253,7 @@ pub fn validate_one(
             "laminate",
             "elements_per_ply",
         ],
-        "box" => &[
+        "box" | "channel" => &[
             "width",
             "height",
             "laminate",
@@ -479,7 +479,8 @@ pub fn validate_one(
             };
             section::tube(r, &plies, around).map_err(bad)?
         }
-        "box" => {
+        "box" | "channel" => {
+            let open = shape_name == "channel";
             let w = positive(
                 src,
                 &k("width"),
@@ -530,23 +531,42 @@ pub fn validate_one(
                         let l = required(src, span(wt), &wk, f, "a laminate name")?;
                         laminate_plies(src, &wk, l, model, n, &mut tags)
                     };
+                    let right = match (&wr.right, open) {
+                        (Some(r), true) => {
+                            return Err(src.error(
+                                span(r),
+                                Some(format!("section.{name}.walls.right")),
+                                "a channel is open on its right (+x2) side: it has no right wall",
+                            ));
+                        }
+                        (_, true) => Vec::new(),
+                        (r, false) => wall("right", r)?,
+                    };
                     BoxWalls {
                         top: wall("top", &wr.top)?,
                         bottom: wall("bottom", &wr.bottom)?,
                         left: wall("left", &wr.left)?,
-                        right: wall("right", &wr.right)?,
+                        right,
                     }
                 }
                 (None, None) => {
                     return Err(src.error(
                         table.clone(),
                         Some(k("walls")),
-                        "missing value: walls (or laminate) for a box",
+                        format!("missing value: walls (or laminate) for a {shape_name}"),
                     ));
                 }
             };
             let [nw, nh] = elements_pair([8, 8])?;
-            section::thin_walled_box(w, h, &walls, nw, nh).map_err(bad)?
+            if open {
+                let walls = BoxWalls {
+                    right: Vec::new(),
+                    ..walls
+                };
+                section::channel(w, h, &walls, nw, nh).map_err(bad)?
+            } else {
+                section::thin_walled_box(w, h, &walls, nw, nh).map_err(bad)?
+            }
         }
         "mesh" => {
             let file = required(
@@ -702,8 +722,8 @@ pub fn validate_one(
                 span(shape),
                 Some(k("shape")),
                 format!(
-                    "unknown shape `{other}`: expected \"rectangle\", \"circle\", \"tube\", \"box\" or \"mesh\"{}",
-                    suggestion(other, &["rectangle", "circle", "tube", "box", "mesh"])
+                    "unknown shape `{other}`: expected \"rectangle\", \"circle\", \"tube\", \"box\", \"channel\" or \"mesh\"{}",
+                    suggestion(other, &["rectangle", "circle", "tube", "box", "channel", "mesh"])
                 ),
             ));
         }
