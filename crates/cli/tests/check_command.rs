@@ -90,3 +90,42 @@ fn check_reports_bad_input_with_its_place_and_runs_nothing() {
         "nothing written"
     );
 }
+
+/// An empty deck (or one with only a title) is not "OK": it is probably the wrong file.
+#[test]
+fn an_empty_deck_is_refused() {
+    for text in ["", "title = \"nothing\"\n"] {
+        let (_d, err) = common::bad_deck(text, |p| common::with_deck("check", p, &[]));
+        assert!(err.contains("defines nothing to check"), "{err}");
+    }
+}
+
+/// Meshes beyond the stated limits (1e6 elements a direction, 1e6 elements in all) are refused
+/// with the key before anything is allocated, instead of aborting on allocation.
+#[test]
+fn oversized_meshes_are_refused_before_allocation() {
+    let beam = std::fs::read_to_string(deck("slider_crank_beam.toml")).unwrap();
+    let plate = std::fs::read_to_string(deck("slider_crank_plate.toml")).unwrap();
+    let cases = [
+        (
+            beam.replace("elements = 8 ", "elements = 1000000000 "),
+            "body.rod.elements",
+        ),
+        (
+            beam.replace("elements_around = 32", "elements_around = 1000000000"),
+            "section.tube.elements_around",
+        ),
+        (
+            beam.replace("elements_around = 32", "elements_around = 900000"),
+            "section.tube.elements_around",
+        ),
+        (
+            plate.replace("elements = [24, 4]", "elements = [100000, 100000]"),
+            "body.rod.elements",
+        ),
+    ];
+    for (text, key) in cases {
+        let (_d, err) = common::bad_deck(&text, |p| common::with_deck("check", p, &[]));
+        assert!(err.contains(key) && err.contains("limit"), "{key}: {err}");
+    }
+}

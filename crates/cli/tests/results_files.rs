@@ -255,8 +255,8 @@ fn compare_command_exit_codes() {
     ]);
     assert_eq!(
         o.status.code(),
-        Some(1),
-        "an unreadable file is a runtime failure"
+        Some(2),
+        "a missing file is bad input, not a difference"
     );
     assert!(String::from_utf8_lossy(&o.stderr).contains("none.h5"));
     std::fs::write(dir.path().join("text.h5"), "not hdf5").unwrap();
@@ -265,6 +265,7 @@ fn compare_command_exit_codes() {
         dir.path().join("text.h5").to_str().unwrap(),
     ]);
     assert!(String::from_utf8_lossy(&o.stderr).contains("not an HDF5 file"));
+    assert_eq!(o.status.code(), Some(2), "an unreadable file is bad input");
     let o = run(&[pa.to_str().unwrap(), pb.to_str().unwrap(), "--rtol", "-1"]);
     assert_eq!(o.status.code(), Some(2));
 }

@@ -19,6 +19,23 @@ use crate::error::CliError;
 /// Check the deck; the report goes to stdout.
 pub fn run(path: &Path, overrides: &[String]) -> Result<String, CliError> {
     let (src, raw) = deck::load(path, overrides)?;
+    let empty = raw.material.is_empty()
+        && raw.laminate.is_empty()
+        && raw.section.is_empty()
+        && raw.body.is_empty()
+        && raw.rigid.is_empty()
+        && raw.joint.is_empty()
+        && raw.analysis.is_none();
+    if empty {
+        return Err(src
+            .error(
+                None,
+                None,
+                "the deck defines nothing to check (no material, laminate, section, body, \
+                 joint or analysis): is it the right file?",
+            )
+            .into());
+    }
     let model = validate_laminates(&src, &raw)?;
     for (name, s) in &raw.section {
         sections::validate_one(&src, name, s, &model)?;

@@ -1,5 +1,5 @@
 //! `flexsens compare A.h5 B.h5`: dataset-by-dataset comparison of two result files, for
-//! golden-file checks in CI. Exit code 1 on mismatch.
+//! golden-file checks in CI. Exit code 1 on mismatch, 2 when a file cannot be read.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -19,8 +19,16 @@ pub fn run(a: &Path, b: &Path, rtol: f64, atol: f64) -> Result<(String, bool), C
             )));
         }
     }
-    let ga = Group::read_hdf5(a)?;
-    let gb = Group::read_hdf5(b)?;
+    // a file that cannot be read is bad input (exit 2), not a difference (exit 1): a CI script
+    // can tell them apart
+    let read = |p: &Path| {
+        Group::read_hdf5(p).map_err(|e| match e {
+            CliError::Runtime(m) => CliError::Usage(m),
+            other => other,
+        })
+    };
+    let ga = read(a)?;
+    let gb = read(b)?;
     let c = compare(&ga, &gb, rtol, atol);
     let mut s = String::new();
     let _ = writeln!(

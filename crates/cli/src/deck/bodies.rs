@@ -166,7 +166,9 @@ pub fn validate_one(
         )
     };
     let int = |v: &toml::Value, min: i64| -> Option<usize> {
-        v.as_integer().filter(|&n| n >= min).map(|n| n as usize)
+        v.as_integer()
+            .filter(|&n| n >= min && n <= super::check::MAX_COUNT as i64)
+            .map(|n| n as usize)
     };
     let shape = match kind.get_ref().as_str() {
         "beam" => {
@@ -228,8 +230,11 @@ pub fn validate_one(
             }
             let elements = match elements_value {
                 None => 10,
-                Some(e) => int(e.get_ref(), 1)
-                    .ok_or_else(|| elements_error("a whole number of beam elements, at least 1"))?,
+                Some(e) => int(e.get_ref(), 1).ok_or_else(|| {
+                    elements_error(
+                        "a whole number of beam elements, from 1 to the limit of 1000000",
+                    )
+                })?,
             };
             BodyShape::Beam {
                 section_name: sname.get_ref().clone(),
@@ -340,12 +345,12 @@ pub fn validate_one(
                             Some([a, b]) => [
                                 int(a, 1).ok_or_else(|| {
                                     elements_error(
-                                        "[along x, along y], whole numbers of at least 1",
+                                        "[along x, along y], whole numbers from 1 to the limit of 1000000",
                                     )
                                 })?,
                                 int(b, 1).ok_or_else(|| {
                                     elements_error(
-                                        "[along x, along y], whole numbers of at least 1",
+                                        "[along x, along y], whole numbers from 1 to the limit of 1000000",
                                     )
                                 })?,
                             ],
@@ -356,6 +361,12 @@ pub fn validate_one(
                             }
                         },
                     };
+                    super::check::mesh_size(
+                        src,
+                        &k("elements"),
+                        elements_value.map(|e| e.span()),
+                        elements[0].saturating_mul(elements[1]),
+                    )?;
                     BodyShape::ShellRectangle {
                         laminate: lname.get_ref().clone(),
                         stack,

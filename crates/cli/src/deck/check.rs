@@ -60,6 +60,13 @@ pub fn finite(src: &Source, key: &str, v: &Spanned<f64>, unit: &str) -> Result<f
 /// A count of at least `min`.
 pub fn count(src: &Source, key: &str, v: &Spanned<i64>, min: i64) -> Result<usize, DeckError> {
     let x = *v.get_ref();
+    if x > MAX_COUNT as i64 {
+        return Err(src.error(
+            span(v),
+            Some(key.to_string()),
+            format!("{x} is more than the limit of {MAX_COUNT} (the mesh would not fit in memory)"),
+        ));
+    }
     if x >= min {
         usize::try_from(x)
             .map_err(|_| src.error(span(v), Some(key.to_string()), format!("{x} is too large")))
@@ -70,6 +77,33 @@ pub fn count(src: &Source, key: &str, v: &Spanned<i64>, min: i64) -> Result<usiz
             format!("{x} must be a whole number of at least {min}"),
         ))
     }
+}
+
+/// The largest element count of one direction of a generated mesh, and of a whole mesh
+/// ([`MAX_ELEMENTS`]): larger requests are refused before anything is allocated.
+pub const MAX_COUNT: usize = 1_000_000;
+
+/// The largest number of elements (cells) of a generated mesh.
+pub const MAX_ELEMENTS: usize = 1_000_000;
+
+/// Refuse a generated mesh of `n` elements above [`MAX_ELEMENTS`], naming `key`.
+pub fn mesh_size(
+    src: &Source,
+    key: &str,
+    at: Option<std::ops::Range<usize>>,
+    n: usize,
+) -> Result<(), DeckError> {
+    if n > MAX_ELEMENTS {
+        return Err(src.error(
+            at,
+            Some(key.to_string()),
+            format!(
+                "{n} elements is more than the limit of {MAX_ELEMENTS} (the mesh would not fit \
+                 in memory)"
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// A key that does not apply in this context (e.g. `inner_radius` of a rectangle).

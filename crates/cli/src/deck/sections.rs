@@ -7,7 +7,7 @@ use laminate::OrthotropicMaterial;
 use section::{BoxWalls, ElementDirection, PlySpec, RegionSpec, SectionMesh, WallFrame};
 use toml::Spanned;
 
-use super::check::{count, finite, not_applicable, positive, required, span};
+use super::check::{count, finite, mesh_size, not_applicable, positive, required, span};
 use super::laminates::{LaminateModel, suggestion};
 use super::raw::{RawRegion, RawSection};
 use super::{DeckError, Source};
@@ -278,10 +278,14 @@ pub fn validate_one(
     let elements_pair = |default: [usize; 2]| -> Result<[usize; 2], DeckError> {
         match &raw.elements {
             None => Ok(default),
-            Some(e) if e.get_ref().len() == 2 => Ok([
-                count(src, &k("elements[0]"), &e.get_ref()[0], 1)?,
-                count(src, &k("elements[1]"), &e.get_ref()[1], 1)?,
-            ]),
+            Some(e) if e.get_ref().len() == 2 => {
+                let n = [
+                    count(src, &k("elements[0]"), &e.get_ref()[0], 1)?,
+                    count(src, &k("elements[1]"), &e.get_ref()[1], 1)?,
+                ];
+                mesh_size(src, &k("elements"), span(e), n[0].saturating_mul(n[1]))?;
+                Ok(n)
+            }
             Some(e) => Err(src.error(
                 span(e),
                 Some(k("elements")),
@@ -477,6 +481,13 @@ pub fn validate_one(
                     ));
                 }
             };
+            let through: usize = plies.iter().map(|p| p.elements).sum();
+            mesh_size(
+                src,
+                &k("elements_around"),
+                table.clone(),
+                around.saturating_mul(through),
+            )?;
             section::tube(r, &plies, around).map_err(bad)?
         }
         "box" | "channel" => {
