@@ -129,3 +129,19 @@ fn oversized_meshes_are_refused_before_allocation() {
         assert!(err.contains(key) && err.contains("limit"), "{key}: {err}");
     }
 }
+
+/// An objective taken at a time outside the simulated span is refused by `check`, with its key
+/// and line (before, `run` failed only after the whole simulation).
+#[test]
+fn an_objective_outside_the_span_is_refused() {
+    let text = std::fs::read_to_string(deck("slider_crank_beam.toml")).unwrap()
+        + "\n[objective.late]\nresponse = \"mid_deflection\"\nkind = \"at\"\ntime = 1.0\n";
+    let (_d, err) = common::bad_deck(&text, |p| common::with_deck("check", p, &[]));
+    let line = common::line_of(&text, "time = 1.0");
+    assert!(
+        err.contains("objective.late.time")
+            && err.contains("outside the simulated span")
+            && err.contains(&format!(":{line}:")),
+        "{err}"
+    );
+}

@@ -13,7 +13,8 @@
 //! Typical use: build a [`Mesh`] (generators, or [`parse_gmsh_v4`] on text) and
 //! [`Properties`] (beam sections, laminates from `laminate::PlyStack::stiffness`); run
 //! [`modal_analysis`] with [`ModalOptions`] (reference condition — clamped node or clamped
-//! cross-section line at the centre of mass, free-free, pinned ends — number of modes, Rayleigh
+//! cross-section line at the centre of mass, free-free, pinned ends, a clamped node of one's
+//! choice, or [`Support`]s alone: dof fixed at node sets — number of modes, Rayleigh
 //! damping, lumped or consistent mass, optional restriction to motion in a plane normal to a
 //! global axis); [`modal_body`] gives the `ModalBody<f64>`;
 //! [`analysis_derivatives`] evaluates the properties on `Dual<N>` numbers seeded with the design

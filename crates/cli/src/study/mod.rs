@@ -305,10 +305,30 @@ impl Study {
             policy,
             progress: None,
         };
+        study.check_objective_times(src, raw)?;
         if derivatives && study.design.enabled {
             study.check_design(src, raw)?;
         }
         Ok(study)
+    }
+
+    /// An objective taken at a time must lie in the simulated span (found before the run, not
+    /// after it).
+    fn check_objective_times(&self, src: &Source, raw: &RawDeck) -> Result<(), DeckError> {
+        let (t0, t1) = (self.times[0], self.times[self.times.len() - 1]);
+        for o in &self.design.objectives {
+            if let mbs::Objective::At(t) = o.kind
+                && !(t0..=t1).contains(&t)
+            {
+                let ro = raw.objective[&o.name].get_ref();
+                return Err(src.error(
+                    ro.time.as_ref().and_then(span),
+                    Some(format!("objective.{}.time", o.name)),
+                    format!("time = {t} s lies outside the simulated span [{t0}, {t1}] s"),
+                ));
+            }
+        }
+        Ok(())
     }
 
     /// Design variables must move some flexible body; objectives of a run with sensitivities
