@@ -27,8 +27,11 @@ use crate::modal::{ModalBody, NODE_DOFS};
 
 /// The modal geometric-stiffness matrices of a beam body for unit load parameters, all in body
 /// components (see the module doc). The geometric stiffness of the body is
-/// `K_G = Σ_i a_i acceleration[i] + Σ_i α_i angular_acceleration[i] + Σ_ij ω_i ω_j spin[3i + j]
-///  + Σ_k Σ_i F_ki nodal[3k + i]`.
+///
+/// ```text
+/// K_G = Σ_i a_i acceleration[i] + Σ_i α_i angular_acceleration[i]
+///     + Σ_ij ω_i ω_j spin[3i + j] + Σ_k Σ_i F_ki nodal[3k + i]
+/// ```
 #[derive(Clone, Debug)]
 pub struct GeometricStiffness<S: Scalar> {
     pub n_modes: usize,
