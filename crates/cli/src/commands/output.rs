@@ -1,6 +1,6 @@
 //! Printing named quantities (scalars, vectors, matrices with units) as tables, JSON or CSV.
 //!
-//! Every command reduces its results to [`Block`]s of [`Quantity`]s: the values, and one block
+//! Every command reduces its results to [`Report`]s of [`Quantity`]s: the values, and one block
 //! per design variable for derivatives. The three formats are then uniform across commands.
 
 use std::fmt::Write as _;

@@ -1,6 +1,6 @@
 //! `flexsens run`: the dynamic analysis of the deck's mechanism and, when the deck declares
 //! design variables, the direct sensitivities of every response, objectives with gradients
-//! and finite-difference comparisons ([`super::sensitivity`]); written as a result file (HDF5)
+//! and finite-difference comparisons (`commands/sensitivity.rs`); written as a result file (HDF5)
 //! and CSV tables.
 
 use std::path::{Path, PathBuf};
