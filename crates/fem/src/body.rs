@@ -430,13 +430,7 @@ pub fn reference_constraints(
             let node = mesh
                 .closest_node(&com)
                 .ok_or(FemError::Invalid("empty mesh".into()))?;
-            let (lo, hi) = mesh.nodes.iter().fold(
-                (
-                    Vector3::repeat(f64::INFINITY),
-                    Vector3::repeat(f64::NEG_INFINITY),
-                ),
-                |(lo, hi), p| (lo.inf(p), hi.sup(p)),
-            );
+            let (lo, hi) = mesh.bounding_box();
             let ext = hi - lo;
             let axis = ext.iamax();
             let length = ext[axis];

@@ -175,12 +175,28 @@ impl Mesh {
 
     /// The node closest to `p`.
     pub fn closest_node(&self, p: &Vector3<f64>) -> Option<NodeId> {
-        self.nodes
-            .iter()
-            .enumerate()
-            .min_by(|x, y| (x.1 - p).norm().total_cmp(&(y.1 - p).norm()))
-            .map(|(k, _)| k)
+        closest(&self.nodes, p)
     }
+
+    /// The lowest and highest coordinates of the nodes (infinite bounds for an empty mesh).
+    pub fn bounding_box(&self) -> (Vector3<f64>, Vector3<f64>) {
+        self.nodes.iter().fold(
+            (
+                Vector3::repeat(f64::INFINITY),
+                Vector3::repeat(f64::NEG_INFINITY),
+            ),
+            |(lo, hi), p| (lo.inf(p), hi.sup(p)),
+        )
+    }
+}
+
+/// The index of the point of `points` nearest `p`.
+pub(crate) fn closest(points: &[Vector3<f64>], p: &Vector3<f64>) -> Option<NodeId> {
+    points
+        .iter()
+        .enumerate()
+        .min_by(|x, y| (x.1 - p).norm().total_cmp(&(y.1 - p).norm()))
+        .map(|(k, _)| k)
 }
 
 /// A triangle mesh read from Gmsh: nodes, triangles with the tag of the entity (surface) each

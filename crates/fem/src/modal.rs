@@ -83,6 +83,11 @@ impl<S: Scalar> ModalBody<S> {
         self.modes.ncols()
     }
 
+    /// The node nearest the point `p` (body frame, m); `None` without nodes.
+    pub fn closest_node(&self, p: &Vector3<f64>) -> Option<usize> {
+        crate::mesh::closest(&self.node_positions, p)
+    }
+
     /// Total mass `Σ m_k` (kg), value only.
     pub fn total_mass(&self) -> f64 {
         self.node_masses.iter().map(|m| m.value()).sum()

@@ -132,15 +132,6 @@ pub(crate) fn body_stiffening<P: Scalar, S: Scalar + From<P>>(
 pub(crate) fn load_node<P: Scalar>(modal: &ModalBody<P>, site: &crate::marker::Site) -> usize {
     match site {
         crate::marker::Site::Node(k) => *k,
-        crate::marker::Site::Point(p) => {
-            let mut best = (f64::INFINITY, 0);
-            for (k, x) in modal.node_positions.iter().enumerate() {
-                let d = (x - p).norm_squared();
-                if d < best.0 {
-                    best = (d, k);
-                }
-            }
-            best.1
-        }
+        crate::marker::Site::Point(p) => modal.closest_node(p).unwrap_or(0),
     }
 }

@@ -606,13 +606,7 @@ fn support_nodes(
     let fail =
         |m: String| CliError::Input(src.error(Some(sd.span.clone()), Some(sd.key.clone()), m));
     let n = mesh.nodes.len();
-    let (lo, hi) = mesh.nodes.iter().fold(
-        (
-            nalgebra::Vector3::repeat(f64::INFINITY),
-            nalgebra::Vector3::repeat(f64::NEG_INFINITY),
-        ),
-        |(lo, hi), p| (lo.inf(p), hi.sup(p)),
-    );
+    let (lo, hi) = mesh.bounding_box();
     // coordinates within 1e-9 of the mesh's size count as on a plane or in a box
     let tol = 1e-9 * (hi - lo).norm().max(f64::MIN_POSITIVE);
     let nodes: Vec<usize> = match &sd.nodes {

@@ -52,9 +52,9 @@ pub(crate) fn flexible_model_body<S: sens::Scalar>(
     if !stiffening {
         return Ok(body);
     }
-    let p = &body.modal.node_positions;
-    let clamp = (0..p.len())
-        .min_by(|&a, &b| p[a].norm().total_cmp(&p[b].norm()))
+    let clamp = body
+        .modal
+        .closest_node(&nalgebra::Vector3::zeros())
         .unwrap_or(0);
     let g = fem::geometric_stiffness(mesh, &body.modal, clamp)?;
     Ok(body.with_geometric_stiffness(g))
