@@ -91,20 +91,6 @@ fn report(
         format!("{:>4} {:>14} {:>14}", "mode", "f/Hz", "omega/(rad/s)"),
     ];
     // retained modes by their number; static correction modes as c1, c2, …
-    let labels = a
-        .kept
-        .iter()
-        .map(|k| (k + 1).to_string())
-        .chain((1..).map(|c| format!("c{c}")));
-    for ((fi, l), label) in f.iter().zip(lam).zip(labels) {
-        preamble.push(format!(
-            "{:>4} {:>14.6} {:>14.6}",
-            label,
-            fi,
-            l.max(0.0).sqrt()
-        ));
-    }
-    // mode numbers as the table counts them
     let numbers: Vec<String> = a
         .kept
         .iter()
@@ -112,6 +98,14 @@ fn report(
         .chain((1..).map(|c| format!("c{c}")))
         .take(lam.len())
         .collect();
+    for ((fi, l), label) in f.iter().zip(lam).zip(&numbers) {
+        preamble.push(format!(
+            "{:>4} {:>14.6} {:>14.6}",
+            label,
+            fi,
+            l.max(0.0).sqrt()
+        ));
+    }
     let repeated: Vec<String> = groups
         .iter()
         .map(|g| {
