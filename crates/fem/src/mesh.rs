@@ -180,14 +180,19 @@ impl Mesh {
 
     /// The lowest and highest coordinates of the nodes (infinite bounds for an empty mesh).
     pub fn bounding_box(&self) -> (Vector3<f64>, Vector3<f64>) {
-        self.nodes.iter().fold(
-            (
-                Vector3::repeat(f64::INFINITY),
-                Vector3::repeat(f64::NEG_INFINITY),
-            ),
-            |(lo, hi), p| (lo.inf(p), hi.sup(p)),
-        )
+        bounding_box(&self.nodes)
     }
+}
+
+/// The lowest and highest coordinates of `points` (infinite bounds for none).
+pub(crate) fn bounding_box(points: &[Vector3<f64>]) -> (Vector3<f64>, Vector3<f64>) {
+    points.iter().fold(
+        (
+            Vector3::repeat(f64::INFINITY),
+            Vector3::repeat(f64::NEG_INFINITY),
+        ),
+        |(lo, hi), p| (lo.inf(p), hi.sup(p)),
+    )
 }
 
 /// The index of the point of `points` nearest `p`.

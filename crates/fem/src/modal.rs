@@ -88,6 +88,13 @@ impl<S: Scalar> ModalBody<S> {
         crate::mesh::closest(&self.node_positions, p)
     }
 
+    /// The diagonal of the box around the undeformed nodes (m; 0 without nodes).
+    pub fn size(&self) -> f64 {
+        let (lo, hi) = crate::mesh::bounding_box(&self.node_positions);
+        let d = (hi - lo).norm();
+        if d.is_finite() { d } else { 0.0 }
+    }
+
     /// Total mass `Σ m_k` (kg), value only.
     pub fn total_mass(&self) -> f64 {
         self.node_masses.iter().map(|m| m.value()).sum()
