@@ -264,7 +264,11 @@ fn direct_sensitivities_converge_and_adaptive_finite_differences_are_noisy() {
     // 1e-6 2.49e-4 (1383), 3e-7 9.1e-5, 1e-7 1.83e-5, 1e-8 7.1e-8: a plateau at ~2e-3 down
     // to rtol 1e-5, then convergence (the 3-D modes, first bending only, gave 2.65e-3,
     // 6.45e-5, 2.35e-5, 3.77e-6 at rtol 1e-4 … 1e-7). Monotone from rtol 1e-5 on; the plateau
-    // is bounded.
+    // is bounded. Measured 2026-11-24 with the stability limit of the order (issue 19):
+    // 2.40e-2 (595 steps), 2.71e-3 (802), 6.92e-4 (1143), 3.28e-6 (1411); without it 4.27e-3,
+    // 1.61e-3, 2.18e-4, 2.43e-6. The limit damps the unresolved rod modes at loose
+    // tolerances (orders ≤ 2 where 3–5 would let them grow): the state keeps its tolerance,
+    // the sensitivities, outside the error control by default, lose at rtol 1e-4.
     let mut previous = f64::INFINITY;
     for rtol in [1e-4, 1e-5, 1e-6, 1e-7] {
         let (s, steps) = at_end(rtol);
@@ -274,7 +278,8 @@ fn direct_sensitivities_converge_and_adaptive_finite_differences_are_noisy() {
             assert!(err < previous, "no convergence at rtol {rtol:e}");
         }
         if rtol > 1e-6 {
-            assert!(err < 5e-3, "rtol {rtol:e}: {err:e}");
+            let bound = if rtol > 1e-5 { 3e-2 } else { 5e-3 };
+            assert!(err < bound, "rtol {rtol:e}: {err:e}");
         }
         previous = err;
     }

@@ -15,7 +15,7 @@
 
 use std::collections::VecDeque;
 
-use nalgebra::{DMatrix, DVector, Dyn, LU};
+use nalgebra::{Complex, DMatrix, DVector, Dyn, LU};
 
 /// An ODE `y' = f(t, y)` with an exact Jacobian.
 pub trait OdeSystem {
@@ -24,6 +24,19 @@ pub trait OdeSystem {
     fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), RhsError>;
     /// `jac = ∂f/∂y (t, y)`.
     fn jacobian(&mut self, t: f64, y: &[f64], jac: &mut DMatrix<f64>) -> Result<(), RhsError>;
+    /// A state that passed the error test, before it is accepted: `Err(why)` refuses a state
+    /// that no tolerance would allow (a broken constraint, a deformation far outside the
+    /// model's range). The step is retried at order 1 with a quarter of the step; a refusal
+    /// that persists ends the integration with [`IntegrationFailure::Refused`].
+    fn check_step(&mut self, _t: f64, _y: &[f64]) -> Result<(), String> {
+        Ok(())
+    }
+    /// Times where `f` has a kink or a jump in time (the points of a forcing table, the ends
+    /// of a ramp): adaptive steps land on them instead of stepping across, so that no change
+    /// of the forcing falls between two evaluations.
+    fn breakpoints(&self) -> Vec<f64> {
+        Vec::new()
+    }
 }
 
 /// A right-hand side that could not be evaluated.
@@ -41,6 +54,12 @@ pub enum StepControl {
         initial_step: Option<f64>,
         min_step: f64,
         max_step: f64,
+        /// Keep every oscillatory eigenvalue of the Jacobian inside the stability region of
+        /// the order used (see [`stable_step`]): orders 3–5 are not A-stable, and on lightly
+        /// damped modes that the tolerance leaves unresolved they grow by up to 4 % (order 3)
+        /// to 37 % (order 5) a step until the error test notices, rejects, and the cycle
+        /// starts again. The eigenvalues are computed at every new Jacobian.
+        stability_limit: bool,
     },
     /// Constant step `step` (s) and order `order` (lower orders while the history fills,
     /// unless a history is supplied with [`Bdf::init_with_history`]). `rtol`/`atol` only
@@ -84,6 +103,7 @@ impl BdfOptions {
                 initial_step: None,
                 min_step: 1e-14,
                 max_step: f64::INFINITY,
+                stability_limit: true,
             },
             max_steps: 1_000_000,
             max_newton_iterations: 4,
@@ -140,6 +160,11 @@ pub struct Statistics {
     pub rhs_evaluations: usize,
     pub jacobians: usize,
     pub factorizations: usize,
+    /// Steps whose order was lowered to keep an oscillatory eigenvalue stable
+    /// ([`StepControl::Adaptive::stability_limit`]).
+    pub stability_limited: usize,
+    /// Steps refused by [`OdeSystem::check_step`] (and retried).
+    pub refused_steps: usize,
 }
 
 /// Why integration stopped.
@@ -161,6 +186,9 @@ pub enum IntegrationFailure {
     Rhs(#[from] RhsError),
     #[error("invalid settings: {0}")]
     Settings(&'static str),
+    /// [`OdeSystem::check_step`] refused the state again at the smallest steps tried.
+    #[error("{0}")]
+    Refused(String),
 }
 
 /// Integration failure with the time and step size where it happened.
@@ -317,6 +345,94 @@ pub fn lagrange_weights(nodes: &[f64], t: f64) -> Vec<f64> {
         .collect()
 }
 
+/// Growth per step that the stability limit tolerates: a mode may grow by at most 0.1 % a
+/// step (10 % over a hundred steps). Resolved modes stay far below it (order 3 at 20 steps a
+/// period of an undamped oscillation: 0.18 %, which the error test sees as truncation error);
+/// unresolved ones above it grow by 1–37 % a step.
+pub const STABILITY_GROWTH: f64 = 1e-3;
+
+/// Whether constant-step BDF of order `k` is stable for `z = hλ`: every root `ζ` of
+/// `Σ_j α_j ζ^{k−j} = z ζ^k` has `|ζ| ≤ 1 +` [`STABILITY_GROWTH`] (the Schur–Cohn test on
+/// the polynomial with its roots scaled by that radius). Orders 1 and 2 are A-stable; orders
+/// 3–5 are unstable on a lobe of the left half-plane along the imaginary axis, undamped
+/// oscillations with `ωh` up to 1.93 (order 3), 4.71 (4) and 9.39 (5).
+pub fn bdf_stable(k: usize, z: Complex<f64>) -> bool {
+    let nodes: Vec<f64> = (0..=k).map(|j| -(j as f64)).collect();
+    let alpha = bdf_coefficients(&nodes);
+    // a[i]: coefficient of w^i of p((1 + growth) w)
+    let radius = 1.0 + STABILITY_GROWTH;
+    let mut a: Vec<Complex<f64>> = (0..=k)
+        .map(|i| {
+            let c = if i == k {
+                Complex::new(alpha[0], 0.0) - z
+            } else {
+                Complex::new(alpha[k - i], 0.0)
+            };
+            c * radius.powi(i as i32)
+        })
+        .collect();
+    // Schur–Cohn: with |a_0| < |a_n|, p has its roots in the open unit disk iff
+    // (conj(a_n) p − a_0 p*) / w does, p* being p with reversed conjugated coefficients
+    while a.len() > 1 {
+        let n = a.len() - 1;
+        if a[n].norm() <= a[0].norm() {
+            return false;
+        }
+        a = (1..=n)
+            .map(|i| a[n].conj() * a[i] - a[0] * a[n - i].conj())
+            .collect();
+    }
+    true
+}
+
+/// The largest step `≤ h` at which constant-step BDF of order `q` is stable
+/// ([`bdf_stable`]) for every eigenvalue in `eigenvalues`: `h` itself for the A-stable orders
+/// 1 and 2. Along the ray of an eigenvalue of the left half-plane the orders 3–5 are stable
+/// from the origin up to the lobe of instability (and again beyond it), so the first crossing
+/// below `h` is found by bisection.
+pub fn stable_step(q: usize, h: f64, eigenvalues: &[Complex<f64>]) -> f64 {
+    if q <= 2 {
+        return h;
+    }
+    let mut step = h;
+    // a cut for one eigenvalue can move another (stable beyond its lobe) into its lobe
+    while let Some(&l) = eigenvalues.iter().find(|&&l| !bdf_stable(q, l * step)) {
+        {
+            let (mut lo, mut hi) = (0.0, step);
+            for _ in 0..30 {
+                let mid = 0.5 * (lo + hi);
+                if bdf_stable(q, l * mid) {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            step = lo;
+        }
+    }
+    step
+}
+
+/// The eigenvalues of `jac` that can leave the stability region of orders 3–5: those of the
+/// upper half-plane within 45° of the imaginary axis, `Im λ > |Re λ|`, with `Re λ ≤ 0`
+/// (growing physical modes grow under any method). Every BDF order up to 5 is stable within
+/// 51° of the negative real axis. Empty if the eigenvalues cannot be computed.
+fn oscillatory_eigenvalues(jac: &DMatrix<f64>) -> Vec<Complex<f64>> {
+    if jac.iter().any(|x| !x.is_finite()) {
+        return Vec::new();
+    }
+    let Some(schur) = nalgebra::Schur::try_new(jac.clone(), f64::EPSILON, 200 * jac.nrows().max(1))
+    else {
+        return Vec::new();
+    };
+    schur
+        .complex_eigenvalues()
+        .iter()
+        .filter(|l| l.re <= 0.0 && l.im > l.re.abs())
+        .copied()
+        .collect()
+}
+
 /// Derivatives at `nodes[0]` of the Lagrange basis through `nodes`.
 fn bdf_coefficients(nodes: &[f64]) -> Vec<f64> {
     let x0 = nodes[0];
@@ -380,6 +496,13 @@ pub struct Bdf {
     atol: Vec<f64>,
     /// Next step of a [`StepControl::Replay`] sequence.
     replay_pos: usize,
+    /// Oscillatory eigenvalues of the last Jacobian (stability limit).
+    oscillatory: Vec<Complex<f64>>,
+    /// The system's breakpoints (adaptive control), increasing.
+    breakpoints: Vec<f64>,
+    /// No step taken yet from an estimated first step (it is then also held to 1 % of the
+    /// span to the first stop).
+    first_step: bool,
 }
 
 impl Bdf {
@@ -404,6 +527,9 @@ impl Bdf {
             n: 0,
             atol: Vec::new(),
             replay_pos: 0,
+            oscillatory: Vec::new(),
+            breakpoints: Vec::new(),
+            first_step: false,
         }
     }
 
@@ -563,12 +689,15 @@ impl Bdf {
                 {
                     self.order = (self.hist.len() - 1).clamp(1, max_order);
                 }
+                let mut bp = sys.breakpoints();
+                bp.retain(|t| t.is_finite());
+                bp.sort_by(f64::total_cmp);
+                self.breakpoints = bp;
                 self.h = match initial_step {
                     Some(h) => h,
                     None => {
-                        let fn_ = self.wrms(&self.f0.clone(), &y0);
-                        let h = if fn_ > 0.0 { 0.01 / fn_ } else { 1e-3 };
-                        h.min(1e-2)
+                        self.first_step = true;
+                        self.estimate_first_step(sys, t0, &y0)?
                     }
                 }
                 .clamp(min_step, max_step);
@@ -578,6 +707,51 @@ impl Bdf {
             }
         }
         Ok(())
+    }
+
+    /// The first step from the problem's own time scales: the step of an explicit Euler step
+    /// whose local error `½ h² ‖ÿ‖` is 1 % of the tolerance, `ÿ` measured by a difference of
+    /// `f` over a trial step (the starting-step algorithm of Hairer, Nørsett & Wanner, Solving
+    /// ODEs I, §II.4): forcing that changes near the start shows in that difference. It is
+    /// held to one radian of the fastest oscillation of the Jacobian at the start (computed
+    /// here, and used by the first step), and the first step itself to 1 % of the span to the
+    /// first stop and to the first breakpoint.
+    fn estimate_first_step(
+        &mut self,
+        sys: &mut impl OdeSystem,
+        t0: f64,
+        y0: &[f64],
+    ) -> Result<f64, IntegrationError> {
+        let d0 = self.wrms(y0, y0);
+        let d1 = self.wrms(&self.f0, y0);
+        let h0 = if d0 < 1e-5 || d1 < 1e-5 {
+            1e-6
+        } else {
+            0.01 * d0 / d1
+        };
+        let y1: Vec<f64> = y0.iter().zip(&self.f0).map(|(y, f)| y + h0 * f).collect();
+        let mut f1 = vec![0.0; self.n];
+        sys.rhs(t0 + h0, &y1, &mut f1)
+            .map_err(|e| self.fail(e.into()))?;
+        self.stats.rhs_evaluations += 1;
+        let df: Vec<f64> = f1.iter().zip(&self.f0).map(|(a, b)| (a - b) / h0).collect();
+        let d2 = self.wrms(&df, y0);
+        let h1 = if d1.max(d2) <= 1e-15 {
+            (h0 * 1e-3).max(1e-6)
+        } else {
+            (0.01 / d1.max(d2)).sqrt()
+        };
+        let mut h = (100.0 * h0).min(h1);
+        self.refresh_jacobian(sys, t0, y0)?;
+        let fastest = self
+            .oscillatory
+            .iter()
+            .map(|l| l.norm())
+            .fold(0.0, f64::max);
+        if fastest > 0.0 {
+            h = h.min(1.0 / fastest);
+        }
+        Ok(h)
     }
 
     fn wrms(&self, e: &[f64], y: &[f64]) -> f64 {
@@ -605,6 +779,13 @@ impl Bdf {
         sys.jacobian(t, y, &mut self.jac)
             .map_err(|e| self.fail(e.into()))?;
         self.stats.jacobians += 1;
+        if let StepControl::Adaptive {
+            stability_limit: true,
+            ..
+        } = self.opts.control
+        {
+            self.oscillatory = oscillatory_eigenvalues(&self.jac);
+        }
         self.jac_age = Some(0);
         self.lu = None;
         Ok(())
@@ -672,6 +853,7 @@ impl Bdf {
         };
         let mut newton_fails = 0;
         let mut error_fails = 0;
+        let mut refusals = 0;
         loop {
             if self.stats.steps + self.stats.rejected_steps + self.stats.newton_failures
                 >= self.opts.max_steps
@@ -681,6 +863,18 @@ impl Bdf {
                 }));
             }
             let (tn, _) = self.current();
+            // adaptive steps stop at the next breakpoint
+            let t_stop = match self
+                .breakpoints
+                .iter()
+                .find(|&&b| b > tn + 1e-12 * tn.abs())
+            {
+                Some(&b) if !fixed && b < t_stop => b,
+                _ => t_stop,
+            };
+            if self.first_step {
+                self.h = self.h.min(0.01 * (t_stop - tn));
+            }
             let mut h = self.h;
             let remaining = t_stop - tn;
             if remaining <= 0.0 {
@@ -867,12 +1061,29 @@ impl Bdf {
                 }
                 continue;
             }
+            if let Err(why) = sys.check_step(t_new, &y_new) {
+                self.stats.refused_steps += 1;
+                refusals += 1;
+                let h_next = h * 0.25;
+                if fixed || refusals >= 4 || h_next < min_step {
+                    return Err(IntegrationError {
+                        t: t_new,
+                        h,
+                        reason: IntegrationFailure::Refused(why),
+                    });
+                }
+                self.h = h_next;
+                self.order = 1;
+                self.steps_at_order = 0;
+                continue;
+            }
             // accept
             if !ext.controls_error() {
                 let info = self.trial_info(k, &nodes, &coeffs, &y_new);
                 ext.trial(sys, &info).map_err(|r| self.fail(r))?;
             }
             ext.accept();
+            self.first_step = false;
             self.stats.steps += 1;
             if let Some(a) = self.jac_age.as_mut() {
                 *a += 1;
@@ -913,49 +1124,63 @@ impl Bdf {
                     (e.powf(-1.0 / (q as f64 + 1.0))) / s
                 }
             };
-            let mut best_order = k;
-            let mut best = safety(err, k, 1.4);
+            let limit = |f: f64| {
+                let mut f = f.min(if self.stats.steps < 5 { 10.0 } else { 5.0 });
+                if (1.0..1.5).contains(&f) || (error_fails > 0 && f > 1.0) {
+                    // no growth right after a rejection; small growth is not worth a new matrix
+                    f = 1.0;
+                }
+                f.max(0.2)
+            };
+            // candidate orders with the steps their error estimates allow
+            let mut candidates = vec![(k, safety(err, k, 1.4))];
             if self.steps_at_order > k {
                 // the estimates need the previous state set; recompute on the shifted history
                 let (t_acc, y_acc) = self.hist.pop_front().unwrap();
-                let y_hold = y_acc.clone();
-                let lower = if k > 1 {
-                    est_shift(self, t_acc, &y_hold, k - 1)
-                } else {
-                    None
-                };
-                let higher = if k < max_order {
-                    est_shift(self, t_acc, &y_hold, k + 1)
-                } else {
-                    None
-                };
-                self.hist.push_front((t_acc, y_acc));
-                if let Some(e) = lower {
-                    let f = safety(e, k - 1, 1.5);
-                    if f > best {
-                        best = f;
-                        best_order = k - 1;
-                    }
+                if k > 1
+                    && let Some(e) = est_shift(self, t_acc, &y_acc, k - 1)
+                {
+                    candidates.push((k - 1, safety(e, k - 1, 1.5)));
                 }
-                if let Some(e) = higher {
-                    let f = safety(e, k + 1, 1.7);
-                    if f > best {
-                        best = f;
-                        best_order = k + 1;
+                if k < max_order
+                    && let Some(e) = est_shift(self, t_acc, &y_acc, k + 1)
+                {
+                    candidates.push((k + 1, safety(e, k + 1, 1.7)));
+                }
+                self.hist.push_front((t_acc, y_acc));
+            }
+            let by_error = |&(q, f): &(usize, f64)| (q, (h * limit(f)).clamp(min_step, max_step));
+            let longest = |a: (usize, f64), b: (usize, f64)| if b.1 > a.1 { b } else { a };
+            let unlimited = candidates.iter().map(by_error).fold((k, 0.0), longest);
+            let mut next = unlimited;
+            if !self.oscillatory.is_empty() {
+                // every oscillatory eigenvalue must stay in the stability region of the order
+                // used: each candidate's step is cut to where its order holds them all, and the
+                // orders below, down to the A-stable order 2, join when that cut something
+                let within = |(q, hq): (usize, f64)| (q, stable_step(q, hq, &self.oscillatory));
+                next = candidates
+                    .iter()
+                    .map(by_error)
+                    .map(within)
+                    .fold((k, 0.0), longest);
+                if next.1 < unlimited.1 && k > 2 {
+                    let (t_acc, y_acc) = self.hist.pop_front().unwrap();
+                    for q in 2..k.saturating_sub(1) {
+                        if let Some(e) = est_shift(self, t_acc, &y_acc, q) {
+                            next = longest(next, within(by_error(&(q, safety(e, q, 1.5)))));
+                        }
                     }
+                    self.hist.push_front((t_acc, y_acc));
+                }
+                if next != unlimited {
+                    self.stats.stability_limited += 1;
                 }
             }
-            if best_order != k {
-                self.order = best_order;
+            if next.0 != k {
+                self.order = next.0;
                 self.steps_at_order = 0;
             }
-            let mut factor = best.min(if self.stats.steps < 5 { 10.0 } else { 5.0 });
-            if (1.0..1.5).contains(&factor) || (error_fails > 0 && factor > 1.0) {
-                // no growth right after a rejection; small growth is not worth a new matrix
-                factor = 1.0;
-            }
-            factor = factor.max(0.2);
-            self.h = (h * factor).clamp(min_step, max_step);
+            self.h = next.1.clamp(min_step, max_step);
             return Ok(());
         }
 

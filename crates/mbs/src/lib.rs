@@ -94,8 +94,8 @@ mod system;
 
 pub use bdf::{
     AcceptedStep, Bdf, BdfOptions, IntegrationError, IntegrationFailure, NoExtension, OdeSystem,
-    RhsError, Statistics, StepControl, StepExtension, TrialStep, error_estimate_weights,
-    lagrange_weights,
+    RhsError, STABILITY_GROWTH, Statistics, StepControl, StepExtension, TrialStep, bdf_stable,
+    error_estimate_weights, lagrange_weights, stable_step,
 };
 pub use body::{Body, BodyId, FlexibleBody, RigidBody};
 pub use error::{ConstraintError, ModelError};
@@ -114,5 +114,5 @@ pub use sensitivity::{
 };
 pub use system::{
     JointReaction, MultibodySystem, Output, Progress, RedundancyPolicy, Simulation,
-    SimulationError, Solution, simulate,
+    SimulationError, Solution, StepGuard, simulate,
 };
