@@ -76,6 +76,21 @@ pub enum Force {
 }
 
 impl Force {
+    /// Times where the force's history has a kink (a table's points).
+    pub fn breakpoints(&self) -> &[f64] {
+        match self {
+            Force::PointForce {
+                load: Load::Table { times, .. },
+                ..
+            }
+            | Force::PointTorque {
+                load: Load::Table { times, .. },
+                ..
+            } => times,
+            _ => &[],
+        }
+    }
+
     pub(crate) fn markers(&self) -> Vec<&Marker> {
         match self {
             Force::PointForce { marker, .. } | Force::PointTorque { marker, .. } => vec![marker],

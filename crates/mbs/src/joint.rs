@@ -40,6 +40,16 @@ pub enum TimeFunction {
 }
 
 impl TimeFunction {
+    /// Times where the motion changes its law (the ends of a ramp or a spin-up): the
+    /// integrator lands on them rather than stepping across.
+    pub fn breakpoints(&self) -> Vec<f64> {
+        match self {
+            TimeFunction::SmoothRamp { t0, t1, .. } => vec![*t0, *t1],
+            TimeFunction::SpinUp { duration, .. } => vec![0.0, *duration],
+            TimeFunction::ConstantSpeed { .. } | TimeFunction::Polynomial(_) => Vec::new(),
+        }
+    }
+
     /// `[f, ḟ, f̈]` at `t`.
     pub fn eval(&self, t: f64) -> [f64; 3] {
         match self {

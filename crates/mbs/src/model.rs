@@ -297,6 +297,24 @@ impl<P: Scalar> Model<P> {
         Ok(ForceId(self.forces.len() - 1))
     }
 
+    /// Times where a force table or a driver's motion has a kink, sorted and unique: the
+    /// integrator lands on them ([`crate::OdeSystem::breakpoints`]).
+    pub fn breakpoints(&self) -> Vec<f64> {
+        let mut t: Vec<f64> = self
+            .forces
+            .iter()
+            .flat_map(|f| f.breakpoints().iter().copied())
+            .chain(self.joints.iter().flat_map(|j| match &j.kind {
+                JointKind::AngleDriver(f) | JointKind::DistanceDriver(f) => f.breakpoints(),
+                _ => Vec::new(),
+            }))
+            .filter(|x| x.is_finite())
+            .collect();
+        t.sort_by(f64::total_cmp);
+        t.dedup();
+        t
+    }
+
     pub fn n_bodies(&self) -> usize {
         self.bodies.len()
     }
