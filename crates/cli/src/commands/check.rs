@@ -10,8 +10,6 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use mbs::MultibodySystem;
-
 use crate::deck::laminates::validate as validate_laminates;
 use crate::deck::{self, bodies, sections};
 use crate::error::CliError;
@@ -82,8 +80,7 @@ pub fn run(path: &Path, overrides: &[String]) -> Result<String, CliError> {
         let mech = crate::study::Study::validate(&src, &raw, true)?;
         let t0 = mech.times[0];
         let fail = |m: String| CliError::Runtime(format!("{}: {m}", src.file.display()));
-        let mut system = MultibodySystem::new_at(mech.model.clone(), t0, &mech.state, mech.policy)
-            .map_err(|e| fail(e.to_string()))?;
+        let mut system = mech.system().map_err(|e| fail(e.to_string()))?;
         let mut state = mech.state.clone();
         system.assemble(t0, &mut state, 1e-10).map_err(|e| {
             fail(format!(

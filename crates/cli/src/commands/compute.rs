@@ -2,7 +2,7 @@
 //! analysis, its direct sensitivities, the objectives and the finite-difference comparisons,
 //! from a validated [`Study`].
 
-use mbs::{MultibodySystem, Output};
+use mbs::Output;
 
 use super::sensitivity::{self, FdCase, ObjectiveResult, Sensitivities};
 use crate::deck;
@@ -27,9 +27,7 @@ pub(crate) fn compute(
     mech: &Study,
 ) -> Result<Computed, CliError> {
     let runtime = |m: String| CliError::Runtime(format!("{}: {m}", src.file.display()));
-    let mut system =
-        MultibodySystem::new_at(mech.model.clone(), mech.times[0], &mech.state, mech.policy)
-            .map_err(|e| runtime(e.to_string()))?;
+    let mut system = mech.system().map_err(|e| runtime(e.to_string()))?;
     let mut state = mech.state.clone();
     system
         .assemble(mech.times[0], &mut state, 1e-10)

@@ -472,8 +472,19 @@ pub(crate) fn summary_text(
     );
     let _ = writeln!(
         s,
-        "integrator: {} steps ({} rejected), {} right-hand sides, {} Jacobians",
-        st.steps, st.rejected_steps, st.rhs_evaluations, st.jacobians
+        "integrator: {} steps ({} rejected), {} right-hand sides, {} Jacobians{}",
+        st.steps,
+        st.rejected_steps,
+        st.rhs_evaluations,
+        st.jacobians,
+        if st.stability_limited > 0 {
+            format!(
+                "; order lowered for stability {} times",
+                st.stability_limited
+            )
+        } else {
+            String::new()
+        }
     );
     let _ = writeln!(
         s,

@@ -16,6 +16,8 @@ pub struct AnalysisDef {
     pub options: BdfOptions,
     pub baumgarte: Baumgarte,
     pub policy: RedundancyPolicy,
+    /// `analysis.max_violation` (m), when given.
+    pub max_violation: Option<f64>,
 }
 
 /// Validate `[analysis]`.
@@ -103,13 +105,58 @@ pub fn validate(src: &Source, raw: &RawDeck) -> Result<AnalysisDef, DeckError> {
                     "step is for integrator = \"fixed\"",
                 ));
             }
+            let max_step_v = raw
+                .max_step
+                .as_ref()
+                .map(|h| positive(src, &k("max_step"), h, "s"))
+                .transpose()?;
+            let initial = raw
+                .initial_step
+                .as_ref()
+                .map(|h| positive(src, &k("initial_step"), h, "s"))
+                .transpose()?;
+            if let (Some(h0), Some(hm), Some(v)) = (initial, max_step_v, &raw.initial_step)
+                && h0 > hm
+            {
+                return Err(src.error(
+                    span(v),
+                    Some(k("initial_step")),
+                    format!("initial_step = {h0} s is larger than max_step = {hm} s"),
+                ));
+            }
             let mut o = BdfOptions::adaptive(rtol, atol);
-            if let StepControl::Adaptive { max_order, .. } = &mut o.control {
+            if let StepControl::Adaptive {
+                max_order,
+                max_step,
+                initial_step,
+                stability_limit,
+                ..
+            } = &mut o.control
+            {
                 *max_order = order.unwrap_or(5);
+                *max_step = max_step_v.unwrap_or(f64::INFINITY);
+                *initial_step = initial;
+                *stability_limit = raw.stability_limit.as_ref().is_none_or(|b| *b.get_ref());
             }
             o
         }
         Some((_, "fixed")) => {
+            for (key, v) in [
+                ("max_step", raw.max_step.as_ref().map(|v| v.span())),
+                ("initial_step", raw.initial_step.as_ref().map(|v| v.span())),
+                (
+                    "stability_limit",
+                    raw.stability_limit.as_ref().map(|v| v.span()),
+                ),
+            ] {
+                if let Some(sp) = v {
+                    return Err(src.error(
+                        Some(sp),
+                        Some(k(key)),
+                        format!("{key} is for integrator = \"adaptive\""),
+                    ));
+                }
+            }
             let h = positive(
                 src,
                 &k("step"),
@@ -191,10 +238,16 @@ pub fn validate(src: &Source, raw: &RawDeck) -> Result<AnalysisDef, DeckError> {
             ));
         }
     };
+    let max_violation = raw
+        .max_violation
+        .as_ref()
+        .map(|v| positive(src, &k("max_violation"), v, "m"))
+        .transpose()?;
     Ok(AnalysisDef {
         times,
         options,
         baumgarte,
         policy,
+        max_violation,
     })
 }

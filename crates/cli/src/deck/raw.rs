@@ -507,8 +507,18 @@ pub struct RawAnalysis {
     pub step: Option<Spanned<f64>>,
     /// Baumgarte stabilisation `{ alpha, beta }` (1/s, default 1 and 1), or `false`.
     pub baumgarte: Option<Spanned<toml::Value>>,
-    /// Redundant constraint equations: `"remove"` (default) or `"error"`.
+    /// Redundant constraint equations: `"remove"` (default), `"reselect"` or `"error"`.
     pub redundant: Option<Spanned<String>>,
+    /// Adaptive: the largest step (s, default unlimited).
+    pub max_step: Option<Spanned<f64>>,
+    /// Adaptive: the first step (s, default estimated).
+    pub initial_step: Option<Spanned<f64>>,
+    /// Adaptive: hold every oscillatory eigenvalue inside the stability region of the order
+    /// used (default true).
+    pub stability_limit: Option<Spanned<bool>>,
+    /// The largest position-constraint violation a step may reach (m, default 5 % of the
+    /// mechanism's size).
+    pub max_violation: Option<Spanned<f64>>,
 }
 
 #[cfg(test)]

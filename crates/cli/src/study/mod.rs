@@ -11,8 +11,8 @@ use std::collections::BTreeMap;
 use std::ops::Range;
 
 use mbs::{
-    BdfOptions, Body, BodyId, FlexibleBody, JointId, Model, Output, RedundancyPolicy, RigidBody,
-    State,
+    BdfOptions, Body, BodyId, FlexibleBody, JointId, Model, MultibodySystem, Output,
+    RedundancyPolicy, RigidBody, State,
 };
 use nalgebra::{Matrix3, Vector3};
 
@@ -78,6 +78,8 @@ pub(crate) struct Study {
     pub(crate) times: Vec<f64>,
     pub(crate) options: BdfOptions,
     pub(crate) policy: RedundancyPolicy,
+    /// `analysis.max_violation` (m): the step guard's limit, when the deck sets it.
+    pub(crate) max_violation: Option<f64>,
     /// The progress bar, when one is wanted.
     pub(crate) progress: Option<RunProgress>,
 }
@@ -162,6 +164,18 @@ pub(crate) fn set_rigid<P: sens::Scalar>(
 const CLUSTER_TOL: f64 = 1e-6;
 
 impl Study {
+    /// The `f64` system of the nominal model at the start time, with the deck's step guard.
+    pub(crate) fn system(&self) -> Result<MultibodySystem, mbs::ConstraintError> {
+        let mut system =
+            MultibodySystem::new_at(self.model.clone(), self.times[0], &self.state, self.policy)?;
+        if let Some(v) = self.max_violation {
+            let mut guard = system.guard();
+            guard.max_violation = v;
+            system.set_guard(guard);
+        }
+        Ok(system)
+    }
+
     /// Validate the deck and build its nominal mechanism; with `derivatives`, each flexible
     /// body also gets its derivatives with respect to the deck's design variables ready
     /// (section derivatives).
@@ -249,6 +263,7 @@ impl Study {
             options,
             baumgarte,
             policy,
+            max_violation,
         } = analysis::validate(src, raw)?;
         model.baumgarte = baumgarte;
         let mut joint_names = Vec::new();
@@ -303,6 +318,7 @@ impl Study {
             times,
             options,
             policy,
+            max_violation,
             progress: None,
         };
         study.check_objective_times(src, raw)?;
