@@ -693,17 +693,19 @@ impl Bdf {
                 bp.retain(|t| t.is_finite());
                 bp.sort_by(f64::total_cmp);
                 self.breakpoints = bp;
-                self.h = match initial_step {
-                    Some(h) => h,
-                    None => {
-                        self.first_step = true;
-                        self.estimate_first_step(sys, t0, &y0)?
+                self.h = if self.hist.len() > 1 {
+                    // a supplied history sets the step
+                    self.hist[0].0 - self.hist[1].0
+                } else {
+                    match initial_step {
+                        Some(h) => h,
+                        None => {
+                            self.first_step = true;
+                            self.estimate_first_step(sys, t0, &y0)?
+                        }
                     }
-                }
-                .clamp(min_step, max_step);
-                if self.hist.len() > 1 {
-                    self.h = self.hist[0].0 - self.hist[1].0;
-                }
+                    .clamp(min_step, max_step)
+                };
             }
         }
         Ok(())
