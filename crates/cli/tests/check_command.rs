@@ -145,3 +145,35 @@ fn an_objective_outside_the_span_is_refused() {
         "{err}"
     );
 }
+
+/// The library's own checks reach the deck with the table's line: a joint from the ground to
+/// the ground, and an inertia no mass distribution has (3 > 1 + 1).
+#[test]
+fn ground_to_ground_joints_and_impossible_inertias_are_refused_at_their_table() {
+    let base = std::fs::read_to_string(common::deck("slider_crank_rigid.toml")).unwrap();
+    let cases = [
+        (
+            base.replace(
+                "b = { body = \"crank\", point = [0.0, 0.0, 0.0], axis = [0.0, 0.0, 1.0] }",
+                "b = { body = \"ground\", point = [0.0, 0.0, 0.0], axis = [0.0, 0.0, 1.0] }",
+            ),
+            "joint.crank_pivot",
+            "two different bodies",
+        ),
+        (
+            base.replace(
+                "inertia = [1.0e-7, 7.32e-5, 7.32e-5]",
+                "inertia = [1.0, 1.0, 3.0]",
+            ),
+            "rigid.crank",
+            "principal moments",
+        ),
+    ];
+    for (text, key, what) in cases {
+        assert_ne!(text, base);
+        let (_d, err) = common::bad_deck(&text, |p| common::with_deck("check", p, &[]));
+        assert!(err.contains(key) && err.contains(what), "{err}");
+        let line = common::line_of(&text, &format!("[{key}]"));
+        assert!(err.contains(&format!(":{line}:")), "{err}");
+    }
+}

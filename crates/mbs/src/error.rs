@@ -54,8 +54,9 @@ pub enum ConstraintError {
     SingularStart { t: f64 },
     #[error("the augmented matrix of Eq. (12) is singular at t = {t} s")]
     Singular { t: f64 },
-    #[error("non-finite accelerations at t = {t} s")]
-    NonFinite { t: f64 },
+    /// `cause`: what was found wrong, when something was (starts with "; ").
+    #[error("non-finite accelerations at t = {t} s{cause}")]
+    NonFinite { t: f64, cause: String },
 }
 
 fn describe(eqs: &[(String, usize)]) -> String {

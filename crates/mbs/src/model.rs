@@ -167,11 +167,24 @@ impl<P: Scalar> Model<P> {
     }
 
     pub fn add_rigid_body(&mut self, body: RigidBody<P>) -> Result<BodyId, ModelError> {
-        if !(body.mass.value() > 0.0) {
-            return Err(ModelError::BadBody {
-                name: body.name,
-                reason: "mass must be positive",
-            });
+        let bad = |name: String, reason| Err(ModelError::BadBody { name, reason });
+        if !(body.mass.value() > 0.0 && body.mass.value().is_finite()) {
+            return bad(body.name, "mass must be positive and finite");
+        }
+        let j = body.inertia.map(|x| x.value());
+        if !j.iter().all(|x| x.is_finite()) || (j - j.transpose()).amax() > 1e-12 * j.amax() {
+            return bad(body.name, "the inertia tensor must be finite and symmetric");
+        }
+        // principal moments positive, each at most the sum of the other two (a real mass
+        // distribution; equality for a flat body)
+        let p = j.symmetric_eigenvalues();
+        let sum = p.sum();
+        if !(p.min() > 0.0) || p.iter().any(|&x| x > 0.5 * sum * (1.0 + 1e-9)) {
+            return bad(
+                body.name,
+                "the principal moments of inertia must be positive and each at most the sum of \
+                 the other two",
+            );
         }
         Ok(self.push_body(Body::Rigid(body)))
     }
@@ -251,10 +264,10 @@ impl<P: Scalar> Model<P> {
                 reason: "a smooth ramp needs t1 > t0",
             });
         }
-        if joint.a.body.is_some() && joint.a.body == joint.b.body {
+        if joint.a.body == joint.b.body {
             return Err(ModelError::BadMarker {
                 owner: joint.name,
-                reason: "a joint must connect two different bodies",
+                reason: "a joint must connect two different bodies (or a body and the ground)",
             });
         }
         let n = joint.kind.n_equations();
@@ -291,6 +304,21 @@ impl<P: Scalar> Model<P> {
             return Err(ModelError::BadMarker {
                 owner: "force".into(),
                 reason: "load table needs strictly increasing times, one value per time",
+            });
+        }
+        if let Force::SpringDamper {
+            stiffness,
+            damping,
+            free_length,
+            ..
+        } = &force
+            && ![*stiffness, *damping, *free_length]
+                .iter()
+                .all(|x| x.is_finite() && *x >= 0.0)
+        {
+            return Err(ModelError::BadMarker {
+                owner: "spring-damper".into(),
+                reason: "stiffness, damping and free length must be finite and non-negative",
             });
         }
         self.forces.push(force);
@@ -919,6 +947,22 @@ impl Model<f64> {
             elastic,
             spring,
         }
+    }
+
+    /// The spring–dampers (indices among the forces, in the order added) whose two points
+    /// coincide at `q`: their line of action is undefined there.
+    pub fn zero_length_springs(&self, q: &[f64]) -> Vec<usize> {
+        self.forces
+            .iter()
+            .enumerate()
+            .filter_map(|(i, f)| match f {
+                Force::SpringDamper { a, b, .. } => {
+                    let d = self.marker_position(b, q) - self.marker_position(a, q);
+                    (d.norm() == 0.0).then_some(i)
+                }
+                _ => None,
+            })
+            .collect()
     }
 
     /// Global position of a marker point (m).

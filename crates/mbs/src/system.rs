@@ -384,7 +384,33 @@ impl MultibodySystem {
         let k = self.model.constraint_kin(t, q, v);
         let rows = self.select_rows(&k);
         let e = self.model.equations_with(t, q, v, &k, &rows);
-        self.factor_and_solve(t, e, rows)
+        self.factor_and_solve(t, e, rows).map_err(|e| match e {
+            ConstraintError::NonFinite { t, .. } => ConstraintError::NonFinite {
+                t,
+                cause: self.non_finite_cause(q, v),
+            },
+            e => e,
+        })
+    }
+
+    /// Why accelerations came out non-finite, as far as can be told: a non-finite state, or a
+    /// spring–damper of zero length.
+    fn non_finite_cause(&self, q: &[f64], v: &[f64]) -> String {
+        if !q.iter().chain(v).all(|x| x.is_finite()) {
+            return "; the state itself is not finite".into();
+        }
+        match self.model.zero_length_springs(q).as_slice() {
+            [] => String::new(),
+            s => format!(
+                "; spring-damper {} (force {} in the order added) has zero length, so its line of \
+                 action is undefined",
+                if s.len() > 1 { "forces" } else { "force" },
+                s.iter()
+                    .map(|i| i.to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        }
     }
 
     fn factor_and_solve(
@@ -399,7 +425,10 @@ impl MultibodySystem {
             return Err(ConstraintError::Singular { t });
         }
         if x.iter().any(|a| !a.is_finite()) {
-            return Err(ConstraintError::NonFinite { t });
+            return Err(ConstraintError::NonFinite {
+                t,
+                cause: String::new(),
+            });
         }
         Ok(Solution {
             x: x.as_slice().to_vec(),

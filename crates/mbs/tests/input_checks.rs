@@ -105,3 +105,72 @@ fn markers_with_nan_points_or_degenerate_axes_are_refused() {
     ));
     assert!(e.is_err());
 }
+
+#[test]
+fn a_joint_between_ground_and_ground_is_refused() {
+    let (mut m, _) = pendulum();
+    let e = m
+        .add_joint(Joint::new(
+            "nothing",
+            JointKind::Spherical,
+            Marker::ground(Vector3::zeros()),
+            Marker::ground(Vector3::x()),
+        ))
+        .unwrap_err();
+    assert!(e.to_string().contains("nothing") && e.to_string().contains("two different"));
+}
+
+#[test]
+fn impossible_rigid_inertias_are_refused() {
+    let diag = |a: f64, b: f64, c: f64| Matrix3::from_diagonal(&Vector3::new(a, b, c));
+    let mut skew = diag(1.0, 1.0, 1.0);
+    skew[(0, 1)] = 0.5;
+    for (inertia, mass) in [
+        (diag(1.0, 1.0, 0.0), 1.0),  // a zero principal moment
+        (diag(1.0, -1.0, 1.0), 1.0), // a negative one
+        (diag(1.0, 1.0, 3.0), 1.0),  // 3 > 1 + 1: no mass distribution has it
+        (diag(1.0, 1.0, f64::NAN), 1.0),
+        (skew, 1.0), // not symmetric
+        (diag(1.0, 1.0, 1.0), f64::INFINITY),
+    ] {
+        let mut m = Model::<f64>::new();
+        let e = m.add_rigid_body(RigidBody::new("lump", mass, inertia));
+        assert!(e.is_err(), "{inertia} {mass}");
+        assert!(e.unwrap_err().to_string().contains("lump"));
+    }
+    // a flat plate (equality) and a slender rod are fine
+    let mut m = Model::<f64>::new();
+    m.add_rigid_body(RigidBody::new("plate", 1.0, diag(1.0, 1.0, 2.0)))
+        .unwrap();
+    m.add_rigid_body(RigidBody::new("rod", 1.0, diag(1e-8, 1.0, 1.0)))
+        .unwrap();
+}
+
+#[test]
+fn bad_spring_parameters_are_refused_and_a_zero_length_spring_is_named() {
+    let (mut m, s) = pendulum();
+    let bob = m.body_ids().next().unwrap();
+    let spring = |k: f64, c: f64, l0: f64| mbs::Force::SpringDamper {
+        a: Marker::ground(Vector3::new(0.0, -0.5, 0.0)),
+        b: Marker::on(bob, Vector3::zeros()),
+        stiffness: k,
+        damping: c,
+        free_length: l0,
+    };
+    for (k, c, l0) in [(-1.0, 0.0, 0.0), (1.0, f64::NAN, 0.0), (1.0, 0.0, -0.1)] {
+        assert!(
+            m.clone().add_force(spring(k, c, l0)).is_err(),
+            "{k} {c} {l0}"
+        );
+    }
+    // the spring's two points coincide at the start: its direction is undefined
+    m.add_force(spring(100.0, 0.0, 0.1)).unwrap();
+    assert_eq!(m.zero_length_springs(&s.q), vec![0]);
+    let sys = MultibodySystem::new(m, &s, RedundancyPolicy::Remove).unwrap();
+    let e = sys.solve(0.0, &s.q, &s.v).err().expect("non-finite");
+    let msg = e.to_string();
+    assert!(
+        msg.contains("zero length") && msg.contains("force 0"),
+        "{msg}"
+    );
+}
