@@ -54,7 +54,7 @@ pub use body::{
 };
 pub use eigen::{EigenMethod, EigenOptions, Eigenpairs, lowest_modes};
 pub use geometric::{GeometricStiffness, geometric_stiffness};
-pub use mesh::{Element, GmshTriangles, Mesh, MeshError, NodeId, parse_gmsh_v4};
+pub use mesh::{Element, GmshTriangles, Mesh, MeshError, NodeId, bounding_box, parse_gmsh_v4};
 pub use modal::{ModalBody, ModalBodyError, NODE_DOFS};
 pub use sensitivity::{
     DesignMatrices, ModeDerivatives, cluster_second_derivatives,

@@ -185,7 +185,7 @@ impl Mesh {
 }
 
 /// The lowest and highest coordinates of `points` (infinite bounds for none).
-pub(crate) fn bounding_box(points: &[Vector3<f64>]) -> (Vector3<f64>, Vector3<f64>) {
+pub fn bounding_box(points: &[Vector3<f64>]) -> (Vector3<f64>, Vector3<f64>) {
     points.iter().fold(
         (
             Vector3::repeat(f64::INFINITY),

@@ -355,10 +355,20 @@ pub const STABILITY_GROWTH: f64 = 1e-3;
 /// `Σ_j α_j ζ^{k−j} = z ζ^k` has `|ζ| ≤ 1 +` [`STABILITY_GROWTH`] (the Schur–Cohn test on
 /// the polynomial with its roots scaled by that radius). Orders 1 and 2 are A-stable; orders
 /// 3–5 are unstable on a lobe of the left half-plane along the imaginary axis, undamped
-/// oscillations with `ωh` up to 1.93 (order 3), 4.71 (4) and 9.39 (5).
+/// oscillations with `ωh` up to 1.93 (order 3), 4.71 (4) and 9.39 (5). `false` for an order
+/// outside 1–5.
 pub fn bdf_stable(k: usize, z: Complex<f64>) -> bool {
-    let nodes: Vec<f64> = (0..=k).map(|j| -(j as f64)).collect();
-    let alpha = bdf_coefficients(&nodes);
+    if !(1..=5).contains(&k) {
+        // the integrator's orders are 1 to 5
+        return false;
+    }
+    // the constant-step coefficients of orders 0..=5, made once
+    static ALPHA: std::sync::OnceLock<Vec<Vec<f64>>> = std::sync::OnceLock::new();
+    let alpha = &ALPHA.get_or_init(|| {
+        (0..=5)
+            .map(|k| bdf_coefficients(&(0..=k).map(|j| -(j as f64)).collect::<Vec<_>>()))
+            .collect()
+    })[k];
     // a[i]: coefficient of w^i of p((1 + growth) w)
     let radius = 1.0 + STABILITY_GROWTH;
     let mut a: Vec<Complex<f64>> = (0..=k)
@@ -866,11 +876,11 @@ impl Bdf {
             }
             let (tn, _) = self.current();
             // adaptive steps stop at the next breakpoint
-            let t_stop = match self
+            let next = self.breakpoints[self
                 .breakpoints
-                .iter()
-                .find(|&&b| b > tn + 1e-12 * tn.abs())
-            {
+                .partition_point(|&b| b <= tn + 1e-12 * tn.abs())..]
+                .first();
+            let t_stop = match next {
                 Some(&b) if !fixed && b < t_stop => b,
                 _ => t_stop,
             };

@@ -98,8 +98,6 @@ pub struct MultibodySystem {
     /// What the last [`MultibodySystem::assemble`] started from.
     start: Option<StartGuess>,
     guard: StepGuard,
-    /// Size of each flexible body (the diagonal of its nodes' box), by body index.
-    body_sizes: Vec<f64>,
 }
 
 /// Limits of the check of every integration step ([`OdeSystem::check_step`]): states that no
@@ -177,7 +175,6 @@ impl MultibodySystem {
             });
         }
         let guard = StepGuard::for_size(mechanism_size(&model, &state.q));
-        let body_sizes = body_sizes(&model);
         Ok(Self {
             model,
             rows,
@@ -186,7 +183,6 @@ impl MultibodySystem {
             progress: None,
             start: None,
             guard,
-            body_sizes,
         })
     }
 
@@ -221,7 +217,6 @@ impl MultibodySystem {
             progress: self.progress.clone(),
             start: self.start.clone(),
             guard: self.guard,
-            body_sizes: self.body_sizes.clone(),
         }
     }
 
@@ -238,22 +233,20 @@ impl MultibodySystem {
 
     /// `Err(why)` if the state breaks a limit of the [`StepGuard`].
     pub fn check_state(&self, t: f64, q: &[f64], v: &[f64]) -> Result<(), String> {
-        let c = self.model.constraints(t, q, v);
+        let k = self.model.constraint_kin(t, q, v);
         let all: Vec<usize>;
         let rows = match self.policy {
             RedundancyPolicy::Reselect => {
-                all = (0..c.phi.len()).collect();
+                all = (0..k.len()).collect();
                 &all
             }
             _ => &self.rows,
         };
-        let worst =
-            rows.iter()
-                .map(|&r| (r, c.phi[r].abs()))
-                .fold(None, |m: Option<(usize, f64)>, x| match m {
-                    Some(m) if !(x.1 > m.1) && !x.1.is_nan() => Some(m),
-                    _ => Some(x),
-                });
+        // `total_cmp` puts a NaN violation above every number
+        let worst = rows
+            .iter()
+            .map(|&r| (r, k[r].val.abs()))
+            .max_by(|a, b| a.1.total_cmp(&b.1));
         if let Some((r, phi)) = worst
             && !(phi <= self.guard.max_violation)
         {
@@ -272,21 +265,18 @@ impl MultibodySystem {
             let Body::Flexible(b) = self.model.body(id) else {
                 continue;
             };
-            let size = self.body_sizes[id.0];
+            let size = b.modal.size();
             if size <= 0.0 {
                 // a one-node body has no size to measure its deformation against
                 continue;
             }
-            let nm = b.modal.n_modes();
-            let w = &q[self.model.q_range(id).start + 7..][..nm];
-            let largest = (0..b.modal.n_nodes())
-                .map(|k| {
-                    let u: [f64; 3] = std::array::from_fn(|i| {
-                        (0..nm).map(|j| b.modal.modes[(6 * k + i, j)] * w[j]).sum()
-                    });
-                    (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt()
-                })
-                .fold(0.0, |m: f64, x| if x.is_nan() { x } else { m.max(x) });
+            let largest = self
+                .model
+                .nodal_displacements(id, q)
+                .iter()
+                .map(|u| Vector3::new(u[0], u[1], u[2]).norm())
+                .max_by(f64::total_cmp)
+                .unwrap_or(0.0);
             if !(largest <= self.guard.max_deformation * size) {
                 return Err(format!(
                     "flexible body `{}` deflects {largest:.3e} m, more than {} of its size \
@@ -1047,43 +1037,24 @@ pub fn simulate(
 /// The diagonal of the box around the body origins, the flexible bodies' nodes and the joints'
 /// marker points at `q` (at least 1e-9 m).
 fn mechanism_size(model: &Model<f64>, q: &[f64]) -> f64 {
-    let mut lo = Vector3::repeat(f64::INFINITY);
-    let mut hi = Vector3::repeat(f64::NEG_INFINITY);
-    let mut add = |p: Vector3<f64>| {
-        if p.iter().all(|x| x.is_finite()) {
-            lo = lo.inf(&p);
-            hi = hi.sup(&p);
-        }
-    };
+    let mut points = Vec::new();
     for id in model.body_ids() {
         let r = model.q_range(id).start;
         let origin = Vector3::new(q[r], q[r + 1], q[r + 2]);
-        add(origin);
+        points.push(origin);
         if let Body::Flexible(b) = model.body(id) {
             let a = model.rotation_of(id, q);
-            for p in &b.modal.node_positions {
-                add(origin + a * p);
-            }
+            points.extend(b.modal.node_positions.iter().map(|p| origin + a * p));
         }
     }
     for j in model.joints() {
-        add(model.marker_position(&j.a, q));
-        add(model.marker_position(&j.b, q));
+        points.push(model.marker_position(&j.a, q));
+        points.push(model.marker_position(&j.b, q));
     }
+    points.retain(|p| p.iter().all(|x| x.is_finite()));
+    let (lo, hi) = fem::bounding_box(&points);
     let d = (hi - lo).norm();
     if d.is_finite() { d.max(1e-9) } else { 1.0 }
-}
-
-/// The size of each flexible body ([`fem::ModalBody::size`]; 0 for rigid bodies), by body
-/// index.
-fn body_sizes(model: &Model<f64>) -> Vec<f64> {
-    model
-        .body_ids()
-        .map(|id| match model.body(id) {
-            Body::Flexible(b) => b.modal.size(),
-            Body::Rigid(_) => 0.0,
-        })
-        .collect()
 }
 
 /// `max |x_i|`, NaN if any entry is NaN (`f64::max` would drop it and hide a broken state).
