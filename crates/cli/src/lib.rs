@@ -13,6 +13,7 @@ pub mod commands;
 pub mod deck;
 pub mod error;
 pub mod files;
+pub mod limits;
 pub mod plot;
 mod progress;
 pub mod results;

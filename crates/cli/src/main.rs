@@ -8,6 +8,7 @@ use clap::{Parser, Subcommand};
 
 use flexsens::commands::{self, Format};
 use flexsens::error::CliError;
+use flexsens::limits::{self, Limits};
 
 #[derive(Parser)]
 #[command(
@@ -25,6 +26,18 @@ struct Cli {
     /// No progress reports on stderr.
     #[arg(long, short = 'q', global = true)]
     quiet: bool,
+    /// Largest mesh accepted, in elements (also per direction of a generated mesh).
+    #[arg(long, value_name = "N", global = true, default_value_t = Limits::DEFAULT.elements)]
+    max_elements: usize,
+    /// Largest number of time steps of a fixed-step run, or step attempts of an adaptive one.
+    #[arg(long, value_name = "N", global = true, default_value_t = Limits::DEFAULT.steps)]
+    max_steps: usize,
+    /// Largest number of cases of a sweep.
+    #[arg(long, value_name = "N", global = true, default_value_t = Limits::DEFAULT.cases)]
+    max_cases: usize,
+    /// Largest input file (deck, mesh, result file) read, in bytes.
+    #[arg(long, value_name = "BYTES", global = true, default_value_t = Limits::DEFAULT.input_bytes)]
+    max_input_bytes: u64,
 }
 
 #[derive(Subcommand)]
@@ -94,6 +107,7 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    #[command(allow_negative_numbers = true)]
     /// Run a deck for every combination of varied values (in parallel) and write one row per
     /// case, with its objectives and gradients, to `DIR/summary.csv`.
     Sweep {
@@ -112,6 +126,7 @@ enum Command {
         #[arg(short = 'j', long, value_name = "N")]
         jobs: Option<usize>,
     },
+    #[command(allow_negative_numbers = true)]
     /// Regenerate the paper's §5 figures (mid-node deflection, direct sensitivities against
     /// finite differences, fixed against updated modes) for several lay-ups, as SVG and PNG,
     /// with a summary (summary.md, summary.json).
@@ -143,6 +158,7 @@ enum Command {
         /// The deck (TOML).
         deck: PathBuf,
     },
+    #[command(allow_negative_numbers = true)]
     /// Compare two result files dataset by dataset (golden-file checks): exit code 1 on a
     /// mismatch, listing the largest differences with their dataset and time.
     Compare {
@@ -161,6 +177,12 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    limits::set(Limits {
+        elements: cli.max_elements,
+        steps: cli.max_steps,
+        cases: cli.max_cases,
+        input_bytes: cli.max_input_bytes,
+    });
     // text for stdout and the exit code, or an error
     let result: Result<(String, u8), CliError> = match &cli.command {
         Command::Laminate {

@@ -157,12 +157,22 @@ impl Group {
     /// datasets).
     pub fn read_hdf5(path: &Path) -> Result<Group, CliError> {
         let fail = |e: String| CliError::Runtime(format!("cannot read {}: {e}", path.display()));
-        let bytes = std::fs::read(path).map_err(|e| fail(e.to_string()))?;
+        let bytes = crate::limits::read_input(path).map_err(fail)?;
+        Self::from_hdf5_bytes(bytes).map_err(fail)
+    }
+
+    /// Read the bytes of an HDF5 file (see [`Group::read_hdf5`]). A malformed file is an
+    /// error, never a panic: the HDF5 reader is a dependency, and a panic inside it on a
+    /// crafted file is caught and reported as a malformed file.
+    pub fn from_hdf5_bytes(bytes: Vec<u8>) -> Result<Group, String> {
         if !hdf5_pure::is_hdf5_bytes(&bytes) {
-            return Err(fail("not an HDF5 file".into()));
+            return Err("not an HDF5 file".into());
         }
-        let file = hdf5_pure::File::from_bytes(bytes).map_err(|e| fail(e.to_string()))?;
-        read_group(&file.root()).map_err(fail)
+        let read = std::panic::catch_unwind(move || {
+            let file = hdf5_pure::File::from_bytes(bytes).map_err(|e| e.to_string())?;
+            read_group(&file.root())
+        });
+        read.unwrap_or_else(|_| Err("a malformed HDF5 file (its structure is inconsistent)".into()))
     }
 }
 

@@ -125,6 +125,7 @@ pub fn validate(src: &Source, raw: &RawDeck) -> Result<AnalysisDef, DeckError> {
                 ));
             }
             let mut o = BdfOptions::adaptive(rtol, atol);
+            o.max_steps = crate::limits::get().steps;
             if let StepControl::Adaptive {
                 max_order,
                 max_step,
@@ -169,8 +170,22 @@ pub fn validate(src: &Source, raw: &RawDeck) -> Result<AnalysisDef, DeckError> {
                 )?,
                 "s",
             )?;
+            let max_steps = crate::limits::get().steps;
+            let steps = ((t_end - t0) / h).ceil();
+            if steps > max_steps as f64 {
+                return Err(src.error(
+                    raw.step.as_ref().map(|s| s.span()),
+                    Some(k("step")),
+                    format!(
+                        "step = {h} s takes {steps:.3e} steps over the span of {} s, more than \
+                         the limit of {max_steps} (--max-steps raises it)",
+                        t_end - t0
+                    ),
+                ));
+            }
             let mut o = BdfOptions::fixed(h, order.unwrap_or(2));
             o.rtol = rtol.min(1e-10);
+            o.max_steps = max_steps;
             o
         }
         Some((i, other)) => {

@@ -167,7 +167,7 @@ pub fn validate_one(
     };
     let int = |v: &toml::Value, min: i64| -> Option<usize> {
         v.as_integer()
-            .filter(|&n| n >= min && n <= super::check::MAX_COUNT as i64)
+            .filter(|&n| n >= min && n <= crate::limits::get().elements as i64)
             .map(|n| n as usize)
     };
     let shape = match kind.get_ref().as_str() {
@@ -231,9 +231,11 @@ pub fn validate_one(
             let elements = match elements_value {
                 None => 10,
                 Some(e) => int(e.get_ref(), 1).ok_or_else(|| {
-                    elements_error(
-                        "a whole number of beam elements, from 1 to the limit of 1000000",
-                    )
+                    elements_error(&format!(
+                        "a whole number of beam elements, from 1 to the limit of {} \
+                         (--max-elements raises it)",
+                        crate::limits::get().elements
+                    ))
                 })?,
             };
             BodyShape::Beam {
@@ -295,7 +297,7 @@ pub fn validate_one(
                         .parent()
                         .unwrap_or(std::path::Path::new("."))
                         .join(f.get_ref());
-                    let mesh_text = std::fs::read_to_string(&path).map_err(|e| {
+                    let mesh_text = crate::limits::read_text(&path).map_err(|e| {
                         src.error(
                             span(f),
                             Some(k("file")),
@@ -344,14 +346,18 @@ pub fn validate_one(
                         Some(e) => match e.get_ref().as_array().map(|a| a.as_slice()) {
                             Some([a, b]) => [
                                 int(a, 1).ok_or_else(|| {
-                                    elements_error(
-                                        "[along x, along y], whole numbers from 1 to the limit of 1000000",
-                                    )
+                                    elements_error(&format!(
+                                        "[along x, along y], whole numbers from 1 to the limit \
+                                         of {} (--max-elements raises it)",
+                                        crate::limits::get().elements
+                                    ))
                                 })?,
                                 int(b, 1).ok_or_else(|| {
-                                    elements_error(
-                                        "[along x, along y], whole numbers from 1 to the limit of 1000000",
-                                    )
+                                    elements_error(&format!(
+                                        "[along x, along y], whole numbers from 1 to the limit \
+                                         of {} (--max-elements raises it)",
+                                        crate::limits::get().elements
+                                    ))
                                 })?,
                             ],
                             _ => {

@@ -60,12 +60,9 @@ pub fn finite(src: &Source, key: &str, v: &Spanned<f64>, unit: &str) -> Result<f
 /// A count of at least `min`.
 pub fn count(src: &Source, key: &str, v: &Spanned<i64>, min: i64) -> Result<usize, DeckError> {
     let x = *v.get_ref();
-    if x > MAX_COUNT as i64 {
-        return Err(src.error(
-            span(v),
-            Some(key.to_string()),
-            format!("{x} is more than the limit of {MAX_COUNT} (the mesh would not fit in memory)"),
-        ));
+    let max = crate::limits::get().elements;
+    if x > max as i64 {
+        return Err(src.error(span(v), Some(key.to_string()), over_limit(x, max)));
     }
     if x >= min {
         usize::try_from(x)
@@ -79,29 +76,25 @@ pub fn count(src: &Source, key: &str, v: &Spanned<i64>, min: i64) -> Result<usiz
     }
 }
 
-/// The largest element count of one direction of a generated mesh, and of a whole mesh
-/// ([`MAX_ELEMENTS`]): larger requests are refused before anything is allocated.
-pub const MAX_COUNT: usize = 1_000_000;
+/// The message for an element count `n` above the limit `max` ([`crate::limits`]).
+pub fn over_limit(n: impl std::fmt::Display, max: usize) -> String {
+    format!(
+        "{n} elements is more than the limit of {max} (--max-elements raises it; the mesh may \
+         not fit in memory)"
+    )
+}
 
-/// The largest number of elements (cells) of a generated mesh.
-pub const MAX_ELEMENTS: usize = 1_000_000;
-
-/// Refuse a generated mesh of `n` elements above [`MAX_ELEMENTS`], naming `key`.
+/// Refuse a mesh of `n` elements above the element limit ([`crate::limits`]), naming `key`;
+/// the element count of one direction of a generated mesh is checked by [`count`].
 pub fn mesh_size(
     src: &Source,
     key: &str,
     at: Option<std::ops::Range<usize>>,
     n: usize,
 ) -> Result<(), DeckError> {
-    if n > MAX_ELEMENTS {
-        return Err(src.error(
-            at,
-            Some(key.to_string()),
-            format!(
-                "{n} elements is more than the limit of {MAX_ELEMENTS} (the mesh would not fit \
-                 in memory)"
-            ),
-        ));
+    let max = crate::limits::get().elements;
+    if n > max {
+        return Err(src.error(at, Some(key.to_string()), over_limit(n, max)));
     }
     Ok(())
 }

@@ -110,7 +110,7 @@ impl Source {
 
     /// Read a deck file.
     pub fn read(path: &Path) -> Result<Self, DeckError> {
-        let text = std::fs::read_to_string(path).map_err(|e| DeckError {
+        let text = crate::limits::read_text(path).map_err(|e| DeckError {
             file: path.to_path_buf(),
             line: None,
             key: None,

@@ -588,7 +588,7 @@ pub fn validate_one(
                 "file (path of the mesh, relative to the deck)",
             )?;
             let path = deck_dir.join(file.get_ref());
-            let text = std::fs::read_to_string(&path).map_err(|e| {
+            let text = crate::limits::read_text(&path).map_err(|e| {
                 src.error(
                     span(file),
                     Some(k("file")),
