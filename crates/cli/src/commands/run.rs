@@ -11,7 +11,7 @@ use super::run_files::{
 };
 use crate::deck;
 use crate::error::CliError;
-use crate::files::write_atomic;
+use crate::files::{Staged, remove_stale_partials};
 use crate::progress::RunProgress;
 use crate::study::Study;
 
@@ -55,7 +55,9 @@ pub fn run(path: &Path, overrides: &[String], req: &RunRequest) -> Result<String
         .out
         .map(Path::to_path_buf)
         .unwrap_or_else(|| default_out(path));
-    // a failed run must not leave the previous run's files looking like its own
+    // a failed run must not leave the previous run's files looking like its own, nor a killed
+    // one its temporary files
+    remove_stale_partials(&out, &OUTPUT_FILES);
     for f in OUTPUT_FILES {
         match std::fs::remove_file(out.join(f)) {
             Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
@@ -76,25 +78,30 @@ pub fn run(path: &Path, overrides: &[String], req: &RunRequest) -> Result<String
     let bytes = g
         .to_hdf5()
         .map_err(|e| CliError::Runtime(format!("cannot encode the results: {e}")))?;
-    write_atomic(
-        &out.join("history.csv"),
-        history_csv(&mech, &computed).as_bytes(),
-    )?;
-    let mut written = vec![out.join("history.csv")];
+    // every file is written under a temporary name first: a failure (a full disk) leaves none
+    let mut files = vec![(
+        out.join("history.csv"),
+        history_csv(&mech, &computed).into_bytes(),
+    )];
     if let Some(csv) = sensitivities_csv(&mech, &computed) {
-        write_atomic(&out.join("sensitivities.csv"), csv.as_bytes())?;
-        written.push(out.join("sensitivities.csv"));
+        files.push((out.join("sensitivities.csv"), csv.into_bytes()));
     }
     if !computed.objectives.is_empty() {
-        write_atomic(
-            &out.join("gradients.csv"),
-            gradients_csv(&mech, &computed).as_bytes(),
-        )?;
-        written.push(out.join("gradients.csv"));
+        files.push((
+            out.join("gradients.csv"),
+            gradients_csv(&mech, &computed).into_bytes(),
+        ));
     }
     // results.h5 last: its presence means the run completed
-    write_atomic(&out.join("results.h5"), &bytes)?;
-    written.push(out.join("results.h5"));
+    files.push((out.join("results.h5"), bytes));
+    let staged = files
+        .iter()
+        .map(|(path, bytes)| Staged::new(path, bytes))
+        .collect::<Result<Vec<_>, _>>()?;
+    for s in staged {
+        s.commit()?;
+    }
+    let written: Vec<PathBuf> = files.into_iter().map(|(path, _)| path).collect();
     let summary = summary(&src, &mech, &computed, &out);
     if req.json {
         return Ok(summary.to_string() + "\n");
