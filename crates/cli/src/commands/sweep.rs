@@ -144,6 +144,45 @@ fn case_overrides(
     Ok(sets)
 }
 
+/// The varied values of case `i` (0-based; the last axis fastest).
+fn case_values(axes: &[Axis], i: usize) -> Vec<f64> {
+    let mut rest = i;
+    let mut values = vec![0.0; axes.len()];
+    for (v, a) in values.iter_mut().zip(axes).rev() {
+        *v = a.values[rest % a.values.len()];
+        rest /= a.values.len();
+    }
+    values
+}
+
+/// The cases (0-based, ascending, without repeats) where every axis is at its first value but
+/// at most one, which is at its last.
+fn corner_cases(axes: &[Axis]) -> Vec<usize> {
+    let mut cases = vec![0];
+    let mut stride = 1;
+    for a in axes.iter().rev() {
+        cases.push((a.values.len() - 1) * stride);
+        stride *= a.values.len();
+    }
+    cases.sort_unstable();
+    cases.dedup();
+    cases
+}
+
+/// The parts of a run's JSON summary that the sweep's summary uses (a sweep holds one per
+/// case).
+fn summary_fields(s: Value) -> Value {
+    let mut kept = serde_json::Map::new();
+    if let Value::Object(mut m) = s {
+        for key in ["steps", "max_position_violation", "objectives", "design"] {
+            if let Some(v) = m.remove(key) {
+                kept.insert(key.to_string(), v);
+            }
+        }
+    }
+    Value::Object(kept)
+}
+
 /// The result of one case.
 struct CaseResult {
     values: Vec<f64>,
@@ -169,27 +208,26 @@ pub fn run(
             return Err(usage(format!("--vary {} is given twice", a.key)));
         }
     }
-    // all combinations, the last axis fastest
-    let mut cases: Vec<Vec<f64>> = vec![Vec::new()];
-    for a in &axes {
-        cases = cases
-            .into_iter()
-            .flat_map(|c| {
-                a.values.iter().map(move |&v| {
-                    let mut c = c.clone();
-                    c.push(v);
-                    c
-                })
-            })
-            .collect();
-    }
-    // every case's deck is validated before anything runs: bad input is reported at once
-    let mut sets = Vec::with_capacity(cases.len());
-    for c in &cases {
-        let s = case_overrides(path, overrides, &axes, c)?;
+    // all combinations, the last axis fastest; counted (not built) and held to the case limit
+    let max_cases = crate::limits::get().cases;
+    let n_cases = axes
+        .iter()
+        .try_fold(1usize, |n, a| n.checked_mul(a.values.len()))
+        .filter(|&n| n <= max_cases)
+        .ok_or_else(|| {
+            let sizes: Vec<String> = axes.iter().map(|a| a.values.len().to_string()).collect();
+            usage(format!(
+                "--vary: {} cases are more than the limit of {max_cases} (--max-cases raises it)",
+                sizes.join(" × ")
+            ))
+        })?;
+    // the corner cases (each axis at its first and last value, the others at their first) are
+    // validated before anything runs, so that bad input is reported at once; an error that
+    // only another combination meets fails that case alone, and the summary says so
+    for c in corner_cases(&axes) {
+        let s = case_overrides(path, overrides, &axes, &case_values(&axes, c))?;
         let (src, raw) = deck::load(path, &s)?;
         Study::validate(&src, &raw, true)?;
-        sets.push(s);
     }
     let out = req.out.map(Path::to_path_buf).unwrap_or_else(|| {
         let stem = path
@@ -211,18 +249,18 @@ pub fn run(
     let jobs = req
         .jobs
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
-        .clamp(1, cases.len());
-    let width = cases.len().to_string().len().max(3);
+        .clamp(1, n_cases);
+    let width = n_cases.to_string().len().max(3);
     let case_dir = |i: usize| out.join(format!("case_{:0width$}", i + 1));
     let next = AtomicUsize::new(0);
     let done = AtomicUsize::new(0);
-    let results: Vec<Mutex<Option<CaseResult>>> = cases.iter().map(|_| Mutex::new(None)).collect();
+    let results: Vec<Mutex<Option<CaseResult>>> = (0..n_cases).map(|_| Mutex::new(None)).collect();
     std::thread::scope(|scope| {
         for _ in 0..jobs {
             scope.spawn(|| {
                 loop {
                     let i = next.fetch_add(1, Ordering::SeqCst);
-                    if i >= cases.len() {
+                    if i >= n_cases {
                         break;
                     }
                     let dir = case_dir(i);
@@ -231,22 +269,24 @@ pub fn run(
                         json: true,
                         progress: false,
                     };
-                    let outcome = super::run::run(path, &sets[i], &request).and_then(|s| {
-                        serde_json::from_str::<Value>(&s)
-                            .map_err(|e| CliError::Runtime(format!("case {}: {e}", i + 1)))
-                    });
+                    let values = case_values(&axes, i);
+                    let outcome = case_overrides(path, overrides, &axes, &values)
+                        .and_then(|sets| super::run::run(path, &sets, &request))
+                        .and_then(|s| {
+                            serde_json::from_str::<Value>(&s)
+                                .map_err(|e| CliError::Runtime(format!("case {}: {e}", i + 1)))
+                        })
+                        .map(summary_fields);
                     let n = done.fetch_add(1, Ordering::SeqCst) + 1;
                     if !req.quiet {
                         let status = match &outcome {
                             Ok(_) => "done".to_string(),
                             Err(e) => format!("failed: {e}"),
                         };
-                        eprintln!("[{n}/{}] case {} {status}", cases.len(), i + 1);
+                        eprintln!("[{n}/{n_cases}] case {} {status}", i + 1);
                     }
-                    *results[i].lock().expect("no poisoned lock") = Some(CaseResult {
-                        values: cases[i].clone(),
-                        outcome,
-                    });
+                    *results[i].lock().expect("no poisoned lock") =
+                        Some(CaseResult { values, outcome });
                 }
             });
         }
@@ -371,4 +411,56 @@ fn summary_csv(
         }
     }
     csv
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn axes(sizes: &[usize]) -> Vec<Axis> {
+        sizes
+            .iter()
+            .enumerate()
+            .map(|(k, &n)| Axis {
+                key: format!("a{k}"),
+                values: (0..n).map(|j| (10 * k + j) as f64).collect(),
+            })
+            .collect()
+    }
+
+    /// Case indices enumerate every combination once, the last axis fastest, as the nested
+    /// loops the summary promises.
+    #[test]
+    fn case_values_are_the_combinations_in_order() {
+        let a = axes(&[2, 3, 2]);
+        let mut expected = Vec::new();
+        for x in 0..2 {
+            for y in 10..13 {
+                for z in 20..22 {
+                    expected.push(vec![x as f64, y as f64, z as f64]);
+                }
+            }
+        }
+        let got: Vec<Vec<f64>> = (0..12).map(|i| case_values(&a, i)).collect();
+        assert_eq!(got, expected);
+    }
+
+    #[test]
+    fn corner_cases_hold_each_axis_at_its_ends() {
+        let a = axes(&[2, 3, 2]);
+        let corners: Vec<Vec<f64>> = corner_cases(&a)
+            .into_iter()
+            .map(|i| case_values(&a, i))
+            .collect();
+        assert_eq!(
+            corners,
+            vec![
+                vec![0.0, 10.0, 20.0],
+                vec![0.0, 10.0, 21.0],
+                vec![0.0, 12.0, 20.0],
+                vec![1.0, 10.0, 20.0],
+            ]
+        );
+        assert_eq!(corner_cases(&axes(&[1, 1])), vec![0]);
+    }
 }
