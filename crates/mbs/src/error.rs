@@ -52,6 +52,8 @@ pub enum ConstraintError {
          a zero mass or a zero principal inertia?)"
     )]
     SingularStart { t: f64 },
+    #[error("Baumgarte stabilisation α = {alpha}, β = {beta}: both must be finite and ≥ 0 (1/s)")]
+    BadStabilisation { alpha: f64, beta: f64 },
     #[error("the augmented matrix of Eq. (12) is singular at t = {t} s")]
     Singular { t: f64 },
     /// `cause`: what was found wrong, when something was (starts with "; ").

@@ -10,7 +10,7 @@ use crate::body::{Body, BodyId};
 use crate::error::ConstraintError;
 use crate::joint::JointId;
 use crate::kin::{Kin, quat_from_rotation_vector, quat_mul};
-use crate::model::{Energy, Model, State};
+use crate::model::{Baumgarte, Energy, Model, State};
 use nalgebra::Vector4;
 
 /// What to do with redundant constraint equations.
@@ -167,6 +167,10 @@ impl MultibodySystem {
         state: &State,
         policy: RedundancyPolicy,
     ) -> Result<Self, ConstraintError> {
+        let Baumgarte { alpha, beta } = model.baumgarte;
+        if !(alpha.is_finite() && beta.is_finite() && alpha >= 0.0 && beta >= 0.0) {
+            return Err(ConstraintError::BadStabilisation { alpha, beta });
+        }
         let c = model.constraints(t, &state.q, &state.v);
         let (rows, removed) = independent_rows(&c.jacobian);
         if !removed.is_empty() && policy == RedundancyPolicy::Error {
@@ -851,6 +855,10 @@ impl StartProjection {
     /// `(x, μ)` with `W x + J_Iᵀ μ = a`, `J_I x = b`.
     pub(crate) fn solve(&self, a: &[f64], b: &[f64]) -> (Vec<f64>, Vec<f64>) {
         let mut r = DVector::from_iterator(self.n + b.len(), a.iter().chain(b).copied());
+        if r.is_empty() {
+            // nothing to move (no rigid coordinates, no rows); nalgebra's solve underflows on 0 × 0
+            return (Vec::new(), Vec::new());
+        }
         self.lu.solve_mut(&mut r);
         let (x, mu) = r.as_slice().split_at(self.n);
         (x.to_vec(), mu.to_vec())

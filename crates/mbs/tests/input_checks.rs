@@ -174,3 +174,22 @@ fn bad_spring_parameters_are_refused_and_a_zero_length_spring_is_named() {
         "{msg}"
     );
 }
+
+#[test]
+fn negative_or_non_finite_baumgarte_parameters_are_refused() {
+    for (alpha, beta) in [(-1.0, 1.0), (1.0, f64::NAN), (f64::INFINITY, 0.0)] {
+        let (mut m, s) = pendulum();
+        m.baumgarte = mbs::Baumgarte { alpha, beta };
+        let e = MultibodySystem::new(m, &s, RedundancyPolicy::Remove)
+            .err()
+            .expect("refused");
+        assert!(
+            matches!(e, mbs::ConstraintError::BadStabilisation { .. })
+                && e.to_string().contains("Baumgarte"),
+            "{e}"
+        );
+    }
+    let (mut m, s) = pendulum();
+    m.baumgarte = mbs::Baumgarte::off();
+    assert!(MultibodySystem::new(m, &s, RedundancyPolicy::Remove).is_ok());
+}
