@@ -14,6 +14,7 @@ use flexsens::limits::{self, Limits};
 #[command(
     name = "flexsens",
     version,
+    allow_negative_numbers = true,
     about = "Flexible multibody dynamics of composite mechanisms with exact design sensitivities"
 )]
 struct Cli {
@@ -43,6 +44,7 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Plate stiffness (A, B, D, transverse shear) and inertia of the deck's laminates.
+    #[command(allow_negative_numbers = true)]
     Laminate {
         /// The deck (TOML).
         deck: PathBuf,
@@ -59,6 +61,7 @@ enum Command {
     },
     /// Cross-section analysis of the deck's beam sections: 6×6 Timoshenko stiffness, classical
     /// stiffness, mass properties, tension and shear centres.
+    #[command(allow_negative_numbers = true)]
     Section {
         /// The deck (TOML).
         deck: PathBuf,
@@ -75,6 +78,7 @@ enum Command {
     },
     /// Vibration modes of the deck's flexible bodies: frequencies, modal masses, damping, and
     /// their ply-angle derivatives (updated-mode, Nelson's method).
+    #[command(allow_negative_numbers = true)]
     Modes {
         /// The deck (TOML).
         deck: PathBuf,
@@ -97,6 +101,7 @@ enum Command {
         export_matrices: Option<PathBuf>,
     },
     /// Simulate the deck's mechanism and write `results.h5` and `history.csv`.
+    #[command(allow_negative_numbers = true)]
     Run {
         /// The deck (TOML).
         deck: PathBuf,
@@ -107,9 +112,9 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
-    #[command(allow_negative_numbers = true)]
     /// Run a deck for every combination of varied values (in parallel) and write one row per
     /// case, with its objectives and gradients, to `DIR/summary.csv`.
+    #[command(allow_negative_numbers = true)]
     Sweep {
         /// The deck (TOML).
         deck: PathBuf,
@@ -126,10 +131,10 @@ enum Command {
         #[arg(short = 'j', long, value_name = "N")]
         jobs: Option<usize>,
     },
-    #[command(allow_negative_numbers = true)]
     /// Regenerate the paper's §5 figures (mid-node deflection, direct sensitivities against
     /// finite differences, fixed against updated modes) for several lay-ups, as SVG and PNG,
     /// with a summary (summary.md, summary.json).
+    #[command(allow_negative_numbers = true)]
     Report {
         /// The deck (TOML): one [design.*] variable (the lay-up angle) and a
         /// mid-node-deflection response.
@@ -154,13 +159,14 @@ enum Command {
     },
     /// Validate a deck without running it: keys, values, names, meshes, modal analyses, and
     /// the assembly of the mechanism (redundant joint equations are reported).
+    #[command(allow_negative_numbers = true)]
     Check {
         /// The deck (TOML).
         deck: PathBuf,
     },
-    #[command(allow_negative_numbers = true)]
     /// Compare two result files dataset by dataset (golden-file checks): exit code 1 on a
     /// mismatch, listing the largest differences with their dataset and time.
+    #[command(allow_negative_numbers = true)]
     Compare {
         /// The result file to check.
         a: PathBuf,

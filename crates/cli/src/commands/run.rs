@@ -57,6 +57,12 @@ pub fn run(path: &Path, overrides: &[String], req: &RunRequest) -> Result<String
         .unwrap_or_else(|| default_out(path));
     // a failed run must not leave the previous run's files looking like its own, nor a killed
     // one its temporary files
+    std::fs::create_dir_all(&out).map_err(|e| {
+        CliError::Runtime(format!(
+            "cannot create the output directory {}: {e}",
+            out.display()
+        ))
+    })?;
     remove_stale_partials(&out, &OUTPUT_FILES);
     for f in OUTPUT_FILES {
         match std::fs::remove_file(out.join(f)) {

@@ -73,10 +73,15 @@ fn axis(arg: &str) -> Result<Axis, CliError> {
                 "--vary {arg}: the step must be non-zero and lead from START to END"
             )));
         }
-        let n = ((b - a) / h + 1e-9).floor() as usize + 1;
-        if n > 100_000 {
-            return Err(usage(format!("--vary {arg}: {n} values are too many")));
+        let n = ((b - a) / h + 1e-9).floor() + 1.0;
+        let max = crate::limits::get().cases;
+        if n > max as f64 {
+            return Err(usage(format!(
+                "--vary {arg}: {n} values are more than the limit of {max} cases (--max-cases \
+                 raises it)"
+            )));
         }
+        let n = n as usize;
         // computed from the index, so that 0:0.1:0.3 gives 0.3, not 0.30000000000000004
         (0..n).map(|i| round(a + i as f64 * h)).collect()
     } else {

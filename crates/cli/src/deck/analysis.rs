@@ -47,6 +47,13 @@ pub fn validate(src: &Source, raw: &RawDeck) -> Result<AnalysisDef, DeckError> {
             format!("t_end = {t_end} must be later than t_start = {t0}"),
         ));
     }
+    if (t_end - t0).is_infinite() {
+        return Err(src.error(
+            span(t_end_v),
+            Some(k("t_end")),
+            format!("the span t_end − t_start = {t_end:e} − ({t0:e}) s overflows"),
+        ));
+    }
     let dt = raw
         .output_step
         .as_ref()

@@ -209,11 +209,18 @@ pub fn validate_one(
                 required(src, table.clone(), &k("end"), &raw.end, "end [x, y, z] (m)")?,
             )?;
             let axis = end - start;
-            if axis.norm() == 0.0 {
+            // below a nanometre (or a billionth of the coordinates) a length is round-off, and
+            // the element matrices would not be finite
+            let negligible = 1e-9 * start.norm().max(end.norm()).max(1.0);
+            if axis.norm() <= negligible {
                 return Err(src.error(
                     raw.end.as_ref().map(|e| e.span()),
                     Some(k("end")),
-                    "the beam has zero length (start = end)",
+                    format!(
+                        "the beam's length |end − start| = {:e} m is zero or negligible (at \
+                         least {negligible:e} m)",
+                        axis.norm()
+                    ),
                 ));
             }
             let orientation = match &raw.orientation {

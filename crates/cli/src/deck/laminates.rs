@@ -125,6 +125,18 @@ fn material(
                             }
                         }),
                 };
+                // an isotropic material is named by its own keys: E for E1..E3, nu for
+                // nu12..nu23 (G12.. derive from both and keep their names)
+                let isotropic = match *constant {
+                    _ if raw.e.is_none() => None,
+                    "E1" | "E2" | "E3" => Some("E"),
+                    "nu12" | "nu13" | "nu23" => Some("nu"),
+                    _ => None,
+                };
+                if let Some(iso) = isotropic {
+                    let message = e.to_string().replacen(constant, iso, 1);
+                    return src.error(field.map(|f| f.span()), Some(key(iso)), message);
+                }
                 (key(constant), field.map(|f| f.span()))
             }
             _ => (format!("material.{name}"), Some(m.span())),

@@ -199,6 +199,15 @@ impl Source {
         (!key.is_empty()).then_some(key)
     }
 
+    /// The key written at `offset` (`width` in `width = 0.04` at the start of the line).
+    fn key_at(&self, offset: usize) -> Option<String> {
+        let rest = self.text.get(offset..)?;
+        let line = rest.lines().next()?;
+        let key = line.split('=').next()?.trim();
+        let bare = |c: char| c.is_alphanumeric() || matches!(c, '_' | '-' | '.' | '"');
+        (line.contains('=') && !key.is_empty() && key.chars().all(bare)).then(|| key.to_string())
+    }
+
     /// Parse the raw deck; TOML syntax errors, type errors and unknown keys carry their place.
     pub fn parse(&self) -> Result<RawDeck, DeckError> {
         toml::from_str::<RawDeck>(&self.text).map_err(|e| {
@@ -206,8 +215,18 @@ impl Source {
             if let Some(hint) = unknown_key_hint(&message) {
                 message.push_str(&hint);
             }
-            let key = key_from_message(&message)
-                .or_else(|| e.span().and_then(|s| self.key_before(s.start)));
+            // the key: the one a field error names, the one a duplicate starts with, or the
+            // one assigned before a bad value; never a token of the message (a value, a bracket)
+            let at = e.span().map(|s| s.start);
+            let key =
+                if message.starts_with("unknown field") || message.starts_with("missing field") {
+                    key_from_message(&message)
+                } else if message.starts_with("duplicate key") {
+                    at.and_then(|s| self.key_at(s))
+                } else {
+                    None
+                }
+                .or_else(|| at.and_then(|s| self.key_before(s)));
             self.error(e.span(), key, message)
         })
     }
