@@ -184,6 +184,16 @@ impl Study {
         raw: &RawDeck,
         derivatives: bool,
     ) -> Result<Study, CliError> {
+        if raw.body.is_empty() && raw.rigid.is_empty() {
+            return Err(src
+                .error(
+                    raw.analysis.as_ref().map(|a| a.span()),
+                    Some("analysis".into()),
+                    "the mechanism has no bodies: a run needs at least one [rigid.*] or [body.*] \
+                     table",
+                )
+                .into());
+        }
         let laminates = validate_laminates(src, raw)?;
         let design = validate_design(src, raw, &laminates)?;
         let request = if derivatives && design.enabled {
