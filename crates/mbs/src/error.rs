@@ -34,14 +34,18 @@ pub enum ConstraintError {
     #[error(
         "the constraints cannot be met with the stated elastic state: joint `{joint}` equation \
          {equation} ({bodies}) keeps |{quantity}| = {residual:.3e} after the rigid-body \
-         coordinates were adjusted; check the joint's points and the initial modal coordinates \
-         and rates of its flexible bodies"
+         coordinates were adjusted; {also}check the joint's points and the initial modal \
+         coordinates and rates of its flexible bodies"
     )]
     Inconsistent {
         joint: String,
         equation: usize,
         /// The bodies the joint connects, e.g. "bodies `crank` and `rod`".
         bodies: String,
+        /// The other joints between the same bodies, which may contradict this one, as the
+        /// start of a sentence ("joint `drive` also connects them and may contradict it;
+        /// else "), or empty.
+        also: String,
         /// `Φ` (positions) or `Φ̇` (velocities).
         quantity: &'static str,
         residual: f64,

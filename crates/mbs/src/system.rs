@@ -575,10 +575,35 @@ impl MultibodySystem {
             Some(b) => format!("`{}`", self.model.body(b).name()),
             None => "ground".to_string(),
         };
+        // other joints on the same pair of bodies: the usual cause of a contradiction (a
+        // driver on a welded pair)
+        let pair = |jt: &crate::Joint| {
+            let (a, b) = (jt.a.body, jt.b.body);
+            if a <= b { (a, b) } else { (b, a) }
+        };
+        let others: Vec<String> = self
+            .model
+            .joints()
+            .iter()
+            .filter(|o| o.name != joint.name && pair(o) == pair(joint))
+            .map(|o| format!("`{}`", o.name))
+            .collect();
+        let also = match others.len() {
+            0 => String::new(),
+            1 => format!(
+                "joint {} also connects them and may contradict it; else ",
+                others[0]
+            ),
+            _ => format!(
+                "joints {} also connect them and may contradict it; else ",
+                others.join(", ")
+            ),
+        };
         ConstraintError::Inconsistent {
             joint: joint.name.clone(),
             equation: row - self.model.joint_rows(j).start,
             bodies: format!("between {} and {}", name(&joint.a), name(&joint.b)),
+            also,
             quantity,
             residual,
         }
