@@ -159,6 +159,30 @@ mod tests {
         assert_eq!(names.len(), 2, "{names:?}"); // sub/a.csv and sub
     }
 
+    /// As `flexsens run` stages its files: when one cannot be written (here its name is taken
+    /// by a directory; a full disk fails the same way), those staged before it are removed
+    /// and none appears.
+    #[test]
+    fn a_failure_while_staging_leaves_none_of_the_files() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::create_dir(dir.path().join("results.h5")).unwrap();
+        let files: [(&str, &[u8]); 2] = [("history.csv", b"t\n0\n"), ("results.h5", b"HDF5..")];
+        let staged = files
+            .iter()
+            .map(|(name, bytes)| Staged::new(&dir.path().join(name), bytes))
+            .collect::<Result<Vec<_>, _>>();
+        assert!(staged.is_err());
+        let left: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(
+            left,
+            vec!["results.h5".to_string()],
+            "only the directory is left"
+        );
+    }
+
     #[test]
     fn a_named_pipe_is_written_into_not_replaced() {
         let dir = tempfile::tempdir().unwrap();
