@@ -130,6 +130,21 @@ enum Command {
         /// Number of cases run at once (default: the number of cores).
         #[arg(short = 'j', long, value_name = "N")]
         jobs: Option<usize>,
+        /// Run only the I-th of N deterministic slices of the cases (every N-th case from the
+        /// I-th), e.g. one task of a Slurm job array; gather the shards with `flexsens merge`.
+        #[arg(long, value_name = "I/N")]
+        shard: Option<String>,
+    },
+    /// Gather the shards of a sweep (`sweep --shard I/N`, each in its own directory) into one
+    /// directory, exactly as a single-machine sweep would have written it.
+    #[command(allow_negative_numbers = true)]
+    Merge {
+        /// The shards' output directories (all N shards of one sweep).
+        #[arg(required = true, value_name = "SHARD_DIR")]
+        shards: Vec<PathBuf>,
+        /// The merged sweep's directory (its case directories are moved there).
+        #[arg(short = 'o', long = "output", value_name = "DIR", required = true)]
+        output: PathBuf,
     },
     /// Regenerate the paper's §5 figures (mid-node deflection, direct sensitivities against
     /// finite differences, fixed against updated modes) for several lay-ups, as SVG and PNG,
@@ -237,14 +252,19 @@ fn main() -> ExitCode {
             vary,
             output,
             jobs,
+            shard,
         } => {
             let req = commands::sweep::SweepRequest {
                 vary,
                 out: output.as_deref(),
                 jobs: *jobs,
                 quiet: cli.quiet,
+                shard: shard.as_deref(),
             };
             commands::sweep::run(deck, &cli.set, &req).map(|(t, ok)| (t, if ok { 0 } else { 1 }))
+        }
+        Command::Merge { shards, output } => {
+            commands::sweep::merge(shards, output).map(|(t, ok)| (t, if ok { 0 } else { 1 }))
         }
         Command::Report {
             deck,

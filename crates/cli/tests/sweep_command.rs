@@ -146,3 +146,123 @@ fn unknown_deck_keys_get_a_did_you_mean() {
     assert!(err.contains("unknown field `rtoll`"), "{err}");
     assert!(err.contains("did you mean `rtol`"), "{err}");
 }
+
+/// `sweep --shard I/N` run as separate processes (as a batch system's tasks would) and
+/// `merge` give the directory a single sweep writes: the same summary, byte for byte, and the
+/// same case results. Shards that do not make one whole sweep are refused.
+#[test]
+fn sharded_sweeps_merge_into_the_single_sweep() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sweep");
+    let single = dir.path().join("single");
+    let o = sweep(&out, "2");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    std::fs::rename(&out, &single).unwrap();
+    let d = deck("slider_crank_beam.toml").display().to_string();
+    let shard_dir = |i: usize| dir.path().join(format!("shard_{i}"));
+    let shard = |i: usize, n: usize, rtols: &str| {
+        let mut args = vec![
+            "sweep".to_string(),
+            d.clone(),
+            "--vary".into(),
+            "design.theta=0:15:15".into(),
+            "--vary".into(),
+            format!("analysis.rtol={rtols}"),
+            "--shard".into(),
+            format!("{i}/{n}"),
+            "-o".into(),
+            shard_dir(i).display().to_string(),
+            "--quiet".into(),
+        ];
+        args.extend(FAST.iter().map(|s| s.to_string()));
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        run(&args)
+    };
+    for i in 1..=3 {
+        let o = shard(i, 3, "1e-5,1e-6");
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    // shard 1 holds cases 1 and 4, shard 2 case 2, shard 3 case 3
+    assert!(shard_dir(1).join("case_004").exists() && !shard_dir(1).join("case_002").exists());
+    let merge = |dirs: &[usize], to: &std::path::Path| {
+        let mut args = vec!["merge".to_string()];
+        args.extend(dirs.iter().map(|&i| shard_dir(i).display().to_string()));
+        args.extend(["-o".to_string(), to.display().to_string()]);
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        run(&args)
+    };
+    // incomplete or repeated sets of shards are refused before anything moves
+    for (dirs, says) in [
+        (&[1, 3][..], "shard 2/3 is missing"),
+        (&[1, 2, 2, 3][..], "are both shard 2/3"),
+    ] {
+        let o = merge(dirs, &out);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.contains(says), "{err}");
+    }
+    let o = merge(&[3, 1, 2], &out);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // the summary names the case directories under the merged directory, as a single sweep
+    // names them under its own: compared at the same path, byte for byte
+    let merged = std::fs::read(out.join("summary.csv")).unwrap();
+    std::fs::rename(&out, dir.path().join("merged")).unwrap();
+    std::fs::rename(&single, &out).unwrap();
+    assert_eq!(
+        String::from_utf8(merged).unwrap(),
+        std::fs::read_to_string(out.join("summary.csv")).unwrap()
+    );
+    for case in ["case_001", "case_002", "case_003", "case_004"] {
+        assert_eq!(
+            std::fs::read(out.join(case).join("history.csv")).unwrap(),
+            std::fs::read(dir.path().join("merged").join(case).join("history.csv")).unwrap(),
+            "{case}"
+        );
+    }
+    // a shard of another sweep is refused
+    let o = shard(2, 3, "1e-5,1e-7");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = shard(1, 3, "1e-5,1e-6");
+    assert!(o.status.success());
+    let o = shard(3, 3, "1e-5,1e-6");
+    assert!(o.status.success());
+    let o = merge(&[1, 2, 3], &dir.path().join("mixed"));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("shards of different sweeps"), "{err}");
+}
+
+#[test]
+fn bad_shards_are_refused() {
+    let d = deck("slider_crank_rigid.toml").display().to_string();
+    for (shard, says) in [
+        ("0/3", "expected I/N with 1 ≤ I ≤ N"),
+        ("4/3", "expected I/N with 1 ≤ I ≤ N"),
+        ("x", "expected I/N"),
+        ("5/5", "this shard has none"),
+    ] {
+        let o = run(&[
+            "sweep",
+            &d,
+            "--vary",
+            "rigid.slider.mass=0.05,0.06",
+            "--shard",
+            shard,
+            "-o",
+            "/nonexistent/never-written",
+        ]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{shard}: {err}");
+        assert!(err.contains(says), "{shard}: {err}");
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let o = run(&[
+        "merge",
+        &dir.path().display().to_string(),
+        "-o",
+        "/nonexistent",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("not a shard of a sweep"), "{err}");
+}

@@ -6,6 +6,10 @@
 //! moves. Each case is a complete `flexsens run` into `DIR/case_NNN/`; the summary
 //! `DIR/summary.csv` (written last) has the case number, the varied values, the status, the
 //! integrator's steps, the largest constraint violation and every objective with its gradient.
+//!
+//! For a batch system, `--shard I/N` runs every N-th case from the I-th into its own
+//! directory, recording what it ran (`shard.json`, `cases.jsonl`); [`merge`] gathers the N
+//! shards into the directory a single sweep would have written, the summary byte for byte.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -30,6 +34,8 @@ pub struct SweepRequest<'a> {
     pub jobs: Option<usize>,
     /// No per-case lines on stderr.
     pub quiet: bool,
+    /// `I/N`: run only the I-th of N deterministic slices of the cases (for a batch system).
+    pub shard: Option<&'a str>,
 }
 
 /// One varied key and its values.
@@ -190,21 +196,26 @@ fn summary_fields(s: Value) -> Value {
 
 /// The result of one case.
 struct CaseResult {
+    /// The case's index (0-based) among all the sweep's cases.
+    index: usize,
     values: Vec<f64>,
-    outcome: Result<Value, CliError>,
+    /// The run's summary fields, or its error message.
+    outcome: Result<Value, String>,
 }
 
-/// Run the sweep; the returned text goes to stdout and the flag says whether every case ran.
-pub fn run(
-    path: &Path,
-    overrides: &[String],
-    req: &SweepRequest,
-) -> Result<(String, bool), CliError> {
-    if req.vary.is_empty() {
+/// The axes and the number of cases of a sweep.
+struct Plan {
+    axes: Vec<Axis>,
+    n_cases: usize,
+}
+
+/// Parse the `--vary` arguments and count the cases (all combinations, the last axis
+/// fastest), held to the case limit.
+fn plan(vary: &[String]) -> Result<Plan, CliError> {
+    if vary.is_empty() {
         return Err(usage("sweep needs at least one --vary KEY=START:STEP:END"));
     }
-    let axes = req
-        .vary
+    let axes = vary
         .iter()
         .map(|a| axis(a))
         .collect::<Result<Vec<_>, _>>()?;
@@ -213,7 +224,6 @@ pub fn run(
             return Err(usage(format!("--vary {} is given twice", a.key)));
         }
     }
-    // all combinations, the last axis fastest; counted (not built) and held to the case limit
     let max_cases = crate::limits::get().cases;
     let n_cases = axes
         .iter()
@@ -226,6 +236,66 @@ pub fn run(
                 sizes.join(" × ")
             ))
         })?;
+    Ok(Plan { axes, n_cases })
+}
+
+/// `--shard I/N`: the I-th (1-based) of N slices.
+fn parse_shard(arg: &str) -> Result<(usize, usize), CliError> {
+    let bad = || {
+        usage(format!(
+            "--shard {arg}: expected I/N with 1 ≤ I ≤ N (e.g. --shard 2/8, or \
+             --shard $SLURM_ARRAY_TASK_ID/$SLURM_ARRAY_TASK_COUNT)"
+        ))
+    };
+    let (i, n) = arg.split_once('/').ok_or_else(bad)?;
+    let (i, n) = (
+        i.trim().parse::<usize>().map_err(|_| bad())?,
+        n.trim().parse::<usize>().map_err(|_| bad())?,
+    );
+    if i == 0 || i > n {
+        return Err(bad());
+    }
+    Ok((i, n))
+}
+
+/// The cases (0-based) of shard `i` of `n`: every n-th case from the (i−1)-th, so that each
+/// shard gets a share of every part of the ranges (costs often grow along an axis).
+fn shard_cases(n_cases: usize, shard: Option<(usize, usize)>) -> Vec<usize> {
+    match shard {
+        None => (0..n_cases).collect(),
+        Some((i, n)) => (i - 1..n_cases).step_by(n).collect(),
+    }
+}
+
+/// The name of case `i`'s directory (`case_001`; as many digits as the sweep needs).
+fn case_name(i: usize, n_cases: usize) -> String {
+    let width = n_cases.to_string().len().max(3);
+    format!("case_{:0width$}", i + 1)
+}
+
+/// Remove `path` if it is there (an earlier run's file), naming it when that fails.
+fn remove_old(path: &Path) -> Result<(), CliError> {
+    match std::fs::remove_file(path) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(CliError::Runtime(format!(
+            "cannot remove the old {}: {e}",
+            path.display()
+        ))),
+        _ => Ok(()),
+    }
+}
+
+/// What a shard writes beside its cases for `flexsens merge`.
+const SHARD_FILE: &str = "shard.json";
+const CASES_FILE: &str = "cases.jsonl";
+
+/// Run the sweep; the returned text goes to stdout and the flag says whether every case ran.
+pub fn run(
+    path: &Path,
+    overrides: &[String],
+    req: &SweepRequest,
+) -> Result<(String, bool), CliError> {
+    let Plan { axes, n_cases } = plan(req.vary)?;
+    let shard = req.shard.map(parse_shard).transpose()?;
     // the corner cases (each axis at its first and last value, the others at their first) are
     // validated before anything runs, so that bad input is reported at once; an error that
     // only another combination meets fails that case alone, and the summary says so
@@ -239,35 +309,36 @@ pub fn run(
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_else(|| "flexsens".into());
-        path.with_file_name(format!("{stem}.sweep"))
+        let suffix = shard.map_or(String::new(), |(i, n)| format!(".shard-{i}-of-{n}"));
+        path.with_file_name(format!("{stem}.sweep{suffix}"))
     });
     let summary_path = out.join("summary.csv");
-    match std::fs::remove_file(&summary_path) {
-        Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
-            return Err(CliError::Runtime(format!(
-                "cannot remove the old {}: {e}",
-                summary_path.display()
-            )));
-        }
-        _ => {}
+    for f in ["summary.csv", SHARD_FILE, CASES_FILE] {
+        remove_old(&out.join(f))?;
+    }
+    let cases = shard_cases(n_cases, shard);
+    if cases.is_empty() {
+        return Err(usage(format!(
+            "--shard {}: the sweep has only {n_cases} cases, so this shard has none",
+            req.shard.unwrap_or_default()
+        )));
     }
     let jobs = req
         .jobs
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
-        .clamp(1, n_cases);
-    let width = n_cases.to_string().len().max(3);
-    let case_dir = |i: usize| out.join(format!("case_{:0width$}", i + 1));
+        .clamp(1, cases.len());
+    let case_dir = |i: usize| out.join(case_name(i, n_cases));
     let next = AtomicUsize::new(0);
     let done = AtomicUsize::new(0);
-    let results: Vec<Mutex<Option<CaseResult>>> = (0..n_cases).map(|_| Mutex::new(None)).collect();
+    let results: Vec<Mutex<Option<CaseResult>>> = cases.iter().map(|_| Mutex::new(None)).collect();
     std::thread::scope(|scope| {
         for _ in 0..jobs {
             scope.spawn(|| {
                 loop {
-                    let i = next.fetch_add(1, Ordering::SeqCst);
-                    if i >= n_cases {
+                    let j = next.fetch_add(1, Ordering::SeqCst);
+                    let Some(&i) = cases.get(j) else {
                         break;
-                    }
+                    };
                     let dir = case_dir(i);
                     let request = RunRequest {
                         out: Some(&dir),
@@ -281,17 +352,21 @@ pub fn run(
                             serde_json::from_str::<Value>(&s)
                                 .map_err(|e| CliError::Runtime(format!("case {}: {e}", i + 1)))
                         })
-                        .map(summary_fields);
+                        .map(summary_fields)
+                        .map_err(|e| e.to_string());
                     let n = done.fetch_add(1, Ordering::SeqCst) + 1;
                     if !req.quiet {
                         let status = match &outcome {
                             Ok(_) => "done".to_string(),
                             Err(e) => format!("failed: {e}"),
                         };
-                        eprintln!("[{n}/{n_cases}] case {} {status}", i + 1);
+                        eprintln!("[{n}/{}] case {} {status}", cases.len(), i + 1);
                     }
-                    *results[i].lock().expect("no poisoned lock") =
-                        Some(CaseResult { values, outcome });
+                    *results[j].lock().expect("no poisoned lock") = Some(CaseResult {
+                        index: i,
+                        values,
+                        outcome,
+                    });
                 }
             });
         }
@@ -304,17 +379,236 @@ pub fn run(
                 .expect("every case ran")
         })
         .collect();
+    if let Some((i, n)) = shard {
+        let manifest = serde_json::json!({
+            "flexsens_version": env!("CARGO_PKG_VERSION"),
+            "deck": path.display().to_string(),
+            "set": overrides,
+            "vary": req.vary,
+            "shard": [i, n],
+            "cases": n_cases,
+        });
+        write_atomic(
+            &out.join(SHARD_FILE),
+            (serde_json::to_string_pretty(&manifest).expect("JSON") + "\n").as_bytes(),
+        )?;
+        let lines: String = results
+            .iter()
+            .map(|r| {
+                let v = match &r.outcome {
+                    Ok(s) => serde_json::json!({ "case": r.index + 1, "summary": s }),
+                    Err(e) => serde_json::json!({ "case": r.index + 1, "error": e }),
+                };
+                v.to_string() + "\n"
+            })
+            .collect();
+        write_atomic(&out.join(CASES_FILE), lines.as_bytes())?;
+    }
     let csv = summary_csv(&axes, &results, &case_dir);
     write_atomic(&summary_path, csv.as_bytes())?;
     let failed = results.iter().filter(|r| r.outcome.is_err()).count();
+    let of = shard.map_or(String::new(), |(i, n)| {
+        format!("shard {i}/{n}: {} of ", results.len())
+    });
     let text = format!(
-        "{} cases ({} failed), {} parallel runs; summary: {}\n",
-        results.len(),
-        failed,
-        jobs,
+        "{of}{n_cases} cases ({failed} failed), {jobs} parallel runs; summary: {}\n",
         summary_path.display()
     );
     Ok((text, failed == 0))
+}
+
+/// One shard's record, read back by [`merge`].
+struct Shard {
+    dir: PathBuf,
+    manifest: Value,
+    results: Vec<CaseResult>,
+}
+
+fn read_shard(dir: &Path) -> Result<Shard, CliError> {
+    let input = |m: String| CliError::Usage(format!("{}: {m}", dir.display()));
+    let text = crate::limits::read_text(&dir.join(SHARD_FILE)).map_err(|e| {
+        input(format!(
+            "not a shard of a sweep ({SHARD_FILE}: {e}; shards are written by `flexsens sweep \
+             --shard I/N`)"
+        ))
+    })?;
+    let manifest: Value = serde_json::from_str(&text)
+        .map_err(|e| input(format!("{SHARD_FILE} is not valid JSON: {e}")))?;
+    let cases_text = crate::limits::read_text(&dir.join(CASES_FILE))
+        .map_err(|e| input(format!("{CASES_FILE}: {e}")))?;
+    let mut results = Vec::new();
+    for (n, line) in cases_text.lines().enumerate() {
+        let bad = |m: &str| input(format!("{CASES_FILE} line {}: {m}", n + 1));
+        let v: Value = serde_json::from_str(line).map_err(|e| bad(&e.to_string()))?;
+        let case = v["case"]
+            .as_u64()
+            .filter(|&c| c >= 1)
+            .ok_or_else(|| bad("no case number"))? as usize;
+        let outcome = match (&v["summary"], v["error"].as_str()) {
+            (Value::Object(_), _) => Ok(v["summary"].clone()),
+            (_, Some(e)) => Err(e.to_string()),
+            _ => return Err(bad("neither a summary nor an error")),
+        };
+        results.push(CaseResult {
+            index: case - 1,
+            values: Vec::new(),
+            outcome,
+        });
+    }
+    Ok(Shard {
+        dir: dir.to_path_buf(),
+        manifest,
+        results,
+    })
+}
+
+/// Move a directory, or copy it and remove the original where a rename cannot (another file
+/// system).
+fn move_dir(from: &Path, to: &Path) -> std::io::Result<()> {
+    if std::fs::rename(from, to).is_ok() {
+        return Ok(());
+    }
+    fn copy(from: &Path, to: &Path) -> std::io::Result<()> {
+        std::fs::create_dir_all(to)?;
+        for entry in std::fs::read_dir(from)? {
+            let entry = entry?;
+            let target = to.join(entry.file_name());
+            if entry.file_type()?.is_dir() {
+                copy(&entry.path(), &target)?;
+            } else {
+                std::fs::copy(entry.path(), target)?;
+            }
+        }
+        Ok(())
+    }
+    copy(from, to)?;
+    std::fs::remove_dir_all(from)
+}
+
+/// `flexsens merge SHARD_DIR… -o OUT`: gather the shards of one sweep (written by `sweep
+/// --shard I/N`) into `OUT` as a single-machine sweep would have written it — the case
+/// directories moved to `OUT/case_NNN` and the same `summary.csv`, byte for byte. The shards
+/// must be all N of one sweep (same deck, `--set` and `--vary`), each once. The returned flag
+/// says whether every case ran.
+pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(String, bool), CliError> {
+    if dirs.is_empty() {
+        return Err(usage("merge needs the shard directories"));
+    }
+    let shards = dirs
+        .iter()
+        .map(|d| read_shard(d))
+        .collect::<Result<Vec<_>, _>>()?;
+    let first = &shards[0];
+    let same = |key: &str| {
+        shards
+            .iter()
+            .find(|s| s.manifest[key] != first.manifest[key])
+            .map_or(Ok(()), |s| {
+                Err(usage(format!(
+                    "{} and {} are shards of different sweeps (their `{key}` differ)",
+                    first.dir.display(),
+                    s.dir.display()
+                )))
+            })
+    };
+    for key in ["deck", "set", "vary", "cases", "flexsens_version"] {
+        same(key)?;
+    }
+    let n = first.manifest["shard"][1].as_u64().unwrap_or(0) as usize;
+    let mut seen = vec![None::<&Path>; n];
+    for s in &shards {
+        let i = s.manifest["shard"][0].as_u64().unwrap_or(0) as usize;
+        let ni = s.manifest["shard"][1].as_u64().unwrap_or(0) as usize;
+        if ni != n || i == 0 || i > n {
+            return Err(usage(format!(
+                "{}: shard {i}/{ni} does not belong to a sweep of {n} shards",
+                s.dir.display()
+            )));
+        }
+        if let Some(other) = seen[i - 1].replace(&s.dir) {
+            return Err(usage(format!(
+                "{} and {} are both shard {i}/{n}",
+                other.display(),
+                s.dir.display()
+            )));
+        }
+    }
+    if let Some(missing) = seen.iter().position(Option::is_none) {
+        return Err(usage(format!(
+            "shard {}/{n} is missing: give the directories of all {n} shards",
+            missing + 1
+        )));
+    }
+    let vary: Vec<String> = first.manifest["vary"]
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .filter_map(|v| v.as_str().map(String::from))
+                .collect()
+        })
+        .unwrap_or_default();
+    let Plan { axes, n_cases } = plan(&vary)?;
+    if first.manifest["cases"].as_u64() != Some(n_cases as u64) {
+        return Err(usage(format!(
+            "{}: the shard's case count does not match its --vary ranges",
+            first.dir.display()
+        )));
+    }
+    // every case once, from the shard it belongs to
+    let mut merged: Vec<Option<CaseResult>> = (0..n_cases).map(|_| None).collect();
+    for s in shards {
+        let i = s.manifest["shard"][0].as_u64().unwrap_or(0) as usize;
+        let expected = shard_cases(n_cases, Some((i, n)));
+        let got: Vec<usize> = s.results.iter().map(|r| r.index).collect();
+        if got != expected {
+            return Err(usage(format!(
+                "{}: shard {i}/{n} holds {} of its {} cases (interrupted? run it again)",
+                s.dir.display(),
+                got.len(),
+                expected.len()
+            )));
+        }
+        for mut r in s.results {
+            let name = case_name(r.index, n_cases);
+            let (from, to) = (s.dir.join(&name), out.join(&name));
+            if from != to && from.exists() {
+                if to.exists() {
+                    std::fs::remove_dir_all(&to).map_err(|e| {
+                        CliError::Runtime(format!("cannot remove the old {}: {e}", to.display()))
+                    })?;
+                }
+                std::fs::create_dir_all(out).map_err(|e| {
+                    CliError::Runtime(format!(
+                        "cannot create the output directory {}: {e}",
+                        out.display()
+                    ))
+                })?;
+                move_dir(&from, &to).map_err(|e| {
+                    CliError::Runtime(format!(
+                        "cannot move {} to {}: {e}",
+                        from.display(),
+                        to.display()
+                    ))
+                })?;
+            }
+            r.values = case_values(&axes, r.index);
+            let index = r.index;
+            merged[index] = Some(r);
+        }
+    }
+    let results: Vec<CaseResult> = merged.into_iter().flatten().collect();
+    let csv = summary_csv(&axes, &results, &|i| out.join(case_name(i, n_cases)));
+    let summary_path = out.join("summary.csv");
+    write_atomic(&summary_path, csv.as_bytes())?;
+    let failed = results.iter().filter(|r| r.outcome.is_err()).count();
+    Ok((
+        format!(
+            "{n} shards, {} cases ({failed} failed); summary: {}\n",
+            results.len(),
+            summary_path.display()
+        ),
+        failed == 0,
+    ))
 }
 
 /// CSV-safe text (quoted when it holds a comma, quote or newline).
@@ -371,12 +665,12 @@ fn summary_csv(
         }
     }
     csv.push_str(",error\n");
-    for (i, r) in results.iter().enumerate() {
+    for r in results {
         let _ = write!(
             csv,
             "{},{}",
-            i + 1,
-            field(&case_dir(i).display().to_string())
+            r.index + 1,
+            field(&case_dir(r.index).display().to_string())
         );
         for v in &r.values {
             let _ = write!(csv, ",{v}");
@@ -411,7 +705,7 @@ fn summary_csv(
                         csv.push(',');
                     }
                 }
-                let _ = writeln!(csv, ",{}", field(&e.to_string().replace('\n', " ")));
+                let _ = writeln!(csv, ",{}", field(&e.replace('\n', " ")));
             }
         }
     }
