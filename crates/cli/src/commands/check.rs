@@ -5,7 +5,7 @@
 //! invalid values; for a mechanism, the modal analyses of its flexible bodies, the assembly of
 //! the initial configuration (a mechanism that cannot be assembled is an error) and redundant
 //! joint equations (reported; `analysis.redundant = "error"` makes them an error). It lists
-//! the design variables with what they move. Nothing is integrated and nothing is written.
+//! the design variables with what they move, and the `[optimize]` problem. Nothing is integrated and nothing is written.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -73,6 +73,18 @@ pub fn run(path: &Path, overrides: &[String]) -> Result<String, CliError> {
             v.value,
             v.unit,
             v.describe()
+        );
+    }
+    if raw.optimize.is_some() {
+        let o = crate::deck::optimize::validate(&src, &raw, &design)?;
+        let _ = writeln!(
+            s,
+            "optimize: {} {} over {} variables, {} constraints, {} starts",
+            if o.maximize { "maximise" } else { "minimise" },
+            o.objective.label(),
+            o.bounds.len(),
+            o.constraints.len(),
+            o.starts.len()
         );
     }
     let mechanism = raw.analysis.is_some() || !raw.joint.is_empty() || !raw.rigid.is_empty();

@@ -13,6 +13,7 @@ pub mod check;
 pub mod design;
 pub mod laminates;
 pub mod mechanism;
+pub mod optimize;
 pub mod overrides;
 pub mod raw;
 pub mod responses;

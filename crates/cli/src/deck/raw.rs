@@ -52,6 +52,43 @@ pub struct RawDeck {
     pub sensitivity: Option<Spanned<RawSensitivity>>,
     /// Finite-difference comparisons.
     pub finite_differences: Option<Spanned<RawFiniteDifferences>>,
+    /// The problem of `flexsens optimize`.
+    pub optimize: Option<Spanned<RawOptimize>>,
+}
+
+/// `[optimize]`: minimise or maximise one quantity over the `[design.*]` variables (within
+/// their `lower`, `upper` bounds) subject to constraints on others.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawOptimize {
+    /// The quantity to minimise: `"objective.NAME"`, `"frequency.BODY.K"` or `"mass.BODY"`.
+    pub minimize: Option<Spanned<String>>,
+    /// The quantity to maximise (instead of `minimize`).
+    pub maximize: Option<Spanned<String>>,
+    /// Constraints (`[[optimize.constraint]]`).
+    #[serde(default)]
+    pub constraint: Vec<Spanned<RawConstraint>>,
+    /// The largest number of evaluations of the model per start (default 100).
+    pub max_evaluations: Option<Spanned<i64>>,
+    /// Convergence: the relative change of the objective between iterations (default 1e-8).
+    pub tolerance: Option<Spanned<f64>>,
+    /// More starting designs, each a list of the design variables' values (in the order of
+    /// their names); the deck's own values are always the first start.
+    pub starts: Option<Spanned<Vec<Vec<f64>>>>,
+}
+
+/// One constraint of `[optimize]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawConstraint {
+    /// The constrained quantity (as `minimize`).
+    pub quantity: Option<Spanned<String>>,
+    /// The quantity must be at least this.
+    pub min: Option<Spanned<f64>>,
+    /// The quantity must be at most this.
+    pub max: Option<Spanned<f64>>,
+    /// The quantity must equal this number, or `"nominal"`: its value at the deck's design.
+    pub equals: Option<Spanned<toml::Value>>,
 }
 
 /// A material: isotropic (`E`, `nu`) or orthotropic (the nine constants), with `density`.
@@ -306,6 +343,10 @@ pub struct RawDesign {
     pub material: Option<Spanned<String>>,
     /// `"material"`: the constant (`"E1"` … `"nu23"`, `"E"` of an isotropic one, `"density"`).
     pub constant: Option<Spanned<String>>,
+    /// `flexsens optimize`: the variable's lower bound (its unit).
+    pub lower: Option<Spanned<f64>>,
+    /// `flexsens optimize`: the variable's upper bound (its unit).
+    pub upper: Option<Spanned<f64>>,
 }
 
 /// A scalar objective of a response history.
@@ -633,6 +674,8 @@ mod tests {
             ("[objective.NAME]", fields::<RawObjective>()),
             ("[sensitivity]", fields::<RawSensitivity>()),
             ("[finite_differences]", fields::<RawFiniteDifferences>()),
+            ("[optimize]", fields::<RawOptimize>()),
+            ("[optimize]", fields::<RawConstraint>()),
         ];
         let mut missing = Vec::new();
         for (heading, keys) in &tables {

@@ -1,0 +1,285 @@
+//! `[optimize]`: the problem of `flexsens optimize` — one quantity to minimise or maximise
+//! over the `[design.*]` variables within their bounds (`lower`, `upper` in each variable's
+//! table), subject to constraints on other quantities.
+//!
+//! A quantity is named by a string: `"objective.NAME"` (an `[objective.*]` of the run),
+//! `"frequency.BODY.K"` (the K-th retained mode of a flexible body, Hz) or `"mass.BODY"` (a
+//! flexible or rigid body's mass, kg).
+
+use toml::Spanned;
+
+use super::check::{finite, required, span};
+use super::design::DesignDef;
+use super::laminates::suggestion;
+use super::raw::RawConstraint;
+use super::{DeckError, RawDeck, Source};
+
+/// A quantity the optimiser can read with its gradient.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Quantity {
+    /// An `[objective.*]` of the run (its unit).
+    Objective { name: String },
+    /// The frequency of the `mode`-th (from 0) retained mode of a flexible body (Hz).
+    Frequency { body: String, mode: usize },
+    /// The mass of a flexible or rigid body (kg).
+    Mass { body: String },
+}
+
+impl Quantity {
+    /// The name as the deck writes it.
+    pub fn label(&self) -> String {
+        match self {
+            Quantity::Objective { name } => format!("objective.{name}"),
+            Quantity::Frequency { body, mode } => format!("frequency.{body}.{}", mode + 1),
+            Quantity::Mass { body } => format!("mass.{body}"),
+        }
+    }
+}
+
+/// What a constraint asks of its quantity.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Bound {
+    AtLeast(f64),
+    AtMost(f64),
+    Equals(f64),
+    /// Equal to its value at the deck's design.
+    EqualsNominal,
+}
+
+/// One constraint.
+#[derive(Debug, Clone)]
+pub struct ConstraintDef {
+    pub quantity: Quantity,
+    pub bound: Bound,
+}
+
+/// The validated problem.
+#[derive(Debug, Clone)]
+pub struct OptimizeDef {
+    pub objective: Quantity,
+    /// Maximise instead of minimise.
+    pub maximize: bool,
+    pub constraints: Vec<ConstraintDef>,
+    /// `(lower, upper)` of each design variable (in `DesignDef::variables` order).
+    pub bounds: Vec<(f64, f64)>,
+    pub max_evaluations: usize,
+    pub tolerance: f64,
+    /// Starting designs; the first is the deck's own.
+    pub starts: Vec<Vec<f64>>,
+}
+
+/// Parse a quantity name, checking that what it names exists.
+fn quantity(
+    src: &Source,
+    raw: &RawDeck,
+    key: &str,
+    v: &Spanned<String>,
+) -> Result<Quantity, DeckError> {
+    let text = v.get_ref();
+    let bad = |m: String| src.error(span(v), Some(key.to_string()), m);
+    let parts: Vec<&str> = text.split('.').collect();
+    match parts.as_slice() {
+        ["objective", name] => {
+            if !raw.objective.contains_key(*name) {
+                let known: Vec<&str> = raw.objective.keys().map(String::as_str).collect();
+                return Err(bad(format!(
+                    "no [objective.{name}] in the deck{}",
+                    suggestion(name, &known)
+                )));
+            }
+            Ok(Quantity::Objective {
+                name: name.to_string(),
+            })
+        }
+        ["frequency", body, k] => {
+            if !raw.body.contains_key(*body) {
+                let known: Vec<&str> = raw.body.keys().map(String::as_str).collect();
+                return Err(bad(format!(
+                    "no flexible body `{body}`{}",
+                    suggestion(body, &known)
+                )));
+            }
+            let mode = k
+                .parse::<usize>()
+                .ok()
+                .filter(|&m| m >= 1)
+                .ok_or_else(|| bad(format!("`{k}` is not a mode number (from 1)")))?;
+            Ok(Quantity::Frequency {
+                body: body.to_string(),
+                mode: mode - 1,
+            })
+        }
+        ["mass", body] => {
+            if !raw.body.contains_key(*body) && !raw.rigid.contains_key(*body) {
+                let known: Vec<&str> = raw
+                    .body
+                    .keys()
+                    .chain(raw.rigid.keys())
+                    .map(String::as_str)
+                    .collect();
+                return Err(bad(format!("no body `{body}`{}", suggestion(body, &known))));
+            }
+            Ok(Quantity::Mass {
+                body: body.to_string(),
+            })
+        }
+        _ => Err(bad(format!(
+            "`{text}`: expected \"objective.NAME\", \"frequency.BODY.K\" or \"mass.BODY\""
+        ))),
+    }
+}
+
+fn constraint(
+    src: &Source,
+    raw: &RawDeck,
+    i: usize,
+    c: &Spanned<RawConstraint>,
+) -> Result<ConstraintDef, DeckError> {
+    let k = |s: &str| format!("optimize.constraint[{i}].{s}");
+    let rc = c.get_ref();
+    let q = required(
+        src,
+        span(c),
+        &k("quantity"),
+        &rc.quantity,
+        "quantity (e.g. \"frequency.rod.1\")",
+    )?;
+    let quantity = quantity(src, raw, &k("quantity"), q)?;
+    let given = [rc.min.is_some(), rc.max.is_some(), rc.equals.is_some()];
+    if given.iter().filter(|&&g| g).count() != 1 {
+        return Err(src.error(
+            span(c),
+            Some(format!("optimize.constraint[{i}]")),
+            "give exactly one of min, max and equals",
+        ));
+    }
+    let bound = if let Some(v) = &rc.min {
+        Bound::AtLeast(finite(src, &k("min"), v, "the quantity's unit")?)
+    } else if let Some(v) = &rc.max {
+        Bound::AtMost(finite(src, &k("max"), v, "the quantity's unit")?)
+    } else {
+        let v = rc.equals.as_ref().expect("one of the three");
+        match v.get_ref() {
+            toml::Value::String(s) if s == "nominal" => Bound::EqualsNominal,
+            toml::Value::Float(x) if x.is_finite() => Bound::Equals(*x),
+            toml::Value::Integer(n) => Bound::Equals(*n as f64),
+            _ => {
+                return Err(src.error(
+                    span(v),
+                    Some(k("equals")),
+                    "expected a finite number or \"nominal\" (the value at the deck's design)",
+                ));
+            }
+        }
+    };
+    Ok(ConstraintDef { quantity, bound })
+}
+
+/// Validate `[optimize]` against the deck's design variables.
+pub fn validate(src: &Source, raw: &RawDeck, design: &DesignDef) -> Result<OptimizeDef, DeckError> {
+    let table = raw.optimize.as_ref().ok_or_else(|| {
+        src.error(
+            None,
+            Some("optimize".into()),
+            "missing table [optimize] (the quantity to minimise or maximise, constraints)",
+        )
+    })?;
+    let o = table.get_ref();
+    let (objective, maximize) = match (&o.minimize, &o.maximize) {
+        (Some(q), None) => (quantity(src, raw, "optimize.minimize", q)?, false),
+        (None, Some(q)) => (quantity(src, raw, "optimize.maximize", q)?, true),
+        _ => {
+            return Err(src.error(
+                span(table),
+                Some("optimize".into()),
+                "give exactly one of minimize and maximize",
+            ));
+        }
+    };
+    if design.variables.is_empty() {
+        return Err(src.error(
+            span(table),
+            Some("optimize".into()),
+            "the deck has no [design.*] variables to optimise",
+        ));
+    }
+    let mut bounds = Vec::new();
+    for v in &design.variables {
+        let d = raw.design[&v.name].get_ref();
+        let k = |s: &str| format!("design.{}.{s}", v.name);
+        let get = |key: &str, f: &Option<Spanned<f64>>| -> Result<f64, DeckError> {
+            let x = required(
+                src,
+                span(&raw.design[&v.name]),
+                &k(key),
+                f,
+                &format!("{key} ({}): flexsens optimize needs both bounds", v.unit),
+            )?;
+            finite(src, &k(key), x, v.unit)
+        };
+        let (lo, hi) = (get("lower", &d.lower)?, get("upper", &d.upper)?);
+        if lo >= hi {
+            return Err(src.error(
+                d.upper.as_ref().map(|u| u.span()),
+                Some(k("upper")),
+                format!("upper = {hi} must be above lower = {lo}"),
+            ));
+        }
+        if v.value < lo || v.value > hi {
+            return Err(src.error(
+                span(&raw.design[&v.name]),
+                Some(format!("design.{}", v.name)),
+                format!(
+                    "the deck's value {} {} lies outside [lower, upper] = [{lo}, {hi}]",
+                    v.value, v.unit
+                ),
+            ));
+        }
+        bounds.push((lo, hi));
+    }
+    let constraints = o
+        .constraint
+        .iter()
+        .enumerate()
+        .map(|(i, c)| constraint(src, raw, i, c))
+        .collect::<Result<Vec<_>, _>>()?;
+    let max_evaluations = match &o.max_evaluations {
+        None => 100,
+        Some(n) => super::check::count(src, "optimize.max_evaluations", n, 1)?,
+    };
+    let tolerance = match &o.tolerance {
+        None => 1e-8,
+        Some(t) => super::check::positive(src, "optimize.tolerance", t, "1")?,
+    };
+    let mut starts = vec![design.variables.iter().map(|v| v.value).collect::<Vec<_>>()];
+    if let Some(s) = &o.starts {
+        for (j, x) in s.get_ref().iter().enumerate() {
+            let ok = x.len() == bounds.len()
+                && x.iter()
+                    .zip(&bounds)
+                    .all(|(x, (lo, hi))| x.is_finite() && lo <= x && x <= hi);
+            if !ok {
+                let names: Vec<&str> = design.variables.iter().map(|v| v.name.as_str()).collect();
+                return Err(src.error(
+                    span(s),
+                    Some(format!("optimize.starts[{j}]")),
+                    format!(
+                        "{x:?}: a start gives one value per design variable ({}), within its \
+                         bounds",
+                        names.join(", ")
+                    ),
+                ));
+            }
+            starts.push(x.clone());
+        }
+    }
+    Ok(OptimizeDef {
+        objective,
+        maximize,
+        constraints,
+        bounds,
+        max_evaluations,
+        tolerance,
+        starts,
+    })
+}
