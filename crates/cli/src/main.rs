@@ -3,6 +3,7 @@
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use clap::{Parser, Subcommand};
 
@@ -135,6 +136,20 @@ enum Command {
         #[arg(long, value_name = "I/N")]
         shard: Option<String>,
     },
+    /// Optimise the deck's [design.*] variables for its [optimize] problem (SLSQP with exact
+    /// gradients): writes the optimum deck, iterations.csv, convergence plots and the
+    /// optimum's run into DIR; Ctrl-C stops and writes the best feasible design so far.
+    #[command(allow_negative_numbers = true)]
+    Optimize {
+        /// The deck (TOML) with [design.*] variables (with lower, upper) and [optimize].
+        deck: PathBuf,
+        /// Output directory (default: `<deck name>.optimize` beside the deck).
+        #[arg(short = 'o', long = "output", value_name = "DIR")]
+        output: Option<PathBuf>,
+        /// Starts run at once (default: the number of cores).
+        #[arg(short = 'j', long, value_name = "N")]
+        jobs: Option<usize>,
+    },
     /// Gather the shards of a sweep (`sweep --shard I/N`, each in its own directory) into one
     /// directory, exactly as a single-machine sweep would have written it.
     #[command(allow_negative_numbers = true)]
@@ -262,6 +277,23 @@ fn main() -> ExitCode {
                 shard: shard.as_deref(),
             };
             commands::sweep::run(deck, &cli.set, &req).map(|(t, ok)| (t, if ok { 0 } else { 1 }))
+        }
+        Command::Optimize { deck, output, jobs } => {
+            let stop: &'static AtomicBool = Box::leak(Box::new(AtomicBool::new(false)));
+            // Ctrl-C (or a termination signal) stops the optimiser, which writes its best
+            // design; a second one ends the process at once
+            let _ = ctrlc::set_handler(move || {
+                if stop.swap(true, Ordering::SeqCst) {
+                    std::process::exit(130);
+                }
+            });
+            let req = commands::optimize::OptimizeRequest {
+                out: output.as_deref(),
+                jobs: *jobs,
+                quiet: cli.quiet,
+                stop,
+            };
+            commands::optimize::run(deck, &cli.set, &req)
         }
         Command::Merge { shards, output } => {
             commands::sweep::merge(shards, output).map(|(t, ok)| (t, if ok { 0 } else { 1 }))

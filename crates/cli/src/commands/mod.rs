@@ -5,6 +5,7 @@ pub mod compare;
 mod compute;
 pub mod laminate;
 pub mod modes;
+pub mod optimize;
 pub mod output;
 pub mod report;
 pub mod run;

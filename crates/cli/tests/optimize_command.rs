@@ -1,0 +1,276 @@
+//! `flexsens optimize`: SLSQP with the exact gradients of the whole chain. Against answers
+//! known by theory: a unidirectional tube's bending frequency is largest with its fibres
+//! along the axis (0°, by symmetry and monotony of the axial modulus); a plate of least mass
+//! whose frequency must reach a bound (f ∝ t and m ∝ t) sits on that bound, and the
+//! multiplier of the bound is the derivative of the optimal mass with respect to it, checked
+//! against central differences of whole optimisations.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use common::{deck, run};
+
+/// The tube rod of `modes_beam_rod.toml`, coarser (fast), all plies at 40°, one angle variable
+/// in [−60°, 75°] (not symmetric about the optimum), maximising the first frequency.
+fn tube_deck(dir: &Path) -> PathBuf {
+    let text = std::fs::read_to_string(deck("modes_beam_rod.toml"))
+        .unwrap()
+        .replace("elements_around = 48", "elements_around = 16")
+        .replace("modes = 4", "modes = 2")
+        .replace("modes = [1, 4]", "modes = [1, 2]")
+        .replace("angle = 15.0", "angle = 40.0")
+        + "\n[design.theta]\nlaminate = \"tube_wall\"\nlower = -60.0\nupper = 75.0\n\n\
+           [optimize]\nmaximize = \"frequency.rod.1\"\n";
+    let path = dir.join("tube.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+fn optimize(path: &Path, out: &Path, extra: &[&str]) -> (String, String, Option<i32>) {
+    let mut args = vec![
+        "optimize".to_string(),
+        path.display().to_string(),
+        "-o".into(),
+        out.display().to_string(),
+    ];
+    args.extend(extra.iter().map(|s| s.to_string()));
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let o = run(&args);
+    (
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+        o.status.code(),
+    )
+}
+
+/// The value printed for `name = VALUE UNIT` in the summary.
+fn summary_value(text: &str, name: &str) -> f64 {
+    let line = text
+        .lines()
+        .find(|l| l.trim_start().starts_with(&format!("{name} = ")))
+        .unwrap_or_else(|| panic!("no `{name}` in\n{text}"));
+    line.split('=')
+        .nth(1)
+        .unwrap()
+        .split_whitespace()
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap()
+}
+
+#[test]
+fn a_tube_frequency_is_largest_with_fibres_along_the_axis() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = tube_deck(dir.path());
+    let out = dir.path().join("out");
+    let (text, err, code) = optimize(&path, &out, &["--quiet"]);
+    assert_eq!(code, Some(0), "{text}\n{err}");
+    let theta = summary_value(&text, "theta");
+    assert!(theta.abs() < 1e-4, "θ* = {theta} deg\n{text}");
+    // the optimum deck is a deck: its frequency is the one reported, and its derivative there
+    // vanishes (the run of `modes --derivatives` on it)
+    let f = summary_value(
+        &text.replace("optimum (", "\n").replace("): ", "\n"),
+        "frequency.rod.1",
+    );
+    let o = run(&[
+        "modes",
+        &out.join("optimum.toml").display().to_string(),
+        "--format",
+        "json",
+        "--derivatives",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let doc: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let f1 = doc["bodies"]["rod"]["values"]["frequencies"][0]
+        .as_f64()
+        .unwrap();
+    assert!((f1 - f).abs() < 1e-9 * f, "{f1} vs {f}");
+    let df = doc["bodies"]["rod"]["derivatives"][0]["values"]["frequencies"][0]
+        .as_f64()
+        .unwrap();
+    assert!(df.abs() < 1e-6 * f, "df/dθ = {df} Hz/deg at the optimum");
+    // every evaluation is logged, the last ones stationary
+    let csv = std::fs::read_to_string(out.join("iterations.csv")).unwrap();
+    let header = csv.lines().next().unwrap();
+    assert!(
+        header.starts_with("start,evaluation,theta [deg],frequency.rod.1,max_violation"),
+        "{header}"
+    );
+    assert!(csv.lines().count() > 3);
+    for f in ["convergence.svg", "convergence.png"] {
+        assert!(std::fs::metadata(out.join(f)).unwrap().len() > 1000, "{f}");
+    }
+}
+
+/// A steel plate of least mass whose first free-free frequency is at least `f_min`.
+fn plate_deck(dir: &Path, f_min: f64) -> PathBuf {
+    let text = format!(
+        "[material.steel]\nE = 210e9\nnu = 0.3\ndensity = 7800.0\n\n\
+         [laminate.sheet]\nplies = [{{ material = \"steel\", thickness = 2e-3, angle = 0.0 }}]\n\n\
+         [body.plate]\nkind = \"shell\"\nlaminate = \"sheet\"\nlength = 0.3\nwidth = 0.2\n\
+         elements = [12, 8]\nmodes = 1\nreference = \"free-free\"\n\n\
+         [design.t]\nkind = \"ply-thickness\"\nlaminate = \"sheet\"\nlower = 0.5e-3\nupper = 5e-3\n\n\
+         [optimize]\nminimize = \"mass.plate\"\n\n\
+         [[optimize.constraint]]\nquantity = \"frequency.plate.1\"\nmin = {f_min:?}\n"
+    );
+    let path = dir.join(format!("plate_{f_min}.toml"));
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+#[test]
+fn the_lightest_plate_meets_its_frequency_bound_and_the_multiplier_is_dm_over_df() {
+    let dir = tempfile::tempdir().unwrap();
+    let solve = |f_min: f64| {
+        let path = plate_deck(dir.path(), f_min);
+        let out = dir.path().join(format!("out_{f_min:?}"));
+        let (text, err, code) = optimize(&path, &out, &["--quiet"]);
+        assert_eq!(code, Some(0), "{text}\n{err}");
+        let mass = summary_value(
+            &text.replace("optimum (", "\n").replace("): ", "\n"),
+            "mass.plate",
+        );
+        let t = summary_value(&text, "t");
+        let line = text
+            .lines()
+            .find(|l| l.contains("multiplier dF*/d(bound) = "))
+            .unwrap();
+        let lambda: f64 = line.rsplit("= ").next().unwrap().trim().parse().unwrap();
+        let f = summary_value(&text, "frequency.plate.1");
+        (mass, t, lambda, f)
+    };
+    let (m, t, lambda, f) = solve(150.0);
+    // on the bound, with the thickness of the closed form (f ∝ t): t* = t0 f_min / f(t0),
+    // f(t0) read from the nominal evaluation, to the Mindlin correction (0.3 %)
+    assert!((f - 150.0).abs() < 1e-6 * 150.0, "f(t*) = {f}");
+    let rho_area = 7800.0 * 0.3 * 0.2;
+    assert!(
+        (m - rho_area * t).abs() < 1e-9 * m,
+        "m = ρ A t: {m} vs {}",
+        rho_area * t
+    );
+    let csv = std::fs::read_to_string(dir.path().join("out_150.0/iterations.csv")).unwrap();
+    let f0: f64 = csv
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .nth(4)
+        .unwrap()
+        .parse()
+        .unwrap();
+    let t_closed = 2e-3 * 150.0 / f0;
+    assert!(
+        (t - t_closed).abs() < 3e-3 * t_closed,
+        "t* = {t} vs {t_closed}"
+    );
+    // the multiplier is dm*/df_min: against central differences of the optimum (h = 1 Hz;
+    // m*(f_min) is nearly linear, so the difference is accurate to well below 1e-4)
+    let (m_plus, ..) = solve(151.0);
+    let (m_minus, ..) = solve(149.0);
+    let central = (m_plus - m_minus) / 2.0;
+    assert!(
+        (lambda - central).abs() < 1e-4 * central.abs(),
+        "λ = {lambda:e}, central differences {central:e}"
+    );
+    // and of the size of the closed form's ρ A t*/f_min
+    assert!(
+        (lambda - m / 150.0).abs() < 5e-3 * lambda,
+        "{lambda} vs {}",
+        m / 150.0
+    );
+}
+
+#[test]
+fn bad_optimize_tables_are_refused_with_their_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let base = std::fs::read_to_string(tube_deck(dir.path())).unwrap();
+    for (edit, key, says) in [
+        (
+            base.replace("lower = -60.0\n", ""),
+            "design.theta.lower",
+            "flexsens optimize needs both bounds",
+        ),
+        (
+            base.replace(
+                "maximize = \"frequency.rod.1\"",
+                "maximize = \"frequency.rood.1\"",
+            ),
+            "optimize.maximize",
+            "did you mean `rod`",
+        ),
+        (
+            base.replace(
+                "maximize = \"frequency.rod.1\"",
+                "maximize = \"stiffness.rod\"",
+            ),
+            "optimize.maximize",
+            "expected \"objective.NAME\"",
+        ),
+        (
+            base.replace("[optimize]\n", "[optimize]\nminimize = \"mass.rod\"\n"),
+            "optimize",
+            "exactly one of minimize and maximize",
+        ),
+        (
+            base.clone() + "starts = [[80.0]]\n",
+            "optimize.starts[0]",
+            "within its bounds",
+        ),
+        (
+            base.clone()
+                + "[[optimize.constraint]]\nquantity = \"mass.rod\"\nmin = 1.0\nmax = 2.0\n",
+            "optimize.constraint[0]",
+            "exactly one of min, max and equals",
+        ),
+        (
+            base.replace("lower = -60.0", "lower = 50.0"),
+            "design.theta",
+            "lies outside [lower, upper]",
+        ),
+    ] {
+        let (_d, err) = common::bad_deck(&edit, |p| common::with_deck("optimize", p, &[]));
+        assert!(
+            err.contains(&format!("key `{key}`")) && err.contains(says),
+            "{key}: {err}"
+        );
+    }
+}
+
+/// Ctrl-C stops the optimiser; the best feasible design so far is written and the exit code
+/// is 130.
+#[test]
+fn an_interrupted_optimisation_writes_its_best_design() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = tube_deck(dir.path());
+    let out = dir.path().join("out");
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_flexsens"))
+        .args(["optimize", &path.display().to_string(), "-o"])
+        .arg(&out)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // wait for the second evaluation's progress line, then interrupt
+    let stderr = child.stderr.take().unwrap();
+    let mut lines = std::io::BufRead::lines(std::io::BufReader::new(stderr));
+    for line in lines.by_ref() {
+        if line.unwrap().contains("evaluation 2") {
+            break;
+        }
+    }
+    let ok = std::process::Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .is_ok_and(|s| s.success());
+    assert!(ok, "kill -INT");
+    let rest: Vec<String> = lines.map_while(Result::ok).collect();
+    let o = child.wait_with_output().unwrap();
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(o.status.code(), Some(130), "{text}\n{rest:?}");
+    assert!(text.contains("interrupted"), "{text}");
+    assert!(out.join("optimum.toml").exists() && out.join("iterations.csv").exists());
+}
