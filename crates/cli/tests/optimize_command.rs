@@ -96,7 +96,7 @@ fn a_tube_frequency_is_largest_with_fibres_along_the_axis() {
     let csv = std::fs::read_to_string(out.join("iterations.csv")).unwrap();
     let header = csv.lines().next().unwrap();
     assert!(
-        header.starts_with("start,evaluation,theta [deg],frequency.rod.1,max_violation"),
+        header.starts_with("start,evaluation,theta [deg],frequency.rod.1 [Hz],max_violation"),
         "{header}"
     );
     assert!(csv.lines().count() > 3);

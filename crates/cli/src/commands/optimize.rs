@@ -52,6 +52,8 @@ const MARGIN: f64 = 1e-8;
 /// The values and gradients of the objective and the constrained quantities at one design.
 #[derive(Clone, Debug)]
 struct Eval {
+    /// The units of the objective and of each constrained quantity.
+    units: Vec<&'static str>,
     f: f64,
     df: Vec<f64>,
     /// Per constraint: the quantity's value and gradient.
@@ -118,13 +120,13 @@ impl Problem<'_> {
             let c = super::compute::compute(&src, &raw, &mech)?;
             c.objectives
                 .into_iter()
-                .map(|o| (o.name, (o.value, o.gradient)))
+                .map(|o| (o.name, (o.value, o.gradient, o.unit)))
                 .collect()
         } else {
             std::collections::BTreeMap::new()
         };
         let mut bodies = std::collections::BTreeMap::new();
-        let mut read = |q: &Quantity| -> Result<(f64, Vec<f64>), CliError> {
+        let mut read = |q: &Quantity| -> Result<(f64, Vec<f64>, &'static str), CliError> {
             Ok(match q {
                 Quantity::Objective { name } => objectives[name].clone(),
                 Quantity::Frequency { body, mode } => {
@@ -140,14 +142,14 @@ impl Problem<'_> {
                             format!("frequency.{body}.{}: the body keeps {n} modes", mode + 1),
                         ))
                     })?;
-                    (*f, b.d_frequencies[*mode].clone())
+                    (*f, b.d_frequencies[*mode].clone(), "Hz")
                 }
                 Quantity::Mass { body } if raw.body.contains_key(body) => {
                     if !bodies.contains_key(body) {
                         bodies.insert(body.clone(), flexible_quantities(&src, &raw, body)?);
                     }
                     let b = &bodies[body];
-                    (b.mass, b.d_mass.clone())
+                    (b.mass, b.d_mass.clone(), "kg")
                 }
                 Quantity::Mass { body } => {
                     let rigid = mechanism::rigid_bodies(&src, &raw)?;
@@ -163,15 +165,17 @@ impl Problem<'_> {
                             _ => 0.0,
                         })
                         .collect();
-                    (r.mass, grad)
+                    (r.mass, grad, "kg")
                 }
             })
         };
-        let (f, df) = read(&self.def.objective)?;
+        let (f, df, unit) = read(&self.def.objective)?;
+        let mut units = vec![unit];
         let mut q = Vec::new();
         let mut dq = Vec::new();
         for c in &self.def.constraints {
-            let (v, g) = read(&c.quantity)?;
+            let (v, g, unit) = read(&c.quantity)?;
+            units.push(unit);
             q.push(v);
             dq.push(g);
         }
@@ -179,7 +183,13 @@ impl Problem<'_> {
         if !(ok(f) && df.iter().copied().all(ok) && q.iter().copied().all(ok)) {
             return Err(runtime("a quantity or its gradient is not finite"));
         }
-        Ok(Eval { f, df, q, dq })
+        Ok(Eval {
+            units,
+            f,
+            df,
+            q,
+            dq,
+        })
     }
 
     /// The constraints as `g ≤ 0` in physical units: `(constraint, sign)` with
@@ -539,14 +549,23 @@ fn best_feasible(p: &Problem, rows: &[Row], start: Option<usize>) -> Option<usiz
         .map(|(k, _)| k)
 }
 
+/// The units of the objective and the constrained quantities, from the first evaluation that
+/// gave values.
+fn units(rows: &[Row], count: usize) -> Vec<&'static str> {
+    rows.iter()
+        .find_map(|r| r.eval.as_ref().ok().map(|e| e.units.clone()))
+        .unwrap_or_else(|| vec!["?"; count])
+}
+
 fn iterations_csv(p: &Problem, rows: &[Row]) -> String {
+    let units = units(rows, 1 + p.def.constraints.len());
     let mut s = String::from("start,evaluation");
     for v in &p.variables {
         let _ = write!(s, ",{} [{}]", v.name, v.unit);
     }
-    let _ = write!(s, ",{}", p.def.objective.label());
-    for c in &p.def.constraints {
-        let _ = write!(s, ",{}", c.quantity.label());
+    let _ = write!(s, ",{} [{}]", p.def.objective.label(), units[0]);
+    for (c, u) in p.def.constraints.iter().zip(&units[1..]) {
+        let _ = write!(s, ",{} [{u}]", c.quantity.label());
     }
     s.push_str(",max_violation,gradient_norm,kkt_stationarity");
     for c in &p.def.constraints {
@@ -610,7 +629,11 @@ fn convergence_figure(p: &Problem, rows: &[Row], starts: usize) -> Figure {
             Panel {
                 title: "objective".into(),
                 x_label: "evaluation".into(),
-                y_label: format!("{} [its unit]", p.def.objective.label()),
+                y_label: format!(
+                    "{} [{}]",
+                    p.def.objective.label(),
+                    units(rows, 1 + p.def.constraints.len())[0]
+                ),
                 series: objective,
             },
             Panel {
