@@ -149,9 +149,13 @@ enum Command {
         /// Starts run at once (default: the number of cores).
         #[arg(short = 'j', long, value_name = "N")]
         jobs: Option<usize>,
+        /// Run only the I-th of N deterministic slices of the starts (every N-th from the
+        /// I-th), e.g. one task of a Slurm job array; gather the shards with `flexsens merge`.
+        #[arg(long, value_name = "I/N")]
+        shard: Option<String>,
     },
-    /// Gather the shards of a sweep (`sweep --shard I/N`, each in its own directory) into one
-    /// directory, exactly as a single-machine sweep would have written it.
+    /// Gather the shards of a sweep or an optimisation (`--shard I/N`, each in its own
+    /// directory) into one directory, exactly as a run on one machine would have written it.
     #[command(allow_negative_numbers = true)]
     Merge {
         /// The shards' output directories (all N shards of one sweep).
@@ -278,7 +282,12 @@ fn main() -> ExitCode {
             };
             commands::sweep::run(deck, &cli.set, &req).map(|(t, ok)| (t, if ok { 0 } else { 1 }))
         }
-        Command::Optimize { deck, output, jobs } => {
+        Command::Optimize {
+            deck,
+            output,
+            jobs,
+            shard,
+        } => {
             let stop: &'static AtomicBool = Box::leak(Box::new(AtomicBool::new(false)));
             // Ctrl-C (or a termination signal) stops the optimiser, which writes its best
             // design; a second one ends the process at once
@@ -292,6 +301,7 @@ fn main() -> ExitCode {
                 jobs: *jobs,
                 quiet: cli.quiet,
                 stop,
+                shard: shard.as_deref(),
             };
             commands::optimize::run(deck, &cli.set, &req)
         }

@@ -274,3 +274,50 @@ fn an_interrupted_optimisation_writes_its_best_design() {
     assert!(text.contains("interrupted"), "{text}");
     assert!(out.join("optimum.toml").exists() && out.join("iterations.csv").exists());
 }
+
+/// `optimize --shard I/N` as separate processes and `merge` give what one optimisation writes:
+/// the same iterations, the same optimum deck and the same summary.
+#[test]
+fn sharded_starts_merge_into_the_single_optimisation() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = tube_deck(dir.path());
+    let text = std::fs::read_to_string(&path).unwrap() + "starts = [[-30.0], [60.0]]\n";
+    std::fs::write(&path, text).unwrap();
+    let single = dir.path().join("single");
+    let (one, err, code) = optimize(&path, &single, &["--quiet", "-j", "1"]);
+    assert_eq!(code, Some(0), "{one}\n{err}");
+    for i in 1..=2 {
+        let (t, err, code) = optimize(
+            &path,
+            &dir.path().join(format!("shard_{i}")),
+            &["--quiet", "--shard", &format!("{i}/2")],
+        );
+        assert_eq!(code, Some(0), "{t}\n{err}");
+    }
+    let merged = dir.path().join("merged");
+    let o = run(&[
+        "merge",
+        &dir.path().join("shard_2").display().to_string(),
+        &dir.path().join("shard_1").display().to_string(),
+        "-o",
+        &merged.display().to_string(),
+    ]);
+    let text = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(
+        o.status.success(),
+        "{text}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    for f in ["iterations.csv", "optimum.toml"] {
+        assert_eq!(
+            std::fs::read_to_string(single.join(f)).unwrap(),
+            std::fs::read_to_string(merged.join(f)).unwrap(),
+            "{f}"
+        );
+    }
+    assert_eq!(
+        one.replace(&single.display().to_string(), "OUT"),
+        text.replace(&merged.display().to_string(), "OUT")
+    );
+    assert!(one.contains("start 3: converged"), "{one}");
+}

@@ -229,7 +229,7 @@ fn sharded_sweeps_merge_into_the_single_sweep() {
     let o = merge(&[1, 2, 3], &dir.path().join("mixed"));
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(err.contains("shards of different sweeps"), "{err}");
+    assert!(err.contains("shards of different runs"), "{err}");
 }
 
 #[test]

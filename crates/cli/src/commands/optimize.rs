@@ -40,6 +40,9 @@ pub struct OptimizeRequest<'a> {
     pub quiet: bool,
     /// Set when the user interrupts (Ctrl-C): the runs stop and the best point is written.
     pub stop: &'a AtomicBool,
+    /// `I/N`: run only the I-th of N deterministic slices of the starts (every N-th from the
+    /// I-th), into its own directory, for `flexsens merge`.
+    pub shard: Option<&'a str>,
 }
 
 /// A constraint within 1e-6 of its bound (relative to its scale) counts as met.
@@ -53,7 +56,7 @@ const MARGIN: f64 = 1e-8;
 #[derive(Clone, Debug)]
 struct Eval {
     /// The units of the objective and of each constrained quantity.
-    units: Vec<&'static str>,
+    units: Vec<String>,
     f: f64,
     df: Vec<f64>,
     /// Per constraint: the quantity's value and gradient.
@@ -170,12 +173,12 @@ impl Problem<'_> {
             })
         };
         let (f, df, unit) = read(&self.def.objective)?;
-        let mut units = vec![unit];
+        let mut units = vec![unit.to_string()];
         let mut q = Vec::new();
         let mut dq = Vec::new();
         for c in &self.def.constraints {
             let (v, g, unit) = read(&c.quantity)?;
-            units.push(unit);
+            units.push(unit.to_string());
             q.push(v);
             dq.push(g);
         }
@@ -551,10 +554,10 @@ fn best_feasible(p: &Problem, rows: &[Row], start: Option<usize>) -> Option<usiz
 
 /// The units of the objective and the constrained quantities, from the first evaluation that
 /// gave values.
-fn units(rows: &[Row], count: usize) -> Vec<&'static str> {
+fn units(rows: &[Row], count: usize) -> Vec<String> {
     rows.iter()
         .find_map(|r| r.eval.as_ref().ok().map(|e| e.units.clone()))
-        .unwrap_or_else(|| vec!["?"; count])
+        .unwrap_or_else(|| vec!["?".to_string(); count])
 }
 
 fn iterations_csv(p: &Problem, rows: &[Row]) -> String {
@@ -646,13 +649,9 @@ fn convergence_figure(p: &Problem, rows: &[Row], starts: usize) -> Figure {
     }
 }
 
-/// Run the command; the returned text goes to stdout, with the exit code (0: a feasible
-/// optimum; 1: no feasible design found; 130: interrupted, the best design written).
-pub fn run(
-    path: &Path,
-    overrides: &[String],
-    req: &OptimizeRequest,
-) -> Result<(String, u8), CliError> {
+/// The deck's problem, with the constraints' bounds resolved and scaled at the deck's
+/// design; and whether the deck is a mechanism (its optimum is run).
+fn setup<'a>(path: &'a Path, overrides: &'a [String]) -> Result<(Problem<'a>, bool), CliError> {
     let (src, raw) = deck::load(path, overrides)?;
     let lam = validate_laminates(&src, &raw)?;
     let design = validate_design(&src, &raw, &lam)?;
@@ -684,12 +683,138 @@ pub fn run(
             (bound, b.abs().max(q0.abs()).max(f64::MIN_POSITIVE))
         })
         .collect();
+    Ok((problem, raw.analysis.is_some()))
+}
+
+/// Run SLSQP from the starts `chosen` (0-based), `jobs` at once: every evaluation (sorted by
+/// start and evaluation) and how each start ended.
+fn solve(
+    problem: &Problem,
+    chosen: &[usize],
+    req: &OptimizeRequest,
+) -> (Vec<Row>, Vec<(usize, String)>) {
+    let jobs = req
+        .jobs
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+        .clamp(1, chosen.len().max(1));
+    let log = Mutex::new(Vec::<Row>::new());
+    let next = AtomicUsize::new(0);
+    let outcomes: Vec<Mutex<Option<String>>> = chosen.iter().map(|_| Mutex::new(None)).collect();
+    std::thread::scope(|scope| {
+        for _ in 0..jobs {
+            scope.spawn(|| {
+                loop {
+                    let j = next.fetch_add(1, Ordering::SeqCst);
+                    let Some(&s) = chosen.get(j) else { break };
+                    let x0 = &problem.def.starts[s];
+                    let o = run_start(problem, s + 1, x0, &log, req.stop, req.quiet);
+                    *outcomes[j].lock().expect("no poisoned lock") = Some(o);
+                }
+            });
+        }
+    });
+    let mut rows = log.into_inner().expect("no poisoned lock");
+    rows.sort_by_key(|r| (r.start, r.evaluation));
+    let statuses = chosen
+        .iter()
+        .zip(outcomes)
+        .map(|(&s, o)| {
+            let status = o
+                .into_inner()
+                .expect("no poisoned lock")
+                .expect("every start ran");
+            (s + 1, status)
+        })
+        .collect();
+    (rows, statuses)
+}
+
+/// What a shard of an optimisation writes beside its iterations for `flexsens merge`.
+const EVALUATIONS_FILE: &str = "evaluations.jsonl";
+
+fn row_json(r: &Row) -> serde_json::Value {
+    let mut v = serde_json::json!({
+        "start": r.start,
+        "evaluation": r.evaluation,
+        "x": r.x,
+        "violation": r.violation,
+        "stationarity": r.stationarity,
+        "multipliers": r.multipliers,
+    });
+    match &r.eval {
+        Ok(e) => {
+            v["units"] = serde_json::json!(e.units);
+            v["f"] = serde_json::json!(e.f);
+            v["df"] = serde_json::json!(e.df);
+            v["q"] = serde_json::json!(e.q);
+            v["dq"] = serde_json::json!(e.dq);
+        }
+        Err(m) => v["error"] = serde_json::json!(m),
+    }
+    v
+}
+
+fn row_from_json(v: &serde_json::Value) -> Option<Row> {
+    let floats = |v: &serde_json::Value| -> Option<Vec<f64>> {
+        v.as_array()?
+            .iter()
+            .map(|x| x.as_f64().or(x.is_null().then_some(f64::NAN)))
+            .collect()
+    };
+    let num = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
+    let eval = match v["error"].as_str() {
+        Some(m) => Err(m.to_string()),
+        None => Ok(Eval {
+            units: v["units"]
+                .as_array()?
+                .iter()
+                .map(|u| u.as_str().map(String::from))
+                .collect::<Option<_>>()?,
+            f: v["f"].as_f64()?,
+            df: floats(&v["df"])?,
+            q: floats(&v["q"])?,
+            dq: v["dq"]
+                .as_array()?
+                .iter()
+                .map(floats)
+                .collect::<Option<_>>()?,
+        }),
+    };
+    Some(Row {
+        start: v["start"].as_u64()? as usize,
+        evaluation: v["evaluation"].as_u64()? as usize,
+        x: floats(&v["x"])?,
+        eval,
+        violation: num(&v["violation"]),
+        stationarity: num(&v["stationarity"]),
+        multipliers: floats(&v["multipliers"])?,
+    })
+}
+
+/// Run the command; the returned text goes to stdout, with the exit code (0: a feasible
+/// optimum; 1: no feasible design found; 130: interrupted, the best design written).
+pub fn run(
+    path: &Path,
+    overrides: &[String],
+    req: &OptimizeRequest,
+) -> Result<(String, u8), CliError> {
+    let (problem, mechanism) = setup(path, overrides)?;
+    let shard = req.shard.map(super::sweep::parse_shard).transpose()?;
+    let n_starts = problem.def.starts.len();
+    let chosen = super::sweep::shard_cases(n_starts, shard);
+    if chosen.is_empty() {
+        return Err(CliError::Usage(format!(
+            "--shard {}: the problem has only {n_starts} starts, so this shard has none",
+            req.shard.unwrap_or_default()
+        )));
+    }
     let out = req.out.map(Path::to_path_buf).unwrap_or_else(|| {
         let stem = path
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_else(|| "flexsens".into());
-        path.with_file_name(format!("{stem}.optimize"))
+        let suffix = shard.map_or(String::new(), |(i, n)| format!(".shard-{i}-of-{n}"));
+        path.with_file_name(format!("{stem}.optimize{suffix}"))
     });
     std::fs::create_dir_all(&out).map_err(|e| {
         runtime(format!(
@@ -702,51 +827,147 @@ pub fn run(
         "optimum.toml",
         "convergence.svg",
         "convergence.png",
+        super::sweep::SHARD_FILE,
+        EVALUATIONS_FILE,
     ] {
         let _ = std::fs::remove_file(out.join(f));
     }
-    let starts = problem.def.starts.clone();
-    let jobs = req
-        .jobs
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
-        .clamp(1, starts.len());
-    let log = Mutex::new(Vec::<Row>::new());
-    let next = AtomicUsize::new(0);
-    let outcomes: Vec<Mutex<Option<String>>> = starts.iter().map(|_| Mutex::new(None)).collect();
-    std::thread::scope(|scope| {
-        for _ in 0..jobs {
-            scope.spawn(|| {
-                loop {
-                    let s = next.fetch_add(1, Ordering::SeqCst);
-                    let Some(x0) = starts.get(s) else { break };
-                    let o = run_start(&problem, s + 1, x0, &log, req.stop, req.quiet);
-                    *outcomes[s].lock().expect("no poisoned lock") = Some(o);
-                }
-            });
+    let (rows, statuses) = solve(&problem, &chosen, req);
+    let interrupted = req.stop.load(Ordering::SeqCst);
+    if let Some((i, n)) = shard {
+        let manifest = serde_json::json!({
+            "command": "optimize",
+            "flexsens_version": env!("CARGO_PKG_VERSION"),
+            "deck": path.display().to_string(),
+            "set": overrides,
+            "shard": [i, n],
+            "starts": n_starts,
+        });
+        let mut lines = String::new();
+        for (s, status) in &statuses {
+            lines += &(serde_json::json!({ "start": s, "status": status }).to_string() + "\n");
         }
-    });
-    let mut rows = log.into_inner().expect("no poisoned lock");
-    rows.sort_by_key(|r| (r.start, r.evaluation));
-    let outcomes: Vec<String> = outcomes
-        .into_iter()
-        .map(|o| {
-            o.into_inner()
-                .expect("no poisoned lock")
-                .expect("every start ran")
+        for r in &rows {
+            lines += &(row_json(r).to_string() + "\n");
+        }
+        write_atomic(&out.join(EVALUATIONS_FILE), lines.as_bytes())?;
+        write_atomic(
+            &out.join("iterations.csv"),
+            iterations_csv(&problem, &rows).as_bytes(),
+        )?;
+        // the manifest last: a shard that has it is complete
+        write_atomic(
+            &out.join(super::sweep::SHARD_FILE),
+            (serde_json::to_string_pretty(&manifest).expect("JSON") + "\n").as_bytes(),
+        )?;
+        let text = format!(
+            "shard {i}/{n}: {} of {n_starts} starts, {} evaluations{}; gather the shards with \
+             `flexsens merge`\n",
+            statuses.len(),
+            rows.len(),
+            if interrupted { " (interrupted)" } else { "" }
+        );
+        return Ok((text, if interrupted { 130 } else { 0 }));
+    }
+    finish(&problem, mechanism, &rows, &statuses, &out, interrupted)
+}
+
+/// Gather the shards of one optimisation (`optimize --shard I/N`; their manifests already
+/// checked to be the N shards of one problem) into `out`, as the optimisation on one machine
+/// would have written it.
+pub(crate) fn merge(
+    dirs: &[std::path::PathBuf],
+    manifests: &[serde_json::Value],
+    out: &Path,
+) -> Result<(String, u8), CliError> {
+    let first = &manifests[0];
+    let deck = std::path::PathBuf::from(first["deck"].as_str().unwrap_or_default());
+    let set: Vec<String> = first["set"]
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .filter_map(|v| v.as_str().map(String::from))
+                .collect()
         })
-        .collect();
+        .unwrap_or_default();
+    let (problem, mechanism) = setup(&deck, &set)?;
+    let n_starts = problem.def.starts.len();
+    let mut rows = Vec::new();
+    let mut statuses = Vec::new();
+    for (dir, m) in dirs.iter().zip(manifests) {
+        let bad =
+            |e: String| CliError::Usage(format!("{}: {EVALUATIONS_FILE}: {e}", dir.display()));
+        let i = m["shard"][0].as_u64().unwrap_or(0) as usize;
+        let n = m["shard"][1].as_u64().unwrap_or(0) as usize;
+        if m["starts"].as_u64() != Some(n_starts as u64) {
+            return Err(CliError::Usage(format!(
+                "{}: the shard has {} starts, the deck {n_starts}",
+                dir.display(),
+                m["starts"]
+            )));
+        }
+        let text = crate::limits::read_text(&dir.join(EVALUATIONS_FILE)).map_err(bad)?;
+        let mut own = Vec::new();
+        for (k, line) in text.lines().enumerate() {
+            let v: serde_json::Value =
+                serde_json::from_str(line).map_err(|e| bad(format!("line {}: {e}", k + 1)))?;
+            if let Some(status) = v["status"].as_str() {
+                own.push(v["start"].as_u64().unwrap_or(0) as usize);
+                statuses.push((
+                    v["start"].as_u64().unwrap_or(0) as usize,
+                    status.to_string(),
+                ));
+            } else {
+                rows.push(
+                    row_from_json(&v)
+                        .ok_or_else(|| bad(format!("line {}: not an evaluation", k + 1)))?,
+                );
+            }
+        }
+        let expected: Vec<usize> = super::sweep::shard_cases(n_starts, Some((i, n)))
+            .into_iter()
+            .map(|s| s + 1)
+            .collect();
+        if own != expected {
+            return Err(CliError::Usage(format!(
+                "{}: shard {i}/{n} ran starts {own:?}, not its starts {expected:?}",
+                dir.display()
+            )));
+        }
+    }
+    rows.sort_by_key(|r| (r.start, r.evaluation));
+    statuses.sort();
+    finish(&problem, mechanism, &rows, &statuses, out, false)
+}
+
+/// Write the results of an optimisation and its summary (see [`run`]).
+fn finish(
+    problem: &Problem,
+    mechanism: bool,
+    rows: &[Row],
+    statuses: &[(usize, String)],
+    out: &Path,
+    interrupted: bool,
+) -> Result<(String, u8), CliError> {
+    let path = problem.path;
+    let n_starts = problem.def.starts.len();
+    std::fs::create_dir_all(out).map_err(|e| {
+        runtime(format!(
+            "cannot create the output directory {}: {e}",
+            out.display()
+        ))
+    })?;
     write_atomic(
         &out.join("iterations.csv"),
-        iterations_csv(&problem, &rows).as_bytes(),
+        iterations_csv(problem, rows).as_bytes(),
     )?;
-    let figure = convergence_figure(&problem, &rows, starts.len());
+    let figure = convergence_figure(problem, rows, n_starts);
     if let Ok(svg) = figure.svg() {
         write_atomic(&out.join("convergence.svg"), svg.as_bytes())?;
     }
     if let Ok(png) = figure.png() {
         write_atomic(&out.join("convergence.png"), &png)?;
     }
-    let interrupted = req.stop.load(Ordering::SeqCst);
     let mut text = String::new();
     let _ = writeln!(
         text,
@@ -759,12 +980,12 @@ pub fn run(
         problem.def.objective.label(),
         problem.variables.len(),
         problem.def.constraints.len(),
-        starts.len(),
+        n_starts,
         rows.len()
     );
-    for (s, status) in outcomes.iter().enumerate() {
-        let evaluations = rows.iter().filter(|r| r.start == s + 1).count();
-        let best = best_feasible(&problem, &rows, Some(s + 1))
+    for (s, status) in statuses {
+        let evaluations = rows.iter().filter(|r| r.start == *s).count();
+        let best = best_feasible(problem, rows, Some(*s))
             .and_then(|k| rows[k].eval.as_ref().ok())
             .map_or("no feasible design".to_string(), |e| {
                 format!(
@@ -775,11 +996,10 @@ pub fn run(
             });
         let _ = writeln!(
             text,
-            "start {}: {status} after {evaluations} evaluations; {best}",
-            s + 1
+            "start {s}: {status} after {evaluations} evaluations; {best}"
         );
     }
-    let Some(k) = best_feasible(&problem, &rows, None) else {
+    let Some(k) = best_feasible(problem, rows, None) else {
         let _ = writeln!(
             text,
             "no feasible design found; every evaluation is in {}",
@@ -837,9 +1057,9 @@ pub fn run(
         best.stationarity, best.violation
     );
     // the optimum's full run, when the deck is a mechanism
-    if raw.analysis.is_some() && !interrupted {
+    if mechanism && !interrupted {
         let request = super::run::RunRequest {
-            out: Some(&out),
+            out: Some(out),
             json: true,
             progress: false,
         };

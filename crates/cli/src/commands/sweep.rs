@@ -240,7 +240,7 @@ fn plan(vary: &[String]) -> Result<Plan, CliError> {
 }
 
 /// `--shard I/N`: the I-th (1-based) of N slices.
-fn parse_shard(arg: &str) -> Result<(usize, usize), CliError> {
+pub(crate) fn parse_shard(arg: &str) -> Result<(usize, usize), CliError> {
     let bad = || {
         usage(format!(
             "--shard {arg}: expected I/N with 1 ≤ I ≤ N (e.g. --shard 2/8, or \
@@ -260,7 +260,7 @@ fn parse_shard(arg: &str) -> Result<(usize, usize), CliError> {
 
 /// The cases (0-based) of shard `i` of `n`: every n-th case from the (i−1)-th, so that each
 /// shard gets a share of every part of the ranges (costs often grow along an axis).
-fn shard_cases(n_cases: usize, shard: Option<(usize, usize)>) -> Vec<usize> {
+pub(crate) fn shard_cases(n_cases: usize, shard: Option<(usize, usize)>) -> Vec<usize> {
     match shard {
         None => (0..n_cases).collect(),
         Some((i, n)) => (i - 1..n_cases).step_by(n).collect(),
@@ -285,7 +285,7 @@ fn remove_old(path: &Path) -> Result<(), CliError> {
 }
 
 /// What a shard writes beside its cases for `flexsens merge`.
-const SHARD_FILE: &str = "shard.json";
+pub(crate) const SHARD_FILE: &str = "shard.json";
 const CASES_FILE: &str = "cases.jsonl";
 
 /// Run the sweep; the returned text goes to stdout and the flag says whether every case ran.
@@ -381,6 +381,7 @@ pub fn run(
         .collect();
     if let Some((i, n)) = shard {
         let manifest = serde_json::json!({
+            "command": "sweep",
             "flexsens_version": env!("CARGO_PKG_VERSION"),
             "deck": path.display().to_string(),
             "set": overrides,
@@ -424,16 +425,68 @@ struct Shard {
     results: Vec<CaseResult>,
 }
 
-fn read_shard(dir: &Path) -> Result<Shard, CliError> {
+/// A shard's manifest (`shard.json`).
+fn read_manifest(dir: &Path) -> Result<Value, CliError> {
     let input = |m: String| CliError::Usage(format!("{}: {m}", dir.display()));
     let text = crate::limits::read_text(&dir.join(SHARD_FILE)).map_err(|e| {
         input(format!(
-            "not a shard of a sweep ({SHARD_FILE}: {e}; shards are written by `flexsens sweep \
-             --shard I/N`)"
+            "not a shard of a sweep or an optimisation ({SHARD_FILE}: {e}; shards are written \
+             by `flexsens sweep --shard I/N` and `flexsens optimize --shard I/N`)"
         ))
     })?;
-    let manifest: Value = serde_json::from_str(&text)
-        .map_err(|e| input(format!("{SHARD_FILE} is not valid JSON: {e}")))?;
+    serde_json::from_str(&text).map_err(|e| input(format!("{SHARD_FILE} is not valid JSON: {e}")))
+}
+
+/// Check that `manifests` are all N shards of one sweep or optimisation, each once; returns N.
+fn check_shard_set(dirs: &[PathBuf], manifests: &[Value]) -> Result<usize, CliError> {
+    let first = &manifests[0];
+    for key in [
+        "command",
+        "deck",
+        "set",
+        "vary",
+        "cases",
+        "starts",
+        "flexsens_version",
+    ] {
+        if let Some(k) = manifests.iter().position(|m| m[key] != first[key]) {
+            return Err(usage(format!(
+                "{} and {} are shards of different runs (their `{key}` differ)",
+                dirs[0].display(),
+                dirs[k].display()
+            )));
+        }
+    }
+    let n = first["shard"][1].as_u64().unwrap_or(0) as usize;
+    let mut seen = vec![None::<&Path>; n];
+    for (dir, m) in dirs.iter().zip(manifests) {
+        let i = m["shard"][0].as_u64().unwrap_or(0) as usize;
+        let ni = m["shard"][1].as_u64().unwrap_or(0) as usize;
+        if ni != n || i == 0 || i > n {
+            return Err(usage(format!(
+                "{}: shard {i}/{ni} does not belong to a run of {n} shards",
+                dir.display()
+            )));
+        }
+        if let Some(other) = seen[i - 1].replace(dir) {
+            return Err(usage(format!(
+                "{} and {} are both shard {i}/{n}",
+                other.display(),
+                dir.display()
+            )));
+        }
+    }
+    if let Some(missing) = seen.iter().position(Option::is_none) {
+        return Err(usage(format!(
+            "shard {}/{n} is missing: give the directories of all {n} shards",
+            missing + 1
+        )));
+    }
+    Ok(n)
+}
+
+fn read_shard(dir: &Path, manifest: Value) -> Result<Shard, CliError> {
+    let input = |m: String| CliError::Usage(format!("{}: {m}", dir.display()));
     let cases_text = crate::limits::read_text(&dir.join(CASES_FILE))
         .map_err(|e| input(format!("{CASES_FILE}: {e}")))?;
     let mut results = Vec::new();
@@ -486,7 +539,8 @@ fn move_dir(from: &Path, to: &Path) -> std::io::Result<()> {
 }
 
 /// `flexsens merge SHARD_DIR… -o OUT`: gather the shards of one sweep (written by `sweep
-/// --shard I/N`) into `OUT` as a single-machine sweep would have written it — the case
+/// --shard I/N`; those of an optimisation go to `optimize::merge`) into `OUT` as a
+/// single-machine sweep would have written it — the case
 /// directories moved to `OUT/case_NNN` and the same `summary.csv`, byte for byte. The shards
 /// must be all N of one sweep (same deck, `--set` and `--vary`), each once. The returned flag
 /// says whether every case ran.
@@ -494,51 +548,20 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(String, bool), CliError> {
     if dirs.is_empty() {
         return Err(usage("merge needs the shard directories"));
     }
+    let manifests = dirs
+        .iter()
+        .map(|d| read_manifest(d))
+        .collect::<Result<Vec<_>, _>>()?;
+    let n = check_shard_set(dirs, &manifests)?;
+    if manifests[0]["command"] == "optimize" {
+        return super::optimize::merge(dirs, &manifests, out).map(|(t, code)| (t, code == 0));
+    }
     let shards = dirs
         .iter()
-        .map(|d| read_shard(d))
+        .zip(manifests)
+        .map(|(d, m)| read_shard(d, m))
         .collect::<Result<Vec<_>, _>>()?;
     let first = &shards[0];
-    let same = |key: &str| {
-        shards
-            .iter()
-            .find(|s| s.manifest[key] != first.manifest[key])
-            .map_or(Ok(()), |s| {
-                Err(usage(format!(
-                    "{} and {} are shards of different sweeps (their `{key}` differ)",
-                    first.dir.display(),
-                    s.dir.display()
-                )))
-            })
-    };
-    for key in ["deck", "set", "vary", "cases", "flexsens_version"] {
-        same(key)?;
-    }
-    let n = first.manifest["shard"][1].as_u64().unwrap_or(0) as usize;
-    let mut seen = vec![None::<&Path>; n];
-    for s in &shards {
-        let i = s.manifest["shard"][0].as_u64().unwrap_or(0) as usize;
-        let ni = s.manifest["shard"][1].as_u64().unwrap_or(0) as usize;
-        if ni != n || i == 0 || i > n {
-            return Err(usage(format!(
-                "{}: shard {i}/{ni} does not belong to a sweep of {n} shards",
-                s.dir.display()
-            )));
-        }
-        if let Some(other) = seen[i - 1].replace(&s.dir) {
-            return Err(usage(format!(
-                "{} and {} are both shard {i}/{n}",
-                other.display(),
-                s.dir.display()
-            )));
-        }
-    }
-    if let Some(missing) = seen.iter().position(Option::is_none) {
-        return Err(usage(format!(
-            "shard {}/{n} is missing: give the directories of all {n} shards",
-            missing + 1
-        )));
-    }
     let vary: Vec<String> = first.manifest["vary"]
         .as_array()
         .map(|a| {
