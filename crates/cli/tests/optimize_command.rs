@@ -182,6 +182,24 @@ fn the_lightest_plate_meets_its_frequency_bound_and_the_multiplier_is_dm_over_df
         "{lambda} vs {}",
         m / 150.0
     );
+    // the laminate's mass per area, ρ t, has the same optimum
+    let areal = std::fs::read_to_string(plate_deck(dir.path(), 150.0))
+        .unwrap()
+        .replace(
+            "minimize = \"mass.plate\"",
+            "minimize = \"areal_mass.sheet\"",
+        );
+    let path = dir.path().join("areal.toml");
+    std::fs::write(&path, areal).unwrap();
+    let (text, err, code) = optimize(&path, &dir.path().join("areal"), &["--quiet"]);
+    assert_eq!(code, Some(0), "{text}\n{err}");
+    let t_areal = summary_value(&text, "t");
+    let mu = summary_value(
+        &text.replace("optimum (", "\n").replace("): ", "\n"),
+        "areal_mass.sheet",
+    );
+    assert!((t_areal - t).abs() < 1e-6 * t, "{t_areal} vs {t}");
+    assert!((mu - 7800.0 * t_areal).abs() < 1e-9 * mu, "{mu}");
 }
 
 #[test]

@@ -51,7 +51,7 @@ pub fn angle_derivatives(
 
 /// The laminate stiffness's derivatives with respect to each variable of a shell design,
 /// through the shell bodies' own `Design::properties`.
-fn derivatives(design: &Design) -> Vec<LaminateStiffness<f64>> {
+pub(crate) fn derivatives(design: &Design) -> Vec<LaminateStiffness<f64>> {
     let values = design.values();
     let mut out = Vec::with_capacity(values.len());
     for range in chunk_ranges(values.len(), CHUNK) {

@@ -5,7 +5,7 @@
 //! `--set` would), and reads each quantity with its exact gradient: an `[objective.*]` from
 //! the run's direct sensitivities, a frequency from the modal analysis and Nelson's eigenvalue
 //! derivative, a flexible body's mass from its lumped masses in dual numbers (a rigid body's
-//! from its mass variable). The algorithm is SLSQP (Kraft's sequential least squares
+//! from its mass variable), a laminate's mass per area through the shells' design map. The algorithm is SLSQP (Kraft's sequential least squares
 //! programming, NLopt's implementation through the `slsqp` crate), started from the deck's
 //! design and from each `starts` entry, several starts at once (`-j`). Every evaluation is
 //! logged with its objective, constraints, gradient norm and KKT stationarity; the best
@@ -153,6 +153,22 @@ impl Problem<'_> {
                     }
                     let b = &bodies[body];
                     (b.mass, b.d_mass.clone(), "kg")
+                }
+                Quantity::ArealMass { laminate } => {
+                    let lam = validate_laminates(&src, &raw)?;
+                    let design = validate_design(&src, &raw, &lam)?;
+                    let def = &lam.laminates[laminate];
+                    let d = crate::study::flexible::shell_design(
+                        &def.stack,
+                        laminate,
+                        &def.ply_materials,
+                        DesignRequest::Variables(&design.variables),
+                    );
+                    let grad = super::laminate::derivatives(&d)
+                        .iter()
+                        .map(|k| k.mass_per_area)
+                        .collect();
+                    (def.stack.stiffness().mass_per_area, grad, "kg/m^2")
                 }
                 Quantity::Mass { body } => {
                     let rigid = mechanism::rigid_bodies(&src, &raw)?;

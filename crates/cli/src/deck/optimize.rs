@@ -3,8 +3,9 @@
 //! table), subject to constraints on other quantities.
 //!
 //! A quantity is named by a string: `"objective.NAME"` (an `[objective.*]` of the run),
-//! `"frequency.BODY.K"` (the K-th retained mode of a flexible body, Hz) or `"mass.BODY"` (a
-//! flexible or rigid body's mass, kg).
+//! `"frequency.BODY.K"` (the K-th retained mode of a flexible body, Hz), `"mass.BODY"` (a
+//! flexible or rigid body's mass, kg) or `"areal_mass.LAMINATE"` (a laminate's mass per unit
+//! area, kg/m²).
 
 use toml::Spanned;
 
@@ -23,6 +24,8 @@ pub enum Quantity {
     Frequency { body: String, mode: usize },
     /// The mass of a flexible or rigid body (kg).
     Mass { body: String },
+    /// The mass per unit area of a laminate (kg/m²).
+    ArealMass { laminate: String },
 }
 
 impl Quantity {
@@ -32,6 +35,7 @@ impl Quantity {
             Quantity::Objective { name } => format!("objective.{name}"),
             Quantity::Frequency { body, mode } => format!("frequency.{body}.{}", mode + 1),
             Quantity::Mass { body } => format!("mass.{body}"),
+            Quantity::ArealMass { laminate } => format!("areal_mass.{laminate}"),
         }
     }
 }
@@ -123,8 +127,21 @@ fn quantity(
                 body: body.to_string(),
             })
         }
+        ["areal_mass", laminate] => {
+            if !raw.laminate.contains_key(*laminate) {
+                let known: Vec<&str> = raw.laminate.keys().map(String::as_str).collect();
+                return Err(bad(format!(
+                    "no laminate `{laminate}`{}",
+                    suggestion(laminate, &known)
+                )));
+            }
+            Ok(Quantity::ArealMass {
+                laminate: laminate.to_string(),
+            })
+        }
         _ => Err(bad(format!(
-            "`{text}`: expected \"objective.NAME\", \"frequency.BODY.K\" or \"mass.BODY\""
+            "`{text}`: expected \"objective.NAME\", \"frequency.BODY.K\", \"mass.BODY\" or \
+             \"areal_mass.LAMINATE\""
         ))),
     }
 }
