@@ -117,12 +117,8 @@ impl Target {
     }
 }
 
-/// The fixed deck that reads a mutated mesh.
-const SECTION_DECK: &str = r#"
-[material.al]
-E = 70e9
-nu = 0.33
-density = 2700
+/// The orthotropic material of the fixed decks.
+const CARBON: &str = r#"
 [material.cf]
 E1 = 140e9
 E2 = 10e9
@@ -134,42 +130,30 @@ nu12 = 0.3
 nu13 = 0.3
 nu23 = 0.45
 density = 1600
+"#;
+
+/// The fixed deck that reads a mutated simple-format section mesh (after [`CARBON`]).
+const SECTION_DECK: &str = r#"
+[material.al]
+E = 70e9
+nu = 0.33
+density = 2700
 [section.simple]
 shape = "mesh"
 file = "mesh.txt"
 format = "simple"
 "#;
 
+/// The fixed deck that reads a mutated Gmsh section mesh (after [`CARBON`]).
 const SECTION_GMSH_DECK: &str = r#"
-[material.cf]
-E1 = 140e9
-E2 = 10e9
-E3 = 10e9
-G12 = 5e9
-G13 = 5e9
-G23 = 3.5e9
-nu12 = 0.3
-nu13 = 0.3
-nu23 = 0.45
-density = 1600
 [section.tube]
 shape = "mesh"
 file = "mesh.msh"
 regions = { inner = { material = "cf", angle = 15.0, frame = "radial" }, outer = { material = "cf", angle = -15.0, frame = "xi" } }
 "#;
 
+/// The fixed deck that reads a mutated Gmsh shell mesh (after [`CARBON`]).
 const SHELL_DECK: &str = r#"
-[material.cf]
-E1 = 140e9
-E2 = 10e9
-E3 = 10e9
-G12 = 5e9
-G13 = 5e9
-G23 = 3.5e9
-nu12 = 0.3
-nu13 = 0.3
-nu23 = 0.45
-density = 1600
 [laminate.plate]
 plies = [{ material = "cf", thickness = 1e-3, angle = 30.0 }, { material = "cf", thickness = 1e-3, angle = -30.0 }]
 [body.plate]
@@ -526,10 +510,7 @@ fn main() -> std::process::ExitCode {
     std::fs::create_dir_all(&args.out).expect("the output directory can be created");
     let work = args.out.join("work");
     std::fs::create_dir_all(&work).expect("the work directory can be created");
-    for (name, text) in [("section.toml", SECTION_DECK), ("shell.toml", SHELL_DECK)] {
-        std::fs::write(work.join(name), text).expect("writable");
-    }
-    // the Gmsh section deck replaces the simple one for its target (same file name)
+    std::fs::write(work.join("shell.toml"), format!("{CARBON}{SHELL_DECK}")).expect("writable");
     // watchdog: the start of the current input, ms since `epoch` (0: none running)
     let epoch = Instant::now();
     let started = Arc::new(AtomicU64::new(0));
@@ -561,7 +542,7 @@ fn main() -> std::process::ExitCode {
         } else {
             SECTION_DECK
         };
-        std::fs::write(work.join("section.toml"), deck).expect("writable");
+        std::fs::write(work.join("section.toml"), format!("{CARBON}{deck}")).expect("writable");
         let seeds = read_seeds(&args.root, target);
         if seeds.is_empty() {
             println!(

@@ -24,3 +24,45 @@ pub enum Format {
     /// Long-format CSV: one value per row.
     Csv,
 }
+
+/// The number of parallel jobs: `requested`, or the available cores; at least 1, at most `n`.
+pub(crate) fn job_count(requested: Option<usize>, n: usize) -> usize {
+    requested
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |c| c.get()))
+        .clamp(1, n.max(1))
+}
+
+/// `work(j)` for every `j` in `0..n` on `jobs` threads, each thread taking the next `j` when it
+/// has finished one; the results in `j` order.
+pub(crate) fn parallel_map<T: Send>(
+    n: usize,
+    jobs: usize,
+    work: impl Fn(usize) -> T + Sync,
+) -> Vec<T> {
+    use std::sync::Mutex;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    let next = AtomicUsize::new(0);
+    let results: Vec<Mutex<Option<T>>> = (0..n).map(|_| Mutex::new(None)).collect();
+    std::thread::scope(|scope| {
+        for _ in 0..jobs.clamp(1, n.max(1)) {
+            scope.spawn(|| {
+                loop {
+                    let j = next.fetch_add(1, Ordering::SeqCst);
+                    if j >= n {
+                        break;
+                    }
+                    let r = work(j);
+                    *results[j].lock().expect("no poisoned lock") = Some(r);
+                }
+            });
+        }
+    });
+    results
+        .into_iter()
+        .map(|m| {
+            m.into_inner()
+                .expect("no poisoned lock")
+                .expect("every job ran")
+        })
+        .collect()
+}

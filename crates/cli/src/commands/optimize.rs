@@ -709,39 +709,22 @@ fn solve(
     chosen: &[usize],
     req: &OptimizeRequest,
 ) -> (Vec<Row>, Vec<(usize, String)>) {
-    let jobs = req
-        .jobs
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
-        .clamp(1, chosen.len().max(1));
     let log = Mutex::new(Vec::<Row>::new());
-    let next = AtomicUsize::new(0);
-    let outcomes: Vec<Mutex<Option<String>>> = chosen.iter().map(|_| Mutex::new(None)).collect();
-    std::thread::scope(|scope| {
-        for _ in 0..jobs {
-            scope.spawn(|| {
-                loop {
-                    let j = next.fetch_add(1, Ordering::SeqCst);
-                    let Some(&s) = chosen.get(j) else { break };
-                    let x0 = &problem.def.starts[s];
-                    let o = run_start(problem, s + 1, x0, &log, req.stop, req.quiet);
-                    *outcomes[j].lock().expect("no poisoned lock") = Some(o);
-                }
-            });
-        }
+    let jobs = super::job_count(req.jobs, chosen.len());
+    let outcomes = super::parallel_map(chosen.len(), jobs, |j| {
+        let s = chosen[j];
+        run_start(
+            problem,
+            s + 1,
+            &problem.def.starts[s],
+            &log,
+            req.stop,
+            req.quiet,
+        )
     });
     let mut rows = log.into_inner().expect("no poisoned lock");
     rows.sort_by_key(|r| (r.start, r.evaluation));
-    let statuses = chosen
-        .iter()
-        .zip(outcomes)
-        .map(|(&s, o)| {
-            let status = o
-                .into_inner()
-                .expect("no poisoned lock")
-                .expect("every start ran");
-            (s + 1, status)
-        })
-        .collect();
+    let statuses = chosen.iter().map(|s| s + 1).zip(outcomes).collect();
     (rows, statuses)
 }
 

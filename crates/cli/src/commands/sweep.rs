@@ -13,7 +13,6 @@
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use serde_json::Value;
@@ -323,62 +322,40 @@ pub fn run(
             req.shard.unwrap_or_default()
         )));
     }
-    let jobs = req
-        .jobs
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
-        .clamp(1, cases.len());
+    let jobs = super::job_count(req.jobs, cases.len());
     let case_dir = |i: usize| out.join(case_name(i, n_cases));
-    let next = AtomicUsize::new(0);
     let done = AtomicUsize::new(0);
-    let results: Vec<Mutex<Option<CaseResult>>> = cases.iter().map(|_| Mutex::new(None)).collect();
-    std::thread::scope(|scope| {
-        for _ in 0..jobs {
-            scope.spawn(|| {
-                loop {
-                    let j = next.fetch_add(1, Ordering::SeqCst);
-                    let Some(&i) = cases.get(j) else {
-                        break;
-                    };
-                    let dir = case_dir(i);
-                    let request = RunRequest {
-                        out: Some(&dir),
-                        json: true,
-                        progress: false,
-                    };
-                    let values = case_values(&axes, i);
-                    let outcome = case_overrides(path, overrides, &axes, &values)
-                        .and_then(|sets| super::run::run(path, &sets, &request))
-                        .and_then(|s| {
-                            serde_json::from_str::<Value>(&s)
-                                .map_err(|e| CliError::Runtime(format!("case {}: {e}", i + 1)))
-                        })
-                        .map(summary_fields)
-                        .map_err(|e| e.to_string());
-                    let n = done.fetch_add(1, Ordering::SeqCst) + 1;
-                    if !req.quiet {
-                        let status = match &outcome {
-                            Ok(_) => "done".to_string(),
-                            Err(e) => format!("failed: {e}"),
-                        };
-                        eprintln!("[{n}/{}] case {} {status}", cases.len(), i + 1);
-                    }
-                    *results[j].lock().expect("no poisoned lock") = Some(CaseResult {
-                        index: i,
-                        values,
-                        outcome,
-                    });
-                }
-            });
+    let results = super::parallel_map(cases.len(), jobs, |j| {
+        let i = cases[j];
+        let dir = case_dir(i);
+        let request = RunRequest {
+            out: Some(&dir),
+            json: true,
+            progress: false,
+        };
+        let values = case_values(&axes, i);
+        let outcome = case_overrides(path, overrides, &axes, &values)
+            .and_then(|sets| super::run::run(path, &sets, &request))
+            .and_then(|s| {
+                serde_json::from_str::<Value>(&s)
+                    .map_err(|e| CliError::Runtime(format!("case {}: {e}", i + 1)))
+            })
+            .map(summary_fields)
+            .map_err(|e| e.to_string());
+        let n = done.fetch_add(1, Ordering::SeqCst) + 1;
+        if !req.quiet {
+            let status = match &outcome {
+                Ok(_) => "done".to_string(),
+                Err(e) => format!("failed: {e}"),
+            };
+            eprintln!("[{n}/{}] case {} {status}", cases.len(), i + 1);
+        }
+        CaseResult {
+            index: i,
+            values,
+            outcome,
         }
     });
-    let results: Vec<CaseResult> = results
-        .into_iter()
-        .map(|m| {
-            m.into_inner()
-                .expect("no poisoned lock")
-                .expect("every case ran")
-        })
-        .collect();
     if let Some((i, n)) = shard {
         let manifest = serde_json::json!({
             "command": "sweep",
