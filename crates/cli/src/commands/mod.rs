@@ -66,3 +66,18 @@ pub(crate) fn parallel_map<T: Send>(
         })
         .collect()
 }
+
+/// A command's default output directory beside the deck: `<deck stem>.<kind>`, and for shard
+/// `I/N` `<deck stem>.<kind>.shard-I-of-N`.
+pub(crate) fn default_dir(
+    deck: &std::path::Path,
+    kind: &str,
+    shard: Option<(usize, usize)>,
+) -> std::path::PathBuf {
+    let stem = deck
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "flexsens".into());
+    let suffix = shard.map_or(String::new(), |(i, n)| format!(".shard-{i}-of-{n}"));
+    deck.with_file_name(format!("{stem}.{kind}{suffix}"))
+}

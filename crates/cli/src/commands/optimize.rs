@@ -807,14 +807,10 @@ pub fn run(
             req.shard.unwrap_or_default()
         )));
     }
-    let out = req.out.map(Path::to_path_buf).unwrap_or_else(|| {
-        let stem = path
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_else(|| "flexsens".into());
-        let suffix = shard.map_or(String::new(), |(i, n)| format!(".shard-{i}-of-{n}"));
-        path.with_file_name(format!("{stem}.optimize{suffix}"))
-    });
+    let out = req
+        .out
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| super::default_dir(path, "optimize", shard));
     std::fs::create_dir_all(&out).map_err(|e| {
         runtime(format!(
             "cannot create the output directory {}: {e}",

@@ -17,7 +17,7 @@
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Instant;
 
 use serde_json::json;
@@ -130,14 +130,6 @@ fn angle_name(b: f64) -> String {
     } else {
         format!("{b}")
     }
-}
-
-fn default_out(deck: &Path) -> PathBuf {
-    let stem = deck
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "flexsens".into());
-    deck.with_file_name(format!("{stem}.report"))
 }
 
 /// The deck's first design variable and first mid-node-deflection response, checked.
@@ -623,7 +615,7 @@ pub fn run(path: &Path, overrides: &[String], req: &ReportRequest) -> Result<Str
     let out = req
         .out
         .map(Path::to_path_buf)
-        .unwrap_or_else(|| default_out(path));
+        .unwrap_or_else(|| super::default_dir(path, "report", None));
     let mut files = Vec::new();
     for (stem, fig) in figures(&s, &layups, fixed_step) {
         let svg = fig

@@ -25,15 +25,6 @@ pub struct RunRequest<'a> {
     pub progress: bool,
 }
 
-/// The default output directory: `<deck stem>.out` beside the deck.
-fn default_out(deck: &Path) -> PathBuf {
-    let stem = deck
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "flexsens".into());
-    deck.with_file_name(format!("{stem}.out"))
-}
-
 /// The output files a run may write; those a run does not write are removed, so that a
 /// directory never mixes two runs.
 const OUTPUT_FILES: [&str; 4] = [
@@ -54,7 +45,7 @@ pub fn run(path: &Path, overrides: &[String], req: &RunRequest) -> Result<String
     let out = req
         .out
         .map(Path::to_path_buf)
-        .unwrap_or_else(|| default_out(path));
+        .unwrap_or_else(|| super::default_dir(path, "out", None));
     // a failed run must not leave the previous run's files looking like its own, nor a killed
     // one its temporary files
     std::fs::create_dir_all(&out).map_err(|e| {

@@ -303,14 +303,10 @@ pub fn run(
         let (src, raw) = deck::load(path, &s)?;
         Study::validate(&src, &raw, true)?;
     }
-    let out = req.out.map(Path::to_path_buf).unwrap_or_else(|| {
-        let stem = path
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_else(|| "flexsens".into());
-        let suffix = shard.map_or(String::new(), |(i, n)| format!(".shard-{i}-of-{n}"));
-        path.with_file_name(format!("{stem}.sweep{suffix}"))
-    });
+    let out = req
+        .out
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| super::default_dir(path, "sweep", shard));
     let summary_path = out.join("summary.csv");
     for f in ["summary.csv", SHARD_FILE, CASES_FILE] {
         remove_old(&out.join(f))?;
