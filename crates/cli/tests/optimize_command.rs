@@ -339,3 +339,25 @@ fn sharded_starts_merge_into_the_single_optimisation() {
     );
     assert!(one.contains("start 3: converged"), "{one}");
 }
+
+/// An objective without a gradient cannot be optimised: refused at the first evaluation, with
+/// the reason, not optimised on a zero gradient.
+#[test]
+fn an_objective_without_a_gradient_is_refused() {
+    let o = run(&[
+        "optimize",
+        &deck("optimize_beam_layup.toml").display().to_string(),
+        "-o",
+        &tempfile::tempdir().unwrap().path().display().to_string(),
+        "--set",
+        "analysis.t_end=0.001",
+        "--set",
+        "sensitivity.enabled=false",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("objective.rms_deflection has no gradient"),
+        "{err}"
+    );
+}

@@ -5,8 +5,9 @@
 //! `--set` would), and reads each quantity with its exact gradient: an `[objective.*]` from
 //! the run's direct sensitivities, a frequency from the modal analysis and Nelson's eigenvalue
 //! derivative, a flexible body's mass from its lumped masses in dual numbers (a rigid body's
-//! from its mass variable), a laminate's mass per area through the shells' design map. The algorithm is SLSQP (Kraft's sequential least squares
-//! programming, NLopt's implementation through the `slsqp` crate), started from the deck's
+//! from its mass variable), a laminate's mass per area through the shells' design map. The
+//! algorithm is SLSQP (Kraft's sequential least squares programming, NLopt's implementation
+//! through the `slsqp` crate), started from the deck's
 //! design and from each `starts` entry, several starts at once (`-j`). Every evaluation is
 //! logged with its objective, constraints, gradient norm and KKT stationarity; the best
 //! feasible design is written as a deck, run, and summarised.
@@ -188,12 +189,29 @@ impl Problem<'_> {
                 }
             })
         };
+        let n = self.variables.len();
+        let gradient_of = |q: &Quantity, g: &[f64]| -> Result<(), CliError> {
+            if g.len() == n {
+                return Ok(());
+            }
+            Err(CliError::Input(src.error(
+                None,
+                Some("optimize".into()),
+                format!(
+                    "{} has no gradient (its response has no sensitivities, or [sensitivity] \
+                     enabled = false): an optimisation needs one",
+                    q.label()
+                ),
+            )))
+        };
         let (f, df, unit) = read(&self.def.objective)?;
+        gradient_of(&self.def.objective, &df)?;
         let mut units = vec![unit.to_string()];
         let mut q = Vec::new();
         let mut dq = Vec::new();
         for c in &self.def.constraints {
             let (v, g, unit) = read(&c.quantity)?;
+            gradient_of(&c.quantity, &g)?;
             units.push(unit.to_string());
             q.push(v);
             dq.push(g);
