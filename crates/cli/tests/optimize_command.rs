@@ -361,3 +361,31 @@ fn an_objective_without_a_gradient_is_refused() {
         "{err}"
     );
 }
+
+/// A deck that reads a mesh file: its optimum deck, written in the output directory, names the
+/// mesh by an absolute path and runs from there.
+#[test]
+fn the_optimum_deck_of_a_meshed_body_reads_the_same_mesh() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fuzz/seeds/shell.msh");
+    std::fs::copy(&mesh, dir.path().join("plate.msh")).unwrap();
+    let text = std::fs::read_to_string(plate_deck(dir.path(), 150.0))
+        .unwrap()
+        .replace(
+            "length = 0.3\nwidth = 0.2\nelements = [12, 8]\n",
+            "file = \"plate.msh\"\n",
+        );
+    let path = dir.path().join("meshed.toml");
+    std::fs::write(&path, text).unwrap();
+    let out = dir.path().join("out");
+    let (text, err, code) = optimize(&path, &out, &["--quiet"]);
+    assert_eq!(code, Some(0), "{text}\n{err}");
+    let optimum = std::fs::read_to_string(out.join("optimum.toml")).unwrap();
+    let absolute = std::fs::canonicalize(dir.path().join("plate.msh")).unwrap();
+    assert!(
+        optimum.contains(&format!("file = \"{}\"", absolute.display())),
+        "{optimum}"
+    );
+    let o = run(&["modes", &out.join("optimum.toml").display().to_string()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}

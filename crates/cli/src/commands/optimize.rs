@@ -217,7 +217,11 @@ impl Problem<'_> {
             dq.push(g);
         }
         let ok = |x: f64| x.is_finite();
-        if !(ok(f) && df.iter().copied().all(ok) && q.iter().copied().all(ok)) {
+        let all_ok = ok(f)
+            && df.iter().copied().all(ok)
+            && q.iter().copied().all(ok)
+            && dq.iter().flatten().copied().all(ok);
+        if !all_ok {
             return Err(runtime("a quantity or its gradient is not finite"));
         }
         Ok(Eval {
@@ -345,13 +349,41 @@ impl Problem<'_> {
                 out_of_box * (self.def.bounds[j].1 - self.def.bounds[j].0)
             })
             .fold(0.0, f64::max);
-        let size = e.f.abs();
+        // relative to the objective, or absolute where it is zero
+        let size = if e.f != 0.0 { e.f.abs() } else { 1.0 };
         // multipliers as the sensitivity of the optimum to each bound b_i: with
         // ℒ = sign f + Σ λ_i (q_i − b_i), d(sign f*)/db_i = −λ_i
         // (+ 0.0: an inactive constraint prints 0, not −0)
         let multipliers = lambda.iter().map(|l| -sign * l + 0.0).collect();
         (worst / size.max(f64::MIN_POSITIVE), multipliers)
     }
+}
+
+/// `--set` arguments that give every mesh file of the deck (`section.*.file`, `body.*.file`)
+/// as an absolute path, so that the optimum deck, written elsewhere, reads the same meshes.
+fn absolute_file_keys(path: &Path, overrides: &[String]) -> Result<Vec<String>, CliError> {
+    let (_, raw) = deck::load(path, overrides)?;
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let absolute = |f: &str| {
+        let p = dir.join(f);
+        std::fs::canonicalize(&p).unwrap_or(p).display().to_string()
+    };
+    let quote = |s: String| toml::Value::String(s).to_string();
+    let mut sets = Vec::new();
+    for (name, s) in &raw.section {
+        if let Some(f) = &s.get_ref().file {
+            sets.push(format!(
+                "section.{name}.file={}",
+                quote(absolute(f.get_ref()))
+            ));
+        }
+    }
+    for (name, b) in &raw.body {
+        if let Some(f) = &b.get_ref().file {
+            sets.push(format!("body.{name}.file={}", quote(absolute(f.get_ref()))));
+        }
+    }
+    Ok(sets)
 }
 
 /// A flexible body's frequencies and mass with their gradients (per design variable).
@@ -496,9 +528,10 @@ fn run_start(
     let objective = |x: &[f64], grad: Option<&mut [f64]>, _: &mut ()| -> f64 {
         match at(x) {
             Ok(e) => {
-                let s = *scale_f
-                    .borrow_mut()
-                    .get_or_insert(e.f.abs().max(f64::MIN_POSITIVE));
+                let s =
+                    *scale_f
+                        .borrow_mut()
+                        .get_or_insert(if e.f != 0.0 { e.f.abs() } else { 1.0 });
                 if let Some(g) = grad {
                     for ((g, d), w) in g.iter_mut().zip(&e.df).zip(&width) {
                         *g = sign * d * w / s;
@@ -714,7 +747,9 @@ fn setup<'a>(path: &'a Path, overrides: &'a [String]) -> Result<(Problem<'a>, bo
                 Bound::AtLeast(b) | Bound::AtMost(b) | Bound::Equals(b) => b,
                 Bound::EqualsNominal => q0,
             };
-            (bound, b.abs().max(q0.abs()).max(f64::MIN_POSITIVE))
+            // the larger of the bound and the nominal value, or 1 where both are zero
+            let scale = b.abs().max(q0.abs());
+            (bound, if scale > 0.0 { scale } else { 1.0 })
         })
         .collect();
     Ok((problem, raw.analysis.is_some()))
@@ -851,7 +886,10 @@ pub fn run(
         let manifest = serde_json::json!({
             "command": "optimize",
             "flexsens_version": env!("CARGO_PKG_VERSION"),
-            "deck": path.display().to_string(),
+            "deck": std::fs::canonicalize(path)
+                .unwrap_or_else(|_| path.to_path_buf())
+                .display()
+                .to_string(),
             "set": overrides,
             "shard": [i, n],
             "starts": n_starts,
@@ -868,17 +906,24 @@ pub fn run(
             &out.join("iterations.csv"),
             iterations_csv(&problem, &rows).as_bytes(),
         )?;
-        // the manifest last: a shard that has it is complete
-        write_atomic(
-            &out.join(super::sweep::SHARD_FILE),
-            (serde_json::to_string_pretty(&manifest).expect("JSON") + "\n").as_bytes(),
-        )?;
+        // the manifest last, and only for a shard that ran to its end: a shard that has it is
+        // complete (an interrupted one — Ctrl-C, a batch system's time limit — is not merged)
+        if !interrupted {
+            write_atomic(
+                &out.join(super::sweep::SHARD_FILE),
+                (serde_json::to_string_pretty(&manifest).expect("JSON") + "\n").as_bytes(),
+            )?;
+        }
         let text = format!(
             "shard {i}/{n}: {} of {n_starts} starts, {} evaluations{}; gather the shards with \
              `flexsens merge`\n",
             statuses.len(),
             rows.len(),
-            if interrupted { " (interrupted)" } else { "" }
+            if interrupted {
+                " (interrupted: run the shard again before merging)"
+            } else {
+                ""
+            }
         );
         return Ok((text, if interrupted { 130 } else { 0 }));
     }
@@ -1022,7 +1067,8 @@ fn finish(
     };
     let best = &rows[k];
     let e = best.eval.as_ref().expect("a feasible row has values");
-    let sets = problem.sets(&best.x);
+    let mut sets = problem.sets(&best.x);
+    sets.extend(absolute_file_keys(path, problem.overrides)?);
     let optimum = Source::read(path)?.with_overrides(&sets)?;
     let optimum_path = out.join("optimum.toml");
     write_atomic(&optimum_path, optimum.text.as_bytes())?;
@@ -1076,12 +1122,20 @@ fn finish(
             json: true,
             progress: false,
         };
-        super::run::run(&optimum_path, &[], &request)?;
-        let _ = writeln!(
-            text,
-            "the optimum's run: {}",
-            out.join("results.h5").display()
-        );
+        // a failure of this run does not hide the optimum found
+        match super::run::run(&optimum_path, &[], &request) {
+            Ok(_) => {
+                let _ = writeln!(
+                    text,
+                    "the optimum's run: {}",
+                    out.join("results.h5").display()
+                );
+            }
+            Err(e) => {
+                let _ = writeln!(text, "the optimum's run failed: {e}");
+                return Ok((text, 1));
+            }
+        }
     }
     let _ = writeln!(
         text,

@@ -87,8 +87,18 @@ fn axis(arg: &str) -> Result<Axis, CliError> {
             )));
         }
         let n = n as usize;
-        // computed from the index, so that 0:0.1:0.3 gives 0.3, not 0.30000000000000004
-        (0..n).map(|i| round(a + i as f64 * h)).collect()
+        // computed from the index, so that 0:0.1:0.3 gives 0.3, not 0.30000000000000004, and
+        // -0.3:0.1:0.3 gives 0, not 5.6e-17 (values below 1e-9 of the step are zero)
+        (0..n)
+            .map(|i| a + i as f64 * h)
+            .map(|x| {
+                if x.abs() < 1e-9 * h.abs() {
+                    0.0
+                } else {
+                    round(x)
+                }
+            })
+            .collect()
     } else {
         spec.split(',').map(num).collect::<Result<Vec<_>, _>>()?
     };
@@ -307,16 +317,16 @@ pub fn run(
         .out
         .map(Path::to_path_buf)
         .unwrap_or_else(|| super::default_dir(path, "sweep", shard));
-    let summary_path = out.join("summary.csv");
-    for f in ["summary.csv", SHARD_FILE, CASES_FILE] {
-        remove_old(&out.join(f))?;
-    }
     let cases = shard_cases(n_cases, shard);
     if cases.is_empty() {
         return Err(usage(format!(
             "--shard {}: the sweep has only {n_cases} cases, so this shard has none",
             req.shard.unwrap_or_default()
         )));
+    }
+    let summary_path = out.join("summary.csv");
+    for f in ["summary.csv", SHARD_FILE, CASES_FILE] {
+        remove_old(&out.join(f))?;
     }
     let jobs = super::job_count(req.jobs, cases.len());
     let case_dir = |i: usize| out.join(case_name(i, n_cases));
@@ -356,16 +366,15 @@ pub fn run(
         let manifest = serde_json::json!({
             "command": "sweep",
             "flexsens_version": env!("CARGO_PKG_VERSION"),
-            "deck": path.display().to_string(),
+            "deck": std::fs::canonicalize(path)
+                .unwrap_or_else(|_| path.to_path_buf())
+                .display()
+                .to_string(),
             "set": overrides,
             "vary": req.vary,
             "shard": [i, n],
             "cases": n_cases,
         });
-        write_atomic(
-            &out.join(SHARD_FILE),
-            (serde_json::to_string_pretty(&manifest).expect("JSON") + "\n").as_bytes(),
-        )?;
         let lines: String = results
             .iter()
             .map(|r| {
@@ -377,6 +386,11 @@ pub fn run(
             })
             .collect();
         write_atomic(&out.join(CASES_FILE), lines.as_bytes())?;
+        // the manifest last: a shard that has it is complete
+        write_atomic(
+            &out.join(SHARD_FILE),
+            (serde_json::to_string_pretty(&manifest).expect("JSON") + "\n").as_bytes(),
+        )?;
     }
     let csv = summary_csv(&axes, &results, &case_dir);
     write_atomic(&summary_path, csv.as_bytes())?;
@@ -431,6 +445,18 @@ fn check_shard_set(dirs: &[PathBuf], manifests: &[Value]) -> Result<usize, CliEr
         }
     }
     let n = first["shard"][1].as_u64().unwrap_or(0) as usize;
+    if n == 0 || n > dirs.len() {
+        // incomplete whatever the rest says: name the first shard missing (without sizing
+        // anything by the file's count)
+        let given: Vec<u64> = manifests
+            .iter()
+            .filter_map(|m| m["shard"][0].as_u64())
+            .collect();
+        let missing = (1..).find(|i| !given.contains(i)).unwrap_or(1);
+        return Err(usage(format!(
+            "shard {missing}/{n} is missing: give the directories of all {n} shards"
+        )));
+    }
     let mut seen = vec![None::<&Path>; n];
     for (dir, m) in dirs.iter().zip(manifests) {
         let i = m["shard"][0].as_u64().unwrap_or(0) as usize;
@@ -567,7 +593,12 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(String, bool), CliError> {
         for mut r in s.results {
             let name = case_name(r.index, n_cases);
             let (from, to) = (s.dir.join(&name), out.join(&name));
-            if from != to && from.exists() {
+            // the same directory however spelled (`-o` naming a shard's own directory)
+            let same = match (std::fs::canonicalize(&from), std::fs::canonicalize(&to)) {
+                (Ok(f), Ok(t)) => f == t,
+                _ => from == to,
+            };
+            if !same && from.exists() {
                 if to.exists() {
                     std::fs::remove_dir_all(&to).map_err(|e| {
                         CliError::Runtime(format!("cannot remove the old {}: {e}", to.display()))
