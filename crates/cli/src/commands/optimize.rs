@@ -129,15 +129,23 @@ impl Problem<'_> {
         } else {
             std::collections::BTreeMap::new()
         };
-        let mut bodies = std::collections::BTreeMap::new();
+        let lam = validate_laminates(&src, &raw)?;
+        let design = validate_design(&src, &raw, &lam)?;
+        // each flexible body's modal analysis and masses once per evaluation
+        let mut bodies = std::collections::BTreeMap::<String, FlexibleQuantities>::new();
+        let mut flexible = |body: &String| -> Result<FlexibleQuantities, CliError> {
+            if let Some(b) = bodies.get(body) {
+                return Ok(b.clone());
+            }
+            let b = flexible_quantities(&src, &raw, &lam, &design, body)?;
+            bodies.insert(body.clone(), b.clone());
+            Ok(b)
+        };
         let mut read = |q: &Quantity| -> Result<(f64, Vec<f64>, &'static str), CliError> {
             Ok(match q {
                 Quantity::Objective { name } => objectives[name].clone(),
                 Quantity::Frequency { body, mode } => {
-                    if !bodies.contains_key(body) {
-                        bodies.insert(body.clone(), flexible_quantities(&src, &raw, body)?);
-                    }
-                    let b: &FlexibleQuantities = &bodies[body];
+                    let b = flexible(body)?;
                     let n = b.frequencies.len();
                     let f = b.frequencies.get(*mode).ok_or_else(|| {
                         CliError::Input(src.error(
@@ -149,15 +157,10 @@ impl Problem<'_> {
                     (*f, b.d_frequencies[*mode].clone(), "Hz")
                 }
                 Quantity::Mass { body } if raw.body.contains_key(body) => {
-                    if !bodies.contains_key(body) {
-                        bodies.insert(body.clone(), flexible_quantities(&src, &raw, body)?);
-                    }
-                    let b = &bodies[body];
-                    (b.mass, b.d_mass.clone(), "kg")
+                    let b = flexible(body)?;
+                    (b.mass, b.d_mass, "kg")
                 }
                 Quantity::ArealMass { laminate } => {
-                    let lam = validate_laminates(&src, &raw)?;
-                    let design = validate_design(&src, &raw, &lam)?;
                     let def = &lam.laminates[laminate];
                     let d = crate::study::flexible::shell_design(
                         &def.stack,
@@ -387,6 +390,7 @@ fn absolute_file_keys(path: &Path, overrides: &[String]) -> Result<Vec<String>, 
 }
 
 /// A flexible body's frequencies and mass with their gradients (per design variable).
+#[derive(Clone)]
 struct FlexibleQuantities {
     frequencies: Vec<f64>,
     /// `[mode][variable]`, Hz per unit of the variable.
@@ -400,12 +404,12 @@ struct FlexibleQuantities {
 fn flexible_quantities(
     src: &Source,
     raw: &deck::RawDeck,
+    lam: &crate::deck::laminates::LaminateModel,
+    design: &crate::deck::design::DesignDef,
     name: &str,
 ) -> Result<FlexibleQuantities, CliError> {
-    let lam = validate_laminates(src, raw)?;
-    let design = validate_design(src, raw, &lam)?;
     let table = &raw.body[name];
-    let def = bodies::validate_one(src, raw, name, table, &lam)?;
+    let def = bodies::validate_one(src, raw, name, table, lam)?;
     let built = build(src, name, &def, DesignRequest::Variables(&design.variables))?;
     let span = table.span();
     let analysis = fem::modal_analysis(&built.mesh, &built.props, &built.options)
@@ -878,22 +882,11 @@ pub fn run(
         super::sweep::SHARD_FILE,
         EVALUATIONS_FILE,
     ] {
-        let _ = std::fs::remove_file(out.join(f));
+        super::sweep::remove_old(&out.join(f))?;
     }
     let (rows, statuses) = solve(&problem, &chosen, req);
     let interrupted = req.stop.load(Ordering::SeqCst);
     if let Some((i, n)) = shard {
-        let manifest = serde_json::json!({
-            "command": "optimize",
-            "flexsens_version": env!("CARGO_PKG_VERSION"),
-            "deck": std::fs::canonicalize(path)
-                .unwrap_or_else(|_| path.to_path_buf())
-                .display()
-                .to_string(),
-            "set": overrides,
-            "shard": [i, n],
-            "starts": n_starts,
-        });
         let mut lines = String::new();
         for (s, status) in &statuses {
             lines += &(serde_json::json!({ "start": s, "status": status }).to_string() + "\n");
@@ -909,10 +902,8 @@ pub fn run(
         // the manifest last, and only for a shard that ran to its end: a shard that has it is
         // complete (an interrupted one — Ctrl-C, a batch system's time limit — is not merged)
         if !interrupted {
-            write_atomic(
-                &out.join(super::sweep::SHARD_FILE),
-                (serde_json::to_string_pretty(&manifest).expect("JSON") + "\n").as_bytes(),
-            )?;
+            let extra = serde_json::json!({ "starts": n_starts });
+            super::sweep::write_manifest(&out, "optimize", path, overrides, (i, n), extra)?;
         }
         let text = format!(
             "shard {i}/{n}: {} of {n_starts} starts, {} evaluations{}; gather the shards with \

@@ -283,7 +283,7 @@ fn case_name(i: usize, n_cases: usize) -> String {
 }
 
 /// Remove `path` if it is there (an earlier run's file), naming it when that fails.
-fn remove_old(path: &Path) -> Result<(), CliError> {
+pub(crate) fn remove_old(path: &Path) -> Result<(), CliError> {
     match std::fs::remove_file(path) {
         Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(CliError::Runtime(format!(
             "cannot remove the old {}: {e}",
@@ -362,19 +362,7 @@ pub fn run(
             outcome,
         }
     });
-    if let Some((i, n)) = shard {
-        let manifest = serde_json::json!({
-            "command": "sweep",
-            "flexsens_version": env!("CARGO_PKG_VERSION"),
-            "deck": std::fs::canonicalize(path)
-                .unwrap_or_else(|_| path.to_path_buf())
-                .display()
-                .to_string(),
-            "set": overrides,
-            "vary": req.vary,
-            "shard": [i, n],
-            "cases": n_cases,
-        });
+    if let Some(shard) = shard {
         let lines: String = results
             .iter()
             .map(|r| {
@@ -386,11 +374,8 @@ pub fn run(
             })
             .collect();
         write_atomic(&out.join(CASES_FILE), lines.as_bytes())?;
-        // the manifest last: a shard that has it is complete
-        write_atomic(
-            &out.join(SHARD_FILE),
-            (serde_json::to_string_pretty(&manifest).expect("JSON") + "\n").as_bytes(),
-        )?;
+        let extra = serde_json::json!({ "vary": req.vary, "cases": n_cases });
+        write_manifest(&out, "sweep", path, overrides, shard, extra)?;
     }
     let csv = summary_csv(&axes, &results, &case_dir);
     write_atomic(&summary_path, csv.as_bytes())?;
@@ -410,6 +395,36 @@ struct Shard {
     dir: PathBuf,
     manifest: Value,
     results: Vec<CaseResult>,
+}
+
+/// Write shard `(i, n)`'s manifest (`shard.json`) into `out`: the command, the version, the
+/// deck's absolute path, its `--set` arguments and the command's own `extra` fields. Written
+/// last, after the shard's record: a shard that has it is complete.
+pub(crate) fn write_manifest(
+    out: &Path,
+    command: &str,
+    path: &Path,
+    overrides: &[String],
+    (i, n): (usize, usize),
+    extra: Value,
+) -> Result<(), CliError> {
+    let mut manifest = serde_json::json!({
+        "command": command,
+        "flexsens_version": env!("CARGO_PKG_VERSION"),
+        "deck": std::fs::canonicalize(path)
+            .unwrap_or_else(|_| path.to_path_buf())
+            .display()
+            .to_string(),
+        "set": overrides,
+        "shard": [i, n],
+    });
+    if let (Value::Object(m), Value::Object(e)) = (&mut manifest, extra) {
+        m.extend(e);
+    }
+    write_atomic(
+        &out.join(SHARD_FILE),
+        (serde_json::to_string_pretty(&manifest).expect("JSON") + "\n").as_bytes(),
+    )
 }
 
 /// A shard's manifest (`shard.json`).
