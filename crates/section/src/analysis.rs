@@ -14,23 +14,24 @@ use nalgebra::{Matrix6, SMatrix};
 use sens::{Dual, LinearSolver, Scalar, chunk_ranges};
 
 use crate::element::MAX_NODES;
-use crate::mesh::{Region, SectionMesh, jacobian};
+use crate::mesh::{Region, SectionMesh};
 use crate::properties::{MassProperties, Props, SectionProperties, SectionSensitivities};
 use crate::{DesignMap, SectionError};
 
-/// Geometry of one integration point.
+/// Geometry of one integration point, in the scalar `G` of the node coordinates (`f64`, or
+/// dual numbers whose tangents are node velocities: a ply thickness as a design variable).
 #[derive(Clone, Copy, Debug)]
-struct GaussPoint {
+struct GaussPoint<G = f64> {
     /// Weight × Jacobian determinant (m²).
-    w: f64,
+    w: G,
     /// Position `(x₂, x₃)`.
-    x: [f64; 2],
+    x: [G; 2],
     /// Shape functions.
     n: [f64; MAX_NODES],
     /// Their derivatives `[∂/∂x₂, ∂/∂x₃]`.
-    dx: [[f64; 2]; MAX_NODES],
+    dx: [[G; 2]; MAX_NODES],
     /// The parametric directions `[∂x/∂ξ, ∂x/∂η]`.
-    dx_dxi: [[f64; 2]; 2],
+    dx_dxi: [[G; 2]; 2],
 }
 
 const NONE: usize = usize::MAX;
@@ -116,6 +117,15 @@ struct Fields<'a, S> {
     psi: Option<&'a [S; 36]>,
 }
 
+/// The nominal solutions `X̂₁, Ŷ₁, X̂, Ŷ` in a fields' scalar.
+#[derive(Clone, Copy)]
+struct Hats<'a, F> {
+    x1: &'a [F],
+    y1: &'a [F; 36],
+    x: &'a [F],
+    y: &'a [F; 36],
+}
+
 /// Outputs of the kernel, all accumulated.
 struct Outputs<'a, S> {
     /// `∫ (BN)ᵀ σ`, node-dof-major × 6 columns.
@@ -128,14 +138,23 @@ struct Outputs<'a, S> {
     energy: Option<&'a mut [S; 36]>,
 }
 
-/// `T Q Tᵀ` for an `f64` Bond matrix and a generic stiffness.
-fn congruence<S: Scalar>(t: &Matrix6<f64>, q: &Matrix6<S>) -> Matrix6<S> {
+/// Whether `x` is zero with all its tangents (a structural zero that products may skip).
+fn is_zero<G: Scalar>(x: G) -> bool {
+    x.value() == 0.0 && x.tangents().iter().all(|d| *d == 0.0)
+}
+
+/// `T Q Tᵀ` for a Bond matrix in the geometry's scalar and a generic stiffness.
+fn congruence<S, G>(t: &Matrix6<G>, q: &Matrix6<S>) -> Matrix6<S>
+where
+    S: Scalar + Mul<G, Output = S>,
+    G: Scalar,
+{
     let mut tq = [[S::zero(); 6]; 6];
     for i in 0..6 {
         for j in 0..6 {
             let mut acc = S::zero();
             for k in 0..6 {
-                if t[(i, k)] != 0.0 {
+                if !is_zero(t[(i, k)]) {
                     acc += q[(k, j)] * t[(i, k)];
                 }
             }
@@ -147,7 +166,7 @@ fn congruence<S: Scalar>(t: &Matrix6<f64>, q: &Matrix6<S>) -> Matrix6<S> {
         for j in 0..6 {
             let mut acc = S::zero();
             for k in 0..6 {
-                if t[(j, k)] != 0.0 {
+                if !is_zero(t[(j, k)]) {
                     acc += tq[i][k] * t[(j, k)];
                 }
             }
@@ -163,7 +182,7 @@ impl SectionAnalysis {
     pub fn new(mesh: &SectionMesh) -> Result<Self, SectionError> {
         mesh.validate()?;
         let mesh = mesh.clone();
-        let (gps, gp_start) = geometry(&mesh);
+        let (gps, gp_start) = geometry(&mesh, &mesh.nodes);
         let (dof, n_free) = dof_map(&mesh);
         let c_bar: Vec<Matrix6<f64>> = mesh
             .regions
@@ -205,6 +224,7 @@ impl SectionAnalysis {
         let mut s1 = vec![0.0; nd * 6];
         m.kernel(
             &q_ply,
+            &m.gps,
             Fields {
                 u: Some(&x1),
                 u1: None,
@@ -221,6 +241,7 @@ impl SectionAnalysis {
         let mut z2 = [0.0; 36];
         m.kernel(
             &q_ply,
+            &m.gps,
             Fields {
                 u: None,
                 u1: Some(&x1),
@@ -254,6 +275,7 @@ impl SectionAnalysis {
         let mut f = [0.0; 36];
         m.kernel(
             &q_ply,
+            &m.gps,
             Fields {
                 u: Some(&x),
                 u1: Some(&x1),
@@ -324,7 +346,7 @@ impl SectionAnalysis {
         assert!(N > 0, "Dual<0> carries no tangents");
         design.validate(&self.model.mesh)?;
         let m = design.variables.len();
-        let integrals = self.model.region_mass_integrals();
+        let integrals = self.model.region_mass_integrals(&self.model.gps);
         let mut derivatives = vec![SectionProperties::default(); m];
         for range in chunk_ranges(m, N) {
             // Dual ply angles and material stiffnesses: tangent k of region r is dθ_r/db and
@@ -362,8 +384,49 @@ impl SectionAnalysis {
                     density[r].d[k] += drho;
                 }
             }
-            let mass = MassProperties::scaled_sum(&integrals, &density);
-            let compliance = self.compliance_dual(&angles, &c_bar);
+            let moves_nodes = range.clone().any(|v| !design.variables[v].nodes.is_empty());
+            let (mass, compliance) = if moves_nodes {
+                // Node coordinates carry their velocities dX/db: the geometry, the mass
+                // integrals and the (lifted) fields are dual.
+                let mut nodes: Vec<[Dual<N>; 2]> = self
+                    .model
+                    .mesh
+                    .nodes
+                    .iter()
+                    .map(|p| p.map(Dual::constant))
+                    .collect();
+                for (k, v) in range.clone().enumerate() {
+                    for &(n, dx) in &design.variables[v].nodes {
+                        nodes[n][0].d[k] += dx[0];
+                        nodes[n][1].d[k] += dx[1];
+                    }
+                }
+                let (gps, _) = geometry(&self.model.mesh, &nodes);
+                let integrals = self.model.region_mass_integrals(&gps);
+                let lift = |x: &[f64]| x.iter().map(|&v| Dual::constant(v)).collect::<Vec<_>>();
+                let lift36 = |y: &[f64; 36]| y.map(Dual::constant);
+                let hats = Hats {
+                    x1: &lift(&self.x1),
+                    y1: &lift36(&self.y1),
+                    x: &lift(&self.x),
+                    y: &lift36(&self.y),
+                };
+                (
+                    MassProperties::scaled_sum(&integrals, &density),
+                    self.compliance_dual(&angles, &c_bar, &gps, hats),
+                )
+            } else {
+                let hats = Hats {
+                    x1: &self.x1,
+                    y1: &self.y1,
+                    x: &self.x,
+                    y: &self.y,
+                };
+                (
+                    MassProperties::scaled_sum(&integrals, &density),
+                    self.compliance_dual(&angles, &c_bar, &self.model.gps, hats),
+                )
+            };
             let props =
                 Props::from_compliance(compliance).ok_or(SectionError::SingularCompliance)?;
             for (k, v) in range.enumerate() {
@@ -377,12 +440,22 @@ impl SectionAnalysis {
         })
     }
 
-    /// The compliance with dual ply angles: tangents of both solves through the factorisation.
-    fn compliance_dual<const N: usize>(
+    /// The compliance with dual ply angles, material stiffnesses and (with `G` dual) node
+    /// coordinates: tangents of both solves through the factorisation. `hats` are the nominal
+    /// solutions in the fields' scalar `F` (`f64`, or dual constants when the geometry is
+    /// dual).
+    fn compliance_dual<const N: usize, F, G>(
         &self,
         angles: &[Dual<N>],
         c_bar: &[Matrix6<Dual<N>>],
-    ) -> Matrix6<Dual<N>> {
+        gps: &[GaussPoint<G>],
+        hats: Hats<'_, F>,
+    ) -> Matrix6<Dual<N>>
+    where
+        Dual<N>: Mul<F, Output = Dual<N>> + Mul<G, Output = Dual<N>>,
+        F: Scalar + Mul<G, Output = F>,
+        G: Scalar,
+    {
         let q_ply: Vec<Matrix6<Dual<N>>> = angles
             .iter()
             .zip(c_bar)
@@ -398,10 +471,11 @@ impl SectionAnalysis {
             let mut z = [zero; 36];
             self.model.kernel(
                 &q_ply,
+                gps,
                 Fields {
-                    u: Some(&self.x1),
+                    u: Some(hats.x1),
                     u1: None,
-                    psi: Some(&self.y1),
+                    psi: Some(hats.y1),
                 },
                 Outputs {
                     b: Some(&mut b),
@@ -423,6 +497,7 @@ impl SectionAnalysis {
             let mut s1 = vec![zero; nd * 6];
             self.model.kernel(
                 &q_ply,
+                gps,
                 Fields {
                     u: Some(&x1),
                     u1: None,
@@ -439,10 +514,11 @@ impl SectionAnalysis {
             let mut z = [zero; 36];
             self.model.kernel(
                 &q_ply,
+                gps,
                 Fields {
-                    u: Some(&self.x),
+                    u: Some(hats.x),
                     u1: None,
-                    psi: Some(&self.y),
+                    psi: Some(hats.y),
                 },
                 Outputs {
                     b: Some(&mut b),
@@ -453,6 +529,7 @@ impl SectionAnalysis {
             );
             self.model.kernel(
                 &q_ply,
+                gps,
                 Fields {
                     u: None,
                     u1: Some(&x1),
@@ -476,6 +553,7 @@ impl SectionAnalysis {
         let mut f = [Dual::<N>::constant(0.0); 36];
         self.model.kernel(
             &q_ply,
+            gps,
             Fields {
                 u: Some(&x),
                 u1: Some(&x1),
@@ -574,12 +652,16 @@ impl Model {
 
     /// The material stiffness in section axes at integration point `gp` of an element of
     /// region `r`: `T_wall Q_ply T_wallᵀ`.
-    fn stiffness_at<S: Scalar>(
+    fn stiffness_at<S, G>(
         &self,
         region: usize,
-        gp: &GaussPoint,
+        gp: &GaussPoint<G>,
         q_ply: &Matrix6<S>,
-    ) -> Matrix6<S> {
+    ) -> Matrix6<S>
+    where
+        S: Scalar + Mul<G, Output = S>,
+        G: Scalar,
+    {
         let r = self.mesh.regions[region].frame.rotation_at(gp.x, gp.dx_dxi);
         congruence(&bond_stress_matrix(&r), q_ply)
     }
@@ -751,15 +833,23 @@ impl Model {
     /// the requested projections of `σ`.
     ///
     /// The fields may be plain `f64` while the stiffness carries tangents (`S = Dual`,
-    /// `F = f64`): then only the stiffness is differentiated, at half the cost.
-    fn kernel<S, F>(&self, q_ply: &[Matrix6<S>], f: Fields<'_, F>, mut out: Outputs<'_, S>)
-    where
-        S: Scalar + Mul<F, Output = S>,
-        F: Scalar,
+    /// `F = f64`): then only the stiffness is differentiated, at half the cost. The geometry
+    /// `gps` is [`Model::gps`] (`G = f64`) or, when nodes move with a design variable, its
+    /// dual counterpart (then the fields are dual too).
+    fn kernel<S, F, G>(
+        &self,
+        q_ply: &[Matrix6<S>],
+        gps: &[GaussPoint<G>],
+        f: Fields<'_, F>,
+        mut out: Outputs<'_, S>,
+    ) where
+        S: Scalar + Mul<F, Output = S> + Mul<G, Output = S>,
+        F: Scalar + Mul<G, Output = F>,
+        G: Scalar,
     {
         for (e, el) in self.mesh.elements.iter().enumerate() {
             let nn = el.kind.node_count();
-            for gp in &self.gps[self.gp_start[e]..self.gp_start[e + 1]] {
+            for gp in &gps[self.gp_start[e]..self.gp_start[e + 1]] {
                 let q = self.stiffness_at(el.region, gp, &q_ply[el.region]);
                 let [x2, x3] = gp.x;
                 let mut eps = [[F::zero(); 6]; 6];
@@ -850,12 +940,13 @@ impl Model {
         }
     }
 
-    /// Unit-density integrals `∫1, ∫x₂, …` of each region (`m…` with ρ = 1).
-    fn region_mass_integrals(&self) -> Vec<MassProperties> {
+    /// Unit-density integrals `∫1, ∫x₂, …` of each region (`m…` with ρ = 1) over the
+    /// geometry `gps`.
+    fn region_mass_integrals<G: Scalar>(&self, gps: &[GaussPoint<G>]) -> Vec<MassProperties<G>> {
         let mut out = vec![MassProperties::default(); self.mesh.regions.len()];
         for (e, el) in self.mesh.elements.iter().enumerate() {
             let mp = &mut out[el.region];
-            for gp in &self.gps[self.gp_start[e]..self.gp_start[e + 1]] {
+            for gp in &gps[self.gp_start[e]..self.gp_start[e + 1]] {
                 let [x2, x3] = gp.x;
                 mp.area += gp.w;
                 mp.m += gp.w;
@@ -877,7 +968,7 @@ impl Model {
             .iter()
             .map(|r| r.material.density())
             .collect();
-        MassProperties::scaled_sum(&self.region_mass_integrals(), &rho)
+        MassProperties::scaled_sum(&self.region_mass_integrals(&self.gps), &rho)
     }
 }
 
@@ -894,19 +985,30 @@ fn symmetric<S: Scalar>(a: &[S; 36]) -> Matrix6<S> {
     SMatrix::from_fn(|i, j| (a[i * 6 + j] + a[j * 6 + i]) * 0.5)
 }
 
-/// Integration-point geometry of every element (the mesh has been validated).
-fn geometry(mesh: &SectionMesh) -> (Vec<GaussPoint>, Vec<usize>) {
+/// Integration-point geometry of every element (the mesh has been validated), with the node
+/// coordinates `nodes` in the scalar `G` (the mesh's own, or dual ones that move with design
+/// variables).
+fn geometry<G: Scalar>(mesh: &SectionMesh, nodes: &[[G; 2]]) -> (Vec<GaussPoint<G>>, Vec<usize>) {
     let mut gps = Vec::new();
     let mut start = Vec::with_capacity(mesh.elements.len() + 1);
     let mut n = [0.0; MAX_NODES];
     let mut dn = [[0.0; 2]; MAX_NODES];
+    let z = G::zero();
     for el in &mesh.elements {
         start.push(gps.len());
-        let xs: Vec<[f64; 2]> = el.nodes.iter().map(|&i| mesh.nodes[i]).collect();
         let nn = el.kind.node_count();
         for &(xi, eta, w) in el.kind.rule() {
             el.kind.shape(xi, eta, &mut n, &mut dn);
-            let j = jacobian(&xs, &dn[..nn]);
+            // J[i][k] = ∂x_i/∂ξ_k
+            let mut j = [[z; 2]; 2];
+            for (&node, d) in el.nodes.iter().zip(&dn[..nn]) {
+                let x = nodes[node];
+                for i in 0..2 {
+                    for k in 0..2 {
+                        j[i][k] += x[i] * d[k];
+                    }
+                }
+            }
             let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
             // ∂ξ/∂x = J⁻¹.
             let inv = [
@@ -914,18 +1016,19 @@ fn geometry(mesh: &SectionMesh) -> (Vec<GaussPoint>, Vec<usize>) {
                 [-j[1][0] / det, j[0][0] / det],
             ];
             let mut gp = GaussPoint {
-                w: w * det,
-                x: [0.0; 2],
+                w: det * w,
+                x: [z; 2],
                 n: [0.0; MAX_NODES],
-                dx: [[0.0; 2]; MAX_NODES],
+                dx: [[z; 2]; MAX_NODES],
                 dx_dxi: [[j[0][0], j[1][0]], [j[0][1], j[1][1]]],
             };
             for a in 0..nn {
+                let x = nodes[el.nodes[a]];
                 gp.n[a] = n[a];
-                gp.x[0] += n[a] * xs[a][0];
-                gp.x[1] += n[a] * xs[a][1];
+                gp.x[0] += x[0] * n[a];
+                gp.x[1] += x[1] * n[a];
                 for i in 0..2 {
-                    gp.dx[a][i] = dn[a][0] * inv[0][i] + dn[a][1] * inv[1][i];
+                    gp.dx[a][i] = inv[0][i] * dn[a][0] + inv[1][i] * dn[a][1];
                 }
             }
             gps.push(gp);

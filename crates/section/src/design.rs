@@ -6,8 +6,10 @@ use crate::{SectionError, SectionMesh};
 
 /// One design variable `b`: it moves the ply angle of each linked region by
 /// `dθ_region/db = factor` (so `[θ/−θ]` is one variable linked to two plies with factors
-/// `+1` and `−1`), and the material stiffness `C̄` (material axes) of each region of
-/// `materials` by `dC̄/db` (a material constant as a design variable).
+/// `+1` and `−1`), the material stiffness `C̄` (material axes) of each region of
+/// `materials` by `dC̄/db` (a material constant as a design variable), and the nodes of
+/// `nodes` by their velocities `dX/db` (a ply thickness as a design variable: see
+/// [`crate::GeneratedSection::node_velocities`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct DesignVariable {
     pub name: String,
@@ -17,12 +19,18 @@ pub struct DesignVariable {
     pub materials: Vec<(usize, Matrix6<f64>)>,
     /// `(region index, dρ_region/db)`: a material's density as a design variable.
     pub densities: Vec<(usize, f64)>,
+    /// `(node index, dX_node/db)`: the section's geometry as a design variable (m per unit
+    /// of `b`).
+    pub nodes: Vec<(usize, [f64; 2])>,
 }
 
 impl DesignVariable {
     /// Whether the variable moves anything.
     pub fn is_empty(&self) -> bool {
-        self.links.is_empty() && self.materials.is_empty() && self.densities.is_empty()
+        self.links.is_empty()
+            && self.materials.is_empty()
+            && self.densities.is_empty()
+            && self.nodes.is_empty()
     }
 }
 
@@ -50,6 +58,7 @@ impl DesignMap {
                     links: vec![(i, 1.0)],
                     materials: Vec::new(),
                     densities: Vec::new(),
+                    nodes: Vec::new(),
                 })
                 .collect(),
         }
@@ -62,6 +71,7 @@ impl DesignMap {
             links,
             materials: Vec::new(),
             densities: Vec::new(),
+            nodes: Vec::new(),
         });
         self
     }
@@ -77,6 +87,29 @@ impl DesignMap {
             links: Vec::new(),
             materials,
             densities: Vec::new(),
+            nodes: Vec::new(),
+        });
+        self
+    }
+
+    /// Add a variable that moves the section's nodes at the velocities `dX/db`, one per node
+    /// of the mesh (e.g. [`crate::GeneratedSection::node_velocities`] of a ply thickness).
+    pub fn with_geometry_variable(
+        mut self,
+        name: impl Into<String>,
+        velocities: &[[f64; 2]],
+    ) -> Self {
+        self.variables.push(DesignVariable {
+            name: name.into(),
+            links: Vec::new(),
+            materials: Vec::new(),
+            densities: Vec::new(),
+            nodes: velocities
+                .iter()
+                .enumerate()
+                .filter(|(_, v)| v[0] != 0.0 || v[1] != 0.0)
+                .map(|(n, v)| (n, *v))
+                .collect(),
         });
         self
     }
@@ -97,6 +130,7 @@ impl DesignMap {
             links,
             materials: Vec::new(),
             densities: Vec::new(),
+            nodes: Vec::new(),
         });
         Ok(self)
     }
@@ -104,6 +138,16 @@ impl DesignMap {
     /// Check that every link names an existing region with a finite factor.
     pub fn validate(&self, mesh: &SectionMesh) -> Result<(), SectionError> {
         for v in &self.variables {
+            for &(n, dx) in &v.nodes {
+                if n >= mesh.nodes.len() || !dx.iter().all(|x| x.is_finite()) {
+                    return Err(SectionError::InvalidInput(format!(
+                        "design variable '{}': node velocity of node {n} invalid (the mesh \
+                         has {} nodes; velocities must be finite)",
+                        v.name,
+                        mesh.nodes.len()
+                    )));
+                }
+            }
             for &(r, d) in &v.densities {
                 if r >= mesh.regions.len() || !d.is_finite() {
                     return Err(SectionError::InvalidInput(format!(
@@ -143,12 +187,18 @@ impl DesignMap {
         Ok(())
     }
 
-    /// The mesh with design variable `var` moved by `step` (radians): each linked region's ply
-    /// angle changes by `factor · step`. For finite-difference checks.
+    /// The mesh with design variable `var` moved by `step`: each linked region's ply angle
+    /// changes by `factor · step` (radians) and each moving node by `dX/db · step` (exact for
+    /// the generators, whose nodes are affine in the ply thicknesses). Material links are not
+    /// applied (their constants belong to the caller).
     pub fn step(&self, mesh: &SectionMesh, var: usize, step: f64) -> SectionMesh {
         let mut m = mesh.clone();
         for &(r, factor) in &self.variables[var].links {
             m.regions[r].ply_angle += factor * step;
+        }
+        for &(n, dx) in &self.variables[var].nodes {
+            m.nodes[n][0] += dx[0] * step;
+            m.nodes[n][1] += dx[1] * step;
         }
         m
     }

@@ -5,6 +5,7 @@ use std::collections::HashMap;
 use std::f64::consts::{FRAC_PI_2, PI};
 
 use laminate::OrthotropicMaterial;
+use sens::{Dual, Scalar};
 
 use crate::SectionError;
 use crate::element::ElementKind;
@@ -61,16 +62,17 @@ impl PlySpec {
     }
 }
 
-/// Nodes of a structured Q8 grid addressed by half-indices `(i2, j2)`.
-struct Grid<F: Fn(usize, usize) -> [f64; 2]> {
+/// Nodes of a structured Q8 grid addressed by half-indices `(i2, j2)`, with coordinates in
+/// the scalar `S` (dual when the node velocities of a thickness variable are wanted).
+struct Grid<S, F: Fn(usize, usize) -> [S; 2]> {
     coord: F,
     map: HashMap<(usize, usize), usize>,
-    nodes: Vec<[f64; 2]>,
+    nodes: Vec<[S; 2]>,
     /// Period of `j2` (tubes), if any.
     wrap_j: Option<usize>,
 }
 
-impl<F: Fn(usize, usize) -> [f64; 2]> Grid<F> {
+impl<S, F: Fn(usize, usize) -> [S; 2]> Grid<S, F> {
     fn new(coord: F, wrap_j: Option<usize>) -> Self {
         Self {
             coord,
@@ -290,6 +292,27 @@ pub fn tube(
     plies: &[PlySpec],
     circumferential: usize,
 ) -> Result<SectionMesh, SectionError> {
+    let (nodes, elements, regions) =
+        tube_of(inner_radius, plies, circumferential, &|p: &PlySpec| {
+            p.thickness
+        })?;
+    Ok(SectionMesh {
+        nodes,
+        elements,
+        regions,
+    })
+}
+
+/// The parts of a mesh: nodes (in any scalar), elements, regions.
+type Parts<S> = (Vec<[S; 2]>, Vec<Element>, Vec<Region>);
+
+/// [`tube`] with the ply thicknesses `thickness(ply)` in the scalar `S`.
+fn tube_of<S: Scalar>(
+    inner_radius: f64,
+    plies: &[PlySpec],
+    circumferential: usize,
+    thickness: &dyn Fn(&PlySpec) -> S,
+) -> Result<Parts<S>, SectionError> {
     positive("tube inner radius", inner_radius)?;
     at_least("elements around the tube", circumferential, 3)?;
     if plies.is_empty() {
@@ -298,13 +321,13 @@ pub fn tube(
         ));
     }
     // Radii of the element layers at half-index steps, and the region of each layer.
-    let mut radii2 = vec![inner_radius];
+    let mut radii2 = vec![S::from_f64(inner_radius)];
     let mut layer_region = Vec::new();
     for (k, p) in plies.iter().enumerate() {
         p.check()?;
         let r0 = *radii2.last().expect("non-empty");
         for e in 0..p.elements {
-            let h = p.thickness / p.elements as f64;
+            let h = thickness(p) / p.elements as f64;
             radii2.push(r0 + h * (e as f64 + 0.5));
             radii2.push(r0 + h * (e as f64 + 1.0));
             layer_region.push(k);
@@ -338,11 +361,7 @@ pub fn tube(
             )
         })
         .collect();
-    Ok(SectionMesh {
-        nodes: grid.nodes,
-        elements,
-        regions,
-    })
+    Ok((grid.nodes, elements, regions))
 }
 
 /// Ply stacks of the four walls of a box, each listed along the outward wall normal (first ply
@@ -375,13 +394,15 @@ enum Band {
     High(usize),
 }
 
-/// Grid breaks along one axis: low wall (plies outermost first), `n_mid` cells, high wall.
-fn box_axis(
+/// Grid breaks along one axis: low wall (plies outermost first), `n_mid` cells, high wall;
+/// the ply thicknesses are `thickness(ply)`.
+fn box_axis<S: Scalar>(
     extent: f64,
     low: &[PlySpec],
     high: &[PlySpec],
     n_mid: usize,
-) -> Result<(Vec<f64>, Vec<Band>), SectionError> {
+    thickness: &dyn Fn(&PlySpec) -> S,
+) -> Result<(Vec<S>, Vec<Band>), SectionError> {
     let tl: f64 = low.iter().map(|p| p.thickness).sum();
     let th: f64 = high.iter().map(|p| p.thickness).sum();
     if tl + th >= extent {
@@ -389,17 +410,18 @@ fn box_axis(
             "box walls of thickness {tl} and {th} m do not fit in an outer size of {extent} m"
         )));
     }
-    let mut x = vec![-0.5 * extent];
+    let sum = |plies: &[PlySpec]| plies.iter().map(thickness).sum::<S>();
+    let mut x = vec![S::from_f64(-0.5 * extent)];
     let mut bands = Vec::new();
     for (k, p) in low.iter().enumerate().rev() {
         let x0 = *x.last().expect("non-empty");
         for e in 0..p.elements {
-            x.push(x0 + p.thickness * (e + 1) as f64 / p.elements as f64);
+            x.push(x0 + thickness(p) * (e + 1) as f64 / p.elements as f64);
             bands.push(Band::Low(k));
         }
     }
     let x0 = *x.last().expect("non-empty");
-    let inner = extent - tl - th;
+    let inner = S::from_f64(extent) - sum(low) - sum(high);
     for e in 0..n_mid {
         x.push(x0 + inner * (e + 1) as f64 / n_mid as f64);
         bands.push(Band::Mid);
@@ -407,7 +429,7 @@ fn box_axis(
     for (k, p) in high.iter().enumerate() {
         let x0 = *x.last().expect("non-empty");
         for e in 0..p.elements {
-            x.push(x0 + p.thickness * (e + 1) as f64 / p.elements as f64);
+            x.push(x0 + thickness(p) * (e + 1) as f64 / p.elements as f64);
             bands.push(Band::High(k));
         }
     }
@@ -433,7 +455,15 @@ pub fn thin_walled_box(
     n_width: usize,
     n_height: usize,
 ) -> Result<SectionMesh, SectionError> {
-    walled(width, height, walls, n_width, n_height, false)
+    let (nodes, elements, regions) =
+        walled(width, height, walls, n_width, n_height, false, &|p| {
+            p.thickness
+        })?;
+    Ok(SectionMesh {
+        nodes,
+        elements,
+        regions,
+    })
 }
 
 /// A channel (C section) open towards `+x₂`: the box of [`thin_walled_box`] without its right
@@ -451,18 +481,27 @@ pub fn channel(
             "a channel has no right wall: it is open towards +x2".into(),
         ));
     }
-    walled(width, height, walls, n_width, n_height, true)
+    let (nodes, elements, regions) = walled(width, height, walls, n_width, n_height, true, &|p| {
+        p.thickness
+    })?;
+    Ok(SectionMesh {
+        nodes,
+        elements,
+        regions,
+    })
 }
 
-/// The box, or with `open` the channel without its right wall.
-fn walled(
+/// The box, or with `open` the channel without its right wall, with the ply thicknesses
+/// `thickness(ply)` in the scalar `S`.
+fn walled<S: Scalar>(
     width: f64,
     height: f64,
     walls: &BoxWalls,
     n_width: usize,
     n_height: usize,
     open: bool,
-) -> Result<SectionMesh, SectionError> {
+    thickness: &dyn Fn(&PlySpec) -> S,
+) -> Result<Parts<S>, SectionError> {
     positive("box width", width)?;
     positive("box height", height)?;
     at_least("elements along the box width", n_width, 1)?;
@@ -485,13 +524,13 @@ fn walled(
             p.check()?;
         }
     }
-    let (xs, cols) = box_axis(width, &walls.left, &walls.right, n_width)?;
-    let (ys, rows) = box_axis(height, &walls.bottom, &walls.top, n_height)?;
-    let interp = |v: &[f64], i2: usize| {
+    let (xs, cols) = box_axis(width, &walls.left, &walls.right, n_width, thickness)?;
+    let (ys, rows) = box_axis(height, &walls.bottom, &walls.top, n_height, thickness)?;
+    let interp = |v: &[S], i2: usize| {
         if i2.is_multiple_of(2) {
             v[i2 / 2]
         } else {
-            0.5 * (v[i2 / 2] + v[i2 / 2 + 1])
+            (v[i2 / 2] + v[i2 / 2 + 1]) * 0.5
         }
     };
     let coord = |i2: usize, j2: usize| [interp(&xs, i2), interp(&ys, j2)];
@@ -579,9 +618,80 @@ fn walled(
             });
         }
     }
-    Ok(SectionMesh {
-        nodes: grid.nodes,
-        elements,
-        regions,
-    })
+    Ok((grid.nodes, elements, regions))
+}
+
+/// A section made by one of the generators, kept with its inputs so that its node velocities
+/// for a ply-thickness design variable can be made by the same code that places the nodes.
+#[derive(Clone, Debug, PartialEq)]
+pub enum GeneratedSection {
+    /// [`tube`].
+    Tube {
+        inner_radius: f64,
+        plies: Vec<PlySpec>,
+        circumferential: usize,
+    },
+    /// [`thin_walled_box`], or with `open` the [`channel`].
+    Walled {
+        width: f64,
+        height: f64,
+        walls: BoxWalls,
+        n_width: usize,
+        n_height: usize,
+        open: bool,
+    },
+}
+
+impl GeneratedSection {
+    /// The mesh.
+    pub fn mesh(&self) -> Result<SectionMesh, SectionError> {
+        let (nodes, elements, regions) = self.parts(&|p: &PlySpec| p.thickness)?;
+        Ok(SectionMesh {
+            nodes,
+            elements,
+            regions,
+        })
+    }
+
+    /// The velocity `dX/db` of every node of [`GeneratedSection::mesh`] for a design variable
+    /// `b` that moves the thickness of each ply `p` at the rate `dthickness(p)` (m per unit of
+    /// `b`; 0 for plies it does not move). The nodes are generated again with dual thicknesses,
+    /// so the velocities are exact (and the positions affine in the thicknesses).
+    pub fn node_velocities(
+        &self,
+        dthickness: impl Fn(&PlySpec) -> f64,
+    ) -> Result<Vec<[f64; 2]>, SectionError> {
+        let (nodes, _, _) = self.parts(&|p: &PlySpec| Dual::new(p.thickness, [dthickness(p)]))?;
+        Ok(nodes.iter().map(|x| [x[0].d[0], x[1].d[0]]).collect())
+    }
+
+    fn parts<S: Scalar>(
+        &self,
+        thickness: &dyn Fn(&PlySpec) -> S,
+    ) -> Result<Parts<S>, SectionError> {
+        match self {
+            GeneratedSection::Tube {
+                inner_radius,
+                plies,
+                circumferential,
+            } => tube_of(*inner_radius, plies, *circumferential, thickness),
+            GeneratedSection::Walled {
+                width,
+                height,
+                walls,
+                n_width,
+                n_height,
+                open,
+            } => {
+                if *open && !walls.right.is_empty() {
+                    return Err(SectionError::InvalidInput(
+                        "a channel has no right wall: it is open towards +x2".into(),
+                    ));
+                }
+                walled(
+                    *width, *height, walls, *n_width, *n_height, *open, thickness,
+                )
+            }
+        }
+    }
 }

@@ -6,8 +6,10 @@
 //! [`thin_walled_box`]) and text parsers ([`parse_gmsh`], [`parse_simple`]), the warping
 //! analysis that yields the 6×6 Timoshenko stiffness with all couplings, the 4×4 classical
 //! stiffness, mass properties and the mass, tension and shear centres ([`SectionProperties`]),
-//! and their exact derivatives with respect to ply-angle design variables ([`DesignMap`],
-//! [`SectionSensitivities`]). It knows nothing about beam elements, multibody systems, decks or
+//! and their exact derivatives with respect to design variables ([`DesignMap`],
+//! [`SectionSensitivities`]): ply angles, material constants and densities, and node
+//! positions — a generated section ([`GeneratedSection`]) gives the node velocities of a ply
+//! thickness from the same code that places its nodes. It knows nothing about beam elements, multibody systems, decks or
 //! files: text comes in as `&str`.
 //!
 //! # Conventions
@@ -72,7 +74,9 @@ pub use analysis::{SectionAnalysis, analyse, analyse_with_derivatives};
 pub use design::{DesignMap, DesignVariable};
 pub use element::ElementKind;
 pub use error::SectionError;
-pub use generate::{BoxWalls, PlySpec, channel, circle, rectangle, thin_walled_box, tube};
+pub use generate::{
+    BoxWalls, GeneratedSection, PlySpec, channel, circle, rectangle, thin_walled_box, tube,
+};
 pub use mesh::{Element, ElementDirection, Region, SectionMesh, WallFrame};
 pub use parse::{RegionSpec, parse_gmsh, parse_simple, write_simple};
 pub use properties::{Entry, ReferencePoint, SectionProperties, SectionSensitivities};

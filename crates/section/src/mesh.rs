@@ -42,8 +42,9 @@ pub enum ElementDirection {
 
 impl WallFrame {
     /// The in-plane tangent `t` at the point `p`, where the element's parametric directions
-    /// are `dx_dxi = [∂x/∂ξ, ∂x/∂η]` (used only by [`WallFrame::AlongElement`]).
-    pub fn tangent_at(&self, p: [f64; 2], dx_dxi: [[f64; 2]; 2]) -> [f64; 2] {
+    /// are `dx_dxi = [∂x/∂ξ, ∂x/∂η]` (used only by [`WallFrame::AlongElement`]). Generic so
+    /// that moving nodes (a ply thickness as a design variable) turn the frame with them.
+    pub fn tangent_at<S: Scalar>(&self, p: [S; 2], dx_dxi: [[S; 2]; 2]) -> [S; 2] {
         match *self {
             WallFrame::AlongElement(dir) => {
                 let v = dx_dxi[match dir {
@@ -53,12 +54,12 @@ impl WallFrame {
                 let l = v[0].hypot(v[1]);
                 [v[0] / l, v[1] / l]
             }
-            WallFrame::Tangent(beta) => [beta.cos(), beta.sin()],
+            WallFrame::Tangent(beta) => [S::from_f64(beta.cos()), S::from_f64(beta.sin())],
             WallFrame::Radial { centre } => {
                 let (d2, d3) = (p[0] - centre[0], p[1] - centre[1]);
                 let r = d2.hypot(d3);
-                if r == 0.0 {
-                    [1.0, 0.0]
+                if r.value() == 0.0 {
+                    [S::one(), S::zero()]
                 } else {
                     [d3 / r, -d2 / r]
                 }
@@ -68,10 +69,11 @@ impl WallFrame {
 
     /// The rotation whose columns are the wall axes `(x₁, t, n)` in section axes
     /// `(x₁, x₂, x₃)`, at the point `p` (see [`WallFrame::tangent_at`]).
-    pub fn rotation_at(&self, p: [f64; 2], dx_dxi: [[f64; 2]; 2]) -> Matrix3<f64> {
+    pub fn rotation_at<S: Scalar>(&self, p: [S; 2], dx_dxi: [[S; 2]; 2]) -> Matrix3<S> {
         let [t2, t3] = self.tangent_at(p, dx_dxi);
+        let (o, z) = (S::one(), S::zero());
         // n = x₁ × t = (0, −t₃, t₂).
-        Matrix3::new(1.0, 0.0, 0.0, 0.0, t2, -t3, 0.0, t3, t2)
+        Matrix3::new(o, z, z, z, t2, -t3, z, t3, t2)
     }
 
     fn rotated(&self, alpha: f64) -> WallFrame {

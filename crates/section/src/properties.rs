@@ -2,6 +2,7 @@
 
 use nalgebra::{Matrix4, Matrix6, SMatrix};
 use sens::Scalar;
+use std::ops::Mul;
 
 /// Everything the analysis gives about a section (SI units).
 ///
@@ -272,16 +273,16 @@ impl<S: Scalar> Default for MassProperties<S> {
     }
 }
 
-impl MassProperties<f64> {
+impl<R: Scalar> MassProperties<R> {
     /// `Σ_r ρ_r I_r` over regions with unit-density integrals `I_r` (this for one region), in
-    /// the scalar of the densities.
-    pub fn scaled_sum<S: Scalar>(
-        regions: &[MassProperties<f64>],
-        density: &[S],
-    ) -> MassProperties<S> {
+    /// the scalar of the densities (the integrals are `f64`, or dual when nodes move).
+    pub fn scaled_sum<S>(regions: &[MassProperties<R>], density: &[S]) -> MassProperties<S>
+    where
+        S: Scalar + Mul<R, Output = S> + From<R>,
+    {
         let mut out = MassProperties::<S>::default();
         for (i, &rho) in regions.iter().zip(density) {
-            out.area += S::from_f64(i.area);
+            out.area += S::from(i.area);
             out.m += rho * i.m;
             out.m2 += rho * i.m2;
             out.m3 += rho * i.m3;
