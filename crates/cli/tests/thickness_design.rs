@@ -1,7 +1,8 @@
 //! A ply's thickness as a design variable (`kind = "ply-thickness"`): through laminates and
 //! shells (stiffness, mass and the floating frame), against closed forms (a plate's bending
-//! frequencies are proportional to its thickness) and central differences; refused, with a
-//! message, where it would move a beam section's geometry.
+//! frequencies are proportional to its thickness) and central differences; through generated
+//! beam sections (the nodes move) to the whole motion; refused, with a message, where it
+//! would move a mesh file's geometry.
 
 mod common;
 
@@ -138,29 +139,173 @@ fn plate_deck_thickness_sensitivities_match_replayed_central_differences() {
     }
 }
 
+/// The outer two plies of the paper's tube thicker (one variable, m): `flexsens section
+/// --derivatives` against central differences of command-line runs (`--set` on both plies),
+/// and the mass per length against the closed form `dm/dt = 2 · 2πρ r_o` (thickening either
+/// ply moves the outer surface out by `dt`).
 #[test]
-fn a_thickness_that_would_move_a_beam_section_is_refused() {
-    let (_dir, path) = with_extra(
+fn section_thickness_derivatives_match_central_differences() {
+    let extra =
+        "\n[design.outer]\nkind = \"ply-thickness\"\nlaminate = \"tube_wall\"\nplies = [2, 3]\n";
+    let (_dir, path) = with_extra("section_composite_tube.toml", extra);
+    let doc = report("section", &path, &["--derivatives".into()]);
+    let d = &doc["sections"]["rod"]["derivatives"][0];
+    assert_eq!(d["wrt"], "outer");
+    assert_eq!(d["per"], "m");
+    let t = 0.25e-3;
+    let h = 1e-3 * t;
+    let at = |s: f64| {
+        let sets: Vec<String> = [2, 3]
+            .iter()
+            .flat_map(|i| {
+                [
+                    "--set".to_string(),
+                    format!("laminate.tube_wall.plies.{i}.thickness={:?}", t + s),
+                ]
+            })
+            .collect();
+        report("section", &path, &sets)
+    };
+    let (plus, minus) = (at(h), at(-h));
+    let k = |doc: &serde_json::Value, i: usize, j: usize| {
+        doc["sections"]["rod"]["values"]["stiffness"][i][j]
+            .as_f64()
+            .unwrap()
+    };
+    for (i, j) in [
+        (0, 0),
+        (0, 3),
+        (3, 3),
+        (1, 1),
+        (4, 4),
+        (5, 5),
+        (1, 4),
+        (2, 5),
+    ] {
+        let fd = (k(&plus, i, j) - k(&minus, i, j)) / (2.0 * h);
+        let exact = d["values"]["stiffness"][i][j].as_f64().unwrap();
+        let scale = exact
+            .abs()
+            .max(1e-3 * (k(&doc, i, i) * k(&doc, j, j)).sqrt() / t);
+        assert!(
+            (exact - fd).abs() <= 1e-6 * scale,
+            "K{i}{j}: {exact} vs {fd}"
+        );
+    }
+    // a thicker wall stiffens in extension, bending and torsion
+    for i in [0, 3, 4, 5] {
+        assert!(
+            d["values"]["stiffness"][i][i].as_f64().unwrap() > 0.0,
+            "K{i}{i}"
+        );
+    }
+    let ro = 4.529e-3 + 4.0 * t;
+    let dm = d["values"]["mass_per_length"].as_f64().unwrap();
+    let exact = 2.0 * 2.0 * std::f64::consts::PI * 1586.0 * ro;
+    // the mesh's polygonal circles (64 around): 1e-5
+    assert!((dm - exact).abs() < 1e-5 * exact, "dm/dt {dm} vs {exact}");
+}
+
+/// A ply thickness on the paper's beam deck moves the rod's section, its modes and the whole
+/// motion: direct sensitivities of the mid-span deflection against replayed central
+/// differences of whole runs.
+#[test]
+fn beam_deck_thickness_sensitivities_match_replayed_central_differences() {
+    let errors = direct_vs_central(
         "slider_crank_beam.toml",
         "\n[design.t]\nkind = \"ply-thickness\"\nlaminate = \"tube_wall\"\n",
+        "1e-4",
+        &["theta", "t"],
     );
-    let o = run(&["run", path.to_str().unwrap()]);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(
-        err.contains("ply thicknesses can move shells only"),
-        "{err}"
-    );
-    // `flexsens section --derivatives` says the same
-    let (_dir, path) = with_extra(
-        "section_composite_tube.toml",
-        "\n[design.t]\nkind = \"ply-thickness\"\nlaminate = \"tube_wall\"\n",
-    );
+    for (err, scale) in errors {
+        assert!(scale > 0.0);
+        assert!(err < 1e-5, "{err:e}");
+    }
+}
+
+/// A mesh file's geometry is fixed: a ply thickness that would move it is refused, naming
+/// the variable and the section.
+#[test]
+fn a_thickness_that_would_move_a_mesh_file_section_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("mesh.toml");
+    let mesh =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../section/tests/data/tube_q8.msh");
+    std::fs::write(
+        &path,
+        format!(
+            "[material.ud]\nE1 = 128.0e9\nE2 = 10.1e9\nE3 = 10.1e9\nG12 = 5.36e9\n\
+             G13 = 5.36e9\nG23 = 3.9e9\nnu12 = 0.23\nnu13 = 0.23\nnu23 = 0.3\n\
+             density = 1586.0\n\
+             [laminate.wall]\nplies = [\n  {{ material = \"ud\", thickness = 0.5e-3, angle = 30.0 }},\n  \
+             {{ material = \"ud\", thickness = 0.5e-3, angle = -30.0 }},\n]\n\
+             [section.tube]\nshape = \"mesh\"\nfile = \"{}\"\n\
+             regions.inner = {{ laminate = \"wall\", ply = 0, frame = \"radial\" }}\n\
+             regions.outer = {{ laminate = \"wall\", ply = 1, frame = \"radial\" }}\n\
+             [design.t]\nkind = \"ply-thickness\"\nlaminate = \"wall\"\nplies = [1]\n",
+            mesh.display()
+        ),
+    )
+    .unwrap();
     let o = run(&["section", path.to_str().unwrap(), "--derivatives"]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(
-        err.contains("ply thicknesses can move shells only"),
+        err.contains("`t` moves the thickness of ply 1 of laminate `wall`")
+            && err.contains("not of a mesh file"),
         "{err}"
     );
+}
+
+/// The rod's frequencies with a thicker wall (one variable moving all four plies, m):
+/// `flexsens modes --derivatives` against central differences of command-line runs. The
+/// rod's bending pairs are repeated; a thicker round tube keeps them so (no split), and their
+/// derivatives are the same within a pair.
+#[test]
+fn beam_frequency_thickness_derivatives_match_central_differences() {
+    let (_dir, path) = with_extra(
+        "modes_beam_rod.toml",
+        "\n[design.t]\nkind = \"ply-thickness\"\nlaminate = \"tube_wall\"\n",
+    );
+    let freqs = |doc: &serde_json::Value, key: &str| -> Vec<f64> {
+        let body = &doc["bodies"]["rod"];
+        let v = if key == "values" {
+            &body["values"]["frequencies"]
+        } else {
+            &body["derivatives"][0]["values"]["frequencies"]
+        };
+        v.as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect()
+    };
+    let doc = report("modes", &path, &["--derivatives".into()]);
+    assert_eq!(doc["bodies"]["rod"]["derivatives"][0]["per"], "m");
+    let (f, df) = (freqs(&doc, "values"), freqs(&doc, "derivatives"));
+    let t = 0.25e-3;
+    let h = 1e-3 * t;
+    let at = |s: f64| {
+        let sets: Vec<String> = (0..4)
+            .flat_map(|i| {
+                [
+                    "--set".to_string(),
+                    format!("laminate.tube_wall.plies.{i}.thickness={:?}", t + s),
+                ]
+            })
+            .collect();
+        freqs(&report("modes", &path, &sets), "values")
+    };
+    let (plus, minus) = (at(h), at(-h));
+    for i in 0..f.len() {
+        let fd = (plus[i] - minus[i]) / (2.0 * h);
+        assert!(
+            (df[i] - fd).abs() <= 1e-6 * f[i] / t,
+            "mode {}: {} vs central differences {fd} Hz/m",
+            i + 1,
+            df[i]
+        );
+        // thin-walled tube: f ∝ sqrt(EI/m) grows with the radius of gyration
+        assert!(df[i] > 0.0, "mode {}", i + 1);
+    }
 }

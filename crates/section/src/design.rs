@@ -25,6 +25,16 @@ pub struct DesignVariable {
 }
 
 impl DesignVariable {
+    /// The `(node, dX/db)` links of the nodes that move, from one velocity per node.
+    pub fn node_links(velocities: &[[f64; 2]]) -> Vec<(usize, [f64; 2])> {
+        velocities
+            .iter()
+            .enumerate()
+            .filter(|(_, v)| v[0] != 0.0 || v[1] != 0.0)
+            .map(|(n, v)| (n, *v))
+            .collect()
+    }
+
     /// Whether the variable moves anything.
     pub fn is_empty(&self) -> bool {
         self.links.is_empty()
@@ -104,12 +114,7 @@ impl DesignMap {
             links: Vec::new(),
             materials: Vec::new(),
             densities: Vec::new(),
-            nodes: velocities
-                .iter()
-                .enumerate()
-                .filter(|(_, v)| v[0] != 0.0 || v[1] != 0.0)
-                .map(|(n, v)| (n, *v))
-                .collect(),
+            nodes: DesignVariable::node_links(velocities),
         });
         self
     }

@@ -30,8 +30,9 @@ pub enum Target {
         deck_plies: Vec<(usize, f64, f64)>,
     },
     /// Ply thicknesses of a laminate: `(ply index in the stack, dt/db)` (m per m; mirrored
-    /// plies of a symmetric laminate included). Shells laminated with it follow; a beam
-    /// section made of it is refused (no geometry derivatives of sections yet).
+    /// plies of a symmetric laminate included). Shells laminated with it follow, and so do
+    /// the nodes of generated beam sections (tubes, boxes, channels) made of it; a mesh-file
+    /// section made of it is refused (its geometry is fixed).
     PlyThickness {
         laminate: String,
         stack_plies: Vec<(usize, f64)>,

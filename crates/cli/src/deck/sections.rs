@@ -69,6 +69,11 @@ pub struct SectionDef {
     /// For each region, the name of its `[material.*]` (`None` for the materials a
     /// simple-format mesh defines itself): material design variables move it.
     pub materials: Vec<Option<String>>,
+    /// The generator that made the mesh (tubes, boxes, channels), so that a ply thickness can
+    /// move its nodes; `None` for mesh files and solid shapes (geometry fixed).
+    pub generated: Option<Box<section::GeneratedSection>>,
+    /// The laminate ply each of the generator's plies is, by the ply's name.
+    pub generator_plies: HashMap<String, PlyRef>,
 }
 
 fn material<'m>(
@@ -331,6 +336,7 @@ pub fn validate_one(
     let mut tags: HashMap<String, PlyRef> = HashMap::new();
     let mut materials: HashMap<String, String> = HashMap::new();
     let solid_material = raw.material.as_ref().map(|m| m.get_ref().clone());
+    let mut generated = None;
     let mesh = match shape_name {
         "circle" => {
             let r = positive(
@@ -488,7 +494,14 @@ pub fn validate_one(
                 table.clone(),
                 around.saturating_mul(through),
             )?;
-            section::tube(r, &plies, around).map_err(bad)?
+            let g = section::GeneratedSection::Tube {
+                inner_radius: r,
+                plies,
+                circumferential: around,
+            };
+            let mesh = g.mesh().map_err(bad)?;
+            generated = Some(Box::new(g));
+            mesh
         }
         "box" | "channel" => {
             let open = shape_name == "channel";
@@ -569,15 +582,25 @@ pub fn validate_one(
                 }
             };
             let [nw, nh] = elements_pair([8, 8])?;
-            if open {
-                let walls = BoxWalls {
+            let walls = if open {
+                BoxWalls {
                     right: Vec::new(),
                     ..walls
-                };
-                section::channel(w, h, &walls, nw, nh).map_err(bad)?
+                }
             } else {
-                section::thin_walled_box(w, h, &walls, nw, nh).map_err(bad)?
-            }
+                walls
+            };
+            let g = section::GeneratedSection::Walled {
+                width: w,
+                height: h,
+                walls,
+                n_width: nw,
+                n_height: nh,
+                open,
+            };
+            let mesh = g.mesh().map_err(bad)?;
+            generated = Some(Box::new(g));
+            mesh
         }
         "mesh" => {
             let file = required(
@@ -762,11 +785,18 @@ pub fn validate_one(
                 .or_else(|| solid_material.clone()),
         })
         .collect();
+    let generator_plies = if generated.is_some() {
+        tags
+    } else {
+        HashMap::new()
+    };
     Ok(SectionDef {
         shape: shape_name.to_string(),
         mesh,
         plies,
         materials,
+        generated,
+        generator_plies,
     })
 }
 

@@ -298,9 +298,11 @@ impl Built {
 }
 
 /// The section design map of the deck's variables: region `r` turns with variable `j` when it
-/// is a ply of `j` ([`SectionDef::plies`]) and its material moves with `j` when `j` is a
-/// constant of its material ([`SectionDef::materials`]); with, per variable, the
-/// `(region, dc/db)` of those materials.
+/// is a ply of `j` ([`SectionDef::plies`]), its material moves with `j` when `j` is a
+/// constant of its material ([`SectionDef::materials`]), and the nodes of a generated section
+/// move with `j` when `j` is the thickness of one of its plies
+/// ([`SectionDef::generator_plies`]); with, per variable, the `(region, dc/db)` of those
+/// materials.
 pub fn section_design(
     section: &SectionDef,
     vars: &[DesignVariable],
@@ -308,18 +310,37 @@ pub fn section_design(
     let mut map = DesignMap::new();
     let mut materials = Vec::new();
     for v in vars {
-        if let Some(tag) = section.plies.iter().flatten().find(|t| {
-            v.thickness_links(&t.laminate)
-                .iter()
-                .any(|&(p, _)| p == t.ply)
-        }) {
-            return Err(format!(
-                "design variable `{}` moves the thickness of ply {} of laminate `{}`, which \
-                 builds this section: ply thicknesses can move shells only for now (a section's \
-                 geometry derivatives are not available yet)",
-                v.name, tag.ply, tag.laminate
-            ));
-        }
+        // dt/db of a ply of the section's generator
+        let dthickness = |p: &section::PlySpec| {
+            section.generator_plies.get(&p.name).map_or(0.0, |tag| {
+                v.thickness_links(&tag.laminate)
+                    .iter()
+                    .filter(|&&(ply, _)| ply == tag.ply)
+                    .map(|&(_, f)| f)
+                    .sum()
+            })
+        };
+        let velocities = match &section.generated {
+            Some(g) => g
+                .node_velocities(dthickness)
+                .map_err(|e| format!("design variable `{}`: {e}", v.name))?,
+            None => {
+                if let Some(tag) = section.plies.iter().flatten().find(|t| {
+                    v.thickness_links(&t.laminate)
+                        .iter()
+                        .any(|&(p, _)| p == t.ply)
+                }) {
+                    return Err(format!(
+                        "design variable `{}` moves the thickness of ply {} of laminate `{}`, \
+                         which builds this {} section: a ply thickness can move the nodes of \
+                         a generated section (tube, box, channel) or a shell, not of a mesh \
+                         file, whose geometry is fixed",
+                        v.name, tag.ply, tag.laminate, section.shape
+                    ));
+                }
+                Vec::new()
+            }
+        };
         let mut links = Vec::new();
         for (r, tag) in section.plies.iter().enumerate() {
             let Some(tag) = tag else { continue };
@@ -330,6 +351,9 @@ pub fn section_design(
             }
         }
         map = map.with_variable(v.name.clone(), links);
+        if let Some(last) = map.variables.last_mut() {
+            last.nodes = section::DesignVariable::node_links(&velocities);
+        }
         materials.push(
             section
                 .materials
