@@ -39,15 +39,15 @@ pub enum Target {
         /// `(ply index in the deck, t_i0 in m, f_i)`.
         deck_plies: Vec<(usize, f64, f64)>,
     },
-    /// An elastic constant or the density of a material: `dc` is the derivative of its nine
-    /// elastic constants (`OrthotropicMaterial::constants` order) and its density with respect
-    /// to the variable ([`material_constants`]). Every ply and section region of the material
+    /// An elastic constant or the density of a material: `law` says how its nine elastic
+    /// constants (`OrthotropicMaterial::constants` order) and its density move with the
+    /// variable ([`material_constants`]). Every ply and section region of the material
     /// follows. `constant` is the deck's name of the constant (`"E1"`, `"nu12"`, `"E"`,
-    /// `"density"`).
+    /// `"nu"`, `"density"`).
     Material {
         material: String,
         constant: &'static str,
-        dc: [f64; 10],
+        law: MaterialLaw,
     },
     /// The mass of a rigid body (kg).
     RigidMass { body: String },
@@ -98,13 +98,13 @@ impl DesignVariable {
         }
     }
 
-    /// `dc/db` of the nine elastic constants and the density of `material` (none when the
-    /// variable moves something else).
-    pub fn material_links(&self, material: &str) -> Option<&[f64; 10]> {
+    /// How the variable moves the constants of `material` (none when it moves something
+    /// else).
+    pub fn material_links(&self, material: &str) -> Option<&MaterialLaw> {
         match &self.target {
             Target::Material {
-                material: m, dc, ..
-            } if m == material => Some(dc),
+                material: m, law, ..
+            } if m == material => Some(law),
             _ => None,
         }
     }
@@ -167,12 +167,9 @@ impl DesignVariable {
         if b == self.value {
             return Ok(());
         }
-        if let Target::Material { material, dc, .. } = &self.target {
+        if let Target::Material { material, law, .. } = &self.target {
             let m0 = model.materials[material];
-            let mut c = material_constants(&m0);
-            for (ci, d) in c.iter_mut().zip(dc) {
-                *ci += d * (b - self.value);
-            }
+            let c = MaterialLaw::moved(material_constants(&m0), [(law, b - self.value)]);
             let m = with_material_constants(&m0, &c)?;
             model.materials.insert(material.clone(), m);
             for def in model.laminates.values_mut() {
@@ -524,6 +521,72 @@ pub fn material_constants(m: &laminate::OrthotropicMaterial) -> [f64; 10] {
     ]
 }
 
+/// How a material design variable moves its material's ten constants
+/// ([`material_constants`] order).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum MaterialLaw {
+    /// `c(b) = c0 + dc (b − b0)`: an orthotropic material's constant, or a density.
+    Linear([f64; 10]),
+    /// An isotropic material's modulus `E` (`E1 = E2 = E3`) at fixed ν; the shear moduli
+    /// follow, `G = E/(2(1 + ν))`.
+    IsotropicModulus,
+    /// An isotropic material's Poisson ratio ν (`nu12 = nu13 = nu23`) at fixed `E`; the shear
+    /// moduli follow, `G = E/(2(1 + ν))` (not linear in ν: the constants at another design are
+    /// made exactly, and the tangent is taken where the material is).
+    IsotropicPoisson,
+}
+
+impl MaterialLaw {
+    /// `dc/db` at the constants `c`.
+    pub fn tangent(&self, c: &[f64; 10]) -> [f64; 10] {
+        let (e, nu) = (c[0], c[6]);
+        match self {
+            MaterialLaw::Linear(dc) => *dc,
+            MaterialLaw::IsotropicModulus => {
+                let g = 1.0 / (2.0 * (1.0 + nu));
+                [1.0, 1.0, 1.0, g, g, g, 0.0, 0.0, 0.0, 0.0]
+            }
+            MaterialLaw::IsotropicPoisson => {
+                let g = -e / (2.0 * (1.0 + nu) * (1.0 + nu));
+                [0.0, 0.0, 0.0, g, g, g, 1.0, 1.0, 1.0, 0.0]
+            }
+        }
+    }
+
+    /// The constants `c0` moved by each `(law, b − b0)`, exactly: the moduli, Poisson ratios
+    /// and densities by their steps, then an isotropic material's shear moduli from its `E`
+    /// and ν.
+    pub fn moved<'a>(
+        c0: [f64; 10],
+        moves: impl IntoIterator<Item = (&'a MaterialLaw, f64)>,
+    ) -> [f64; 10] {
+        let mut c = c0;
+        let mut isotropic = false;
+        for (law, step) in moves {
+            match law {
+                MaterialLaw::Linear(dc) => {
+                    for (ci, d) in c.iter_mut().zip(dc) {
+                        *ci += d * step;
+                    }
+                }
+                MaterialLaw::IsotropicModulus => {
+                    isotropic = true;
+                    c[..3].iter_mut().for_each(|x| *x += step);
+                }
+                MaterialLaw::IsotropicPoisson => {
+                    isotropic = true;
+                    c[6..9].iter_mut().for_each(|x| *x += step);
+                }
+            }
+        }
+        if isotropic {
+            let g = c[0] / (2.0 * (1.0 + c[6]));
+            c[3..6].iter_mut().for_each(|x| *x = g);
+        }
+        c
+    }
+}
+
 /// The elastic part of [`material_constants`].
 pub fn elastic(c: &[f64; 10]) -> [f64; 9] {
     [c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8]]
@@ -583,17 +646,9 @@ fn material_variable(
     let isotropic = raw.material[mat.get_ref()].get_ref().e.is_some();
     let c = required(src, span(d), &k("constant"), &rd.constant, "constant")?;
     let c0 = m.constants();
-    let (constant, dc, value, unit) = match (isotropic, c.get_ref().as_str()) {
-        (true, "E") => {
-            // E1 = E2 = E3 = E and G = E / (2(1 + ν)) at fixed ν
-            let g = 1.0 / (2.0 * (1.0 + c0[6]));
-            (
-                "E",
-                [1.0, 1.0, 1.0, g, g, g, 0.0, 0.0, 0.0, 0.0],
-                c0[0],
-                "Pa",
-            )
-        }
+    let (constant, law, value, unit) = match (isotropic, c.get_ref().as_str()) {
+        (true, "E") => ("E", MaterialLaw::IsotropicModulus, c0[0], "Pa"),
+        (true, "nu") => ("nu", MaterialLaw::IsotropicPoisson, c0[6], "1"),
         (false, other) if ORTHOTROPIC.iter().any(|(n, _, _)| *n == other) => {
             let &(n, i, unit) = ORTHOTROPIC
                 .iter()
@@ -601,20 +656,20 @@ fn material_variable(
                 .expect("matched");
             let mut dc = [0.0; 10];
             dc[i] = 1.0;
-            (n, dc, c0[i], unit)
+            (n, MaterialLaw::Linear(dc), c0[i], unit)
         }
         (_, "density") => {
             let mut dc = [0.0; 10];
             dc[9] = 1.0;
-            ("density", dc, m.density(), "kg/m^3")
+            ("density", MaterialLaw::Linear(dc), m.density(), "kg/m^3")
         }
         (true, other) => {
             return Err(src.error(
                 span(c),
                 Some(k("constant")),
                 format!(
-                    "`{other}`: material `{}` is isotropic: its design constant is \"E\" (to vary \
-                     a Poisson ratio, give the material's nine orthotropic constants)",
+                    "`{other}`: material `{}` is isotropic: its design constants are \"E\", \
+                     \"nu\" and \"density\" (or give the material's nine orthotropic constants)",
                     mat.get_ref()
                 ),
             ));
@@ -637,7 +692,7 @@ fn material_variable(
         target: Target::Material {
             material: mat.get_ref().clone(),
             constant,
-            dc,
+            law,
         },
         value,
         unit,

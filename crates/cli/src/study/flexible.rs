@@ -9,7 +9,9 @@ use sens::Dual;
 
 use crate::deck::Source;
 use crate::deck::bodies::{BodyDef, BodyShape, Reference};
-use crate::deck::design::{DesignVariable, elastic, material_constants, with_material_constants};
+use crate::deck::design::{
+    DesignVariable, MaterialLaw, elastic, material_constants, with_material_constants,
+};
 use crate::deck::sections::SectionDef;
 use crate::error::CliError;
 
@@ -26,9 +28,9 @@ pub enum DesignRequest<'a> {
     Variables(&'a [DesignVariable]),
 }
 
-/// Per design variable, `(part, dc/db)` of the parts (plies, section regions) whose material's
+/// Per design variable, `(part, law)` of the parts (plies, section regions) whose material's
 /// nine elastic constants and density it moves (`deck::design::material_constants` order).
-pub type MaterialLinks = Vec<Vec<(usize, [f64; 10])>>;
+pub type MaterialLinks = Vec<Vec<(usize, MaterialLaw)>>;
 
 /// The design of a body: how its stiffness depends on the design variables.
 pub enum Design {
@@ -41,8 +43,7 @@ pub enum Design {
         values: Vec<f64>,
         mesh: Box<section::SectionMesh>,
         map: DesignMap,
-        /// Per variable, `(region, dc/db)` of the regions whose material it moves (the nine
-        /// elastic constants).
+        /// Per variable, `(region, law)` of the regions whose material it moves.
         materials: MaterialLinks,
     },
     /// A shell: the laminate's ply angles move with the variables, `θ_p = θ_p0 + Σ_j f (b_j −
@@ -52,7 +53,7 @@ pub enum Design {
         names: Vec<String>,
         values: Vec<f64>,
         links: Vec<Vec<(usize, f64)>>,
-        /// Per variable, `(ply, dc/db)` of the plies whose material it moves.
+        /// Per variable, `(ply, law)` of the plies whose material it moves.
         materials: MaterialLinks,
         /// Per variable, `(ply, dt/db)` of the plies whose thickness it moves.
         thicknesses: Vec<Vec<(usize, f64)>>,
@@ -186,8 +187,9 @@ impl Design {
                     at.iter().map(|m| Dual::constant(m.density())).collect();
                 for (bj, m) in b.iter().zip(materials) {
                     let db = *bj - Dual::constant(bj.v);
-                    for (p, dc) in m {
-                        let d = at[*p].stiffness_derivative(&elastic(dc));
+                    for (p, law) in m {
+                        let dc = law.tangent(&material_constants(&at[*p]));
+                        let d = at[*p].stiffness_derivative(&elastic(&dc));
                         for (x, y) in c_bar[*p].iter_mut().zip(d.iter()) {
                             *x += db * Dual::constant(*y);
                         }
@@ -205,29 +207,27 @@ impl Design {
 }
 
 /// The elastic constants of the parts (plies, regions) that material variables move, at the
-/// design steps `b − b0`: `(part, c0 + Σ_j dc_j (b_j − b_j0))` for each part moved.
+/// design steps `b − b0` ([`MaterialLaw::moved`]), for each part moved.
 fn moved_constants(
     parts: usize,
-    materials: &[Vec<(usize, [f64; 10])>],
+    materials: &[Vec<(usize, MaterialLaw)>],
     steps: &[f64],
     nominal: impl Fn(usize) -> [f64; 10],
 ) -> Vec<(usize, [f64; 10])> {
-    let mut moved: Vec<Option<[f64; 10]>> = vec![None; parts];
+    let mut moves: Vec<Vec<(&MaterialLaw, f64)>> = vec![Vec::new(); parts];
     for (m, &step) in materials.iter().zip(steps) {
         if step == 0.0 {
             continue;
         }
-        for (part, dc) in m {
-            let c = moved[*part].get_or_insert_with(|| nominal(*part));
-            for (ci, d) in c.iter_mut().zip(dc) {
-                *ci += d * step;
-            }
+        for (part, law) in m {
+            moves[*part].push((law, step));
         }
     }
-    moved
+    moves
         .into_iter()
         .enumerate()
-        .filter_map(|(p, c)| c.map(|c| (p, c)))
+        .filter(|(_, m)| !m.is_empty())
+        .map(|(p, m)| (p, MaterialLaw::moved(nominal(p), m)))
         .collect()
 }
 
@@ -236,11 +236,21 @@ fn moved_constants(
 fn with_materials(
     map: &DesignMap,
     mesh: &section::SectionMesh,
-    materials: &[Vec<(usize, [f64; 10])>],
+    materials: &[Vec<(usize, MaterialLaw)>],
 ) -> DesignMap {
     let mut out = map.clone();
     for (v, m) in out.variables.iter_mut().zip(materials) {
-        v.materials = m
+        // dc/db where each region's material is
+        let tangents: Vec<(usize, [f64; 10])> = m
+            .iter()
+            .map(|(r, law)| {
+                (
+                    *r,
+                    law.tangent(&material_constants(&mesh.regions[*r].material)),
+                )
+            })
+            .collect();
+        v.materials = tangents
             .iter()
             .filter(|(_, dc)| dc[..9].iter().any(|&x| x != 0.0))
             .map(|(r, dc)| {
@@ -248,7 +258,7 @@ fn with_materials(
                 (*r, d)
             })
             .collect();
-        v.densities = m
+        v.densities = tangents
             .iter()
             .filter(|(_, dc)| dc[9] != 0.0)
             .map(|(r, dc)| (*r, dc[9]))

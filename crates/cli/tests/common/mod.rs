@@ -147,6 +147,18 @@ pub fn direct_vs_central(
     size: &str,
     names: &[&str],
 ) -> Vec<(f64, f64)> {
+    direct_vs_central_of(deck_name, extra, size, names, "mid_deflection", "0.003")
+}
+
+/// [`direct_vs_central`] of the response `response` over a run to `t_end` (s).
+pub fn direct_vs_central_of(
+    deck_name: &str,
+    extra: &str,
+    size: &str,
+    names: &[&str],
+    response: &str,
+    t_end: &str,
+) -> Vec<(f64, f64)> {
     let (dir, path) = with_extra(deck_name, extra);
     let out = dir.path().join("out");
     json(&[
@@ -156,18 +168,18 @@ pub fn direct_vs_central(
         out.to_str().unwrap(),
         "--json",
         "--set",
-        "analysis.t_end=0.003",
+        &format!("analysis.t_end={t_end}"),
         "--set",
         "finite_differences.scheme=central",
         "--set",
         &format!("finite_differences.sizes=[{size}]"),
     ]);
     let g = Group::read_hdf5(&out.join("results.h5")).unwrap();
-    let direct = f64s(&g, "sensitivities/mid_deflection");
+    let direct = f64s(&g, &format!("sensitivities/{response}"));
     let label = format!("{}", size.parse::<f64>().unwrap());
     let fd = f64s(
         &g,
-        &format!("finite_differences/central_relative_{label}_replay/mid_deflection"),
+        &format!("finite_differences/central_relative_{label}_replay/{response}"),
     );
     let m = names.len();
     (0..m)
