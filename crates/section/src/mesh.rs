@@ -179,6 +179,40 @@ impl SectionMesh {
         m
     }
 
+    /// How thin the section's walls are for its size: twice its area over its boundary length
+    /// (a thin wall's thickness; corner to corner, straight), over the diagonal of its bounding
+    /// box. About `h/w` for a `w × h` strip, `t/(2r)` for a thin tube.
+    pub fn thinness(&self) -> f64 {
+        let mut edges: std::collections::HashMap<(usize, usize), usize> = Default::default();
+        let mut area = 0.0;
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for el in &self.elements {
+            let c = el.kind.corner_count();
+            let mut element_area = 0.0;
+            for k in 0..c {
+                let (a, b) = (el.nodes[k], el.nodes[(k + 1) % c]);
+                *edges.entry((a.min(b), a.max(b))).or_default() += 1;
+                let (p, q) = (self.nodes[a], self.nodes[b]);
+                element_area += 0.5 * (p[0] * q[1] - q[0] * p[1]);
+                for i in 0..2 {
+                    lo[i] = lo[i].min(p[i]);
+                    hi[i] = hi[i].max(p[i]);
+                }
+            }
+            area += f64::abs(element_area);
+        }
+        let boundary: f64 = edges
+            .iter()
+            .filter(|(_, n)| **n == 1)
+            .map(|(&(a, b), _)| {
+                let (p, q) = (self.nodes[a], self.nodes[b]);
+                (p[0] - q[0]).hypot(p[1] - q[1])
+            })
+            .sum();
+        let size = (hi[0] - lo[0]).hypot(hi[1] - lo[1]);
+        2.0 * area / boundary / size
+    }
+
     /// The same section moved by `d` in its plane.
     pub fn translated(&self, d: [f64; 2]) -> SectionMesh {
         let mut m = self.clone();
