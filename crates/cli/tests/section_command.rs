@@ -302,3 +302,87 @@ elements = [32, 32]
         "{err}"
     );
 }
+
+/// `shape = "i-beam"`: an aluminium I through the command line against its closed-form
+/// bending stiffnesses (exact for a homogeneous section) and a thin-walled flange thickness
+/// derivative; its walls are top, bottom and web, and a web belongs to it alone.
+#[test]
+fn i_beam_sections_through_the_command_line() {
+    let deck = r#"
+[material.al]
+E = 70.0e9
+nu = 0.3
+density = 2700.0
+
+[laminate.flange]
+plies = [{ material = "al", thickness = 0.004, angle = 0.0 }]
+
+[laminate.web]
+plies = [{ material = "al", thickness = 0.003, angle = 0.0 }]
+
+[section.i]
+shape = "i-beam"
+width = 0.05
+height = 0.08
+walls = { top = "flange", bottom = "flange", web = "web" }
+elements_per_ply = 2
+
+[design.tf]
+kind = "ply-thickness"
+laminate = "flange"
+"#;
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("i.toml");
+    std::fs::write(&p, deck).unwrap();
+    let doc = json(&[
+        "section",
+        p.to_str().unwrap(),
+        "--format",
+        "json",
+        "--derivatives",
+    ]);
+    let s = &doc["sections"]["i"];
+    let k = |i: usize| s["values"]["stiffness"][i][i].as_f64().unwrap();
+    let (b, h, tf, tw, e) = (0.05f64, 0.08f64, 0.004f64, 0.003f64, 70e9);
+    let hw = h - 2.0 * tf;
+    let i22 = (b * h.powi(3) - (b - tw) * hw.powi(3)) / 12.0;
+    let i33 = (2.0 * tf * b.powi(3) + hw * tw.powi(3)) / 12.0;
+    assert!(
+        (k(4) / (e * i22) - 1.0).abs() < 1e-9,
+        "{}",
+        k(4) / (e * i22)
+    );
+    assert!(
+        (k(5) / (e * i33) - 1.0).abs() < 1e-9,
+        "{}",
+        k(5) / (e * i33)
+    );
+    // both flanges thicker, inwards: dA/dt = 2(b − tw)
+    let d = &s["derivatives"][0];
+    assert_eq!(d["wrt"], "tf");
+    let dm = d["values"]["mass_per_length"].as_f64().unwrap();
+    assert!((dm / (2700.0 * 2.0 * (b - tw)) - 1.0).abs() < 1e-9, "{dm}");
+    for (from, to, key, words) in [
+        (
+            "web = \"web\" }",
+            "web = \"web\", left = \"web\" }",
+            "section.i.walls.left",
+            "top, bottom and web",
+        ),
+        (
+            "shape = \"i-beam\"",
+            "shape = \"box\"",
+            "section.i.walls.web",
+            "only an I beam",
+        ),
+        (
+            "web = \"web\" }",
+            "}",
+            "section.i.walls.web",
+            "missing value",
+        ),
+    ] {
+        let (_d, err) = bad_deck(&deck.replace(from, to), |q| with_deck("section", q, &[]));
+        assert!(err.contains(key) && err.contains(words), "{err}");
+    }
+}

@@ -1,5 +1,5 @@
-//! Mesh generators: solid rectangle, solid circle, layered circular tube, thin-walled box. All
-//! produce 8-node quadrilaterals, centred on the origin.
+//! Mesh generators: solid rectangle, solid circle, layered circular tube, thin-walled box,
+//! channel and I section. All produce 8-node quadrilaterals, centred on the origin.
 
 use std::collections::HashMap;
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -386,6 +386,16 @@ impl BoxWalls {
     }
 }
 
+/// The grid line `i2 / 2` of the breaks `v`, or half way between two for odd `i2` (the
+/// mid-side nodes of a structured Q8 grid).
+fn at_half_index<S: Scalar>(v: &[S], i2: usize) -> S {
+    if i2.is_multiple_of(2) {
+        v[i2 / 2]
+    } else {
+        (v[i2 / 2] + v[i2 / 2 + 1]) * 0.5
+    }
+}
+
 /// Position of a cell along one axis of the box grid.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Band {
@@ -526,14 +536,7 @@ fn walled<S: Scalar>(
     }
     let (xs, cols) = box_axis(width, &walls.left, &walls.right, n_width, thickness)?;
     let (ys, rows) = box_axis(height, &walls.bottom, &walls.top, n_height, thickness)?;
-    let interp = |v: &[S], i2: usize| {
-        if i2.is_multiple_of(2) {
-            v[i2 / 2]
-        } else {
-            (v[i2 / 2] + v[i2 / 2 + 1]) * 0.5
-        }
-    };
-    let coord = |i2: usize, j2: usize| [interp(&xs, i2), interp(&ys, j2)];
+    let coord = |i2: usize, j2: usize| [at_half_index(&xs, i2), at_half_index(&ys, j2)];
     let mut grid = Grid::new(coord, None);
     let mut regions = Vec::new();
     let mut region_of: HashMap<(&str, usize), usize> = HashMap::new();
@@ -621,6 +624,130 @@ fn walled<S: Scalar>(
     Ok((grid.nodes, elements, regions))
 }
 
+/// Ply stacks of an I section: each flange listed from the web outwards (first ply
+/// innermost), the web from `−x₂` to `+x₂`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct IWalls {
+    pub top: Vec<PlySpec>,
+    pub bottom: Vec<PlySpec>,
+    pub web: Vec<PlySpec>,
+}
+
+/// An I section (two flanges and a web), outer size `width` (the flanges, along `x₂`) ×
+/// `height` (along `x₃`), centred on the origin, with `n_side` elements along each flange on
+/// either side of the web and `n_web` along the web between the flanges. The flanges run the
+/// full width and own the two junctions with the web. Regions are named `"top/<ply>"`,
+/// `"bottom/<ply>"` and `"web/<ply>"`; the flanges' frames have outward normals (`±x₃`), the
+/// web's normal is `+x₂`.
+pub fn i_section(
+    width: f64,
+    height: f64,
+    walls: &IWalls,
+    n_side: usize,
+    n_web: usize,
+) -> Result<SectionMesh, SectionError> {
+    let (nodes, elements, regions) =
+        i_section_of(width, height, walls, n_side, n_web, &|p: &PlySpec| {
+            p.thickness
+        })?;
+    Ok(SectionMesh {
+        nodes,
+        elements,
+        regions,
+    })
+}
+
+/// [`i_section`] with the ply thicknesses `thickness(ply)` in the scalar `S`.
+fn i_section_of<S: Scalar>(
+    width: f64,
+    height: f64,
+    walls: &IWalls,
+    n_side: usize,
+    n_web: usize,
+    thickness: &dyn Fn(&PlySpec) -> S,
+) -> Result<Parts<S>, SectionError> {
+    positive("I-section width", width)?;
+    positive("I-section height", height)?;
+    at_least("elements along each flange beside the web", n_side, 1)?;
+    at_least("elements along the web", n_web, 1)?;
+    for (name, stack) in [
+        ("top", &walls.top),
+        ("bottom", &walls.bottom),
+        ("web", &walls.web),
+    ] {
+        if stack.is_empty() {
+            return Err(SectionError::InvalidInput(format!(
+                "the {name} wall of the I section has no plies"
+            )));
+        }
+        for p in stack {
+            p.check()?;
+        }
+    }
+    let tw: f64 = walls.web.iter().map(|p| p.thickness).sum();
+    if tw >= width {
+        return Err(SectionError::InvalidInput(format!(
+            "an I-section web of thickness {tw} m does not fit in a width of {width} m"
+        )));
+    }
+    // x: one side of a flange, the web's plies, the other side; y: as a box's flanges
+    let side = (S::from_f64(width) - walls.web.iter().map(thickness).sum::<S>()) * 0.5;
+    let mut xs = vec![S::from_f64(-0.5 * width)];
+    let mut web_of = Vec::new();
+    let mut push = |dx: S, web: Option<usize>| {
+        let x0 = *xs.last().expect("non-empty");
+        xs.push(x0 + dx);
+        web_of.push(web);
+    };
+    for _ in 0..n_side {
+        push(side / n_side as f64, None);
+    }
+    for (k, p) in walls.web.iter().enumerate() {
+        for _ in 0..p.elements {
+            push(thickness(p) / p.elements as f64, Some(k));
+        }
+    }
+    for _ in 0..n_side {
+        push(side / n_side as f64, None);
+    }
+    let (ys, rows) = box_axis(height, &walls.bottom, &walls.top, n_web, thickness)?;
+    let coord = |i2: usize, j2: usize| [at_half_index(&xs, i2), at_half_index(&ys, j2)];
+    let mut grid = Grid::new(coord, None);
+    let mut regions = Vec::new();
+    let mut region_of: HashMap<(&str, usize), usize> = HashMap::new();
+    let mut region = |wall: &'static str, k: usize, stack: &[PlySpec], frame: WallFrame| {
+        *region_of.entry((wall, k)).or_insert_with(|| {
+            let p = &stack[k];
+            regions.push(Region::new(
+                format!("{wall}/{}", p.name),
+                p.material,
+                p.angle,
+                frame,
+            ));
+            regions.len() - 1
+        })
+    };
+    let mut elements = Vec::new();
+    for (j, &row) in rows.iter().enumerate() {
+        for (i, &web) in web_of.iter().enumerate() {
+            let r = match (row, web) {
+                (Band::Low(k), _) => region("bottom", k, &walls.bottom, WallFrame::Tangent(PI)),
+                (Band::High(k), _) => region("top", k, &walls.top, WallFrame::Tangent(0.0)),
+                (Band::Mid, Some(k)) => {
+                    region("web", k, &walls.web, WallFrame::Tangent(-FRAC_PI_2))
+                }
+                (Band::Mid, None) => continue,
+            };
+            elements.push(Element {
+                kind: ElementKind::Quad8,
+                nodes: grid.quad8(i, j),
+                region: r,
+            });
+        }
+    }
+    Ok((grid.nodes, elements, regions))
+}
+
 /// A section made by one of the generators, kept with its inputs so that its node velocities
 /// for a ply-thickness design variable can be made by the same code that places the nodes.
 #[derive(Clone, Debug, PartialEq)]
@@ -639,6 +766,14 @@ pub enum GeneratedSection {
         n_width: usize,
         n_height: usize,
         open: bool,
+    },
+    /// [`i_section`].
+    I {
+        width: f64,
+        height: f64,
+        walls: IWalls,
+        n_side: usize,
+        n_web: usize,
     },
 }
 
@@ -692,6 +827,13 @@ impl GeneratedSection {
                     *width, *height, walls, *n_width, *n_height, *open, thickness,
                 )
             }
+            GeneratedSection::I {
+                width,
+                height,
+                walls,
+                n_side,
+                n_web,
+            } => i_section_of(*width, *height, walls, *n_side, *n_web, thickness),
         }
     }
 }

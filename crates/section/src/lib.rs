@@ -3,14 +3,15 @@
 //!
 //! It owns the 2-D section mesh ([`SectionMesh`]: quadratic elements, each in a [`Region`] with
 //! a material, a ply angle and a local wall frame), its generators ([`rectangle`], [`circle`],
-//! [`tube`], [`thin_walled_box`], [`channel`]) and text parsers ([`parse_gmsh`],
-//! [`parse_simple`]), the warping analysis that yields the 6×6 Timoshenko stiffness with all couplings, the 4×4 classical
-//! stiffness, mass properties and the mass, tension and shear centres ([`SectionProperties`]),
-//! and their exact derivatives with respect to design variables ([`DesignMap`],
-//! [`SectionSensitivities`]): ply angles, material constants and densities, and node
-//! positions — a generated section ([`GeneratedSection`]) gives the node velocities of a ply
-//! thickness from the same code that places its nodes. It knows nothing about beam elements,
-//! multibody systems, decks or files: text comes in as `&str`.
+//! [`tube`], [`thin_walled_box`], [`channel`], [`i_section`]) and text parsers
+//! ([`parse_gmsh`], [`parse_simple`]), the warping analysis that yields the 6×6 Timoshenko
+//! stiffness with all couplings, the 4×4 classical stiffness, mass properties and the mass,
+//! tension and shear centres ([`SectionProperties`]), and their exact derivatives with respect
+//! to design variables ([`DesignMap`], [`SectionSensitivities`]): ply angles, material
+//! constants and densities, and node positions — a generated section ([`GeneratedSection`])
+//! gives the node velocities of a ply thickness from the same code that places its nodes. It
+//! knows nothing about beam elements, multibody systems, decks or files: text comes in as
+//! `&str`.
 //!
 //! # Conventions
 //! - Beam axis `x₁`; section plane `(x₂, x₃)`; right-handed. SI units, radians.
@@ -75,7 +76,8 @@ pub use design::{DesignMap, DesignVariable};
 pub use element::ElementKind;
 pub use error::SectionError;
 pub use generate::{
-    BoxWalls, GeneratedSection, PlySpec, channel, circle, rectangle, thin_walled_box, tube,
+    BoxWalls, GeneratedSection, IWalls, PlySpec, channel, circle, i_section, rectangle,
+    thin_walled_box, tube,
 };
 pub use mesh::{Element, ElementDirection, Region, SectionMesh, WallFrame};
 pub use parse::{RegionSpec, parse_gmsh, parse_simple, write_simple};

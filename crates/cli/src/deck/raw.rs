@@ -291,7 +291,8 @@ pub struct RawSectionPly {
     pub elements: Option<Spanned<i64>>,
 }
 
-/// Laminates of the four walls of a box.
+/// Laminates of the walls of a box (four), a channel (no right wall) or an I beam (top,
+/// bottom, web).
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawWalls {
@@ -299,6 +300,7 @@ pub struct RawWalls {
     pub bottom: Option<Spanned<String>>,
     pub left: Option<Spanned<String>>,
     pub right: Option<Spanned<String>>,
+    pub web: Option<Spanned<String>>,
 }
 
 /// A Gmsh physical group's material, ply angle and wall frame.

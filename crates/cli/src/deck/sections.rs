@@ -258,7 +258,7 @@ pub fn validate_one(
             "laminate",
             "elements_per_ply",
         ],
-        "box" | "channel" => &[
+        "box" | "channel" | "i-beam" => &[
             "width",
             "height",
             "laminate",
@@ -296,6 +296,8 @@ pub fn validate_one(
                 Some(k("elements")),
                 if shape_name == "circle" {
                     "expected two counts: [around the rim, from the core to the rim]"
+                } else if shape_name == "i-beam" {
+                    "expected two counts: [along each flange beside the web, along the web]"
                 } else {
                     "expected two counts: [along the width, along the height]"
                 },
@@ -503,8 +505,9 @@ pub fn validate_one(
             generated = Some(Box::new(g));
             mesh
         }
-        "box" | "channel" => {
+        "box" | "channel" | "i-beam" => {
             let open = shape_name == "channel";
+            let ibeam = shape_name == "i-beam";
             let w = positive(
                 src,
                 &k("width"),
@@ -555,22 +558,46 @@ pub fn validate_one(
                         let l = required(src, span(wt), &wk, f, "a laminate name")?;
                         laminate_plies(src, &wk, l, model, n, &mut tags)
                     };
-                    let right = match (&wr.right, open) {
-                        (Some(r), true) => {
+                    // which walls the shape has
+                    for (key, f, has) in [
+                        ("left", &wr.left, !ibeam),
+                        ("right", &wr.right, !ibeam && !open),
+                        ("web", &wr.web, ibeam),
+                    ] {
+                        if let (Some(f), false) = (f, has) {
                             return Err(src.error(
-                                span(r),
-                                Some(format!("section.{name}.walls.right")),
-                                "a channel is open on its right (+x2) side: it has no right wall",
+                                span(f),
+                                Some(format!("section.{name}.walls.{key}")),
+                                match (key, ibeam) {
+                                    ("right", false) => {
+                                        "a channel is open on its right (+x2) \
+                                                         side: it has no right wall"
+                                    }
+                                    (_, true) => "an I beam's walls are top, bottom and web",
+                                    _ => "only an I beam (shape = \"i-beam\") has a web",
+                                },
                             ));
                         }
-                        (_, true) => Vec::new(),
-                        (r, false) => wall("right", r)?,
-                    };
-                    BoxWalls {
-                        top: wall("top", &wr.top)?,
-                        bottom: wall("bottom", &wr.bottom)?,
-                        left: wall("left", &wr.left)?,
-                        right,
+                    }
+                    if ibeam {
+                        BoxWalls {
+                            top: wall("top", &wr.top)?,
+                            bottom: wall("bottom", &wr.bottom)?,
+                            left: wall("web", &wr.web)?,
+                            right: Vec::new(),
+                        }
+                    } else {
+                        let right = if open {
+                            Vec::new()
+                        } else {
+                            wall("right", &wr.right)?
+                        };
+                        BoxWalls {
+                            top: wall("top", &wr.top)?,
+                            bottom: wall("bottom", &wr.bottom)?,
+                            left: wall("left", &wr.left)?,
+                            right,
+                        }
                     }
                 }
                 (None, None) => {
@@ -581,22 +608,36 @@ pub fn validate_one(
                     ));
                 }
             };
-            let [nw, nh] = elements_pair([8, 8])?;
-            let walls = if open {
-                BoxWalls {
-                    right: Vec::new(),
-                    ..walls
+            let [nw, nh] = elements_pair(if ibeam { [4, 8] } else { [8, 8] })?;
+            let g = if ibeam {
+                // an I beam's web came as the left wall
+                section::GeneratedSection::I {
+                    width: w,
+                    height: h,
+                    walls: section::IWalls {
+                        top: walls.top,
+                        bottom: walls.bottom,
+                        web: walls.left,
+                    },
+                    n_side: nw,
+                    n_web: nh,
                 }
             } else {
-                walls
-            };
-            let g = section::GeneratedSection::Walled {
-                width: w,
-                height: h,
-                walls,
-                n_width: nw,
-                n_height: nh,
-                open,
+                section::GeneratedSection::Walled {
+                    width: w,
+                    height: h,
+                    walls: if open {
+                        BoxWalls {
+                            right: Vec::new(),
+                            ..walls
+                        }
+                    } else {
+                        walls
+                    },
+                    n_width: nw,
+                    n_height: nh,
+                    open,
+                }
             };
             let mesh = g.mesh().map_err(bad)?;
             generated = Some(Box::new(g));
@@ -756,8 +797,11 @@ pub fn validate_one(
                 span(shape),
                 Some(k("shape")),
                 format!(
-                    "unknown shape `{other}`: expected \"rectangle\", \"circle\", \"tube\", \"box\", \"channel\" or \"mesh\"{}",
-                    suggestion(other, &["rectangle", "circle", "tube", "box", "channel", "mesh"])
+                    "unknown shape `{other}`: expected \"rectangle\", \"circle\", \"tube\", \"box\", \"channel\", \"i-beam\" or \"mesh\"{}",
+                    suggestion(
+                        other,
+                        &["rectangle", "circle", "tube", "box", "channel", "i-beam", "mesh"]
+                    )
                 ),
             ));
         }
