@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{ALUMINIUM_BEAM, bad_deck, json, with_deck};
+use common::{ALUMINIUM_BEAM, bad_deck, deck, json, with_deck};
 
 /// A square isotropic plate, 1 m × 1 m × 10 mm (simply supported with [`SS_EDGES`]).
 const SS_PLATE: &str = r#"
@@ -377,4 +377,19 @@ fn supports_define_the_mode_basis_of_a_mechanism_body() {
         (supported / pinned - 1.0).abs() < 1e-3,
         "{supported} against {pinned}"
     );
+}
+
+/// The shipped example of supports (`decks/modes_plate_supports.toml`, the plate above at
+/// 32 × 32 cells) against the thin-plate closed form.
+#[test]
+fn the_shipped_supports_deck_matches_the_closed_form() {
+    let text = std::fs::read_to_string(deck("modes_plate_supports.toml")).unwrap();
+    let got = frequencies(&text, &[], "plate");
+    let d = 70e9 * 0.01f64.powi(3) / (12.0 * (1.0 - 0.09));
+    let f = |m: f64, n: f64| std::f64::consts::PI / 2.0 * (m * m + n * n) * (d / 27.0).sqrt();
+    let exact = [f(1.0, 1.0), f(1.0, 2.0), f(2.0, 1.0), f(2.0, 2.0)];
+    for (i, (g, e)) in got.iter().zip(&exact).enumerate() {
+        let bound = if i == 0 { 3e-3 } else { 1.2e-2 };
+        assert!((g / e - 1.0).abs() < bound, "mode {}: {g} vs {e}", i + 1);
+    }
 }
