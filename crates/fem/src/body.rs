@@ -11,7 +11,8 @@ use crate::eigen::{EigenOptions, Eigenpairs, lowest_modes};
 use crate::mesh::{Mesh, NodeId};
 use crate::modal::ModalBody;
 use crate::sensitivity::{
-    DesignMatrices, ModeDerivatives, cluster_second_derivatives, has_repeated, mode_derivatives,
+    DesignMatrices, ModeDerivatives, cluster_second_derivatives, eigenvalue_derivatives,
+    has_repeated, mode_derivatives,
 };
 
 /// How the body frame is attached for the modal analysis.
@@ -960,6 +961,33 @@ where
         second.as_deref(),
     )?;
     Ok((dm, d))
+}
+
+/// The eigenvalue derivatives of `analysis` with respect to the design variables at `b` (no
+/// eigenvector derivatives): the element matrices' tangents projected on the modes element by
+/// element ([`Assembly::projected_tangents`], [`eigenvalue_derivatives`]). Equal to the
+/// eigenvalues of [`analysis_derivatives`], at a fraction of its time and memory.
+pub fn analysis_eigenvalue_derivatives<const N: usize, F>(
+    mesh: &Mesh,
+    analysis: &ModalAnalysis,
+    b: &[f64],
+    mut props: F,
+) -> Result<ModeDerivatives, FemError>
+where
+    F: FnMut(&[Dual<N>]) -> Properties<Dual<N>>,
+{
+    no_correction(analysis)?;
+    let (el, mass) = (&analysis.options.element, analysis.options.mass);
+    let mut projected = Vec::with_capacity(b.len());
+    for range in sens::chunk_ranges(b.len(), N) {
+        let p = props(&seed_chunk::<N>(b, range.start));
+        let chunk =
+            analysis
+                .assembly
+                .projected_tangents(mesh, &p, el, mass, &analysis.pairs.vectors)?;
+        projected.extend(chunk.into_iter().take(range.len()));
+    }
+    Ok(eigenvalue_derivatives(&analysis.pairs, &projected))
 }
 
 /// Step (in design-variable units) of the central differences of `K_b` for Dailey's terms.

@@ -48,16 +48,17 @@ pub use assembly::{
 pub use beam::BeamSection;
 pub use body::{
     Damping, ModalAnalysis, ModalOptions, ModeUpdate, RayleighDamping, ReferenceCondition, Support,
-    add_planar_constraints, analysis_constraints, analysis_derivatives, design_matrices,
-    modal_analysis, modal_body, modal_body_dual, planar_axis, reference_constraints,
-    second_derivative_terms,
+    add_planar_constraints, analysis_constraints, analysis_derivatives,
+    analysis_eigenvalue_derivatives, design_matrices, modal_analysis, modal_body, modal_body_dual,
+    planar_axis, reference_constraints, second_derivative_terms,
 };
 pub use eigen::{EigenMethod, EigenOptions, Eigenpairs, lowest_modes};
 pub use geometric::{GeometricStiffness, geometric_stiffness};
 pub use mesh::{Element, GmshTriangles, Mesh, MeshError, NodeId, bounding_box, parse_gmsh_v4};
 pub use modal::{ModalBody, ModalBodyError, NODE_DOFS};
 pub use sensitivity::{
-    DesignMatrices, ModeDerivatives, cluster_second_derivatives,
-    directional_eigenvalue_derivatives, mode_derivatives, mode_derivatives_with,
+    DesignMatrices, ModeDerivatives, ProjectedDerivative, cluster_second_derivatives,
+    directional_eigenvalue_derivatives, eigenvalue_derivatives, mode_derivatives,
+    mode_derivatives_with,
 };
 pub use shell::Membrane;

@@ -271,35 +271,8 @@ pub fn mode_derivatives_with(
         for (v, dm) in design.iter().enumerate() {
             let kb = project(&dm.k, &z, &z);
             let mb = project(&dm.m, &z, &z);
-            let d = &kb - &mb * lambda;
-            let d = (&d + d.transpose()) * 0.5;
-            let (vals, gam) = if r == 1 {
-                (vec![d[(0, 0)]], DMatrix::identity(1, 1))
-            } else {
-                let e = d.symmetric_eigen();
-                let mut order: Vec<usize> = (0..r).collect();
-                order.sort_by(|&a, &b| e.eigenvalues[a].total_cmp(&e.eigenvalues[b]));
-                let vals: Vec<f64> = order.iter().map(|&i| e.eigenvalues[i]).collect();
-                let spread = vals[r - 1] - vals[0];
-                let scale = vals.iter().fold(0.0f64, |a, b| a.max(b.abs()));
-                if spread <= 1e-9 * scale + 1e-14 * lambda.abs() {
-                    // the change keeps the cluster together (e.g. a symmetric design change of
-                    // a symmetric body): no rotation is singled out, keep the basis as it is
-                    let mean = vals.iter().sum::<f64>() / r as f64;
-                    (vec![mean; r], DMatrix::identity(r, r))
-                } else {
-                    (
-                        vals,
-                        DMatrix::from_fn(r, r, |i, j| e.eigenvectors[(i, order[j])]),
-                    )
-                }
-            };
-            for (a, &i) in g.iter().enumerate() {
-                lam_b[v][i] = vals[a];
-                for (b, &j) in g.iter().enumerate() {
-                    rot[v][(i, j)] = gam[(a, b)];
-                }
-            }
+            let (vals, gam) = cluster_derivative(&kb, &mb, lambda);
+            store_cluster(g, &vals, &gam, &mut lam_b[v], &mut rot[v]);
             per_var.push((vals, gam, mb));
         }
         let Some(xb) = x_b.as_mut() else { continue };
@@ -413,6 +386,95 @@ pub fn mode_derivatives_with(
         rotations: rot,
         clusters: groups,
     })
+}
+
+/// The eigenvalue derivatives of a cluster of eigenvalues `λ` (one or repeated) with the
+/// projected derivative matrices `kb = Zᵀ K_b Z`, `mb = Zᵀ M_b Z`: the eigenvalues of
+/// `kb − λ mb` in increasing order and the rotation `Γ` of the cluster's basis they belong to
+/// (identity for a single eigenvalue, or when the change keeps the cluster together).
+fn cluster_derivative(
+    kb: &DMatrix<f64>,
+    mb: &DMatrix<f64>,
+    lambda: f64,
+) -> (Vec<f64>, DMatrix<f64>) {
+    let r = kb.nrows();
+    let d = kb - mb * lambda;
+    let d = (&d + d.transpose()) * 0.5;
+    if r == 1 {
+        return (vec![d[(0, 0)]], DMatrix::identity(1, 1));
+    }
+    let e = d.symmetric_eigen();
+    let mut order: Vec<usize> = (0..r).collect();
+    order.sort_by(|&a, &b| e.eigenvalues[a].total_cmp(&e.eigenvalues[b]));
+    let vals: Vec<f64> = order.iter().map(|&i| e.eigenvalues[i]).collect();
+    let spread = vals[r - 1] - vals[0];
+    let scale = vals.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+    if spread <= 1e-9 * scale + 1e-14 * lambda.abs() {
+        // the change keeps the cluster together (e.g. a symmetric design change of a
+        // symmetric body): no rotation is singled out, keep the basis as it is
+        let mean = vals.iter().sum::<f64>() / r as f64;
+        (vec![mean; r], DMatrix::identity(r, r))
+    } else {
+        (
+            vals,
+            DMatrix::from_fn(r, r, |i, j| e.eigenvectors[(i, order[j])]),
+        )
+    }
+}
+
+/// Write a cluster's eigenvalue derivatives and rotation into the per-mode arrays.
+fn store_cluster(
+    g: &[usize],
+    vals: &[f64],
+    gam: &DMatrix<f64>,
+    lam_b: &mut [f64],
+    rot: &mut DMatrix<f64>,
+) {
+    for (a, &i) in g.iter().enumerate() {
+        lam_b[i] = vals[a];
+        for (b, &j) in g.iter().enumerate() {
+            rot[(i, j)] = gam[(a, b)];
+        }
+    }
+}
+
+/// A design variable's derivative matrices projected on the modes `X`: `Xᵀ K_b X` and
+/// `Xᵀ M_b X` (`p × p`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ProjectedDerivative {
+    pub k: DMatrix<f64>,
+    pub m: DMatrix<f64>,
+}
+
+/// The eigenvalue derivatives alone (no eigenvectors'), from the derivative matrices projected
+/// on all the modes, one [`ProjectedDerivative`] per variable
+/// ([`crate::Assembly::projected_tangents`], which never assembles `K_b`). Equal to those of
+/// [`mode_derivatives`].
+pub fn eigenvalue_derivatives(
+    modes: &Eigenpairs,
+    projected: &[ProjectedDerivative],
+) -> ModeDerivatives {
+    let p = modes.values.len();
+    let groups = clusters(&modes.values, CLUSTER_RTOL);
+    let nvar = projected.len();
+    let mut lam_b = vec![vec![0.0; p]; nvar];
+    let mut rot = vec![DMatrix::<f64>::identity(p, p); nvar];
+    for g in &groups {
+        let r = g.len();
+        let lambda = g.iter().map(|&i| modes.values[i]).sum::<f64>() / r as f64;
+        for (v, pd) in projected.iter().enumerate() {
+            let kb = DMatrix::from_fn(r, r, |a, b| pd.k[(g[a], g[b])]);
+            let mb = DMatrix::from_fn(r, r, |a, b| pd.m[(g[a], g[b])]);
+            let (vals, gam) = cluster_derivative(&kb, &mb, lambda);
+            store_cluster(g, &vals, &gam, &mut lam_b[v], &mut rot[v]);
+        }
+    }
+    ModeDerivatives {
+        eigenvalues: lam_b,
+        eigenvectors: None,
+        rotations: rot,
+        clusters: groups,
+    }
 }
 
 fn sparse_lu(

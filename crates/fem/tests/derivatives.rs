@@ -582,3 +582,70 @@ fn repeated_pair_eigenvector_derivatives_follow_the_split_branches() {
     let err_without = (xw.column(1) - fd.column(1)).norm() / fd.column(1).norm();
     assert!(err_without > 1e-3, "{err_without}");
 }
+
+/// The eigenvalue derivatives from element-by-element projections on the modes
+/// (`analysis_eigenvalue_derivatives`, `Assembly::projected_tangents`, no derivative matrix
+/// assembled) equal those of the assembled `K_b`, `M_b`: on the strip with lumped and
+/// consistent mass, and on the square plate's repeated pair that the variables split (the
+/// sorted derivatives and the rotation of the pair's basis).
+#[test]
+fn eigenvalue_derivatives_from_element_projections_equal_the_assembled_ones() {
+    let same = |a: &fem::ModeDerivatives, b: &fem::ModeDerivatives, what: &str| {
+        let scale = a
+            .eigenvalues
+            .iter()
+            .flatten()
+            .fold(0.0f64, |m, x| m.max(x.abs()));
+        for (x, y) in a
+            .eigenvalues
+            .iter()
+            .flatten()
+            .zip(b.eigenvalues.iter().flatten())
+        {
+            assert!((x - y).abs() <= 1e-10 * scale, "{what}: {x} vs {y}");
+        }
+        for (x, y) in a.rotations.iter().zip(&b.rotations) {
+            assert!((x - y).abs().max() <= 1e-8, "{what}: rotations {x} vs {y}");
+        }
+        assert!(b.eigenvectors.is_none());
+    };
+    for mass in [MassKind::Lumped, MassKind::Consistent] {
+        let an = strip_analysis(&B0, mass);
+        let (_, full) =
+            analysis_derivatives::<2, _>(&strip(), &an, &B0, strip_props, ModeUpdate::Fixed)
+                .unwrap();
+        let fast =
+            fem::analysis_eigenvalue_derivatives::<2, _>(&strip(), &an, &B0, strip_props).unwrap();
+        same(&full, &fast, &format!("strip, {mass:?} mass"));
+    }
+    let (mesh, asm) = square_model();
+    let b0 = [0.3, 0.3];
+    let pairs = square_values(&mesh, &asm, &b0, 4);
+    let opts = ElementOptions::default();
+    let design =
+        design_matrices::<2, _>(&mesh, &asm, &b0, square_props, &opts, MassKind::Consistent)
+            .unwrap();
+    let (k, m) = asm
+        .values(&mesh, &square_props(&b0), &opts, MassKind::Consistent)
+        .unwrap();
+    let full = fem::mode_derivatives(&asm.matrix(k), &asm.matrix(m), &pairs, &design, false, None)
+        .unwrap();
+    let seeded = sens::seed_chunk::<2>(&b0, 0);
+    let projected = asm
+        .projected_tangents(
+            &mesh,
+            &square_props(&seeded),
+            &opts,
+            MassKind::Consistent,
+            &pairs.vectors,
+        )
+        .unwrap();
+    let fast = fem::eigenvalue_derivatives(&pairs, &projected);
+    assert_eq!(fast.clusters, vec![vec![0], vec![1, 2], vec![3]]);
+    // each variable alone splits the pair
+    assert!(
+        (fast.eigenvalues[0][2] - fast.eigenvalues[0][1]).abs()
+            > 1e-3 * fast.eigenvalues[0][1].abs()
+    );
+    same(&full, &fast, "square plate, repeated pair");
+}

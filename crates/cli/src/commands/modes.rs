@@ -5,7 +5,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use fem::{ModalAnalysis, ModeDerivatives, ModeUpdate};
+use fem::{ModalAnalysis, ModeDerivatives};
 use serde_json::json;
 
 use super::Format;
@@ -321,37 +321,32 @@ pub fn run(path: &Path, overrides: &[String], req: &ModesRequest) -> Result<Stri
         };
         let analysis = fem::modal_analysis(&built.mesh, &built.props, &built.options)
             .map_err(|e| fem_error(&src, name, b.span(), e))?;
-        let derivs = if req.derivatives {
-            Some(built.mode_derivatives::<CHUNK>(
-                &src,
-                name,
-                b.span(),
-                &analysis,
-                ModeUpdate::Updated,
-            )?)
-        } else {
-            None
+        // the derivative matrices only where they are exported: the eigenvalue derivatives
+        // alone need no more than their projections on the modes
+        let (matrices, derivs) = match (req.derivatives, req.export_matrices.is_some()) {
+            (false, _) => (None, None),
+            (true, false) => (
+                None,
+                Some(built.eigenvalue_derivatives::<CHUNK>(&src, name, b.span(), &analysis)?),
+            ),
+            (true, true) => {
+                let (dm, d) = built.mode_derivatives::<CHUNK>(
+                    &src,
+                    name,
+                    b.span(),
+                    &analysis,
+                    fem::ModeUpdate::Fixed,
+                )?;
+                (Some(dm), Some(d))
+            }
         };
         if let Some(path) = req.vtk {
             write_atomic(path, vtk(name, &built, &analysis).as_bytes())?;
         }
         if let Some(dir) = req.export_matrices {
-            export(
-                dir,
-                name,
-                &built,
-                &analysis,
-                derivs.as_ref().map(|(dm, _)| dm.as_slice()),
-                &per,
-            )?;
+            export(dir, name, &built, &analysis, matrices.as_deref(), &per)?;
         }
-        reports.push(report(
-            name,
-            &built,
-            &analysis,
-            derivs.as_ref().map(|(_, d)| d),
-            &per,
-        ));
+        reports.push(report(name, &built, &analysis, derivs.as_ref(), &per));
     }
     Ok(output::render(
         req.format,

@@ -414,13 +414,7 @@ fn flexible_quantities(
     let span = table.span();
     let analysis = fem::modal_analysis(&built.mesh, &built.props, &built.options)
         .map_err(|e| fem_error(src, name, span.clone(), e))?;
-    let (_, d) = built.mode_derivatives::<CHUNK>(
-        src,
-        name,
-        span.clone(),
-        &analysis,
-        fem::ModeUpdate::Updated,
-    )?;
+    let d = built.eigenvalue_derivatives::<CHUNK>(src, name, span.clone(), &analysis)?;
     let m = design.variables.len();
     let mut frequencies = Vec::new();
     let mut d_frequencies = Vec::new();

@@ -268,6 +268,29 @@ fn with_materials(
 }
 
 impl Built {
+    /// The derivatives of the eigenvalues of `analysis` (this body's) with respect to every
+    /// design variable, without the eigenvectors' (which `flexsens modes` and the optimiser do
+    /// not use): the element matrices' tangents are projected on the modes element by element
+    /// (`fem::analysis_eigenvalue_derivatives`), with neither the derivative matrices nor
+    /// Nelson's factorisations. The eigenvalue derivatives equal those of
+    /// [`Built::mode_derivatives`].
+    pub fn eigenvalue_derivatives<const N: usize>(
+        &self,
+        src: &Source,
+        name: &str,
+        span: std::ops::Range<usize>,
+        analysis: &fem::ModalAnalysis,
+    ) -> Result<fem::ModeDerivatives, CliError> {
+        let mut failed = None;
+        let d = fem::analysis_eigenvalue_derivatives::<N, _>(
+            &self.mesh,
+            analysis,
+            self.design.values(),
+            |bd| self.properties_or_nominal(bd, &mut failed),
+        );
+        self.finish(src, name, span, d, failed)
+    }
+
     /// The derivatives of the modes of `analysis` (this body's) with respect to every design
     /// variable (`fem::analysis_derivatives` through [`Design::properties`]).
     pub fn mode_derivatives<const N: usize>(
@@ -283,20 +306,40 @@ impl Built {
             &self.mesh,
             analysis,
             self.design.values(),
-            |bd| {
-                self.design.properties(bd).unwrap_or_else(|e| {
-                    failed.get_or_insert(e);
-                    // the nominal properties stand in; the error is returned below
-                    let nominal: Vec<Dual<N>> = bd
-                        .iter()
-                        .zip(self.design.values())
-                        .map(|(x, &b0)| Dual::new(b0, x.d))
-                        .collect();
-                    self.design.properties(&nominal).unwrap_or_default()
-                })
-            },
+            |bd| self.properties_or_nominal(bd, &mut failed),
             update,
         );
+        self.finish(src, name, span, d, failed)
+    }
+
+    /// [`Design::properties`] at `bd`; on a failure the nominal properties stand in and the
+    /// error is kept in `failed` (returned by [`Built::finish`]).
+    fn properties_or_nominal<const N: usize>(
+        &self,
+        bd: &[Dual<N>],
+        failed: &mut Option<section::SectionError>,
+    ) -> Properties<Dual<N>> {
+        self.design.properties(bd).unwrap_or_else(|e| {
+            failed.get_or_insert(e);
+            let nominal: Vec<Dual<N>> = bd
+                .iter()
+                .zip(self.design.values())
+                .map(|(x, &b0)| Dual::new(b0, x.d))
+                .collect();
+            self.design.properties(&nominal).unwrap_or_default()
+        })
+    }
+
+    /// The result of a derivative computation, or the first failure of the section at a
+    /// perturbed design.
+    fn finish<T>(
+        &self,
+        src: &Source,
+        name: &str,
+        span: std::ops::Range<usize>,
+        d: Result<T, fem::FemError>,
+        failed: Option<section::SectionError>,
+    ) -> Result<T, CliError> {
         if let Some(e) = failed {
             return Err(CliError::Runtime(format!(
                 "{}: body `{name}`: the section at a perturbed design: {e}",
