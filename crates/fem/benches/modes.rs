@@ -5,6 +5,7 @@ use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use faer::sparse::SparseColMat;
 use fem::{
     Assembly, Constraints, EigenOptions, ElementOptions, MassKind, Mesh, Properties,
     design_matrices, dof, lowest_modes, mode_derivatives,
@@ -79,13 +80,31 @@ fn model(n: usize) -> (Mesh, Assembly) {
 
 const B0: [f64; 2] = [0.5, -0.3];
 
-fn modes_and_derivatives(mesh: &Mesh, asm: &Assembly) -> (Vec<f64>, Vec<Vec<f64>>) {
-    let opts = ElementOptions::default();
+/// The stiffness and mass at `B0` and their 10 lowest modes.
+fn modes(
+    mesh: &Mesh,
+    asm: &Assembly,
+) -> (
+    SparseColMat<usize, f64>,
+    SparseColMat<usize, f64>,
+    fem::Eigenpairs,
+) {
     let (k, m) = asm
-        .values(mesh, &props(&B0), &opts, MassKind::Consistent)
+        .values(
+            mesh,
+            &props(&B0),
+            &ElementOptions::default(),
+            MassKind::Consistent,
+        )
         .unwrap();
     let (k, m) = (asm.matrix(k), asm.matrix(m));
     let pairs = lowest_modes(&k, &m, 10, &EigenOptions::default()).unwrap();
+    (k, m, pairs)
+}
+
+fn modes_and_derivatives(mesh: &Mesh, asm: &Assembly) -> (Vec<f64>, Vec<Vec<f64>>) {
+    let opts = ElementOptions::default();
+    let (k, m, pairs) = modes(mesh, asm);
     let dm = design_matrices::<2, _>(mesh, asm, &B0, props, &opts, MassKind::Consistent).unwrap();
     let d = mode_derivatives(&k, &m, &pairs, &dm, true, None).unwrap();
     (pairs.values, d.eigenvalues)
@@ -95,11 +114,7 @@ fn modes_and_derivatives(mesh: &Mesh, asm: &Assembly) -> (Vec<f64>, Vec<Vec<f64>
 /// matrices' tangents projected on the modes (no `K_b` assembled, no Nelson solves).
 fn modes_and_eigenvalue_derivatives(mesh: &Mesh, asm: &Assembly) -> (Vec<f64>, Vec<Vec<f64>>) {
     let opts = ElementOptions::default();
-    let (k, m) = asm
-        .values(mesh, &props(&B0), &opts, MassKind::Consistent)
-        .unwrap();
-    let (k, m) = (asm.matrix(k), asm.matrix(m));
-    let pairs = lowest_modes(&k, &m, 10, &EigenOptions::default()).unwrap();
+    let (_, _, pairs) = modes(mesh, asm);
     let seeded = sens::seed_chunk::<2>(&B0, 0);
     let projected = asm
         .projected_tangents(

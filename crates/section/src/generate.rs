@@ -386,6 +386,31 @@ impl BoxWalls {
     }
 }
 
+/// The regions of a walled section, one per (wall, ply), made when first used and named
+/// `"<wall>/<ply>"`.
+#[derive(Default)]
+struct WallRegions {
+    regions: Vec<Region>,
+    index: HashMap<(&'static str, usize), usize>,
+}
+
+impl WallRegions {
+    /// The region of ply `k` of `stack` on `wall`, with the wall's frame.
+    fn of(&mut self, wall: &'static str, k: usize, stack: &[PlySpec], frame: WallFrame) -> usize {
+        let regions = &mut self.regions;
+        *self.index.entry((wall, k)).or_insert_with(|| {
+            let p = &stack[k];
+            regions.push(Region::new(
+                format!("{wall}/{}", p.name),
+                p.material,
+                p.angle,
+                frame,
+            ));
+            regions.len() - 1
+        })
+    }
+}
+
 /// The grid line `i2 / 2` of the breaks `v`, or half way between two for odd `i2` (the
 /// mid-side nodes of a structured Q8 grid).
 fn at_half_index<S: Scalar>(v: &[S], i2: usize) -> S {
@@ -538,19 +563,9 @@ fn walled<S: Scalar>(
     let (ys, rows) = box_axis(height, &walls.bottom, &walls.top, n_height, thickness)?;
     let coord = |i2: usize, j2: usize| [at_half_index(&xs, i2), at_half_index(&ys, j2)];
     let mut grid = Grid::new(coord, None);
-    let mut regions = Vec::new();
-    let mut region_of: HashMap<(&str, usize), usize> = HashMap::new();
+    let mut walls_regions = WallRegions::default();
     let mut region = |wall: &'static str, k: usize, stack: &[PlySpec], frame: WallFrame| {
-        *region_of.entry((wall, k)).or_insert_with(|| {
-            let p = &stack[k];
-            regions.push(Region::new(
-                format!("{wall}/{}", p.name),
-                p.material,
-                p.angle,
-                frame,
-            ));
-            regions.len() - 1
-        })
+        walls_regions.of(wall, k, stack, frame)
     };
     // the frames of the walls, and of the bends of the wrapped plies (half way between)
     let bottom = WallFrame::Tangent(PI);
@@ -621,7 +636,7 @@ fn walled<S: Scalar>(
             });
         }
     }
-    Ok((grid.nodes, elements, regions))
+    Ok((grid.nodes, elements, walls_regions.regions))
 }
 
 /// Ply stacks of an I section: each flange listed from the web outwards (first ply
@@ -713,19 +728,9 @@ fn i_section_of<S: Scalar>(
     let (ys, rows) = box_axis(height, &walls.bottom, &walls.top, n_web, thickness)?;
     let coord = |i2: usize, j2: usize| [at_half_index(&xs, i2), at_half_index(&ys, j2)];
     let mut grid = Grid::new(coord, None);
-    let mut regions = Vec::new();
-    let mut region_of: HashMap<(&str, usize), usize> = HashMap::new();
+    let mut walls_regions = WallRegions::default();
     let mut region = |wall: &'static str, k: usize, stack: &[PlySpec], frame: WallFrame| {
-        *region_of.entry((wall, k)).or_insert_with(|| {
-            let p = &stack[k];
-            regions.push(Region::new(
-                format!("{wall}/{}", p.name),
-                p.material,
-                p.angle,
-                frame,
-            ));
-            regions.len() - 1
-        })
+        walls_regions.of(wall, k, stack, frame)
     };
     let mut elements = Vec::new();
     for (j, &row) in rows.iter().enumerate() {
@@ -745,7 +750,7 @@ fn i_section_of<S: Scalar>(
             });
         }
     }
-    Ok((grid.nodes, elements, regions))
+    Ok((grid.nodes, elements, walls_regions.regions))
 }
 
 /// A section made by one of the generators, kept with its inputs so that its node velocities
