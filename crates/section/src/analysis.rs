@@ -66,10 +66,17 @@ const NONE: usize = usize::MAX;
 /// symmetric positive definite and factorised once by sparse Cholesky (faer).
 ///
 /// Derivatives: with `X̂₁, Ŷ₁, X̂, Ŷ` fixed, the residuals of systems 1 and 2 are evaluated with
-/// dual-number ply angles (only `Q` depends on them) and their tangents pushed through the same
-/// factorisation (DESIGN.md §1; the pattern of [`sens::solve_tangents`], batched so that the
-/// `6 N` tangent columns of a system go through one multi-column solve of
-/// [`sens::LinearSolver`]); the compliance is then evaluated in duals.
+/// dual-number ply angles and material stiffnesses (only `Q` depends on them) or dual node
+/// coordinates (the Gauss points' positions, weights and shape-function gradients, and the
+/// wall frames, depend on them), and their tangents pushed through the same factorisation
+/// (the pattern of [`sens::solve_tangents`], batched so that the `6 N` tangent columns of a
+/// system go through one multi-column solve of [`sens::LinearSolver`]); the compliance and the
+/// mass integrals are then evaluated in duals.
+///
+/// Conditioning: the Rayleigh quotients of the load cases' solutions bound the smallest
+/// eigenvalue of the diagonally scaled matrix, Gershgorin's discs its largest; a section whose
+/// estimated condition number would cost its results more than 0.5 % (walls very thin for the
+/// section's size) is refused with [`SectionError::IllConditioned`].
 pub struct SectionAnalysis {
     model: Model,
     llt: Llt<usize, f64>,

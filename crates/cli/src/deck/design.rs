@@ -31,8 +31,8 @@ pub enum Target {
     },
     /// Ply thicknesses of a laminate: `(ply index in the stack, dt/db)` (m per m; mirrored
     /// plies of a symmetric laminate included). Shells laminated with it follow, and so do
-    /// the nodes of generated beam sections (tubes, boxes, channels) made of it; a mesh-file
-    /// section made of it is refused (its geometry is fixed).
+    /// the nodes of generated beam sections (tubes, boxes, channels, I beams) made of it; a
+    /// mesh-file section made of it is refused (its geometry is fixed).
     PlyThickness {
         laminate: String,
         stack_plies: Vec<(usize, f64)>,

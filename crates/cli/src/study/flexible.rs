@@ -386,7 +386,7 @@ pub fn section_design(
                     return Err(format!(
                         "design variable `{}` moves the thickness of ply {} of laminate `{}`, \
                          which builds this {} section: a ply thickness can move the nodes of \
-                         a generated section (tube, box, channel) or a shell, not of a mesh \
+                         a generated section (tube, box, channel, I beam) or a shell, not of a mesh \
                          file, whose geometry is fixed",
                         v.name, tag.ply, tag.laminate, section.shape
                     ));
