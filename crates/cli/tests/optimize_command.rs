@@ -389,3 +389,37 @@ fn the_optimum_deck_of_a_meshed_body_reads_the_same_mesh() {
     let o = run(&["modes", &out.join("optimum.toml").display().to_string()]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
+
+/// A problem without a feasible design exits 1 and leaves none of an earlier optimisation's
+/// files in its directory (its optimum deck and run would look like this one's).
+#[test]
+fn an_infeasible_problem_leaves_no_earlier_optimum() {
+    let dir = tempfile::tempdir().unwrap();
+    // f ∝ t for a free plate: 100 times the frequency of the thickest plate allowed
+    let path = plate_deck(dir.path(), 1e6);
+    let out = dir.path().join("out");
+    std::fs::create_dir(&out).unwrap();
+    for f in [
+        "results.h5",
+        "history.csv",
+        "optimum.toml",
+        "iterations.csv",
+    ] {
+        std::fs::write(out.join(f), "an earlier optimisation's").unwrap();
+    }
+    let (text, err, code) = optimize(&path, &out, &["--quiet"]);
+    assert_eq!(code, Some(1), "{text}{err}");
+    assert!(
+        format!("{text}{err}").contains("no feasible design"),
+        "{text}{err}"
+    );
+    for f in ["results.h5", "history.csv", "optimum.toml"] {
+        assert!(!out.join(f).exists(), "{f} was left");
+    }
+    // this optimisation's own record of its evaluations is there
+    let rows = std::fs::read_to_string(out.join("iterations.csv")).unwrap();
+    assert!(
+        rows.lines().count() > 1 && !rows.contains("earlier"),
+        "{rows}"
+    );
+}

@@ -868,6 +868,8 @@ pub fn run(
             out.display()
         ))
     })?;
+    // the optimum's run files too: a new optimisation without a feasible design (or without
+    // a mechanism) must not leave an earlier optimum's results.h5 looking like its own
     for f in [
         "iterations.csv",
         "optimum.toml",
@@ -875,7 +877,10 @@ pub fn run(
         "convergence.png",
         super::sweep::SHARD_FILE,
         EVALUATIONS_FILE,
-    ] {
+    ]
+    .into_iter()
+    .chain(super::run::OUTPUT_FILES)
+    {
         super::sweep::remove_old(&out.join(f))?;
     }
     let (rows, statuses) = solve(&problem, &chosen, req);

@@ -27,7 +27,7 @@ pub struct RunRequest<'a> {
 
 /// The output files a run may write; those a run does not write are removed, so that a
 /// directory never mixes two runs.
-const OUTPUT_FILES: [&str; 4] = [
+pub(crate) const OUTPUT_FILES: [&str; 4] = [
     "history.csv",
     "sensitivities.csv",
     "gradients.csv",
