@@ -8,13 +8,20 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
-/// Start the paper's beam deck (seconds of work in a test build) into `out`, let it run for a
-/// while, then stop it with `signal` (`KILL` or `INT`); returns whether it was still running
-/// when stopped.
+/// Start the paper's beam deck over a span long enough for tens of seconds of work into
+/// `out`, let it run for a while, then stop it with `signal` (`KILL` or `INT`); returns whether
+/// it was still running when stopped. (The deck's own span takes about a second now: the
+/// stop must not race its end.)
 fn start_and_stop(out: &Path, signal: &str) -> bool {
     let deck = common::deck("slider_crank_beam.toml");
     let mut child = Command::new(env!("CARGO_BIN_EXE_flexsens"))
-        .args(["run", &deck.display().to_string(), "-o"])
+        .args([
+            "run",
+            &deck.display().to_string(),
+            "--set",
+            "analysis.t_end=2.0",
+            "-o",
+        ])
         .arg(out)
         .stdout(Stdio::null())
         .stderr(Stdio::null())

@@ -69,8 +69,8 @@ pub struct SectionDef {
     /// For each region, the name of its `[material.*]` (`None` for the materials a
     /// simple-format mesh defines itself): material design variables move it.
     pub materials: Vec<Option<String>>,
-    /// The generator that made the mesh (tubes, boxes, channels), so that a ply thickness can
-    /// move its nodes; `None` for mesh files and solid shapes (geometry fixed).
+    /// The generator that made the mesh (tubes, boxes, channels, I beams), so that a ply
+    /// thickness can move its nodes; `None` for mesh files and solid shapes (geometry fixed).
     pub generated: Option<Box<section::GeneratedSection>>,
     /// The laminate ply each of the generator's plies is, by the ply's name.
     pub generator_plies: HashMap<String, PlyRef>,
