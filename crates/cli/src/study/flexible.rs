@@ -373,25 +373,25 @@ pub fn section_design(
                     .sum()
             })
         };
-        let velocities = match &section.generated {
-            Some(g) => g
+        // a ply of the section whose thickness the variable moves
+        let thickened = section.plies.iter().flatten().find(|t| {
+            v.thickness_links(&t.laminate)
+                .iter()
+                .any(|&(p, _)| p == t.ply)
+        });
+        let velocities = match (thickened, &section.generated) {
+            (None, _) => Vec::new(),
+            (Some(_), Some(g)) => g
                 .node_velocities(dthickness)
                 .map_err(|e| format!("design variable `{}`: {e}", v.name))?,
-            None => {
-                if let Some(tag) = section.plies.iter().flatten().find(|t| {
-                    v.thickness_links(&t.laminate)
-                        .iter()
-                        .any(|&(p, _)| p == t.ply)
-                }) {
-                    return Err(format!(
-                        "design variable `{}` moves the thickness of ply {} of laminate `{}`, \
-                         which builds this {} section: a ply thickness can move the nodes of \
-                         a generated section (tube, box, channel, I beam) or a shell, not of a mesh \
-                         file, whose geometry is fixed",
-                        v.name, tag.ply, tag.laminate, section.shape
-                    ));
-                }
-                Vec::new()
+            (Some(tag), None) => {
+                return Err(format!(
+                    "design variable `{}` moves the thickness of ply {} of laminate `{}`, which \
+                     builds this {} section: a ply thickness can move the nodes of a generated \
+                     section (tube, box, channel, I beam) or a shell, not of a mesh file, whose \
+                     geometry is fixed",
+                    v.name, tag.ply, tag.laminate, section.shape
+                ));
             }
         };
         let mut links = Vec::new();
