@@ -8,6 +8,19 @@ mod common;
 
 use common::{direct_vs_central, matrix, report, run, with_extra};
 
+/// `--set` overrides putting the listed plies of the tube's laminate at thickness `t` (m).
+fn thickness_sets(plies: &[usize], t: f64) -> Vec<String> {
+    plies
+        .iter()
+        .flat_map(|i| {
+            [
+                "--set".to_string(),
+                format!("laminate.tube_wall.plies.{i}.thickness={t:?}"),
+            ]
+        })
+        .collect()
+}
+
 #[test]
 fn laminate_thickness_derivatives_match_central_differences() {
     // the two outer plies of the tube's wall, one variable (m)
@@ -26,15 +39,7 @@ fn laminate_thickness_derivatives_match_central_differences() {
     let t = 0.25e-3;
     let h = 1e-3 * t;
     let at = |s: f64| {
-        let sets: Vec<String> = [2, 3]
-            .iter()
-            .flat_map(|i| {
-                [
-                    "--set".to_string(),
-                    format!("laminate.tube_wall.plies.{i}.thickness={:?}", t + s),
-                ]
-            })
-            .collect();
+        let sets = thickness_sets(&[2, 3], t + s);
         report("laminate", &path, &sets)
     };
     let (p, m) = (at(h), at(-h));
@@ -155,15 +160,7 @@ fn section_thickness_derivatives_match_central_differences() {
     let t = 0.25e-3;
     let h = 1e-3 * t;
     let at = |s: f64| {
-        let sets: Vec<String> = [2, 3]
-            .iter()
-            .flat_map(|i| {
-                [
-                    "--set".to_string(),
-                    format!("laminate.tube_wall.plies.{i}.thickness={:?}", t + s),
-                ]
-            })
-            .collect();
+        let sets = thickness_sets(&[2, 3], t + s);
         report("section", &path, &sets)
     };
     let (plus, minus) = (at(h), at(-h));
@@ -286,14 +283,7 @@ fn beam_frequency_thickness_derivatives_match_central_differences() {
     let t = 0.25e-3;
     let h = 1e-3 * t;
     let at = |s: f64| {
-        let sets: Vec<String> = (0..4)
-            .flat_map(|i| {
-                [
-                    "--set".to_string(),
-                    format!("laminate.tube_wall.plies.{i}.thickness={:?}", t + s),
-                ]
-            })
-            .collect();
+        let sets = thickness_sets(&[0, 1, 2, 3], t + s);
         freqs(&report("modes", &path, &sets), "values")
     };
     let (plus, minus) = (at(h), at(-h));
