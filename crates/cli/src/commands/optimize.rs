@@ -930,14 +930,7 @@ pub(crate) fn merge(
 ) -> Result<(String, u8), CliError> {
     let first = &manifests[0];
     let deck = std::path::PathBuf::from(first["deck"].as_str().unwrap_or_default());
-    let set: Vec<String> = first["set"]
-        .as_array()
-        .map(|a| {
-            a.iter()
-                .filter_map(|v| v.as_str().map(String::from))
-                .collect()
-        })
-        .unwrap_or_default();
+    let set = super::sweep::manifest_strings(first, "set");
     let (problem, mechanism) = setup(&deck, &set)?;
     let n_starts = problem.def.starts.len();
     let mut rows = Vec::new();

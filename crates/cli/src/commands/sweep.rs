@@ -499,6 +499,18 @@ fn check_shard_set(dirs: &[PathBuf], manifests: &[Value]) -> Result<usize, CliEr
     Ok(n)
 }
 
+/// The strings of the array `key` of a shard manifest (its `--vary` or `--set` arguments).
+pub(crate) fn manifest_strings(manifest: &Value, key: &str) -> Vec<String> {
+    manifest[key]
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .filter_map(|v| v.as_str().map(String::from))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
 fn read_shard(dir: &Path, manifest: Value) -> Result<Shard, CliError> {
     let input = |m: String| CliError::Usage(format!("{}: {m}", dir.display()));
     let cases_text = crate::limits::read_text(&dir.join(CASES_FILE))
@@ -576,14 +588,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(String, bool), CliError> {
         .map(|(d, m)| read_shard(d, m))
         .collect::<Result<Vec<_>, _>>()?;
     let first = &shards[0];
-    let vary: Vec<String> = first.manifest["vary"]
-        .as_array()
-        .map(|a| {
-            a.iter()
-                .filter_map(|v| v.as_str().map(String::from))
-                .collect()
-        })
-        .unwrap_or_default();
+    let vary = manifest_strings(&first.manifest, "vary");
     let Plan { axes, n_cases } = plan(&vary)?;
     if first.manifest["cases"].as_u64() != Some(n_cases as u64) {
         return Err(usage(format!(
