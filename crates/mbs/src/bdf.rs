@@ -15,7 +15,8 @@
 
 use std::collections::VecDeque;
 
-use nalgebra::{Complex, DMatrix, DVector, Dyn, LU};
+use nalgebra::{Complex, DMatrix};
+use sens::DenseLu;
 
 /// An ODE `y' = f(t, y)` with an exact Jacobian.
 pub trait OdeSystem {
@@ -217,7 +218,7 @@ pub struct AcceptedStep<'a> {
     /// reused).
     pub jacobian: &'a DMatrix<f64>,
     /// LU of `newton_c0 · I − jacobian`.
-    pub newton_matrix: &'a LU<f64, Dyn, Dyn>,
+    pub newton_matrix: &'a DenseLu,
     pub newton_c0: f64,
 }
 
@@ -239,7 +240,7 @@ pub struct TrialStep<'a> {
     /// The Jacobian the Newton matrix was built from (possibly evaluated at an older state).
     pub jacobian: &'a DMatrix<f64>,
     /// LU of `newton_c0 · I − jacobian`.
-    pub newton_matrix: &'a LU<f64, Dyn, Dyn>,
+    pub newton_matrix: &'a DenseLu,
     pub newton_c0: f64,
     /// Error weights of the state: `rtol·|y| + atol_i`.
     pub rtol: f64,
@@ -286,7 +287,7 @@ pub trait StepExtension<Sys: ?Sized> {
     /// weighted RMS norm in the integrator's error weights (`rtol`, `atol` of the state).
     fn newton_correct(
         &mut self,
-        _newton_matrix: &LU<f64, Dyn, Dyn>,
+        _newton_matrix: &DenseLu,
         _scale: f64,
         _rtol: f64,
         _atol: &[f64],
@@ -369,28 +370,38 @@ pub fn bdf_stable(k: usize, z: Complex<f64>) -> bool {
             .map(|k| bdf_coefficients(&(0..=k).map(|j| -(j as f64)).collect::<Vec<_>>()))
             .collect()
     })[k];
-    // a[i]: coefficient of w^i of p((1 + growth) w)
+    // a[i]: coefficient of w^i of p((1 + growth) w); fixed arrays, since the step control
+    // calls this in its bisections at every step
     let radius = 1.0 + STABILITY_GROWTH;
-    let mut a: Vec<Complex<f64>> = (0..=k)
-        .map(|i| {
-            let c = if i == k {
-                Complex::new(alpha[0], 0.0) - z
-            } else {
-                Complex::new(alpha[k - i], 0.0)
-            };
-            c * radius.powi(i as i32)
-        })
-        .collect();
+    let mut a = [Complex::new(0.0, 0.0); 6];
+    let mut scale = 1.0;
+    for (i, ai) in a.iter_mut().enumerate().take(k + 1) {
+        let c = if i == k {
+            Complex::new(alpha[0], 0.0) - z
+        } else {
+            Complex::new(alpha[k - i], 0.0)
+        };
+        *ai = c * scale;
+        scale *= radius;
+    }
     // Schur–Cohn: with |a_0| < |a_n|, p has its roots in the open unit disk iff
-    // (conj(a_n) p − a_0 p*) / w does, p* being p with reversed conjugated coefficients
-    while a.len() > 1 {
-        let n = a.len() - 1;
-        if a[n].norm() <= a[0].norm() {
+    // (conj(a_n) p − a_0 p*) / w does, p* being p with reversed conjugated coefficients. That
+    // polynomial's leading coefficient is |a_n|² − |a_0|² > 0; dividing by it keeps the
+    // coefficients near 1 (they would square at every level), so squared moduli compare safely.
+    let mut n = k;
+    while n > 0 {
+        let lead = a[n].norm_sqr() - a[0].norm_sqr();
+        if lead.is_nan() || lead <= 0.0 {
             return false;
         }
-        a = (1..=n)
-            .map(|i| a[n].conj() * a[i] - a[0] * a[n - i].conj())
-            .collect();
+        let (an, a0) = (a[n].conj(), a[0]);
+        let mut next = [Complex::new(0.0, 0.0); 6];
+        for i in 1..n {
+            next[i - 1] = (an * a[i] - a0 * a[n - i].conj()) / lead;
+        }
+        next[n - 1] = Complex::new(1.0, 0.0);
+        a = next;
+        n -= 1;
     }
     true
 }
@@ -494,7 +505,7 @@ pub struct Bdf {
     steps_at_order: usize,
     jac: DMatrix<f64>,
     jac_age: Option<usize>,
-    lu: Option<LU<f64, Dyn, Dyn>>,
+    lu: Option<DenseLu>,
     lu_c0: f64,
     /// Newton convergence-rate estimate (reset to 1 with every new matrix).
     newton_rate: f64,
@@ -808,7 +819,7 @@ impl Bdf {
         for i in 0..self.n {
             m[(i, i)] += c0;
         }
-        let lu = m.lu();
+        let lu = DenseLu::new(&m);
         self.stats.factorizations += 1;
         if !lu.is_invertible() {
             return Err(self.fail(IntegrationFailure::SingularNewtonMatrix));
@@ -1261,10 +1272,9 @@ impl Bdf {
                 return Ok(None);
             }
             self.stats.rhs_evaluations += 1;
-            let mut r =
-                DVector::from_iterator(self.n, (0..self.n).map(|i| f[i] - c0 * y[i] - psi[i]));
+            let mut r: Vec<f64> = (0..self.n).map(|i| f[i] - c0 * y[i] - psi[i]).collect();
             let lu = self.lu.as_ref().expect("factorised");
-            if !lu.solve_mut(&mut r) {
+            if !lu.solve_in_place(&mut r) {
                 return Err(self.fail(IntegrationFailure::SingularNewtonMatrix));
             }
             // a matrix factorised with another c0: scale the chord step (CVODE's 2/(1+γ ratio))
@@ -1274,12 +1284,12 @@ impl Bdf {
                 1.0
             };
             if scale != 1.0 {
-                r *= scale;
+                r.iter_mut().for_each(|x| *x *= scale);
             }
             for i in 0..self.n {
                 y[i] += r[i];
             }
-            let mut norm = self.wrms(r.as_slice(), &y_ref);
+            let mut norm = self.wrms(&r, &y_ref);
             if simultaneous {
                 let e = ext
                     .newton_correct(lu, scale, self.opts.rtol, &self.atol)

@@ -232,14 +232,13 @@ pub fn response_history<const N: usize>(
     let mut gradients = DMatrix::zeros(run.times.len(), m);
     for (i, (&t, y)) in run.times.iter().zip(&run.states).enumerate() {
         let sol = sys.solve(t, &y[..nq], &y[nq..])?;
-        let factors = crate::system::Factors::new(&sol.lu);
         let s = &run.sensitivities[i];
         for (c, (model, range)) in design.chunk_ranges().enumerate() {
             let yd = seeded::<N>(y, s, &range);
             let (qd, vd) = yd.split_at(nq);
             let rows = &sol.rows;
             let res = model.residual(t, qd, vd, rows, &sol.x);
-            let x = crate::system::lu_tangents(&factors, &sol.x, &res);
+            let x = crate::system::lu_tangents(&sol.lu, &sol.x, &res);
             let mut lambda = vec![Dual::<N>::constant(0.0); nc];
             for (a, &r) in rows.iter().enumerate() {
                 lambda[r] = x[nv + a];

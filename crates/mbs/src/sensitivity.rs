@@ -43,7 +43,7 @@
 use std::collections::VecDeque;
 
 use nalgebra::DMatrix;
-use sens::Dual;
+use sens::{DenseLu, Dual};
 
 use crate::bdf::{
     Bdf, BdfOptions, IntegrationError, IntegrationFailure, OdeSystem, RhsError, Statistics,
@@ -51,7 +51,7 @@ use crate::bdf::{
 };
 use crate::error::ConstraintError;
 use crate::model::{Model, State};
-use crate::system::{Factors, MultibodySystem, Solution};
+use crate::system::{MultibodySystem, Solution};
 
 /// The model with design derivatives: one `Model<Dual<N>>` per chunk of `N` design variables
 /// (chunk `c` carries the tangents of variables `c·N .. min((c+1)·N, m)`; unused tangent slots of
@@ -314,17 +314,16 @@ pub fn tangent_rhs<const N: usize>(
     sol: &Solution,
     s: &DMatrix<f64>,
 ) -> DMatrix<f64> {
-    tangent_rhs_with(sys, design, t, y, sol, &Factors::new(&sol.lu), s)
+    tangent_rhs_with(sys, design, t, y, sol, s)
 }
 
-/// [`tangent_rhs`] with the unpacked factors of `sol`.
+/// [`tangent_rhs`] through the factorisation in `sol`.
 fn tangent_rhs_with<const N: usize>(
     sys: &MultibodySystem,
     design: &DesignModel<N>,
     t: f64,
     y: &[f64],
     sol: &Solution,
-    factors: &Factors,
     s: &DMatrix<f64>,
 ) -> DMatrix<f64> {
     let nq = sys.model().n_q();
@@ -334,7 +333,7 @@ fn tangent_rhs_with<const N: usize>(
         let yd = seeded::<N>(y, s, &range);
         let (qd, vd) = yd.split_at(nq);
         let res = model.residual(t, qd, vd, &sol.rows, &sol.x);
-        let x = crate::system::lu_tangents(factors, &sol.x, &res);
+        let x = crate::system::lu_tangents(&sol.lu, &sol.x, &res);
         write_rates(&mut out, model, qd, vd, &x[..nv], range);
     }
     out
@@ -359,35 +358,19 @@ fn write_rates<const N: usize>(
     }
 }
 
-/// [`fused_rhs`] with the unpacked factors of Eq. (12), for further tangent solves.
-fn solve_and_tangent_rhs<const N: usize>(
-    sys: &MultibodySystem,
-    design: &DesignModel<N>,
-    t: f64,
-    y: &[f64],
-    s: &DMatrix<f64>,
-) -> Result<(Solution, Factors, DMatrix<f64>), ConstraintError> {
-    let (sol, factors, out) = fused_rhs(sys, design, t, y, s)?;
-    let factors = factors.unwrap_or_else(|| Factors::new(&sol.lu));
-    Ok((sol, factors, out))
-}
-
 /// Eq. (12) solved at `(t, y)` from the values of the first chunk's dual evaluation
-/// ([`MultibodySystem::solve_dual`]), and `f_y S + f_b` there (`n × m`); the unpacked factors
-/// if they were made. Few tangent columns are solved with nalgebra's packed LU directly
-/// (unpacking it into [`Factors`] costs more than it saves below [`UNPACK_COLUMNS`] columns).
+/// ([`MultibodySystem::solve_dual`]), and `f_y S + f_b` there (`n × m`).
 fn fused_rhs<const N: usize>(
     sys: &MultibodySystem,
     design: &DesignModel<N>,
     t: f64,
     y: &[f64],
     s: &DMatrix<f64>,
-) -> Result<(Solution, Option<Factors>, DMatrix<f64>), ConstraintError> {
+) -> Result<(Solution, DMatrix<f64>), ConstraintError> {
     let nq = sys.model().n_q();
     let nv = sys.model().n_v();
     let mut out = DMatrix::zeros(nq + nv, design.n_variables());
     let mut sol: Option<Solution> = None;
-    let mut factors: Option<Factors> = None;
     for (model, range) in design.chunk_ranges() {
         let yd = seeded::<N>(y, s, &range);
         let (qd, vd) = yd.split_at(nq);
@@ -398,24 +381,11 @@ fn fused_rhs<const N: usize>(
             }
             Some(sl) => (sl, model.residual(t, qd, vd, &sl.rows, &sl.x)),
         };
-        let x = if design.n_variables() < UNPACK_COLUMNS {
-            let mut rhs = DMatrix::from_fn(res.len(), N, |i, k| res[i].d[k]);
-            sl.lu.solve_mut(&mut rhs);
-            (0..nv)
-                .map(|i| Dual::new(sl.x[i], std::array::from_fn(|k| rhs[(i, k)])))
-                .collect()
-        } else {
-            let f = factors.get_or_insert_with(|| Factors::new(&sl.lu));
-            crate::system::lu_tangents(f, &sl.x, &res)
-        };
+        let x = crate::system::lu_tangents(&sl.lu, &sl.x, &res);
         write_rates(&mut out, model, qd, vd, &x[..nv], range);
     }
-    Ok((sol.expect("at least one chunk"), factors, out))
+    Ok((sol.expect("at least one chunk"), out))
 }
-
-/// Tangent columns from which solves go through unpacked [`Factors`] (measured on the
-/// slider-crank's 40 × 40 Eq. 12: unpacking costs about five of nalgebra's column solves).
-const UNPACK_COLUMNS: usize = 9;
 
 /// Initial sensitivities consistent with the constraints (Eq. 44), by the rule of
 /// [`MultibodySystem::assemble`]: the elastic coordinates and rates are the user's (design
@@ -536,29 +506,23 @@ struct NewtonIterate {
     corrections: usize,
 }
 
-/// The solution of Eq. (12) at a step's new state and its unpacked factors.
-struct StepSolution {
-    sol: Solution,
-    factors: Factors,
-}
-
 /// An exact state Jacobian `f_y` (at some earlier step) and the LU of `c0 I − f_y`.
 struct ExactMatrix {
     jac: DMatrix<f64>,
     c0: f64,
-    lu: Factors,
+    lu: DenseLu,
     /// `(t, y)` where `jac` was evaluated.
     t: f64,
     y: Vec<f64>,
 }
 
 impl ExactMatrix {
-    fn factor(jac: &DMatrix<f64>, c0: f64) -> Factors {
+    fn factor(jac: &DMatrix<f64>, c0: f64) -> DenseLu {
         let mut a = -jac;
         for i in 0..a.nrows() {
             a[(i, i)] += c0;
         }
-        Factors::new(&a.lu())
+        DenseLu::new(&a)
     }
 }
 
@@ -643,7 +607,7 @@ impl<const N: usize> Extension<'_, N> {
         &mut self,
         sys: &mut MultibodySystem,
         step: &TrialStep<'_>,
-        sol: &StepSolution,
+        sol: &Solution,
         psi: &DMatrix<f64>,
         atol: &[f64],
         tol: f64,
@@ -672,12 +636,12 @@ impl<const N: usize> Extension<'_, N> {
                 Some(g) => g,
                 None => {
                     self.stats.dual_evaluations += self.design.chunks.len();
-                    tangent_rhs_with(sys, self.design, t, y, &sol.sol, &sol.factors, &s)
+                    tangent_rhs_with(sys, self.design, t, y, sol, &s)
                 }
             };
             self.stats.corrector_iterations += 1;
             let mut r = g - &s * c0 - psi;
-            if !step.newton_matrix.solve_mut(&mut r) {
+            if !step.newton_matrix.solve_matrix(&mut r) {
                 return Err(IntegrationFailure::SingularNewtonMatrix);
             }
             r *= scale;
@@ -707,7 +671,7 @@ impl<const N: usize> Extension<'_, N> {
         &mut self,
         sys: &mut MultibodySystem,
         step: &TrialStep<'_>,
-        sol: &StepSolution,
+        sol: &Solution,
         psi: &DMatrix<f64>,
         atol: &[f64],
         mut s: DMatrix<f64>,
@@ -766,7 +730,7 @@ impl<const N: usize> Extension<'_, N> {
         &mut self,
         sys: &mut MultibodySystem,
         step: &TrialStep<'_>,
-        sol: &StepSolution,
+        sol: &Solution,
         psi: &DMatrix<f64>,
         atol: &[f64],
         s: &mut DMatrix<f64>,
@@ -778,7 +742,7 @@ impl<const N: usize> Extension<'_, N> {
             Some(g) => g,
             None => {
                 self.stats.dual_evaluations += self.design.chunks.len();
-                tangent_rhs_with(sys, self.design, t, &step.y_new, &sol.sol, &sol.factors, s)
+                tangent_rhs_with(sys, self.design, t, &step.y_new, sol, s)
             }
         };
         self.stats.corrector_iterations += 1;
@@ -820,7 +784,7 @@ impl<const N: usize> Extension<'_, N> {
         sys: &mut MultibodySystem,
         t: f64,
         y: &[f64],
-        sol: &StepSolution,
+        sol: &Solution,
         c0: f64,
         psi: &DMatrix<f64>,
     ) -> Result<DMatrix<f64>, IntegrationFailure> {
@@ -831,20 +795,12 @@ impl<const N: usize> Extension<'_, N> {
         for i in 0..n {
             a[(i, i)] += c0;
         }
-        let lu = a.lu();
-        let fb = tangent_rhs_with(
-            sys,
-            self.design,
-            t,
-            y,
-            &sol.sol,
-            &sol.factors,
-            &DMatrix::zeros(n, psi.ncols()),
-        );
+        let lu = DenseLu::new(&a);
+        let fb = tangent_rhs_with(sys, self.design, t, y, sol, &DMatrix::zeros(n, psi.ncols()));
         self.stats.dual_evaluations += self.design.chunks.len();
         self.stats.direct_solves += 1;
         let mut s = fb - psi;
-        if !lu.solve_mut(&mut s) {
+        if !lu.solve_matrix(&mut s) {
             return Err(IntegrationFailure::SingularNewtonMatrix);
         }
         Ok(s)
@@ -889,7 +845,7 @@ impl<const N: usize> StepExtension<MultibodySystem> for Extension<'_, N> {
             return OdeSystem::rhs(sys, t, y, dy);
         }
         sys.report_progress(t);
-        let (sol, _, g) =
+        let (sol, g) =
             fused_rhs(sys, self.design, t, y, &it.s).map_err(|e| RhsError(e.to_string()))?;
         self.stats.dual_evaluations += self.design.chunks.len();
         sys.write_rates(y, &sol, dy);
@@ -899,7 +855,7 @@ impl<const N: usize> StepExtension<MultibodySystem> for Extension<'_, N> {
 
     fn newton_correct(
         &mut self,
-        newton_matrix: &nalgebra::LU<f64, nalgebra::Dyn, nalgebra::Dyn>,
+        newton_matrix: &DenseLu,
         scale: f64,
         rtol: f64,
         atol: &[f64],
@@ -922,7 +878,7 @@ impl<const N: usize> StepExtension<MultibodySystem> for Extension<'_, N> {
         {
             *x = *x - s * it.c0 - p;
         }
-        if !newton_matrix.solve_mut(&mut r) {
+        if !newton_matrix.solve_matrix(&mut r) {
             return Err(IntegrationFailure::SingularNewtonMatrix);
         }
         if scale != 1.0 {
@@ -964,9 +920,7 @@ impl<const N: usize> StepExtension<MultibodySystem> for Extension<'_, N> {
         // predictor: the interpolant through the past sensitivities; the first evaluation of
         // `f_y S + f_b` there also gives the solution of Eq. (12) at the new state
         let s_pred = self.predictor(&step.history_times, t, k);
-        let (sol, factors, g0) =
-            solve_and_tangent_rhs(sys, self.design, t, y, &s_pred).map_err(rhs_failure)?;
-        let sol = StepSolution { sol, factors };
+        let (sol, g0) = fused_rhs(sys, self.design, t, y, &s_pred).map_err(rhs_failure)?;
         self.stats.dual_evaluations += self.design.chunks.len();
         let psi = self.formula_constant(c);
         let c0 = c[0];

@@ -3,7 +3,7 @@
 //! the outputs per time.
 
 use nalgebra::{DMatrix, DVector, Dyn, LU, Matrix3, Vector3};
-use sens::{Dual, Scalar, chunk_ranges};
+use sens::{DenseLu, Dual, Scalar, chunk_ranges};
 
 use crate::bdf::{Bdf, BdfOptions, IntegrationError, OdeSystem, RhsError, Statistics};
 use crate::body::{Body, BodyId};
@@ -81,7 +81,8 @@ pub struct Output {
 pub struct Solution {
     /// `[v̇; λ_active]`.
     pub x: Vec<f64>,
-    pub lu: LU<f64, Dyn, Dyn>,
+    /// The LU of Eq. (12)'s leading matrix, for the tangent solves at this state.
+    pub lu: DenseLu,
     /// The constraint rows kept in Eq. (12) at this state (the order of `λ_active`). With
     /// [`RedundancyPolicy::Reselect`] they are chosen at every state (see
     /// [`MultibodySystem::solve`]); the tangents of this solution must use the same rows.
@@ -413,9 +414,9 @@ impl MultibodySystem {
         e: crate::model::Equations<f64>,
         rows: Vec<usize>,
     ) -> Result<Solution, ConstraintError> {
-        let lu = e.matrix.lu();
-        let mut x = e.rhs;
-        if !lu.solve_mut(&mut x) {
+        let lu = DenseLu::new(&e.matrix);
+        let mut x: Vec<f64> = e.rhs.as_slice().to_vec();
+        if !lu.solve_in_place(&mut x) {
             return Err(ConstraintError::Singular { t });
         }
         if x.iter().any(|a| !a.is_finite()) {
@@ -424,11 +425,7 @@ impl MultibodySystem {
                 cause: String::new(),
             });
         }
-        Ok(Solution {
-            x: x.as_slice().to_vec(),
-            lu,
-            rows,
-        })
+        Ok(Solution { x, lu, rows })
     }
 
     /// Make `state` consistent with the constraints at time `t`, moving only the rigid-body
@@ -750,118 +747,18 @@ impl MultibodySystem {
     }
 }
 
-/// The factors of an LU with partial pivoting, unpacked row by row for solves with many
-/// right-hand sides (nalgebra's LU solves them one column at a time, several times slower for
-/// the tangents of a chunk).
-pub(crate) struct Factors {
-    n: usize,
-    /// `L` (unit diagonal, strictly lower part used) and `U`, row-major.
-    l: Vec<f64>,
-    u: Vec<f64>,
-    /// Row `i` of `P b` is row `perm[i]` of `b`.
-    perm: Vec<usize>,
-}
-
-impl Factors {
-    pub(crate) fn new(lu: &LU<f64, Dyn, Dyn>) -> Self {
-        let l = lu.l();
-        let u = lu.u();
-        let n = u.nrows();
-        let mut idx = DVector::from_fn(n, |i, _| i as f64);
-        lu.p().permute_rows(&mut idx);
-        let row_major = |m: &DMatrix<f64>| {
-            let mut out = vec![0.0; n * n];
-            for i in 0..n {
-                for j in 0..n {
-                    out[i * n + j] = m[(i, j)];
-                }
-            }
-            out
-        };
-        Self {
-            n,
-            l: row_major(&l),
-            u: row_major(&u),
-            perm: idx.iter().map(|&x| x as usize).collect(),
-        }
-    }
-
-    /// Whether every pivot is nonzero.
-    pub(crate) fn is_invertible(&self) -> bool {
-        (0..self.n).all(|i| self.u[i * self.n + i] != 0.0)
-    }
-
-    /// `A⁻¹ B` for `B` row-major `n × m` (in place; `work` the same size).
-    pub(crate) fn solve_rows(&self, b: &mut [f64], m: usize, work: &mut Vec<f64>) {
-        let n = self.n;
-        work.clear();
-        work.resize(n * m, 0.0);
-        for i in 0..n {
-            work[i * m..(i + 1) * m].copy_from_slice(&b[self.perm[i] * m..(self.perm[i] + 1) * m]);
-        }
-        // L y = P b
-        for i in 0..n {
-            let (done, rest) = work.split_at_mut(i * m);
-            let row = &mut rest[..m];
-            for j in 0..i {
-                let lij = self.l[i * n + j];
-                if lij != 0.0 {
-                    for (r, y) in row.iter_mut().zip(&done[j * m..(j + 1) * m]) {
-                        *r -= lij * y;
-                    }
-                }
-            }
-        }
-        // U x = y
-        for i in (0..n).rev() {
-            let (head, tail) = work.split_at_mut((i + 1) * m);
-            let row = &mut head[i * m..];
-            for j in i + 1..n {
-                let uij = self.u[i * n + j];
-                if uij != 0.0 {
-                    for (r, x) in row.iter_mut().zip(&tail[(j - i - 1) * m..(j - i) * m]) {
-                        *r -= uij * x;
-                    }
-                }
-            }
-            let d = self.u[i * n + i];
-            for r in row.iter_mut() {
-                *r /= d;
-            }
-        }
-        b.copy_from_slice(work);
-    }
-
-    /// `A⁻¹ B` in place for a column-major matrix.
-    pub(crate) fn solve_matrix(&self, b: &mut DMatrix<f64>) {
-        let (n, m) = b.shape();
-        let mut rows = vec![0.0; n * m];
-        for i in 0..n {
-            for j in 0..m {
-                rows[i * m + j] = b[(i, j)];
-            }
-        }
-        let mut work = Vec::new();
-        self.solve_rows(&mut rows, m, &mut work);
-        for i in 0..n {
-            for j in 0..m {
-                b[(i, j)] = rows[i * m + j];
-            }
-        }
-    }
-}
-
-/// [`sens::solve_tangents`] for nalgebra's LU, through its unpacked [`Factors`].
+/// [`sens::solve_tangents`] through the rows of a [`DenseLu`]: the `N` tangents of each row
+/// side by side, as the dual numbers hold them.
 pub(crate) fn lu_tangents<const N: usize>(
-    factors: &Factors,
+    lu: &DenseLu,
     x_hat: &[f64],
     residual: &[Dual<N>],
 ) -> Vec<Dual<N>> {
     let n = x_hat.len();
     assert_eq!(residual.len(), n, "residual has the wrong length");
     let mut rhs: Vec<f64> = residual.iter().flat_map(|r| r.d).collect();
-    let mut work = Vec::new();
-    factors.solve_rows(&mut rhs, N, &mut work);
+    let ok = lu.solve_rows(&mut rhs, N);
+    debug_assert!(ok, "tangent solve with a singular LU factor");
     (0..n)
         .map(|i| Dual::new(x_hat[i], std::array::from_fn(|k| rhs[i * N + k])))
         .collect()
@@ -998,14 +895,7 @@ impl OdeSystem for MultibodySystem {
                 .map(|(i, &x)| seed(nq + i, x))
                 .collect();
             let res = self.model.residual(t, &qd, &vd, &sol.rows, &sol.x);
-            // nalgebra's column solves (not [`Factors`]): the same rounding as the golden
-            // results of the analysis were made with (its steps depend on this Jacobian)
-            let mut rhs = DMatrix::from_fn(res.len(), CHUNK, |i, k| res[i].d[k]);
-            let ok = sol.lu.solve_mut(&mut rhs);
-            debug_assert!(ok, "tangent solve with a singular LU factor");
-            let x: Vec<Dual<CHUNK>> = (0..rhs.nrows())
-                .map(|i| Dual::new(sol.x[i], std::array::from_fn(|k| rhs[(i, k)])))
-                .collect();
+            let x = lu_tangents(&sol.lu, &sol.x, &res);
             let mut qdot = vec![Dual::<CHUNK>::constant(0.0); nq];
             self.model.kinematic_rates(&qd, &vd, &mut qdot);
             for (k, col) in range.clone().enumerate() {

@@ -7,16 +7,19 @@
 //! - seeding of design variables and the evaluation of a function of many design variables in
 //!   chunks of a compile-time width `N` ([`seed`], [`jacobian`]);
 //! - pushing tangents through a linear solve whose matrix was factorised once in `f64`
-//!   ([`solve`]): DESIGN.md §1, the pattern of the paper's Eq. (40).
+//!   ([`solve`]): DESIGN.md §1, the pattern of the paper's Eq. (40);
+//! - [`DenseLu`], the small dense LU those solves use in the multibody step.
 //!
 //! It knows nothing about laminates, finite elements, multibody systems or decks.
 
 mod dual;
+mod lu;
 mod scalar;
 pub mod seed;
 pub mod solve;
 
 pub use dual::Dual;
+pub use lu::DenseLu;
 pub use scalar::Scalar;
 pub use seed::{Jacobian, chunk_ranges, gradient, jacobian, seed_chunk};
 pub use solve::{LinearSolver, solve_tangents};

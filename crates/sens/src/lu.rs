@@ -1,0 +1,205 @@
+//! A small dense LU factorisation with partial pivoting, row-major and packed.
+//!
+//! Made for the matrices of a few tens of rows that a multibody step factorises at every
+//! right-hand side (the leading matrix of Eq. 12, the Newton matrix of a BDF step): nalgebra's
+//! generic LU works column by column through views, and unpacking its factors for the
+//! row-by-row tangent solves cost as much again. Here the elimination's inner loops run over
+//! contiguous rows, `L` and `U` share one array, and the row interchanges are kept as LAPACK
+//! keeps them (`piv[k]`: the row swapped with row `k` at step `k`), so every solve works in
+//! place without allocating.
+
+use nalgebra::DMatrix;
+
+use crate::solve::LinearSolver;
+
+/// `P A = L U` of a square matrix, `L` unit lower triangular, `U` upper triangular, the pivot
+/// of each column the largest entry below the diagonal (nalgebra's and LAPACK's choice).
+#[derive(Clone, Debug, PartialEq)]
+pub struct DenseLu {
+    n: usize,
+    /// `L` (strictly lower part, unit diagonal implied) and `U` (upper part), row-major.
+    lu: Vec<f64>,
+    /// Row `k` was interchanged with row `piv[k] ≥ k` at elimination step `k`.
+    piv: Vec<usize>,
+}
+
+impl DenseLu {
+    /// Factorise `a` (square).
+    pub fn new(a: &DMatrix<f64>) -> Self {
+        let n = a.nrows();
+        assert_eq!(a.ncols(), n, "DenseLu needs a square matrix");
+        let mut lu = vec![0.0; n * n];
+        // nalgebra is column-major: the transpose of its storage is the row-major matrix
+        for (j, col) in a.column_iter().enumerate() {
+            for (i, &x) in col.iter().enumerate() {
+                lu[i * n + j] = x;
+            }
+        }
+        Self::from_row_major(n, lu)
+    }
+
+    /// Factorise the `n × n` matrix stored row by row in `a`.
+    pub fn from_row_major(n: usize, mut a: Vec<f64>) -> Self {
+        assert_eq!(a.len(), n * n, "DenseLu: {} entries for {n} × {n}", a.len());
+        let mut piv = Vec::with_capacity(n);
+        for k in 0..n {
+            // pivot: the largest magnitude in column k at or below the diagonal
+            let mut p = k;
+            let mut best = a[k * n + k].abs();
+            for i in k + 1..n {
+                let x = a[i * n + k].abs();
+                if x > best {
+                    best = x;
+                    p = i;
+                }
+            }
+            piv.push(p);
+            if p != k {
+                let (top, bottom) = a.split_at_mut(p * n);
+                top[k * n..(k + 1) * n].swap_with_slice(&mut bottom[..n]);
+            }
+            let d = a[k * n + k];
+            if d == 0.0 {
+                // a zero column below the diagonal: nothing to eliminate (singular,
+                // reported by `is_invertible`)
+                continue;
+            }
+            let inv = 1.0 / d;
+            let (head, tail) = a.split_at_mut((k + 1) * n);
+            let pivot_row = &head[k * n + k + 1..(k + 1) * n];
+            for row in tail.chunks_exact_mut(n) {
+                let l = row[k] * inv;
+                row[k] = l;
+                if l != 0.0 {
+                    for (x, &u) in row[k + 1..].iter_mut().zip(pivot_row) {
+                        *x -= l * u;
+                    }
+                }
+            }
+        }
+        Self { n, lu: a, piv }
+    }
+
+    /// Order of the matrix.
+    pub fn dim(&self) -> usize {
+        self.n
+    }
+
+    /// Whether every pivot is nonzero (as nalgebra's test: a matrix with non-finite entries
+    /// passes, and its solutions come out non-finite for the caller to report).
+    pub fn is_invertible(&self) -> bool {
+        (0..self.n).all(|i| self.lu[i * self.n + i] != 0.0)
+    }
+
+    /// `b ← A⁻¹ b`; `false` (and `b` unspecified) if the matrix is singular.
+    pub fn solve_in_place(&self, b: &mut [f64]) -> bool {
+        let n = self.n;
+        assert_eq!(b.len(), n, "DenseLu: right-hand side of the wrong length");
+        if !self.is_invertible() {
+            return false;
+        }
+        for (k, &p) in self.piv.iter().enumerate() {
+            b.swap(k, p);
+        }
+        for i in 1..n {
+            let row = &self.lu[i * n..i * n + i];
+            let s: f64 = row.iter().zip(&b[..i]).map(|(l, y)| l * y).sum();
+            b[i] -= s;
+        }
+        for i in (0..n).rev() {
+            let row = &self.lu[i * n + i + 1..(i + 1) * n];
+            let s: f64 = row.iter().zip(&b[i + 1..]).map(|(u, x)| u * x).sum();
+            b[i] = (b[i] - s) / self.lu[i * n + i];
+        }
+        true
+    }
+
+    /// `B ← A⁻¹ B` for the `n × m` matrix `B` stored row by row; `false` if singular. The
+    /// updates run along the rows of `B`, which suits many narrow right-hand sides (the
+    /// tangents of a dual chunk).
+    pub fn solve_rows(&self, b: &mut [f64], m: usize) -> bool {
+        let n = self.n;
+        assert_eq!(
+            b.len(),
+            n * m,
+            "DenseLu: right-hand sides of the wrong size"
+        );
+        if !self.is_invertible() {
+            return false;
+        }
+        if m == 0 {
+            return true;
+        }
+        for (k, &p) in self.piv.iter().enumerate() {
+            if p != k {
+                let (top, bottom) = b.split_at_mut(p * m);
+                top[k * m..(k + 1) * m].swap_with_slice(&mut bottom[..m]);
+            }
+        }
+        // L Y = P B
+        for i in 1..n {
+            let (done, rest) = b.split_at_mut(i * m);
+            let row = &mut rest[..m];
+            for (j, &l) in self.lu[i * n..i * n + i].iter().enumerate() {
+                if l != 0.0 {
+                    for (r, y) in row.iter_mut().zip(&done[j * m..(j + 1) * m]) {
+                        *r -= l * y;
+                    }
+                }
+            }
+        }
+        // U X = Y
+        for i in (0..n).rev() {
+            let (head, tail) = b.split_at_mut((i + 1) * m);
+            let row = &mut head[i * m..];
+            for (j, &u) in self.lu[i * n + i + 1..(i + 1) * n].iter().enumerate() {
+                if u != 0.0 {
+                    for (r, x) in row.iter_mut().zip(&tail[j * m..(j + 1) * m]) {
+                        *r -= u * x;
+                    }
+                }
+            }
+            let inv = 1.0 / self.lu[i * n + i];
+            for r in row.iter_mut() {
+                *r *= inv;
+            }
+        }
+        true
+    }
+
+    /// `B ← A⁻¹ B`, column by column; `false` if singular.
+    pub fn solve_matrix(&self, b: &mut DMatrix<f64>) -> bool {
+        assert_eq!(
+            b.nrows(),
+            self.n,
+            "DenseLu: right-hand sides of the wrong size"
+        );
+        if !self.is_invertible() {
+            return false;
+        }
+        for mut col in b.column_iter_mut() {
+            let ok = self.solve_in_place(col.as_mut_slice());
+            debug_assert!(ok);
+        }
+        true
+    }
+}
+
+impl LinearSolver for DenseLu {
+    fn dim(&self) -> usize {
+        self.n
+    }
+    fn solve_columns(&self, rhs: &mut [f64], ncols: usize) {
+        assert_eq!(
+            rhs.len(),
+            self.n * ncols,
+            "right-hand side has the wrong size"
+        );
+        for col in rhs.chunks_exact_mut(self.n.max(1)).take(ncols) {
+            // false only for a singular factor, which the caller ruled out when it accepted
+            // the factorisation for the primal solve
+            let ok = self.solve_in_place(col);
+            debug_assert!(ok, "tangent solve with a singular LU factor");
+        }
+    }
+}
