@@ -15,6 +15,7 @@ use nalgebra::{Matrix3, Vector3};
 fn pendulum(
     baumgarte: Baumgarte,
     max_violation: Option<f64>,
+    t_end: f64,
 ) -> Result<Vec<(f64, f64)>, SimulationError> {
     let mut model = Model::new();
     model.gravity = Vector3::new(0.0, -9.81, 0.0);
@@ -59,7 +60,9 @@ fn pendulum(
             ..sys.guard()
         });
     }
-    let t_out: Vec<f64> = (0..=200).map(|i| 0.1 * i as f64).collect();
+    let t_out: Vec<f64> = (0..=(t_end * 10.0).round() as usize)
+        .map(|i| 0.1 * i as f64)
+        .collect();
     let sim = simulate(&mut sys, &state, &t_out, BdfOptions::adaptive(1e-4, 1e-6))?;
     Ok(sim
         .outputs
@@ -77,20 +80,22 @@ fn max_between(v: &[(f64, f64)], t0: f64, t1: f64) -> f64 {
 
 #[test]
 fn violations_stay_bounded_with_baumgarte_and_grow_without() {
-    let with = pendulum(Baumgarte::default(), None).unwrap();
+    let with = pendulum(Baumgarte::default(), None, 40.0).unwrap();
     // the drift passes the guard's 5 % of the pendulum's size (7.5 cm) at about 15 s
-    let without = pendulum(Baumgarte::off(), Some(f64::INFINITY)).unwrap();
+    let without = pendulum(Baumgarte::off(), Some(f64::INFINITY), 20.0).unwrap();
     let (w1, w2) = (
-        max_between(&with, 0.0, 10.0),
-        max_between(&with, 10.0, 20.0),
+        max_between(&with, 0.0, 20.0),
+        max_between(&with, 20.0, 40.0),
     );
     let (n1, n2) = (
         max_between(&without, 0.0, 10.0),
         max_between(&without, 10.0, 20.0),
     );
     eprintln!("with Baumgarte: {w1:e} then {w2:e}; without: {n1:e} then {n2:e}");
-    // bounded at the level the tolerance allows: 1.2e-3 … 2.5e-3 in either half for first
-    // steps from 1e-5 s to 1e-2 s (the step sequence moves it, with no trend)
+    // bounded at the level the tolerance allows, with no trend: the largest violation of a
+    // 10 s window scatters from 1.2e-3 to 4.7e-3 over 80 s (the chaotic motion and the step
+    // sequence move it; a last-bit change of the LU moves it within that band), so the
+    // halves of 40 s are compared
     assert!(
         w1 < 5e-3 && w2 < 5e-3 && w2 < 2.5 * w1,
         "stabilised violation must stay bounded: {w1:e} → {w2:e}"
@@ -109,7 +114,7 @@ fn violations_stay_bounded_with_baumgarte_and_grow_without() {
 /// running on with the links apart.
 #[test]
 fn the_step_guard_stops_an_unstabilised_drift() {
-    let err = pendulum(Baumgarte::off(), None).unwrap_err();
+    let err = pendulum(Baumgarte::off(), None, 20.0).unwrap_err();
     let SimulationError::Integration(e) = &err else {
         panic!("{err}");
     };
