@@ -15,7 +15,12 @@ use common::run;
 /// steps: an adaptive step sequence can change with the last bits of a Jacobian, and with it
 /// the results by the integrator's tolerance.
 const RTOL: &str = "1e-7";
-const ATOL: &str = "1e-14";
+/// Absolute tolerance: for values that are zero up to round-off in datasets of a larger
+/// scale. A reaction force that vanishes by symmetry comes out as a few ε times the joint's
+/// 10–100 N (±1e-14 N, its sign at random), and a change of the LU's operation order moves it
+/// by that much; the smallest meaningful values (modal coordinates, 1e-7 and above) are still
+/// held to 1e-5 of themselves.
+const ATOL: &str = "1e-12";
 
 fn golden(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
