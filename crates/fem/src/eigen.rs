@@ -28,8 +28,12 @@ pub enum EigenMethod {
     Lanczos,
 }
 
-/// Largest model solved densely by [`EigenMethod::Auto`].
-pub const DENSE_LIMIT: usize = 800;
+/// Largest model solved densely by [`EigenMethod::Auto`]. The dense path computes every
+/// eigenpair (its cost grows as n³); shift-invert Lanczos only the few asked for. Measured with
+/// `flexsens modes` on the §5.2 plate rod refined from 72 to 720 free dof: equal at 72, Lanczos
+/// 1.7 × faster at 144, 3.2 × at 360 and 8.8 × at 720 (11.5 ms against 101 ms), with the same
+/// frequencies and frequency derivatives to 5e-13.
+pub const DENSE_LIMIT: usize = 100;
 
 /// Eigen solver options.
 #[derive(Clone, Copy, Debug, PartialEq)]
