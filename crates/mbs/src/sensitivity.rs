@@ -314,18 +314,6 @@ pub fn tangent_rhs<const N: usize>(
     sol: &Solution,
     s: &DMatrix<f64>,
 ) -> DMatrix<f64> {
-    tangent_rhs_with(sys, design, t, y, sol, s)
-}
-
-/// [`tangent_rhs`] through the factorisation in `sol`.
-fn tangent_rhs_with<const N: usize>(
-    sys: &MultibodySystem,
-    design: &DesignModel<N>,
-    t: f64,
-    y: &[f64],
-    sol: &Solution,
-    s: &DMatrix<f64>,
-) -> DMatrix<f64> {
     let nq = sys.model().n_q();
     let nv = sys.model().n_v();
     let mut out = DMatrix::zeros(nq + nv, design.n_variables());
@@ -636,7 +624,7 @@ impl<const N: usize> Extension<'_, N> {
                 Some(g) => g,
                 None => {
                     self.stats.dual_evaluations += self.design.chunks.len();
-                    tangent_rhs_with(sys, self.design, t, y, sol, &s)
+                    tangent_rhs(sys, self.design, t, y, sol, &s)
                 }
             };
             self.stats.corrector_iterations += 1;
@@ -742,7 +730,7 @@ impl<const N: usize> Extension<'_, N> {
             Some(g) => g,
             None => {
                 self.stats.dual_evaluations += self.design.chunks.len();
-                tangent_rhs_with(sys, self.design, t, &step.y_new, sol, s)
+                tangent_rhs(sys, self.design, t, &step.y_new, sol, s)
             }
         };
         self.stats.corrector_iterations += 1;
@@ -796,7 +784,7 @@ impl<const N: usize> Extension<'_, N> {
             a[(i, i)] += c0;
         }
         let lu = DenseLu::new(&a);
-        let fb = tangent_rhs_with(sys, self.design, t, y, sol, &DMatrix::zeros(n, psi.ncols()));
+        let fb = tangent_rhs(sys, self.design, t, y, sol, &DMatrix::zeros(n, psi.ncols()));
         self.stats.dual_evaluations += self.design.chunks.len();
         self.stats.direct_solves += 1;
         let mut s = fb - psi;

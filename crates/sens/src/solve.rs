@@ -12,7 +12,7 @@ use crate::Dual;
 
 /// A linear system `A x = y` whose matrix has been factorised once, in `f64`.
 ///
-/// Implemented for faer's dense and sparse factorisations and for nalgebra's LU.
+/// Implemented for faer's dense and sparse factorisations, nalgebra's LU and [`crate::DenseLu`].
 pub trait LinearSolver {
     /// Order of `A`.
     fn dim(&self) -> usize;
