@@ -13,7 +13,7 @@ use crate::deck::laminates::validate as validate_laminates;
 use crate::deck::sections::{SectionDef, validate_one};
 use crate::deck::{self, DeckError};
 
-use crate::study::flexible::{CHUNK, section_design};
+use crate::study::flexible::{section_derivatives, section_design};
 
 /// Unit of entry (r, c) of a stiffness relating `[ε, γ₂, γ₃ | κ₁, κ₂, κ₃]` to
 /// `[F₁, F₂, F₃ | M₁, M₂, M₃]`: force rows and strain columns carry N, moments and curvatures
@@ -65,8 +65,7 @@ fn report(
                 .find(|v| v.name == name)
                 .map_or("rad", |v| v.unit)
         };
-        let s =
-            section::analyse_with_derivatives::<CHUNK>(mesh, &design).map_err(|e| e.to_string())?;
+        let s = section_derivatives(mesh, &design).map_err(|e| e.to_string())?;
         let d = s
             .variables
             .iter()

@@ -17,6 +17,22 @@ use crate::error::CliError;
 
 /// Width of the dual-number chunks (results do not depend on it).
 pub const CHUNK: usize = 8;
+
+/// [`section::analyse_with_derivatives`] in chunks no wider than the map's variables: the work
+/// of a dual number grows with its width, and the results do not depend on it (a deck with one
+/// angle analysed its sections in `Dual<8>`: eight times the tangent work, a quarter of the
+/// §5.1 deck's run with sensitivities, since Dailey's terms analyse the section twice more).
+pub fn section_derivatives(
+    mesh: &section::SectionMesh,
+    map: &section::DesignMap,
+) -> Result<section::SectionSensitivities, section::SectionError> {
+    match map.variables.len() {
+        0 | 1 => section::analyse_with_derivatives::<1>(mesh, map),
+        2 => section::analyse_with_derivatives::<2>(mesh, map),
+        3 | 4 => section::analyse_with_derivatives::<4>(mesh, map),
+        _ => section::analyse_with_derivatives::<CHUNK>(mesh, map),
+    }
+}
 /// The design variables a body's derivatives are taken with respect to.
 #[derive(Clone, Copy)]
 pub enum DesignRequest<'a> {
@@ -125,10 +141,7 @@ impl Design {
                                 .map_err(|e| section::SectionError::InvalidInput(e.to_string()))?;
                     }
                     let map_at = with_materials(map, &at, materials);
-                    BeamSection::from_sensitivities(
-                        &section::analyse_with_derivatives::<CHUNK>(&at, &map_at)?,
-                        b,
-                    )
+                    BeamSection::from_sensitivities(&section_derivatives(&at, &map_at)?, b)
                 } else {
                     BeamSection::from_sensitivities(sens, b)
                 };
@@ -535,7 +548,7 @@ pub fn build(
                 }
             };
             let s = match &map {
-                Some(map) => section::analyse_with_derivatives::<CHUNK>(&section.mesh, map),
+                Some(map) => section_derivatives(&section.mesh, map),
                 None => section::analyse(&section.mesh).map(|p| SectionSensitivities {
                     properties: p,
                     ..Default::default()
