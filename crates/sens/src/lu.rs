@@ -102,13 +102,10 @@ impl DenseLu {
             b.swap(k, p);
         }
         for i in 1..n {
-            let row = &self.lu[i * n..i * n + i];
-            let s: f64 = row.iter().zip(&b[..i]).map(|(l, y)| l * y).sum();
-            b[i] -= s;
+            b[i] -= dot(&self.lu[i * n..i * n + i], &b[..i]);
         }
         for i in (0..n).rev() {
-            let row = &self.lu[i * n + i + 1..(i + 1) * n];
-            let s: f64 = row.iter().zip(&b[i + 1..]).map(|(u, x)| u * x).sum();
+            let s = dot(&self.lu[i * n + i + 1..(i + 1) * n], &b[i + 1..]);
             b[i] = (b[i] - s) / self.lu[i * n + i];
         }
         true
@@ -183,6 +180,21 @@ impl DenseLu {
         }
         true
     }
+}
+
+/// `Σ a_i b_i` with four independent partial sums: a single running sum waits on its previous
+/// addition at every term, which made the single right-hand-side solves latency-bound.
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let mut acc = [0.0; 4];
+    let (ac, ar) = a.split_at(a.len() - a.len() % 4);
+    let (bc, br) = b.split_at(ac.len());
+    for (x, y) in ac.chunks_exact(4).zip(bc.chunks_exact(4)) {
+        for k in 0..4 {
+            acc[k] += x[k] * y[k];
+        }
+    }
+    let tail: f64 = ar.iter().zip(br).map(|(x, y)| x * y).sum();
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }
 
 impl LinearSolver for DenseLu {
