@@ -651,7 +651,16 @@ impl MultibodySystem {
 
     /// Joint reactions from the multipliers `lambda` (all rows).
     pub fn reactions(&self, t: f64, q: &[f64], v: &[f64], lambda: &[f64]) -> Vec<JointReaction> {
-        let c = self.model.constraints(t, q, v);
+        self.reactions_from(&self.model.constraints(t, q, v), q, lambda)
+    }
+
+    /// [`MultibodySystem::reactions`] with the constraints at the state already evaluated.
+    fn reactions_from(
+        &self,
+        c: &crate::model::ConstraintValues<f64>,
+        q: &[f64],
+        lambda: &[f64],
+    ) -> Vec<JointReaction> {
         (0..self.model.joints().len())
             .map(|ji| {
                 let id = JointId(ji);
@@ -712,7 +721,7 @@ impl MultibodySystem {
             q: q.to_vec(),
             v: v.to_vec(),
             accelerations: sol.x[..nv].to_vec(),
-            reactions: self.reactions(t, q, v, &lambda),
+            reactions: self.reactions_from(&c, q, &lambda),
             lambda,
             positions: ids
                 .iter()
