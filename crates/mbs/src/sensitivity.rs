@@ -18,8 +18,8 @@
 //!   of the discrete solution. It is solved by iterations, each one dual evaluation per chunk,
 //!   preconditioned with the LU of `c_0 I − f_y` at the last exact Jacobian (refactorised when
 //!   `c_0` changes); a new exact Jacobian (`⌈n/8⌉` evaluations in `Dual<8>`) only when they
-//!   converge slowly (measured on the slider-crank: 3.3 evaluations per step, an exact Jacobian
-//!   every ~45 steps);
+//!   converge slowly (measured on the §5.1 slider-crank: 2.9 evaluations per step with the
+//!   prediction's, an exact Jacobian every ~190 steps);
 //! - [`SensitivityMethod::StaggeredCorrector`]: chord iterations with the integrator's Newton
 //!   matrix, each one dual evaluation, to a tolerance in the integrator's error norm (falls
 //!   back to the direct solve if they do not converge);
