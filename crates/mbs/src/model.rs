@@ -527,7 +527,11 @@ impl<P: Scalar> Model<P> {
         q: &[S],
         v: &[S],
     ) -> ConstraintValues<S> {
-        let k = self.constraint_kin(t, q, v);
+        self.constraint_values(&self.constraint_kin(t, q, v))
+    }
+
+    /// [`Model::constraints`] from the rows' kinematics ([`Model::constraint_kin`]).
+    pub(crate) fn constraint_values<S: Scalar>(&self, k: &[Kin<S>]) -> ConstraintValues<S> {
         let mut jac = DMatrix::zeros(self.n_c, self.n_v);
         for (i, row) in k.iter().enumerate() {
             for (c, &x) in row.jac.iter() {

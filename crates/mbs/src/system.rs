@@ -376,9 +376,19 @@ impl MultibodySystem {
     /// with [`RedundancyPolicy::Reselect`] those independent at this state, otherwise those of
     /// the assembly.
     pub fn solve(&self, t: f64, q: &[f64], v: &[f64]) -> Result<Solution, ConstraintError> {
-        let k = self.model.constraint_kin(t, q, v);
-        let rows = self.select_rows(&k);
-        let e = self.model.equations_with(t, q, v, &k, &rows);
+        self.solve_with(t, q, v, &self.model.constraint_kin(t, q, v))
+    }
+
+    /// [`MultibodySystem::solve`] with the constraint rows' kinematics at the state.
+    fn solve_with(
+        &self,
+        t: f64,
+        q: &[f64],
+        v: &[f64],
+        k: &[Kin<f64>],
+    ) -> Result<Solution, ConstraintError> {
+        let rows = self.select_rows(k);
+        let e = self.model.equations_with(t, q, v, k, &rows);
         self.factor_and_solve(t, e, rows).map_err(|e| match e {
             ConstraintError::NonFinite { t, .. } => ConstraintError::NonFinite {
                 t,
@@ -711,10 +721,11 @@ impl MultibodySystem {
     pub fn output(&self, t: f64, y: &[f64]) -> Result<Output, ConstraintError> {
         let nq = self.model.n_q();
         let (q, v) = y.split_at(nq);
-        let sol = self.solve(t, q, v)?;
+        let k = self.model.constraint_kin(t, q, v);
+        let sol = self.solve_with(t, q, v, &k)?;
         let nv = self.model.n_v();
         let lambda = self.full_lambda(&sol);
-        let c = self.model.constraints(t, q, v);
+        let c = self.model.constraint_values(&k);
         let ids: Vec<BodyId> = self.model.body_ids().collect();
         Ok(Output {
             t,
