@@ -412,23 +412,44 @@ pub fn bdf_stable(k: usize, z: Complex<f64>) -> bool {
 /// from the origin up to the lobe of instability (and again beyond it), so the first crossing
 /// below `h` is found by bisection.
 pub fn stable_step(q: usize, h: f64, eigenvalues: &[Complex<f64>]) -> f64 {
+    stable_step_cached(q, h, eigenvalues, None)
+}
+
+/// [`stable_step`] remembering, per eigenvalue and order, the edge of the lobe a bisection
+/// found (`edges[i][q]`, NaN while unknown): a step inside eigenvalue `i`'s lobe is cut to that
+/// edge again, one stability test instead of a bisection (the step control asks at every step
+/// for several orders, with the eigenvalues fixed until the next Jacobian). The lobe along a
+/// ray is one interval starting at its edge, so a step inside it is cut to the same point.
+fn stable_step_cached(
+    q: usize,
+    h: f64,
+    eigenvalues: &[Complex<f64>],
+    mut edges: Option<&mut [[f64; 6]]>,
+) -> f64 {
     if q <= 2 {
         return h;
     }
     let mut step = h;
     // a cut for one eigenvalue can move another (stable beyond its lobe) into its lobe
-    while let Some(&l) = eigenvalues.iter().find(|&&l| !bdf_stable(q, l * step)) {
-        {
-            let (mut lo, mut hi) = (0.0, step);
-            for _ in 0..30 {
-                let mid = 0.5 * (lo + hi);
-                if bdf_stable(q, l * mid) {
-                    lo = mid;
-                } else {
-                    hi = mid;
-                }
+    while let Some(i) = eigenvalues.iter().position(|&l| !bdf_stable(q, l * step)) {
+        let l = eigenvalues[i];
+        let known = edges.as_ref().map_or(f64::NAN, |e| e[i][q]);
+        if known < step && bdf_stable(q, l * known) {
+            step = known;
+            continue;
+        }
+        let (mut lo, mut hi) = (0.0, step);
+        for _ in 0..30 {
+            let mid = 0.5 * (lo + hi);
+            if bdf_stable(q, l * mid) {
+                lo = mid;
+            } else {
+                hi = mid;
             }
-            step = lo;
+        }
+        step = lo;
+        if let Some(e) = edges.as_mut() {
+            e[i][q] = lo;
         }
     }
     step
@@ -519,6 +540,8 @@ pub struct Bdf {
     replay_pos: usize,
     /// Oscillatory eigenvalues of the last Jacobian (stability limit).
     oscillatory: Vec<Complex<f64>>,
+    /// The lobe edges found for them, per order ([`stable_step_cached`]).
+    stability_edges: std::cell::RefCell<Vec<[f64; 6]>>,
     /// The system's breakpoints (adaptive control), increasing.
     breakpoints: Vec<f64>,
     /// No step taken yet from an estimated first step (it is then also held to 1 % of the
@@ -549,6 +572,7 @@ impl Bdf {
             atol: Vec::new(),
             replay_pos: 0,
             oscillatory: Vec::new(),
+            stability_edges: std::cell::RefCell::new(Vec::new()),
             breakpoints: Vec::new(),
             first_step: false,
         }
@@ -808,6 +832,7 @@ impl Bdf {
         } = self.opts.control
         {
             self.oscillatory = oscillatory_eigenvalues(&self.jac);
+            *self.stability_edges.borrow_mut() = vec![[f64::NAN; 6]; self.oscillatory.len()];
         }
         self.jac_age = Some(0);
         self.lu = None;
@@ -1180,7 +1205,13 @@ impl Bdf {
                 // every oscillatory eigenvalue must stay in the stability region of the order
                 // used: each candidate's step is cut to where its order holds them all, and the
                 // orders below, down to the A-stable order 2, join when that cut something
-                let within = |(q, hq): (usize, f64)| (q, stable_step(q, hq, &self.oscillatory));
+                let within = |(q, hq): (usize, f64)| {
+                    let mut edges = self.stability_edges.borrow_mut();
+                    (
+                        q,
+                        stable_step_cached(q, hq, &self.oscillatory, Some(&mut edges)),
+                    )
+                };
                 next = candidates
                     .iter()
                     .map(by_error)
