@@ -28,12 +28,11 @@ impl DenseLu {
     pub fn new(a: &DMatrix<f64>) -> Self {
         let n = a.nrows();
         assert_eq!(a.ncols(), n, "DenseLu needs a square matrix");
-        let mut lu = vec![0.0; n * n];
-        // nalgebra is column-major: the transpose of its storage is the row-major matrix
-        for (j, col) in a.column_iter().enumerate() {
-            for (i, &x) in col.iter().enumerate() {
-                lu[i * n + j] = x;
-            }
+        // nalgebra is column-major: row i is every n-th entry of its storage from i
+        let src = a.as_slice();
+        let mut lu = Vec::with_capacity(n * n);
+        for i in 0..n {
+            lu.extend(src[i..].iter().step_by(n.max(1)));
         }
         Self::from_row_major(n, lu)
     }
