@@ -65,10 +65,56 @@ pub fn finite_differences<E>(
     b: &[f64],
     scheme: FdScheme,
     perturbations: &[Perturbation],
-    mut f: impl FnMut(&[f64]) -> Result<Vec<f64>, E>,
+    f: impl FnMut(&[f64]) -> Result<Vec<f64>, E>,
 ) -> Result<Vec<FiniteDifference>, E> {
+    let values = finite_difference_designs(b, scheme, perturbations)
+        .iter()
+        .map(|d| d.as_slice())
+        .map(f)
+        .collect::<Result<Vec<_>, E>>()?;
+    Ok(finite_differences_from(b, scheme, perturbations, &values))
+}
+
+/// The designs at which [`finite_differences`] evaluates its function, in its order: for the
+/// forward scheme `b` first; then for each perturbation and variable `j`, `b + δ_j e_j` and,
+/// for the central scheme, `b − δ_j e_j`. The evaluations are independent (e.g. in parallel);
+/// [`finite_differences_from`] makes the derivatives of their values.
+pub fn finite_difference_designs(
+    b: &[f64],
+    scheme: FdScheme,
+    perturbations: &[Perturbation],
+) -> Vec<Vec<f64>> {
+    let mut designs = Vec::new();
+    if scheme == FdScheme::Forward {
+        designs.push(b.to_vec());
+    }
+    for p in perturbations {
+        for (j, &x) in b.iter().enumerate() {
+            let d = p.step(x);
+            let signs: &[f64] = match scheme {
+                FdScheme::Forward => &[1.0],
+                FdScheme::Central => &[1.0, -1.0],
+            };
+            for &sign in signs {
+                let mut bj = b.to_vec();
+                bj[j] += sign * d;
+                designs.push(bj);
+            }
+        }
+    }
+    designs
+}
+
+/// [`finite_differences`] from the values at [`finite_difference_designs`] (same order).
+pub fn finite_differences_from(
+    b: &[f64],
+    scheme: FdScheme,
+    perturbations: &[Perturbation],
+    values: &[Vec<f64>],
+) -> Vec<FiniteDifference> {
+    let mut next = values.iter();
     let base = match scheme {
-        FdScheme::Forward => Some(f(b)?),
+        FdScheme::Forward => next.next(),
         FdScheme::Central => None,
     };
     let mut out = Vec::with_capacity(perturbations.len());
@@ -76,17 +122,13 @@ pub fn finite_differences<E>(
         let steps: Vec<f64> = b.iter().map(|&x| p.step(x)).collect();
         let mut derivative = DMatrix::zeros(0, b.len());
         for (j, &d) in steps.iter().enumerate() {
-            let mut bp = b.to_vec();
-            bp[j] += d;
-            let fp = f(&bp)?;
-            let col: Vec<f64> = match &base {
+            let fp = next.next().expect("a value for every design");
+            let col: Vec<f64> = match base {
                 Some(f0) => fp.iter().zip(f0).map(|(a, c)| (a - c) / d).collect(),
                 None => {
-                    let mut bm = b.to_vec();
-                    bm[j] -= d;
-                    let fm = f(&bm)?;
+                    let fm = next.next().expect("a value for every design");
                     fp.iter()
-                        .zip(&fm)
+                        .zip(fm)
                         .map(|(a, c)| (a - c) / (2.0 * d))
                         .collect()
                 }
@@ -104,7 +146,7 @@ pub fn finite_differences<E>(
             derivative,
         });
     }
-    Ok(out)
+    out
 }
 
 /// A plain run of `sys` from `state` at `t_out[0]` with the response at every `t_out` (the

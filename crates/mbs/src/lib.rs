@@ -99,7 +99,10 @@ pub use bdf::{
 };
 pub use body::{Body, BodyId, FlexibleBody, RigidBody};
 pub use error::{ConstraintError, ModelError};
-pub use fd::{FdScheme, FiniteDifference, Perturbation, finite_differences, simulate_response};
+pub use fd::{
+    FdScheme, FiniteDifference, Perturbation, finite_difference_designs, finite_differences,
+    finite_differences_from, simulate_response,
+};
 pub use force::{Force, ForceId, Load, LoadFrame};
 pub use joint::{JointId, JointKind, TimeFunction};
 pub use marker::{Marker, Site};

@@ -336,9 +336,15 @@ pub(crate) fn finite_differences(
             FdSteps::Replay => replay.clone(),
             FdSteps::Adaptive => mech.options.clone(),
         };
-        let results = mbs::finite_differences(&b, scheme, &perturbations, |bb| {
-            perturbed_outputs(src, raw, mech, nominal, state, bb, &options)
-        })?;
+        // the perturbed runs are independent: one per core, the results in the serial order
+        let designs = mbs::finite_difference_designs(&b, scheme, &perturbations);
+        let values =
+            super::parallel_map(designs.len(), super::job_count(None, designs.len()), |i| {
+                perturbed_outputs(src, raw, mech, nominal, state, &designs[i], &options)
+            })
+            .into_iter()
+            .collect::<Result<Vec<_>, _>>()?;
+        let results = mbs::finite_differences_from(&b, scheme, &perturbations, &values);
         for r in results {
             let mut responses = Vec::new();
             let mut row = 0;
