@@ -5,7 +5,10 @@
 //! how each perturbed design is run: independent adaptive runs ([`simulate_response`] with
 //! adaptive [`BdfOptions`]: what users would do, with the step-selection noise of §5), or runs
 //! that replay the nominal step sequence ([`crate::SensitivityRun::replay_options`]: the
-//! derivative of the discrete solution, which the direct method reproduces to round-off).
+//! derivative of the discrete solution, which the direct method reproduces up to the nominal
+//! run's Newton tolerance, see `docs/performance.md`). The perturbed designs are independent:
+//! [`finite_difference_designs`] lists them, so that a caller can run them in parallel, and
+//! [`finite_differences_from`] makes the derivatives of their values.
 
 use nalgebra::DMatrix;
 
