@@ -97,6 +97,14 @@ impl DenseLu {
         if !self.is_invertible() {
             return false;
         }
+        self.substitute(b);
+        true
+    }
+
+    /// `b ← A⁻¹ b` for a factor known to be invertible: the row interchanges, then forward
+    /// and back substitution.
+    fn substitute(&self, b: &mut [f64]) {
+        let n = self.n;
         for (k, &p) in self.piv.iter().enumerate() {
             b.swap(k, p);
         }
@@ -107,7 +115,6 @@ impl DenseLu {
             let s = dot(&self.lu[i * n + i + 1..(i + 1) * n], &b[i + 1..]);
             b[i] = (b[i] - s) / self.lu[i * n + i];
         }
-        true
     }
 
     /// `B ← A⁻¹ B` for the `n × m` matrix `B` stored row by row; `false` if singular. The
@@ -174,8 +181,7 @@ impl DenseLu {
             return false;
         }
         for mut col in b.column_iter_mut() {
-            let ok = self.solve_in_place(col.as_mut_slice());
-            debug_assert!(ok);
+            self.substitute(col.as_mut_slice());
         }
         true
     }
@@ -206,11 +212,14 @@ impl LinearSolver for DenseLu {
             self.n * ncols,
             "right-hand side has the wrong size"
         );
+        // a singular factor the caller ruled out when it accepted the factorisation for the
+        // primal solve; the right-hand sides are left as they are, as by `solve_in_place`
+        if !self.is_invertible() {
+            debug_assert!(false, "tangent solve with a singular LU factor");
+            return;
+        }
         for col in rhs.chunks_exact_mut(self.n.max(1)).take(ncols) {
-            // false only for a singular factor, which the caller ruled out when it accepted
-            // the factorisation for the primal solve
-            let ok = self.solve_in_place(col);
-            debug_assert!(ok, "tangent solve with a singular LU factor");
+            self.substitute(col);
         }
     }
 }
