@@ -1433,3 +1433,44 @@ impl Bdf {
         Ok(out)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::{Complex, stable_step, stable_step_cached};
+
+    /// The remembered lobe edges cut every step to the point the bisection finds, over a
+    /// sequence of steps inside, below and beyond the lobes of several lightly damped modes:
+    /// the rod's two pairs and a slower mode, and two modes a hundred times apart, so that a
+    /// cut for the slow one lands beyond the fast one's lobe (an edge remembered for the wrong
+    /// mode would show there).
+    #[test]
+    fn remembered_lobe_edges_give_the_bisections_cut() {
+        let eigenvalues: Vec<Complex<f64>> = [
+            (0.03, 1e5),
+            (0.01, 1e3),
+            (0.01, 3055.0),
+            (0.03, 16833.0),
+            (0.002, 900.0),
+        ]
+        .iter()
+        .map(|&(zeta, w): &(f64, f64)| Complex::new(-zeta * w, w * (1.0 - zeta * zeta).sqrt()))
+        .collect();
+        let mut edges = vec![[f64::NAN; 6]; eigenvalues.len()];
+        let mut cut = 0;
+        for q in [3, 4, 5, 3, 5] {
+            for i in 0..400 {
+                let h = 1e-6 * 1.02f64.powi(i);
+                let plain = stable_step(q, h, &eigenvalues);
+                let cached = stable_step_cached(q, h, &eigenvalues, Some(&mut edges));
+                assert!(
+                    (cached - plain).abs() <= 1e-8 * h,
+                    "order {q}, h = {h:e}: {cached:e} vs {plain:e}"
+                );
+                cut += usize::from(plain < h);
+            }
+        }
+        // the sequence did cut steps, and the edges were remembered
+        assert!(cut > 100, "{cut}");
+        assert!(edges.iter().flatten().filter(|e| e.is_finite()).count() >= 3);
+    }
+}
