@@ -8,7 +8,9 @@
 //!   chunks of a compile-time width `N` ([`seed`], [`jacobian`]);
 //! - pushing tangents through a linear solve whose matrix was factorised once in `f64`
 //!   ([`solve`]): DESIGN.md §1, the pattern of the paper's Eq. (40);
-//! - [`DenseLu`], the small dense LU those solves use in the multibody step.
+//! - [`DenseLu`], the small dense LU those solves use in the multibody step, and
+//!   [`SparseCholesky`], the sparse factorisation of finite-element matrices, ordered on their
+//!   node graph ([`sparse`]).
 //!
 //! It knows nothing about laminates, finite elements, multibody systems or decks.
 
@@ -17,9 +19,11 @@ mod lu;
 mod scalar;
 pub mod seed;
 pub mod solve;
+pub mod sparse;
 
 pub use dual::Dual;
 pub use lu::DenseLu;
 pub use scalar::Scalar;
 pub use seed::{Jacobian, chunk_ranges, gradient, jacobian, seed_chunk};
 pub use solve::{LinearSolver, solve_tangents};
+pub use sparse::{NotPositiveDefinite, SparseCholesky};
