@@ -7,7 +7,7 @@ use sens::{Dual, Scalar, seed_chunk};
 use crate::assembly::{
     Assembly, Constraints, ElementOptions, FemError, MassKind, Properties, dof, lumped_nodal_masses,
 };
-use crate::eigen::{EigenOptions, Eigenpairs, lowest_modes};
+use crate::eigen::{EigenOptions, Eigenpairs, lowest_modes_of_nodes};
 use crate::mesh::{Mesh, NodeId};
 use crate::modal::ModalBody;
 use crate::sensitivity::{
@@ -559,7 +559,8 @@ pub fn modal_analysis(
             assembly.n_free()
         )));
     }
-    let mut pairs = lowest_modes(&k, &m, want, &opts.eigen)?;
+    let node_of: Vec<usize> = assembly.free_dofs().iter().map(|d| d / 6).collect();
+    let mut pairs = lowest_modes_of_nodes(&k, &m, want, &opts.eigen, Some(&node_of))?;
     let mut n_rigid = 0;
     if rigid > 0 {
         let lmax = pairs.values.iter().fold(0.0f64, |a, b| a.max(b.abs()));
@@ -640,8 +641,7 @@ fn static_correction(
     nodes: &[NodeId],
     n_nodes: usize,
 ) -> Result<(Vec<f64>, DMatrix<f64>), FemError> {
-    use faer::linalg::solvers::SolveCore;
-    use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
+    use sens::{LinearSolver, SparseCholesky};
     let n = assembly.n_free();
     let mut loads = Vec::new();
     for &node in nodes {
@@ -663,22 +663,21 @@ fn static_correction(
                 .into(),
         ));
     }
-    let symbolic = SymbolicLlt::try_new(k.symbolic(), faer::Side::Lower)
+    let node_of: Vec<usize> = assembly.free_dofs().iter().map(|d| d / 6).collect();
+    let symbolic = SparseCholesky::symbolic(k.symbolic(), faer::Side::Lower, &node_of)
         .map_err(|e| FemError::Eigen(format!("{e:?}")))?;
-    let llt =
-        Llt::try_new_with_symbolic(symbolic, k.as_ref(), faer::Side::Lower).map_err(|_| {
-            FemError::Invalid(
-                "static correction: the stiffness matrix is not positive definite (the reference \
+    let llt = SparseCholesky::new(symbolic, k.as_ref(), faer::Side::Lower).map_err(|_| {
+        FemError::Invalid(
+            "static correction: the stiffness matrix is not positive definite (the reference \
              condition must hold the body)"
-                    .into(),
-            )
-        })?;
+                .into(),
+        )
+    })?;
     let mut psi = DMatrix::zeros(n, loads.len());
     for (c, &i) in loads.iter().enumerate() {
         let mut col = vec![0.0; n];
         col[i] = 1.0;
-        let mat = faer::MatMut::from_column_major_slice_mut(&mut col, n, 1);
-        llt.solve_in_place_with_conj(faer::Conj::No, mat);
+        llt.solve_columns(&mut col, 1);
         psi.column_mut(c).copy_from_slice(&col);
     }
     // M-Gram–Schmidt against the retained modes and each other (twice, for round-off), with

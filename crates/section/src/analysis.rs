@@ -5,13 +5,12 @@
 //! The formulation is documented on [`SectionAnalysis`].
 
 use faer::Side;
-use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
 use laminate::{bond_stress_matrix, rotate_stiffness, rotate_stiffness_of};
 use std::ops::Mul;
 
 use nalgebra::{Matrix6, SMatrix};
-use sens::{Dual, LinearSolver, Scalar, chunk_ranges};
+use sens::{Dual, LinearSolver, Scalar, SparseCholesky, chunk_ranges};
 
 use crate::element::MAX_NODES;
 use crate::mesh::{Region, SectionMesh};
@@ -79,7 +78,7 @@ const NONE: usize = usize::MAX;
 /// section's size) is refused with [`SectionError::IllConditioned`].
 pub struct SectionAnalysis {
     model: Model,
-    llt: Llt<usize, f64>,
+    llt: SparseCholesky,
     /// Solutions per unit section force, node-dof-major: `x[(3·node + k)·6 + column]`.
     x1: Vec<f64>,
     y1: [f64; 36],
@@ -731,14 +730,21 @@ impl Model {
 
     /// Assemble the lower triangle of `K = ∫[BN Z]ᵀ Q [BN Z]` (pinned components removed)
     /// and factorise it; with what the solves need to estimate its conditioning.
-    fn factorise(&self) -> Result<(Llt<usize, f64>, Conditioning), SectionError> {
+    fn factorise(&self) -> Result<(SparseCholesky, Conditioning), SectionError> {
         let n_tot = self.n_free + 6;
         let (col_ptr, row_idx, values) = self.assemble();
         let k = SparseColMat::new(
             SymbolicSparseColMat::new_checked(n_tot, n_tot, col_ptr, None, row_idx),
             values,
         );
-        let symbolic = SymbolicLlt::try_new(k.symbolic(), Side::Lower)
+        // The fill-reducing ordering of the node graph (the strains last).
+        let mut group = vec![sens::sparse::LAST; n_tot];
+        for (g, &f) in self.dof.iter().enumerate() {
+            if f != NONE {
+                group[f] = g / 3;
+            }
+        }
+        let symbolic = SparseCholesky::symbolic(k.symbolic(), Side::Lower, &group)
             .map_err(|e| SectionError::Factorisation(format!("{e:?}")))?;
         // The materials are positive definite and the mesh valid, so K is: a failed
         // factorisation is round-off.
@@ -746,7 +752,7 @@ impl Model {
             condition,
             thinness: self.mesh.thinness(),
         };
-        let llt = Llt::try_new_with_symbolic(symbolic, k.as_ref(), Side::Lower)
+        let llt = SparseCholesky::new(symbolic, k.as_ref(), Side::Lower)
             .map_err(|_| ill(f64::INFINITY))?;
         Ok((llt, Conditioning::of(&k)))
     }
