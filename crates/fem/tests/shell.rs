@@ -331,6 +331,154 @@ fn modes_are_mass_orthonormal_dense_and_lanczos_agree() {
     }
 }
 
+/// The largest `|XᵀMX − I|`, `|XᵀKX − Λ|/λ_max` and relative eigen-equation residual of a set
+/// of modes.
+fn mode_errors(
+    k: &faer::sparse::SparseColMat<usize, f64>,
+    m: &faer::sparse::SparseColMat<usize, f64>,
+    pairs: &fem::Eigenpairs,
+) -> (f64, f64, f64) {
+    let x = &pairs.vectors;
+    let p = pairs.values.len();
+    let lmax = pairs.values[p - 1].abs();
+    let ortho = (fem::eigen::project(m, x, x) - DMatrix::<f64>::identity(p, p))
+        .abs()
+        .max();
+    let stiff = (fem::eigen::project(k, x, x)
+        - DMatrix::from_diagonal(&DVector::from_vec(pairs.values.clone())))
+    .abs()
+    .max()
+        / lmax;
+    let mut residual = 0.0f64;
+    for i in 0..p {
+        let xi = x.column(i).into_owned();
+        let (mut kx, mut mx) = (vec![0.0; xi.len()], vec![0.0; xi.len()]);
+        fem::eigen::spmv(k, xi.as_slice(), &mut kx);
+        fem::eigen::spmv(m, xi.as_slice(), &mut mx);
+        let r = kx
+            .iter()
+            .zip(&mx)
+            .map(|(a, b)| (a - pairs.values[i] * b).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        let scale = mx.iter().map(|a| a * a).sum::<f64>().sqrt() * lmax;
+        residual = residual.max(r / scale);
+    }
+    (ortho, stiff, residual)
+}
+
+/// Block Lanczos finds the modes of the dense solver whatever its block: a simply supported
+/// square plate (repeated pairs (1,2)/(2,1), (1,3)/(3,1)), with enough modes asked to need a
+/// restart, and a free-free plate (six zero eigenvalues).
+#[test]
+fn block_lanczos_agrees_with_dense_for_every_block_size() {
+    let square = {
+        let (mesh, asm, props) = ss_plate(0.4, 0.4, 10, iso_plate(0.004), "all");
+        let (k, m) = asm
+            .values(
+                &mesh,
+                &props,
+                &ElementOptions::default(),
+                MassKind::Consistent,
+            )
+            .unwrap();
+        (asm.matrix(k), asm.matrix(m), 30)
+    };
+    let free = {
+        let mesh = Mesh::rectangle(0.6, 0.3, 10, 5, 0).unwrap();
+        let asm = Assembly::new(&mesh, &Constraints::new()).unwrap();
+        let props = Properties {
+            sections: vec![],
+            laminates: vec![iso_plate(0.004)],
+        };
+        let (k, m) = asm
+            .values(
+                &mesh,
+                &props,
+                &ElementOptions::default(),
+                MassKind::Consistent,
+            )
+            .unwrap();
+        (asm.matrix(k), asm.matrix(m), 12)
+    };
+    for (name, (k, m, p)) in [("square", square), ("free-free", free)] {
+        let opts = |method, block| EigenOptions {
+            method,
+            block,
+            ..Default::default()
+        };
+        let dense = lowest_modes(&k, &m, p, &opts(EigenMethod::Dense, None)).unwrap();
+        let scale = dense.values[p - 1];
+        for block in [None, Some(1), Some(2), Some(3), Some(4), Some(7)] {
+            let pairs = lowest_modes(&k, &m, p, &opts(EigenMethod::Lanczos, block)).unwrap();
+            for i in 0..p {
+                let err = (pairs.values[i] - dense.values[i]).abs() / scale;
+                assert!(
+                    err < 1e-10,
+                    "{name}, block {block:?}, mode {i}: {} vs dense {}",
+                    pairs.values[i],
+                    dense.values[i]
+                );
+            }
+            let (ortho, stiff, residual) = mode_errors(&k, &m, &pairs);
+            assert!(
+                ortho < 1e-10 && stiff < 1e-10 && residual < 1e-8,
+                "{name}, block {block:?}: |XᵀMX − I| {ortho:e}, |XᵀKX − Λ| {stiff:e}, \
+                 residual {residual:e}"
+            );
+        }
+    }
+}
+
+/// An operator with thirteen distinct eigenvalues, the last 288 times: the Krylov space of a
+/// block closes after a few steps, and the iteration must continue with fresh directions
+/// (orthogonal to everything, no division by a vanished norm) to fill its basis, then find
+/// the twelve lowest modes.
+#[test]
+fn block_lanczos_continues_past_an_invariant_subspace() {
+    let n = 300;
+    let diag = |f: &dyn Fn(usize) -> f64| {
+        let t: Vec<faer::sparse::Triplet<usize, usize, f64>> = (0..n)
+            .map(|i| faer::sparse::Triplet::new(i, i, f(i)))
+            .collect();
+        faer::sparse::SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &t).unwrap()
+    };
+    // K x = λ M x with diagonal K, M: λ_i = K_ii / M_ii, here i + 1 for the first twelve
+    // unknowns (scattered by a permutation) and 100 for the others
+    let place = |i: usize| (i * 37) % n;
+    let lambda = |j: usize| {
+        let i = (0..n).find(|&i| place(i) == j).unwrap();
+        if i < 12 { (i + 1) as f64 } else { 100.0 }
+    };
+    let mass = |j: usize| 1.0 + 0.5 * ((j * 7) % 3) as f64;
+    let k = diag(&|j| lambda(j) * mass(j));
+    let m = diag(&mass);
+    let exact: Vec<f64> = (1..=12).map(|i| i as f64).collect();
+    for block in [Some(1), Some(4)] {
+        let pairs = lowest_modes(
+            &k,
+            &m,
+            12,
+            &EigenOptions {
+                method: EigenMethod::Lanczos,
+                block,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        for i in 0..12 {
+            assert!(
+                (pairs.values[i] - exact[i]).abs() < 1e-12,
+                "block {block:?}, mode {i}: {} vs {}",
+                pairs.values[i],
+                exact[i]
+            );
+        }
+        let (ortho, stiff, residual) = mode_errors(&k, &m, &pairs);
+        assert!(ortho < 1e-12 && stiff < 1e-12 && residual < 1e-12);
+    }
+}
+
 #[test]
 fn free_free_plate_has_six_rigid_modes_and_no_spurious_ones() {
     let lam = iso_plate(0.01);
