@@ -240,9 +240,10 @@ fn mid_node_deflection_sensitivity_matches_central_differences_on_the_replayed_s
     }
 }
 
-/// Direct sensitivities converge as the tolerances tighten; independent adaptive runs of
-/// perturbed designs carry step-selection noise that does not shrink with the perturbation
-/// (paper §5, Fig. 6c): documented here by its size.
+/// Direct sensitivities converge as the tolerances tighten; central differences of independent
+/// adaptive runs of perturbed designs do not: truncation at large steps, the runs' own
+/// discretisation and step-selection noise at small ones (paper §5, Fig. 6c), documented here
+/// by their size.
 #[test]
 fn direct_sensitivities_converge_and_adaptive_finite_differences_are_noisy() {
     let angles = [ANGLE; 4];
@@ -357,9 +358,21 @@ fn direct_sensitivities_converge_and_adaptive_finite_differences_are_noisy() {
     let noise = |f: &Vec<f64>| (f[1] - reference).abs() / reference.abs();
     // measured 2026-11-21 (rtol 1e-6; direct 3.23e-4): δ = 0.1° 4.9e-3, 0.01° 1.7e-4 (by
     // chance; 4.0e-3 on another round-off variant of the model), 0.001° 5.1e-2, 0.0001° 2.2e-1
-    // (step-selection noise ∝ 1/δ)
-    assert!(noise(&fd[3]) > 10.0 * discretisation);
-    assert!(noise(&fd[3]) > noise(&fd[1]));
+    // (step-selection noise ∝ 1/δ). Measured 2026-11-25 (direct 6.97e-4), since the rod's
+    // repeated pairs get a basis fixed by their span (`fem::eigen::canonical_cluster_bases`):
+    // 3.24e-3, 6.67e-4, 2.30e-4, 6.57e-4; with the eigen solver's arbitrary basis in each
+    // perturbed design, as before, 3.21e-3, 2.44e-4, 2.36e-3, 5.42e-2. The perturbed runs now
+    // see the same modes and mostly choose the same steps, so the noise no longer grows as
+    // 1/δ; but no difference step comes near the direct method at a tighter tolerance.
+    assert!(
+        noise(&fd[0]) > 2.0 * discretisation,
+        "truncation at δ = 0.1°"
+    );
+    let best = fd.iter().map(noise).fold(f64::INFINITY, f64::min);
+    assert!(
+        best > 10.0 * previous,
+        "central differences {best:e}, direct at rtol 1e-7 {previous:e}"
+    );
 }
 
 /// Many design variables (one per ply) in chunks of 1, 2, 4 and 8: identical sensitivities

@@ -580,6 +580,7 @@ pub fn modal_analysis(
             .columns(n_rigid, pairs.vectors.ncols() - n_rigid)
             .into_owned();
     }
+    crate::eigen::canonical_cluster_bases(&mut pairs, crate::sensitivity::CLUSTER_RTOL);
     if opts.reference == ReferenceCondition::Supports {
         // supports that leave a rigid motion free show it as a zero frequency
         let lmax = pairs.values.iter().fold(0.0f64, |a, b| a.max(b.abs()));

@@ -220,6 +220,57 @@ pub fn lowest_modes_of_nodes(
     rayleigh_ritz(k, m, &raw)
 }
 
+/// The first row whose entry of `norms` is within a relative 1e-6 of their largest: a pivot
+/// that round-off does not move between rows tied by a symmetry.
+fn pivot_row(norms: impl Iterator<Item = f64> + Clone) -> usize {
+    let max = norms.clone().fold(0.0, f64::max);
+    norms
+        .into_iter()
+        .position(|v| v >= max * (1.0 - 1e-6))
+        .unwrap_or(0)
+}
+
+/// Sign every mode, and rotate the modes of every cluster of repeated eigenvalues (relative spread below `rtol`,
+/// [`crate::sensitivity::clusters`]) to a basis fixed by their span alone, so that results
+/// in modal coordinates do not depend on the basis an eigen solver happened to return (nor
+/// change with round-off, as a golden file would see).
+///
+/// Within a cluster `Z` (`n × r`, M-orthonormal): the first mode is the combination largest
+/// at the dof where the span is largest (`i₁ = argmax_i ‖Z_i‖`, mode `Z Z_i₁ᵀ/‖Z_i₁‖`), the
+/// next likewise within the rest of the span, and so on; each mode positive at its pivot dof.
+/// A pivot is the first dof within a relative 1e-6 of the largest, so dof tied by a symmetry
+/// (the two halves of a rod clamped at its middle) do not trade places with round-off; for
+/// such a pair the modes come out localised, one on each half. A single mode is only signed
+/// by the same rule (an antisymmetric mode's equal and opposite extremes would otherwise give
+/// its sign to round-off). The rotation is orthogonal: `XᵀMX = I` and `XᵀKX = Λ` are kept.
+pub fn canonical_cluster_bases(pairs: &mut Eigenpairs, rtol: f64) {
+    let n = pairs.vectors.nrows();
+    for g in crate::sensitivity::clusters(&pairs.values, rtol) {
+        let r = g.len();
+        let mut z = DMatrix::from_fn(n, r, |i, j| pairs.vectors[(i, g[j])]);
+        for k in 0..r {
+            let rest = r - k;
+            let sub = z.columns(k, rest).into_owned();
+            let i1 = pivot_row((0..n).map(|i| sub.row(i).norm()));
+            let q = sub.row(i1).transpose() / sub.row(i1).norm();
+            // Householder reflection taking e₁ to ∓q: its other columns span q's complement
+            let mut v = q.clone();
+            v[0] += if q[0] >= 0.0 { 1.0 } else { -1.0 };
+            let vv = v.dot(&v);
+            let h = DMatrix::<f64>::identity(rest, rest) - (2.0 / vv) * &v * v.transpose();
+            let mut rotated = &sub * h;
+            // the first column is ∓Z q: positive at its pivot
+            if rotated[(i1, 0)] < 0.0 {
+                rotated.column_mut(0).neg_mut();
+            }
+            z.columns_mut(k, rest).copy_from(&rotated);
+        }
+        for (j, &c) in g.iter().enumerate() {
+            pairs.vectors.column_mut(c).copy_from(&z.column(j));
+        }
+    }
+}
+
 /// Rayleigh–Ritz on the span of `x`: returns sorted, `M`-orthonormal pairs.
 pub fn rayleigh_ritz(
     k: &SparseColMat<usize, f64>,

@@ -91,19 +91,23 @@ fn tracked_modes_of_perturbed_designs_differentiate_to_the_updated_mode_tangents
     let h_deg = 1e-3;
     let mut plus = body(angle + h_deg);
     let mut minus = body(angle - h_deg);
-    // untracked, the perturbed bases are unrelated to the nominal one within the clusters
-    let untracked = max_abs(&(&plus.modes - &nominal.modes));
+    // untracked, the perturbed bases within the clusters are each fixed by their own span
+    // (`canonical_cluster_bases`), a choice that need not be continuous in the design (it
+    // follows which rows of a cluster are largest, and a four-fold cluster has rows tied by
+    // symmetry up to the lay-up's couplings): their differences are not the tangents
+    let untracked = (&plus.modes - &minus.modes) / (2.0 * h_deg.to_radians());
+    let untracked = max_abs(&(&untracked - &tangent)) / max_abs(&tangent);
     plus.align_to(&nominal, 1e-6).unwrap();
     minus.align_to(&nominal, 1e-6).unwrap();
     let tracked = max_abs(&(&plus.modes - &nominal.modes));
     let cd = (&plus.modes - &minus.modes) / (2.0 * h_deg.to_radians());
     let err = max_abs(&(&cd - &tangent)) / max_abs(&tangent);
     eprintln!(
-        "max |ΔX| untracked {untracked:.2e}, tracked {tracked:.2e}; tangent vs central \
-         differences {err:.2e} (max |X_b| {:.2e})",
+        "tangent vs central differences untracked {untracked:.2e}, tracked {err:.2e} \
+         (max |X_b| {:.2e}); max |ΔX| tracked {tracked:.2e}",
         max_abs(&tangent)
     );
-    assert!(untracked > 1e-2 * max_abs(&nominal.modes), "{untracked:e}");
+    assert!(untracked > 1e-2, "{untracked:e}");
     assert!(tracked < 1e-3 * max_abs(&nominal.modes), "{tracked:e}");
     assert!(err < 1e-5, "{err:e}");
     // tracking keeps the modes mass-orthonormal and is the identity on the reference itself

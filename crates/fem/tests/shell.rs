@@ -430,6 +430,81 @@ fn block_lanczos_agrees_with_dense_for_every_block_size() {
     }
 }
 
+/// Repeated modes get a basis fixed by their span: a square plate's pairs, computed by three
+/// solvers that return different bases within each pair (and turned by an arbitrary rotation),
+/// come out the same after `canonical_cluster_bases`, still M-orthonormal and K-diagonal.
+#[test]
+fn repeated_modes_get_a_basis_fixed_by_their_span() {
+    let (mesh, asm, props) = ss_plate(0.4, 0.4, 10, iso_plate(0.004), "all");
+    let (k, m) = asm
+        .values(
+            &mesh,
+            &props,
+            &ElementOptions::default(),
+            MassKind::Consistent,
+        )
+        .unwrap();
+    let (k, m) = (asm.matrix(k), asm.matrix(m));
+    let p = 10;
+    let solve = |method, block| {
+        let opts = EigenOptions {
+            method,
+            block,
+            ..Default::default()
+        };
+        lowest_modes(&k, &m, p, &opts).unwrap()
+    };
+    let mut turned = solve(EigenMethod::Dense, None);
+    let clusters = fem::sensitivity::clusters(&turned.values, fem::sensitivity::CLUSTER_RTOL);
+    let pairs: Vec<&Vec<usize>> = clusters.iter().filter(|g| g.len() == 2).collect();
+    assert!(
+        pairs.len() >= 2,
+        "the square plate's repeated pairs: {clusters:?}"
+    );
+    for (n, g) in pairs.iter().enumerate() {
+        let (c, s) = ((0.3 + n as f64).cos(), (0.3 + n as f64).sin());
+        let (a, b) = (
+            turned.vectors.column(g[0]).into_owned(),
+            turned.vectors.column(g[1]).into_owned(),
+        );
+        turned
+            .vectors
+            .column_mut(g[0])
+            .copy_from(&(&a * c + &b * s));
+        turned
+            .vectors
+            .column_mut(g[1])
+            .copy_from(&(&b * c - &a * s));
+    }
+    let mut sets = vec![
+        solve(EigenMethod::Dense, None),
+        solve(EigenMethod::Lanczos, Some(1)),
+        solve(EigenMethod::Lanczos, Some(4)),
+        turned,
+    ];
+    // before: the bases of a pair differ between the solvers
+    let gap = |x: &DMatrix<f64>, y: &DMatrix<f64>, j: usize| {
+        (x.column(j) - y.column(j)).abs().max() / x.column(j).abs().max()
+    };
+    assert!(
+        pairs
+            .iter()
+            .any(|g| gap(&sets[0].vectors, &sets[3].vectors, g[0]) > 0.1),
+        "the rotation must change the basis"
+    );
+    for set in &mut sets {
+        fem::eigen::canonical_cluster_bases(set, fem::sensitivity::CLUSTER_RTOL);
+        let (ortho, stiff, residual) = mode_errors(&k, &m, set);
+        assert!(ortho < 1e-10 && stiff < 1e-10 && residual < 1e-8);
+    }
+    for set in &sets[1..] {
+        for j in 0..p {
+            let d = gap(&sets[0].vectors, &set.vectors, j);
+            assert!(d < 1e-6, "mode {j}: canonical bases differ by {d:e}");
+        }
+    }
+}
+
 /// An operator with thirteen distinct eigenvalues, the last 288 times: the Krylov space of a
 /// block closes after a few steps, and the iteration must continue with fresh directions
 /// (orthogonal to everything, no division by a vanished norm) to fill its basis, then find
