@@ -696,30 +696,20 @@ fn lanczos(
         let nkeep = if done { p } else { keep_target };
         // the new basis V Y[:, 0..nkeep], and its products by M
         let yk = Mat::<f64>::from_fn(mdim, nkeep, |r, c| y[(r, c)]);
-        let mut nv = vec![0.0; n * nkeep];
-        let mut nmv = vec![0.0; n * nkeep];
-        matmul(
-            faer::MatMut::from_column_major_slice_mut(&mut nv, n, nkeep),
-            Accum::Replace,
-            basis.v_ref(0..mdim),
-            yk.as_ref(),
-            1.0,
-            par,
-        );
+        let combine = |of: faer::MatRef<'_, f64>| {
+            let mut out = vec![0.0; n * nkeep];
+            let dst = faer::MatMut::from_column_major_slice_mut(&mut out, n, nkeep);
+            matmul(dst, Accum::Replace, of, yk.as_ref(), 1.0, par);
+            out
+        };
+        let nv = combine(basis.v_ref(0..mdim));
         if done {
             return Ok(DMatrix::from_column_slice(n, p, &nv));
         }
         if restart == opts.max_restarts {
             break;
         }
-        matmul(
-            faer::MatMut::from_column_major_slice_mut(&mut nmv, n, nkeep),
-            Accum::Replace,
-            basis.mv_ref(0..mdim),
-            yk.as_ref(),
-            1.0,
-            par,
-        );
+        let nmv = combine(basis.mv_ref(0..mdim));
         // [Ritz vectors, next block]
         basis.v.copy_within(mdim * n..(mdim + b) * n, nkeep * n);
         basis.mv.copy_within(mdim * n..(mdim + b) * n, nkeep * n);
