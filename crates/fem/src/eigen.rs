@@ -230,10 +230,10 @@ fn pivot_row(norms: impl Iterator<Item = f64> + Clone) -> usize {
         .unwrap_or(0)
 }
 
-/// Sign every mode, and rotate the modes of every cluster of repeated eigenvalues (relative spread below `rtol`,
-/// [`crate::sensitivity::clusters`]) to a basis fixed by their span alone, so that results
-/// in modal coordinates do not depend on the basis an eigen solver happened to return (nor
-/// change with round-off, as a golden file would see).
+/// Sign every mode, and rotate the modes of every cluster of repeated eigenvalues (relative
+/// spread below `rtol`, [`crate::sensitivity::clusters`]) to a basis fixed by their span
+/// alone, so that results in modal coordinates do not depend on the basis an eigen solver
+/// happened to return (nor change with round-off, as a golden file would see).
 ///
 /// Within a cluster `Z` (`n × r`, M-orthonormal): the first mode is the combination largest
 /// at the dof where the span is largest (`i₁ = argmax_i ‖Z_i‖`, mode `Z Z_i₁ᵀ/‖Z_i₁‖`), the
@@ -587,7 +587,8 @@ fn lanczos(
     // M-orthonormalise the block `w` (already orthogonal to basis columns `0..at`) into basis
     // columns `at..at + b`: modified Gram–Schmidt within the block, twice, `r` its upper
     // triangular factor. A direction the block has lost (an invariant subspace) is replaced by
-    // a fresh vector orthogonal to everything, its row of `r` zero.
+    // a fresh vector orthogonal to everything, its diagonal entry of `r` zero (the lost vector
+    // was a combination of the ones before it).
     let finish_block = |basis: &mut Basis,
                         seed: &mut u64,
                         w: &mut [f64],

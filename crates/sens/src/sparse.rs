@@ -73,7 +73,7 @@ pub fn grouped_ordering(
         }
     }
     drop(fill);
-    // The node graph, both triangles (each column once per node pair, marked), sorted.
+    // The node graph: each node's neighbours met in its own columns, once each (marked).
     let (col_ptr, row_idx) = (pattern.col_ptr(), pattern.row_idx());
     let mut adjacent: Vec<Vec<usize>> = vec![Vec::new(); n_groups];
     let mut mark = vec![LAST; n_groups];

@@ -163,8 +163,10 @@ fn the_factor_solves_its_system() {
     let n = g.group.len();
     let symbolic =
         SparseCholesky::symbolic(g.lower.symbolic(), Side::Lower, &g.group).expect("symbolic");
+    let len = symbolic.len_val();
     let llt = SparseCholesky::new(symbolic, g.lower.as_ref(), Side::Lower).expect("SPD");
     assert_eq!(llt.dim(), n);
+    assert_eq!(llt.factor_len(), len);
     // two right-hand sides at once
     let x: Vec<f64> = (0..2 * n)
         .map(|i| ((i * 37) % 101) as f64 / 50.0 - 1.0)
