@@ -115,6 +115,15 @@ pub fn analyse_with_derivatives<const N: usize>(
     SectionAnalysis::new(mesh)?.sensitivities::<N>(design)
 }
 
+/// The material stiffness the kernel integrates: per region in the ply axes, rotated to the
+/// section axes at every integration point (dual stiffnesses, whose rotated copies would not
+/// fit in memory), or already in section axes at every integration point of [`Model::gps`].
+#[derive(Clone, Copy)]
+enum Materials<'a, S> {
+    PerRegion(&'a [Matrix6<S>]),
+    PerPoint(&'a [Matrix6<S>]),
+}
+
 /// Fields of the kernel, per column (6 columns), node-dof-major.
 #[derive(Clone, Copy)]
 struct Fields<'a, S> {
@@ -205,7 +214,6 @@ impl SectionAnalysis {
             n_free,
             c_bar,
         };
-        let (llt, mut conditioning) = m.factorise()?;
         let q_ply: Vec<Matrix6<f64>> = m
             .mesh
             .regions
@@ -213,6 +221,10 @@ impl SectionAnalysis {
             .zip(&m.c_bar)
             .map(|(r, c)| rotate_stiffness(c, &Region::ply_rotation(r.ply_angle)))
             .collect();
+        // the material in section axes at every integration point, rotated once for the
+        // assembly and the three kernel passes below (dropped with this function)
+        let q_points = m.stiffness_at_points(&q_ply);
+        let (llt, mut conditioning) = m.factorise(&q_points)?;
         let nd = 3 * m.mesh.nodes.len();
 
         // System 1: K [X₁; Y₁] = [0; T].
@@ -231,7 +243,7 @@ impl SectionAnalysis {
         // System 2: K [X; Y] = [∫(SN)ᵀσ₁ − ∫(BN)ᵀ Q SN X₁; I − ∫Zᵀ Q SN X₁].
         let mut s1 = vec![0.0; nd * 6];
         m.kernel(
-            &q_ply,
+            Materials::PerPoint(&q_points),
             &m.gps,
             Fields {
                 u: Some(&x1),
@@ -248,7 +260,7 @@ impl SectionAnalysis {
         let mut b2 = vec![0.0; nd * 6];
         let mut z2 = [0.0; 36];
         m.kernel(
-            &q_ply,
+            Materials::PerPoint(&q_points),
             &m.gps,
             Fields {
                 u: None,
@@ -291,7 +303,7 @@ impl SectionAnalysis {
         // Compliance: the strain energy of the central solution per unit force.
         let mut f = [0.0; 36];
         m.kernel(
-            &q_ply,
+            Materials::PerPoint(&q_points),
             &m.gps,
             Fields {
                 u: Some(&x),
@@ -487,7 +499,7 @@ impl SectionAnalysis {
             let mut b = vec![zero; nd * 6];
             let mut z = [zero; 36];
             self.model.kernel(
-                &q_ply,
+                Materials::PerRegion(&q_ply),
                 gps,
                 Fields {
                     u: Some(hats.x1),
@@ -513,7 +525,7 @@ impl SectionAnalysis {
         let (x, y) = {
             let mut s1 = vec![zero; nd * 6];
             self.model.kernel(
-                &q_ply,
+                Materials::PerRegion(&q_ply),
                 gps,
                 Fields {
                     u: Some(&x1),
@@ -530,7 +542,7 @@ impl SectionAnalysis {
             let mut b = vec![zero; nd * 6];
             let mut z = [zero; 36];
             self.model.kernel(
-                &q_ply,
+                Materials::PerRegion(&q_ply),
                 gps,
                 Fields {
                     u: Some(hats.x),
@@ -545,7 +557,7 @@ impl SectionAnalysis {
                 },
             );
             self.model.kernel(
-                &q_ply,
+                Materials::PerRegion(&q_ply),
                 gps,
                 Fields {
                     u: None,
@@ -569,7 +581,7 @@ impl SectionAnalysis {
 
         let mut f = [Dual::<N>::constant(0.0); 36];
         self.model.kernel(
-            &q_ply,
+            Materials::PerRegion(&q_ply),
             gps,
             Fields {
                 u: Some(&x),
@@ -683,6 +695,17 @@ impl Model {
         congruence(&bond_stress_matrix(&r), q_ply)
     }
 
+    /// [`Model::stiffness_at`] at every integration point of [`Model::gps`], in their order.
+    fn stiffness_at_points(&self, q_ply: &[Matrix6<f64>]) -> Vec<Matrix6<f64>> {
+        let mut out = Vec::with_capacity(self.gps.len());
+        for (e, el) in self.mesh.elements.iter().enumerate() {
+            for gp in &self.gps[self.gp_start[e]..self.gp_start[e + 1]] {
+                out.push(self.stiffness_at(el.region, gp, &q_ply[el.region]));
+            }
+        }
+        out
+    }
+
     /// The sparsity pattern (lower triangle, sorted CSC) of the warping matrix: nodal
     /// components couple when their nodes share an element; every warping component couples
     /// with the six generalised strains.
@@ -730,9 +753,12 @@ impl Model {
 
     /// Assemble the lower triangle of `K = ∫[BN Z]ᵀ Q [BN Z]` (pinned components removed)
     /// and factorise it; with what the solves need to estimate its conditioning.
-    fn factorise(&self) -> Result<(SparseCholesky, Conditioning), SectionError> {
+    fn factorise(
+        &self,
+        q_points: &[Matrix6<f64>],
+    ) -> Result<(SparseCholesky, Conditioning), SectionError> {
         let n_tot = self.n_free + 6;
-        let (col_ptr, row_idx, values) = self.assemble();
+        let (col_ptr, row_idx, values) = self.assemble(q_points);
         let k = SparseColMat::new(
             SymbolicSparseColMat::new_checked(n_tot, n_tot, col_ptr, None, row_idx),
             values,
@@ -758,15 +784,8 @@ impl Model {
     }
 
     /// The lower triangle of `K = ∫[BN Z]ᵀ Q [BN Z]` (pinned components removed), sorted CSC:
-    /// `(col_ptr, row_idx, values)`.
-    fn assemble(&self) -> (Vec<usize>, Vec<usize>, Vec<f64>) {
-        let q_ply: Vec<Matrix6<f64>> = self
-            .mesh
-            .regions
-            .iter()
-            .zip(&self.c_bar)
-            .map(|(r, c)| rotate_stiffness(c, &Region::ply_rotation(r.ply_angle)))
-            .collect();
+    /// `(col_ptr, row_idx, values)`; `q_points` the material at the integration points.
+    fn assemble(&self, q_points: &[Matrix6<f64>]) -> (Vec<usize>, Vec<usize>, Vec<f64>) {
         let (col_ptr, row_idx) = self.pattern();
         let mut values = vec![0.0; row_idx.len()];
         let mut add = |r: usize, c: usize, v: f64| {
@@ -782,8 +801,11 @@ impl Model {
             let nn = el.kind.node_count();
             let m = 3 * nn + 6;
             let mut ke = [[0.0; M]; M];
-            for gp in &self.gps[self.gp_start[e]..self.gp_start[e + 1]] {
-                let q = self.stiffness_at(el.region, gp, &q_ply[el.region]);
+            for (k, gp) in self.gps[self.gp_start[e]..self.gp_start[e + 1]]
+                .iter()
+                .enumerate()
+            {
+                let q = q_points[self.gp_start[e] + k];
                 // G = [B₁ … B_nn Z] (6 × m).
                 let mut g = [[0.0; M]; 6];
                 for a in 0..nn {
@@ -872,7 +894,7 @@ impl Model {
     /// dual counterpart (then the fields are dual too).
     fn kernel<S, F, G>(
         &self,
-        q_ply: &[Matrix6<S>],
+        materials: Materials<'_, S>,
         gps: &[GaussPoint<G>],
         f: Fields<'_, F>,
         mut out: Outputs<'_, S>,
@@ -883,8 +905,16 @@ impl Model {
     {
         for (e, el) in self.mesh.elements.iter().enumerate() {
             let nn = el.kind.node_count();
-            for gp in &gps[self.gp_start[e]..self.gp_start[e + 1]] {
-                let q = self.stiffness_at(el.region, gp, &q_ply[el.region]);
+            for (k, gp) in gps[self.gp_start[e]..self.gp_start[e + 1]]
+                .iter()
+                .enumerate()
+            {
+                let q = match materials {
+                    Materials::PerRegion(q_ply) => {
+                        self.stiffness_at(el.region, gp, &q_ply[el.region])
+                    }
+                    Materials::PerPoint(q) => q[self.gp_start[e] + k],
+                };
                 let [x2, x3] = gp.x;
                 let mut eps = [[F::zero(); 6]; 6];
                 for (c, ec) in eps.iter_mut().enumerate() {
