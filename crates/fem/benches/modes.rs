@@ -123,6 +123,7 @@ fn modes_and_eigenvalue_derivatives(mesh: &Mesh, asm: &Assembly) -> (Vec<f64>, V
             &opts,
             MassKind::Consistent,
             &pairs.vectors,
+            &fem::sensitivity::clusters(&pairs.values, fem::sensitivity::CLUSTER_RTOL),
         )
         .unwrap();
     let d = fem::eigenvalue_derivatives(&pairs, &projected);

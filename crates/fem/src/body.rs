@@ -979,12 +979,18 @@ where
     no_correction(analysis)?;
     let (el, mass) = (&analysis.options.element, analysis.options.mass);
     let mut projected = Vec::with_capacity(b.len());
+    let blocks =
+        crate::sensitivity::clusters(&analysis.pairs.values, crate::sensitivity::CLUSTER_RTOL);
     for range in sens::chunk_ranges(b.len(), N) {
         let p = props(&seed_chunk::<N>(b, range.start));
-        let chunk =
-            analysis
-                .assembly
-                .projected_tangents(mesh, &p, el, mass, &analysis.pairs.vectors)?;
+        let chunk = analysis.assembly.projected_tangents(
+            mesh,
+            &p,
+            el,
+            mass,
+            &analysis.pairs.vectors,
+            &blocks,
+        )?;
         projected.extend(chunk.into_iter().take(range.len()));
     }
     Ok(eigenvalue_derivatives(&analysis.pairs, &projected))

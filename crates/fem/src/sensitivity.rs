@@ -439,7 +439,8 @@ fn store_cluster(
 }
 
 /// A design variable's derivative matrices projected on the modes `X`: `Xᵀ K_b X` and
-/// `Xᵀ M_b X` (`p × p`).
+/// `Xᵀ M_b X` (`p × p`; from [`crate::Assembly::projected_tangents`], within the blocks it was
+/// asked for).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ProjectedDerivative {
     pub k: DMatrix<f64>,
@@ -447,8 +448,9 @@ pub struct ProjectedDerivative {
 }
 
 /// The eigenvalue derivatives alone (no eigenvectors'), from the derivative matrices projected
-/// on all the modes, one [`ProjectedDerivative`] per variable
-/// ([`crate::Assembly::projected_tangents`], which never assembles `K_b`). Equal to those of
+/// on the modes, one [`ProjectedDerivative`] per variable
+/// ([`crate::Assembly::projected_tangents`], which never assembles `K_b`; only the blocks of
+/// the clusters of `modes`, [`clusters`] with [`CLUSTER_RTOL`], are read). Equal to those of
 /// [`mode_derivatives`].
 pub fn eigenvalue_derivatives(
     modes: &Eigenpairs,

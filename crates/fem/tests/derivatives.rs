@@ -638,6 +638,7 @@ fn eigenvalue_derivatives_from_element_projections_equal_the_assembled_ones() {
             &opts,
             MassKind::Consistent,
             &pairs.vectors,
+            &fem::sensitivity::clusters(&pairs.values, fem::sensitivity::CLUSTER_RTOL),
         )
         .unwrap();
     let fast = fem::eigenvalue_derivatives(&pairs, &projected);
