@@ -300,8 +300,10 @@ pub fn rayleigh_ritz(
     let mut values = Vec::with_capacity(order.len());
     for (c, &i) in order.iter().enumerate() {
         let v = x * y.column(i);
-        // sign convention: largest-magnitude component positive
-        let imax = v.iamax();
+        // sign convention: the largest-magnitude component positive (the first within a
+        // relative 1e-6 of it, as in `canonical_cluster_bases`: equal and opposite extremes
+        // do not hand the sign to round-off)
+        let imax = pivot_row(v.iter().map(|x| x.abs()));
         let s = if v[imax] < 0.0 { -1.0 } else { 1.0 };
         vectors.column_mut(c).copy_from(&(v * s));
         values.push(eig.eigenvalues[i]);
