@@ -436,6 +436,11 @@ impl Assembly {
     pub fn free_dofs(&self) -> &[usize] {
         &self.free_dofs
     }
+    /// The node of each free dof: the groups by which a sparse factorisation orders the
+    /// matrices of this assembly ([`sens::sparse::grouped_ordering`]).
+    pub fn free_dof_nodes(&self) -> Vec<usize> {
+        self.free_dofs.iter().map(|d| d / 6).collect()
+    }
     /// Free index of a global dof (`None` when constrained).
     pub fn free_index(&self, global_dof: usize) -> Option<usize> {
         self.free_index[global_dof]

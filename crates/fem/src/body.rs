@@ -559,7 +559,7 @@ pub fn modal_analysis(
             assembly.n_free()
         )));
     }
-    let node_of: Vec<usize> = assembly.free_dofs().iter().map(|d| d / 6).collect();
+    let node_of = assembly.free_dof_nodes();
     let mut pairs = lowest_modes_of_nodes(&k, &m, want, &opts.eigen, Some(&node_of))?;
     let mut n_rigid = 0;
     if rigid > 0 {
@@ -664,9 +664,9 @@ fn static_correction(
                 .into(),
         ));
     }
-    let node_of: Vec<usize> = assembly.free_dofs().iter().map(|d| d / 6).collect();
-    let symbolic = SparseCholesky::symbolic(k.symbolic(), faer::Side::Lower, &node_of)
-        .map_err(|e| FemError::Eigen(format!("{e:?}")))?;
+    let symbolic =
+        SparseCholesky::symbolic(k.symbolic(), faer::Side::Lower, &assembly.free_dof_nodes())
+            .map_err(|e| FemError::Eigen(format!("{e:?}")))?;
     let llt = SparseCholesky::new(symbolic, k.as_ref(), faer::Side::Lower).map_err(|_| {
         FemError::Invalid(
             "static correction: the stiffness matrix is not positive definite (the reference \

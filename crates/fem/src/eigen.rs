@@ -187,9 +187,9 @@ pub fn lowest_modes(
 }
 
 /// [`lowest_modes`] of matrices whose unknown `i` belongs to node `node_of[i]` (an
-/// [`crate::Assembly`]'s free dof: `free_dofs()[i] / 6`): the sparse factorisation is then
-/// ordered on the node graph ([`sens::sparse`]), the same fill at a fraction of the ordering's
-/// cost. `None` orders the matrix graph.
+/// assembly's [`free_dof_nodes`](crate::Assembly::free_dof_nodes)): the sparse factorisation
+/// is then ordered on the node graph ([`sens::sparse`]), the same fill at a fraction of the
+/// ordering's cost. `None` orders the matrix graph.
 pub fn lowest_modes_of_nodes(
     k: &SparseColMat<usize, f64>,
     m: &SparseColMat<usize, f64>,

@@ -631,15 +631,8 @@ fn frequencies_do_not_depend_on_the_orientation_in_space() {
     };
     let spectrum = |mesh: &Mesh, props: &Properties<f64>| {
         let asm = Assembly::new(mesh, &Constraints::new()).unwrap();
-        let (k, m) = asm
-            .values(
-                mesh,
-                props,
-                &ElementOptions::default(),
-                MassKind::Consistent,
-            )
-            .unwrap();
-        lowest_modes(&asm.matrix(k), &asm.matrix(m), 12, &EigenOptions::default())
+        let (k, m) = consistent_matrices(mesh, &asm, props);
+        lowest_modes(&k, &m, 12, &EigenOptions::default())
             .unwrap()
             .values
     };
