@@ -1,5 +1,6 @@
 //! Analysis of an 8-ply composite tube of 20 000 8-node elements plus the derivatives with
-//! respect to its 8 ply angles (one `Dual<8>` chunk through the stored factorisation).
+//! respect to its 8 ply angles (by the adjoints of the two warping systems, through the stored
+//! factorisation).
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use laminate::OrthotropicMaterial;
