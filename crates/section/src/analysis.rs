@@ -257,7 +257,7 @@ impl SectionAnalysis {
         mesh.validate()?;
         let mesh = mesh.clone();
         let (gps, gp_start) = geometry(&mesh, &mesh.nodes);
-        let (dof, n_free) = dof_map(&mesh);
+        let (dof, n_free) = dof_map(&mesh)?;
         let c_bar: Vec<Matrix6<f64>> = mesh
             .regions
             .iter()
@@ -1045,12 +1045,13 @@ impl Model {
                 adj[a].extend_from_slice(&el.nodes);
             }
         }
+        // A node's free components have consecutive numbers (`dof_map`): listing the neighbours
+        // by their first number makes the rows below come out sorted.
+        let first = |n: usize| (0..3).map(|k| self.dof[3 * n + k]).min().unwrap_or(NONE);
         for v in &mut adj {
-            v.sort_unstable();
+            v.sort_unstable_by_key(|&n| first(n));
             v.dedup();
         }
-        // Free dofs are numbered node by node in increasing node order, so the rows below come
-        // out sorted.
         let mut owner = vec![0; self.n_free];
         for (g, &f) in self.dof.iter().enumerate() {
             if f != NONE {
@@ -1091,14 +1092,9 @@ impl Model {
             SymbolicSparseColMat::new_checked(n_tot, n_tot, col_ptr, None, row_idx),
             values,
         );
-        // The fill-reducing ordering of the node graph (the strains last).
-        let mut group = vec![sens::sparse::LAST; n_tot];
-        for (g, &f) in self.dof.iter().enumerate() {
-            if f != NONE {
-                group[f] = g / 3;
-            }
-        }
-        let symbolic = SparseCholesky::symbolic(k.symbolic(), Side::Lower, &group)
+        // The unknowns are numbered in the fill-reducing order of the node graph (`dof_map`),
+        // the strains last: no permuted copy of the matrix.
+        let symbolic = SparseCholesky::symbolic_in_order(k.symbolic(), Side::Lower)
             .map_err(|e| SectionError::Factorisation(format!("{e:?}")))?;
         // The materials are positive definite and the mesh valid, so K is: a failed
         // factorisation is round-off.
@@ -1469,8 +1465,11 @@ fn geometry<G: Scalar>(mesh: &SectionMesh, nodes: &[[G; 2]]) -> (Vec<GaussPoint<
     (gps, start)
 }
 
-/// Free-dof numbering with six pinned components that remove the rigid modes of the warping.
-fn dof_map(mesh: &SectionMesh) -> (Vec<usize>, usize) {
+/// Free-dof numbering with six pinned components that remove the rigid modes of the warping:
+/// node by node in the fill-reducing order of the graph of the nodes with a free component
+/// ([`sens::sparse::grouped_ordering`]), so that the warping matrix is assembled in the order
+/// its factor eliminates (`SparseCholesky::symbolic_in_order`; the six strains follow).
+fn dof_map(mesh: &SectionMesh) -> Result<(Vec<usize>, usize), SectionError> {
     let nn = mesh.nodes.len();
     let mut used = vec![false; nn];
     for el in &mesh.elements {
@@ -1508,9 +1507,35 @@ fn dof_map(mesh: &SectionMesh) -> (Vec<usize>, usize) {
     } else {
         pinned[3 * b + 1] = true;
     }
+    // the nodes with a free component, in the fill-reducing order of their graph
+    let has_free = |n: usize| (0..3).any(|k| !pinned[3 * n + k]);
+    let mut adjacency: Vec<Vec<usize>> = vec![Vec::new(); nn];
+    for el in &mesh.elements {
+        for &a in &el.nodes {
+            if has_free(a) {
+                adjacency[a].extend(el.nodes.iter().filter(|&&b| has_free(b)));
+            }
+        }
+    }
+    let mut col_ptr = vec![0usize];
+    let mut row_idx = Vec::new();
+    for list in &mut adjacency {
+        list.sort_unstable();
+        list.dedup();
+        row_idx.extend_from_slice(list);
+        col_ptr.push(row_idx.len());
+    }
+    drop(adjacency);
+    let graph = SymbolicSparseColMat::new_checked(nn, nn, col_ptr, None, row_idx);
+    let identity: Vec<usize> = (0..nn).collect();
+    let (order, _) = sens::sparse::grouped_ordering(graph.as_ref(), &identity)
+        .map_err(|e| SectionError::Factorisation(format!("{e:?}")))?;
     let mut dof = vec![NONE; 3 * nn];
     let mut n_free = 0;
-    for &n in &used_nodes {
+    for &n in &order {
+        if !used[n] {
+            continue;
+        }
         for k in 0..3 {
             if !pinned[3 * n + k] {
                 dof[3 * n + k] = n_free;
@@ -1518,7 +1543,7 @@ fn dof_map(mesh: &SectionMesh) -> (Vec<usize>, usize) {
             }
         }
     }
-    (dof, n_free)
+    Ok((dof, n_free))
 }
 
 #[cfg(test)]

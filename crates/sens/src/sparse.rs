@@ -192,11 +192,32 @@ impl SparseCholesky {
             pattern,
             side,
             SymmetricOrdering::Custom(ordering),
-            faer::sparse::linalg::cholesky::CholeskySymbolicParams {
-                supernodal_flop_ratio_threshold:
-                    faer::sparse::linalg::SupernodalThreshold::FORCE_SUPERNODAL,
-                ..Default::default()
-            },
+            supernodal(),
+        )
+        .map(Arc::new)
+    }
+
+    /// The symbolic factorisation of the pattern `pattern` (the triangle `side`) in the order
+    /// of its unknowns: for a matrix assembled in the order of [`grouped_ordering`] already,
+    /// which spares the numeric factorisation a permuted copy of the matrix.
+    pub fn symbolic_in_order(
+        pattern: SymbolicSparseColMatRef<'_, usize>,
+        side: Side,
+    ) -> Result<Arc<SymbolicCholesky<usize>>, FaerError> {
+        // without a permutation faer reads the pattern as given, and its analysis wants the
+        // upper triangle
+        let upper = match side {
+            Side::Upper => None,
+            Side::Lower => Some(transposed_pattern(pattern)),
+        };
+        let pattern = upper.as_ref().map_or(pattern, |(n, ptr, idx)| {
+            SymbolicSparseColMatRef::new_checked(*n, *n, ptr, None, idx)
+        });
+        factorize_symbolic_cholesky(
+            pattern,
+            Side::Upper,
+            SymmetricOrdering::Identity,
+            supernodal(),
         )
         .map(Arc::new)
     }
@@ -234,6 +255,38 @@ impl SparseCholesky {
     /// Number of stored entries of `L`.
     pub fn factor_len(&self) -> usize {
         self.values.len()
+    }
+}
+
+/// The transpose of a square pattern, sorted CSC: `(n, col_ptr, row_idx)`.
+fn transposed_pattern(a: SymbolicSparseColMatRef<'_, usize>) -> (usize, Vec<usize>, Vec<usize>) {
+    let n = a.ncols();
+    let (ptr, idx) = (a.col_ptr(), a.row_idx());
+    let mut t_ptr = vec![0usize; n + 1];
+    for &i in &idx[..ptr[n]] {
+        t_ptr[i + 1] += 1;
+    }
+    for i in 0..n {
+        t_ptr[i + 1] += t_ptr[i];
+    }
+    let mut next = t_ptr[..n].to_vec();
+    let mut t_idx = vec![0usize; ptr[n]];
+    for j in 0..n {
+        for &i in &idx[ptr[j]..ptr[j + 1]] {
+            t_idx[next[i]] = j;
+            next[i] += 1;
+        }
+    }
+    (n, t_ptr, t_idx)
+}
+
+/// faer's symbolic parameters with the supernodal factorisation at every size (see
+/// [`SparseCholesky`]).
+fn supernodal() -> faer::sparse::linalg::cholesky::CholeskySymbolicParams<'static> {
+    faer::sparse::linalg::cholesky::CholeskySymbolicParams {
+        supernodal_flop_ratio_threshold:
+            faer::sparse::linalg::SupernodalThreshold::FORCE_SUPERNODAL,
+        ..Default::default()
     }
 }
 

@@ -1,7 +1,8 @@
 //! `SparseCholesky` and its node-graph ordering: the ordering is a permutation that keeps each
 //! node's unknowns together and puts the `LAST` ones at the end; it fills the factor no more
 //! than faer's own minimum degree ordering of the whole matrix graph; the factor solves its
-//! system to round-off; an indefinite matrix is refused.
+//! system to round-off, also for a matrix numbered in the ordering beforehand; an indefinite
+//! matrix is refused.
 
 use faer::Side;
 use faer::sparse::linalg::cholesky::{SymmetricOrdering, factorize_symbolic_cholesky};
@@ -207,6 +208,60 @@ fn the_factor_solves_its_system() {
         .map(|(a, b)| (2.0 * a - b).abs() / 2.0)
         .fold(0.0, f64::max);
     assert!(err < 1e-12, "solution error {err:e}");
+}
+
+/// A matrix numbered in the node ordering already, factorised without a permutation
+/// (`symbolic_in_order`, from either triangle): the same fill as the ordered factorisation of
+/// the original numbering, and solutions to round-off.
+#[test]
+fn a_matrix_in_the_ordering_factorises_without_a_permutation() {
+    let g = grid(12, 9, 3, 2);
+    let n = g.group.len();
+    let ordered =
+        SparseCholesky::symbolic(g.lower.symbolic(), Side::Lower, &g.group).expect("symbolic");
+    let (_, perm_inv) = grouped_ordering(g.lower.symbolic(), &g.group).expect("ordering");
+    // P A Pᵀ: unknown i becomes perm_inv[i]
+    let (cp, ri, v) = (
+        g.full.symbolic().col_ptr(),
+        g.full.symbolic().row_idx(),
+        g.full.val(),
+    );
+    let mut lower = Vec::new();
+    let mut upper = Vec::new();
+    for j in 0..n {
+        for p in cp[j]..cp[j + 1] {
+            let (r, c) = (perm_inv[ri[p]], perm_inv[j]);
+            if r >= c {
+                lower.push(Triplet::new(r, c, v[p]));
+            }
+            if r <= c {
+                upper.push(Triplet::new(r, c, v[p]));
+            }
+        }
+    }
+    let x: Vec<f64> = (0..n)
+        .map(|i| ((i * 53) % 97) as f64 / 48.0 - 1.0)
+        .collect();
+    for (side, triplets) in [(Side::Lower, lower), (Side::Upper, upper)] {
+        let a = SparseColMat::try_new_from_triplets(n, n, &triplets).expect("matrix");
+        let symbolic = SparseCholesky::symbolic_in_order(a.symbolic(), side).expect("symbolic");
+        assert_eq!(symbolic.len_val(), ordered.len_val(), "{side:?}: fill");
+        let llt = SparseCholesky::new(symbolic, a.as_ref(), side).expect("SPD");
+        // b = (P A Pᵀ) x from the full matrix
+        let mut b = vec![0.0; n];
+        for j in 0..n {
+            for p in cp[j]..cp[j + 1] {
+                b[perm_inv[ri[p]]] += v[p] * x[perm_inv[j]];
+            }
+        }
+        llt.solve_columns(&mut b, 1);
+        let err = b
+            .iter()
+            .zip(&x)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(err < 1e-12, "{side:?}: solution error {err:e}");
+    }
 }
 
 #[test]
