@@ -316,21 +316,13 @@ impl SectionAnalysis {
                 energy: None,
             },
         );
-        let mut b2 = vec![0.0; nd * 6];
-        let mut z2 = [0.0; 36];
-        m.kernel(
+        let (b2, z2) = m.b_and_z(
             Materials::PerPoint(&q_points),
             &m.gps,
             Fields {
                 u: None,
                 u1: Some(&x1),
                 psi: None,
-            },
-            Outputs {
-                b: Some(&mut b2),
-                s: None,
-                z: Some(&mut z2),
-                energy: None,
             },
         );
         for (s, b) in s1.iter_mut().zip(&b2) {
@@ -602,21 +594,13 @@ impl SectionAnalysis {
 
         // System 1 residual: [0; T] − K(b) [X̂₁; Ŷ₁] (f64 fields, dual stiffness).
         let (x1, y1) = {
-            let mut b = vec![zero; nd * 6];
-            let mut z = [zero; 36];
-            self.model.kernel(
+            let (b, z) = self.model.b_and_z(
                 Materials::PerRegion(&q_ply),
                 gps,
                 Fields {
                     u: Some(hats.x1),
                     u1: None,
                     psi: Some(hats.y1),
-                },
-                Outputs {
-                    b: Some(&mut b),
-                    s: None,
-                    z: Some(&mut z),
-                    energy: None,
                 },
             );
             self.tangent_solve(
@@ -763,7 +747,6 @@ impl SectionAnalysis {
             .map(|(r, c)| rotate_stiffness(c, &Region::ply_rotation(r.ply_angle)))
             .collect();
         let q = Materials::PerRegion(&q_ply);
-        let nd = 3 * m.mesh.nodes.len();
         let solve = |u: &[f64], psi: &[f64; 36]| {
             let mut rhs = m.pack(u, psi);
             self.llt.solve_columns(&mut rhs, 6);
@@ -771,9 +754,7 @@ impl SectionAnalysis {
         };
         // λ = K⁻¹ ∫[BN Z]ᵀ Q ε
         let (lx, ly) = {
-            let mut b = vec![0.0; nd * 6];
-            let mut z = [0.0; 36];
-            m.kernel(
+            let (b, z) = m.b_and_z(
                 q,
                 &m.gps,
                 Fields {
@@ -781,33 +762,19 @@ impl SectionAnalysis {
                     u1: Some(&self.x1),
                     psi: Some(&self.y),
                 },
-                Outputs {
-                    b: Some(&mut b),
-                    s: None,
-                    z: Some(&mut z),
-                    energy: None,
-                },
             );
             solve(&b, &z)
         };
         // μ = K⁻¹ (Cᵀ λ + p): Cᵀ λ = ∫[BN Z]ᵀ Q SN λ_X − ∫(SN)ᵀ Q [BN Z] λ (on the X₁ rows),
         // p = ∫(SN)ᵀ Q ε (on the X₁ rows)
         let (mx, my) = {
-            let mut b = vec![0.0; nd * 6];
-            let mut z = [0.0; 36];
-            m.kernel(
+            let (mut b, z) = m.b_and_z(
                 q,
                 &m.gps,
                 Fields {
                     u: None,
                     u1: Some(&lx),
                     psi: None,
-                },
-                Outputs {
-                    b: Some(&mut b),
-                    s: None,
-                    z: Some(&mut z),
-                    energy: None,
                 },
             );
             let x_minus: Vec<f64> = self.x.iter().zip(&lx).map(|(a, b)| a - b).collect();
@@ -1206,6 +1173,34 @@ impl Model {
             }
         }
         (col_ptr, row_idx, values)
+    }
+
+    /// [`Model::kernel`]'s projections `(∫(BN)ᵀσ, ∫Zᵀσ)` of the stress of the fields `f`.
+    fn b_and_z<S, F, G>(
+        &self,
+        materials: Materials<'_, S>,
+        gps: &[GaussPoint<G>],
+        f: Fields<'_, F>,
+    ) -> (Vec<S>, [S; 36])
+    where
+        S: Scalar + Mul<F, Output = S> + Mul<G, Output = S>,
+        F: Scalar + Mul<G, Output = F>,
+        G: Scalar,
+    {
+        let mut b = vec![S::zero(); 3 * self.mesh.nodes.len() * 6];
+        let mut z = [S::zero(); 36];
+        self.kernel(
+            materials,
+            gps,
+            f,
+            Outputs {
+                b: Some(&mut b),
+                s: None,
+                z: Some(&mut z),
+                energy: None,
+            },
+        );
+        (b, z)
     }
 
     /// The section kernel: at every integration point, the strain
