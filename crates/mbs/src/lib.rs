@@ -93,9 +93,9 @@ mod stiffening;
 mod system;
 
 pub use bdf::{
-    AcceptedStep, Bdf, BdfOptions, IntegrationError, IntegrationFailure, NoExtension, OdeSystem,
-    RhsError, STABILITY_GROWTH, Statistics, StepControl, StepExtension, TrialStep, bdf_stable,
-    error_estimate_weights, lagrange_weights, stable_step,
+    AcceptedStep, Bdf, BdfOptions, IntegrationError, IntegrationFailure, JACOBIAN_AGE, NoExtension,
+    OdeSystem, RhsError, STABILITY_GROWTH, Statistics, StepControl, StepExtension, TrialStep,
+    bdf_stable, error_estimate_weights, lagrange_weights, stable_step,
 };
 pub use body::{Body, BodyId, FlexibleBody, RigidBody};
 pub use error::{ConstraintError, ModelError};
