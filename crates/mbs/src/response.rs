@@ -107,6 +107,12 @@ impl Response {
         }
     }
 
+    /// Whether [`Response::evaluate`] reads the multipliers (a reaction force): the others
+    /// need the state alone, not the solution of Eq. (12).
+    pub fn needs_multipliers(&self) -> bool {
+        matches!(self, Response::ReactionForce { .. })
+    }
+
     /// The response at `(t, q, v)` with the multipliers `lambda` (one per constraint row, zero
     /// for removed rows).
     pub fn evaluate<P: Scalar, S: Scalar + From<P>>(
@@ -230,18 +236,23 @@ pub fn response_history<const N: usize>(
     let m = design.n_variables();
     let mut values = Vec::with_capacity(run.times.len());
     let mut gradients = DMatrix::zeros(run.times.len(), m);
+    let mut lambda = vec![Dual::<N>::constant(0.0); nc];
     for (i, (&t, y)) in run.times.iter().zip(&run.states).enumerate() {
-        let sol = sys.solve(t, &y[..nq], &y[nq..])?;
+        // the multipliers and their tangents (Eq. 40) only for a response that reads them
+        let sol = match response.needs_multipliers() {
+            true => Some(sys.solve(t, &y[..nq], &y[nq..])?),
+            false => None,
+        };
         let s = &run.sensitivities[i];
         for (c, (model, range)) in design.chunk_ranges().enumerate() {
             let yd = seeded::<N>(y, s, &range);
             let (qd, vd) = yd.split_at(nq);
-            let rows = &sol.rows;
-            let res = model.residual(t, qd, vd, rows, &sol.x);
-            let x = crate::system::lu_tangents(&sol.lu, &sol.x, &res);
-            let mut lambda = vec![Dual::<N>::constant(0.0); nc];
-            for (a, &r) in rows.iter().enumerate() {
-                lambda[r] = x[nv + a];
+            if let Some(sol) = &sol {
+                let res = model.residual(t, qd, vd, &sol.rows, &sol.x);
+                let x = crate::system::lu_tangents(&sol.lu, &sol.x, &res);
+                for (a, &r) in sol.rows.iter().enumerate() {
+                    lambda[r] = x[nv + a];
+                }
             }
             let val = response.evaluate(model, t, qd, vd, &lambda)?;
             if c == 0 {
@@ -275,9 +286,8 @@ pub fn response_values(
         .zip(states)
         .map(|(&t, y)| {
             let (q, v) = y.split_at(nq);
-            let needs_lambda = matches!(response, Response::ReactionForce { .. });
             let mut lambda = vec![0.0; nc];
-            if needs_lambda {
+            if response.needs_multipliers() {
                 let sol = sys.solve(t, q, v)?;
                 for (a, &r) in sol.rows.iter().enumerate() {
                     lambda[r] = sol.x[nv + a];
