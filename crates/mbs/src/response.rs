@@ -250,6 +250,8 @@ pub fn response_history<const N: usize>(
             if let Some(sol) = &sol {
                 let res = model.residual(t, qd, vd, &sol.rows, &sol.x);
                 let x = crate::system::lu_tangents(&sol.lu, &sol.x, &res);
+                // zero for the rows the solution removed (they may change from time to time)
+                lambda.fill(Dual::constant(0.0));
                 for (a, &r) in sol.rows.iter().enumerate() {
                     lambda[r] = x[nv + a];
                 }
