@@ -1079,13 +1079,21 @@ impl Model {
     fn assemble(&self, q_points: &[Matrix6<f64>]) -> (Vec<usize>, Vec<usize>, Vec<f64>) {
         let (col_ptr, row_idx) = self.pattern();
         let mut values = vec![0.0; row_idx.len()];
-        let mut add = |r: usize, c: usize, v: f64| {
+        // The position of row `r` in column `c` (`r ≥ c`), by a binary search.
+        let search = |r: usize, c: usize| -> usize {
             let col = &row_idx[col_ptr[c]..col_ptr[c + 1]];
-            let k = col
-                .binary_search(&r)
-                .expect("entry in the assembled pattern");
-            values[col_ptr[c] + k] += v;
+            col_ptr[c]
+                + col
+                    .binary_search(&r)
+                    .expect("entry in the assembled pattern")
         };
+        // A node's free components have consecutive numbers from `first[node]` (`dof_map`), and
+        // the rows of a column come sorted: column `c` of node B holds B's components from `c`
+        // on, then each neighbour's block whole, then the six strains. So one search per pair
+        // of an element's nodes places the whole block of the pair.
+        let first: Vec<usize> = (0..self.mesh.nodes.len())
+            .map(|n| (0..3).map(|k| self.dof[3 * n + k]).min().unwrap_or(NONE))
+            .collect();
         let mut a_block = [[0.0; 6]; 6];
         const M: usize = 3 * MAX_NODES + 6;
         for (e, el) in self.mesh.elements.iter().enumerate() {
@@ -1148,6 +1156,16 @@ impl Model {
                     self.n_free + i - 3 * nn
                 }
             };
+            // offset[a][b]: where the block of node a starts in the first column of node b
+            // (for a after b), relative to that column's start
+            let mut offset = [[0usize; MAX_NODES]; MAX_NODES];
+            for (a, &na) in el.nodes[..nn].iter().enumerate() {
+                for (b, &nb) in el.nodes[..nn].iter().enumerate() {
+                    if first[na] != NONE && first[nb] != NONE && first[na] > first[nb] {
+                        offset[a][b] = search(first[na], first[nb]) - col_ptr[first[nb]];
+                    }
+                }
+            }
             for i in 0..m {
                 let gi = global(i);
                 if gi == NONE {
@@ -1162,14 +1180,31 @@ impl Model {
                         a_block[i - 3 * nn][j - 3 * nn] += ke[i][j];
                         continue;
                     }
-                    let (r, c) = if gi >= gj { (gi, gj) } else { (gj, gi) };
-                    add(r, c, ke[i][j]);
+                    let position = if i >= 3 * nn {
+                        // a strain row: the last six of the warping column
+                        col_ptr[gj + 1] - 6 + (i - 3 * nn)
+                    } else {
+                        let ((r, a), (c, b)) = if gi >= gj {
+                            ((gi, i / 3), (gj, j / 3))
+                        } else {
+                            ((gj, j / 3), (gi, i / 3))
+                        };
+                        let (na, nb) = (el.nodes[a], el.nodes[b]);
+                        if na == nb {
+                            col_ptr[c] + (r - c)
+                        } else {
+                            col_ptr[c] + offset[a][b] - (c - first[nb]) + (r - first[na])
+                        }
+                    };
+                    debug_assert_eq!(position, search(gi.max(gj), gi.min(gj)), "scatter position");
+                    values[position] += ke[i][j];
                 }
             }
         }
         for i in 0..6 {
             for j in 0..=i {
-                add(self.n_free + i, self.n_free + j, a_block[i][j]);
+                let position = search(self.n_free + i, self.n_free + j);
+                values[position] += a_block[i][j];
             }
         }
         (col_ptr, row_idx, values)
