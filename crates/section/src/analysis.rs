@@ -90,6 +90,9 @@ pub struct SectionAnalysis {
     y1: [f64; 36],
     x: Vec<f64>,
     y: [f64; 36],
+    /// The material in section axes at every integration point of [`Model::gps`] (rotated
+    /// once: for the assembly, the analysis's kernel passes and the adjoint derivatives').
+    q_points: Vec<Matrix6<f64>>,
     properties: SectionProperties,
 }
 
@@ -281,7 +284,7 @@ impl SectionAnalysis {
             .map(|(r, c)| rotate_stiffness(c, &Region::ply_rotation(r.ply_angle)))
             .collect();
         // the material in section axes at every integration point, rotated once for the
-        // assembly and the three kernel passes below (dropped with this function)
+        // assembly, the three kernel passes below and the derivatives
         let q_points = m.stiffness_at_points(&q_ply);
         let (llt, mut conditioning) = m.factorise(&q_points)?;
         let nd = 3 * m.mesh.nodes.len();
@@ -375,6 +378,7 @@ impl SectionAnalysis {
             y1,
             x,
             y,
+            q_points,
             properties,
         })
     }
@@ -741,12 +745,7 @@ impl SectionAnalysis {
             return out;
         }
 
-        let q_ply: Vec<Matrix6<f64>> = regions
-            .iter()
-            .zip(&m.c_bar)
-            .map(|(r, c)| rotate_stiffness(c, &Region::ply_rotation(r.ply_angle)))
-            .collect();
-        let q = Materials::PerRegion(&q_ply);
+        let q = Materials::PerPoint(&self.q_points);
         let solve = |u: &[f64], psi: &[f64; 36]| {
             let mut rhs = m.pack(u, psi);
             self.llt.solve_columns(&mut rhs, 6);
