@@ -1004,19 +1004,12 @@ impl Model {
     /// components couple when their nodes share an element; every warping component couples
     /// with the six generalised strains.
     fn pattern(&self) -> (Vec<usize>, Vec<usize>) {
-        let nn = self.mesh.nodes.len();
-        let mut adj: Vec<Vec<usize>> = vec![Vec::new(); nn];
-        for el in &self.mesh.elements {
-            for &a in &el.nodes {
-                adj[a].extend_from_slice(&el.nodes);
-            }
-        }
         // A node's free components have consecutive numbers (`dof_map`): listing the neighbours
         // by their first number makes the rows below come out sorted.
-        let first = |n: usize| (0..3).map(|k| self.dof[3 * n + k]).min().unwrap_or(NONE);
+        let first = self.first_dofs();
+        let mut adj = node_neighbours(&self.mesh);
         for v in &mut adj {
-            v.sort_unstable_by_key(|&n| first(n));
-            v.dedup();
+            v.sort_by_key(|&n| first[n]);
         }
         let mut owner = vec![0; self.n_free];
         for (g, &f) in self.dof.iter().enumerate() {
@@ -1044,6 +1037,14 @@ impl Model {
             col_ptr.push(row_idx.len());
         }
         (col_ptr, row_idx)
+    }
+
+    /// The number of each node's first free component (`NONE` for a node without one); its
+    /// free components follow it consecutively (`dof_map`).
+    fn first_dofs(&self) -> Vec<usize> {
+        (0..self.mesh.nodes.len())
+            .map(|n| (0..3).map(|k| self.dof[3 * n + k]).min().unwrap_or(NONE))
+            .collect()
     }
 
     /// Assemble the lower triangle of `K = ∫[BN Z]ᵀ Q [BN Z]` (pinned components removed)
@@ -1090,9 +1091,7 @@ impl Model {
         // the rows of a column come sorted: column `c` of node B holds B's components from `c`
         // on, then each neighbour's block whole, then the six strains. So one search per pair
         // of an element's nodes places the whole block of the pair.
-        let first: Vec<usize> = (0..self.mesh.nodes.len())
-            .map(|n| (0..3).map(|k| self.dof[3 * n + k]).min().unwrap_or(NONE))
-            .collect();
+        let first = self.first_dofs();
         let mut a_block = [[0.0; 6]; 6];
         const M: usize = 3 * MAX_NODES + 6;
         for (e, el) in self.mesh.elements.iter().enumerate() {
@@ -1494,6 +1493,21 @@ fn geometry<G: Scalar>(mesh: &SectionMesh, nodes: &[[G; 2]]) -> (Vec<GaussPoint<
     (gps, start)
 }
 
+/// The nodes that share an element with each node (itself included), sorted.
+fn node_neighbours(mesh: &SectionMesh) -> Vec<Vec<usize>> {
+    let mut adj: Vec<Vec<usize>> = vec![Vec::new(); mesh.nodes.len()];
+    for el in &mesh.elements {
+        for &a in &el.nodes {
+            adj[a].extend_from_slice(&el.nodes);
+        }
+    }
+    for v in &mut adj {
+        v.sort_unstable();
+        v.dedup();
+    }
+    adj
+}
+
 /// Free-dof numbering with six pinned components that remove the rigid modes of the warping:
 /// node by node in the fill-reducing order of the graph of the nodes with a free component
 /// ([`sens::sparse::grouped_ordering`]), so that the warping matrix is assembled in the order
@@ -1538,23 +1552,14 @@ fn dof_map(mesh: &SectionMesh) -> Result<(Vec<usize>, usize), SectionError> {
     }
     // the nodes with a free component, in the fill-reducing order of their graph
     let has_free = |n: usize| (0..3).any(|k| !pinned[3 * n + k]);
-    let mut adjacency: Vec<Vec<usize>> = vec![Vec::new(); nn];
-    for el in &mesh.elements {
-        for &a in &el.nodes {
-            if has_free(a) {
-                adjacency[a].extend(el.nodes.iter().filter(|&&b| has_free(b)));
-            }
-        }
-    }
     let mut col_ptr = vec![0usize];
     let mut row_idx = Vec::new();
-    for list in &mut adjacency {
-        list.sort_unstable();
-        list.dedup();
-        row_idx.extend_from_slice(list);
+    for (a, list) in node_neighbours(mesh).iter().enumerate() {
+        if has_free(a) {
+            row_idx.extend(list.iter().filter(|&&b| has_free(b)));
+        }
         col_ptr.push(row_idx.len());
     }
-    drop(adjacency);
     let graph = SymbolicSparseColMat::new_checked(nn, nn, col_ptr, None, row_idx);
     let identity: Vec<usize> = (0..nn).collect();
     let (order, _) = sens::sparse::grouped_ordering(graph.as_ref(), &identity)
