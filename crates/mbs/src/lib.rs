@@ -111,8 +111,8 @@ pub use response::{
     Objective, ObjectiveValue, Response, ResponseHistory, response_history, response_values,
 };
 pub use sensitivity::{
-    DesignModel, SensitivityError, SensitivityMethod, SensitivityOptions, SensitivityRun,
-    SensitivityStatistics, initial_sensitivities, simulate_sensitivities,
+    DesignModel, SIMULTANEOUS_TOLERANCE, SensitivityError, SensitivityMethod, SensitivityOptions,
+    SensitivityRun, SensitivityStatistics, initial_sensitivities, simulate_sensitivities,
     simulate_sensitivities_from, simulate_steps, tangent_rhs,
 };
 pub use system::{
