@@ -24,7 +24,7 @@ use serde_json::json;
 
 use super::compute::compute;
 use super::sensitivity::relative_difference;
-use crate::deck::design::{FdDef, FdSteps};
+use crate::deck::design::{FdDef, FdSteps, SensitivityScheme};
 use crate::deck::{self, RawDeck, Source};
 use crate::error::CliError;
 use crate::files::write_atomic;
@@ -209,6 +209,8 @@ fn run_one(
     let mut mech = Study::validate(&src, &raw, true)?;
     let d = &mut mech.design;
     d.enabled = true;
+    // the figures compare the exact derivative of the discrete solution with differences
+    d.method = SensitivityScheme::Direct;
     d.fixed_modes = kind == Kind::FixedModes;
     d.finite_differences = match kind {
         Kind::Main => Some(FdDef {

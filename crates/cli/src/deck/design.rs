@@ -270,7 +270,7 @@ pub enum SensitivityScheme {
     Direct,
     /// Staggered corrector with the integrator's Newton matrix.
     Corrector,
-    /// Simultaneous corrector inside the state's Newton iteration (the cheapest).
+    /// Simultaneous corrector inside the state's Newton iteration (the cheapest; the default).
     Simultaneous,
 }
 
@@ -954,8 +954,8 @@ pub fn validate(
         enabled,
         method: match method {
             Some("corrector") => SensitivityScheme::Corrector,
-            Some("simultaneous") => SensitivityScheme::Simultaneous,
-            _ => SensitivityScheme::Direct,
+            Some("direct") => SensitivityScheme::Direct,
+            _ => SensitivityScheme::Simultaneous,
         },
         fixed_modes: modes == Some("fixed"),
         error_control: s

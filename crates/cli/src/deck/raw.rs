@@ -370,7 +370,7 @@ pub struct RawSensitivity {
     /// `false` skips the sensitivities (e.g. in a sweep); default `true` when the deck declares
     /// design variables.
     pub enabled: Option<Spanned<bool>>,
-    /// `"direct"` (exact derivative of the discrete solution, default), `"simultaneous"` or
+    /// `"simultaneous"` (default), `"direct"` (exact derivative of the discrete solution) or
     /// `"corrector"`.
     pub method: Option<Spanned<String>>,
     /// Mode derivatives: `"updated"` (default) or `"fixed"`.
