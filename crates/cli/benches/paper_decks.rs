@@ -1,6 +1,7 @@
 //! The paper decks as users run them (`flexsens run`, the whole command: deck, model build,
-//! integration, outputs), analysis alone and with direct sensitivities: the rows of
-//! `docs/performance.md` for `decks/slider_crank_beam.toml` and `decks/slider_crank_plate.toml`.
+//! integration, outputs), analysis alone and with sensitivities (the decks' default method):
+//! the rows of `docs/performance.md` for `decks/slider_crank_beam.toml` and
+//! `decks/slider_crank_plate.toml`.
 //!
 //! Before criterion's samples, each deck is run a few times in both settings and the ratio of
 //! the best times (sensitivities over analysis) is printed with the step count, so that the
