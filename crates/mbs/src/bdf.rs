@@ -251,10 +251,6 @@ pub struct TrialStep<'a> {
     /// LU of `newton_c0 · I − jacobian`.
     pub newton_matrix: &'a DenseLu,
     pub newton_c0: f64,
-    /// The Newton iteration's convergence-rate estimate with this matrix, or, before it is
-    /// measured, the last one with the same Jacobian (1 until measured): chord iterations of
-    /// variables linearised about the same state converge at this rate.
-    pub newton_rate: f64,
     /// Error weights of the state: `rtol·|y| + atol_i`.
     pub rtol: f64,
     pub atol: &'a [f64],
@@ -543,9 +539,6 @@ pub struct Bdf {
     lu_c0: f64,
     /// Newton convergence-rate estimate (reset to 1 with every new matrix).
     newton_rate: f64,
-    /// The last measured Newton rate since the Jacobian was evaluated (1 until measured): a
-    /// new factorisation for another `c0` resets `newton_rate`, not this.
-    jacobian_rate: f64,
     last_rhs_error: Option<RhsError>,
     last_times: Vec<f64>,
     last_coeffs: Vec<f64>,
@@ -580,7 +573,6 @@ impl Bdf {
             lu: None,
             lu_c0: 0.0,
             newton_rate: 1.0,
-            jacobian_rate: 1.0,
             last_rhs_error: None,
             last_times: Vec::new(),
             last_coeffs: Vec::new(),
@@ -852,7 +844,6 @@ impl Bdf {
             *self.stability_edges.borrow_mut() = vec![[f64::NAN; 6]; self.oscillatory.len()];
         }
         self.jac_age = Some(0);
-        self.jacobian_rate = 1.0;
         self.lu = None;
         Ok(())
     }
@@ -884,11 +875,6 @@ impl Bdf {
             jacobian: &self.jac,
             newton_matrix: self.lu.as_ref().expect("factorised"),
             newton_c0: self.lu_c0,
-            newton_rate: if self.newton_rate < 1.0 {
-                self.newton_rate
-            } else {
-                self.jacobian_rate
-            },
             rtol: self.opts.rtol,
             atol: &self.atol,
         }
@@ -1360,7 +1346,6 @@ impl Bdf {
                     return Ok(None);
                 }
                 self.newton_rate = ratio.max(0.3 * self.newton_rate);
-                self.jacobian_rate = self.newton_rate;
             }
             if norm * self.newton_rate.min(1.0) < tol || norm < 1e-3 * tol {
                 return Ok(Some(y));
