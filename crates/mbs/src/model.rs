@@ -661,17 +661,22 @@ impl<P: Scalar> Model<P> {
             // the one marker of a force or joint on this body (none, or both ends on it: no
             // load from outside)
             let only = |ms: &[&Marker]| -> Option<usize> {
-                let on: Vec<&&Marker> = ms.iter().filter(|m| m.body == Some(id)).collect();
-                (on.len() == 1).then(|| load_node(&body.modal, &on[0].site))
+                let mut on = ms.iter().filter(|m| m.body == Some(id));
+                match (on.next(), on.next()) {
+                    (Some(m), None) => Some(load_node(&body.modal, &m.site)),
+                    _ => None,
+                }
             };
             let trans = s.v_off..s.v_off + 3;
             let mut forces = Vec::new();
+            let mut f = Vec::new();
             for force in &self.forces {
                 if matches!(force, Force::PointTorque { .. }) {
                     continue;
                 }
                 if let Some(node) = only(&force.markers()) {
-                    let mut f = vec![S::zero(); self.n_v];
+                    f.clear();
+                    f.resize(self.n_v, S::zero());
                     self.apply_force(force, t, q, v, &mut f);
                     forces.push((node, at * vec3(&f[trans.clone()])));
                 }
@@ -797,13 +802,13 @@ impl<P: Scalar> Model<P> {
             for (j, &x) in s.known.iter().enumerate() {
                 rhs[s.row + j] += conv(x);
             }
-            for (col, c) in &s.accel {
+            for (col, c) in s.accel() {
                 for (j, &x) in c.iter().enumerate() {
-                    matrix[(s.row + j, *col)] -= conv(x);
+                    matrix[(s.row + j, col)] -= conv(x);
                 }
             }
-            for (row, c) in &s.lambda {
-                if let Some(r) = position[*row] {
+            for (row, c) in s.lambda() {
+                if let Some(r) = position[row] {
                     for (j, &x) in c.iter().enumerate() {
                         matrix[(s.row + j, nv + r)] -= conv(x);
                     }
@@ -869,15 +874,15 @@ impl<P: Scalar> Model<P> {
             for (j, &x) in s.known.iter().enumerate() {
                 out[s.row + j] += x;
             }
-            for (col, c) in &s.accel {
-                if x_hat[*col] != 0.0 {
+            for (col, c) in s.accel() {
+                if x_hat[col] != 0.0 {
                     for (j, &x) in c.iter().enumerate() {
-                        out[s.row + j] += x * x_hat[*col];
+                        out[s.row + j] += x * x_hat[col];
                     }
                 }
             }
-            for (row, c) in &s.lambda {
-                if let Some(r) = position[*row] {
+            for (row, c) in s.lambda() {
+                if let Some(r) = position[row] {
                     for (j, &x) in c.iter().enumerate() {
                         out[s.row + j] += x * x_hat[nv + r];
                     }

@@ -18,10 +18,33 @@ pub(crate) struct Stiffening<S: Scalar> {
     pub row: usize,
     /// The part known at the state (gravity, spin, applied forces).
     pub known: Vec<S>,
-    /// Coefficients of accelerations `v̇[col]` (the body's frame).
-    pub accel: Vec<(usize, Vec<S>)>,
-    /// Coefficients of multipliers, by constraint row (all rows numbering).
-    pub lambda: Vec<(usize, Vec<S>)>,
+    /// Velocity index of the body's frame (its accelerations are `v̇[frame..frame + 6]`).
+    frame: usize,
+    /// Coefficients of the frame's six accelerations, one block of `n_modes` each.
+    accel: Vec<S>,
+    /// Constraint rows (all rows numbering) of the joint forces at the body's nodes.
+    lambda_rows: Vec<usize>,
+    /// Their coefficients, one block of `n_modes` each.
+    lambda: Vec<S>,
+}
+
+impl<S: Scalar> Stiffening<S> {
+    /// Coefficients of accelerations `v̇[col]` (the body's frame): `(col, c)`.
+    pub fn accel(&self) -> impl Iterator<Item = (usize, &[S])> {
+        let frame = self.frame;
+        self.accel
+            .chunks(self.known.len().max(1))
+            .enumerate()
+            .map(move |(c, x)| (frame + c, x))
+    }
+
+    /// Coefficients of multipliers, by constraint row (all rows numbering): `(row, c)`.
+    pub fn lambda(&self) -> impl Iterator<Item = (usize, &[S])> {
+        self.lambda_rows
+            .iter()
+            .copied()
+            .zip(self.lambda.chunks(self.known.len().max(1)))
+    }
 }
 
 /// The loads on one stiffened body at a state, in body components.
@@ -45,17 +68,15 @@ pub(crate) fn body_stiffening<P: Scalar, S: Scalar + From<P>>(
     loads: &BodyLoads<S>,
 ) -> Stiffening<S> {
     let nm = g.n_modes;
-    // −K_c w
-    let neg_kw = |k: &DMatrix<P>| -> Vec<S> {
-        (0..nm)
-            .map(|i| {
-                let mut s = S::zero();
-                for (j, &wj) in w.iter().enumerate() {
-                    s -= lift::<P, S>(k[(i, j)]) * wj;
-                }
-                s
-            })
-            .collect()
+    // −K_c w into `out`
+    let neg_kw = |k: &DMatrix<P>, out: &mut [S]| {
+        for (i, o) in out.iter_mut().enumerate() {
+            let mut s = S::zero();
+            for (j, &wj) in w.iter().enumerate() {
+                s -= lift::<P, S>(k[(i, j)]) * wj;
+            }
+            *o = s;
+        }
     };
     let axpy = |y: &mut [S], a: S, x: &[S]| {
         for (yi, &xi) in y.iter_mut().zip(x) {
@@ -66,15 +87,18 @@ pub(crate) fn body_stiffening<P: Scalar, S: Scalar + From<P>>(
     // effective acceleration Aᵀ r̈ − Aᵀ g: the gravity part is known, r̈ is an unknown
     let g_body = a.transpose() * vec3f::<S>(gravity);
     let mut known = vec![S::zero(); nm];
-    let mut accel: Vec<(usize, Vec<S>)> =
-        (0..6).map(|c| (v_off + c, vec![S::zero(); nm])).collect();
+    let mut accel = vec![S::zero(); 6 * nm];
+    let mut c = vec![S::zero(); nm];
     for i in 0..3 {
-        let c = neg_kw(&g.acceleration[i]);
+        neg_kw(&g.acceleration[i], &mut c);
         axpy(&mut known, -g_body[i], &c);
         for m in 0..3 {
-            axpy(&mut accel[m].1, a[(m, i)], &c);
+            axpy(&mut accel[m * nm..(m + 1) * nm], a[(m, i)], &c);
         }
-        accel[3 + i].1 = neg_kw(&g.angular_acceleration[i]);
+        neg_kw(
+            &g.angular_acceleration[i],
+            &mut accel[(3 + i) * nm..(4 + i) * nm],
+        );
     }
     // spin: K(ω) = Σ ω_i ω_j K_ij, then one product with w
     let mut spin = DMatrix::<S>::zeros(nm, nm);
@@ -89,41 +113,56 @@ pub(crate) fn body_stiffening<P: Scalar, S: Scalar + From<P>>(
             known[i] -= spin[(i, j)] * wj;
         }
     }
-    // nodal forces: applied (known) and per unit multiplier; −K_n,i w once per node
-    let mut cache: Vec<(usize, [Vec<S>; 3])> = Vec::new();
-    let mut node_terms = |node: usize| -> [Vec<S>; 3] {
-        if let Some((_, c)) = cache.iter().find(|(n, _)| *n == node) {
-            return c.clone();
+    // nodal forces: applied (known) and per unit multiplier; −K_n,i w once per node, kept in
+    // `cache` (three blocks of `nm` a node, in the order of `cached`)
+    let mut cached: Vec<usize> = Vec::new();
+    let mut cache: Vec<S> = Vec::new();
+    let mut node_terms = |node: usize| -> usize {
+        if let Some(p) = cached.iter().position(|&n| n == node) {
+            return p;
         }
-        let c = [0, 1, 2].map(|i| neg_kw(&g.nodal[3 * node + i]));
-        cache.push((node, c.clone()));
-        c
-    };
-    for (node, f) in &loads.forces {
-        if *node == g.clamp {
-            continue;
-        }
-        let c = node_terms(*node);
+        let start = cache.len();
+        cache.resize(start + 3 * nm, S::zero());
         for i in 0..3 {
-            axpy(&mut known, f[i], &c[i]);
+            let block = start + i * nm;
+            neg_kw(&g.nodal[3 * node + i], &mut cache[block..block + nm]);
+        }
+        cached.push(node);
+        cached.len() - 1
+    };
+    let mut applied: Vec<(usize, &Vector3<S>)> = Vec::with_capacity(loads.forces.len());
+    for (node, f) in &loads.forces {
+        if *node != g.clamp {
+            applied.push((node_terms(*node), f));
         }
     }
-    let mut lambda = Vec::with_capacity(loads.joints.len());
+    let mut joint_terms: Vec<(usize, usize, &Vector3<S>)> = Vec::with_capacity(loads.joints.len());
     for (node, row, f) in &loads.joints {
-        if *node == g.clamp {
-            continue;
+        if *node != g.clamp {
+            joint_terms.push((node_terms(*node), *row, f));
         }
-        let c = node_terms(*node);
-        let mut col = vec![S::zero(); nm];
+    }
+    let terms = |p: usize, i: usize| &cache[(3 * p + i) * nm..(3 * p + i + 1) * nm];
+    for (p, f) in applied {
         for i in 0..3 {
-            axpy(&mut col, f[i], &c[i]);
+            axpy(&mut known, f[i], terms(p, i));
         }
-        lambda.push((*row, col));
+    }
+    let mut lambda_rows = Vec::with_capacity(joint_terms.len());
+    let mut lambda = vec![S::zero(); joint_terms.len() * nm];
+    for (r, (p, row, f)) in joint_terms.into_iter().enumerate() {
+        let col = &mut lambda[r * nm..(r + 1) * nm];
+        for i in 0..3 {
+            axpy(col, f[i], terms(p, i));
+        }
+        lambda_rows.push(row);
     }
     Stiffening {
         row: v_off + 6,
         known,
+        frame: v_off,
         accel,
+        lambda_rows,
         lambda,
     }
 }
