@@ -208,11 +208,9 @@ impl SparseCholesky {
         // upper triangle
         let upper = match side {
             Side::Upper => None,
-            Side::Lower => Some(transposed_pattern(pattern)),
+            Side::Lower => Some(pattern.transpose().to_col_major()?),
         };
-        let pattern = upper.as_ref().map_or(pattern, |(n, ptr, idx)| {
-            SymbolicSparseColMatRef::new_checked(*n, *n, ptr, None, idx)
-        });
+        let pattern = upper.as_ref().map_or(pattern, |u| u.as_ref());
         factorize_symbolic_cholesky(
             pattern,
             Side::Upper,
@@ -256,28 +254,6 @@ impl SparseCholesky {
     pub fn factor_len(&self) -> usize {
         self.values.len()
     }
-}
-
-/// The transpose of a square pattern, sorted CSC: `(n, col_ptr, row_idx)`.
-fn transposed_pattern(a: SymbolicSparseColMatRef<'_, usize>) -> (usize, Vec<usize>, Vec<usize>) {
-    let n = a.ncols();
-    let (ptr, idx) = (a.col_ptr(), a.row_idx());
-    let mut t_ptr = vec![0usize; n + 1];
-    for &i in &idx[..ptr[n]] {
-        t_ptr[i + 1] += 1;
-    }
-    for i in 0..n {
-        t_ptr[i + 1] += t_ptr[i];
-    }
-    let mut next = t_ptr[..n].to_vec();
-    let mut t_idx = vec![0usize; ptr[n]];
-    for j in 0..n {
-        for &i in &idx[ptr[j]..ptr[j + 1]] {
-            t_idx[next[i]] = j;
-            next[i] += 1;
-        }
-    }
-    (n, t_ptr, t_idx)
 }
 
 /// faer's symbolic parameters with the supernodal factorisation at every size (see
