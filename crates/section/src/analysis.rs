@@ -426,9 +426,9 @@ impl SectionAnalysis {
         self.sensitivities_by::<N>(design, true)
     }
 
-    /// [`SectionAnalysis::sensitivities`], the compliance derivatives of the variables that
-    /// do not move nodes by the adjoints (`adjoint`) or, as those that do, by dual numbers
-    /// through the solves.
+    /// [`SectionAnalysis::sensitivities`], the compliance derivatives of a chunk of variables
+    /// that do not move nodes by the adjoints (`adjoint`) or, as a chunk with a variable that
+    /// does, by dual numbers through the solves.
     fn sensitivities_by<const N: usize>(
         &self,
         design: &DesignMap,
@@ -438,10 +438,13 @@ impl SectionAnalysis {
         design.validate(&self.model.mesh)?;
         let m = design.variables.len();
         let integrals = self.model.region_mass_integrals(&self.model.gps);
-        // The compliance derivatives of the variables that leave the nodes in place, all at
-        // once by the adjoints; the others are pushed through the solves as dual numbers.
-        let fixed_geometry: Vec<usize> = (0..m)
-            .filter(|&v| adjoint && design.variables[v].nodes.is_empty())
+        // The compliance derivatives of the chunks whose variables all leave the nodes in
+        // place, all at once by the adjoints; a chunk with a variable that moves nodes is
+        // pushed through the solves as dual numbers, all its variables with it.
+        let moves_nodes = |v: usize| !design.variables[v].nodes.is_empty();
+        let fixed_geometry: Vec<usize> = chunk_ranges(m, N)
+            .filter(|range| adjoint && !range.clone().any(moves_nodes))
+            .flatten()
             .collect();
         let mut d_compliance: Vec<Option<Matrix6<f64>>> = vec![None; m];
         for (&v, d) in fixed_geometry
