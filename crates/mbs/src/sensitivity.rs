@@ -725,8 +725,19 @@ impl<const N: usize> Extension<'_, N> {
         } else {
             1.0
         };
+        // Eq. (12) at the converged state, solved by the first evaluation and kept for the
+        // others (and for the direct solve)
+        let mut solution: Option<Solution> = None;
         for _ in 0..SIMULTANEOUS_MAX_ITERATIONS {
-            let (sol, g) = fused_rhs(sys, self.design, t, y, &s).map_err(rhs_failure)?;
+            let g = match &solution {
+                None => {
+                    let (sol, g) = fused_rhs(sys, self.design, t, y, &s).map_err(rhs_failure)?;
+                    solution = Some(sol);
+                    g
+                }
+                Some(sol) => tangent_rhs(sys, self.design, t, y, sol, &s),
+            };
+            let sol = solution.as_ref().expect("solved above");
             self.stats.dual_evaluations += self.design.chunks.len();
             self.stats.corrector_iterations += 1;
             let mut r = g - &s * c0 - &it.psi;
@@ -747,13 +758,13 @@ impl<const N: usize> Extension<'_, N> {
                 unconverged(norm, rates[*j])
             });
             if stalled {
-                return self.direct(sys, t, y, &sol, c0, &it.psi);
+                return self.direct(sys, t, y, sol, c0, &it.psi);
             }
             if pending.is_empty() {
                 return Ok(s);
             }
         }
-        let (sol, _) = fused_rhs(sys, self.design, t, y, &s).map_err(rhs_failure)?;
+        let sol = solution.expect("at least one iteration");
         self.direct(sys, t, y, &sol, c0, &it.psi)
     }
 
