@@ -453,6 +453,8 @@ fn sensitivities_do_not_depend_on_the_chunk_width() {
 
 /// `c_0 … c_k` of the variable-step BDF formula `Σ c_j y_{n+1−j} = f(t_{n+1}, y_{n+1})` over
 /// `nodes = [t_{n+1}, t_n, …]`: the derivatives at `t_{n+1}` of the Lagrange basis polynomials.
+/// Written again here from the definition rather than taken from mbs (whose own is private),
+/// so that the check below shares nothing with the integrator's formula.
 fn bdf_coefficients(nodes: &[f64]) -> Vec<f64> {
     let t = nodes[0];
     (0..nodes.len())
