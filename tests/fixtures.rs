@@ -383,9 +383,16 @@ pub fn slider_crank_design<const N: usize>(
     let mut state = None;
     let mut ids = None;
     for range in chunk_ranges(b.len(), N) {
-        let mut body =
-            modal_body_dual::<N>(&beam, &bprops, &analysis, &derivs, range.start, opts.update)
-                .expect("dual modal body");
+        let mut body = modal_body_dual::<N>(
+            &beam,
+            &bprops,
+            &analysis,
+            &[],
+            &derivs,
+            range.start,
+            opts.update,
+        )
+        .expect("dual modal body");
         if !opts.planar {
             let mut d5 = [0.0; N];
             for (k, v) in range.clone().enumerate() {

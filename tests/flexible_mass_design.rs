@@ -37,6 +37,8 @@ fn scaled<S: Scalar>(rod: &ModalBody<f64>, s: S) -> ModalBody<S> {
             .iter()
             .map(|&c| S::from_f64(c) / root)
             .collect(),
+        stiffness_matrix: None,
+        damping_matrix: None,
     }
 }
 

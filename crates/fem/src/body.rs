@@ -7,6 +7,9 @@ use sens::{Dual, Scalar, seed_chunk};
 use crate::assembly::{
     Assembly, Constraints, ElementOptions, FemError, MassKind, Properties, dof, lumped_nodal_masses,
 };
+use crate::correction::{
+    Coupling, Distribution, StaticCorrection, distribution, interface_loads, static_correction,
+};
 use crate::eigen::{EigenOptions, Eigenpairs, lowest_modes_of_nodes};
 use crate::mesh::{Mesh, NodeId};
 use crate::modal::ModalBody;
@@ -174,15 +177,23 @@ pub struct ModalOptions {
     /// then have 3 rigid-body modes instead of 6. `None` (the default): full 3-D motion.
     pub planar: Option<Vector3<f64>>,
     /// Static correction: nodes (e.g. those the body's joints act at) whose static shapes are
-    /// added to the retained modes. For every free dof of these nodes the static displacement
-    /// under a unit load, `ψ = K⁻¹ e`, is made mass-orthogonal to the retained modes and the
-    /// span of those shapes is diagonalised (Ritz vectors): the body then has the retained
-    /// eigenmodes followed by correction modes, still mass-normalised with a diagonal modal
-    /// stiffness (their eigenvalues are Ritz values). A point load at a correction node is then
-    /// represented exactly by the reduced body, as are the deformations its joints impose (the
-    /// field's static-correction, or attachment-mode, enrichment). Needs a reference condition
-    /// that holds the body (not free-free). Empty (the default): none.
+    /// added to the retained modes; a number `n_nodes + c` stands for coupling `c` of
+    /// [`Self::couplings`]. For every free dof of these nodes (the six loads of a coupling,
+    /// spread over its nodes) the static displacement under a unit load, `ψ = K⁻¹ e`, is made
+    /// mass-orthogonal to the retained modes and the span of those shapes is diagonalised
+    /// (Ritz vectors): the body then has the retained eigenmodes followed by correction modes,
+    /// still mass-normalised with a diagonal modal stiffness (their eigenvalues are Ritz
+    /// values). A load at a correction node or coupling is then represented exactly by the
+    /// reduced body, as are the deformations its joints impose (the field's static-correction,
+    /// or attachment-mode, enrichment). Needs a reference condition that holds the body (not
+    /// free-free). Design derivatives through them are exact ([`crate::correction`]). Empty
+    /// (the default): none.
     pub correction: Vec<NodeId>,
+    /// Distributing couplings ([`Coupling`]): each adds a node without mass to the
+    /// [`ModalBody`], numbered after the mesh's nodes in this order, at the coupling's point
+    /// and moving as the coupling's rigid fit of its nodes. Joints and forces attached there
+    /// load the whole node set. Empty (the default): none.
+    pub couplings: Vec<Coupling>,
     /// Supports added to the reference condition (with [`ReferenceCondition::Supports`] they
     /// alone hold the body): simply supported or clamped edges, pinned lines, symmetry planes,
     /// single dof. Empty (the default): none.
@@ -202,6 +213,7 @@ impl ModalOptions {
             eigen: EigenOptions::default(),
             planar: None,
             correction: Vec::new(),
+            couplings: Vec::new(),
             supports: Vec::new(),
         }
     }
@@ -307,7 +319,9 @@ pub struct ModalAnalysis {
     /// Static correction modes ([`ModalOptions::correction`]), after the retained eigenmodes:
     /// their Ritz values `μ` and shapes on the free dof (`n_free × s`, mass-normalised,
     /// mass-orthogonal to the retained modes).
-    pub correction: Option<(Vec<f64>, DMatrix<f64>)>,
+    pub correction: Option<StaticCorrection>,
+    /// The couplings of [`ModalOptions::couplings`] resolved on the mesh.
+    pub couplings: Vec<Distribution>,
     /// Rigid-body modes discarded (free-free).
     pub n_rigid: usize,
     /// Body-frame origin (mesh coordinates).
@@ -321,8 +335,8 @@ impl ModalAnalysis {
     /// the static correction modes, if any.
     pub fn eigenvalues(&self) -> Vec<f64> {
         let mut l: Vec<f64> = self.kept.iter().map(|&i| self.pairs.values[i]).collect();
-        if let Some((mu, _)) = &self.correction {
-            l.extend(mu);
+        if let Some(c) = &self.correction {
+            l.extend(&c.values);
         }
         l
     }
@@ -331,7 +345,8 @@ impl ModalAnalysis {
         let x = self.pairs.vectors.select_columns(&self.kept);
         match &self.correction {
             None => x,
-            Some((_, phi)) => {
+            Some(c) => {
+                let phi = &c.shapes;
                 let mut out = DMatrix::zeros(x.nrows(), x.ncols() + phi.ncols());
                 out.columns_mut(0, x.ncols()).copy_from(&x);
                 out.columns_mut(x.ncols(), phi.ncols()).copy_from(phi);
@@ -596,6 +611,11 @@ pub fn modal_analysis(
             )));
         }
     }
+    let couplings = opts
+        .couplings
+        .iter()
+        .map(|c| distribution(mesh, c))
+        .collect::<Result<Vec<_>, _>>()?;
     let correction = if opts.correction.is_empty() {
         None
     } else {
@@ -606,13 +626,13 @@ pub fn modal_analysis(
                     .into(),
             ));
         }
+        let loads = interface_loads(&assembly, mesh.nodes.len(), &couplings, &opts.correction)?;
         Some(static_correction(
             &assembly,
             &k,
             &m,
             &pairs.vectors.select_columns(&kept),
-            &opts.correction,
-            mesh.nodes.len(),
+            &loads,
         )?)
     };
     Ok(ModalAnalysis {
@@ -623,105 +643,12 @@ pub fn modal_analysis(
         n_modes: opts.n_modes,
         kept,
         correction,
+        couplings,
         n_rigid,
         origin,
         constraints,
         options: opts.clone(),
     })
-}
-
-/// Static correction modes at `nodes` ([`ModalOptions::correction`]): `K⁻¹` of a unit load at
-/// every free dof of the nodes, made `M`-orthogonal to `x` (the retained eigenvectors, which
-/// makes them `K`-orthogonal too) and to each other (shapes dependent within 1e-8 are dropped),
-/// then diagonalised: `(μ, Φ)` with `Φᵀ M Φ = I`, `Φᵀ K Φ = diag(μ)`, `μ` ascending.
-fn static_correction(
-    assembly: &Assembly,
-    k: &faer::sparse::SparseColMat<usize, f64>,
-    m: &faer::sparse::SparseColMat<usize, f64>,
-    x: &DMatrix<f64>,
-    nodes: &[NodeId],
-    n_nodes: usize,
-) -> Result<(Vec<f64>, DMatrix<f64>), FemError> {
-    use sens::{LinearSolver, SparseCholesky};
-    let n = assembly.n_free();
-    let mut loads = Vec::new();
-    for &node in nodes {
-        if node >= n_nodes {
-            return Err(FemError::Invalid(format!(
-                "static correction at node {node}: the mesh has {n_nodes} nodes"
-            )));
-        }
-        for d in 0..6 {
-            if let Some(i) = assembly.free_index(6 * node + d) {
-                loads.push(i);
-            }
-        }
-    }
-    if loads.is_empty() {
-        return Err(FemError::Invalid(
-            "static correction: every dof of the correction nodes is fixed by the reference \
-             condition"
-                .into(),
-        ));
-    }
-    let symbolic =
-        SparseCholesky::symbolic(k.symbolic(), faer::Side::Lower, &assembly.free_dof_nodes())
-            .map_err(|e| FemError::Eigen(format!("{e:?}")))?;
-    let llt = SparseCholesky::new(symbolic, k.as_ref(), faer::Side::Lower).map_err(|_| {
-        FemError::Invalid(
-            "static correction: the stiffness matrix is not positive definite (the reference \
-             condition must hold the body)"
-                .into(),
-        )
-    })?;
-    let mut psi = DMatrix::zeros(n, loads.len());
-    for (c, &i) in loads.iter().enumerate() {
-        let mut col = vec![0.0; n];
-        col[i] = 1.0;
-        llt.solve_columns(&mut col, 1);
-        psi.column_mut(c).copy_from_slice(&col);
-    }
-    // M-Gram–Schmidt against the retained modes and each other (twice, for round-off), with
-    // the products by M kept beside the vectors
-    let times_m = |v: &nalgebra::DVector<f64>| {
-        let mut out = nalgebra::DVector::zeros(n);
-        crate::eigen::spmv(m, v.as_slice(), out.as_mut_slice());
-        out
-    };
-    let mx = DMatrix::from_columns(
-        &x.column_iter()
-            .map(|c| times_m(&c.into_owned()))
-            .collect::<Vec<_>>(),
-    );
-    let mut basis: Vec<nalgebra::DVector<f64>> = Vec::new();
-    let mut m_basis: Vec<nalgebra::DVector<f64>> = Vec::new();
-    for c in 0..psi.ncols() {
-        let mut v = psi.column(c).into_owned();
-        let norm0 = v.dot(&times_m(&v)).max(0.0).sqrt();
-        for _ in 0..2 {
-            if x.ncols() > 0 {
-                v -= x * mx.tr_mul(&v);
-            }
-            for (b, mb) in basis.iter().zip(&m_basis) {
-                v -= b * mb.dot(&v);
-            }
-        }
-        let mv = times_m(&v);
-        let norm = v.dot(&mv).max(0.0).sqrt();
-        if norm > 1e-8 * norm0 && norm > 0.0 {
-            basis.push(v / norm);
-            m_basis.push(mv / norm);
-        }
-    }
-    let q = DMatrix::from_columns(&basis);
-    let kr = crate::eigen::project(k, &q, &q);
-    let kr = (&kr + kr.transpose()) * 0.5;
-    let eig = kr.symmetric_eigen();
-    let mut order: Vec<usize> = (0..eig.eigenvalues.len()).collect();
-    order.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
-    let mu: Vec<f64> = order.iter().map(|&i| eig.eigenvalues[i]).collect();
-    let z = eig.eigenvectors.select_columns(&order);
-    Ok((mu, q * z))
 }
 
 /// `K_b`, `M_b` of the free dof for every design variable, evaluating the element matrices on
@@ -761,8 +688,20 @@ pub enum ModeUpdate {
     Updated,
 }
 
-/// The f64 [`ModalBody`] of an analysis (requires lumped mass).
+/// The f64 [`ModalBody`] of an analysis (requires lumped mass): the mesh's nodes, then one
+/// node without mass for each coupling ([`ModalOptions::couplings`]).
 pub fn modal_body(
+    mesh: &Mesh,
+    props: &Properties<f64>,
+    analysis: &ModalAnalysis,
+) -> Result<ModalBody<f64>, FemError> {
+    let mut body = mesh_modal_body(mesh, props, analysis)?;
+    add_coupling_nodes(analysis, &mut body);
+    Ok(body)
+}
+
+/// [`modal_body`] on the mesh's nodes alone.
+fn mesh_modal_body(
     mesh: &Mesh,
     props: &Properties<f64>,
     analysis: &ModalAnalysis,
@@ -782,27 +721,56 @@ pub fn modal_body(
         modes: analysis.mode_shapes(),
         eigenvalues: lam,
         modal_damping: damping,
+        stiffness_matrix: None,
+        damping_matrix: None,
     })
 }
 
+/// Append the couplings' nodes to a body of the mesh's nodes: at the coupling's point, without
+/// mass, their mode rows the coupling's fit of its nodes' rows.
+fn add_coupling_nodes<S: Scalar>(analysis: &ModalAnalysis, body: &mut ModalBody<S>) {
+    if analysis.couplings.is_empty() {
+        return;
+    }
+    let n = body.modes.nrows();
+    let p = body.modes.ncols();
+    let mut modes = DMatrix::from_element(n + 6 * analysis.couplings.len(), p, S::zero());
+    modes.rows_mut(0, n).copy_from(&body.modes);
+    for (c, d) in analysis.couplings.iter().enumerate() {
+        let rows = d.rows(&body.modes);
+        modes.rows_mut(n + 6 * c, 6).copy_from(&rows);
+        body.node_positions.push(d.point - analysis.origin);
+        body.node_masses.push(S::zero());
+        body.node_inertias.push(Vector3::from_element(S::zero()));
+    }
+    body.modes = modes;
+}
+
 /// The dual [`ModalBody`] whose tangents are the derivatives with respect to design variables
-/// `chunk_start .. chunk_start + N` of `derivs`: eigenvalues always, mode shapes for
+/// `chunk_start .. chunk_start + N` of `derivs` (and of `matrices`, the `K_b`, `M_b` of every
+/// variable, which static correction modes need): eigenvalues always, mode shapes for
 /// [`ModeUpdate::Updated`] (zero for fixed-mode), modal damping through the eigenvalues.
 ///
 /// Within clusters of repeated eigenvalues the derivatives are directional (one rotation of the
 /// cluster basis per variable, [`ModeDerivatives::rotations`]) and are rotated back to the
 /// basis of the values, which is exact for clusters that stay together; the mode values stay those of
 /// `analysis`.
+///
+/// With static correction modes the body carries its full modal stiffness `BᵀKB` (and damping
+/// `αBᵀMB + βBᵀKB`), diagonal at the analysed design but not in its derivatives: `B` are the
+/// eigenmodes (their block stays `diag(λ)`) and the correction shapes, whose derivatives
+/// follow from `Ψ_b = −K⁻¹K_bΨ` ([`crate::correction`]); for fixed modes the shapes keep
+/// their values and only `K_b`, `M_b` enter.
 pub fn modal_body_dual<const N: usize>(
     mesh: &Mesh,
     props: &Properties<f64>,
     analysis: &ModalAnalysis,
+    matrices: &[DesignMatrices],
     derivs: &ModeDerivatives,
     chunk_start: usize,
     update: ModeUpdate,
 ) -> Result<ModalBody<Dual<N>>, FemError> {
-    no_correction(analysis)?;
-    let base = modal_body(mesh, props, analysis)?;
+    let base = mesh_modal_body(mesh, props, analysis)?;
     let p = analysis.n_modes;
     let kept = &analysis.kept;
     let nvar = derivs.eigenvalues.len();
@@ -820,6 +788,8 @@ pub fn modal_body_dual<const N: usize>(
         .collect();
     let lam: Vec<Dual<N>> = kept.iter().map(|&i| computed[i]).collect();
     let mut modes = base.modes.map(Dual::<N>::constant);
+    // the retained eigenvectors' derivatives on the free dof, per variable of the chunk
+    let mut x_b: Vec<DMatrix<f64>> = Vec::new();
     if update == ModeUpdate::Updated {
         let xb = derivs.eigenvectors.as_ref().ok_or_else(|| {
             FemError::Invalid("updated-mode needs eigenvector derivatives".into())
@@ -833,22 +803,26 @@ pub fn modal_body_dual<const N: usize>(
                 Some(g) if g.nrows() == xb[v].ncols() => &xb[v] * g.transpose(),
                 _ => xb[v].clone(),
             };
-            let full = analysis.expand(&back.select_columns(kept));
+            let free = back.select_columns(kept);
+            let full = analysis.expand(&free);
             for i in 0..full.nrows() {
                 for j in 0..kept.len() {
                     modes[(i, j)].d[t] = full[(i, j)];
                 }
             }
+            x_b.push(free);
         }
     }
-    let damping = match analysis.options.damping {
-        Some(d) => {
-            let all = d.modal_damping(&computed)?;
-            kept.iter().map(|&i| all[i]).collect()
-        }
+    let fit = analysis
+        .options
+        .damping
+        .map(|d| d.coefficients(&computed))
+        .transpose()?;
+    let damping = match fit {
+        Some((a, b)) => lam.iter().map(|&l| a + b * l).collect(),
         None => vec![Dual::constant(0.0); kept.len()],
     };
-    Ok(ModalBody {
+    let mut body = ModalBody {
         node_positions: base.node_positions,
         // constant masses: the callers' variables leave them (`ModalBody::set_lumped_masses`
         // differentiates them)
@@ -865,7 +839,136 @@ pub fn modal_body_dual<const N: usize>(
         modes,
         eigenvalues: lam,
         modal_damping: damping,
-    })
+        stiffness_matrix: None,
+        damping_matrix: None,
+    };
+    if let Some(correction) = &analysis.correction {
+        correction_dual(analysis, correction, matrices, &vars, &x_b, fit, &mut body)?;
+    }
+    add_coupling_nodes(analysis, &mut body);
+    Ok(body)
+}
+
+/// The correction modes' part of a dual body ([`modal_body_dual`]): their shapes' tangents,
+/// the eigenvalue and damping entries of their Ritz values, and the full modal stiffness and
+/// damping. `x_b` are the retained eigenvectors' derivatives (empty for fixed modes).
+fn correction_dual<const N: usize>(
+    analysis: &ModalAnalysis,
+    correction: &StaticCorrection,
+    matrices: &[DesignMatrices],
+    vars: &[usize],
+    x_b: &[DMatrix<f64>],
+    fit: Option<(Dual<N>, Dual<N>)>,
+    body: &mut ModalBody<Dual<N>>,
+) -> Result<(), FemError> {
+    if let Some(&v) = vars.iter().find(|&&v| v >= matrices.len()) {
+        return Err(FemError::Invalid(format!(
+            "static correction modes need the design matrices of every variable ({} given, \
+             variable {} asked for)",
+            matrices.len(),
+            v + 1
+        )));
+    }
+    let (k, m) = (&analysis.k, &analysis.m);
+    let x = analysis.pairs.vectors.select_columns(&analysis.kept);
+    let k_b: Vec<_> = vars.iter().map(|&v| &matrices[v].k).collect();
+    let m_b: Vec<_> = vars.iter().map(|&v| &matrices[v].m).collect();
+    let updated = !x_b.is_empty();
+    let phi_b = if updated {
+        correction.shape_derivatives(&analysis.assembly, k, m, &x, &k_b, &m_b, Some(x_b))?
+    } else {
+        vec![DMatrix::zeros(correction.shapes.nrows(), correction.shapes.ncols()); vars.len()]
+    };
+    let (pe, s) = (x.ncols(), correction.shapes.ncols());
+    let r = pe + s;
+    // B = [X, Φ] on the free dof and its tangents
+    let mut b = DMatrix::zeros(x.nrows(), r);
+    b.columns_mut(0, pe).copy_from(&x);
+    b.columns_mut(pe, s).copy_from(&correction.shapes);
+    let kb_full = crate::eigen::project(k, &b, &b);
+    let mb_full = crate::eigen::project(m, &b, &b);
+    let mut kr = DMatrix::from_fn(r, r, |i, j| Dual::<N>::constant(kb_full[(i, j)]));
+    // B is mass-orthonormal at the analysed design: BᵀMB = I there
+    let mut mr = DMatrix::from_fn(r, r, |i, j| {
+        Dual::<N>::constant(if i == j { 1.0 } else { 0.0 })
+    });
+    debug_assert!((mb_full - DMatrix::identity(r, r)).amax() < 1e-6);
+    for (t, (kbv, mbv)) in k_b.iter().zip(&m_b).enumerate() {
+        let mut bb = DMatrix::zeros(x.nrows(), r);
+        if updated {
+            bb.columns_mut(0, pe).copy_from(&x_b[t]);
+        }
+        bb.columns_mut(pe, s).copy_from(&phi_b[t]);
+        // d(BᵀAB) = B_bᵀAB + BᵀA_bB + BᵀAB_b
+        let ka = crate::eigen::project(k, &bb, &b);
+        let dk = &ka + ka.transpose() + crate::eigen::project(kbv, &b, &b);
+        let ma = crate::eigen::project(m, &bb, &b);
+        let dm = &ma + ma.transpose() + crate::eigen::project(mbv, &b, &b);
+        for i in 0..r {
+            for j in 0..r {
+                kr[(i, j)].d[t] = dk[(i, j)];
+                mr[(i, j)].d[t] = dm[(i, j)];
+            }
+        }
+    }
+    // the eigenmodes' block is diag(λ) (by Nelson's derivatives), its damping α + βλ
+    for i in 0..pe {
+        for j in 0..pe {
+            kr[(i, j)] = if i == j {
+                body.eigenvalues[i]
+            } else {
+                Dual::constant(0.0)
+            };
+        }
+    }
+    // the Ritz values are the diagonal of the modal stiffness at the analysed design
+    for (j, &mu) in correction.values.iter().enumerate() {
+        kr[(pe + j, pe + j)].v = mu;
+        for i in 0..r {
+            if i != pe + j {
+                kr[(i, pe + j)].v = 0.0;
+                kr[(pe + j, i)].v = 0.0;
+            }
+        }
+    }
+    let cr = fit.map(|(a, beta)| {
+        let mut c = DMatrix::from_fn(r, r, |i, j| mr[(i, j)] * a + kr[(i, j)] * beta);
+        for i in 0..pe {
+            for j in 0..pe {
+                c[(i, j)] = if i == j {
+                    body.modal_damping[i]
+                } else {
+                    Dual::constant(0.0)
+                };
+            }
+        }
+        c
+    });
+    // the correction columns of the modes
+    let shapes = analysis.expand(&correction.shapes);
+    let shapes_b: Vec<DMatrix<f64>> = phi_b.iter().map(|d| analysis.expand(d)).collect();
+    let mut modes = DMatrix::from_element(body.modes.nrows(), r, Dual::<N>::constant(0.0));
+    modes
+        .columns_mut(0, pe)
+        .copy_from(&body.modes.columns(0, pe));
+    for i in 0..shapes.nrows() {
+        for j in 0..s {
+            let mut d = [0.0; N];
+            for (t, sb) in shapes_b.iter().enumerate() {
+                d[t] = sb[(i, j)];
+            }
+            modes[(i, pe + j)] = Dual::new(shapes[(i, j)], d);
+        }
+    }
+    body.modes = modes;
+    body.eigenvalues = (0..r).map(|i| kr[(i, i)]).collect();
+    body.modal_damping = match &cr {
+        Some(c) => (0..r).map(|i| c[(i, i)]).collect(),
+        None => vec![Dual::constant(0.0); r],
+    };
+    body.stiffness_matrix = Some(kr);
+    body.damping_matrix = cr;
+    Ok(())
 }
 
 /// A body keeps a diagonal modal stiffness: where a variable splits a cluster of repeated
@@ -908,18 +1011,6 @@ fn no_split(
     Ok(())
 }
 
-/// Design derivatives are not available for static correction modes yet.
-fn no_correction(analysis: &ModalAnalysis) -> Result<(), FemError> {
-    match analysis.correction {
-        None => Ok(()),
-        Some(_) => Err(FemError::Invalid(
-            "design derivatives of static correction modes are not available yet: remove the \
-             correction for a sensitivity analysis (retain more modes instead)"
-                .into(),
-        )),
-    }
-}
-
 /// Derivatives of the retained (and guard) modes of an analysis for all design variables.
 ///
 /// For [`ModeUpdate::Updated`] and clusters of repeated eigenvalues, Dailey's second-derivative
@@ -935,7 +1026,6 @@ pub fn analysis_derivatives<const N: usize, F>(
 where
     F: FnMut(&[Dual<N>]) -> Properties<Dual<N>>,
 {
-    no_correction(analysis)?;
     let (el, mass) = (&analysis.options.element, analysis.options.mass);
     let dm = design_matrices::<N, _>(mesh, &analysis.assembly, b, &mut props, el, mass)?;
     let updated = update == ModeUpdate::Updated;
@@ -976,7 +1066,6 @@ pub fn analysis_eigenvalue_derivatives<const N: usize, F>(
 where
     F: FnMut(&[Dual<N>]) -> Properties<Dual<N>>,
 {
-    no_correction(analysis)?;
     let (el, mass) = (&analysis.options.element, analysis.options.mass);
     let mut projected = Vec::with_capacity(b.len());
     let blocks =

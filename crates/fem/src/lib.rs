@@ -33,6 +33,7 @@
 pub mod assembly;
 pub mod beam;
 pub mod body;
+pub mod correction;
 pub mod eigen;
 pub mod geometric;
 pub mod mesh;
@@ -52,6 +53,7 @@ pub use body::{
     analysis_eigenvalue_derivatives, design_matrices, modal_analysis, modal_body, modal_body_dual,
     planar_axis, reference_constraints, second_derivative_terms,
 };
+pub use correction::{Coupling, Distribution, StaticCorrection, distribution};
 pub use eigen::{EigenMethod, EigenOptions, Eigenpairs, lowest_modes, lowest_modes_of_nodes};
 pub use geometric::{GeometricStiffness, geometric_stiffness};
 pub use mesh::{Element, GmshTriangles, Mesh, MeshError, NodeId, bounding_box, parse_gmsh_v4};

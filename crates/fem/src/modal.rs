@@ -37,6 +37,13 @@ pub struct ModalBody<S: Scalar> {
     pub eigenvalues: Vec<S>,
     /// Diagonal modal damping `2 ζ_i ω_i` for each retained mode (1/s).
     pub modal_damping: Vec<S>,
+    /// The full modal stiffness `XᵀKX` (rad²/s², `n_modes × n_modes`) where the modes do not
+    /// keep it diagonal: the design derivatives of a body with static correction modes
+    /// (`crate::correction`). Its diagonal is `eigenvalues`. `None`: `diag(eigenvalues)`.
+    pub stiffness_matrix: Option<DMatrix<S>>,
+    /// The full modal damping `XᵀCX` (1/s) in the same case; its diagonal is `modal_damping`.
+    /// `None`: `diag(modal_damping)`.
+    pub damping_matrix: Option<DMatrix<S>>,
 }
 
 /// Why a [`ModalBody`] is inconsistent.
@@ -118,7 +125,12 @@ impl<S: Scalar> ModalBody<S> {
             });
         }
         let m = self.n_modes();
-        if self.eigenvalues.len() != m || self.modal_damping.len() != m {
+        let square = |a: &Option<DMatrix<S>>| a.as_ref().is_none_or(|a| a.shape() == (m, m));
+        if self.eigenvalues.len() != m
+            || self.modal_damping.len() != m
+            || !square(&self.stiffness_matrix)
+            || !square(&self.damping_matrix)
+        {
             return Err(ModalBodyError::ModeCount {
                 modes: m,
                 eigenvalues: self.eigenvalues.len(),

@@ -208,8 +208,9 @@ fn dual_modal_body_carries_the_derivatives_and_is_chunk_independent() {
             );
         }
     }
-    let fixed = modal_body_dual::<3>(&mesh, &props, &an, &d, 0, ModeUpdate::Fixed).unwrap();
-    let updated = modal_body_dual::<3>(&mesh, &props, &an, &d, 0, ModeUpdate::Updated).unwrap();
+    let fixed = modal_body_dual::<3>(&mesh, &props, &an, &[], &d, 0, ModeUpdate::Fixed).unwrap();
+    let updated =
+        modal_body_dual::<3>(&mesh, &props, &an, &[], &d, 0, ModeUpdate::Updated).unwrap();
     for i in 0..5 {
         for k in 0..3 {
             assert_eq!(fixed.eigenvalues[i].d[k], d.eigenvalues[k][i]);

@@ -302,7 +302,7 @@ fn modal_body_with_a_line_clamp() {
     let (_, d) =
         analysis_derivatives::<2, _>(&mesh, &an, &b0, two_half_props, ModeUpdate::Updated).unwrap();
     for update in [ModeUpdate::Fixed, ModeUpdate::Updated] {
-        let dual = modal_body_dual::<2>(&mesh, &props, &an, &d, 0, update).unwrap();
+        let dual = modal_body_dual::<2>(&mesh, &props, &an, &[], &d, 0, update).unwrap();
         dual.validate().unwrap();
         for &n in &line {
             assert!(

@@ -84,7 +84,7 @@ fn tracked_modes_of_perturbed_designs_differentiate_to_the_updated_mode_tangents
         ModeUpdate::Updated,
     )
     .unwrap();
-    let dual = modal_body_dual::<1>(&beam(), &p, &a, &d, 0, ModeUpdate::Updated).unwrap();
+    let dual = modal_body_dual::<1>(&beam(), &p, &a, &[], &d, 0, ModeUpdate::Updated).unwrap();
     let tangent = dual.modes.map(|x| x.d[0]);
     let nominal = body(angle);
     // central differences of the tracked modes, per radian

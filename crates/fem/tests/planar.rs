@@ -351,7 +351,7 @@ fn planar_mode_derivatives_match_central_differences_for_every_reference() {
             .max();
         assert!(orth < 1e-10, "{reference:?}: {orth:e}");
         for update in [ModeUpdate::Fixed, ModeUpdate::Updated] {
-            let dual = modal_body_dual::<2>(&mesh, &props, &an, &d, 0, update).unwrap();
+            let dual = modal_body_dual::<2>(&mesh, &props, &an, &[], &d, 0, update).unwrap();
             dual.validate().unwrap();
             for node in 0..=N_EL {
                 for &dd in &out_of_plane(2) {

@@ -134,6 +134,8 @@ impl<P: Scalar> Body<P> {
                     modes: b.modal.modes.map(f),
                     eigenvalues: b.modal.eigenvalues.iter().map(|&x| f(x)).collect(),
                     modal_damping: b.modal.modal_damping.iter().map(|&x| f(x)).collect(),
+                    stiffness_matrix: b.modal.stiffness_matrix.as_ref().map(|k| k.map(f)),
+                    damping_matrix: b.modal.damping_matrix.as_ref().map(|c| c.map(f)),
                 },
                 geometric: b.geometric.as_ref().map(|g| Box::new(g.map(f))),
             }),
@@ -424,10 +426,37 @@ fn flexible_dynamics<P: Scalar, S: Scalar + From<P>>(
         for l in 0..nm {
             coriolis += om.dot(&axial(&q2(l, j))) * wd[l];
         }
-        let lam: S = lift(modal.eigenvalues[j]);
-        let damp: S = lift(modal.modal_damping[j]);
-        force[off + 6 + j] +=
-            c2[j].dot(&g_body) - centripetal - coriolis * two - lam * w[j] - damp * wd[j];
+        force[off + 6 + j] += c2[j].dot(&g_body) - centripetal - coriolis * two;
+    }
+    elastic_forces(modal, w, wd, &mut force[off + 6..off + 6 + nm]);
+}
+
+/// Subtract the elastic and damping forces `K_r w + C_r ẇ` of the modal coordinates `w` and
+/// rates `wd` from `force`: diagonal (`eigenvalues`, `modal_damping`) unless the body carries
+/// full modal matrices.
+fn elastic_forces<P: Scalar, S: Scalar + From<P>>(
+    modal: &ModalBody<P>,
+    w: &[S],
+    wd: &[S],
+    force: &mut [S],
+) {
+    for (j, f) in force.iter_mut().enumerate() {
+        match &modal.stiffness_matrix {
+            None => *f -= lift::<P, S>(modal.eigenvalues[j]) * w[j],
+            Some(k) => {
+                for l in 0..w.len() {
+                    *f -= lift::<P, S>(k[(j, l)]) * w[l];
+                }
+            }
+        }
+        match &modal.damping_matrix {
+            None => *f -= lift::<P, S>(modal.modal_damping[j]) * wd[j],
+            Some(c) => {
+                for l in 0..wd.len() {
+                    *f -= lift::<P, S>(c[(j, l)]) * wd[l];
+                }
+            }
+        }
     }
 }
 
@@ -570,6 +599,8 @@ mod tests {
             modes,
             eigenvalues: vec![100.0, 400.0, 900.0],
             modal_damping: vec![0.1, 0.2, 0.3],
+            stiffness_matrix: None,
+            damping_matrix: None,
         }
     }
 
@@ -666,6 +697,8 @@ mod tests {
                 .iter()
                 .map(|&x| Dual::new(x, [0.0, 0.1]))
                 .collect(),
+            stiffness_matrix: None,
+            damping_matrix: None,
         };
         let ((m1, f1), (m2, f2)) = both(&dual_modal, &qd, &vd);
         close(m1.as_slice(), m2.as_slice(), 1e-13 * scale_m);

@@ -8,8 +8,7 @@ use nalgebra::{DMatrix, DVector, Matrix3, Vector3, Vector4};
 use sens::Scalar;
 
 use crate::body::{
-    Body, BodyId, FlexibleBody, ModalInvariants, Pose, RigidBody, body_dynamics, lift, pose, vec3,
-    vec3f,
+    Body, BodyId, FlexibleBody, ModalInvariants, Pose, RigidBody, body_dynamics, pose, vec3, vec3f,
 };
 use crate::error::ModelError;
 use crate::force::{Force, ForceId, LoadFrame};
@@ -929,7 +928,11 @@ impl Model<f64> {
                         gravity -= b.modal.node_masses[k] * self.gravity.dot(&x);
                     }
                     for j in 0..nm {
-                        elastic += 0.5 * lift::<f64, f64>(b.modal.eigenvalues[j]) * w[j] * w[j];
+                        elastic += 0.5
+                            * match &b.modal.stiffness_matrix {
+                                None => b.modal.eigenvalues[j] * w[j] * w[j],
+                                Some(k) => (0..nm).map(|l| k[(j, l)] * w[j] * w[l]).sum(),
+                            };
                     }
                 }
             }

@@ -231,6 +231,8 @@ fn an_elastic_state_the_joints_forbid_is_an_error_that_names_the_joint() {
         modes,
         eigenvalues: vec![1e4],
         modal_damping: vec![0.0],
+        stiffness_matrix: None,
+        damping_matrix: None,
     };
     let mut model = Model::new();
     let bar = model

@@ -32,6 +32,8 @@ fn oscillator<S: Scalar>(lambda: S) -> Model<S> {
         modes,
         eigenvalues: vec![lambda],
         modal_damping: vec![S::zero()],
+        stiffness_matrix: None,
+        damping_matrix: None,
     };
     let mut model = Model::new();
     let b = model
@@ -163,6 +165,8 @@ fn initial_sensitivities_are_the_derivatives_of_the_assembly() {
             modes,
             eigenvalues: vec![S::from_f64(100.0)],
             modal_damping: vec![S::zero()],
+            stiffness_matrix: None,
+            damping_matrix: None,
         };
         let mut model = Model::new();
         let id = model

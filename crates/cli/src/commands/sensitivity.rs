@@ -77,7 +77,7 @@ fn analyse_chunked<const N: usize>(
         let fem_error =
             |e| crate::study::flexible::fem_error(src, &part.name, part.span.clone(), e);
         let built = &part.built;
-        let (_, derivs) = built.mode_derivatives::<N>(
+        let (matrices, derivs) = built.mode_derivatives::<N>(
             src,
             &part.name,
             part.span.clone(),
@@ -100,6 +100,7 @@ fn analyse_chunked<const N: usize>(
                 &built.mesh,
                 &built.props,
                 &part.analysis,
+                &matrices,
                 &derivs,
                 range.start,
                 update,
@@ -114,11 +115,11 @@ fn analyse_chunked<const N: usize>(
             let (m, mu) =
                 fem::lumped_nodal_masses(&built.mesh, &props, &part.analysis.options.element)
                     .map_err(fem_error)?;
-            body.node_masses = m;
-            body.node_inertias = mu
-                .iter()
-                .map(|x| nalgebra::Vector3::new(x[0], x[1], x[2]))
-                .collect();
+            // (the mesh's nodes; the couplings' nodes after them carry no mass)
+            for (k, (m, mu)) in m.into_iter().zip(mu).enumerate() {
+                body.node_masses[k] = m;
+                body.node_inertias[k] = nalgebra::Vector3::new(mu[0], mu[1], mu[2]);
+            }
             let body =
                 crate::study::flexible_model_body(&part.name, &built.mesh, body, part.stiffening)
                     .map_err(fem_error)?;

@@ -943,13 +943,14 @@ plies = [0]
         let a = fem::modal_analysis(&built.mesh, &built.props, &built.options).unwrap();
         let lam = &a.pairs.values;
         assert!((lam[4] - lam[3]).abs() < 1e-9 * lam[3], "{lam:?}");
-        let (_, d) = built
+        let (dm, d) = built
             .mode_derivatives::<1>(&src, "p", 0..1, &a, fem::ModeUpdate::Updated)
             .unwrap();
         let e = fem::modal_body_dual::<1>(
             &built.mesh,
             &built.props,
             &a,
+            &dm,
             &d,
             0,
             fem::ModeUpdate::Updated,

@@ -171,6 +171,8 @@ impl Beam {
             modes,
             eigenvalues,
             modal_damping: damping,
+            stiffness_matrix: None,
+            damping_matrix: None,
         }
     }
 }

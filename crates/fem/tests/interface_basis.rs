@@ -1,0 +1,327 @@
+//! Interface bases: distributing couplings over node sets (checked against statics: a rigid
+//! motion is reproduced, a load keeps its resultant and moment), static correction modes at
+//! couplings (a coupling load is represented exactly, checked against the full stiffness
+//! solve), and the design derivatives of a body with correction modes (against central
+//! differences of basis-independent quantities: the reduced body's static and dynamic
+//! flexibility at its couplings).
+
+mod common;
+
+use common::paper_material;
+use fem::{
+    Coupling, Mesh, ModalBody, ModalOptions, ModeUpdate, Properties, ReferenceCondition,
+    analysis_derivatives, distribution, modal_analysis, modal_body, modal_body_dual,
+};
+use laminate::{Ply, PlyStack};
+use nalgebra::{DMatrix, DVector, Vector3};
+use sens::{Dual, Scalar};
+
+fn props<S: Scalar>(b: &[S]) -> Properties<S> {
+    let t = S::from_f64(0.0075 / b.len() as f64);
+    let stack = PlyStack::new(
+        b.iter()
+            .map(|&angle| Ply {
+                material: paper_material(),
+                thickness: t,
+                angle,
+            })
+            .collect(),
+    )
+    .unwrap();
+    Properties {
+        sections: vec![],
+        laminates: vec![stack.stiffness()],
+    }
+}
+
+/// The plate strip of the paper's §5.2 (0.304 × 0.04 m), 12 × 2 cells: node `j·13 + i`.
+fn strip() -> Mesh {
+    Mesh::rectangle(0.304, 0.04, 12, 2, 0).unwrap()
+}
+
+/// Couplings over the two end edges (`x = 0` and `x = L`).
+fn end_edges() -> Vec<Coupling> {
+    vec![
+        Coupling {
+            nodes: vec![0, 13, 26],
+            point: None,
+        },
+        Coupling {
+            nodes: vec![12, 25, 38],
+            point: None,
+        },
+    ]
+}
+
+fn options(modes: usize, correction: bool) -> ModalOptions {
+    let mut o = ModalOptions::new(modes);
+    o.reference = ReferenceCondition::ClampedSectionAtCentre;
+    o.couplings = end_edges();
+    if correction {
+        o.correction = vec![39, 40];
+    }
+    o
+}
+
+fn skew(r: &Vector3<f64>) -> nalgebra::Matrix3<f64> {
+    nalgebra::Matrix3::new(0.0, -r.z, r.y, r.z, 0.0, -r.x, -r.y, r.x, 0.0)
+}
+
+#[test]
+fn a_coupling_follows_rigid_motions_and_spreads_loads_statically() {
+    let mesh = Mesh::rectangle(0.3, 0.1, 6, 4, 0).unwrap();
+    // a straight edge (its rotation about the line comes from the nodal rotations), a patch
+    // of the plate, and a single node, each about a point off the centroid
+    for (nodes, point) in [
+        (
+            vec![0, 7, 14, 21, 28],
+            Some(Vector3::new(-0.02, 0.05, 0.01)),
+        ),
+        (vec![9, 10, 11, 16, 17, 18], None),
+        (vec![24], Some(Vector3::new(0.1, 0.2, 0.0))),
+    ] {
+        let d = distribution(
+            &mesh,
+            &Coupling {
+                nodes: nodes.clone(),
+                point,
+            },
+        )
+        .unwrap();
+        let u = Vector3::new(0.3, -0.2, 0.7);
+        let th = Vector3::new(-0.4, 0.9, 0.25);
+        let mut x = DMatrix::zeros(6 * mesh.nodes.len(), 1);
+        for &k in &nodes {
+            let r = mesh.nodes[k] - d.point;
+            let uk = u + th.cross(&r);
+            for i in 0..3 {
+                x[(6 * k + i, 0)] = uk[i];
+                x[(6 * k + 3 + i, 0)] = th[i];
+            }
+        }
+        let got = d.rows(&x);
+        for i in 0..3 {
+            // (to round-off through the fit's 1e-6 rotation weight: a condition number of 1e6)
+            assert!((got[(i, 0)] - u[i]).abs() < 1e-9, "{nodes:?}: u {got}");
+            assert!((got[(3 + i, 0)] - th[i]).abs() < 1e-9, "{nodes:?}: θ {got}");
+        }
+        // a unit force or moment at the point: same resultant and moment about the point
+        for c in 0..6 {
+            let f = d.load(c, mesh.nodes.len());
+            let (mut force, mut moment) = (Vector3::zeros(), Vector3::zeros());
+            for &k in &nodes {
+                let fk = Vector3::new(f[6 * k], f[6 * k + 1], f[6 * k + 2]);
+                let mk = Vector3::new(f[6 * k + 3], f[6 * k + 4], f[6 * k + 5]);
+                force += fk;
+                moment += skew(&(mesh.nodes[k] - d.point)) * fk + mk;
+            }
+            let mut e = [0.0; 6];
+            e[c] = 1.0;
+            for i in 0..3 {
+                assert!(
+                    (force[i] - e[i]).abs() < 1e-9,
+                    "{nodes:?} load {c}: {force} {moment}"
+                );
+                assert!((moment[i] - e[3 + i]).abs() < 1e-9, "{nodes:?} load {c}");
+            }
+        }
+    }
+    // an edge's force goes to its nodes, not to their rotations (to 1e-6 of the force)
+    let d = distribution(
+        &mesh,
+        &Coupling {
+            nodes: vec![0, 7, 14, 21, 28],
+            point: None,
+        },
+    )
+    .unwrap();
+    let f = d.load(2, mesh.nodes.len());
+    for k in [0, 7, 14, 21, 28] {
+        assert!((f[6 * k + 2] - 0.2).abs() < 1e-6, "{}", f[6 * k + 2]);
+        assert!(f[6 * k + 3].abs() < 1e-6 && f[6 * k + 4].abs() < 1e-6);
+    }
+    // bad sets are named
+    for nodes in [vec![], vec![3, 3], vec![999]] {
+        let e = distribution(&mesh, &Coupling { nodes, point: None }).unwrap_err();
+        assert!(e.to_string().contains("coupling"), "{e}");
+    }
+}
+
+#[test]
+fn correction_at_couplings_represents_their_loads_exactly() {
+    let mesh = strip();
+    let b = [0.4, 0.4, 0.4];
+    let p = props(&b);
+    let plain = modal_analysis(&mesh, &p, &options(2, false)).unwrap();
+    let corrected = modal_analysis(&mesh, &p, &options(2, true)).unwrap();
+    // the body has a node for each coupling after the mesh's, at the edge's middle
+    let body = modal_body(&mesh, &p, &corrected).unwrap();
+    assert_eq!(body.n_nodes(), 39 + 2);
+    assert_eq!(body.node_masses[39], 0.0);
+    let origin = corrected.origin;
+    assert!((body.node_positions[40] + origin - Vector3::new(0.304, 0.02, 0.0)).norm() < 1e-12);
+    // correction: the six loads of each coupling (none fixed by the clamp at mid-length)
+    assert_eq!(body.n_modes(), 2 + 12);
+    // a force and moment at the right coupling, against the full stiffness solve
+    let d = &corrected.couplings[1];
+    let n = mesh.nodes.len();
+    let f = d.load(2, n) * 5.0 + d.load(3, n) * 0.3 - d.load(1, n) * 2.0;
+    let free = corrected.assembly.free_dofs();
+    let e = DMatrix::<f64>::identity(free.len(), free.len());
+    let k = fem::eigen::project(&corrected.k, &e, &e);
+    let ff = DVector::from_iterator(free.len(), free.iter().map(|&i| f[i]));
+    let exact = corrected.expand(&DMatrix::from_column_slice(
+        free.len(),
+        1,
+        k.lu().solve(&ff).unwrap().as_slice(),
+    ));
+    let reduced = |a: &fem::ModalAnalysis| {
+        let x = a.mode_shapes();
+        let q = x.transpose() * &f;
+        let lam = a.eigenvalues();
+        &x * DVector::from_iterator(lam.len(), q.iter().zip(&lam).map(|(q, l)| q / l))
+    };
+    let err = |u: DVector<f64>| (u - exact.column(0)).amax() / exact.amax();
+    let (without, with) = (err(reduced(&plain)), err(reduced(&corrected)));
+    eprintln!("coupling load: 2 modes {without:.2e}, with correction {with:.2e}");
+    assert!(without > 1e-2, "{without:e}");
+    assert!(with < 1e-9, "{with:e}");
+    // the coupling node's rows give the fitted motion of the edge
+    let x = corrected.mode_shapes();
+    let rows = d.rows(&x);
+    for r in 0..6 {
+        for j in 0..body.n_modes() {
+            assert!((body.modes[(6 * 40 + r, j)] - rows[(r, j)]).abs() < 1e-15);
+        }
+    }
+}
+
+/// `R (K_r − ω² M_r)⁻¹ Rᵀ` at body node `node` (`R` its six mode rows, `M_r` from the lumped
+/// masses, `K_r` the full modal stiffness or `diag(λ)`): the same for any basis of the same
+/// span. Values and, for each tangent `t < T`, derivatives.
+fn flexibility<const T: usize>(
+    body: &ModalBody<Dual<T>>,
+    node: usize,
+    omega2: f64,
+) -> (DMatrix<f64>, Vec<DMatrix<f64>>) {
+    let r = body.n_modes();
+    let part = |a: &DMatrix<Dual<T>>, t: Option<usize>| {
+        a.map(|x| match t {
+            None => x.v,
+            Some(t) => x.d[t],
+        })
+    };
+    let mut mr = DMatrix::from_element(r, r, Dual::<T>::constant(0.0));
+    for k in 0..body.n_nodes() {
+        let w = [
+            body.node_masses[k],
+            body.node_masses[k],
+            body.node_masses[k],
+            body.node_inertias[k].x,
+            body.node_inertias[k].y,
+            body.node_inertias[k].z,
+        ];
+        for d in 0..6 {
+            for i in 0..r {
+                for j in 0..r {
+                    mr[(i, j)] += body.modes[(6 * k + d, i)] * body.modes[(6 * k + d, j)] * w[d];
+                }
+            }
+        }
+    }
+    let kr = body.stiffness_matrix.clone().unwrap_or_else(|| {
+        DMatrix::from_fn(r, r, |i, j| {
+            if i == j {
+                body.eigenvalues[i]
+            } else {
+                Dual::constant(0.0)
+            }
+        })
+    });
+    let a = &kr - &mr * Dual::from_f64(omega2);
+    let rows = body.modes.rows(6 * node, 6).into_owned();
+    let (av, rv) = (part(&a, None), part(&rows, None));
+    let inv = av.clone().try_inverse().unwrap();
+    let value = &rv * &inv * rv.transpose();
+    let tangents = (0..T)
+        .map(|t| {
+            let (at, rt) = (part(&a, Some(t)), part(&rows, Some(t)));
+            &rt * &inv * rv.transpose() + &rv * &inv * rt.transpose()
+                - &rv * &inv * at * &inv * rv.transpose()
+        })
+        .collect();
+    (value, tangents)
+}
+
+/// An f64 body as a dual one without tangents.
+fn constant(b: &ModalBody<f64>) -> ModalBody<Dual<3>> {
+    let c = |x: &f64| Dual::constant(*x);
+    ModalBody {
+        node_positions: b.node_positions.clone(),
+        node_masses: b.node_masses.iter().map(c).collect(),
+        node_inertias: b
+            .node_inertias
+            .iter()
+            .map(|m| m.map(Dual::constant))
+            .collect(),
+        modes: b.modes.map(Dual::constant),
+        eigenvalues: b.eigenvalues.iter().map(c).collect(),
+        modal_damping: b.modal_damping.iter().map(c).collect(),
+        stiffness_matrix: None,
+        damping_matrix: None,
+    }
+}
+
+#[test]
+fn derivatives_through_correction_modes_match_central_differences() {
+    let mesh = strip();
+    let b0 = [0.3, -0.5, 0.9];
+    let opts = options(4, true);
+    let an = modal_analysis(&mesh, &props(&b0), &opts).unwrap();
+    let (dm, d) =
+        analysis_derivatives::<3, _>(&mesh, &an, &b0, props, ModeUpdate::Updated).unwrap();
+    let dual =
+        modal_body_dual::<3>(&mesh, &props(&b0), &an, &dm, &d, 0, ModeUpdate::Updated).unwrap();
+    assert!(dual.stiffness_matrix.is_some());
+    // the dual body's values are the f64 body's
+    let plain = modal_body(&mesh, &props(&b0), &an).unwrap();
+    assert!(dual.modes.iter().zip(&plain.modes).all(|(a, b)| a.v == *b));
+    assert!(
+        dual.eigenvalues
+            .iter()
+            .zip(&plain.eigenvalues)
+            .all(|(a, b)| a.v == *b)
+    );
+    // static flexibility at the couplings (which the correction makes exact) and the dynamic
+    // one at half the lowest frequency (which the eigenmodes and the masses enter)
+    let omega2 = 0.25 * an.pairs.values[0];
+    let h = 1e-5;
+    for (node, w2) in [(39, 0.0), (40, 0.0), (39, omega2), (40, omega2)] {
+        let (value, tangents) = flexibility(&dual, node, w2);
+        let scale = value.amax();
+        for v in 0..3 {
+            let at = |s: f64| {
+                let mut b = b0;
+                b[v] += s * h;
+                let a = modal_analysis(&mesh, &props(&b), &opts).unwrap();
+                let body = modal_body(&mesh, &props(&b), &a).unwrap();
+                flexibility(&constant(&body), node, w2).0
+            };
+            let fd = (at(1.0) - at(-1.0)) / (2.0 * h);
+            let err = (&tangents[v] - &fd).amax();
+            let size = tangents[v].amax();
+            eprintln!(
+                "node {node}, ω² {w2:.3e}, variable {v}: |dS| {size:.3e} (|S| {scale:.3e}), \
+                 error against central differences {err:.2e}"
+            );
+            assert!(size > 1e-3 * scale, "the variable moves the flexibility");
+            assert!(err < 1e-6 * size, "{err:e} against {size:e}");
+        }
+    }
+    // fixed modes: the shapes keep their values, the stiffness takes K_b
+    let fixed =
+        modal_body_dual::<3>(&mesh, &props(&b0), &an, &dm, &d, 0, ModeUpdate::Fixed).unwrap();
+    assert!(fixed.modes.iter().all(|x| x.d == [0.0; 3]));
+    let k = fixed.stiffness_matrix.as_ref().unwrap();
+    assert!(k[(5, 7)].d.iter().any(|x| x.abs() > 0.0));
+}
