@@ -7,7 +7,7 @@ use toml::Spanned;
 
 use super::check::{nonzero_vector, positive, required, span, vector};
 use super::laminates::{LaminateModel, suggestion};
-use super::raw::{RawBody, RawDeck, RawSupport};
+use super::raw::{RawBody, RawCoupling, RawDeck, RawPlane, RawSupport};
 use super::sections::{self, SectionDef};
 use super::{DeckError, Source};
 
@@ -60,8 +60,14 @@ pub struct BodyDef {
     pub planar: Option<Vector3<f64>>,
     pub damping: Option<fem::Damping>,
     pub lumped: bool,
-    /// Static correction nodes.
+    /// Static correction nodes (mesh nodes).
     pub correction: Vec<usize>,
+    /// The interface basis: `correction` are the nodes the joints and forces act at, and every
+    /// coupling takes static correction modes too (nodes the reference condition clamps are
+    /// left out).
+    pub interface: bool,
+    /// Distributing couplings, in the order of their nodes in the modal body.
+    pub couplings: Vec<CouplingDef>,
     /// Initial modal coordinates and rates, one per retained mode (zero-padded).
     pub initial_modal: Vec<f64>,
     pub initial_modal_rates: Vec<f64>,
@@ -91,6 +97,17 @@ pub enum NodeSet {
         value: f64,
     },
     Inside([[f64; 3]; 2]),
+}
+
+/// A validated distributing coupling: its name, nodes, point (global at the start, `None`:
+/// the centroid) and place in the deck.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CouplingDef {
+    pub name: String,
+    pub nodes: NodeSet,
+    pub point: Option<Vector3<f64>>,
+    pub key: String,
+    pub span: std::ops::Range<usize>,
 }
 
 /// A validated support: its nodes, the local dof fixed there, and its place in the deck.
@@ -656,8 +673,22 @@ pub fn validate_one(
         }
         Ok(out)
     };
-    let correction = match &raw.correction {
-        None => Vec::new(),
+    let couplings = couplings(src, name, raw.couplings.as_ref())?;
+    let basis = match raw.basis.as_ref().map(|b| b.get_ref().as_str()) {
+        None => kind.get_ref() == "shell",
+        Some("interface") => true,
+        Some("modes") => false,
+        Some(other) => {
+            return Err(src.error(
+                span(raw.basis.as_ref().expect("given")),
+                Some(k("basis")),
+                format!("unknown basis `{other}`: expected \"interface\" or \"modes\""),
+            ));
+        }
+    };
+    let (correction, interface) = match &raw.correction {
+        None if basis => (interface_nodes(deck, name), true),
+        None => (Vec::new(), false),
         Some(c) => {
             let list = c.get_ref();
             if list.is_empty() || list.iter().any(|&n| n < 0) {
@@ -667,7 +698,7 @@ pub fn validate_one(
                     "a list of node indices (from 0), e.g. the nodes the body's joints act at",
                 ));
             }
-            list.iter().map(|&n| n as usize).collect()
+            (list.iter().map(|&n| n as usize).collect(), false)
         }
     };
     let initial_modal = initial("initial_modal", &raw.initial_modal, "coordinate (√kg·m)")?;
@@ -687,11 +718,131 @@ pub fn validate_one(
         damping,
         lumped,
         correction,
+        interface,
+        couplings,
         initial_modal,
         initial_modal_rates,
         stiffening,
         supports,
     })
+}
+
+/// A node set written as `nodes = [...]`, `plane = { x = … }` or `box = [[…], […]]` (one of
+/// them) in the table `key` at `whole`.
+fn node_set(
+    src: &Source,
+    key: &str,
+    whole: std::ops::Range<usize>,
+    nodes: &Option<Spanned<Vec<i64>>>,
+    plane: &Option<Spanned<RawPlane>>,
+    inside: &Option<Spanned<[[f64; 3]; 2]>>,
+) -> Result<NodeSet, DeckError> {
+    let sk = |k: &str| format!("{key}.{k}");
+    Ok(match (nodes, plane, inside) {
+        (Some(n), None, None) => {
+            let list = n.get_ref();
+            if list.is_empty() || list.iter().any(|&x| x < 0) {
+                return Err(src.error(
+                    span(n),
+                    Some(sk("nodes")),
+                    "a list of node indices (from 0)",
+                ));
+            }
+            NodeSet::Nodes(list.iter().map(|&x| x as usize).collect())
+        }
+        (None, Some(p), None) => {
+            let pr = p.get_ref();
+            let given: Vec<(usize, f64)> = [pr.x, pr.y, pr.z]
+                .iter()
+                .enumerate()
+                .filter_map(|(a, v)| v.map(|v| (a, v)))
+                .collect();
+            match given.as_slice() {
+                [(axis, value)] if value.is_finite() => NodeSet::Plane {
+                    axis: *axis,
+                    value: *value,
+                },
+                _ => {
+                    return Err(src.error(
+                        span(p),
+                        Some(sk("plane")),
+                        "one finite coordinate of a plane normal to a global axis, e.g. \
+                         { x = 0.0 }",
+                    ));
+                }
+            }
+        }
+        (None, None, Some(b)) => {
+            let [lo, hi] = *b.get_ref();
+            if (0..3).any(|a| !(lo[a].is_finite() && hi[a].is_finite() && lo[a] <= hi[a])) {
+                return Err(src.error(
+                    span(b),
+                    Some(sk("box")),
+                    "[[x0, y0, z0], [x1, y1, z1]] with finite corners, x0 ≤ x1, y0 ≤ y1, \
+                     z0 ≤ z1",
+                ));
+            }
+            NodeSet::Inside([lo, hi])
+        }
+        _ => {
+            return Err(src.error(
+                Some(whole),
+                Some(key.to_string()),
+                "give the nodes in one way: nodes = [...], plane = { x = … } or box = [[…], \
+                 […]]",
+            ));
+        }
+    })
+}
+
+/// Validate `[body.NAME.couplings]`.
+fn couplings(
+    src: &Source,
+    name: &str,
+    raw: Option<&std::collections::BTreeMap<String, Spanned<RawCoupling>>>,
+) -> Result<Vec<CouplingDef>, DeckError> {
+    let mut out = Vec::new();
+    for (cname, c) in raw.into_iter().flatten() {
+        let key = format!("body.{name}.couplings.{cname}");
+        let r = c.get_ref();
+        let nodes = node_set(src, &key, c.span(), &r.nodes, &r.plane, &r.inside)?;
+        let point = r
+            .point
+            .as_ref()
+            .map(|p| vector(src, &format!("{key}.point"), p))
+            .transpose()?;
+        out.push(CouplingDef {
+            name: cname.clone(),
+            nodes,
+            point,
+            key,
+            span: c.span(),
+        });
+    }
+    Ok(out)
+}
+
+/// The nodes of body `name` that the deck's joints and forces attach to (`node = k`).
+fn interface_nodes(deck: &RawDeck, name: &str) -> Vec<usize> {
+    let joints = deck
+        .joint
+        .values()
+        .flat_map(|j| [j.get_ref().a.as_ref(), j.get_ref().b.as_ref()]);
+    let forces = deck.force.values().flat_map(|f| {
+        let f = f.get_ref();
+        [f.at.as_ref(), f.a.as_ref(), f.b.as_ref()]
+    });
+    let mut nodes: Vec<usize> = joints
+        .chain(forces)
+        .flatten()
+        .filter(|m| m.get_ref().body.as_ref().is_some_and(|b| b.get_ref() == name))
+        .filter_map(|m| m.get_ref().node.as_ref().map(|n| *n.get_ref()))
+        .filter(|&n| n >= 0)
+        .map(|n| n as usize)
+        .collect();
+    nodes.sort_unstable();
+    nodes.dedup();
+    nodes
 }
 
 /// The dof names of a support's `fix` list, in the order of the nodal dof.
@@ -708,61 +859,7 @@ fn supports(
         let key = format!("body.{name}.supports[{i}]");
         let sk = |k: &str| format!("{key}.{k}");
         let r = s.get_ref();
-        let nodes = match (&r.nodes, &r.plane, &r.inside) {
-            (Some(n), None, None) => {
-                let list = n.get_ref();
-                if list.is_empty() || list.iter().any(|&x| x < 0) {
-                    return Err(src.error(
-                        span(n),
-                        Some(sk("nodes")),
-                        "a list of node indices (from 0)",
-                    ));
-                }
-                NodeSet::Nodes(list.iter().map(|&x| x as usize).collect())
-            }
-            (None, Some(p), None) => {
-                let pr = p.get_ref();
-                let given: Vec<(usize, f64)> = [pr.x, pr.y, pr.z]
-                    .iter()
-                    .enumerate()
-                    .filter_map(|(a, v)| v.map(|v| (a, v)))
-                    .collect();
-                match given.as_slice() {
-                    [(axis, value)] if value.is_finite() => NodeSet::Plane {
-                        axis: *axis,
-                        value: *value,
-                    },
-                    _ => {
-                        return Err(src.error(
-                            span(p),
-                            Some(sk("plane")),
-                            "one finite coordinate of a plane normal to a global axis, e.g. \
-                             { x = 0.0 }",
-                        ));
-                    }
-                }
-            }
-            (None, None, Some(b)) => {
-                let [lo, hi] = *b.get_ref();
-                if (0..3).any(|a| !(lo[a].is_finite() && hi[a].is_finite() && lo[a] <= hi[a])) {
-                    return Err(src.error(
-                        span(b),
-                        Some(sk("box")),
-                        "[[x0, y0, z0], [x1, y1, z1]] with finite corners, x0 ≤ x1, y0 ≤ y1, \
-                         z0 ≤ z1",
-                    ));
-                }
-                NodeSet::Inside([lo, hi])
-            }
-            _ => {
-                return Err(src.error(
-                    span(s),
-                    Some(key.clone()),
-                    "give the nodes of the support in one way: nodes = [...], plane = { x = … } \
-                     or box = [[…], […]]",
-                ));
-            }
-        };
+        let nodes = node_set(src, &key, s.span(), &r.nodes, &r.plane, &r.inside)?;
         let fix = required(
             src,
             span(s),

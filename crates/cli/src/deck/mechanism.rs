@@ -26,6 +26,8 @@ pub struct BodyInfo {
     pub nodes: Option<Vec<Vector3<f64>>>,
     /// Natural frequencies (Hz) of the retained modes, flexible bodies.
     pub frequencies: Vec<f64>,
+    /// Flexible bodies: the names of the couplings, whose nodes are the last of `nodes`.
+    pub couplings: Vec<String>,
 }
 
 /// A validated rigid body.
@@ -237,6 +239,13 @@ fn marker(
         if let Some(n) = &raw.node {
             return Err(src.error(span(n), Some(k("node")), "the ground has no nodes"));
         }
+        if let Some(c) = &raw.coupling {
+            return Err(src.error(
+                span(c),
+                Some(k("coupling")),
+                "the ground has no couplings",
+            ));
+        }
         let p = vector(
             src,
             &k("point"),
@@ -257,6 +266,44 @@ fn marker(
             ),
         )
     })?;
+    if let Some(c) = &raw.coupling {
+        if raw.point.is_some() || raw.node.is_some() {
+            return Err(src.error(
+                span(c),
+                Some(k("coupling")),
+                "give one of point, node or coupling",
+            ));
+        }
+        let nodes = info.nodes.as_ref().map_or(0, Vec::len);
+        let index = info.couplings.iter().position(|x| x == c.get_ref());
+        return match index {
+            Some(i) => Ok(with_axes(
+                Marker::node(info.id, nodes - info.couplings.len() + i),
+                &info.rotation,
+            )),
+            None => {
+                let known: Vec<&str> = info.couplings.iter().map(String::as_str).collect();
+                Err(src.error(
+                    span(c),
+                    Some(k("coupling")),
+                    if known.is_empty() {
+                        format!(
+                            "body `{}` has no couplings (define them in [body.{}.couplings])",
+                            body.get_ref(),
+                            body.get_ref()
+                        )
+                    } else {
+                        format!(
+                            "undefined coupling `{}` of body `{}`{}",
+                            c.get_ref(),
+                            body.get_ref(),
+                            suggestion(c.get_ref(), &known)
+                        )
+                    },
+                ))
+            }
+        };
+    }
     match (&raw.point, &raw.node) {
         (Some(p), None) => {
             let p = vector(src, &k("point"), p)?;
@@ -297,7 +344,7 @@ fn marker(
         (None, None) => Err(src.error(
             span(m),
             Some(k("point")),
-            "missing value: point [x, y, z] or node",
+            "missing value: point [x, y, z], node or coupling",
         )),
     }
 }

@@ -191,14 +191,33 @@ pub struct RawBody {
     /// `"lumped"` (default; the floating frame needs it) or `"consistent"`.
     pub mass: Option<Spanned<String>>,
     /// Static correction: node indices (from 0) whose static shapes are added to the modes,
-    /// typically the nodes the body's joints act at.
+    /// typically the nodes the body's joints act at; replaces the interface basis's choice.
     pub correction: Option<Spanned<Vec<i64>>>,
+    /// `"interface"` (static correction modes at every coupling and every node a joint or
+    /// force acts at; the default for shells) or `"modes"` (eigenmodes only; the default for
+    /// beams).
+    pub basis: Option<Spanned<String>>,
+    /// Distributing couplings by name: node sets that joints and forces attach to
+    /// (`coupling = "name"` in a marker).
+    pub couplings: Option<BTreeMap<String, Spanned<RawCoupling>>>,
     /// Initial modal coordinates of the retained modes in order (missing ones are zero),
     /// in the mass-normalised coordinates of `flexsens modes` (√kg·m). Default: undeformed.
     pub initial_modal: Option<Spanned<Vec<f64>>>,
     /// Initial modal rates of the retained modes in order (√kg·m/s). Default: at rest in the
     /// body frame.
     pub initial_modal_rates: Option<Spanned<Vec<f64>>>,
+}
+
+/// A distributing coupling: a set of nodes (`nodes`, `plane` or `box`) and, optionally, its
+/// point (global coordinates at the start, m; default the nodes' centroid).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawCoupling {
+    pub nodes: Option<Spanned<Vec<i64>>>,
+    pub plane: Option<Spanned<RawPlane>>,
+    #[serde(rename = "box")]
+    pub inside: Option<Spanned<[[f64; 3]; 2]>>,
+    pub point: Option<Spanned<[f64; 3]>>,
 }
 
 /// A support: a set of nodes (`nodes`, `plane` or `box`) and the dof fixed there (`fix`).
@@ -432,6 +451,8 @@ pub struct RawMarker {
     pub point: Option<Spanned<[f64; 3]>>,
     /// A node of a flexible body (index from 0), instead of `point`.
     pub node: Option<Spanned<i64>>,
+    /// A coupling of a flexible body (`[body.*.couplings]`), instead of `point` or `node`.
+    pub coupling: Option<Spanned<String>>,
     /// The joint axis, global components (default z).
     pub axis: Option<Spanned<[f64; 3]>>,
     /// A direction normal to the axis from which driver angles are measured (default: any).

@@ -670,7 +670,27 @@ pub fn build(
     let mut options = ModalOptions::new(def.computed);
     options.supports = supports;
     options.kept = def.kept.clone();
+    options.couplings = def
+        .couplings
+        .iter()
+        .map(|c| {
+            Ok(fem::Coupling {
+                nodes: node_set(src, &c.nodes, &c.key, c.span.clone(), &mesh)?,
+                point: c.point,
+            })
+        })
+        .collect::<Result<Vec<_>, CliError>>()?;
     options.correction = def.correction.clone();
+    if def.interface {
+        // the joints' and forces' nodes that the reference condition leaves free, then every
+        // coupling (numbered after the mesh's nodes)
+        if let ReferenceCondition::ClampedNode(c) = reference {
+            options.correction.retain(|&n| n != c);
+        }
+        let n = mesh.nodes.len();
+        options.correction.retain(|&k| k < n);
+        options.correction.extend(n..n + def.couplings.len());
+    }
     options.reference = reference;
     options.planar = def.planar;
     options.damping = def.damping;
@@ -694,14 +714,27 @@ fn support_nodes(
     sd: &crate::deck::bodies::SupportDef,
     mesh: &fem::Mesh,
 ) -> Result<fem::Support, CliError> {
+    Ok(fem::Support {
+        nodes: node_set(src, &sd.nodes, &sd.key, sd.span.clone(), mesh)?,
+        dofs: sd.dofs.clone(),
+    })
+}
+
+/// The nodes of `mesh` in `set` (an error naming the table `key` when there are none).
+fn node_set(
+    src: &Source,
+    set: &crate::deck::bodies::NodeSet,
+    key: &str,
+    span: std::ops::Range<usize>,
+    mesh: &fem::Mesh,
+) -> Result<Vec<usize>, CliError> {
     use crate::deck::bodies::NodeSet;
-    let fail =
-        |m: String| CliError::Input(src.error(Some(sd.span.clone()), Some(sd.key.clone()), m));
+    let fail = |m: String| CliError::Input(src.error(Some(span.clone()), Some(key.to_string()), m));
     let n = mesh.nodes.len();
     let (lo, hi) = mesh.bounding_box();
     // coordinates within 1e-9 of the mesh's size count as on a plane or in a box
     let tol = 1e-9 * (hi - lo).norm().max(f64::MIN_POSITIVE);
-    let nodes: Vec<usize> = match &sd.nodes {
+    let nodes: Vec<usize> = match set {
         NodeSet::Nodes(list) => {
             if let Some(&k) = list.iter().find(|&&k| k >= n) {
                 return Err(fail(format!(
@@ -726,10 +759,7 @@ fn support_nodes(
             lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
         )));
     }
-    Ok(fem::Support {
-        nodes,
-        dofs: sd.dofs.clone(),
-    })
+    Ok(nodes)
 }
 
 /// A failed eigen solution is a runtime failure; every other error of the finite-element layer

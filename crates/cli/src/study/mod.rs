@@ -233,6 +233,7 @@ impl Study {
                     rotation: Matrix3::identity(),
                     nodes: Some(nodes),
                     frequencies: analysis.frequencies_hz(),
+                    couplings: def.couplings.iter().map(|c| c.name.clone()).collect(),
                 },
             );
             body_order.push(name.clone());
@@ -264,6 +265,7 @@ impl Study {
                     rotation: r.orientation,
                     nodes: None,
                     frequencies: Vec::new(),
+                    couplings: Vec::new(),
                 },
             );
             body_order.push(r.name);
