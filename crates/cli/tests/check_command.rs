@@ -120,7 +120,7 @@ fn oversized_meshes_are_refused_before_allocation() {
             "section.tube.elements_around",
         ),
         (
-            plate.replace("elements = [24, 4]", "elements = [100000, 100000]"),
+            plate.replace("elements = [64, 8]", "elements = [100000, 100000]"),
             "body.rod.elements",
         ),
     ];

@@ -282,7 +282,8 @@ fn the_start_has_the_rigid_mechanisms_kinetic_energy_for_every_frame() {
 
 /// Static correction modes at the joint nodes (`correction = [0, 16]`) let the paper's frame
 /// (clamped at the centre) converge with four modes: within 0.5 % of the converged curve at
-/// 150 rad/s, where its four eigenmodes alone are 2 % off.
+/// 150 rad/s, where its four eigenmodes alone are 2 % off; the design sensitivities through
+/// them are the exact derivatives (replayed central differences).
 #[test]
 fn static_correction_at_the_joints_converges_with_four_modes() {
     let dir = tempfile::tempdir().unwrap();
@@ -306,20 +307,44 @@ fn static_correction_at_the_joints_converges_with_four_modes() {
     // measured 2.05e-2 and 2.2e-3
     assert!(corrected < 5e-3, "{corrected:e}");
     assert!(corrected < plain / 5.0, "{corrected:e} vs {plain:e}");
-    // design sensitivities through correction modes are not available: said before anything runs
-    let o = run(&[
-        "run",
-        deck("slider_crank_beam.toml").to_str().unwrap(),
-        "-o",
-        dir.path().join("refused").to_str().unwrap(),
-        "--set",
-        "body.rod.correction=[0, 8]",
-    ]);
-    assert_eq!(o.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(
-        err.contains("body.rod") && err.contains("static correction modes are not available"),
-        "{err}"
-    );
-    assert!(!dir.path().join("refused").join("results.h5").exists());
+    // design sensitivities through correction modes: exact, against replayed central
+    // differences of whole runs
+    let err_correction = {
+        let (scratch, path) = common::with_extra("slider_crank_beam.toml", "");
+        let text = std::fs::read_to_string(&path)
+            .unwrap()
+            .replace("[body.rod]\n", "[body.rod]\ncorrection = [0, 8]\n");
+        std::fs::write(&path, text).unwrap();
+        let out = scratch.path().join("out");
+        json(&[
+            "run",
+            path.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--json",
+            "--set",
+            "analysis.t_end=0.003",
+            "--set",
+            "finite_differences.scheme=central",
+            "--set",
+            "finite_differences.sizes=[1e-4]",
+            "--set",
+            "sensitivity.method=\"direct\"",
+        ]);
+        let g = flexsens::results::Group::read_hdf5(&out.join("results.h5")).unwrap();
+        let direct = common::f64s(&g, "sensitivities/mid_deflection");
+        let fd = common::f64s(
+            &g,
+            "finite_differences/central_relative_0.0001_replay/mid_deflection",
+        );
+        let scale = direct.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+        let worst = direct
+            .iter()
+            .zip(&fd)
+            .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()));
+        assert!(common::f64s(&g, "bodies/rod/basis_missed_compliance").len() > 3);
+        worst / scale
+    };
+    eprintln!("with correction: sensitivities against central differences {err_correction:.1e}");
+    assert!(err_correction < 1e-5, "{err_correction:e}");
 }

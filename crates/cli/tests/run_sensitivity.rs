@@ -391,8 +391,9 @@ fn design_that_moves_nothing_or_objectives_without_gradients_are_rejected() {
     assert!(err.contains("need design variables"), "{err}");
 }
 
-/// The paper's plate deck (shell rod, clamped cross-section, 3-D plate modes, constraint rows
-/// reselected along the way): its sensitivities agree with replayed central differences.
+/// The paper's plate deck (shell rod on its end edges through couplings, interface basis with
+/// correction modes, 3-D plate modes, constraint rows reselected along the way): its exact
+/// (`"direct"`) sensitivities agree with replayed central differences.
 #[test]
 fn plate_deck_sensitivities_match_replayed_central_differences() {
     let dir = tempfile::tempdir().unwrap();
@@ -404,13 +405,14 @@ fn plate_deck_sensitivities_match_replayed_central_differences() {
             "analysis.t_end=0.002",
             "finite_differences.scheme=central",
             "finite_differences.sizes=[1e-4]",
+            "sensitivity.method=\"direct\"",
         ],
     );
     let g = Group::read_hdf5(&out.join("results.h5")).unwrap();
     let (err, scale) = direct_vs_central(&g, "0.0001");
     eprintln!("plate: mid-node deflection vs central differences {err:.2e}");
-    // measured 2026-11-21: 1.3e-8
-    assert!(err < 1e-6, "{err:e}");
+    // measured 7.5e-7 (1.3e-8 on the deck's earlier basis, six eigenmodes alone)
+    assert!(err < 3e-6, "{err:e}");
     assert!(scale > 1e-6, "{scale:e}");
     // six modes with their derivatives, the frame constraints kept tight
     assert_eq!(f64s(&g, "bodies/rod/frequency_derivatives").len(), 6);

@@ -341,7 +341,7 @@ impl ModalAnalysis {
         l
     }
     /// The body's mode shapes on the free dof: retained eigenvectors, then correction modes.
-    fn free_shapes(&self) -> DMatrix<f64> {
+    pub(crate) fn free_shapes(&self) -> DMatrix<f64> {
         let x = self.pairs.vectors.select_columns(&self.kept);
         match &self.correction {
             None => x,
@@ -966,8 +966,8 @@ fn correction_dual<const N: usize>(
         Some(c) => (0..r).map(|i| c[(i, i)]).collect(),
         None => vec![Dual::constant(0.0); r],
     };
-    body.stiffness_matrix = Some(kr);
-    body.damping_matrix = cr;
+    body.stiffness_matrix = Some(Box::new(kr));
+    body.damping_matrix = cr.map(Box::new);
     Ok(())
 }
 

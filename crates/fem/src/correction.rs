@@ -186,6 +186,24 @@ pub(crate) fn interface_loads(
     couplings: &[Distribution],
     targets: &[NodeId],
 ) -> Result<DMatrix<f64>, FemError> {
+    let cols = interface_load_columns(assembly, n_nodes, couplings, targets)?;
+    if cols.is_empty() {
+        return Err(FemError::Invalid(
+            "static correction: every dof of the correction nodes is fixed by the reference \
+             condition"
+                .into(),
+        ));
+    }
+    Ok(DMatrix::from_columns(&cols))
+}
+
+/// The columns of [`interface_loads`] (those of a coupling's loads that fall on free dof).
+fn interface_load_columns(
+    assembly: &Assembly,
+    n_nodes: usize,
+    couplings: &[Distribution],
+    targets: &[NodeId],
+) -> Result<Vec<DVector<f64>>, FemError> {
     let mut cols: Vec<DVector<f64>> = Vec::new();
     for &t in targets {
         if t < n_nodes {
@@ -215,14 +233,7 @@ pub(crate) fn interface_loads(
             )));
         }
     }
-    if cols.is_empty() {
-        return Err(FemError::Invalid(
-            "static correction: every dof of the correction nodes is fixed by the reference \
-             condition"
-                .into(),
-        ));
-    }
-    Ok(DMatrix::from_columns(&cols))
+    Ok(cols)
 }
 
 /// The Cholesky factor of the free-dof stiffness `k` (an error when the reference condition

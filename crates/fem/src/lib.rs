@@ -33,6 +33,7 @@
 pub mod assembly;
 pub mod beam;
 pub mod body;
+pub mod completeness;
 pub mod correction;
 pub mod eigen;
 pub mod geometric;
@@ -53,6 +54,7 @@ pub use body::{
     analysis_eigenvalue_derivatives, design_matrices, modal_analysis, modal_body, modal_body_dual,
     planar_axis, reference_constraints, second_derivative_terms,
 };
+pub use completeness::{Completeness, InterfaceLoads, LoadCase, static_completeness};
 pub use correction::{Coupling, Distribution, StaticCorrection, distribution};
 pub use eigen::{EigenMethod, EigenOptions, Eigenpairs, lowest_modes, lowest_modes_of_nodes};
 pub use geometric::{GeometricStiffness, geometric_stiffness};

@@ -40,10 +40,10 @@ pub struct ModalBody<S: Scalar> {
     /// The full modal stiffness `XᵀKX` (rad²/s², `n_modes × n_modes`) where the modes do not
     /// keep it diagonal: the design derivatives of a body with static correction modes
     /// (`crate::correction`). Its diagonal is `eigenvalues`. `None`: `diag(eigenvalues)`.
-    pub stiffness_matrix: Option<DMatrix<S>>,
+    pub stiffness_matrix: Option<Box<DMatrix<S>>>,
     /// The full modal damping `XᵀCX` (1/s) in the same case; its diagonal is `modal_damping`.
     /// `None`: `diag(modal_damping)`.
-    pub damping_matrix: Option<DMatrix<S>>,
+    pub damping_matrix: Option<Box<DMatrix<S>>>,
 }
 
 /// Why a [`ModalBody`] is inconsistent.
@@ -125,7 +125,7 @@ impl<S: Scalar> ModalBody<S> {
             });
         }
         let m = self.n_modes();
-        let square = |a: &Option<DMatrix<S>>| a.as_ref().is_none_or(|a| a.shape() == (m, m));
+        let square = |a: &Option<Box<DMatrix<S>>>| a.as_ref().is_none_or(|a| a.shape() == (m, m));
         if self.eigenvalues.len() != m
             || self.modal_damping.len() != m
             || !square(&self.stiffness_matrix)

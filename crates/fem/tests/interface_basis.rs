@@ -229,15 +229,19 @@ fn flexibility<const T: usize>(
             }
         }
     }
-    let kr = body.stiffness_matrix.clone().unwrap_or_else(|| {
-        DMatrix::from_fn(r, r, |i, j| {
-            if i == j {
-                body.eigenvalues[i]
-            } else {
-                Dual::constant(0.0)
-            }
-        })
-    });
+    let kr = body
+        .stiffness_matrix
+        .as_deref()
+        .cloned()
+        .unwrap_or_else(|| {
+            DMatrix::from_fn(r, r, |i, j| {
+                if i == j {
+                    body.eigenvalues[i]
+                } else {
+                    Dual::constant(0.0)
+                }
+            })
+        });
     let a = &kr - &mr * Dual::from_f64(omega2);
     let rows = body.modes.rows(6 * node, 6).into_owned();
     let (av, rv) = (part(&a, None), part(&rows, None));

@@ -134,8 +134,12 @@ impl<P: Scalar> Body<P> {
                     modes: b.modal.modes.map(f),
                     eigenvalues: b.modal.eigenvalues.iter().map(|&x| f(x)).collect(),
                     modal_damping: b.modal.modal_damping.iter().map(|&x| f(x)).collect(),
-                    stiffness_matrix: b.modal.stiffness_matrix.as_ref().map(|k| k.map(f)),
-                    damping_matrix: b.modal.damping_matrix.as_ref().map(|c| c.map(f)),
+                    stiffness_matrix: b
+                        .modal
+                        .stiffness_matrix
+                        .as_ref()
+                        .map(|k| Box::new(k.map(f))),
+                    damping_matrix: b.modal.damping_matrix.as_ref().map(|c| Box::new(c.map(f))),
                 },
                 geometric: b.geometric.as_ref().map(|g| Box::new(g.map(f))),
             }),

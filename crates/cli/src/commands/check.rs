@@ -99,6 +99,11 @@ pub fn run(path: &Path, overrides: &[String]) -> Result<String, CliError> {
                 "the initial configuration cannot be assembled: {e}"
             ))
         })?;
+        for name in &mech.body_order {
+            if let Some(b) = &mech.bodies[name].basis {
+                let _ = writeln!(s, "basis of body {name}: {}", b.describe());
+            }
+        }
         let removed = system.removed_equations();
         if removed.is_empty() {
             let _ = writeln!(s, "mechanism: assembled; no redundant joint equations");

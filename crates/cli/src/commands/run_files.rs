@@ -102,6 +102,27 @@ pub(crate) fn results(src: &Source, mech: &Study, c: &Computed) -> Group {
                 b.frequencies.clone(),
             )
             .units("Hz");
+            if let Some(basis) = &b.basis {
+                let cases = basis.check.as_ref().map_or(&[][..], |c| &c.cases[..]);
+                g.put(
+                    &format!("bodies/{name}/basis_missed_compliance"),
+                    &[cases.len()],
+                    cases.iter().map(|c| c.missed).collect(),
+                )
+                .units("1")
+                .attr(
+                    "load_cases",
+                    Attr::Text(
+                        cases
+                            .iter()
+                            .map(|c| c.name.as_str())
+                            .collect::<Vec<_>>()
+                            .join("; "),
+                    ),
+                )
+                .attr("eigenmodes", Attr::I64(basis.eigenmodes as i64))
+                .attr("correction_modes", Attr::I64(basis.correction_modes as i64));
+            }
         }
     }
     for (j, name) in mech.joint_names.iter().enumerate() {

@@ -7,7 +7,7 @@ use toml::Spanned;
 
 use super::check::{nonzero_vector, positive, required, span, vector};
 use super::laminates::{LaminateModel, suggestion};
-use super::raw::{RawBody, RawCoupling, RawDeck, RawPlane, RawSupport};
+use super::raw::{RawBody, RawCoupling, RawDeck, RawMarker, RawPlane, RawSupport};
 use super::sections::{self, SectionDef};
 use super::{DeckError, Source};
 
@@ -68,6 +68,10 @@ pub struct BodyDef {
     pub interface: bool,
     /// Distributing couplings, in the order of their nodes in the modal body.
     pub couplings: Vec<CouplingDef>,
+    /// The nodes the deck's joints and forces attach to (`node = k`).
+    pub joint_nodes: Vec<usize>,
+    /// The loads the deck's joints and forces put on the body (its basis check).
+    pub interfaces: Vec<InterfaceDef>,
     /// Initial modal coordinates and rates, one per retained mode (zero-padded).
     pub initial_modal: Vec<f64>,
     pub initial_modal_rates: Vec<f64>,
@@ -686,8 +690,9 @@ pub fn validate_one(
             ));
         }
     };
+    let joint_nodes = interface_nodes(deck, name);
     let (correction, interface) = match &raw.correction {
-        None if basis => (interface_nodes(deck, name), true),
+        None if basis => (joint_nodes.clone(), true),
         None => (Vec::new(), false),
         Some(c) => {
             let list = c.get_ref();
@@ -720,6 +725,8 @@ pub fn validate_one(
         correction,
         interface,
         couplings,
+        joint_nodes,
+        interfaces: interface_loads(deck, name),
         initial_modal,
         initial_modal_rates,
         stiffening,
@@ -824,25 +831,111 @@ fn couplings(
 
 /// The nodes of body `name` that the deck's joints and forces attach to (`node = k`).
 fn interface_nodes(deck: &RawDeck, name: &str) -> Vec<usize> {
-    let joints = deck
-        .joint
-        .values()
-        .flat_map(|j| [j.get_ref().a.as_ref(), j.get_ref().b.as_ref()]);
-    let forces = deck.force.values().flat_map(|f| {
-        let f = f.get_ref();
-        [f.at.as_ref(), f.a.as_ref(), f.b.as_ref()]
-    });
-    let mut nodes: Vec<usize> = joints
-        .chain(forces)
-        .flatten()
-        .filter(|m| m.get_ref().body.as_ref().is_some_and(|b| b.get_ref() == name))
-        .filter_map(|m| m.get_ref().node.as_ref().map(|n| *n.get_ref()))
-        .filter(|&n| n >= 0)
-        .map(|n| n as usize)
+    let mut nodes: Vec<usize> = interface_loads(deck, name)
+        .into_iter()
+        .filter_map(|i| match i.site {
+            InterfaceSite::Node(k) => Some(k),
+            InterfaceSite::Coupling(_) => None,
+        })
         .collect();
     nodes.sort_unstable();
     nodes.dedup();
     nodes
+}
+
+/// Where a joint or force acts on a flexible body.
+#[derive(Debug, Clone, PartialEq)]
+pub enum InterfaceSite {
+    Node(usize),
+    Coupling(String),
+}
+
+/// The loads a joint or force puts on a flexible body: forces and moments along these
+/// directions (global axes at the start, which are the mesh's).
+#[derive(Debug, Clone, PartialEq)]
+pub struct InterfaceDef {
+    pub site: InterfaceSite,
+    pub forces: Vec<Vector3<f64>>,
+    pub moments: Vec<Vector3<f64>>,
+}
+
+/// The loads the deck's joints and forces put on body `name` (markers at a node or coupling
+/// of it): a joint's reactions in the directions it constrains (a revolute joint takes no
+/// moment about its axis, a spherical one no moment, a translational one no force along its
+/// axis, a driver only its own direction), a point force or torque and a spring–damper in
+/// every direction. Markers the mechanism validation will reject are left out.
+pub fn interface_loads(deck: &RawDeck, name: &str) -> Vec<InterfaceDef> {
+    let xyz = vec![Vector3::x(), Vector3::y(), Vector3::z()];
+    let normal_to = |a: Vector3<f64>| -> Vec<Vector3<f64>> {
+        let a = a.try_normalize(0.0).unwrap_or(Vector3::z());
+        let t = if a.x.abs() < 0.9 {
+            Vector3::x()
+        } else {
+            Vector3::y()
+        };
+        let e1 = (t - a * t.dot(&a)).normalize();
+        vec![e1, a.cross(&e1)]
+    };
+    let site = |m: &Spanned<RawMarker>| -> Option<(InterfaceSite, Vector3<f64>)> {
+        let m = m.get_ref();
+        if m.body.as_ref()?.get_ref() != name {
+            return None;
+        }
+        let axis = m
+            .axis
+            .as_ref()
+            .map_or(Vector3::z(), |a| Vector3::from(*a.get_ref()));
+        match (&m.node, &m.coupling) {
+            (Some(n), None) if *n.get_ref() >= 0 => {
+                Some((InterfaceSite::Node(*n.get_ref() as usize), axis))
+            }
+            (None, Some(c)) => Some((InterfaceSite::Coupling(c.get_ref().clone()), axis)),
+            _ => None,
+        }
+    };
+    let mut out = Vec::new();
+    for j in deck.joint.values() {
+        let j = j.get_ref();
+        let kind = j.kind.as_ref().map_or("", |k| k.get_ref().as_str());
+        for m in [&j.a, &j.b].into_iter().flatten() {
+            let Some((site, axis)) = site(m) else {
+                continue;
+            };
+            let (forces, moments) = match kind {
+                "spherical" => (xyz.clone(), vec![]),
+                "revolute" | "universal" => (xyz.clone(), normal_to(axis)),
+                "cylindrical" => (normal_to(axis), normal_to(axis)),
+                "translational" => (normal_to(axis), xyz.clone()),
+                "angle-driver" => (vec![], vec![axis]),
+                "distance-driver" => (xyz.clone(), vec![]),
+                _ => (xyz.clone(), xyz.clone()),
+            };
+            out.push(InterfaceDef {
+                site,
+                forces,
+                moments,
+            });
+        }
+    }
+    for f in deck.force.values() {
+        let f = f.get_ref();
+        let kind = f.kind.as_ref().map_or("", |k| k.get_ref().as_str());
+        for m in [&f.at, &f.a, &f.b].into_iter().flatten() {
+            let Some((site, _)) = site(m) else {
+                continue;
+            };
+            let (forces, moments) = match kind {
+                "point-torque" => (vec![], xyz.clone()),
+                _ => (xyz.clone(), vec![]),
+            };
+            out.push(InterfaceDef {
+                site,
+                forces,
+                moments,
+            });
+        }
+    }
+    out
 }
 
 /// The dof names of a support's `fix` list, in the order of the nodal dof.

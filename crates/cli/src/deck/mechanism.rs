@@ -28,6 +28,41 @@ pub struct BodyInfo {
     pub frequencies: Vec<f64>,
     /// Flexible bodies: the names of the couplings, whose nodes are the last of `nodes`.
     pub couplings: Vec<String>,
+    /// Flexible bodies: the basis (eigenmodes, correction modes) and its static check
+    /// (`None`: free-free, not checked).
+    pub basis: Option<BasisReport>,
+}
+
+/// A flexible body's basis and how completely it takes the mechanism's loads
+/// (`fem::static_completeness`).
+#[derive(Debug, Clone)]
+pub struct BasisReport {
+    pub eigenmodes: usize,
+    pub correction_modes: usize,
+    pub check: Option<fem::Completeness>,
+}
+
+/// Missed compliance share above which a body's basis draws a warning.
+pub const BASIS_WARNING: f64 = 0.02;
+
+impl BasisReport {
+    /// One line: the modes and the worst load case.
+    pub fn describe(&self) -> String {
+        let modes = format!(
+            "{} eigenmodes + {} correction modes",
+            self.eigenmodes, self.correction_modes
+        );
+        match self.check.as_ref().and_then(|c| c.worst()) {
+            None => format!("{modes}; static check not available (free-free)"),
+            Some(w) => format!(
+                "{modes}; misses {:.2} % of the largest static compliance at worst ({}, of \
+                 which it captures {:.1} %)",
+                100.0 * w.missed,
+                w.name,
+                100.0 * w.captured
+            ),
+        }
+    }
 }
 
 /// A validated rigid body.
@@ -240,11 +275,7 @@ fn marker(
             return Err(src.error(span(n), Some(k("node")), "the ground has no nodes"));
         }
         if let Some(c) = &raw.coupling {
-            return Err(src.error(
-                span(c),
-                Some(k("coupling")),
-                "the ground has no couplings",
-            ));
+            return Err(src.error(span(c), Some(k("coupling")), "the ground has no couplings"));
         }
         let p = vector(
             src,

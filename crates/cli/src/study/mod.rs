@@ -137,6 +137,66 @@ fn flexible_body(
     Ok((built, analysis, modal))
 }
 
+/// The basis of a flexible body and its static check at the joints' nodes and couplings; a
+/// warning (once) when it misses more than [`mechanism::BASIS_WARNING`].
+fn basis_report(
+    src: &Source,
+    name: &str,
+    span: Range<usize>,
+    def: &BodyDef,
+    built: &Built,
+    analysis: &fem::ModalAnalysis,
+) -> Result<mechanism::BasisReport, CliError> {
+    use crate::deck::bodies::InterfaceSite;
+    let n = built.mesh.nodes.len();
+    let interfaces: Vec<fem::InterfaceLoads> = def
+        .interfaces
+        .iter()
+        .filter_map(|i| {
+            let target = match &i.site {
+                InterfaceSite::Node(k) => Some(*k).filter(|&k| k < n),
+                InterfaceSite::Coupling(c) => def
+                    .couplings
+                    .iter()
+                    .position(|x| &x.name == c)
+                    .map(|p| n + p),
+            }?;
+            Some(fem::InterfaceLoads {
+                target,
+                forces: i.forces.clone(),
+                moments: i.moments.clone(),
+            })
+        })
+        .collect();
+    let check = fem::static_completeness(&built.mesh, &built.props, analysis, &interfaces)
+        .map_err(|e| fem_error(src, name, span.clone(), e))?;
+    let report = mechanism::BasisReport {
+        eigenmodes: analysis.kept.len(),
+        correction_modes: analysis.correction.as_ref().map_or(0, |c| c.values.len()),
+        check,
+    };
+    if let Some(w) = report.check.as_ref().and_then(|c| c.worst())
+        && w.missed > mechanism::BASIS_WARNING
+    {
+        src.warn(
+            Some(span),
+            Some(format!("body.{name}")),
+            format!(
+                "the basis ({} eigenmodes, {} correction modes) misses {:.1} % of the largest \
+                 static compliance under the loads of the mechanism ({}: it captures {:.1} % of \
+                 that case); the motion is then not converged: use basis = \"interface\", \
+                 attach the joints through couplings, or retain more modes",
+                report.eigenmodes,
+                report.correction_modes,
+                100.0 * w.missed,
+                w.name,
+                100.0 * w.captured
+            ),
+        );
+    }
+    Ok(report)
+}
+
 /// Put a rigid body's mass or principal inertia (a design variable's `target`) at `value`, in
 /// any scalar (a seeded dual for the sensitivities); other targets leave the model.
 pub(crate) fn set_rigid<P: sens::Scalar>(
@@ -211,6 +271,7 @@ impl Study {
         for (name, b) in &raw.body {
             let def = validate_body(src, raw, name, b, &laminates)?;
             let (built, analysis, modal) = flexible_body(src, name, b.span(), &def, request)?;
+            let basis = basis_report(src, name, b.span(), &def, &built, &analysis)?;
             let nodes = modal.node_positions.clone();
             let body = flexible_model_body(name, &built.mesh, modal, def.stiffening)
                 .map_err(|e| fem_error(src, name, b.span(), e))?;
@@ -234,6 +295,7 @@ impl Study {
                     nodes: Some(nodes),
                     frequencies: analysis.frequencies_hz(),
                     couplings: def.couplings.iter().map(|c| c.name.clone()).collect(),
+                    basis: Some(basis),
                 },
             );
             body_order.push(name.clone());
@@ -266,6 +328,7 @@ impl Study {
                     nodes: None,
                     frequencies: Vec::new(),
                     couplings: Vec::new(),
+                    basis: None,
                 },
             );
             body_order.push(r.name);
