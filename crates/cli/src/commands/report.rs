@@ -266,10 +266,12 @@ fn run_one(
         .frequencies
         .iter()
         .map(|(body, d)| {
-            let f = mech
+            // the eigenmodes (static correction modes after them have Ritz values, not
+            // frequencies, and no derivatives of their own)
+            let f: Vec<f64> = mech
                 .bodies
                 .get(body)
-                .map(|b| b.frequencies.clone())
+                .map(|b| b.frequencies.iter().take(d.nrows()).copied().collect())
                 .unwrap_or_default();
             // the derivative matrix may hold more modes than the body keeps
             let d: Vec<f64> = d.column(0).iter().take(f.len()).copied().collect();
@@ -964,10 +966,12 @@ fn summary(
             .map(|e| e.get_ref().to_string())
             .unwrap_or_else(|| "default".into());
         let modes = mech.bodies.get(name).map_or(0, |i| i.frequencies.len());
-        let _ = writeln!(
-            md,
-            "- body `{name}`: {kind}, elements {elements}, {modes} modes retained"
-        );
+        let basis = mech
+            .bodies
+            .get(name)
+            .and_then(|i| i.basis.as_ref())
+            .map_or_else(|| format!("{modes} modes retained"), |b| b.describe());
+        let _ = writeln!(md, "- body `{name}`: {kind}, elements {elements}, {basis}");
         mesh_json.push(json!({"body": name, "kind": kind, "elements": elements, "modes": modes}));
     }
     if !st.overrides.is_empty() {
