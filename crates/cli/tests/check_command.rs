@@ -177,3 +177,62 @@ fn ground_to_ground_joints_and_impossible_inertias_are_refused_at_their_table() 
         assert!(err.contains(&format!(":{line}:")), "{err}");
     }
 }
+
+/// `check` refuses what `run` refuses before it integrates: here a design variable that splits
+/// a pair of repeated frequencies of a body (a square cross-ply plate, free-free, whose modes 4
+/// and 5 are equal at the nominal design), found while building the bodies' derivatives.
+#[test]
+fn check_refuses_the_design_derivatives_run_would_refuse() {
+    let text = r#"
+[material.ud]
+E1 = 128.0e9
+E2 = 10.1e9
+E3 = 10.1e9
+G12 = 5.36e9
+G13 = 5.36e9
+G23 = 3.0e9
+nu12 = 0.23
+nu13 = 0.23
+nu23 = 0.3
+density = 1586.0
+[laminate.plate]
+plies = [
+  { material = "ud", thickness = 1e-3, angle = 0.0 },
+  { material = "ud", thickness = 1e-3, angle = 90.0 },
+]
+[body.p]
+kind = "shell"
+laminate = "plate"
+length = 0.2
+width = 0.2
+elements = [8, 8]
+modes = 5
+reference = "free-free"
+[design.a]
+laminate = "plate"
+plies = [0]
+[response.d]
+kind = "nodal-displacement"
+body = "p"
+node = 0
+component = "uz"
+[analysis]
+t_end = 0.001
+"#;
+    let mut messages = Vec::new();
+    for command in ["run", "check"] {
+        let (_d, err) = bad_deck(text, |p| {
+            let mut args = with_deck(command, p, &[]);
+            if command == "run" {
+                let out = p.with_extension("out");
+                args.extend(["-o".into(), out.display().to_string()]);
+            }
+            args
+        });
+        assert!(err.contains("key `body.p`"), "{command}: {err}");
+        assert!(err.contains("splits the repeated frequencies"), "{command}: {err}");
+        // the same message, but for the temporary directory
+        messages.push(err.split_once("bad.toml").map(|(_, m)| m.to_string()).unwrap());
+    }
+    assert_eq!(messages[0], messages[1]);
+}

@@ -2,7 +2,8 @@
 //!
 //! Everything `run`, `modes`, `section` and `laminate` would reject is reported with its place
 //! in the file: syntax and types, unknown keys, missing values, undefined names, physically
-//! invalid values; for a mechanism, the modal analyses of its flexible bodies, the assembly of
+//! invalid values; for a mechanism, the modal analyses of its flexible bodies and their design
+//! derivatives (as a run builds them before it integrates), the basis check, the assembly of
 //! the initial configuration (a mechanism that cannot be assembled is an error) and redundant
 //! joint equations (reported; `analysis.redundant = "error"` makes them an error). It lists
 //! the design variables with what they move, and the `[optimize]` problem. Nothing is integrated and nothing is written.
@@ -90,6 +91,11 @@ pub fn run(path: &Path, overrides: &[String]) -> Result<String, CliError> {
     let mechanism = raw.analysis.is_some() || !raw.joint.is_empty() || !raw.rigid.is_empty();
     if mechanism {
         let mech = crate::study::Study::validate(&src, &raw, true)?;
+        // the design derivatives of the bodies, as a run builds them before it integrates:
+        // what they refuse (a variable that splits repeated frequencies, …) is refused here too
+        if mech.design.enabled {
+            super::sensitivity::prepare(&src, &mech)?;
+        }
         let t0 = mech.times[0];
         let fail = |m: String| CliError::Runtime(format!("{}: {m}", src.file.display()));
         let mut system = mech.system().map_err(|e| fail(e.to_string()))?;

@@ -491,6 +491,11 @@ pub(crate) fn summary_text(
         mech.times[n - 1],
         n
     );
+    for name in &mech.body_order {
+        if let Some(b) = &mech.bodies[name].basis {
+            let _ = writeln!(s, "basis of body {name}: {}", b.describe());
+        }
+    }
     let _ = writeln!(
         s,
         "integrator: {} steps ({} rejected), {} right-hand sides, {} Jacobians{}",

@@ -55,12 +55,15 @@ pub(crate) fn analyse(
     }
 }
 
-fn analyse_chunked<const N: usize>(
+/// Everything a run with sensitivities builds before it integrates: the dual models (one per
+/// chunk of `N` variables: modes, frequencies, correction modes and masses with their
+/// derivatives) and each flexible body's frequency derivatives. `flexsens check` builds them
+/// too, so that it refuses what `run` would.
+#[allow(clippy::type_complexity)]
+fn dual_models<const N: usize>(
     src: &Source,
     mech: &Study,
-    system: &mut MultibodySystem,
-    state: &State,
-) -> Result<Sensitivities, CliError> {
+) -> Result<(DesignModel<N>, Vec<(String, DMatrix<f64>)>), CliError> {
     let m = mech.design.variables.len();
     let update = if mech.design.fixed_modes {
         fem::ModeUpdate::Fixed
@@ -136,6 +139,27 @@ fn analyse_chunked<const N: usize>(
         }
     }
     let design = DesignModel::new(chunks, m).map_err(|e| runtime(src, e))?;
+    Ok((design, frequencies))
+}
+
+/// The model build of a run with sensitivities, without the run ([`dual_models`]).
+pub(crate) fn prepare(src: &Source, mech: &Study) -> Result<(), CliError> {
+    match mech.design.variables.len() {
+        0 => Ok(()),
+        1 => dual_models::<1>(src, mech).map(drop),
+        2 => dual_models::<2>(src, mech).map(drop),
+        3 | 4 => dual_models::<4>(src, mech).map(drop),
+        _ => dual_models::<8>(src, mech).map(drop),
+    }
+}
+
+fn analyse_chunked<const N: usize>(
+    src: &Source,
+    mech: &Study,
+    system: &mut MultibodySystem,
+    state: &State,
+) -> Result<Sensitivities, CliError> {
+    let (design, frequencies) = dual_models::<N>(src, mech)?;
     let mut options = match mech.design.method {
         SensitivityScheme::Direct => SensitivityOptions::default(),
         SensitivityScheme::Corrector => SensitivityOptions::corrector(),
