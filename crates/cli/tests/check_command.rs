@@ -230,9 +230,16 @@ t_end = 0.001
             args
         });
         assert!(err.contains("key `body.p`"), "{command}: {err}");
-        assert!(err.contains("splits the repeated frequencies"), "{command}: {err}");
+        assert!(
+            err.contains("splits the repeated frequencies"),
+            "{command}: {err}"
+        );
         // the same message, but for the temporary directory
-        messages.push(err.split_once("bad.toml").map(|(_, m)| m.to_string()).unwrap());
+        messages.push(
+            err.split_once("bad.toml")
+                .map(|(_, m)| m.to_string())
+                .unwrap(),
+        );
     }
     assert_eq!(messages[0], messages[1]);
 }

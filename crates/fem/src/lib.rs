@@ -22,6 +22,9 @@
 //! eigenvalue and (Nelson/Dailey) eigenvector derivatives; [`modal_body_dual`] packs them into a
 //! `ModalBody<Dual<N>>` (fixed-mode or updated-mode); [`geometric_stiffness`] gives a beam
 //! body's modal geometric-stiffness matrices for unit load parameters (stress stiffening).
+//! [`correction`] adds distributing couplings over node sets and static correction modes at a
+//! body's interfaces (with exact derivatives); [`completeness`] checks how much of the static
+//! compliance under a mechanism's loads a body's basis misses.
 //!
 //! Conventions: dof node by node `[u_x, u_y, u_z, θ_x, θ_y, θ_z]` (small rotation vector),
 //! global axes; matrices act on the free dof of an [`Assembly`] (constrained dof eliminated);

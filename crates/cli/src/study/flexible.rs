@@ -741,6 +741,13 @@ fn node_set(
                     "node {k} does not exist (the mesh has {n} nodes)"
                 )));
             }
+            if let Some(w) = list
+                .iter()
+                .enumerate()
+                .find(|(i, k)| list[..*i].contains(k))
+            {
+                return Err(fail(format!("node {} is listed twice", w.1)));
+            }
             list.clone()
         }
         NodeSet::Plane { axis, value } => (0..n)
