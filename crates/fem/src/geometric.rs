@@ -109,6 +109,14 @@ pub fn geometric_stiffness<S: Scalar>(
     clamp: usize,
 ) -> Result<GeometricStiffness<S>, FemError> {
     let n_nodes = mesh.nodes.len();
+    if body.n_nodes() > n_nodes && body.modes.nrows() == NODE_DOFS * body.n_nodes() {
+        return Err(FemError::Invalid(
+            "geometric stiffening of a body with couplings is not available yet (the forces at \
+             a coupling would have to be spread over its nodes): attach the joints at nodes, \
+             or set stiffening = false"
+                .into(),
+        ));
+    }
     if body.n_nodes() != n_nodes || body.modes.nrows() != NODE_DOFS * n_nodes {
         return Err(FemError::Invalid(format!(
             "geometric stiffening: the modal body has {} nodes, the mesh {n_nodes}",

@@ -150,7 +150,8 @@ pub fn validate(
             }
             "mid-node-deflection" => {
                 let (_, info) = body(true)?;
-                let count = info.nodes.as_ref().map_or(0, Vec::len);
+                // the mesh's nodes (couplings' nodes follow them)
+                let count = info.nodes.as_ref().map_or(0, Vec::len) - info.couplings.len();
                 let nodes = match &rr.nodes {
                     Some(v) => {
                         let mut out = [0; 3];

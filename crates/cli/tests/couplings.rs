@@ -1,0 +1,88 @@
+//! Couplings in decks, end to end: a distributing coupling over a single node is that node
+//! (its fit reproduces the node's translation and rotation), so joints attached to couplings of
+//! the beam deck's end nodes give the run of joints at the nodes, sensitivities included, with
+//! the eigenmodes alone and with correction modes at the interfaces. (Without geometric
+//! stiffening, which a body with couplings does not have yet: the deck says so.)
+
+mod common;
+
+use common::{deck, json};
+use flexsens::results::Group;
+
+fn run_text(dir: &std::path::Path, name: &str, text: &str, sets: &[&str]) -> Group {
+    let path = dir.join(format!("{name}.toml"));
+    std::fs::write(&path, text).unwrap();
+    let out = dir.join(name);
+    let mut args = vec![
+        "run".to_string(),
+        path.display().to_string(),
+        "-o".into(),
+        out.display().to_string(),
+        "--json".into(),
+        "--set".into(),
+        "analysis.t_end=0.01".into(),
+        "--set".into(),
+        "finite_differences.enabled=false".into(),
+    ];
+    for s in sets {
+        args.extend(["--set".to_string(), s.to_string()]);
+    }
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    json(&args);
+    Group::read_hdf5(&out.join("results.h5")).unwrap()
+}
+
+fn worst_relative(a: &[f64], b: &[f64]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    let scale = a.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    a.iter()
+        .zip(b)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
+        / scale
+}
+
+#[test]
+fn joints_on_single_node_couplings_are_joints_at_the_nodes() {
+    let dir = tempfile::tempdir().unwrap();
+    let nodes = std::fs::read_to_string(deck("slider_crank_beam.toml")).unwrap();
+    let coupled = nodes
+        .replace(
+            "[body.rod]\n",
+            "[body.rod.couplings]\ncrank_end = { nodes = [0] }\nslider_end = { nodes = [8] }\n\n[body.rod]\n",
+        )
+        .replace("node = 0, axis", "coupling = \"crank_end\", axis")
+        .replace("node = 8, axis", "coupling = \"slider_end\", axis");
+    assert!(
+        coupled.contains("coupling = \"crank_end\"")
+            && coupled.contains("coupling = \"slider_end\"")
+    );
+    for basis in ["modes", "interface"] {
+        let set = format!("body.rod.basis=\"{basis}\"");
+        let sets = [set.as_str(), "body.rod.stiffening=false"];
+        let a = run_text(dir.path(), &format!("nodes_{basis}"), &nodes, &sets);
+        let b = run_text(dir.path(), &format!("coupled_{basis}"), &coupled, &sets);
+        for path in [
+            "responses/mid_deflection",
+            "sensitivities/mid_deflection",
+            "responses/slider_x",
+        ] {
+            let (x, y) = (common::f64s(&a, path), common::f64s(&b, path));
+            let err = worst_relative(&x, &y);
+            eprintln!("{basis}: {path}: {err:.1e}");
+            assert!(err < 1e-8, "{basis} {path}: {err:e}");
+        }
+        // the coupled body has two more (massless) nodes, the same modes
+        let (fa, fb) = (
+            common::f64s(&a, "bodies/rod/frequencies"),
+            common::f64s(&b, "bodies/rod/frequencies"),
+        );
+        assert_eq!(fa.len(), fb.len());
+        assert!(worst_relative(&fa, &fb) < 1e-12);
+    }
+    // with stiffening (the beams' default) a body with couplings is refused, at its table
+    let (_d, err) = common::bad_deck(&coupled, |p| common::with_deck("check", p, &[]));
+    assert!(
+        err.contains("key `body.rod`") && err.contains("couplings is not available yet"),
+        "{err}"
+    );
+}
