@@ -16,7 +16,7 @@ use crate::deck::design::validate as validate_design;
 use crate::deck::laminates::validate as validate_laminates;
 use crate::error::CliError;
 use crate::files::write_atomic;
-use crate::study::flexible::{Built, CHUNK, DesignRequest, build, fem_error};
+use crate::study::flexible::{Built, CHUNK, DesignRequest, build};
 
 /// What the command should write besides the report.
 pub struct ModesRequest<'a> {
@@ -314,13 +314,13 @@ pub fn run(path: &Path, overrides: &[String], req: &ModesRequest) -> Result<Stri
             (true, true) => DesignRequest::EachPly,
             (true, false) => DesignRequest::Variables(&design.variables),
         };
-        let built = build(&src, name, &def, request)?;
+        let mut built = build(&src, name, &def, request)?;
         let per: Vec<&'static str> = match request {
             DesignRequest::Variables(vars) => vars.iter().map(|v| v.unit).collect(),
             _ => vec!["rad"; built.design.names().len()],
         };
-        let analysis = fem::modal_analysis(&built.mesh, &built.props, &built.options)
-            .map_err(|e| fem_error(&src, name, b.span(), e))?;
+        let (analysis, _) =
+            crate::study::flexible::analyse(&src, name, b.span(), &def, &mut built)?;
         // the derivative matrices only where they are exported: the eigenvalue derivatives
         // alone need no more than their projections on the modes
         let (matrices, derivs) = match (req.derivatives, req.export_matrices.is_some()) {

@@ -410,10 +410,9 @@ fn flexible_quantities(
 ) -> Result<FlexibleQuantities, CliError> {
     let table = &raw.body[name];
     let def = bodies::validate_one(src, raw, name, table, lam)?;
-    let built = build(src, name, &def, DesignRequest::Variables(&design.variables))?;
+    let mut built = build(src, name, &def, DesignRequest::Variables(&design.variables))?;
     let span = table.span();
-    let analysis = fem::modal_analysis(&built.mesh, &built.props, &built.options)
-        .map_err(|e| fem_error(src, name, span.clone(), e))?;
+    let (analysis, _) = crate::study::flexible::analyse(src, name, span.clone(), &def, &mut built)?;
     let d = built.eigenvalue_derivatives::<CHUNK>(src, name, span.clone(), &analysis)?;
     let m = design.variables.len();
     let mut frequencies = Vec::new();

@@ -72,6 +72,11 @@ pub struct BodyDef {
     pub joint_nodes: Vec<usize>,
     /// The loads the deck's joints and forces put on the body (its basis check).
     pub interfaces: Vec<InterfaceDef>,
+    /// `modes = "auto"`: the fewest of [`AUTO_MODES`] eigenmodes (at least `modes`) whose basis
+    /// check meets `basis_tolerance`.
+    pub auto_modes: bool,
+    /// The largest missed share of the static compliance before a warning.
+    pub basis_tolerance: f64,
     /// Initial modal coordinates and rates, one per retained mode (zero-padded).
     pub initial_modal: Vec<f64>,
     pub initial_modal_rates: Vec<f64>,
@@ -79,6 +84,12 @@ pub struct BodyDef {
     pub stiffening: bool,
     pub supports: Vec<SupportDef>,
 }
+
+/// The numbers of eigenmodes `modes = "auto"` tries, in order.
+pub const AUTO_MODES: [usize; 7] = [4, 8, 16, 32, 64, 128, 256];
+
+/// The basis check's tolerance when the deck does not say (`basis_tolerance`).
+pub const DEFAULT_BASIS_TOLERANCE: f64 = 0.02;
 
 /// Reference condition as written.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -422,7 +433,8 @@ pub fn validate_one(
         "modes (number of elastic modes retained, or a list of mode numbers)",
     )?;
     let modes_error = |m: String| src.error(span(modes_value), Some(k("modes")), m);
-    let (modes, computed, kept) = match modes_value.get_ref() {
+    let auto_modes = modes_value.get_ref().as_str() == Some("auto");
+    let (modes, mut computed, kept) = match modes_value.get_ref() {
         v @ toml::Value::Integer(n) => match int(v, 1) {
             Some(n) => (n, n, None),
             None => {
@@ -431,6 +443,7 @@ pub fn validate_one(
                 )));
             }
         },
+        toml::Value::String(w) if w == "auto" => (AUTO_MODES[0], AUTO_MODES[0], None),
         toml::Value::Array(list) => {
             let numbers: Option<Vec<usize>> = list.iter().map(|v| int(v, 1)).collect();
             match numbers {
@@ -449,7 +462,8 @@ pub fn validate_one(
         }
         _ => {
             return Err(modes_error(
-                "expected a number of modes (e.g. 4) or a list of mode numbers (e.g. [1, 2, 5])"
+                "expected a number of modes (e.g. 4), a list of mode numbers (e.g. [1, 2, 5]) \
+                 or \"auto\""
                     .into(),
             ));
         }
@@ -602,6 +616,10 @@ pub fn validate_one(
                 "ratios = [ζi, ζj]",
             )?;
             let [i, j] = *m.get_ref();
+            if auto_modes && i >= 1 && j >= 1 {
+                // the automatic choice computes at least the modes the fit refers to
+                computed = computed.max(i.max(j) as usize);
+            }
             if i < 1 || j < 1 || i == j || i as usize > computed || j as usize > computed {
                 return Err(src.error(
                     span(m),
@@ -706,6 +724,42 @@ pub fn validate_one(
             (list.iter().map(|&n| n as usize).collect(), false)
         }
     };
+    if auto_modes {
+        for (key, v) in [
+            ("initial_modal", &raw.initial_modal),
+            ("initial_modal_rates", &raw.initial_modal_rates),
+        ] {
+            if let Some(v) = v {
+                return Err(src.error(
+                    span(v),
+                    Some(k(key)),
+                    "an initial modal state needs a stated number of modes, not modes = \"auto\"",
+                ));
+            }
+        }
+        if reference == Reference::FreeFree {
+            return Err(modes_error(
+                "modes = \"auto\" chooses by the basis check, which needs a reference condition \
+                 that holds the body (not free-free)"
+                    .into(),
+            ));
+        }
+    }
+    let basis_tolerance = match &raw.basis_tolerance {
+        None => DEFAULT_BASIS_TOLERANCE,
+        Some(t) => {
+            let x = *t.get_ref();
+            if !(x > 0.0 && x < 1.0) {
+                return Err(src.error(
+                    span(t),
+                    Some(k("basis_tolerance")),
+                    format!("{x} must be a share of the compliance between 0 and 1 (e.g. 0.02)"),
+                ));
+            }
+            x
+        }
+    };
+    let modes = if auto_modes { computed } else { modes };
     let initial_modal = initial("initial_modal", &raw.initial_modal, "coordinate (√kg·m)")?;
     let initial_modal_rates = initial(
         "initial_modal_rates",
@@ -727,6 +781,8 @@ pub fn validate_one(
         couplings,
         joint_nodes,
         interfaces: interface_loads(deck, name),
+        auto_modes,
+        basis_tolerance,
         initial_modal,
         initial_modal_rates,
         stiffening,

@@ -42,9 +42,6 @@ pub struct BasisReport {
     pub check: Option<fem::Completeness>,
 }
 
-/// Missed compliance share above which a body's basis draws a warning.
-pub const BASIS_WARNING: f64 = 0.02;
-
 impl BasisReport {
     /// One line: the modes and the worst load case.
     pub fn describe(&self) -> String {

@@ -168,8 +168,8 @@ pub struct RawBody {
     pub material_axis: Option<Spanned<[f64; 3]>>,
     /// Beam: number of elements; shell rectangle: `[along x, along y]`.
     pub elements: Option<Spanned<toml::Value>>,
-    /// Number of elastic modes retained (the lowest), or the mode numbers retained, e.g.
-    /// `[1, 2, 5]` (counted from 1, ascending).
+    /// Number of elastic modes retained (the lowest), the mode numbers retained, e.g.
+    /// `[1, 2, 5]` (counted from 1, ascending), or `"auto"`.
     pub modes: Option<Spanned<toml::Value>>,
     /// `"centre-of-mass"` (default), `"clamped-section"`, `"free-free"`, `"pinned-ends"` or
     /// `"clamped-node"`.
@@ -197,6 +197,9 @@ pub struct RawBody {
     /// force acts at; the default for shells) or `"modes"` (eigenmodes only; the default for
     /// beams).
     pub basis: Option<Spanned<String>>,
+    /// The largest share of the static compliance under the mechanism's loads that the basis
+    /// may miss before a warning (and the target of `modes = "auto"`); default 0.02.
+    pub basis_tolerance: Option<Spanned<f64>>,
     /// Distributing couplings by name: node sets that joints and forces attach to
     /// (`coupling = "name"` in a marker).
     pub couplings: Option<BTreeMap<String, Spanned<RawCoupling>>>,

@@ -708,6 +708,86 @@ pub fn build(
     })
 }
 
+/// The modal analysis of the built body `def` and its basis check ([`basis_check`]); with
+/// `modes = "auto"` the fewest eigenmodes of [`crate::deck::bodies::AUTO_MODES`] (at least
+/// `def.computed`) whose check meets `def.basis_tolerance`, or the most the body has dof for
+/// (`built.options` are left at that number).
+pub fn analyse(
+    src: &Source,
+    name: &str,
+    span: std::ops::Range<usize>,
+    def: &BodyDef,
+    built: &mut Built,
+) -> Result<(fem::ModalAnalysis, Option<fem::Completeness>), CliError> {
+    let run = |built: &Built| -> Result<_, CliError> {
+        let a = fem::modal_analysis(&built.mesh, &built.props, &built.options)
+            .map_err(|e| fem_error(src, name, span.clone(), e))?;
+        let check =
+            basis_check(def, built, &a).map_err(|e| fem_error(src, name, span.clone(), e))?;
+        Ok((a, check))
+    };
+    if !def.auto_modes {
+        return run(built);
+    }
+    let counts: Vec<usize> = std::iter::once(def.computed)
+        .chain(crate::deck::bodies::AUTO_MODES)
+        .filter(|&n| n >= def.computed)
+        .collect();
+    let mut best = None;
+    for n in counts {
+        built.options.n_modes = n;
+        let result = match run(built) {
+            Ok(r) => r,
+            // more modes than the body has dof for: keep the last that worked
+            Err(_) if best.is_some() => break,
+            Err(e) => return Err(e),
+        };
+        let met = result
+            .1
+            .as_ref()
+            .and_then(|c| c.worst())
+            .is_none_or(|w| w.missed <= def.basis_tolerance);
+        best = Some(result);
+        if met {
+            break;
+        }
+    }
+    let (a, check) = best.expect("at least one count tried");
+    built.options.n_modes = a.n_modes;
+    Ok((a, check))
+}
+
+/// The basis check of `analysis` (`fem::static_completeness`) under the loads the deck's
+/// joints and forces put on the body.
+pub fn basis_check(
+    def: &BodyDef,
+    built: &Built,
+    analysis: &fem::ModalAnalysis,
+) -> Result<Option<fem::Completeness>, fem::FemError> {
+    use crate::deck::bodies::InterfaceSite;
+    let n = built.mesh.nodes.len();
+    let interfaces: Vec<fem::InterfaceLoads> = def
+        .interfaces
+        .iter()
+        .filter_map(|i| {
+            let target = match &i.site {
+                InterfaceSite::Node(k) => Some(*k).filter(|&k| k < n),
+                InterfaceSite::Coupling(c) => def
+                    .couplings
+                    .iter()
+                    .position(|x| &x.name == c)
+                    .map(|p| n + p),
+            }?;
+            Some(fem::InterfaceLoads {
+                target,
+                forces: i.forces.clone(),
+                moments: i.moments.clone(),
+            })
+        })
+        .collect();
+    fem::static_completeness(&built.mesh, &built.props, analysis, &interfaces)
+}
+
 /// The nodes of `mesh` a support holds (an error naming the support when there are none).
 fn support_nodes(
     src: &Source,

@@ -121,8 +121,16 @@ fn flexible_body(
     span: Range<usize>,
     def: &BodyDef,
     request: DesignRequest,
-) -> Result<(Built, fem::ModalAnalysis, fem::ModalBody<f64>), CliError> {
-    let built = flexible::build(src, name, def, request)?;
+) -> Result<
+    (
+        Built,
+        fem::ModalAnalysis,
+        fem::ModalBody<f64>,
+        mechanism::BasisReport,
+    ),
+    CliError,
+> {
+    let mut built = flexible::build(src, name, def, request)?;
     if built.options.mass != fem::MassKind::Lumped {
         return Err(CliError::Input(src.error(
             Some(span),
@@ -130,11 +138,11 @@ fn flexible_body(
             "the floating frame of reference needs mass = \"lumped\"",
         )));
     }
-    let analysis = fem::modal_analysis(&built.mesh, &built.props, &built.options)
-        .map_err(|e| fem_error(src, name, span.clone(), e))?;
+    let (analysis, check) = flexible::analyse(src, name, span.clone(), def, &mut built)?;
     let modal = fem::modal_body(&built.mesh, &built.props, &analysis)
-        .map_err(|e| fem_error(src, name, span, e))?;
-    Ok((built, analysis, modal))
+        .map_err(|e| fem_error(src, name, span.clone(), e))?;
+    let report = basis_report(src, name, span, def, &analysis, check);
+    Ok((built, analysis, modal, report))
 }
 
 /// The basis of a flexible body and its static check at the joints' nodes and couplings; a
@@ -144,39 +152,16 @@ fn basis_report(
     name: &str,
     span: Range<usize>,
     def: &BodyDef,
-    built: &Built,
     analysis: &fem::ModalAnalysis,
-) -> Result<mechanism::BasisReport, CliError> {
-    use crate::deck::bodies::InterfaceSite;
-    let n = built.mesh.nodes.len();
-    let interfaces: Vec<fem::InterfaceLoads> = def
-        .interfaces
-        .iter()
-        .filter_map(|i| {
-            let target = match &i.site {
-                InterfaceSite::Node(k) => Some(*k).filter(|&k| k < n),
-                InterfaceSite::Coupling(c) => def
-                    .couplings
-                    .iter()
-                    .position(|x| &x.name == c)
-                    .map(|p| n + p),
-            }?;
-            Some(fem::InterfaceLoads {
-                target,
-                forces: i.forces.clone(),
-                moments: i.moments.clone(),
-            })
-        })
-        .collect();
-    let check = fem::static_completeness(&built.mesh, &built.props, analysis, &interfaces)
-        .map_err(|e| fem_error(src, name, span.clone(), e))?;
+    check: Option<fem::Completeness>,
+) -> mechanism::BasisReport {
     let report = mechanism::BasisReport {
         eigenmodes: analysis.kept.len(),
         correction_modes: analysis.correction.as_ref().map_or(0, |c| c.values.len()),
         check,
     };
     if let Some(w) = report.check.as_ref().and_then(|c| c.worst())
-        && w.missed > mechanism::BASIS_WARNING
+        && w.missed > def.basis_tolerance
     {
         src.warn(
             Some(span),
@@ -184,17 +169,24 @@ fn basis_report(
             format!(
                 "the basis ({} eigenmodes, {} correction modes) misses {:.1} % of the largest \
                  static compliance under the loads of the mechanism ({}: it captures {:.1} % of \
-                 that case); the motion is then not converged: use basis = \"interface\", \
-                 attach the joints through couplings, or retain more modes",
+                 that case, above basis_tolerance = {}); the motion is then not converged: {}",
                 report.eigenmodes,
                 report.correction_modes,
                 100.0 * w.missed,
                 w.name,
-                100.0 * w.captured
+                100.0 * w.captured,
+                def.basis_tolerance,
+                if def.auto_modes {
+                    "modes = \"auto\" stopped at the most eigenmodes it tries; use basis = \
+                     \"interface\", or attach the joints through couplings"
+                } else {
+                    "use basis = \"interface\", attach the joints through couplings, or retain \
+                     more modes (modes = \"auto\" chooses them by this check)"
+                }
             ),
         );
     }
-    Ok(report)
+    report
 }
 
 /// Put a rigid body's mass or principal inertia (a design variable's `target`) at `value`, in
@@ -270,8 +262,8 @@ impl Study {
         // flexible bodies: modes of the mesh as given (global coordinates at t = 0)
         for (name, b) in &raw.body {
             let def = validate_body(src, raw, name, b, &laminates)?;
-            let (built, analysis, modal) = flexible_body(src, name, b.span(), &def, request)?;
-            let basis = basis_report(src, name, b.span(), &def, &built, &analysis)?;
+            let (built, analysis, modal, basis) =
+                flexible_body(src, name, b.span(), &def, request)?;
             let nodes = modal.node_positions.clone();
             let body = flexible_model_body(name, &built.mesh, modal, def.stiffening)
                 .map_err(|e| fem_error(src, name, b.span(), e))?;
@@ -507,8 +499,14 @@ impl Study {
         let mut model = self.model.clone();
         for part in &self.flexible {
             let rb = &raw.body[&part.name];
-            let def = validate_body(src, raw, &part.name, rb, &lam)?;
-            let (built, _, mut body) = flexible_body(
+            let mut def = validate_body(src, raw, &part.name, rb, &lam)?;
+            // the nominal design's number of modes (`modes = "auto"` chose it there)
+            if def.auto_modes {
+                def.auto_modes = false;
+                def.modes = part.analysis.n_modes;
+                def.computed = part.analysis.n_modes;
+            }
+            let (built, _, mut body, _) = flexible_body(
                 src,
                 &part.name,
                 part.span.clone(),
