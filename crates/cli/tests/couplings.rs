@@ -1,8 +1,8 @@
 //! Couplings in decks, end to end: a distributing coupling over a single node is that node
 //! (its fit reproduces the node's translation and rotation), so joints attached to couplings of
 //! the beam deck's end nodes give the run of joints at the nodes, sensitivities included, with
-//! the eigenmodes alone and with correction modes at the interfaces. (Without geometric
-//! stiffening, which a body with couplings does not have yet: the deck says so.)
+//! the eigenmodes alone and with correction modes at the interfaces, with the beams' geometric
+//! stiffening (a force at a coupling is spread over its nodes) and without.
 
 mod common;
 
@@ -56,11 +56,13 @@ fn joints_on_single_node_couplings_are_joints_at_the_nodes() {
         coupled.contains("coupling = \"crank_end\"")
             && coupled.contains("coupling = \"slider_end\"")
     );
-    for basis in ["modes", "interface"] {
+    for (basis, stiffening) in [("modes", true), ("interface", true), ("modes", false)] {
         let set = format!("body.rod.basis=\"{basis}\"");
-        let sets = [set.as_str(), "body.rod.stiffening=false"];
-        let a = run_text(dir.path(), &format!("nodes_{basis}"), &nodes, &sets);
-        let b = run_text(dir.path(), &format!("coupled_{basis}"), &coupled, &sets);
+        let stiff = format!("body.rod.stiffening={stiffening}");
+        let sets = [set.as_str(), stiff.as_str()];
+        let case = format!("{basis}_{stiffening}");
+        let a = run_text(dir.path(), &format!("nodes_{case}"), &nodes, &sets);
+        let b = run_text(dir.path(), &format!("coupled_{case}"), &coupled, &sets);
         for path in [
             "responses/mid_deflection",
             "sensitivities/mid_deflection",
@@ -68,8 +70,8 @@ fn joints_on_single_node_couplings_are_joints_at_the_nodes() {
         ] {
             let (x, y) = (common::f64s(&a, path), common::f64s(&b, path));
             let err = worst_relative(&x, &y);
-            eprintln!("{basis}: {path}: {err:.1e}");
-            assert!(err < 1e-8, "{basis} {path}: {err:e}");
+            eprintln!("{case}: {path}: {err:.1e}");
+            assert!(err < 1e-8, "{case} {path}: {err:e}");
         }
         // the coupled body has two more (massless) nodes, the same modes
         let (fa, fb) = (
@@ -79,10 +81,4 @@ fn joints_on_single_node_couplings_are_joints_at_the_nodes() {
         assert_eq!(fa.len(), fb.len());
         assert!(worst_relative(&fa, &fb) < 1e-12);
     }
-    // with stiffening (the beams' default) a body with couplings is refused, at its table
-    let (_d, err) = common::bad_deck(&coupled, |p| common::with_deck("check", p, &[]));
-    assert!(
-        err.contains("key `body.rod`") && err.contains("couplings is not available yet"),
-        "{err}"
-    );
 }

@@ -97,6 +97,30 @@ impl<S: Scalar> GeometricStiffness<S> {
     }
 }
 
+impl<S: Scalar> GeometricStiffness<S> {
+    /// The nodal cases of the couplings' nodes (numbered after the mesh's, in the order of
+    /// `couplings`): a force at a coupling's point is spread over its nodes as the coupling
+    /// spreads it (`Wᵀ`), and so are its cases. Moments at a coupling, as at a node, are left
+    /// out.
+    pub fn with_couplings(mut self, couplings: &[crate::correction::Distribution]) -> Self {
+        for c in couplings {
+            for axis in 0..3 {
+                let mut k = DMatrix::<S>::zeros(self.n_modes, self.n_modes);
+                for (i, &node) in c.nodes.iter().enumerate() {
+                    for d in 0..3 {
+                        let w = c.weights[(axis, 6 * i + d)];
+                        if w != 0.0 {
+                            k += &self.nodal[3 * node + d] * S::from_f64(w);
+                        }
+                    }
+                }
+                self.nodal.push(k);
+            }
+        }
+        self
+    }
+}
+
 /// The [`GeometricStiffness`] of the beam body `body` whose FE mesh is `mesh` (node positions
 /// of `body` are the mesh's, moved to the body frame), its load cases reacted at node `clamp`.
 ///
@@ -109,15 +133,12 @@ pub fn geometric_stiffness<S: Scalar>(
     clamp: usize,
 ) -> Result<GeometricStiffness<S>, FemError> {
     let n_nodes = mesh.nodes.len();
-    if body.n_nodes() > n_nodes && body.modes.nrows() == NODE_DOFS * body.n_nodes() {
-        return Err(FemError::Invalid(
-            "geometric stiffening of a body with couplings is not available yet (the forces at \
-             a coupling would have to be spread over its nodes): attach the joints at nodes, \
-             or set stiffening = false"
-                .into(),
-        ));
-    }
-    if body.n_nodes() != n_nodes || body.modes.nrows() != NODE_DOFS * n_nodes {
+    // the mesh's nodes, then possibly the couplings' nodes, which carry no mass
+    let extra_massless = (n_nodes..body.n_nodes()).all(|k| body.node_masses[k].value() == 0.0);
+    if body.n_nodes() < n_nodes
+        || !extra_massless
+        || body.modes.nrows() != NODE_DOFS * body.n_nodes()
+    {
         return Err(FemError::Invalid(format!(
             "geometric stiffening: the modal body has {} nodes, the mesh {n_nodes}",
             body.n_nodes()

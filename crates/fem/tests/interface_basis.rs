@@ -329,3 +329,42 @@ fn derivatives_through_correction_modes_match_central_differences() {
     let k = fixed.stiffness_matrix.as_ref().unwrap();
     assert!(k[(5, 7)].d.iter().any(|x| x.abs() > 0.0));
 }
+
+/// A force at a coupling stiffens a beam body as the nodal forces the coupling spreads it into
+/// (`Distribution::load`, whose statics the first test checks) do when applied at the nodes.
+#[test]
+fn a_force_at_a_coupling_stiffens_as_its_spread_nodal_forces() {
+    let n = 10;
+    let mesh = common::beam(n);
+    let props = common::slender().props();
+    let mut o = ModalOptions::new(4);
+    o.reference = ReferenceCondition::ClampedNode(0);
+    o.couplings = vec![Coupling {
+        nodes: vec![7, 8, 9, 10],
+        point: Some(mesh.nodes[10] + Vector3::new(0.01, 0.02, 0.0)),
+    }];
+    let an = modal_analysis(&mesh, &props, &o).unwrap();
+    let body = modal_body(&mesh, &props, &an).unwrap();
+    let g = fem::geometric_stiffness(&mesh, &body, 0)
+        .unwrap()
+        .with_couplings(&an.couplings);
+    let zero = Vector3::zeros();
+    let f = Vector3::new(3.0, -1.0, 2.0);
+    let at_coupling = g.at(&zero, &zero, &zero, &[(n + 1, f)]);
+    let d = &an.couplings[0];
+    let spread: Vec<(usize, Vector3<f64>)> = d
+        .nodes
+        .iter()
+        .map(|&k| {
+            let fk = (0..3).fold(Vector3::zeros(), |acc, axis| {
+                let l = d.load(axis, n + 1);
+                acc + Vector3::new(l[6 * k], l[6 * k + 1], l[6 * k + 2]) * f[axis]
+            });
+            (k, fk)
+        })
+        .collect();
+    let at_nodes = g.at(&zero, &zero, &zero, &spread);
+    let scale = at_nodes.amax();
+    assert!(scale > 0.0);
+    assert!((at_coupling - at_nodes).amax() < 1e-12 * scale);
+}

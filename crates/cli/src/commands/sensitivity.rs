@@ -123,9 +123,14 @@ fn dual_models<const N: usize>(
                 body.node_masses[k] = m;
                 body.node_inertias[k] = nalgebra::Vector3::new(mu[0], mu[1], mu[2]);
             }
-            let body =
-                crate::study::flexible_model_body(&part.name, &built.mesh, body, part.stiffening)
-                    .map_err(fem_error)?;
+            let body = crate::study::flexible_model_body(
+                &part.name,
+                &built.mesh,
+                &part.analysis.couplings,
+                body,
+                part.stiffening,
+            )
+            .map_err(fem_error)?;
             *model.body_mut(part.id) = Body::Flexible(body);
         }
     }

@@ -45,6 +45,7 @@ pub(crate) struct FlexiblePart {
 pub(crate) fn flexible_model_body<S: sens::Scalar>(
     name: &str,
     mesh: &fem::Mesh,
+    couplings: &[fem::Distribution],
     modal: fem::ModalBody<S>,
     stiffening: bool,
 ) -> Result<FlexibleBody<S>, fem::FemError> {
@@ -56,7 +57,7 @@ pub(crate) fn flexible_model_body<S: sens::Scalar>(
         .modal
         .closest_node(&nalgebra::Vector3::zeros())
         .unwrap_or(0);
-    let g = fem::geometric_stiffness(mesh, &body.modal, clamp)?;
+    let g = fem::geometric_stiffness(mesh, &body.modal, clamp)?.with_couplings(couplings);
     Ok(body.with_geometric_stiffness(g))
 }
 
@@ -265,8 +266,14 @@ impl Study {
             let (built, analysis, modal, basis) =
                 flexible_body(src, name, b.span(), &def, request)?;
             let nodes = modal.node_positions.clone();
-            let body = flexible_model_body(name, &built.mesh, modal, def.stiffening)
-                .map_err(|e| fem_error(src, name, b.span(), e))?;
+            let body = flexible_model_body(
+                name,
+                &built.mesh,
+                &analysis.couplings,
+                modal,
+                def.stiffening,
+            )
+            .map_err(|e| fem_error(src, name, b.span(), e))?;
             let id = model
                 .add_flexible_body(body)
                 .map_err(|e| at_table(src, b.span(), format!("body.{name}"), e))?;
@@ -506,7 +513,7 @@ impl Study {
                 def.modes = part.analysis.n_modes;
                 def.computed = part.analysis.n_modes;
             }
-            let (built, _, mut body, _) = flexible_body(
+            let (built, analysis, mut body, _) = flexible_body(
                 src,
                 &part.name,
                 part.span.clone(),
@@ -522,8 +529,14 @@ impl Study {
                     ))
                 })?;
             }
-            let body = flexible_model_body(&part.name, &built.mesh, body, def.stiffening)
-                .map_err(|e| fem_error(src, &part.name, part.span.clone(), e))?;
+            let body = flexible_model_body(
+                &part.name,
+                &built.mesh,
+                &analysis.couplings,
+                body,
+                def.stiffening,
+            )
+            .map_err(|e| fem_error(src, &part.name, part.span.clone(), e))?;
             *model.body_mut(part.id) = Body::Flexible(body);
         }
         for (v, &bj) in self.design.variables.iter().zip(b) {
