@@ -48,8 +48,8 @@ impl InterfaceLoads {
 /// The missed compliance of one load case.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LoadCase {
-    /// What the load is, e.g. `node 50 force z`, `coupling 1 moment y`, `inertia x`,
-    /// `inertia about z`.
+    /// What the load is, e.g. `node 50 force [0.000, 0.000, 1.000]`, `coupling 1 moment
+    /// [1.000, 0.000, 0.000]` (the direction in mesh axes), `inertia x`, `inertia about z`.
     pub name: String,
     /// Missed compliance `c − c_r` as a share of the largest compliance of all cases.
     pub missed: f64,

@@ -28,8 +28,8 @@ pub struct BodyInfo {
     pub frequencies: Vec<f64>,
     /// Flexible bodies: the names of the couplings, whose nodes are the last of `nodes`.
     pub couplings: Vec<String>,
-    /// Flexible bodies: the basis (eigenmodes, correction modes) and its static check
-    /// (`None`: free-free, not checked).
+    /// Flexible bodies: the basis (eigenmodes, correction modes) and its static check (`None`
+    /// for a rigid body).
     pub basis: Option<BasisReport>,
 }
 
