@@ -885,14 +885,22 @@ fn correction_dual<const N: usize>(
     let mut b = DMatrix::zeros(x.nrows(), r);
     b.columns_mut(0, pe).copy_from(&x);
     b.columns_mut(pe, s).copy_from(&correction.shapes);
-    let kb_full = crate::eigen::project(k, &b, &b);
-    let mb_full = crate::eigen::project(m, &b, &b);
-    let mut kr = DMatrix::from_fn(r, r, |i, j| Dual::<N>::constant(kb_full[(i, j)]));
-    // B is mass-orthonormal at the analysed design: BᵀMB = I there
+    // at the analysed design B is mass-orthonormal and diagonalises K: BᵀMB = I and
+    // BᵀKB = diag(λ, μ), the Ritz values μ of the correction modes on the diagonal
+    let mut kr = DMatrix::from_fn(r, r, |i, j| {
+        let v = match (i == j, i.checked_sub(pe)) {
+            (true, Some(c)) => correction.values[c],
+            _ => 0.0,
+        };
+        Dual::<N>::constant(v)
+    });
     let mut mr = DMatrix::from_fn(r, r, |i, j| {
         Dual::<N>::constant(if i == j { 1.0 } else { 0.0 })
     });
-    debug_assert!((mb_full - DMatrix::identity(r, r)).amax() < 1e-6);
+    debug_assert!(
+        (crate::eigen::project(m, &b, &b) - DMatrix::identity(r, r)).amax() < 1e-6,
+        "the basis is mass-orthonormal"
+    );
     for (t, (kbv, mbv)) in k_b.iter().zip(&m_b).enumerate() {
         let mut bb = DMatrix::zeros(x.nrows(), r);
         if updated {
@@ -919,16 +927,6 @@ fn correction_dual<const N: usize>(
             } else {
                 Dual::constant(0.0)
             };
-        }
-    }
-    // the Ritz values are the diagonal of the modal stiffness at the analysed design
-    for (j, &mu) in correction.values.iter().enumerate() {
-        kr[(pe + j, pe + j)].v = mu;
-        for i in 0..r {
-            if i != pe + j {
-                kr[(i, pe + j)].v = 0.0;
-                kr[(pe + j, i)].v = 0.0;
-            }
         }
     }
     let cr = fit.map(|(a, beta)| {

@@ -33,18 +33,6 @@ pub struct InterfaceLoads {
     pub moments: Vec<Vector3<f64>>,
 }
 
-impl InterfaceLoads {
-    /// Every force and moment (a fixed joint, or a node of unknown use).
-    pub fn all(target: NodeId) -> Self {
-        let axes = vec![Vector3::x(), Vector3::y(), Vector3::z()];
-        Self {
-            target,
-            forces: axes.clone(),
-            moments: axes,
-        }
-    }
-}
-
 /// The missed compliance of one load case.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LoadCase {

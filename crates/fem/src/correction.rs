@@ -179,31 +179,14 @@ pub struct StaticCorrection {
 }
 
 /// The unit loads on the free dof of `assembly` at `targets`: every free dof of a node
-/// (`target < n_nodes`), or the six loads of coupling `target − n_nodes` of `couplings`.
+/// (`target < n_nodes`), or those of the six loads of coupling `target − n_nodes` of
+/// `couplings` that fall on free dof.
 pub(crate) fn interface_loads(
     assembly: &Assembly,
     n_nodes: usize,
     couplings: &[Distribution],
     targets: &[NodeId],
 ) -> Result<DMatrix<f64>, FemError> {
-    let cols = interface_load_columns(assembly, n_nodes, couplings, targets)?;
-    if cols.is_empty() {
-        return Err(FemError::Invalid(
-            "static correction: every dof of the correction nodes is fixed by the reference \
-             condition"
-                .into(),
-        ));
-    }
-    Ok(DMatrix::from_columns(&cols))
-}
-
-/// The columns of [`interface_loads`] (those of a coupling's loads that fall on free dof).
-fn interface_load_columns(
-    assembly: &Assembly,
-    n_nodes: usize,
-    couplings: &[Distribution],
-    targets: &[NodeId],
-) -> Result<Vec<DVector<f64>>, FemError> {
     let mut cols: Vec<DVector<f64>> = Vec::new();
     for &t in targets {
         if t < n_nodes {
@@ -233,7 +216,14 @@ fn interface_load_columns(
             )));
         }
     }
-    Ok(cols)
+    if cols.is_empty() {
+        return Err(FemError::Invalid(
+            "static correction: every dof of the correction nodes is fixed by the reference \
+             condition"
+                .into(),
+        ));
+    }
+    Ok(DMatrix::from_columns(&cols))
 }
 
 /// The Cholesky factor of the free-dof stiffness `k` (an error when the reference condition

@@ -68,8 +68,6 @@ pub struct BodyDef {
     pub interface: bool,
     /// Distributing couplings, in the order of their nodes in the modal body.
     pub couplings: Vec<CouplingDef>,
-    /// The nodes the deck's joints and forces attach to (`node = k`).
-    pub joint_nodes: Vec<usize>,
     /// The loads the deck's joints and forces put on the body (its basis check).
     pub interfaces: Vec<InterfaceDef>,
     /// `modes = "auto"`: the fewest of [`AUTO_MODES`] eigenmodes (at least `modes`) whose basis
@@ -708,9 +706,9 @@ pub fn validate_one(
             ));
         }
     };
-    let joint_nodes = interface_nodes(deck, name);
+    let interfaces = interface_loads(deck, name);
     let (correction, interface) = match &raw.correction {
-        None if basis => (joint_nodes.clone(), true),
+        None if basis => (interface_nodes(&interfaces), true),
         None => (Vec::new(), false),
         Some(c) => {
             let list = c.get_ref();
@@ -779,8 +777,7 @@ pub fn validate_one(
         correction,
         interface,
         couplings,
-        joint_nodes,
-        interfaces: interface_loads(deck, name),
+        interfaces,
         auto_modes,
         basis_tolerance,
         initial_modal,
@@ -885,10 +882,10 @@ fn couplings(
     Ok(out)
 }
 
-/// The nodes of body `name` that the deck's joints and forces attach to (`node = k`).
-fn interface_nodes(deck: &RawDeck, name: &str) -> Vec<usize> {
-    let mut nodes: Vec<usize> = interface_loads(deck, name)
-        .into_iter()
+/// The nodes among `interfaces` (joints and forces with `node = k`), each once.
+fn interface_nodes(interfaces: &[InterfaceDef]) -> Vec<usize> {
+    let mut nodes: Vec<usize> = interfaces
+        .iter()
         .filter_map(|i| match i.site {
             InterfaceSite::Node(k) => Some(k),
             InterfaceSite::Coupling(_) => None,
