@@ -60,17 +60,7 @@ fn auto_modes_take_the_fewest_that_meet_the_tolerance() {
         common::f64s(&g, "bodies/rod/frequency_derivatives").len(),
         6
     );
-    let direct = common::f64s(&g, "sensitivities/mid_deflection");
-    let fd = common::f64s(
-        &g,
-        "finite_differences/central_relative_0.0001_replay/mid_deflection",
-    );
-    let scale = direct.iter().fold(0.0f64, |a, x| a.max(x.abs()));
-    let err = direct
-        .iter()
-        .zip(&fd)
-        .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()))
-        / scale;
+    let err = common::replayed_difference(&g, "mid_deflection", "0.0001");
     eprintln!("plate, auto: sensitivities against central differences {err:.1e}");
     assert!(err < 1e-5, "{err:e}");
 }

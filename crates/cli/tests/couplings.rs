@@ -32,15 +32,6 @@ fn run_text(dir: &std::path::Path, name: &str, text: &str, sets: &[&str]) -> Gro
     Group::read_hdf5(&out.join("results.h5")).unwrap()
 }
 
-fn worst_relative(a: &[f64], b: &[f64]) -> f64 {
-    assert_eq!(a.len(), b.len());
-    let scale = a.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-    a.iter()
-        .zip(b)
-        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
-        / scale
-}
-
 #[test]
 fn joints_on_single_node_couplings_are_joints_at_the_nodes() {
     let dir = tempfile::tempdir().unwrap();
@@ -69,7 +60,7 @@ fn joints_on_single_node_couplings_are_joints_at_the_nodes() {
             "responses/slider_x",
         ] {
             let (x, y) = (common::f64s(&a, path), common::f64s(&b, path));
-            let err = worst_relative(&x, &y);
+            let err = common::worst_difference(&x, &y);
             eprintln!("{case}: {path}: {err:.1e}");
             assert!(err < 1e-8, "{case} {path}: {err:e}");
         }
@@ -79,6 +70,6 @@ fn joints_on_single_node_couplings_are_joints_at_the_nodes() {
             common::f64s(&b, "bodies/rod/frequencies"),
         );
         assert_eq!(fa.len(), fb.len());
-        assert!(worst_relative(&fa, &fb) < 1e-12);
+        assert!(common::worst_difference(&fa, &fb) < 1e-12);
     }
 }

@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{bad_deck, deck, f64s, run_json, with_deck};
+use common::{bad_deck, deck, run_json, with_deck};
 use flexsens::results::Group;
 
 /// The peak mid-node deflection and the largest difference between direct sensitivities and
@@ -22,17 +22,7 @@ fn beam_run(sets: &[&str]) -> (f64, f64) {
     all.extend_from_slice(sets);
     let summary = run_json("slider_crank_beam.toml", &out, &all);
     let g = Group::read_hdf5(&out.join("results.h5")).unwrap();
-    let direct = f64s(&g, "sensitivities/mid_deflection");
-    let fd = f64s(
-        &g,
-        "finite_differences/central_relative_0.001_replay/mid_deflection",
-    );
-    let scale = direct.iter().fold(0.0f64, |a, x| a.max(x.abs()));
-    let err = direct
-        .iter()
-        .zip(&fd)
-        .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()))
-        / scale;
+    let err = common::replayed_difference(&g, "mid_deflection", "0.001");
     let peak = summary["responses"]["mid_deflection"]["max"]
         .as_f64()
         .unwrap();

@@ -113,6 +113,28 @@ pub fn f64s(g: &Group, path: &str) -> Vec<f64> {
     }
 }
 
+/// `max |a − b| / max |a|`: the largest difference of two histories against the first's size.
+pub fn worst_difference(a: &[f64], b: &[f64]) -> f64 {
+    assert_eq!(a.len(), b.len(), "histories of different lengths");
+    let scale = a.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    a.iter()
+        .zip(b)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
+        / scale
+}
+
+/// The direct sensitivities of `response` against the replayed central differences of
+/// relative size `size` (as the case is named, e.g. `"0.0001"`) in a run's results of one
+/// design variable: `max |CD − direct| / max |direct|`.
+pub fn replayed_difference(g: &Group, response: &str, size: &str) -> f64 {
+    let direct = f64s(g, &format!("sensitivities/{response}"));
+    let fd = f64s(
+        g,
+        &format!("finite_differences/central_relative_{size}_replay/{response}"),
+    );
+    worst_difference(&direct, &fd)
+}
+
 /// The shipped deck `name` with `extra` appended, written in a fresh directory (kept alive by
 /// the returned guard).
 pub fn with_extra(name: &str, extra: &str) -> (tempfile::TempDir, std::path::PathBuf) {
@@ -187,11 +209,7 @@ pub fn direct_vs_central_of(
             let col = |x: &[f64]| -> Vec<f64> { x.iter().skip(v).step_by(m).copied().collect() };
             let (d, f) = (col(&direct), col(&fd));
             let scale = d.iter().fold(0.0f64, |a, x| a.max(x.abs()));
-            let err = d
-                .iter()
-                .zip(&f)
-                .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()))
-                / scale;
+            let err = worst_difference(&d, &f);
             eprintln!(
                 "{}: direct vs central differences {err:.1e} (max {scale:.2e})",
                 names[v]
