@@ -320,7 +320,7 @@ pub fn run(path: &Path, overrides: &[String], req: &ModesRequest) -> Result<Stri
             _ => vec!["rad"; built.design.names().len()],
         };
         let (analysis, _) =
-            crate::study::flexible::analyse(&src, name, b.span(), &def, &mut built)?;
+            crate::study::flexible::analyse(&src, name, b.span(), &def, &mut built, false)?;
         // the derivative matrices only where they are exported: the eigenvalue derivatives
         // alone need no more than their projections on the modes
         let (matrices, derivs) = match (req.derivatives, req.export_matrices.is_some()) {

@@ -412,7 +412,8 @@ fn flexible_quantities(
     let def = bodies::validate_one(src, raw, name, table, lam)?;
     let mut built = build(src, name, &def, DesignRequest::Variables(&design.variables))?;
     let span = table.span();
-    let (analysis, _) = crate::study::flexible::analyse(src, name, span.clone(), &def, &mut built)?;
+    let (analysis, _) =
+        crate::study::flexible::analyse(src, name, span.clone(), &def, &mut built, false)?;
     let d = built.eigenvalue_derivatives::<CHUNK>(src, name, span.clone(), &analysis)?;
     let m = design.variables.len();
     let mut frequencies = Vec::new();

@@ -708,31 +708,37 @@ pub fn build(
     })
 }
 
-/// The modal analysis of the built body `def` and its basis check ([`basis_check`]); with
-/// `modes = "auto"` the fewest eigenmodes of [`crate::deck::bodies::AUTO_MODES`] (at least
-/// `def.computed`) whose check meets `def.basis_tolerance`, or the most the body has dof for
-/// (`built.options` are left at that number).
+/// The modal analysis of the built body `def`, and with `with_check` its basis check
+/// ([`basis_check`]; `None` without it, or for a free-free body). With `modes = "auto"` the
+/// fewest eigenmodes of [`crate::deck::bodies::AUTO_MODES`] (at least `def.computed`) whose
+/// check meets `def.basis_tolerance`, or the most the body has dof for (`built.options` are
+/// left at that number); the check is then always made.
 pub fn analyse(
     src: &Source,
     name: &str,
     span: std::ops::Range<usize>,
     def: &BodyDef,
     built: &mut Built,
+    with_check: bool,
 ) -> Result<(fem::ModalAnalysis, Option<fem::Completeness>), CliError> {
     let run = |built: &Built| -> Result<_, CliError> {
         let a = fem::modal_analysis(&built.mesh, &built.props, &built.options)
             .map_err(|e| fem_error(src, name, span.clone(), e))?;
-        let check =
-            basis_check(def, built, &a).map_err(|e| fem_error(src, name, span.clone(), e))?;
+        let check = if with_check || def.auto_modes {
+            basis_check(def, built, &a).map_err(|e| fem_error(src, name, span.clone(), e))?
+        } else {
+            None
+        };
         Ok((a, check))
     };
     if !def.auto_modes {
         return run(built);
     }
-    let counts: Vec<usize> = std::iter::once(def.computed)
+    let mut counts: Vec<usize> = std::iter::once(def.computed)
         .chain(crate::deck::bodies::AUTO_MODES)
         .filter(|&n| n >= def.computed)
         .collect();
+    counts.dedup();
     let mut best = None;
     for n in counts {
         built.options.n_modes = n;

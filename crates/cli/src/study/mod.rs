@@ -139,7 +139,7 @@ fn flexible_body(
             "the floating frame of reference needs mass = \"lumped\"",
         )));
     }
-    let (analysis, check) = flexible::analyse(src, name, span.clone(), def, &mut built)?;
+    let (analysis, check) = flexible::analyse(src, name, span.clone(), def, &mut built, true)?;
     let modal = fem::modal_body(&built.mesh, &built.props, &analysis)
         .map_err(|e| fem_error(src, name, span.clone(), e))?;
     let report = basis_report(src, name, span, def, &analysis, check);
