@@ -115,13 +115,15 @@ fn at_table(src: &Source, span: Range<usize>, key: String, e: impl ToString) -> 
     CliError::Input(src.error(Some(span), Some(key), e.to_string()))
 }
 
-/// The modal analysis and body of one validated flexible body.
+/// The modal analysis and body of one validated flexible body, and its basis (with its check,
+/// and the check's warning, when `with_check`).
 fn flexible_body(
     src: &Source,
     name: &str,
     span: Range<usize>,
     def: &BodyDef,
     request: DesignRequest,
+    with_check: bool,
 ) -> Result<
     (
         Built,
@@ -139,7 +141,8 @@ fn flexible_body(
             "the floating frame of reference needs mass = \"lumped\"",
         )));
     }
-    let (analysis, check) = flexible::analyse(src, name, span.clone(), def, &mut built, true)?;
+    let (analysis, check) =
+        flexible::analyse(src, name, span.clone(), def, &mut built, with_check)?;
     let modal = fem::modal_body(&built.mesh, &built.props, &analysis)
         .map_err(|e| fem_error(src, name, span.clone(), e))?;
     let report = basis_report(src, name, span, def, &analysis, check);
@@ -147,7 +150,7 @@ fn flexible_body(
 }
 
 /// The basis of a flexible body and its static check at the joints' nodes and couplings; a
-/// warning (once) when it misses more than [`mechanism::BASIS_WARNING`].
+/// warning (once) when it misses more than the body's `basis_tolerance`.
 fn basis_report(
     src: &Source,
     name: &str,
@@ -264,7 +267,7 @@ impl Study {
         for (name, b) in &raw.body {
             let def = validate_body(src, raw, name, b, &laminates)?;
             let (built, analysis, modal, basis) =
-                flexible_body(src, name, b.span(), &def, request)?;
+                flexible_body(src, name, b.span(), &def, request, true)?;
             let nodes = modal.node_positions.clone();
             let body = flexible_model_body(
                 name,
@@ -513,12 +516,14 @@ impl Study {
                 def.modes = part.analysis.n_modes;
                 def.computed = part.analysis.n_modes;
             }
+            // the perturbed designs of finite differences: no check (nor its warning) again
             let (built, analysis, mut body, _) = flexible_body(
                 src,
                 &part.name,
                 part.span.clone(),
                 &def,
                 DesignRequest::None,
+                false,
             )?;
             if let Body::Flexible(reference) = self.model.body(part.id) {
                 body.align_to(&reference.modal, CLUSTER_TOL).map_err(|e| {
