@@ -919,15 +919,11 @@ pub struct InterfaceDef {
 /// every direction. Markers the mechanism validation will reject are left out.
 pub fn interface_loads(deck: &RawDeck, name: &str) -> Vec<InterfaceDef> {
     let xyz = vec![Vector3::x(), Vector3::y(), Vector3::z()];
+    // the two directions normal to a joint axis: the e1, e2 of its marker
     let normal_to = |a: Vector3<f64>| -> Vec<Vector3<f64>> {
         let a = a.try_normalize(0.0).unwrap_or(Vector3::z());
-        let t = if a.x.abs() < 0.9 {
-            Vector3::x()
-        } else {
-            Vector3::y()
-        };
-        let e1 = (t - a * t.dot(&a)).normalize();
-        vec![e1, a.cross(&e1)]
+        let axes = mbs::Marker::ground(Vector3::zeros()).with_axis(a).axes;
+        vec![axes.column(0).into_owned(), axes.column(1).into_owned()]
     };
     let site = |m: &Spanned<RawMarker>| -> Option<(InterfaceSite, Vector3<f64>)> {
         let m = m.get_ref();
