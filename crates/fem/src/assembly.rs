@@ -1,15 +1,16 @@
 //! Element matrices in global axes, boundary conditions and sparse assembly on a fixed pattern.
 //!
 //! Dof numbering: node-major, six per node, `6 k + [u_x, u_y, u_z, θ_x, θ_y, θ_z]`. Constrained
-//! dof are eliminated: the assembled matrices act on the *free* dof only ([`Assembly::free_dofs`]
-//! maps back). Values are assembled generically over [`Scalar`], in the fixed CSC order of the
+//! dof are eliminated: the assembled matrices act on the *free* dof only, `u = T u_free`
+//! ([`Assembly::expand`]): a fixed dof is zero, the dof of a rigidly tied node set follow the
+//! set's rigid motion ([`RigidTie`], an RBE2 element). Values are assembled generically over [`Scalar`], in the fixed CSC order of the
 //! pattern, so that a dual evaluation yields `K_b`, `M_b` on the same pattern (one code path).
 
 use std::collections::BTreeSet;
 
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
 use laminate::LaminateStiffness;
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3};
 use sens::Scalar;
 
 use crate::beam::{BeamError, BeamSection, beam_frame, beam_local, release_shear, to_global};
@@ -111,10 +112,20 @@ pub mod dof {
     pub const ALL: [usize; 6] = [UX, UY, UZ, RX, RY, RZ];
 }
 
-/// A set of fixed (zero) dof.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
+/// A rigid tie of a node set to a point (an RBE2 element): the nodes move as one rigid body
+/// with the point, `u_k = u + θ × (x_k − p)`, `θ_k = θ`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RigidTie {
+    pub nodes: Vec<NodeId>,
+    pub point: Vector3<f64>,
+}
+
+/// The dof a body's matrices act on: fixed (zero) dof eliminated, and the dof of rigidly tied
+/// node sets replaced by the rigid motion of each set.
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Constraints {
     fixed: BTreeSet<usize>,
+    ties: Vec<RigidTie>,
 }
 
 impl Constraints {
@@ -156,6 +167,16 @@ impl Constraints {
         self.fix_nodes(nodes, &[dof::UZ, rot]);
         self.fix_nodes(nodes, in_plane)
     }
+    /// Tie `nodes` rigidly to `point` ([`RigidTie`]). A dof of a tied node that is also fixed
+    /// constrains the rigid motion of the whole set (a tied straight edge with `u_z` fixed
+    /// at its nodes can still turn about its line, for example).
+    pub fn tie(&mut self, nodes: &[NodeId], point: Vector3<f64>) -> &mut Self {
+        self.ties.push(RigidTie {
+            nodes: nodes.to_vec(),
+            point,
+        });
+        self
+    }
     /// Whether a global dof is fixed.
     pub fn is_fixed(&self, global_dof: usize) -> bool {
         self.fixed.contains(&global_dof)
@@ -164,6 +185,91 @@ impl Constraints {
     pub fn fixed(&self) -> impl Iterator<Item = usize> + '_ {
         self.fixed.iter().copied()
     }
+    /// The rigid ties, in the order given.
+    pub fn ties(&self) -> &[RigidTie] {
+        &self.ties
+    }
+}
+
+/// What a dof of an [`Assembly`]'s matrices is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ReducedDof {
+    /// A free dof of a node (its global dof `6 k + d`).
+    Node(usize),
+    /// Coordinate `coordinate` of the rigid motion of tie `tie` ([`Constraints::ties`]);
+    /// `node` is the tie's first node (where a factorisation orders it).
+    Tie {
+        tie: usize,
+        coordinate: usize,
+        node: NodeId,
+    },
+}
+
+impl ReducedDof {
+    /// The node the dof belongs to (a tie's first node).
+    pub fn node(&self) -> NodeId {
+        match *self {
+            ReducedDof::Node(g) => g / 6,
+            ReducedDof::Tie { node, .. } => node,
+        }
+    }
+}
+
+/// The rigid-motion operator of tie node `x` about `point`: `[u_k; θ_k] = R [u; θ]`.
+fn rigid_transfer(x: &Vector3<f64>, point: &Vector3<f64>) -> Matrix6<f64> {
+    let r = x - point;
+    let mut m = Matrix6::identity();
+    // u_k = u + θ × r = u − r × θ
+    let skew = Matrix3::new(0.0, r.z, -r.y, -r.z, 0.0, r.x, r.y, -r.x, 0.0);
+    m.fixed_view_mut::<3, 3>(0, 3).copy_from(&skew);
+    m
+}
+
+/// The rigid motions a tie leaves free (`6 × k`, orthonormal columns in scaled coordinates
+/// `[u; L θ]`, `L` the set's size, divided back to `[u; θ]`): the null space of the tied nodes'
+/// fixed dof.
+fn tie_motions(
+    mesh: &Mesh,
+    tie: &RigidTie,
+    constraints: &Constraints,
+) -> Result<DMatrix<f64>, FemError> {
+    let size = tie
+        .nodes
+        .iter()
+        .map(|&k| (mesh.nodes[k] - tie.point).norm())
+        .fold(0.0f64, f64::max);
+    let l = if size > 0.0 { size } else { 1.0 };
+    let scale = Matrix6::from_diagonal(&nalgebra::Vector6::new(
+        1.0,
+        1.0,
+        1.0,
+        1.0 / l,
+        1.0 / l,
+        1.0 / l,
+    ));
+    let mut rows: Vec<f64> = Vec::new();
+    for &k in &tie.nodes {
+        let r = rigid_transfer(&mesh.nodes[k], &tie.point) * scale;
+        for d in 0..6 {
+            if constraints.is_fixed(6 * k + d) {
+                rows.extend(r.row(d).iter());
+            }
+        }
+    }
+    if rows.is_empty() {
+        return Ok(DMatrix::from_iterator(6, 6, scale.iter().copied()));
+    }
+    // null space from the eigenvectors of CᵀC with (relatively) zero eigenvalues
+    let c = DMatrix::from_row_slice(rows.len() / 6, 6, &rows);
+    let ctc = c.transpose() * &c;
+    let eig = ctc.symmetric_eigen();
+    let top = eig.eigenvalues.amax().max(f64::MIN_POSITIVE);
+    let free: Vec<usize> = (0..6)
+        .filter(|&i| eig.eigenvalues[i] <= 1e-12 * top)
+        .collect();
+    let n = eig.eigenvectors.select_columns(&free);
+    let s = DMatrix::from_iterator(6, 6, scale.iter().copied());
+    Ok(s * n)
 }
 
 /// Global dof indices of an element's nodes.
@@ -335,50 +441,145 @@ pub fn lumped_nodal_masses<S: Scalar>(
     Ok((m, mu))
 }
 
-/// The fixed sparsity pattern of the free-dof matrices of a mesh under given constraints.
+/// Where an element's `(a, b)` entry goes in the CSC values.
+#[derive(Clone, Debug)]
+enum ElementSlots {
+    /// Every dof of the element is a free node dof or fixed: the slot of each pair (row-major),
+    /// `usize::MAX` when one of the two is fixed.
+    Direct(Vec<usize>),
+    /// Some dof of the element are tied: `(pair, slot, coefficient)` terms.
+    Mapped(Vec<(usize, usize, f64)>),
+}
+
+/// The fixed sparsity pattern of the matrices of a mesh under given constraints, on the dof
+/// they leave ([`ReducedDof`]): `K = TᵀK_full T`, `M = TᵀM_full T` with `u_full = T u`.
 #[derive(Clone, Debug)]
 pub struct Assembly {
     n_full: usize,
-    free_index: Vec<Option<usize>>,
-    free_dofs: Vec<usize>,
+    /// `T` by rows: the terms `(dof, coefficient)` of every global dof (CSR).
+    map_ptr: Vec<usize>,
+    map: Vec<(usize, f64)>,
+    dofs: Vec<ReducedDof>,
     symbolic: SymbolicSparseColMat<usize>,
-    /// Per element, for each (a, b) local pair (row-major), the slot in the CSC values, or
-    /// `usize::MAX` when a dof is constrained.
-    slots: Vec<Vec<usize>>,
+    slots: Vec<ElementSlots>,
 }
 
 impl Assembly {
-    /// Pattern of the free dof of `mesh` with `constraints` eliminated.
+    /// Pattern of the dof of `mesh` left by `constraints` (fixed dof eliminated, tied sets
+    /// replaced by their rigid motions).
     pub fn new(mesh: &Mesh, constraints: &Constraints) -> Result<Self, FemError> {
         mesh.validate()?;
         let n_full = mesh.n_dofs();
+        let n_nodes = mesh.nodes.len();
         if let Some(d) = constraints.fixed().find(|&d| d >= n_full) {
             return Err(FemError::BadDof {
                 dof: d,
                 n_dofs: n_full,
             });
         }
+        // the tie of every node, and each tie's free rigid motions
+        let mut tie_of = vec![None; n_nodes];
+        let mut motions = Vec::new();
+        for (t, tie) in constraints.ties().iter().enumerate() {
+            if tie.nodes.is_empty() {
+                return Err(FemError::Invalid(format!("rigid tie {t} has no node")));
+            }
+            if !tie.point.iter().all(|x| x.is_finite()) {
+                return Err(FemError::Invalid(format!(
+                    "rigid tie {t}: its point {:?} must be finite",
+                    tie.point
+                )));
+            }
+            for &k in &tie.nodes {
+                match tie_of.get(k) {
+                    None => {
+                        return Err(FemError::Invalid(format!(
+                            "rigid tie {t}: node {k} does not exist (the mesh has {n_nodes} \
+                             nodes)"
+                        )));
+                    }
+                    Some(Some(other)) => {
+                        return Err(FemError::Invalid(format!(
+                            "node {k} is in rigid ties {other} and {t} (a node can follow one \
+                             rigid tie only; merge the two sets)"
+                        )));
+                    }
+                    Some(None) => tie_of[k] = Some(t),
+                }
+            }
+            motions.push(tie_motions(mesh, tie, constraints)?);
+        }
+        // the dof: node by node, a tie's coordinates at its first node
+        let mut dofs = Vec::new();
+        let mut tie_start = vec![usize::MAX; motions.len()];
         let mut free_index = vec![None; n_full];
-        let mut free_dofs = Vec::new();
-        for d in 0..n_full {
-            if !constraints.is_fixed(d) {
-                free_index[d] = Some(free_dofs.len());
-                free_dofs.push(d);
+        for k in 0..n_nodes {
+            match tie_of[k] {
+                Some(t) => {
+                    if tie_start[t] == usize::MAX {
+                        tie_start[t] = dofs.len();
+                        dofs.extend((0..motions[t].ncols()).map(|coordinate| ReducedDof::Tie {
+                            tie: t,
+                            coordinate,
+                            node: k,
+                        }));
+                    }
+                }
+                None => {
+                    for d in 6 * k..6 * k + 6 {
+                        if !constraints.is_fixed(d) {
+                            free_index[d] = Some(dofs.len());
+                            dofs.push(ReducedDof::Node(d));
+                        }
+                    }
+                }
             }
         }
-        let n = free_dofs.len();
+        let n = dofs.len();
         if n == 0 {
             return Err(FemError::NoFreeDof);
         }
+        // T by rows
+        let mut map_ptr = Vec::with_capacity(n_full + 1);
+        let mut map = Vec::new();
+        map_ptr.push(0);
+        for k in 0..n_nodes {
+            let rows = tie_of[k].map(|t| {
+                let tie = &constraints.ties()[t];
+                (
+                    tie_start[t],
+                    rigid_transfer(&mesh.nodes[k], &tie.point) * &motions[t],
+                )
+            });
+            for d in 0..6 {
+                let g = 6 * k + d;
+                match &rows {
+                    Some((start, r)) => {
+                        if !constraints.is_fixed(g) {
+                            map.extend(
+                                (0..r.ncols())
+                                    .map(|j| (start + j, r[(d, j)]))
+                                    .filter(|&(_, c)| c != 0.0),
+                            );
+                        }
+                    }
+                    None => map.extend(free_index[g].map(|i| (i, 1.0))),
+                }
+                map_ptr.push(map.len());
+            }
+        }
+        let terms = |g: usize| &map[map_ptr[g]..map_ptr[g + 1]];
         // columns: sorted unique rows; always include the diagonal
         let mut cols: Vec<Vec<usize>> = (0..n).map(|j| vec![j]).collect();
         for el in &mesh.elements {
-            let dofs: Vec<usize> = element_dofs(el)
+            let mut touched: Vec<usize> = element_dofs(el)
                 .iter()
-                .filter_map(|&d| free_index[d])
+                .flat_map(|&g| terms(g).iter().map(|&(i, _)| i))
                 .collect();
-            for &c in &dofs {
-                cols[c].extend_from_slice(&dofs);
+            touched.sort_unstable();
+            touched.dedup();
+            for &c in &touched {
+                cols[c].extend_from_slice(&touched);
             }
         }
         let mut col_ptr = Vec::with_capacity(n + 1);
@@ -391,59 +592,78 @@ impl Assembly {
             col_ptr.push(row_idx.len());
         }
         drop(cols);
+        let slot = |r: usize, c: usize| {
+            col_ptr[c]
+                + row_idx[col_ptr[c]..col_ptr[c + 1]]
+                    .binary_search(&r)
+                    .expect("in pattern")
+        };
         let slots = mesh
             .elements
             .iter()
             .map(|el| {
-                let dofs: Vec<Option<usize>> =
-                    element_dofs(el).iter().map(|&d| free_index[d]).collect();
-                let mut s = Vec::with_capacity(dofs.len() * dofs.len());
-                for &r in &dofs {
-                    for &c in &dofs {
-                        s.push(match (r, c) {
-                            (Some(r), Some(c)) => {
-                                col_ptr[c]
-                                    + row_idx[col_ptr[c]..col_ptr[c + 1]]
-                                        .binary_search(&r)
-                                        .expect("in pattern")
-                            }
-                            _ => usize::MAX,
-                        });
+                let ed = element_dofs(el);
+                if ed.iter().all(|&g| tie_of[g / 6].is_none()) {
+                    let idx: Vec<Option<usize>> = ed.iter().map(|&g| free_index[g]).collect();
+                    let mut s = Vec::with_capacity(idx.len() * idx.len());
+                    for &r in &idx {
+                        for &c in &idx {
+                            s.push(match (r, c) {
+                                (Some(r), Some(c)) => slot(r, c),
+                                _ => usize::MAX,
+                            });
+                        }
                     }
+                    ElementSlots::Direct(s)
+                } else {
+                    let nd = ed.len();
+                    let mut s = Vec::new();
+                    for (a, &ga) in ed.iter().enumerate() {
+                        for (b, &gb) in ed.iter().enumerate() {
+                            for &(r, cr) in terms(ga) {
+                                for &(c, cc) in terms(gb) {
+                                    s.push((a * nd + b, slot(r, c), cr * cc));
+                                }
+                            }
+                        }
+                    }
+                    ElementSlots::Mapped(s)
                 }
-                s
             })
             .collect();
         let symbolic = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
         Ok(Self {
             n_full,
-            free_index,
-            free_dofs,
+            map_ptr,
+            map,
+            dofs,
             symbolic,
             slots,
         })
     }
 
-    /// Number of free dof.
+    /// Number of dof of the matrices.
     pub fn n_free(&self) -> usize {
-        self.free_dofs.len()
+        self.dofs.len()
     }
     /// Number of dof before elimination (6 × nodes).
     pub fn n_full(&self) -> usize {
         self.n_full
     }
-    /// Global dof of each free dof.
-    pub fn free_dofs(&self) -> &[usize] {
-        &self.free_dofs
+    /// What each dof of the matrices is.
+    pub fn dofs(&self) -> &[ReducedDof] {
+        &self.dofs
     }
-    /// The node of each free dof: the groups by which a sparse factorisation orders the
-    /// matrices of this assembly ([`sens::sparse::grouped_ordering`]).
+    /// The node of each dof: the groups by which a sparse factorisation orders the matrices of
+    /// this assembly ([`sens::sparse::grouped_ordering`]).
     pub fn free_dof_nodes(&self) -> Vec<usize> {
-        self.free_dofs.iter().map(|d| d / 6).collect()
+        self.dofs.iter().map(ReducedDof::node).collect()
     }
-    /// Free index of a global dof (`None` when constrained).
-    pub fn free_index(&self, global_dof: usize) -> Option<usize> {
-        self.free_index[global_dof]
+    /// The terms `(dof, coefficient)` of global dof `g` in the dof of the matrices (one term
+    /// of coefficient 1 for a free node dof, none for a fixed one, the set's rigid motion for
+    /// a tied one).
+    pub fn terms(&self, global_dof: usize) -> &[(usize, f64)] {
+        &self.map[self.map_ptr[global_dof]..self.map_ptr[global_dof + 1]]
     }
     /// The sparsity pattern.
     pub fn symbolic(&self) -> &SymbolicSparseColMat<usize> {
@@ -468,13 +688,23 @@ impl Assembly {
         for e in 0..mesh.elements.len() {
             let (ke, me) = element_matrices(mesh, e, props, opts, mass)?;
             let nd = ke.nrows();
-            let slots = &self.slots[e];
-            for a in 0..nd {
-                for b in 0..nd {
-                    let s = slots[a * nd + b];
-                    if s != usize::MAX {
-                        k[s] += ke[(a, b)];
-                        m[s] += me[(a, b)];
+            match &self.slots[e] {
+                ElementSlots::Direct(slots) => {
+                    for a in 0..nd {
+                        for b in 0..nd {
+                            let s = slots[a * nd + b];
+                            if s != usize::MAX {
+                                k[s] += ke[(a, b)];
+                                m[s] += me[(a, b)];
+                            }
+                        }
+                    }
+                }
+                ElementSlots::Mapped(terms) => {
+                    for &(pair, s, c) in terms {
+                        let (a, b) = (pair / nd, pair % nd);
+                        k[s] += ke[(a, b)] * c;
+                        m[s] += me[(a, b)] * c;
                     }
                 }
             }
@@ -513,16 +743,16 @@ impl Assembly {
         let (mut xet, mut kx, mut mx) = (Vec::new(), Vec::new(), Vec::new());
         for (e, el) in mesh.elements.iter().enumerate() {
             let (ke, me) = element_matrices(mesh, e, props, opts, mass)?;
-            let dofs: Vec<Option<usize>> = element_dofs(el)
-                .iter()
-                .map(|&d| self.free_index[d])
-                .collect();
+            let dofs = element_dofs(el);
             let nd = dofs.len();
+            // X_e = T_e X
             xet.clear();
-            for f in &dofs {
-                match f {
-                    Some(f) => xet.extend((0..p).map(|j| x[(*f, j)])),
-                    None => xet.extend(std::iter::repeat_n(0.0, p)),
+            xet.resize(nd * p, 0.0);
+            for (a, &g) in dofs.iter().enumerate() {
+                for &(f, c) in self.terms(g) {
+                    for j in 0..p {
+                        xet[a * p + j] += c * x[(f, j)];
+                    }
                 }
             }
             kx.clear();
@@ -579,12 +809,52 @@ impl Assembly {
         self.matrix(values.iter().map(|x| x.tangent(k)).collect())
     }
 
-    /// Expand a free-dof vector to all dof (zeros at constrained dof).
+    /// Expand a vector on the dof of the matrices to all dof, `T x` (zeros at fixed dof, the
+    /// rigid motion of tied sets).
     pub fn expand(&self, x: &[f64]) -> Vec<f64> {
-        let mut out = vec![0.0; self.n_full];
-        for (i, &d) in self.free_dofs.iter().enumerate() {
-            out[d] = x[i];
+        (0..self.n_full)
+            .map(|g| self.terms(g).iter().map(|&(i, c)| c * x[i]).sum())
+            .collect()
+    }
+
+    /// [`Self::expand`] column by column.
+    pub fn expand_columns(&self, x: &DMatrix<f64>) -> DMatrix<f64> {
+        let mut out = DMatrix::zeros(self.n_full, x.ncols());
+        for g in 0..self.n_full {
+            for &(i, c) in self.terms(g) {
+                for j in 0..x.ncols() {
+                    out[(g, j)] += c * x[(i, j)];
+                }
+            }
         }
         out
+    }
+
+    /// A load on all dof carried to the dof of the matrices, `Tᵀ f` (the work-equivalent load:
+    /// a fixed dof takes nothing, a tied set the resultant and moment of its loads).
+    pub fn restrict(&self, f: &[f64]) -> DVector<f64> {
+        let mut out = DVector::zeros(self.n_free());
+        for (g, &fg) in f.iter().enumerate().take(self.n_full) {
+            if fg != 0.0 {
+                for &(i, c) in self.terms(g) {
+                    out[i] += c * fg;
+                }
+            }
+        }
+        out
+    }
+
+    /// The load of a unit value at global dof `g` ([`Self::restrict`]); `None` when the dof
+    /// is fixed (or a tie's fixed motion).
+    pub fn unit_load(&self, global_dof: usize) -> Option<DVector<f64>> {
+        let terms = self.terms(global_dof);
+        if terms.is_empty() {
+            return None;
+        }
+        let mut out = DVector::zeros(self.n_free());
+        for &(i, c) in terms {
+            out[i] += c;
+        }
+        Some(out)
     }
 }

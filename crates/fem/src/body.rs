@@ -189,10 +189,11 @@ pub struct ModalOptions {
     /// free-free). Design derivatives through them are exact ([`crate::correction`]). Empty
     /// (the default): none.
     pub correction: Vec<NodeId>,
-    /// Distributing couplings ([`Coupling`]): each adds a node without mass to the
+    /// Couplings ([`Coupling`], distributing or rigid): each adds a node without mass to the
     /// [`ModalBody`], numbered after the mesh's nodes in this order, at the coupling's point
-    /// and moving as the coupling's rigid fit of its nodes. Joints and forces attached there
-    /// load the whole node set. Empty (the default): none.
+    /// and moving as the coupling's rigid fit of its nodes (exactly the set's motion for a
+    /// rigid one, whose set the analysis ties, [`crate::RigidTie`]). Joints and forces attached
+    /// there load the whole node set. Empty (the default): none.
     pub couplings: Vec<Coupling>,
     /// Supports added to the reference condition (with [`ReferenceCondition::Supports`] they
     /// alone hold the body): simply supported or clamped edges, pinned lines, symmetry planes,
@@ -297,6 +298,11 @@ pub fn analysis_constraints(
             )));
         }
         c.fix_nodes(&s.nodes, &s.dofs);
+    }
+    for coupling in opts.couplings.iter().filter(|c| c.rigid) {
+        // checks the nodes before they are read
+        let d = distribution(mesh, coupling)?;
+        c.tie(&d.nodes, d.point);
     }
     Ok((c, origin))
 }
@@ -403,15 +409,9 @@ impl ModalAnalysis {
         Ok(Some(self.assembly.matrix(v)))
     }
 
-    /// Expand free-dof columns to all dof.
+    /// Expand free-dof columns to all dof ([`Assembly::expand_columns`]).
     pub fn expand(&self, x: &DMatrix<f64>) -> DMatrix<f64> {
-        let mut out = DMatrix::zeros(self.assembly.n_full(), x.ncols());
-        for (i, &d) in self.assembly.free_dofs().iter().enumerate() {
-            for j in 0..x.ncols() {
-                out[(d, j)] = x[(i, j)];
-            }
-        }
-        out
+        self.assembly.expand_columns(x)
     }
 }
 

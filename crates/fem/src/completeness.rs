@@ -81,17 +81,10 @@ pub fn static_completeness(
         // the node's (or coupling's) six unit loads on the free dof (`None`: fixed)
         let unit = |d: usize| -> Option<DVector<f64>> {
             if i.target < n {
-                let k = assembly.free_index(6 * i.target + d)?;
-                let mut e = DVector::zeros(assembly.n_free());
-                e[k] = 1.0;
-                Some(e)
+                assembly.unit_load(6 * i.target + d)
             } else {
                 let c = analysis.couplings.get(i.target - n)?;
-                let full = c.load(d, n);
-                Some(DVector::from_iterator(
-                    assembly.n_free(),
-                    assembly.free_dofs().iter().map(|&k| full[k]),
-                ))
+                Some(assembly.restrict(c.load(d, n).as_slice()))
             }
         };
         if i.target >= n + analysis.couplings.len() {
@@ -145,10 +138,7 @@ pub fn static_completeness(
                 full[6 * k + 3 + d] = inertias[k][d] * alpha[d];
             }
         }
-        let f = DVector::from_iterator(
-            assembly.n_free(),
-            assembly.free_dofs().iter().map(|&d| full[d]),
-        );
+        let f = assembly.restrict(full.as_slice());
         if f.amax() > 0.0 {
             let axis = ["x", "y", "z"][kind % 3];
             names.push(if kind < 3 {

@@ -23,17 +23,26 @@ use sens::SparseCholesky;
 use crate::assembly::{Assembly, FemError};
 use crate::mesh::{Mesh, NodeId};
 
-/// A distributing coupling of a reference point to a set of nodes (an RBE3 element).
+/// A coupling of a reference point to a set of nodes: distributing (an RBE3 element) or rigid
+/// (an RBE2 element).
 ///
-/// Every node of the set has the same weight. The point's translation and rotation are those
-/// of the rigid motion closest to the set's nodal translations (least squares); a rotation the
-/// translations do not determine (about the line of a straight set, or every rotation of a
-/// single node) is the mean of the nodal rotations about that axis.
+/// Distributing: every node of the set has the same weight. The point's translation and
+/// rotation are those of the rigid motion closest to the set's nodal translations (least
+/// squares); a rotation the translations do not determine (about the line of a straight set,
+/// or every rotation of a single node) is the mean of the nodal rotations about that axis. It
+/// adds no stiffness.
+///
+/// Rigid: the set moves as one rigid body with the point ([`crate::RigidTie`]), which stiffens
+/// the body where it is attached (an end edge of a plate keeps its shape). The same fit then
+/// gives the point's motion exactly, and a load at the point reaches the set as its resultant
+/// and moment.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Coupling {
     pub nodes: Vec<NodeId>,
     /// The reference point (mesh coordinates); `None`: the centroid of the nodes.
     pub point: Option<Vector3<f64>>,
+    /// A rigid coupling (RBE2); `false`: distributing (RBE3).
+    pub rigid: bool,
 }
 
 /// A coupling resolved on its mesh: the point and the operator `W` (`6 × 6·nodes`) that gives
@@ -190,20 +199,10 @@ pub(crate) fn interface_loads(
     let mut cols: Vec<DVector<f64>> = Vec::new();
     for &t in targets {
         if t < n_nodes {
-            for d in 0..6 {
-                if let Some(i) = assembly.free_index(6 * t + d) {
-                    let mut e = DVector::zeros(assembly.n_free());
-                    e[i] = 1.0;
-                    cols.push(e);
-                }
-            }
+            cols.extend((0..6).filter_map(|d| assembly.unit_load(6 * t + d)));
         } else if let Some(c) = couplings.get(t - n_nodes) {
             for load in 0..6 {
-                let full = c.load(load, n_nodes);
-                let mut e = DVector::zeros(assembly.n_free());
-                for (i, &d) in assembly.free_dofs().iter().enumerate() {
-                    e[i] = full[d];
-                }
+                let e = assembly.restrict(c.load(load, n_nodes).as_slice());
                 if e.amax() > 0.0 {
                     cols.push(e);
                 }

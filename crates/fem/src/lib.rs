@@ -47,8 +47,8 @@ pub mod shell;
 mod small;
 
 pub use assembly::{
-    Assembly, Constraints, ElementOptions, FemError, MassKind, Properties, dof, element_matrices,
-    lumped_nodal_masses,
+    Assembly, Constraints, ElementOptions, FemError, MassKind, Properties, ReducedDof, RigidTie,
+    dof, element_matrices, lumped_nodal_masses,
 };
 pub use beam::BeamSection;
 pub use body::{

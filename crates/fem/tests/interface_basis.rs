@@ -39,24 +39,26 @@ fn strip() -> Mesh {
     Mesh::rectangle(0.304, 0.04, 12, 2, 0).unwrap()
 }
 
-/// Couplings over the two end edges (`x = 0` and `x = L`).
-fn end_edges() -> Vec<Coupling> {
+/// Couplings over the two end edges (`x = 0` and `x = L`), distributing or rigid.
+fn end_edges(rigid: bool) -> Vec<Coupling> {
     vec![
         Coupling {
             nodes: vec![0, 13, 26],
             point: None,
+            rigid,
         },
         Coupling {
             nodes: vec![12, 25, 38],
             point: None,
+            rigid,
         },
     ]
 }
 
-fn options(modes: usize, correction: bool) -> ModalOptions {
+fn options(modes: usize, correction: bool, rigid: bool) -> ModalOptions {
     let mut o = ModalOptions::new(modes);
     o.reference = ReferenceCondition::ClampedSectionAtCentre;
-    o.couplings = end_edges();
+    o.couplings = end_edges(rigid);
     if correction {
         o.correction = vec![39, 40];
     }
@@ -85,6 +87,7 @@ fn a_coupling_follows_rigid_motions_and_spreads_loads_statically() {
             &Coupling {
                 nodes: nodes.clone(),
                 point,
+                rigid: false,
             },
         )
         .unwrap();
@@ -132,6 +135,7 @@ fn a_coupling_follows_rigid_motions_and_spreads_loads_statically() {
         &Coupling {
             nodes: vec![0, 7, 14, 21, 28],
             point: None,
+            rigid: false,
         },
     )
     .unwrap();
@@ -142,18 +146,35 @@ fn a_coupling_follows_rigid_motions_and_spreads_loads_statically() {
     }
     // bad sets are named
     for nodes in [vec![], vec![3, 3], vec![999]] {
-        let e = distribution(&mesh, &Coupling { nodes, point: None }).unwrap_err();
+        let e = distribution(
+            &mesh,
+            &Coupling {
+                nodes,
+                point: None,
+                rigid: false,
+            },
+        )
+        .unwrap_err();
         assert!(e.to_string().contains("coupling"), "{e}");
     }
 }
 
 #[test]
 fn correction_at_couplings_represents_their_loads_exactly() {
+    correction_at_couplings_represents_their_loads_exactly_for(false);
+}
+
+#[test]
+fn correction_at_rigid_couplings_represents_their_loads_exactly() {
+    correction_at_couplings_represents_their_loads_exactly_for(true);
+}
+
+fn correction_at_couplings_represents_their_loads_exactly_for(rigid: bool) {
     let mesh = strip();
     let b = [0.4, 0.4, 0.4];
     let p = props(&b);
-    let plain = modal_analysis(&mesh, &p, &options(2, false)).unwrap();
-    let corrected = modal_analysis(&mesh, &p, &options(2, true)).unwrap();
+    let plain = modal_analysis(&mesh, &p, &options(2, false, rigid)).unwrap();
+    let corrected = modal_analysis(&mesh, &p, &options(2, true, rigid)).unwrap();
     // the body has a node for each coupling after the mesh's, at the edge's middle
     let body = modal_body(&mesh, &p, &corrected).unwrap();
     assert_eq!(body.n_nodes(), 39 + 2);
@@ -166,12 +187,12 @@ fn correction_at_couplings_represents_their_loads_exactly() {
     let d = &corrected.couplings[1];
     let n = mesh.nodes.len();
     let f = d.load(2, n) * 5.0 + d.load(3, n) * 0.3 - d.load(1, n) * 2.0;
-    let free = corrected.assembly.free_dofs();
-    let e = DMatrix::<f64>::identity(free.len(), free.len());
+    let nf = corrected.assembly.n_free();
+    let e = DMatrix::<f64>::identity(nf, nf);
     let k = fem::eigen::project(&corrected.k, &e, &e);
-    let ff = DVector::from_iterator(free.len(), free.iter().map(|&i| f[i]));
+    let ff = corrected.assembly.restrict(f.as_slice());
     let exact = corrected.expand(&DMatrix::from_column_slice(
-        free.len(),
+        nf,
         1,
         k.lu().solve(&ff).unwrap().as_slice(),
     ));
@@ -278,9 +299,18 @@ fn constant(b: &ModalBody<f64>) -> ModalBody<Dual<3>> {
 
 #[test]
 fn derivatives_through_correction_modes_match_central_differences() {
+    derivatives_through_correction_modes_match_central_differences_for(false);
+}
+
+#[test]
+fn derivatives_through_rigid_couplings_match_central_differences() {
+    derivatives_through_correction_modes_match_central_differences_for(true);
+}
+
+fn derivatives_through_correction_modes_match_central_differences_for(rigid: bool) {
     let mesh = strip();
     let b0 = [0.3, -0.5, 0.9];
-    let opts = options(4, true);
+    let opts = options(4, true, rigid);
     let an = modal_analysis(&mesh, &props(&b0), &opts).unwrap();
     let (dm, d) =
         analysis_derivatives::<3, _>(&mesh, &an, &b0, props, ModeUpdate::Updated).unwrap();
@@ -342,6 +372,7 @@ fn a_force_at_a_coupling_stiffens_as_its_spread_nodal_forces() {
     o.couplings = vec![Coupling {
         nodes: vec![7, 8, 9, 10],
         point: Some(mesh.nodes[10] + Vector3::new(0.01, 0.02, 0.0)),
+        rigid: false,
     }];
     let an = modal_analysis(&mesh, &props, &o).unwrap();
     let body = modal_body(&mesh, &props, &an).unwrap();
@@ -367,4 +398,168 @@ fn a_force_at_a_coupling_stiffens_as_its_spread_nodal_forces() {
     let scale = at_nodes.amax();
     assert!(scale > 0.0);
     assert!((at_coupling - at_nodes).amax() < 1e-12 * scale);
+}
+
+/// A rigid coupling (RBE2) over the last three elements of a cantilever, loaded at a point
+/// beyond the end: the flexible part carries the force and its moment about the tie's first
+/// node, and the point moves with the rigid tip, against the closed-form Timoshenko cantilever
+/// (the beam elements are exact at the nodes for end loads).
+#[test]
+fn a_rigid_coupling_makes_a_rigid_tip_of_a_cantilever() {
+    let n = 10;
+    let mesh = common::beam(n);
+    let rect = common::slender();
+    let props = rect.props();
+    let point = Vector3::new(1.3, 0.0, 0.0);
+    let mut o = ModalOptions::new(2);
+    o.reference = ReferenceCondition::ClampedNode(0);
+    o.couplings = vec![Coupling {
+        nodes: vec![7, 8, 9, 10],
+        point: Some(point),
+        rigid: true,
+    }];
+    let an = modal_analysis(&mesh, &props, &o).unwrap();
+    // the clamped node, four tied nodes (six rigid coordinates), six free nodes
+    assert_eq!(an.assembly.n_free(), 6 * 6 + 6);
+    let nn = mesh.nodes.len();
+    let d = &an.couplings[0];
+    let force = 40.0;
+    let f = d.load(2, nn) * force;
+    let nf = an.assembly.n_free();
+    let e = DMatrix::<f64>::identity(nf, nf);
+    let k = fem::eigen::project(&an.k, &e, &e);
+    let q = k.lu().solve(&an.assembly.restrict(f.as_slice())).unwrap();
+    let u = DMatrix::from_column_slice(6 * nn, 1, &an.assembly.expand(q.as_slice()));
+    // closed form: the flexible part (length l = 0.7) under the force and the moment of its arm
+    // (a = 0.4 from node 7 to the point), bending in x–z about y (EI₂, shear κGA)
+    let (l, a) = (0.7, 0.4);
+    let ei = rect.e * rect.i2();
+    let kga = rect.kappa * rect.g() * rect.area();
+    let m = force * a;
+    let w7 = force * l.powi(3) / (3.0 * ei) + m * l * l / (2.0 * ei) + force * l / kga;
+    let slope = force * l * l / (2.0 * ei) + m * l / ei;
+    let rel = |x: f64, y: f64| (x - y).abs() / y.abs();
+    assert!(
+        rel(u[(6 * 7 + 2, 0)], w7) < 1e-9,
+        "{} {w7}",
+        u[(6 * 7 + 2, 0)]
+    );
+    // the coupling point, and every tied node, move with the rigid tip
+    let at_point = d.rows(&u);
+    assert!(rel(at_point[(2, 0)], w7 + a * slope) < 1e-9);
+    for k in 7..=10 {
+        let x = mesh.nodes[k].x - mesh.nodes[7].x;
+        assert!(rel(u[(6 * k + 2, 0)], w7 + x * slope) < 1e-9, "node {k}");
+        assert!(rel(-u[(6 * k + 4, 0)], slope) < 1e-9, "node {k}");
+    }
+}
+
+/// The modes of a plate strip with a rigid end edge whose nodes also carry a support, against
+/// an independent solve: the full mesh's matrices with every tie and support written as a
+/// constraint `G u = 0` on all dof and eliminated by the null space of `G` (dense SVD), where
+/// the assembly carries each tie's free rigid motions node by node.
+#[test]
+fn a_rigid_coupling_on_supported_nodes_keeps_the_motions_they_allow() {
+    let mesh = strip();
+    let p = props(&[0.3, -0.5, 0.9]);
+    let edge = vec![12, 25, 38];
+    let mut o = ModalOptions::new(5);
+    o.reference = ReferenceCondition::Supports;
+    o.supports = vec![
+        fem::Support {
+            nodes: vec![0, 13, 26],
+            dofs: vec![0, 1, 2, 3, 4, 5],
+        },
+        fem::Support {
+            nodes: edge.clone(),
+            dofs: vec![2],
+        },
+    ];
+    o.couplings = vec![Coupling {
+        nodes: edge.clone(),
+        point: None,
+        rigid: true,
+    }];
+    let an = modal_analysis(&mesh, &p, &o).unwrap();
+    // u_z = 0 at three nodes on a line along y leaves the edge's u_x, u_y and its rotations
+    // about y and z: four coordinates
+    let nn = mesh.nodes.len();
+    assert_eq!(an.assembly.n_free(), 6 * (nn - 6) + 4);
+    // the independent solve
+    let full = fem::Assembly::new(&mesh, &fem::Constraints::new()).unwrap();
+    let (kv, mv) = full
+        .values(&mesh, &p, &o.element, fem::MassKind::Lumped)
+        .unwrap();
+    let e = DMatrix::<f64>::identity(6 * nn, 6 * nn);
+    let kf = fem::eigen::project(&full.matrix(kv), &e, &e);
+    let mf = fem::eigen::project(&full.matrix(mv), &e, &e);
+    let mut g: Vec<DVector<f64>> = Vec::new();
+    let unit = |dof: usize| {
+        let mut r = DVector::zeros(6 * nn);
+        r[dof] = 1.0;
+        r
+    };
+    for k in [0, 13, 26] {
+        for d in 0..6 {
+            g.push(unit(6 * k + d));
+        }
+    }
+    for &k in &edge {
+        g.push(unit(6 * k + 2));
+    }
+    let centre = mesh.nodes[25];
+    for &k in &edge {
+        if k == 25 {
+            continue;
+        }
+        // u_k = u_25 + θ_25 × r and θ_k = θ_25
+        let r = mesh.nodes[k] - centre;
+        let cross = skew(&r);
+        for d in 0..3 {
+            let mut row = unit(6 * k + d);
+            row[6 * 25 + d] -= 1.0;
+            for c in 0..3 {
+                row[6 * 25 + 3 + c] += cross[(d, c)];
+            }
+            g.push(row);
+            let mut row = unit(6 * k + 3 + d);
+            row[6 * 25 + 3 + d] -= 1.0;
+            g.push(row);
+        }
+    }
+    let gm = DMatrix::from_columns(&g).transpose();
+    // the null space: the range of the projector I − G⁺G (singular values 1 against 0)
+    let proj =
+        DMatrix::<f64>::identity(6 * nn, 6 * nn) - gm.clone().pseudo_inverse(1e-12).unwrap() * &gm;
+    let svd = proj.svd(true, false);
+    let u = svd.u.unwrap();
+    let null: Vec<DVector<f64>> = (0..6 * nn)
+        .filter(|&i| svd.singular_values[i] > 0.5)
+        .map(|i| u.column(i).into_owned())
+        .collect();
+    assert_eq!(null.len(), an.assembly.n_free());
+    let nmat = DMatrix::from_columns(&null);
+    assert!((&gm * &nmat).amax() < 1e-10);
+    let kr = nmat.transpose() * &kf * &nmat;
+    let mr = nmat.transpose() * &mf * &nmat;
+    let l = mr.cholesky().unwrap().l();
+    let li = l.clone().try_inverse().unwrap();
+    let a = &li * kr * li.transpose();
+    let mut reference: Vec<f64> = a.symmetric_eigen().eigenvalues.iter().copied().collect();
+    reference.sort_by(f64::total_cmp);
+    for (i, (got, want)) in an.computed_eigenvalues().iter().zip(&reference).enumerate() {
+        eprintln!("mode {}: {got:.6e} against {want:.6e}", i + 1);
+        assert!((got - want).abs() < 1e-8 * want, "mode {}", i + 1);
+    }
+    // the expanded modes keep the edge straight and rigid, with u_z = 0 there
+    let x = an.mode_shapes();
+    for j in 0..5 {
+        let u = |k: usize, d: usize| x[(6 * k + d, j)];
+        for &k in &edge {
+            assert!(u(k, 2).abs() < 1e-12);
+            for d in 3..6 {
+                assert!((u(k, d) - u(25, d)).abs() < 1e-12);
+            }
+        }
+    }
 }

@@ -243,14 +243,29 @@ fn export(
 ) -> Result<(), CliError> {
     const DOF: [&str; 6] = ["ux", "uy", "uz", "rx", "ry", "rz"];
     let mut dofs = String::from("row,node,dof\n");
-    for (i, &g) in a.assembly.free_dofs().iter().enumerate() {
-        let _ = writeln!(
-            dofs,
-            "{},{},{}",
-            i + 1,
-            g / fem::NODE_DOFS,
-            DOF[g % fem::NODE_DOFS]
-        );
+    for (i, d) in a.assembly.dofs().iter().enumerate() {
+        let _ = match *d {
+            fem::ReducedDof::Node(g) => writeln!(
+                dofs,
+                "{},{},{}",
+                i + 1,
+                g / fem::NODE_DOFS,
+                DOF[g % fem::NODE_DOFS]
+            ),
+            // the rigid motion of the tie-th rigid coupling, in the order of the deck
+            fem::ReducedDof::Tie {
+                tie,
+                coordinate,
+                node,
+            } => writeln!(
+                dofs,
+                "{},{},rigid{}.q{}",
+                i + 1,
+                node,
+                tie + 1,
+                coordinate + 1
+            ),
+        };
     }
     write_atomic(&dir.join(format!("{name}.dofs.csv")), dofs.as_bytes())?;
     let what = "rows and columns are the free dof listed in the .dofs.csv file";

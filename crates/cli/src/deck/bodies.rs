@@ -112,13 +112,14 @@ pub enum NodeSet {
     Inside([[f64; 3]; 2]),
 }
 
-/// A validated distributing coupling: its name, nodes, point (global at the start, `None`:
-/// the centroid) and place in the deck.
+/// A validated coupling: its name, nodes, point (global at the start, `None`: the centroid),
+/// kind (rigid or distributing) and place in the deck.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CouplingDef {
     pub name: String,
     pub nodes: NodeSet,
     pub point: Option<Vector3<f64>>,
+    pub rigid: bool,
     pub key: String,
     pub span: std::ops::Range<usize>,
 }
@@ -871,10 +872,28 @@ fn couplings(
             .as_ref()
             .map(|p| vector(src, &format!("{key}.point"), p))
             .transpose()?;
+        let rigid = match &r.kind {
+            None => false,
+            Some(kind) => match kind.get_ref().as_str() {
+                "distributing" => false,
+                "rigid" => true,
+                other => {
+                    return Err(src.error(
+                        Some(kind.span()),
+                        Some(format!("{key}.kind")),
+                        format!(
+                            "unknown coupling kind `{other}`: expected \"distributing\" (RBE3, \
+                             the default) or \"rigid\" (RBE2)"
+                        ),
+                    ));
+                }
+            },
+        };
         out.push(CouplingDef {
             name: cname.clone(),
             nodes,
             point,
+            rigid,
             key,
             span: c.span(),
         });

@@ -211,8 +211,9 @@ pub struct RawBody {
     pub initial_modal_rates: Option<Spanned<Vec<f64>>>,
 }
 
-/// A distributing coupling: a set of nodes (`nodes`, `plane` or `box`) and, optionally, its
-/// point (global coordinates at the start, m; default the nodes' centroid).
+/// A coupling: a set of nodes (`nodes`, `plane` or `box`), optionally its point (global
+/// coordinates at the start, m; default the nodes' centroid) and its kind (`"distributing"`,
+/// the default, or `"rigid"`).
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawCoupling {
@@ -221,6 +222,7 @@ pub struct RawCoupling {
     #[serde(rename = "box")]
     pub inside: Option<Spanned<[[f64; 3]; 2]>>,
     pub point: Option<Spanned<[f64; 3]>>,
+    pub kind: Option<Spanned<String>>,
 }
 
 /// A support: a set of nodes (`nodes`, `plane` or `box`) and the dof fixed there (`fix`).

@@ -677,6 +677,7 @@ pub fn build(
             Ok(fem::Coupling {
                 nodes: node_set(src, &c.nodes, &c.key, c.span.clone(), &mesh)?,
                 point: c.point,
+                rigid: c.rigid,
             })
         })
         .collect::<Result<Vec<_>, CliError>>()?;
