@@ -681,6 +681,25 @@ pub fn build(
             })
         })
         .collect::<Result<Vec<_>, CliError>>()?;
+    // a node follows one rigid coupling only
+    let mut rigid_owner: std::collections::BTreeMap<usize, &str> = Default::default();
+    for (c, def_c) in options.couplings.iter().zip(&def.couplings) {
+        if !c.rigid {
+            continue;
+        }
+        for &k in &c.nodes {
+            if let Some(other) = rigid_owner.insert(k, &def_c.name) {
+                return Err(CliError::Input(src.error(
+                    Some(def_c.span.clone()),
+                    Some(def_c.key.clone()),
+                    format!(
+                        "node {k} is also in the rigid coupling `{other}`: a node can follow \
+                         one rigid coupling only (merge the two sets, or make one distributing)"
+                    ),
+                )));
+            }
+        }
+    }
     options.correction = def.correction.clone();
     if def.interface {
         // the joints' and forces' nodes that the reference condition leaves free, then every
