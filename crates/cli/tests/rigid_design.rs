@@ -158,10 +158,11 @@ fn pendulum_mass_and_inertia_sensitivities_match_the_closed_form_and_central_dif
 fn slider_mass_sensitivities_of_the_flexible_slider_crank_match_central_differences() {
     let errors = beam_direct_vs_central(
         "\n[design.slider_mass]\nkind = \"rigid-mass\"\nbody = \"slider\"\n",
-        "1e-3",
+        "1e-4",
         &["slider_mass", "theta"],
     );
-    // measured 2026-11-23: slider_mass 1.0e-6, theta 5.9e-7 (δ = 0.1 %)
+    // measured: slider_mass 1.6e-6, theta 1.4e-7 (δ = 0.01 %; at 0.1 % the differences'
+    // truncation gives 2.6e-5 with the correction modes' fast dynamics)
     for (err, scale) in errors {
         assert!(scale > 0.0);
         assert!(err < 1e-5, "{err:e}");

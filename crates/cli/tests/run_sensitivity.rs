@@ -568,8 +568,9 @@ fn modes_chosen_by_number_keep_exact_sensitivities() {
             .map(|x| x.as_f64().unwrap())
             .collect::<Vec<f64>>()
     };
+    // the eigenmodes come first (then the correction modes, which differ with the modes kept)
     let (all, chosen) = (frequencies("4"), frequencies("[1, 2, 4]"));
-    assert_eq!(chosen, [all[0], all[1], all[3]]);
+    assert_eq!(chosen[..3], [all[0], all[1], all[3]]);
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
     let summary = common::run_json(
@@ -580,13 +581,21 @@ fn modes_chosen_by_number_keep_exact_sensitivities() {
             "body.rod.reference=\"pinned-ends\"",
             "body.rod.modes=[1, 2, 4]",
             "body.rod.damping.modes=[1, 4]",
-            "finite_differences.sizes=[1e-3]",
+            // the exact derivative of the discrete solution, which replayed differences check,
+            // on fixed steps: adaptive steps stop Newton at a share of the error weights, whose
+            // floor (2.3e-6 here, with the correction modes' fast dynamics) would hide an error
+            "sensitivity.method=\"direct\"",
+            "analysis.integrator=\"fixed\"",
+            "analysis.step=2e-5",
+            "analysis.order=2",
+            "finite_differences.sizes=[1e-4]",
         ],
     );
     let g = Group::read_hdf5(&out.join("results.h5")).unwrap();
-    let (err, scale) = direct_vs_central(&g, "0.001");
+    let (err, scale) = direct_vs_central(&g, "0.0001");
     eprintln!("modes [1, 2, 4]: direct vs central differences {err:.2e}");
-    assert!(err < 2e-6, "{err:e}");
+    // measured 7.6e-9
+    assert!(err < 1e-7, "{err:e}");
     assert!(summary["finite_differences"].as_array().unwrap().len() == 1);
     assert!(scale > 1e-6, "{scale:e}");
     // a list that is not ascending is bad input, named

@@ -696,7 +696,17 @@ pub fn validate_one(
     };
     let couplings = couplings(src, name, raw.couplings.as_ref())?;
     let basis = match raw.basis.as_ref().map(|b| b.get_ref().as_str()) {
-        None => kind.get_ref() == "shell",
+        // static correction needs a reference condition that holds the body
+        None => reference != Reference::FreeFree,
+        Some("interface") if reference == Reference::FreeFree => {
+            return Err(src.error(
+                span(raw.basis.as_ref().expect("given")),
+                Some(k("basis")),
+                "basis = \"interface\" needs a reference condition that holds the body (its \
+                 static correction modes are the static responses to unit loads); a free-free \
+                 body takes basis = \"modes\"",
+            ));
+        }
         Some("interface") => true,
         Some("modes") => false,
         Some(other) => {
