@@ -774,6 +774,8 @@ fn summary(
                 let _ = write!(row, " {x:.2} |");
             }
             for x in d {
+                // a derivative that rounds to zero prints without the sign of its round-off
+                let x = if x.abs() < 5e-5 { 0.0 } else { *x };
                 let _ = write!(row, " {x:.4} |");
             }
             let _ = writeln!(md, "{row}");
