@@ -319,7 +319,7 @@ fn main() -> ExitCode {
             commands::optimize::run(deck, &cli.set, &req)
         }
         Command::Merge { shards, output } => {
-            commands::sweep::merge(shards, output).map(|(t, ok)| (t, if ok { 0 } else { 1 }))
+            commands::merge::merge(shards, output).map(|(t, ok)| (t, if ok { 0 } else { 1 }))
         }
         Command::Report {
             deck,

@@ -13,12 +13,12 @@ use laminate::LaminateStiffness;
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3};
 use sens::Scalar;
 
-use crate::beam::{BeamError, BeamSection, beam_frame, beam_local, release_shear, to_global};
-use crate::mesh::{Element, Mesh, MeshError, NodeId};
+use crate::beam::{BeamSection, beam_frame, beam_local, release_shear, to_global};
+use crate::error::FemError;
+use crate::mesh::{Element, Mesh, NodeId};
 use crate::sensitivity::ProjectedDerivative;
 use crate::shell::{
-    DEFAULT_DRILLING, Membrane, ShellError, TriGeometry, shell_lumped, shell_mass_local,
-    shell_stiffness_local,
+    DEFAULT_DRILLING, Membrane, TriGeometry, shell_lumped, shell_mass_local, shell_stiffness_local,
 };
 
 /// Section and laminate properties referenced by the elements, generic over the scalar so that
@@ -71,32 +71,6 @@ impl Default for ElementOptions {
             planar_axis: None,
         }
     }
-}
-
-/// Every way the finite-element layer can fail.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum FemError {
-    #[error(transparent)]
-    Mesh(#[from] MeshError),
-    #[error(transparent)]
-    Beam(#[from] BeamError),
-    #[error(transparent)]
-    Shell(#[from] ShellError),
-    #[error("element {element} uses {kind} property {property}, but only {available} are defined")]
-    MissingProperty {
-        element: usize,
-        kind: &'static str,
-        property: usize,
-        available: usize,
-    },
-    #[error("dof {dof} is out of range ({n_dofs} dof)")]
-    BadDof { dof: usize, n_dofs: usize },
-    #[error("every dof is constrained")]
-    NoFreeDof,
-    #[error("eigen solver: {0}")]
-    Eigen(String),
-    #[error("invalid request: {0}")]
-    Invalid(String),
 }
 
 /// Local dof index within a node.
@@ -441,6 +415,163 @@ pub fn lumped_nodal_masses<S: Scalar>(
     Ok((m, mu))
 }
 
+/// The rigid tie of every node (`None`: untied) and each tie's free rigid motions
+/// ([`tie_motions`]); an error for a tie without nodes, with a node that does not exist or
+/// that another tie holds, or with a point that is not finite.
+fn tie_membership(
+    mesh: &Mesh,
+    constraints: &Constraints,
+) -> Result<(Vec<Option<usize>>, Vec<DMatrix<f64>>), FemError> {
+    let n_nodes = mesh.nodes.len();
+    let mut tie_of = vec![None; n_nodes];
+    let mut motions = Vec::new();
+    for (t, tie) in constraints.ties().iter().enumerate() {
+        if tie.nodes.is_empty() {
+            return Err(FemError::Invalid(format!("rigid tie {t} has no node")));
+        }
+        if !tie.point.iter().all(|x| x.is_finite()) {
+            return Err(FemError::Invalid(format!(
+                "rigid tie {t}: its point {:?} must be finite",
+                tie.point
+            )));
+        }
+        for &k in &tie.nodes {
+            match tie_of.get(k) {
+                None => {
+                    return Err(FemError::Invalid(format!(
+                        "rigid tie {t}: node {k} does not exist (the mesh has {n_nodes} nodes)"
+                    )));
+                }
+                Some(Some(other)) => {
+                    return Err(FemError::Invalid(format!(
+                        "node {k} is in rigid ties {other} and {t} (a node can follow one rigid \
+                         tie only; merge the two sets)"
+                    )));
+                }
+                Some(None) => tie_of[k] = Some(t),
+            }
+        }
+        motions.push(tie_motions(mesh, tie, constraints)?);
+    }
+    Ok((tie_of, motions))
+}
+
+/// `T` by rows (CSR: `map_ptr`, `map` of `(dof, coefficient)` terms per global dof) and what
+/// each of the matrices' dof is: node by node, the free dof of an untied node, a tie's
+/// coordinates at its first node.
+fn dof_map(
+    mesh: &Mesh,
+    constraints: &Constraints,
+    tie_of: &[Option<usize>],
+    motions: &[DMatrix<f64>],
+) -> (Vec<usize>, Vec<(usize, f64)>, Vec<ReducedDof>) {
+    let n_nodes = mesh.nodes.len();
+    let mut dofs = Vec::new();
+    let mut tie_start = vec![usize::MAX; motions.len()];
+    let mut map_ptr = Vec::with_capacity(6 * n_nodes + 1);
+    let mut map = Vec::new();
+    map_ptr.push(0);
+    for k in 0..n_nodes {
+        let Some(t) = tie_of[k] else {
+            for g in 6 * k..6 * k + 6 {
+                if !constraints.is_fixed(g) {
+                    map.push((dofs.len(), 1.0));
+                    dofs.push(ReducedDof::Node(g));
+                }
+                map_ptr.push(map.len());
+            }
+            continue;
+        };
+        if tie_start[t] == usize::MAX {
+            tie_start[t] = dofs.len();
+            dofs.extend((0..motions[t].ncols()).map(|coordinate| ReducedDof::Tie {
+                tie: t,
+                coordinate,
+                node: k,
+            }));
+        }
+        let r = rigid_transfer(&mesh.nodes[k], &constraints.ties()[t].point) * &motions[t];
+        for d in 0..6 {
+            if !constraints.is_fixed(6 * k + d) {
+                map.extend(
+                    (0..r.ncols())
+                        .map(|j| (tie_start[t] + j, r[(d, j)]))
+                        .filter(|&(_, c)| c != 0.0),
+                );
+            }
+            map_ptr.push(map.len());
+        }
+    }
+    (map_ptr, map, dofs)
+}
+
+/// The CSC pattern (`col_ptr`, `row_idx`) of `n` dof that the elements of `mesh` couple through
+/// the terms of their global dof; every diagonal entry included.
+fn pattern<'a>(
+    mesh: &Mesh,
+    n: usize,
+    terms: &dyn Fn(usize) -> &'a [(usize, f64)],
+) -> (Vec<usize>, Vec<usize>) {
+    let mut cols: Vec<Vec<usize>> = (0..n).map(|j| vec![j]).collect();
+    for el in &mesh.elements {
+        let mut touched: Vec<usize> = element_dofs(el)
+            .iter()
+            .flat_map(|&g| terms(g).iter().map(|&(i, _)| i))
+            .collect();
+        touched.sort_unstable();
+        touched.dedup();
+        for &c in &touched {
+            cols[c].extend_from_slice(&touched);
+        }
+    }
+    let mut col_ptr = Vec::with_capacity(n + 1);
+    let mut row_idx = Vec::new();
+    col_ptr.push(0);
+    for c in cols.iter_mut() {
+        c.sort_unstable();
+        c.dedup();
+        row_idx.extend_from_slice(c);
+        col_ptr.push(row_idx.len());
+    }
+    (col_ptr, row_idx)
+}
+
+/// Where the entries of an element with global dof `ed` go ([`ElementSlots`]): direct slots
+/// when none of its nodes is tied (a free dof has one term of coefficient 1, a fixed one none),
+/// the products of the terms otherwise.
+fn element_slots<'a>(
+    ed: &[usize],
+    tie_of: &[Option<usize>],
+    terms: &dyn Fn(usize) -> &'a [(usize, f64)],
+    slot: &dyn Fn(usize, usize) -> usize,
+) -> ElementSlots {
+    let nd = ed.len();
+    if ed.iter().all(|&g| tie_of[g / 6].is_none()) {
+        let idx: Vec<Option<usize>> = ed.iter().map(|&g| terms(g).first().map(|t| t.0)).collect();
+        let mut s = Vec::with_capacity(nd * nd);
+        for &r in &idx {
+            for &c in &idx {
+                s.push(match (r, c) {
+                    (Some(r), Some(c)) => slot(r, c),
+                    _ => usize::MAX,
+                });
+            }
+        }
+        return ElementSlots::Direct(s);
+    }
+    let mut s = Vec::new();
+    for (a, &ga) in ed.iter().enumerate() {
+        for (b, &gb) in ed.iter().enumerate() {
+            for &(r, cr) in terms(ga) {
+                for &(c, cc) in terms(gb) {
+                    s.push((a * nd + b, slot(r, c), cr * cc));
+                }
+            }
+        }
+    }
+    ElementSlots::Mapped(s)
+}
+
 /// Where an element's `(a, b)` entry goes in the CSC values.
 #[derive(Clone, Debug)]
 enum ElementSlots {
@@ -470,128 +601,20 @@ impl Assembly {
     pub fn new(mesh: &Mesh, constraints: &Constraints) -> Result<Self, FemError> {
         mesh.validate()?;
         let n_full = mesh.n_dofs();
-        let n_nodes = mesh.nodes.len();
         if let Some(d) = constraints.fixed().find(|&d| d >= n_full) {
             return Err(FemError::BadDof {
                 dof: d,
                 n_dofs: n_full,
             });
         }
-        // the tie of every node, and each tie's free rigid motions
-        let mut tie_of = vec![None; n_nodes];
-        let mut motions = Vec::new();
-        for (t, tie) in constraints.ties().iter().enumerate() {
-            if tie.nodes.is_empty() {
-                return Err(FemError::Invalid(format!("rigid tie {t} has no node")));
-            }
-            if !tie.point.iter().all(|x| x.is_finite()) {
-                return Err(FemError::Invalid(format!(
-                    "rigid tie {t}: its point {:?} must be finite",
-                    tie.point
-                )));
-            }
-            for &k in &tie.nodes {
-                match tie_of.get(k) {
-                    None => {
-                        return Err(FemError::Invalid(format!(
-                            "rigid tie {t}: node {k} does not exist (the mesh has {n_nodes} \
-                             nodes)"
-                        )));
-                    }
-                    Some(Some(other)) => {
-                        return Err(FemError::Invalid(format!(
-                            "node {k} is in rigid ties {other} and {t} (a node can follow one \
-                             rigid tie only; merge the two sets)"
-                        )));
-                    }
-                    Some(None) => tie_of[k] = Some(t),
-                }
-            }
-            motions.push(tie_motions(mesh, tie, constraints)?);
-        }
-        // the dof: node by node, a tie's coordinates at its first node
-        let mut dofs = Vec::new();
-        let mut tie_start = vec![usize::MAX; motions.len()];
-        let mut free_index = vec![None; n_full];
-        for k in 0..n_nodes {
-            match tie_of[k] {
-                Some(t) => {
-                    if tie_start[t] == usize::MAX {
-                        tie_start[t] = dofs.len();
-                        dofs.extend((0..motions[t].ncols()).map(|coordinate| ReducedDof::Tie {
-                            tie: t,
-                            coordinate,
-                            node: k,
-                        }));
-                    }
-                }
-                None => {
-                    for d in 6 * k..6 * k + 6 {
-                        if !constraints.is_fixed(d) {
-                            free_index[d] = Some(dofs.len());
-                            dofs.push(ReducedDof::Node(d));
-                        }
-                    }
-                }
-            }
-        }
+        let (tie_of, motions) = tie_membership(mesh, constraints)?;
+        let (map_ptr, map, dofs) = dof_map(mesh, constraints, &tie_of, &motions);
         let n = dofs.len();
         if n == 0 {
             return Err(FemError::NoFreeDof);
         }
-        // T by rows
-        let mut map_ptr = Vec::with_capacity(n_full + 1);
-        let mut map = Vec::new();
-        map_ptr.push(0);
-        for k in 0..n_nodes {
-            let rows = tie_of[k].map(|t| {
-                let tie = &constraints.ties()[t];
-                (
-                    tie_start[t],
-                    rigid_transfer(&mesh.nodes[k], &tie.point) * &motions[t],
-                )
-            });
-            for d in 0..6 {
-                let g = 6 * k + d;
-                match &rows {
-                    Some((start, r)) => {
-                        if !constraints.is_fixed(g) {
-                            map.extend(
-                                (0..r.ncols())
-                                    .map(|j| (start + j, r[(d, j)]))
-                                    .filter(|&(_, c)| c != 0.0),
-                            );
-                        }
-                    }
-                    None => map.extend(free_index[g].map(|i| (i, 1.0))),
-                }
-                map_ptr.push(map.len());
-            }
-        }
         let terms = |g: usize| &map[map_ptr[g]..map_ptr[g + 1]];
-        // columns: sorted unique rows; always include the diagonal
-        let mut cols: Vec<Vec<usize>> = (0..n).map(|j| vec![j]).collect();
-        for el in &mesh.elements {
-            let mut touched: Vec<usize> = element_dofs(el)
-                .iter()
-                .flat_map(|&g| terms(g).iter().map(|&(i, _)| i))
-                .collect();
-            touched.sort_unstable();
-            touched.dedup();
-            for &c in &touched {
-                cols[c].extend_from_slice(&touched);
-            }
-        }
-        let mut col_ptr = Vec::with_capacity(n + 1);
-        let mut row_idx = Vec::new();
-        col_ptr.push(0);
-        for c in cols.iter_mut() {
-            c.sort_unstable();
-            c.dedup();
-            row_idx.extend_from_slice(c);
-            col_ptr.push(row_idx.len());
-        }
-        drop(cols);
+        let (col_ptr, row_idx) = pattern(mesh, n, &terms);
         let slot = |r: usize, c: usize| {
             col_ptr[c]
                 + row_idx[col_ptr[c]..col_ptr[c + 1]]
@@ -601,35 +624,7 @@ impl Assembly {
         let slots = mesh
             .elements
             .iter()
-            .map(|el| {
-                let ed = element_dofs(el);
-                if ed.iter().all(|&g| tie_of[g / 6].is_none()) {
-                    let idx: Vec<Option<usize>> = ed.iter().map(|&g| free_index[g]).collect();
-                    let mut s = Vec::with_capacity(idx.len() * idx.len());
-                    for &r in &idx {
-                        for &c in &idx {
-                            s.push(match (r, c) {
-                                (Some(r), Some(c)) => slot(r, c),
-                                _ => usize::MAX,
-                            });
-                        }
-                    }
-                    ElementSlots::Direct(s)
-                } else {
-                    let nd = ed.len();
-                    let mut s = Vec::new();
-                    for (a, &ga) in ed.iter().enumerate() {
-                        for (b, &gb) in ed.iter().enumerate() {
-                            for &(r, cr) in terms(ga) {
-                                for &(c, cc) in terms(gb) {
-                                    s.push((a * nd + b, slot(r, c), cr * cc));
-                                }
-                            }
-                        }
-                    }
-                    ElementSlots::Mapped(s)
-                }
-            })
+            .map(|el| element_slots(&element_dofs(el), &tie_of, &terms, &slot))
             .collect();
         let symbolic = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
         Ok(Self {

@@ -5,12 +5,13 @@ use nalgebra::{DMatrix, Vector3};
 use sens::{Dual, Scalar, seed_chunk};
 
 use crate::assembly::{
-    Assembly, Constraints, ElementOptions, FemError, MassKind, Properties, dof, lumped_nodal_masses,
+    Assembly, Constraints, ElementOptions, MassKind, Properties, dof, lumped_nodal_masses,
 };
 use crate::correction::{
     Coupling, Distribution, StaticCorrection, distribution, interface_loads, static_correction,
 };
 use crate::eigen::{EigenOptions, Eigenpairs, lowest_modes_of_nodes};
+use crate::error::FemError;
 use crate::mesh::{Mesh, NodeId};
 use crate::modal::ModalBody;
 use crate::sensitivity::{

@@ -18,9 +18,10 @@
 
 use nalgebra::{DMatrix, DVector, Vector3};
 
-use crate::assembly::{FemError, Properties, lumped_nodal_masses};
+use crate::assembly::{Properties, lumped_nodal_masses};
 use crate::body::{ModalAnalysis, ReferenceCondition};
 use crate::correction::stiffness_factor;
+use crate::error::FemError;
 use crate::mesh::{Mesh, NodeId};
 
 /// The loads a mechanism puts on the body at one interface: forces and moments along the

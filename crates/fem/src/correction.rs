@@ -20,7 +20,8 @@ use faer::sparse::SparseColMat;
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use sens::SparseCholesky;
 
-use crate::assembly::{Assembly, FemError};
+use crate::assembly::Assembly;
+use crate::error::FemError;
 use crate::mesh::{Mesh, NodeId};
 
 /// A coupling of a reference point to a set of nodes: distributing (an RBE3 element) or rigid

@@ -16,7 +16,7 @@ use faer::{Mat, Side};
 use nalgebra::DMatrix;
 use sens::{LinearSolver, SparseCholesky};
 
-use crate::assembly::FemError;
+use crate::error::FemError;
 
 /// Which eigen solver to use.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -231,7 +231,7 @@ fn pivot_row(norms: impl Iterator<Item = f64> + Clone) -> usize {
 }
 
 /// Sign every mode, and rotate the modes of every cluster of repeated eigenvalues (relative
-/// spread below `rtol`, [`crate::sensitivity::clusters`]) to a basis fixed by their span
+/// spread below `rtol`, [`clusters`]) to a basis fixed by their span
 /// alone, so that results in modal coordinates do not depend on the basis an eigen solver
 /// happened to return (nor change with round-off, as a golden file would see).
 ///
@@ -245,7 +245,7 @@ fn pivot_row(norms: impl Iterator<Item = f64> + Clone) -> usize {
 /// its sign to round-off). The rotation is orthogonal: `XᵀMX = I` and `XᵀKX = Λ` are kept.
 pub fn canonical_cluster_bases(pairs: &mut Eigenpairs, rtol: f64) {
     let n = pairs.vectors.nrows();
-    for g in crate::sensitivity::clusters(&pairs.values, rtol) {
+    for g in clusters(&pairs.values, rtol) {
         let r = g.len();
         let mut z = DMatrix::from_fn(n, r, |i, j| pairs.vectors[(i, g[j])]);
         for k in 0..r {
@@ -729,3 +729,24 @@ fn lanczos(
         opts.max_restarts
     )))
 }
+
+/// Groups of (nearly) equal eigenvalues: `|λ_i − λ_j| ≤ rtol·max(|λ_i|, |λ_j|) + atol`.
+pub fn clusters(values: &[f64], rtol: f64) -> Vec<Vec<usize>> {
+    let scale = values.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+    let atol = 1e-9 * scale;
+    let mut out: Vec<Vec<usize>> = Vec::new();
+    for (i, &v) in values.iter().enumerate() {
+        if let Some(last) = out.last_mut() {
+            let j = *last.last().unwrap();
+            if (v - values[j]).abs() <= rtol * v.abs().max(values[j].abs()) + atol {
+                last.push(i);
+                continue;
+            }
+        }
+        out.push(vec![i]);
+    }
+    out
+}
+
+/// Default relative tolerance below which eigenvalues count as repeated.
+pub const CLUSTER_RTOL: f64 = 1e-6;

@@ -21,7 +21,7 @@
 use nalgebra::{DMatrix, Matrix3, Vector3};
 use sens::Scalar;
 
-use crate::assembly::FemError;
+use crate::error::FemError;
 use crate::mesh::{Element, Mesh};
 use crate::modal::{ModalBody, NODE_DOFS};
 

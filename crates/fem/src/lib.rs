@@ -39,6 +39,7 @@ pub mod body;
 pub mod completeness;
 pub mod correction;
 pub mod eigen;
+mod error;
 pub mod geometric;
 pub mod mesh;
 mod modal;
@@ -47,8 +48,8 @@ pub mod shell;
 mod small;
 
 pub use assembly::{
-    Assembly, Constraints, ElementOptions, FemError, MassKind, Properties, ReducedDof, RigidTie,
-    dof, element_matrices, lumped_nodal_masses,
+    Assembly, Constraints, ElementOptions, MassKind, Properties, ReducedDof, RigidTie, dof,
+    element_matrices, lumped_nodal_masses,
 };
 pub use beam::BeamSection;
 pub use body::{
@@ -60,6 +61,7 @@ pub use body::{
 pub use completeness::{Completeness, InterfaceLoads, LoadCase, static_completeness};
 pub use correction::{Coupling, Distribution, StaticCorrection, distribution};
 pub use eigen::{EigenMethod, EigenOptions, Eigenpairs, lowest_modes, lowest_modes_of_nodes};
+pub use error::FemError;
 pub use geometric::{GeometricStiffness, geometric_stiffness};
 pub use mesh::{Element, GmshTriangles, Mesh, MeshError, NodeId, bounding_box, parse_gmsh_v4};
 pub use modal::{ModalBody, ModalBodyError, NODE_DOFS};

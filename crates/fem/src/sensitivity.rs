@@ -17,8 +17,9 @@ use faer::sparse::linalg::solvers::{Lu, SymbolicLu};
 use nalgebra::DMatrix;
 use sens::LinearSolver;
 
-use crate::assembly::FemError;
+pub use crate::eigen::{CLUSTER_RTOL, clusters};
 use crate::eigen::{Eigenpairs, project, spmv};
+use crate::error::FemError;
 
 /// Derivative matrices for one design variable.
 #[derive(Clone, Debug)]
@@ -31,27 +32,6 @@ pub struct DesignMatrices {
 
 /// Projected second derivatives `Zᵀ(K_bb − λ M_bb)Z` of a cluster, for Dailey's coupling terms.
 pub type SecondDerivatives = DMatrix<f64>;
-
-/// Groups of (nearly) equal eigenvalues: `|λ_i − λ_j| ≤ rtol·max(|λ_i|, |λ_j|) + atol`.
-pub fn clusters(values: &[f64], rtol: f64) -> Vec<Vec<usize>> {
-    let scale = values.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
-    let atol = 1e-9 * scale;
-    let mut out: Vec<Vec<usize>> = Vec::new();
-    for (i, &v) in values.iter().enumerate() {
-        if let Some(last) = out.last_mut() {
-            let j = *last.last().unwrap();
-            if (v - values[j]).abs() <= rtol * v.abs().max(values[j].abs()) + atol {
-                last.push(i);
-                continue;
-            }
-        }
-        out.push(vec![i]);
-    }
-    out
-}
-
-/// Default relative tolerance below which eigenvalues count as repeated.
-pub const CLUSTER_RTOL: f64 = 1e-6;
 
 /// Eigenvalue (and optionally eigenvector) derivatives for every design variable.
 #[derive(Clone, Debug)]

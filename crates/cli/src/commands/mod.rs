@@ -4,6 +4,7 @@ pub mod check;
 pub mod compare;
 mod compute;
 pub mod laminate;
+pub mod merge;
 pub mod modes;
 pub mod optimize;
 pub mod output;
@@ -12,6 +13,7 @@ pub mod run;
 mod run_files;
 pub mod section;
 pub(crate) mod sensitivity;
+mod shard;
 pub mod sweep;
 
 /// How results are printed.

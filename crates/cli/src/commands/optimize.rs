@@ -849,9 +849,9 @@ pub fn run(
     req: &OptimizeRequest,
 ) -> Result<(String, u8), CliError> {
     let (problem, mechanism) = setup(path, overrides)?;
-    let shard = req.shard.map(super::sweep::parse_shard).transpose()?;
+    let shard = req.shard.map(super::shard::parse_shard).transpose()?;
     let n_starts = problem.def.starts.len();
-    let chosen = super::sweep::shard_cases(n_starts, shard);
+    let chosen = super::shard::shard_cases(n_starts, shard);
     if chosen.is_empty() {
         return Err(CliError::Usage(format!(
             "--shard {}: the problem has only {n_starts} starts, so this shard has none",
@@ -875,13 +875,13 @@ pub fn run(
         "optimum.toml",
         "convergence.svg",
         "convergence.png",
-        super::sweep::SHARD_FILE,
+        super::shard::SHARD_FILE,
         EVALUATIONS_FILE,
     ]
     .into_iter()
     .chain(super::run::OUTPUT_FILES)
     {
-        super::sweep::remove_old(&out.join(f))?;
+        super::shard::remove_old(&out.join(f))?;
     }
     let (rows, statuses) = solve(&problem, &chosen, req);
     let interrupted = req.stop.load(Ordering::SeqCst);
@@ -902,7 +902,7 @@ pub fn run(
         // complete (an interrupted one — Ctrl-C, a batch system's time limit — is not merged)
         if !interrupted {
             let extra = serde_json::json!({ "starts": n_starts });
-            super::sweep::write_manifest(&out, "optimize", path, overrides, (i, n), extra)?;
+            super::shard::write_manifest(&out, "optimize", path, overrides, (i, n), extra)?;
         }
         let text = format!(
             "shard {i}/{n}: {} of {n_starts} starts, {} evaluations{}; gather the shards with \
@@ -930,7 +930,7 @@ pub(crate) fn merge(
 ) -> Result<(String, u8), CliError> {
     let first = &manifests[0];
     let deck = std::path::PathBuf::from(first["deck"].as_str().unwrap_or_default());
-    let set = super::sweep::manifest_strings(first, "set");
+    let set = super::shard::manifest_strings(first, "set");
     let (problem, mechanism) = setup(&deck, &set)?;
     let n_starts = problem.def.starts.len();
     let mut rows = Vec::new();
@@ -965,7 +965,7 @@ pub(crate) fn merge(
                 );
             }
         }
-        let expected: Vec<usize> = super::sweep::shard_cases(n_starts, Some((i, n)))
+        let expected: Vec<usize> = super::shard::shard_cases(n_starts, Some((i, n)))
             .into_iter()
             .map(|s| s + 1)
             .collect();
