@@ -416,12 +416,12 @@ pub fn lumped_nodal_masses<S: Scalar>(
 }
 
 /// The rigid tie of every node (`None`: untied) and each tie's free rigid motions
-/// ([`tie_motions`]); an error for a tie without nodes, with a node that does not exist or
-/// that another tie holds, or with a point that is not finite.
-fn tie_membership(
-    mesh: &Mesh,
-    constraints: &Constraints,
-) -> Result<(Vec<Option<usize>>, Vec<DMatrix<f64>>), FemError> {
+/// ([`tie_motions`]).
+type TieMembership = (Vec<Option<usize>>, Vec<DMatrix<f64>>);
+
+/// [`TieMembership`] of the constraints' ties; an error for a tie without nodes, with a node
+/// that does not exist or that another tie holds, or with a point that is not finite.
+fn tie_membership(mesh: &Mesh, constraints: &Constraints) -> Result<TieMembership, FemError> {
     let n_nodes = mesh.nodes.len();
     let mut tie_of = vec![None; n_nodes];
     let mut motions = Vec::new();
