@@ -18,3 +18,4 @@ pub mod plot;
 mod progress;
 pub mod results;
 pub(crate) mod study;
+pub(crate) mod table;

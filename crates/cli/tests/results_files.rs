@@ -269,3 +269,47 @@ fn compare_command_exit_codes() {
     let o = run(&[pa.to_str().unwrap(), pb.to_str().unwrap(), "--rtol", "-1"]);
     assert_eq!(o.status.code(), Some(2));
 }
+
+/// A response named with a comma and a quote keeps its column in every CSV file: the header
+/// field is quoted, and a CSV reader finds as many fields in the header as in every row.
+#[test]
+fn csv_files_quote_names_that_need_it() {
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../decks/slider_crank_beam.toml"),
+    )
+    .unwrap()
+    .replace("[response.slider_x]", "[response.\"slider, \\\"x\\\"\"]");
+    assert!(text.contains("[response.\"slider, \\\"x\\\"\"]"));
+    let dir = tempfile::tempdir().unwrap();
+    let deck = dir.path().join("deck.toml");
+    std::fs::write(&deck, text).unwrap();
+    let out = dir.path().join("out");
+    let status = Command::new(env!("CARGO_BIN_EXE_flexsens"))
+        .args([
+            "run",
+            deck.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--quiet",
+        ])
+        .args(["--set", "analysis.t_end=0.002"])
+        .args(["--set", "finite_differences.enabled=false"])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    for file in ["history.csv", "sensitivities.csv"] {
+        let mut r = csv::Reader::from_path(out.join(file)).unwrap();
+        let head = r.headers().unwrap().clone();
+        assert!(
+            head.iter()
+                .any(|h| h.starts_with("slider, \"x\"") || h.contains("d slider, \"x\"")),
+            "{file}: {head:?}"
+        );
+        let mut rows = 0;
+        for row in r.records() {
+            assert_eq!(row.unwrap().len(), head.len(), "{file}");
+            rows += 1;
+        }
+        assert!(rows > 10, "{file}: {rows} rows");
+    }
+}

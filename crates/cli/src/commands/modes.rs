@@ -17,6 +17,7 @@ use crate::deck::laminates::validate as validate_laminates;
 use crate::error::CliError;
 use crate::files::write_atomic;
 use crate::study::flexible::{Built, CHUNK, DesignRequest, build};
+use crate::table::CsvTable;
 
 /// What the command should write besides the report.
 pub struct ModesRequest<'a> {
@@ -242,31 +243,21 @@ fn export(
     per: &[&'static str],
 ) -> Result<(), CliError> {
     const DOF: [&str; 6] = ["ux", "uy", "uz", "rx", "ry", "rz"];
-    let mut dofs = String::from("row,node,dof\n");
+    let mut dofs = CsvTable::new();
+    dofs.row(["row", "node", "dof"]);
     for (i, d) in a.assembly.dofs().iter().enumerate() {
-        let _ = match *d {
-            fem::ReducedDof::Node(g) => writeln!(
-                dofs,
-                "{},{},{}",
-                i + 1,
-                g / fem::NODE_DOFS,
-                DOF[g % fem::NODE_DOFS]
-            ),
+        let (node, dof) = match *d {
+            fem::ReducedDof::Node(g) => (g / fem::NODE_DOFS, DOF[g % fem::NODE_DOFS].to_string()),
             // the rigid motion of the tie-th rigid coupling, in the order of the deck
             fem::ReducedDof::Tie {
                 tie,
                 coordinate,
                 node,
-            } => writeln!(
-                dofs,
-                "{},{},rigid{}.q{}",
-                i + 1,
-                node,
-                tie + 1,
-                coordinate + 1
-            ),
+            } => (node, format!("rigid{}.q{}", tie + 1, coordinate + 1)),
         };
+        dofs.row([(i + 1).to_string(), node.to_string(), dof]);
     }
+    let dofs = dofs.finish();
     write_atomic(&dir.join(format!("{name}.dofs.csv")), dofs.as_bytes())?;
     let what = "rows and columns are the free dof listed in the .dofs.csv file";
     write_atomic(

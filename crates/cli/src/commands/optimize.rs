@@ -30,6 +30,7 @@ use crate::files::write_atomic;
 use crate::plot::{Figure, Panel, Series};
 use crate::study::Study;
 use crate::study::flexible::{CHUNK, DesignRequest, build, fem_error};
+use crate::table::{CsvTable, number};
 
 /// What `flexsens optimize` was asked for.
 pub struct OptimizeRequest<'a> {
@@ -627,44 +628,44 @@ fn units(rows: &[Row], count: usize) -> Vec<String> {
 
 fn iterations_csv(p: &Problem, rows: &[Row]) -> String {
     let units = units(rows, 1 + p.def.constraints.len());
-    let mut s = String::from("start,evaluation");
-    for v in &p.variables {
-        let _ = write!(s, ",{} [{}]", v.name, v.unit);
-    }
-    let _ = write!(s, ",{} [{}]", p.def.objective.label(), units[0]);
+    let mut head = vec!["start".to_string(), "evaluation".to_string()];
+    head.extend(
+        p.variables
+            .iter()
+            .map(|v| format!("{} [{}]", v.name, v.unit)),
+    );
+    head.push(format!("{} [{}]", p.def.objective.label(), units[0]));
     for (c, u) in p.def.constraints.iter().zip(&units[1..]) {
-        let _ = write!(s, ",{} [{u}]", c.quantity.label());
+        head.push(format!("{} [{u}]", c.quantity.label()));
     }
-    s.push_str(",max_violation,gradient_norm,kkt_stationarity");
+    head.extend(["max_violation", "gradient_norm", "kkt_stationarity"].map(String::from));
     for c in &p.def.constraints {
-        let _ = write!(s, ",multiplier {}", c.quantity.label());
+        head.push(format!("multiplier {}", c.quantity.label()));
     }
-    s.push_str(",error\n");
+    head.push("error".into());
+    let mut t = CsvTable::new();
+    t.row(head);
     for r in rows {
-        let _ = write!(s, "{},{}", r.start, r.evaluation);
-        for x in &r.x {
-            let _ = write!(s, ",{x:e}");
-        }
+        let mut row = vec![r.start.to_string(), r.evaluation.to_string()];
+        row.extend(r.x.iter().map(|x| number(*x)));
         match &r.eval {
             Ok(e) => {
-                let _ = write!(s, ",{:e}", e.f);
-                for q in &e.q {
-                    let _ = write!(s, ",{q:e}");
-                }
+                row.push(number(e.f));
+                row.extend(e.q.iter().map(|q| number(*q)));
                 let norm = e.df.iter().map(|d| d * d).sum::<f64>().sqrt();
-                let _ = write!(s, ",{:e},{norm:e},{:e}", r.violation, r.stationarity);
-                for m in &r.multipliers {
-                    let _ = write!(s, ",{m:e}");
-                }
-                s.push_str(",\n");
+                row.extend([number(r.violation), number(norm), number(r.stationarity)]);
+                row.extend(r.multipliers.iter().map(|m| number(*m)));
+                row.push(String::new());
             }
             Err(m) => {
-                s.push_str(&",".repeat(2 + 2 * p.def.constraints.len() + 3));
-                let _ = writeln!(s, "\"{}\"", m.replace('"', "'").replace('\n', " "));
+                let empty = 2 + 2 * p.def.constraints.len() + 3;
+                row.extend(std::iter::repeat_n(String::new(), empty));
+                row.push(m.replace('\n', " "));
             }
         }
+        t.row(row);
     }
-    s
+    t.finish()
 }
 
 fn convergence_figure(p: &Problem, rows: &[Row], starts: usize) -> Figure {

@@ -7,6 +7,8 @@ use std::fmt::Write as _;
 
 use serde_json::{Map, Value, json};
 
+use crate::table::{CsvTable, number};
+
 /// A named scalar, vector or matrix with its unit(s).
 #[derive(Clone, Debug)]
 pub struct Quantity {
@@ -264,7 +266,8 @@ pub fn json_doc(collection: &str, reports: &[Report]) -> String {
 
 /// Long-format CSV, one value per row: `<kind>,quantity,row,col,unit,wrt,value`.
 pub fn csv(kind: &str, reports: &[Report]) -> String {
-    let mut s = format!("{kind},quantity,row,col,unit,wrt,value\n");
+    let mut t = CsvTable::new();
+    t.row([kind, "quantity", "row", "col", "unit", "wrt", "value"]);
     for r in reports {
         let mut blocks = vec![("", String::new(), &r.values)];
         for d in &r.derivatives {
@@ -274,18 +277,19 @@ pub fn csv(kind: &str, reports: &[Report]) -> String {
             for q in qs {
                 for row in 0..q.rows {
                     for col in 0..q.cols {
-                        let _ = writeln!(
-                            s,
-                            "{},{},{row},{col},{}{per},{wrt},{:e}",
-                            r.name,
-                            q.name,
-                            q.unit(row, col),
-                            q.values[row * q.cols + col]
-                        );
+                        t.row([
+                            r.name.clone(),
+                            q.name.to_string(),
+                            row.to_string(),
+                            col.to_string(),
+                            format!("{}{per}", q.unit(row, col)),
+                            wrt.to_string(),
+                            number(q.values[row * q.cols + col]),
+                        ]);
                     }
                 }
             }
         }
     }
-    s
+    t.finish()
 }

@@ -1,6 +1,7 @@
 //! The files and the summary of `flexsens run`: the result file (HDF5), the CSV tables, and
 //! the JSON and text summaries.
 
+use crate::table::{CsvTable, number};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -308,19 +309,18 @@ pub(crate) fn results(src: &Source, mech: &Study, c: &Computed) -> Group {
 
 /// `history.csv`: time and every response.
 pub(crate) fn history_csv(mech: &Study, c: &Computed) -> String {
-    let mut csv = String::from("time [s]");
-    for ResponseDef { name, unit, .. } in &mech.responses {
-        let _ = write!(csv, ",{name} [{unit}]");
+    let mut t = CsvTable::new();
+    t.row(
+        std::iter::once("time [s]".to_string()).chain(
+            mech.responses
+                .iter()
+                .map(|ResponseDef { name, unit, .. }| format!("{name} [{unit}]")),
+        ),
+    );
+    for (i, time) in mech.times.iter().enumerate() {
+        t.row(std::iter::once(number(*time)).chain(c.values.iter().map(|v| number(v[i]))));
     }
-    csv.push('\n');
-    for (i, t) in mech.times.iter().enumerate() {
-        let _ = write!(csv, "{t:e}");
-        for v in &c.values {
-            let _ = write!(csv, ",{:e}", v[i]);
-        }
-        csv.push('\n');
-    }
-    csv
+    t.finish()
 }
 
 /// `sensitivities.csv`: time and `d(response)/d(variable)` for every response that has
@@ -328,54 +328,54 @@ pub(crate) fn history_csv(mech: &Study, c: &Computed) -> String {
 pub(crate) fn sensitivities_csv(mech: &Study, c: &Computed) -> Option<String> {
     let s = c.sensitivities.as_ref()?;
     let vars = &mech.design.variables;
-    let mut csv = String::from("time [s]");
+    let mut head = vec!["time [s]".to_string()];
     let mut columns = Vec::new();
     for (ResponseDef { name, unit, .. }, d) in mech.responses.iter().zip(&s.responses) {
         if let Some(d) = d {
             for (j, v) in vars.iter().enumerate() {
-                let _ = write!(csv, ",d {name}/d {} [{}]", v.name, per(unit, v.unit));
+                head.push(format!("d {name}/d {} [{}]", v.name, per(unit, v.unit)));
                 columns.push((d, j));
             }
         }
     }
-    csv.push('\n');
-    for (i, t) in mech.times.iter().enumerate() {
-        let _ = write!(csv, "{t:e}");
-        for (d, j) in &columns {
-            let _ = write!(csv, ",{:e}", d[(i, *j)]);
-        }
-        csv.push('\n');
+    let mut t = CsvTable::new();
+    t.row(head);
+    for (i, time) in mech.times.iter().enumerate() {
+        t.row(
+            std::iter::once(number(*time)).chain(columns.iter().map(|(d, j)| number(d[(i, *j)]))),
+        );
     }
-    Some(csv)
+    Some(t.finish())
 }
 
 /// `gradients.csv`: one row per objective, its value and one column per design variable.
 pub(crate) fn gradients_csv(mech: &Study, c: &Computed) -> String {
-    let mut csv = String::from("objective,response,kind,value,unit,time [s]");
-    let with_gradients = c.sensitivities.is_some();
-    if with_gradients {
+    let mut head: Vec<String> = ["objective", "response", "kind", "value", "unit", "time [s]"]
+        .map(String::from)
+        .into();
+    if c.sensitivities.is_some() {
         for v in &mech.design.variables {
-            let _ = write!(csv, ",d/d {} [unit/{}]", v.name, v.unit);
+            head.push(format!("d/d {} [unit/{}]", v.name, v.unit));
         }
     }
-    csv.push('\n');
+    let mut t = CsvTable::new();
+    t.row(head);
     for o in &c.objectives {
-        let _ = write!(
-            csv,
-            "{},{},{},{:e},{},{}",
-            o.name,
-            o.response,
-            objective_label(&o.kind),
-            o.value,
-            o.unit,
-            o.time.map(|t| format!("{t:e}")).unwrap_or_default()
+        let fields = [
+            o.name.clone(),
+            o.response.clone(),
+            objective_label(&o.kind).to_string(),
+            number(o.value),
+            o.unit.to_string(),
+            o.time.map(number).unwrap_or_default(),
+        ];
+        t.row(
+            fields
+                .into_iter()
+                .chain(o.gradient.iter().map(|g| number(*g))),
         );
-        for g in &o.gradient {
-            let _ = write!(csv, ",{g:e}");
-        }
-        csv.push('\n');
     }
-    csv
+    t.finish()
 }
 
 /// The machine-readable summary (`--json`), also the source of the table.

@@ -11,7 +11,6 @@
 //! directory, recording what it ran (`shard.json`, `cases.jsonl`); `flexsens merge` ([`super::merge`]) gathers the N
 //! shards into the directory a single sweep would have written, the summary byte for byte.
 
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -25,6 +24,7 @@ use crate::deck::{self, DeckError};
 use crate::error::CliError;
 use crate::files::write_atomic;
 use crate::study::Study;
+use crate::table::{CsvTable, number};
 
 /// What `flexsens sweep` was asked for.
 pub struct SweepRequest<'a> {
@@ -475,15 +475,6 @@ pub(crate) fn merge_shards(
     ))
 }
 
-/// CSV-safe text (quoted when it holds a comma, quote or newline).
-fn field(s: &str) -> String {
-    if s.contains([',', '"', '\n']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s.to_string()
-    }
-}
-
 fn summary_csv(
     axes: &[Axis],
     results: &[CaseResult],
@@ -517,63 +508,51 @@ fn summary_csv(
                 .collect()
         })
         .unwrap_or_default();
-    let mut csv = String::from("case,directory");
-    for a in axes {
-        let _ = write!(csv, ",{}", field(&a.key));
-    }
-    csv.push_str(",status,steps,max_position_violation [m]");
+    let mut head = vec!["case".to_string(), "directory".to_string()];
+    head.extend(axes.iter().map(|a| a.key.clone()));
+    head.extend(["status", "steps", "max_position_violation [m]"].map(String::from));
     for (name, vars) in &objectives {
-        let _ = write!(csv, ",{}", field(name));
-        for v in vars {
-            let _ = write!(csv, ",{}", field(&format!("d {name}/d {v}")));
-        }
+        head.push(name.clone());
+        head.extend(vars.iter().map(|v| format!("d {name}/d {v}")));
     }
-    csv.push_str(",error\n");
+    head.push("error".into());
+    let mut t = CsvTable::new();
+    t.row(head);
     for r in results {
-        let _ = write!(
-            csv,
-            "{},{}",
-            r.index + 1,
-            field(&case_dir(r.index).display().to_string())
-        );
-        for v in &r.values {
-            let _ = write!(csv, ",{v}");
-        }
+        let mut row = vec![
+            (r.index + 1).to_string(),
+            case_dir(r.index).display().to_string(),
+        ];
+        row.extend(r.values.iter().map(|v| v.to_string()));
         match &r.outcome {
             Ok(s) => {
-                let _ = write!(
-                    csv,
-                    ",ok,{},{:e}",
-                    s["steps"].as_u64().unwrap_or(0),
-                    s["max_position_violation"].as_f64().unwrap_or(f64::NAN)
-                );
+                row.extend([
+                    "ok".to_string(),
+                    s["steps"].as_u64().unwrap_or(0).to_string(),
+                    number(s["max_position_violation"].as_f64().unwrap_or(f64::NAN)),
+                ]);
                 let objs = s["objectives"].as_array().cloned().unwrap_or_default();
                 for ((_, vars), o) in objectives.iter().zip(objs.iter()) {
-                    let _ = write!(csv, ",{:e}", o["value"].as_f64().unwrap_or(f64::NAN));
+                    row.push(number(o["value"].as_f64().unwrap_or(f64::NAN)));
                     let g = o["gradient"].as_array().cloned().unwrap_or_default();
-                    for k in 0..vars.len() {
-                        let _ = write!(
-                            csv,
-                            ",{:e}",
-                            g.get(k).and_then(Value::as_f64).unwrap_or(f64::NAN)
-                        );
-                    }
+                    row.extend(
+                        (0..vars.len())
+                            .map(|k| number(g.get(k).and_then(Value::as_f64).unwrap_or(f64::NAN))),
+                    );
                 }
-                csv.push_str(",\n");
+                row.push(String::new());
             }
             Err(e) => {
-                let _ = write!(csv, ",failed,,");
+                row.extend(["failed".to_string(), String::new(), String::new()]);
                 for (_, vars) in &objectives {
-                    csv.push(',');
-                    for _ in vars {
-                        csv.push(',');
-                    }
+                    row.extend(std::iter::repeat_n(String::new(), 1 + vars.len()));
                 }
-                let _ = writeln!(csv, ",{}", field(&e.replace('\n', " ")));
+                row.push(e.replace('\n', " "));
             }
         }
+        t.row(row);
     }
-    csv
+    t.finish()
 }
 
 #[cfg(test)]
