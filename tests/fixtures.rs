@@ -1,7 +1,7 @@
 //! Shared fixtures of the cross-crate tests: models built through the whole chain
 //! laminate → section → fem → mbs.
 //!
-//! # The flexible slider-crank with a composite tube rod (paper §5.1, DESIGN.md §7)
+//! # The flexible slider-crank with a composite tube rod (paper §5.1, docs/design.md §4)
 //! Crank 0.152 m driven at a constant 150 rad/s about the global z-axis, connecting rod
 //! 0.304 m, slider on the x-axis through the crank axis; the mechanism starts at crank angle 0
 //! (crank and rod along +x). The rod is a tube of four 0.25 mm plies of the paper's composite
@@ -163,7 +163,7 @@ pub struct Ids {
 }
 
 impl Ids {
-    /// The normalised mid-node deflection of DESIGN.md §7 (in the mechanism plane xy).
+    /// The normalised mid-node deflection of docs/design.md §4 (in the mechanism plane xy).
     pub fn mid_deflection(&self) -> Response {
         Response::MidNodeDeflection {
             body: self.rod,

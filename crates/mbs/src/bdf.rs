@@ -10,7 +10,7 @@
 //!
 //! After every accepted step [`Bdf::last_step`] describes it (order, step, coefficients, the
 //! times and states of the formula, the Jacobian and the factorised Newton matrix): the
-//! sensitivity integration of the next issue solves
+//! sensitivity integration ([`crate::sensitivity`]) solves
 //! `(c_0 I − f_y) s_{n+1} = −Σ_{j≥1} c_j s_{n+1−j} + f_b` on exactly this step sequence.
 
 use std::collections::VecDeque;

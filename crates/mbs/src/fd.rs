@@ -1,4 +1,4 @@
-//! Finite differences as a comparison tool (paper §5; DESIGN.md §6).
+//! Finite differences as a comparison tool (paper §5; docs/design.md §3).
 //!
 //! [`finite_differences`] differentiates any map `b ↦ outputs` (a response history, objective
 //! values) by forward or central differences for a list of perturbation sizes. The map decides

@@ -31,7 +31,7 @@ pub enum Response {
         node: usize,
         dof: usize,
     },
-    /// The normalised mid-node deflection of DESIGN.md §7: the distance of node `mid` from the
+    /// The normalised mid-node deflection of docs/design.md §4: the distance of node `mid` from the
     /// straight line through nodes `first` and `last` (deformed, global), signed about
     /// `normal` (the normal of the mechanism plane: positive when `dir × (x_mid − x_first)`
     /// points along it), divided by the undeformed distance between `first` and `last`.

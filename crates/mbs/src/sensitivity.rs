@@ -1,5 +1,5 @@
 //! Direct (forward) design sensitivities of the dynamic response (paper §4.2–4.3, Eqs. 40–44;
-//! DESIGN.md §6).
+//! docs/design.md §3).
 //!
 //! The design variables `b` live in the model parameters: a [`DesignModel`] holds one
 //! `Model<Dual<N>>` per chunk of `N` variables (e.g. flexible bodies from

@@ -1,6 +1,6 @@
 //! The per-step information the integrator exposes ([`mbs::AcceptedStep`]) is enough to
 //! integrate forward sensitivities on the same step sequence with the same BDF formula
-//! ("staggered direct", DESIGN.md §6): on `x'' = −k x` the result is the exact derivative of
+//! ("staggered direct", docs/design.md §3): on `x'' = −k x` the result is the exact derivative of
 //! the discrete solution (checked against finite differences of runs on identical steps) and
 //! approximates the analytic `∂x/∂k`.
 

@@ -1,5 +1,5 @@
 //! `section` — finite-element cross-section analysis of composite beams (paper §3.3 and §4.6,
-//! Eqs. 24–34 and 52–61; DESIGN.md §3).
+//! Eqs. 24–34 and 52–61; docs/design.md §2).
 //!
 //! It owns the 2-D section mesh ([`SectionMesh`]: quadratic elements, each in a [`Region`] with
 //! a material, a ply angle and a local wall frame), its generators ([`rectangle`], [`circle`],
@@ -37,7 +37,7 @@
 //! # Formulation
 //! Giavotto et al. (1983) / BECAS (Blasques 2012): two linear systems with one sparse matrix,
 //! factorised once by sparse Cholesky; the equations are on [`SectionAnalysis`]. Derivatives
-//! follow DESIGN.md §1.
+//! follow docs/design.md §1.
 //!
 //! # Use
 //! ```

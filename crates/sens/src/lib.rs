@@ -7,7 +7,7 @@
 //! - seeding of design variables and the evaluation of a function of many design variables in
 //!   chunks of a compile-time width `N` ([`seed`], [`jacobian`]);
 //! - pushing tangents through a linear solve whose matrix was factorised once in `f64`
-//!   ([`solve`]): DESIGN.md §1, the pattern of the paper's Eq. (40);
+//!   ([`solve`]): docs/design.md §1, the pattern of the paper's Eq. (40);
 //! - [`DenseLu`], the small dense LU those solves use in the multibody step, and
 //!   [`SparseCholesky`], the sparse factorisation of finite-element matrices, ordered on their
 //!   node graph ([`sparse`]).

@@ -1,4 +1,4 @@
-//! Tangents through a linear solve factorised once in `f64` (DESIGN.md §1).
+//! Tangents through a linear solve factorised once in `f64` (docs/design.md §1).
 //!
 //! For `A(b) x = r(b)`: factorise `A` in `f64` and solve for `x̂`; evaluate the residual
 //! `r(b) − A(b) x̂` in dual numbers with `x̂` held fixed; its tangent part is the right-hand side

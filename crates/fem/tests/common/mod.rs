@@ -132,7 +132,7 @@ pub fn timoshenko_cantilever(
     out
 }
 
-/// The composite of the paper (DESIGN.md §7).
+/// The composite of the paper (docs/design.md §4).
 pub fn paper_material() -> OrthotropicMaterial {
     OrthotropicMaterial::new(
         [128e9, 10.1e9, 10.1e9],

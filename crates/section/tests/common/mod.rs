@@ -4,7 +4,7 @@
 use laminate::OrthotropicMaterial;
 use nalgebra::Matrix6;
 
-/// The composite of the paper's examples (DESIGN.md §7).
+/// The composite of the paper's examples (docs/design.md §4).
 pub fn composite() -> OrthotropicMaterial {
     OrthotropicMaterial::new(
         [128e9, 10.1e9, 10.1e9],
