@@ -37,7 +37,7 @@
 
 use fem::{
     BeamSection, Mesh, ModalAnalysis, ModalBody, ModalOptions, ModeUpdate, Properties,
-    RayleighDamping, analysis_derivatives, modal_analysis, modal_body, modal_body_dual,
+    RayleighDamping, design_bodies, modal_analysis, modal_body,
 };
 use laminate::OrthotropicMaterial;
 use mbs::{
@@ -368,8 +368,9 @@ pub fn slider_crank_design<const N: usize>(
     let sens = section::analyse_with_derivatives::<N>(&mesh, &map).expect("section analysis");
     let (beam, bprops, analysis) = modal_setup(&sens, opts);
     let b = design.values(angles_deg);
-    let (_, derivs) = analysis_derivatives::<N, _>(
+    let bodies = design_bodies::<N, _>(
         &beam,
+        &bprops,
         &analysis,
         &b,
         |bd: &[Dual<N>]| Properties {
@@ -382,21 +383,11 @@ pub fn slider_crank_design<const N: usize>(
     let mut chunks = Vec::new();
     let mut state = None;
     let mut ids = None;
-    for range in chunk_ranges(b.len(), N) {
-        let mut body = modal_body_dual::<N>(
-            &beam,
-            &bprops,
-            &analysis,
-            &[],
-            &derivs,
-            range.start,
-            opts.update,
-        )
-        .expect("dual modal body");
+    for (range, mut body) in chunk_ranges(b.len(), N).zip(bodies.chunks) {
         if !opts.planar {
             let mut d5 = [0.0; N];
             for (k, v) in range.clone().enumerate() {
-                d5[k] = derivs.eigenvalues[v][4];
+                d5[k] = bodies.derivatives.eigenvalues[v][4];
             }
             let lambda5 = Dual::new(analysis.pairs.values[4], d5);
             body.modal_damping = damping_3d(&body.eigenvalues, lambda5);

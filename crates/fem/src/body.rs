@@ -825,8 +825,7 @@ pub fn modal_body_dual<const N: usize>(
     };
     let mut body = ModalBody {
         node_positions: base.node_positions,
-        // constant masses: the callers' variables leave them (`ModalBody::set_lumped_masses`
-        // differentiates them)
+        // constant masses ([`crate::design_bodies`] gives them their derivatives)
         node_masses: base
             .node_masses
             .iter()

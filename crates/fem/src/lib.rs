@@ -38,6 +38,7 @@ pub mod beam;
 pub mod body;
 pub mod completeness;
 pub mod correction;
+mod design_body;
 pub mod eigen;
 mod error;
 pub mod geometric;
@@ -60,6 +61,7 @@ pub use body::{
 };
 pub use completeness::{Completeness, InterfaceLoads, LoadCase, static_completeness};
 pub use correction::{Coupling, Distribution, StaticCorrection, distribution};
+pub use design_body::{DesignBodies, design_bodies};
 pub use eigen::{EigenMethod, EigenOptions, Eigenpairs, lowest_modes, lowest_modes_of_nodes};
 pub use error::FemError;
 pub use geometric::{GeometricStiffness, geometric_stiffness};

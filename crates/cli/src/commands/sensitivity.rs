@@ -80,49 +80,13 @@ fn dual_models<const N: usize>(
         let fem_error =
             |e| crate::study::flexible::fem_error(src, &part.name, part.span.clone(), e);
         let built = &part.built;
-        let (matrices, derivs) = built.mode_derivatives::<N>(
-            src,
-            &part.name,
-            part.span.clone(),
-            &part.analysis,
-            update,
-        )?;
-        // the retained modes (the analysis also computes a few guard modes)
-        let kept = &part.analysis.kept;
-        let mut df = DMatrix::zeros(kept.len(), m);
-        for (j, dl) in derivs.eigenvalues.iter().enumerate() {
-            for (k, &i) in kept.iter().enumerate() {
-                let (l, d) = (part.analysis.pairs.values[i], dl[i]);
-                // f = √λ / 2π ⇒ df = dλ / (4π √λ)
-                df[(k, j)] = d / (4.0 * std::f64::consts::PI * l.max(0.0).sqrt());
-            }
-        }
-        frequencies.push((part.name.clone(), df));
-        for (model, range) in chunks.iter_mut().zip(&ranges) {
-            let mut body = fem::modal_body_dual::<N>(
-                &built.mesh,
-                &built.props,
-                &part.analysis,
-                &matrices,
-                &derivs,
-                range.start,
-                update,
-            )
-            .map_err(fem_error)?;
-            // the lumped masses with their design derivatives (a density moves them)
-            let seeded = sens::seed_chunk::<N>(built.design.values(), range.start);
-            let props = built
-                .design
-                .properties(&seeded)
-                .map_err(|e| runtime(src, format!("body `{}`: its section: {e}", part.name)))?;
-            let (m, mu) =
-                fem::lumped_nodal_masses(&built.mesh, &props, &part.analysis.options.element)
-                    .map_err(fem_error)?;
-            // (the mesh's nodes; the couplings' nodes after them carry no mass)
-            for (k, (m, mu)) in m.into_iter().zip(mu).enumerate() {
-                body.node_masses[k] = m;
-                body.node_inertias[k] = nalgebra::Vector3::new(mu[0], mu[1], mu[2]);
-            }
+        let bodies =
+            built.design_bodies::<N>(src, &part.name, part.span.clone(), &part.analysis, update)?;
+        frequencies.push((
+            part.name.clone(),
+            bodies.frequency_derivatives(&part.analysis),
+        ));
+        for (model, body) in chunks.iter_mut().zip(bodies.chunks) {
             let body = crate::study::flexible_model_body(
                 &part.name,
                 &built.mesh,

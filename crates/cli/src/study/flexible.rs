@@ -327,6 +327,29 @@ impl Built {
         self.finish(src, name, span, d, failed)
     }
 
+    /// The dual modal bodies of `analysis` (this body's) for every chunk of `N` design
+    /// variables, with their mode derivatives (`fem::design_bodies` through
+    /// [`Design::properties`]).
+    pub fn design_bodies<const N: usize>(
+        &self,
+        src: &Source,
+        name: &str,
+        span: std::ops::Range<usize>,
+        analysis: &fem::ModalAnalysis,
+        update: fem::ModeUpdate,
+    ) -> Result<fem::DesignBodies<N>, CliError> {
+        let mut failed = None;
+        let d = fem::design_bodies::<N, _>(
+            &self.mesh,
+            &self.props,
+            analysis,
+            self.design.values(),
+            |bd| self.properties_or_nominal(bd, &mut failed),
+            update,
+        );
+        self.finish(src, name, span, d, failed)
+    }
+
     /// [`Design::properties`] at `bd`; on a failure the nominal properties stand in and the
     /// error is kept in `failed` (returned by [`Built::finish`]).
     fn properties_or_nominal<const N: usize>(
