@@ -793,6 +793,31 @@ impl GeneratedSection {
         })
     }
 
+    /// The same section with every ply replaced by `f(ply)` (its wall given as the prefix of
+    /// its region's name, `"top"`, `"bottom"`, `"left"`, `"right"` or `"web"`, empty for a tube):
+    /// a design moved to other ply angles, thicknesses or materials.
+    pub fn with_plies(&self, f: impl Fn(&str, &PlySpec) -> PlySpec) -> Self {
+        let map = |wall: &str, plies: &[PlySpec]| -> Vec<PlySpec> {
+            plies.iter().map(|p| f(wall, p)).collect()
+        };
+        let mut out = self.clone();
+        match &mut out {
+            GeneratedSection::Tube { plies, .. } => *plies = map("", plies),
+            GeneratedSection::Walled { walls, .. } => {
+                walls.top = map("top", &walls.top);
+                walls.bottom = map("bottom", &walls.bottom);
+                walls.left = map("left", &walls.left);
+                walls.right = map("right", &walls.right);
+            }
+            GeneratedSection::I { walls, .. } => {
+                walls.top = map("top", &walls.top);
+                walls.bottom = map("bottom", &walls.bottom);
+                walls.web = map("web", &walls.web);
+            }
+        }
+        out
+    }
+
     /// The velocity `dX/db` of every node of [`GeneratedSection::mesh`] for a design variable
     /// `b` that moves the thickness of each ply `p` at the rate `dthickness(p)` (m per unit of
     /// `b`; 0 for plies it does not move). The nodes are generated again with dual thicknesses,

@@ -21,11 +21,7 @@ pub(crate) struct Computed {
 }
 
 /// The analysis, its sensitivities, objectives and finite-difference comparisons.
-pub(crate) fn compute(
-    src: &deck::Source,
-    raw: &deck::RawDeck,
-    mech: &Study,
-) -> Result<Computed, CliError> {
+pub(crate) fn compute(src: &deck::Source, mech: &Study) -> Result<Computed, CliError> {
     let runtime = |m: String| CliError::Runtime(format!("{}: {m}", src.file.display()));
     let mut system = mech.system().map_err(|e| runtime(e.to_string()))?;
     let mut state = mech.state.clone();
@@ -65,7 +61,7 @@ pub(crate) fn compute(
         sens.as_ref().map(|s| s.responses.as_slice()),
     )?;
     let fd = match &sens {
-        Some(s) => sensitivity::finite_differences(src, raw, mech, &system, &state, &s.replay)?,
+        Some(s) => sensitivity::finite_differences(src, mech, &system, &state, &s.replay)?,
         None => Vec::new(),
     };
     Ok(Computed {

@@ -122,7 +122,7 @@ impl Problem<'_> {
         {
             let mut mech = Study::validate(&src, &raw, true)?;
             mech.design.finite_differences = None;
-            let c = super::compute::compute(&src, &raw, &mech)?;
+            let c = super::compute::compute(&src, &mech)?;
             c.objectives
                 .into_iter()
                 .map(|o| (o.name, (o.value, o.gradient, o.unit)))

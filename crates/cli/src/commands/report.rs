@@ -235,7 +235,7 @@ fn run_one(
             steps: vec![FdSteps::Replay],
         }),
     };
-    let c = compute(&src, &raw, &mech)?;
+    let c = compute(&src, &mech)?;
     let sens = c
         .sensitivities
         .as_ref()

@@ -66,7 +66,7 @@ pub fn run(path: &Path, overrides: &[String], req: &RunRequest) -> Result<String
             _ => {}
         }
     }
-    let computed = compute(&src, &raw, &mech);
+    let computed = compute(&src, &mech);
     if let Some(p) = &mech.progress {
         p.finish();
     }

@@ -16,8 +16,8 @@ use mbs::{
 };
 use sens::Dual;
 
+use crate::deck::Source;
 use crate::deck::design::{FdSteps, SensitivityScheme};
-use crate::deck::{RawDeck, Source};
 use crate::error::CliError;
 use crate::study::Study;
 
@@ -256,14 +256,13 @@ pub(crate) struct FdCase {
 /// the deck with the design `b`: the flexible bodies rebuilt at `b` ([`Study::model_at`]).
 fn perturbed_outputs(
     src: &Source,
-    raw: &RawDeck,
     mech: &Study,
     nominal: &MultibodySystem,
     state: &State,
     b: &[f64],
     options: &BdfOptions,
 ) -> Result<Vec<f64>, CliError> {
-    let model = mech.model_at(src, raw, b)?;
+    let model = mech.model_at(src, b)?;
     if let Some(p) = &mech.progress {
         p.next_phase();
     }
@@ -296,7 +295,6 @@ fn perturbed_outputs(
 /// Run the deck's finite-difference comparisons.
 pub(crate) fn finite_differences(
     src: &Source,
-    raw: &RawDeck,
     mech: &Study,
     nominal: &MultibodySystem,
     state: &State,
@@ -334,7 +332,7 @@ pub(crate) fn finite_differences(
         let designs = mbs::finite_difference_designs(&b, scheme, &perturbations);
         let values =
             super::parallel_map(designs.len(), super::job_count(None, designs.len()), |i| {
-                perturbed_outputs(src, raw, mech, nominal, state, &designs[i], &options)
+                perturbed_outputs(src, mech, nominal, state, &designs[i], &options)
             })
             .into_iter()
             .collect::<Result<Vec<_>, _>>()?;

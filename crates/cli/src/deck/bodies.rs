@@ -83,6 +83,34 @@ pub struct BodyDef {
     pub supports: Vec<SupportDef>,
 }
 
+impl BodyDef {
+    /// The body at the laminates and materials of `model` (a design moved by its variables): a
+    /// beam's section at `model` ([`SectionDef::at`]), a shell's laminate from `model`;
+    /// everything else as validated.
+    pub fn at(&self, model: &LaminateModel) -> Result<BodyDef, section::SectionError> {
+        let mut out = self.clone();
+        match &mut out.shape {
+            BodyShape::Beam { section, .. } => *section = section.at(model)?,
+            BodyShape::ShellRectangle {
+                laminate,
+                stack,
+                ply_materials,
+                ..
+            }
+            | BodyShape::ShellMesh {
+                laminate,
+                stack,
+                ply_materials,
+                ..
+            } => {
+                let def = &model.laminates[laminate.as_str()];
+                (*stack, *ply_materials) = (def.stack.clone(), def.ply_materials.clone());
+            }
+        }
+        Ok(out)
+    }
+}
+
 /// The numbers of eigenmodes `modes = "auto"` tries, in order.
 pub const AUTO_MODES: [usize; 7] = [4, 8, 16, 32, 64, 128, 256];
 

@@ -73,7 +73,58 @@ pub struct SectionDef {
     /// thickness can move its nodes; `None` for mesh files and solid shapes (geometry fixed).
     pub generated: Option<Box<section::GeneratedSection>>,
     /// The laminate ply each of the generator's plies is, by the ply's name.
-    pub generator_plies: HashMap<String, PlyRef>,
+    pub generator_plies: BTreeMap<String, PlyRef>,
+}
+
+impl SectionDef {
+    /// The section at the laminates and materials of `model` (a design moved by its variables):
+    /// every region made of a laminate ply takes that ply's material and angle, every region of
+    /// a deck material that material, and a generated section (tube, box, channel, I beam) is
+    /// generated again with its plies' new thicknesses. What [`validate_one`] would build from
+    /// the same deck with `model`, without reading the deck again.
+    pub fn at(&self, model: &LaminateModel) -> Result<SectionDef, section::SectionError> {
+        let ply = |t: &PlyRef| model.laminates[&t.laminate].stack.plies()[t.ply];
+        let material_of = |r: usize| self.materials[r].as_ref().map(|m| model.materials[m]);
+        let mut out = self.clone();
+        match &self.generated {
+            Some(g) => {
+                let moved = g.with_plies(|wall, p| {
+                    let region = if wall.is_empty() {
+                        p.name.clone()
+                    } else {
+                        format!("{wall}/{}", p.name)
+                    };
+                    let mut p = p.clone();
+                    if let Some(t) = self.generator_plies.get(&p.name) {
+                        let q = ply(t);
+                        (p.material, p.angle, p.thickness) = (q.material, q.angle, q.thickness);
+                    } else if let Some(m) = self
+                        .mesh
+                        .regions
+                        .iter()
+                        .position(|r| r.name == region)
+                        .and_then(material_of)
+                    {
+                        p.material = m;
+                    }
+                    p
+                });
+                out.mesh = moved.mesh()?;
+                out.generated = Some(Box::new(moved));
+            }
+            None => {
+                for (r, region) in out.mesh.regions.iter_mut().enumerate() {
+                    if let Some(t) = &self.plies[r] {
+                        let q = ply(t);
+                        (region.material, region.ply_angle) = (q.material, q.angle);
+                    } else if let Some(m) = material_of(r) {
+                        region.material = m;
+                    }
+                }
+            }
+        }
+        Ok(out)
+    }
 }
 
 fn material<'m>(
@@ -153,7 +204,7 @@ fn laminate_ply(
             return Err(src.error(
                 given,
                 Some(format!("{key}{k}")),
-                "a region given as a laminate ply takes the ply's material and angle: give                  either material and angle, or laminate and ply",
+                "a region given as a laminate ply takes the ply's material and angle: give either material and angle, or laminate and ply",
             ));
         }
     }
@@ -187,7 +238,7 @@ fn laminate_ply(
             span(ply),
             Some(format!("{key}ply")),
             format!(
-                "ply {i} does not exist: laminate `{}` has plies 0 to {} (counting the mirrored                  plies of a symmetric laminate)",
+                "ply {i} does not exist: laminate `{}` has plies 0 to {} (counting the mirrored plies of a symmetric laminate)",
                 lam.get_ref(),
                 plies.len() - 1
             ),
@@ -830,9 +881,9 @@ pub fn validate_one(
         })
         .collect();
     let generator_plies = if generated.is_some() {
-        tags
+        tags.into_iter().collect()
     } else {
-        HashMap::new()
+        BTreeMap::new()
     };
     Ok(SectionDef {
         shape: shape_name.to_string(),

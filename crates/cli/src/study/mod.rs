@@ -1,7 +1,8 @@
 //! The study: a deck validated into what every command works on. [`Study::validate`] checks
 //! every table (errors name the file, line, column and key) and builds the nominal mechanism;
-//! [`Study::model_at`] rebuilds its flexible bodies at another design, from the laminates moved
-//! by the design variables (no re-parse, no text edits), for finite differences. The dual
+//! [`Study::model_at`] rebuilds its flexible bodies at another design from their validated
+//! definitions moved to the laminates of that design (`BodyDef::at`: no deck is read again, no
+//! text is edited), for finite differences. The dual
 //! model of the direct sensitivities is built from the same parts in
 //! `commands::sensitivity`. `docs/architecture.md` follows one design variable through it.
 
@@ -38,6 +39,8 @@ pub(crate) struct FlexiblePart {
     pub(crate) span: Range<usize>,
     /// Geometric stiffening on.
     pub(crate) stiffening: bool,
+    /// The validated body at the nominal design ([`BodyDef::at`] moves it to another).
+    pub(crate) def: BodyDef,
 }
 
 /// The multibody body of a flexible body's modes `modal` (mesh `mesh`), with its modal
@@ -280,7 +283,11 @@ impl Study {
             let id = model
                 .add_flexible_body(body)
                 .map_err(|e| at_table(src, b.span(), format!("body.{name}"), e))?;
-            modal_starts.push((id, def.initial_modal, def.initial_modal_rates));
+            modal_starts.push((
+                id,
+                def.initial_modal.clone(),
+                def.initial_modal_rates.clone(),
+            ));
             placements.push(Placement {
                 id,
                 position: analysis.origin,
@@ -308,6 +315,7 @@ impl Study {
                 analysis,
                 span: b.span(),
                 stiffening: def.stiffening,
+                def,
             });
         }
         for r in mechanism::rigid_bodies(src, raw)? {
@@ -499,17 +507,17 @@ impl Study {
     /// The mechanism's model at the design `b`: every flexible body rebuilt from the laminates
     /// at `b`, its modes expressed in the nominal modes' basis (any basis of a repeated
     /// frequency, any sign), so that the nominal state means the same motion.
-    pub(crate) fn model_at(
-        &self,
-        src: &Source,
-        raw: &RawDeck,
-        b: &[f64],
-    ) -> Result<Model<f64>, CliError> {
+    pub(crate) fn model_at(&self, src: &Source, b: &[f64]) -> Result<Model<f64>, CliError> {
         let lam = self.laminates_at(src, b)?;
         let mut model = self.model.clone();
         for part in &self.flexible {
-            let rb = &raw.body[&part.name];
-            let mut def = validate_body(src, raw, &part.name, rb, &lam)?;
+            let mut def = part.def.at(&lam).map_err(|e| {
+                CliError::Runtime(format!(
+                    "{}: body `{}` at the design {b:?}: its section: {e}",
+                    src.file.display(),
+                    part.name
+                ))
+            })?;
             // the nominal design's number of modes (`modes = "auto"` chose it there)
             if def.auto_modes {
                 def.auto_modes = false;
@@ -548,5 +556,89 @@ impl Study {
             set_rigid(&mut model, &self.bodies, &v.target, bj);
         }
         Ok(model)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The shipped beam and plate decks with design variables of every kind (ply angles, ply
+    /// thicknesses, material constants) and sections of every generator kind moved by them.
+    fn decks() -> Vec<(String, String)> {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../decks");
+        let read = |n: &str| std::fs::read_to_string(dir.join(n)).unwrap();
+        let beam = read("slider_crank_beam.toml");
+        let plate = read("slider_crank_plate.toml");
+        let thickness = "\n[design.outer]\nkind = \"ply-thickness\"\nlaminate = \"tube_wall\"\n\
+                         plies = [2, 3]\n";
+        let e1 = "\n[design.e1]\nkind = \"material\"\nmaterial = \"paper_composite\"\n\
+                  constant = \"E1\"\n";
+        let tube = "[section.tube]\nshape = \"tube\"\ninner_radius = 4.529e-3\n\
+                    laminate = \"tube_wall\"\nelements_per_ply = 1\nelements_around = 32\n";
+        assert!(beam.contains(tube));
+        let boxed = beam.replace(
+            tube,
+            "[section.tube]\nshape = \"box\"\nwidth = 0.012\nheight = 0.01\n\
+             laminate = \"tube_wall\"\nelements_per_ply = 1\n",
+        );
+        let solid = beam.replace(
+            tube,
+            "[section.tube]\nshape = \"rectangle\"\nwidth = 0.008\nheight = 0.004\n\
+             material = \"paper_composite\"\nangle = 10.0\n",
+        );
+        let plate_t = "\n[design.t0]\nkind = \"ply-thickness\"\nlaminate = \"plate\"\n\
+                       plies = [0]\n";
+        vec![
+            ("beam".into(), format!("{beam}{thickness}{e1}")),
+            ("box".into(), format!("{boxed}{thickness}{e1}")),
+            (
+                "rectangle".into(),
+                solid.replace("[design.theta]", "[design.unused]") + e1,
+            ),
+            ("plate".into(), format!("{plate}{plate_t}{e1}")),
+        ]
+    }
+
+    /// `BodyDef::at` gives what validating the deck again with the laminates moved by a design
+    /// variable gives, for every variable of every deck (the finite differences' and the
+    /// optimiser's path to another design, which reads no deck).
+    #[test]
+    fn a_body_moved_to_a_design_is_the_body_validated_there() {
+        for (what, text) in decks() {
+            let src = Source::new(format!("{what}.toml"), text);
+            let raw = src.parse().unwrap();
+            let lam = validate_laminates(&src, &raw).unwrap();
+            let design = validate_design(&src, &raw, &lam).unwrap();
+            assert!(!design.variables.is_empty(), "{what}");
+            for v in &design.variables {
+                let mut moved = lam.clone();
+                let b = if v.value == 0.0 { 0.5 } else { v.value * 1.02 };
+                v.apply(&mut moved, b).unwrap();
+                for (name, b) in &raw.body {
+                    let nominal = validate_body(&src, &raw, name, b, &lam).unwrap();
+                    let there = validate_body(&src, &raw, name, b, &moved).unwrap();
+                    let at = nominal.at(&moved).unwrap();
+                    let (a, t) = (format!("{at:?}"), format!("{there:?}"));
+                    if let Some(i) = a.bytes().zip(t.bytes()).position(|(x, y)| x != y) {
+                        let from = i.saturating_sub(200);
+                        panic!(
+                            "{what}: body {name}, variable {}: `at` gives …{}…, validation …{}…",
+                            v.name,
+                            &a[from..(i + 100).min(a.len())],
+                            &t[from..(i + 100).min(t.len())]
+                        );
+                    }
+                    assert_eq!(a.len(), t.len());
+                    // (the rectangle deck keeps the beam deck's angle variable, `unused`)
+                    let moves = format!("{nominal:?}") != t;
+                    assert!(
+                        moves || v.name == "unused",
+                        "{what}: variable {} moves body {name}",
+                        v.name
+                    );
+                }
+            }
+        }
     }
 }
