@@ -55,7 +55,6 @@ const LONG_FUNCTIONS: &[(&str, &str)] = &[
     ),
     ("crates/fem/src/eigen.rs", "lanczos"),
     ("crates/fem/src/sensitivity.rs", "mode_derivatives_with"),
-    ("crates/mbs/src/bdf.rs", "step_with"),
     ("crates/section/src/analysis.rs", "compliance_derivatives"),
     ("crates/section/src/parse.rs", "parse_gmsh"),
     ("crates/section/src/parse.rs", "parse_simple"),

@@ -93,6 +93,15 @@ pub struct BdfOptions {
     pub jacobian_age: usize,
 }
 
+/// The order and step limits of a step control ([`Bdf::step_with`]).
+struct StepLimits {
+    replay: bool,
+    fixed: bool,
+    max_order: usize,
+    min_step: f64,
+    max_step: f64,
+}
+
 /// The default [`BdfOptions::jacobian_age`]. A Newton iteration that fails refreshes the
 /// Jacobian anyway; the age is the safety net for a slowly drifting one (and for the
 /// oscillatory eigenvalues of the stability limit, computed with it). 100 steps instead of 50:
@@ -896,135 +905,18 @@ impl Bdf {
         t_stop: f64,
         ext: &mut E,
     ) -> Result<(), IntegrationError> {
-        let replay = matches!(self.opts.control, StepControl::Replay { .. });
-        let fixed = replay || matches!(self.opts.control, StepControl::Fixed { .. });
-        let (max_order, min_step, max_step) = match self.opts.control {
-            StepControl::Adaptive {
-                max_order,
-                min_step,
-                max_step,
-                ..
-            } => (max_order, min_step, max_step),
-            StepControl::Fixed { order, step } => (order, step * 1e-12, f64::INFINITY),
-            StepControl::Replay { .. } => (5, 0.0, f64::INFINITY),
-        };
+        let limits = self.limits();
+        let (fixed, min_step) = (limits.fixed, limits.min_step);
         let mut newton_fails = 0;
         let mut error_fails = 0;
         let mut refusals = 0;
         loop {
-            if self.stats.steps + self.stats.rejected_steps + self.stats.newton_failures
-                >= self.opts.max_steps
-            {
-                return Err(self.fail(IntegrationFailure::TooManySteps {
-                    max_steps: self.opts.max_steps,
-                }));
-            }
-            let (tn, _) = self.current();
-            // adaptive steps stop at the next breakpoint
-            let next = self.breakpoints[self
-                .breakpoints
-                .partition_point(|&b| b <= tn + 1e-12 * tn.abs())..]
-                .first();
-            let t_stop = match next {
-                Some(&b) if !fixed && b < t_stop => b,
-                _ => t_stop,
-            };
-            if self.first_step {
-                self.h = self.h.min(0.01 * (t_stop - tn));
-            }
-            let mut h = self.h;
-            let remaining = t_stop - tn;
-            if remaining <= 0.0 {
+            let Some((h, t_new)) = self.plan_step(t_stop, &limits)? else {
                 return Ok(());
-            }
-            let mut t_new = tn + h;
-            if let StepControl::Replay {
-                ref times,
-                ref orders,
-                ..
-            } = self.opts.control
-            {
-                let Some(&t1) = times.get(self.replay_pos) else {
-                    return Err(self.fail(IntegrationFailure::Settings(
-                        "the replayed step sequence ends before t_stop",
-                    )));
-                };
-                t_new = t1.min(t_stop);
-                h = t_new - tn;
-                self.order = orders[self.replay_pos];
-            } else if h >= remaining - 1e-8 * h {
-                h = remaining;
-                t_new = t_stop;
-            } else if !fixed && h > 0.5 * remaining && h < remaining {
-                // avoid a sliver step before t_stop
-                h = 0.5 * remaining;
-            }
-            if h < min_step && h < remaining {
-                return Err(self.fail(IntegrationFailure::StepTooSmall { min_step }));
-            }
-            if !replay {
-                t_new = tn + h;
-            }
-            let k = self.order.min(self.hist.len()).max(1);
-            let mut nodes = Vec::with_capacity(k + 1);
-            nodes.push(t_new);
-            nodes.extend(self.hist.iter().take(k).map(|x| x.0));
-            let coeffs = bdf_coefficients(&nodes);
-            // predictor: interpolant through up to k+1 past points, or explicit Euler at start
-            let y_pred: Vec<f64> = if self.hist.len() >= 2 {
-                let np = (k + 1).min(self.hist.len());
-                let pn: Vec<f64> = self.hist.iter().take(np).map(|x| x.0).collect();
-                let w = lagrange_weights(&pn, t_new);
-                let mut y = vec![0.0; self.n];
-                for (wi, (_, yi)) in w.iter().zip(&self.hist) {
-                    for (a, b) in y.iter_mut().zip(yi) {
-                        *a += wi * b;
-                    }
-                }
-                y
-            } else {
-                self.hist[0]
-                    .1
-                    .iter()
-                    .zip(&self.f0)
-                    .map(|(y, f)| y + h * f)
-                    .collect()
             };
-            // constant part of the formula
-            let mut psi = vec![0.0; self.n];
-            for j in 1..=k {
-                for (a, b) in psi.iter_mut().zip(&self.hist[j - 1].1) {
-                    *a += coeffs[j] * b;
-                }
-            }
-            let c0 = coeffs[0];
-            if self.jac_age.is_none() || self.jac_age.unwrap() >= self.opts.jacobian_age {
-                let y = y_pred.clone();
-                self.refresh_jacobian(sys, t_new, &y)?;
-            }
-            let mut jac_fresh = self.jac_age == Some(0);
-            let mut result = None;
-            for _attempt in 0..2 {
-                if self.lu.is_none() || ((c0 / self.lu_c0) - 1.0).abs() > 0.2 {
-                    self.factorize(c0)?;
-                }
-                match self.newton(sys, ext, &nodes, &coeffs, &y_pred, &psi)? {
-                    Some(y) => {
-                        result = Some(y);
-                        break;
-                    }
-                    None if !jac_fresh => {
-                        let y = y_pred.clone();
-                        self.refresh_jacobian(sys, t_new, &y)?;
-                        jac_fresh = true;
-                    }
-                    None => break,
-                }
-            }
-            if result.is_some() {
-                self.last_rhs_error = None;
-            }
-            let Some(y_new) = result else {
+            let k = self.order.min(self.hist.len()).max(1);
+            let (nodes, coeffs, y_pred, psi) = self.predict(k, t_new, h);
+            let Some(y_new) = self.solve_step(sys, ext, &nodes, &coeffs, &y_pred, &psi)? else {
                 self.stats.newton_failures += 1;
                 newton_fails += 1;
                 let reason = match self.last_rhs_error.take() {
@@ -1042,49 +934,10 @@ impl Bdf {
                 self.h = h * 0.25;
                 continue;
             };
-            // local error estimates
-            let y_ref = self.hist[0].1.clone();
-            let est = |order: usize, this: &Self| -> Option<f64> {
-                // needs order+1 past points
-                if order == 0 || this.hist.len() < order + 1 {
-                    return None;
-                }
-                let mut pn = vec![t_new];
-                pn.extend(this.hist.iter().take(order + 1).map(|x| x.0));
-                let w = divided_difference_weights(&pn);
-                let mut dd = y_new.iter().map(|y| w[0] * y).collect::<Vec<_>>();
-                for (wi, (_, yi)) in w[1..].iter().zip(&this.hist) {
-                    for (a, b) in dd.iter_mut().zip(yi) {
-                        *a += wi * b;
-                    }
-                }
-                let mut prod = 1.0;
-                let mut sum = 0.0;
-                for x in &pn[1..=order] {
-                    prod *= t_new - x;
-                    sum += 1.0 / (t_new - x);
-                }
-                let scale = prod / sum;
-                let e: Vec<f64> = dd.iter().map(|d| d * scale).collect();
-                Some(this.wrms(&e, &y_ref))
-            };
-            let err = if fixed {
-                0.0
-            } else if let Some(e) = est(k, self) {
-                e
-            } else {
-                // start-up: backward vs explicit Euler, LTE ≈ ½ |difference|
-                let d: Vec<f64> = y_new
-                    .iter()
-                    .zip(&y_pred)
-                    .map(|(a, b)| 0.5 * (a - b))
-                    .collect();
-                self.wrms(&d, &y_ref)
-            };
+            let mut err = self.local_error(k, t_new, &y_new, &y_pred, fixed);
             if !err.is_finite() {
                 return Err(self.fail(IntegrationFailure::NonFinite));
             }
-            let mut err = err;
             if ext.controls_error() {
                 let info = self.trial_info(k, &nodes, &coeffs, &y_new);
                 let e = ext.trial(sys, &info).map_err(|r| self.fail(r))?;
@@ -1096,26 +949,8 @@ impl Bdf {
                 }
             }
             if err > 1.0 {
-                self.stats.rejected_steps += 1;
                 error_fails += 1;
-                if error_fails >= 12 {
-                    return Err(self.fail(IntegrationFailure::ErrorTestFailed {
-                        attempts: error_fails,
-                    }));
-                }
-                let factor = (0.9 * err.powf(-1.0 / (k as f64 + 1.0))).clamp(0.1, 0.9);
-                self.h = h * if error_fails >= 3 {
-                    factor.min(0.25)
-                } else {
-                    factor
-                };
-                if error_fails >= 3 {
-                    self.order = 1;
-                    self.steps_at_order = 0;
-                }
-                if self.h < min_step {
-                    return Err(self.fail(IntegrationFailure::StepTooSmall { min_step }));
-                }
+                self.reject(err, k, h, error_fails, min_step)?;
                 continue;
             }
             if let Err(why) = sys.check_step(t_new, &y_new) {
@@ -1134,143 +969,376 @@ impl Bdf {
                 self.steps_at_order = 0;
                 continue;
             }
-            // accept
             if !ext.controls_error() {
                 let info = self.trial_info(k, &nodes, &coeffs, &y_new);
                 ext.trial(sys, &info).map_err(|r| self.fail(r))?;
             }
             ext.accept();
-            self.first_step = false;
-            self.stats.steps += 1;
-            if let Some(a) = self.jac_age.as_mut() {
-                *a += 1;
+            if self.accept(k, nodes, coeffs, t_new, y_new) {
+                self.choose_next(k, h, err, error_fails, &limits);
             }
-            self.hist.push_front((t_new, y_new));
-            if self.hist.len() > HISTORY {
-                self.hist.pop_back();
-            }
-            self.last_times = nodes;
-            self.last_coeffs = coeffs;
-            self.last_order = k;
-            self.steps_at_order += 1;
-            match self.opts.control {
-                StepControl::Fixed { order, step } => {
-                    self.order = order.min(self.hist.len());
-                    self.h = step;
-                    return Ok(());
-                }
-                StepControl::Replay {
-                    ref times,
-                    ref orders,
-                    ..
-                } => {
-                    self.replay_pos += 1;
-                    if let Some(&t1) = times.get(self.replay_pos) {
-                        self.h = t1 - self.hist[0].0;
-                        self.order = orders[self.replay_pos];
-                    }
-                    return Ok(());
-                }
-                StepControl::Adaptive { .. } => {}
-            }
-            // order and step for the next step (estimates relative to the accepted step)
-            let safety = |e: f64, q: usize, s: f64| {
-                if e <= 0.0 {
-                    10.0
-                } else {
-                    (e.powf(-1.0 / (q as f64 + 1.0))) / s
-                }
-            };
-            let limit = |f: f64| {
-                let mut f = f.min(if self.stats.steps < 5 { 10.0 } else { 5.0 });
-                if (1.0..1.5).contains(&f) || (error_fails > 0 && f > 1.0) {
-                    // no growth right after a rejection; small growth is not worth a new matrix
-                    f = 1.0;
-                }
-                f.max(0.2)
-            };
-            // candidate orders with the steps their error estimates allow
-            let mut candidates = vec![(k, safety(err, k, 1.4))];
-            if self.steps_at_order > k {
-                // the estimates need the previous state set; recompute on the shifted history
-                let (t_acc, y_acc) = self.hist.pop_front().unwrap();
-                if k > 1
-                    && let Some(e) = est_shift(self, t_acc, &y_acc, k - 1)
-                {
-                    candidates.push((k - 1, safety(e, k - 1, 1.5)));
-                }
-                if k < max_order
-                    && let Some(e) = est_shift(self, t_acc, &y_acc, k + 1)
-                {
-                    candidates.push((k + 1, safety(e, k + 1, 1.7)));
-                }
-                self.hist.push_front((t_acc, y_acc));
-            }
-            let by_error = |&(q, f): &(usize, f64)| (q, (h * limit(f)).clamp(min_step, max_step));
-            let longest = |a: (usize, f64), b: (usize, f64)| if b.1 > a.1 { b } else { a };
-            let unlimited = candidates.iter().map(by_error).fold((k, 0.0), longest);
-            let mut next = unlimited;
-            if !self.oscillatory.is_empty() {
-                // every oscillatory eigenvalue must stay in the stability region of the order
-                // used: each candidate's step is cut to where its order holds them all, and the
-                // orders below, down to the A-stable order 2, join when that cut something
-                let within = |(q, hq): (usize, f64)| {
-                    let mut edges = self.stability_edges.borrow_mut();
-                    (
-                        q,
-                        stable_step_cached(q, hq, &self.oscillatory, Some(&mut edges)),
-                    )
-                };
-                next = candidates
-                    .iter()
-                    .map(by_error)
-                    .map(within)
-                    .fold((k, 0.0), longest);
-                if next.1 < unlimited.1 && k > 2 {
-                    let (t_acc, y_acc) = self.hist.pop_front().unwrap();
-                    for q in 2..k.saturating_sub(1) {
-                        if let Some(e) = est_shift(self, t_acc, &y_acc, q) {
-                            next = longest(next, within(by_error(&(q, safety(e, q, 1.5)))));
-                        }
-                    }
-                    self.hist.push_front((t_acc, y_acc));
-                }
-                if next != unlimited {
-                    self.stats.stability_limited += 1;
-                }
-            }
-            if next.0 != k {
-                self.order = next.0;
-                self.steps_at_order = 0;
-            }
-            self.h = next.1.clamp(min_step, max_step);
             return Ok(());
         }
+    }
 
-        /// Error estimate of order `q` for the just-accepted point `(t_new, y_new)`, with the
-        /// history (without it) in `this`.
-        fn est_shift(this: &Bdf, t_new: f64, y_new: &[f64], q: usize) -> Option<f64> {
-            if this.hist.len() < q + 1 {
-                return None;
-            }
-            let mut pn = vec![t_new];
-            pn.extend(this.hist.iter().take(q + 1).map(|x| x.0));
-            let w = divided_difference_weights(&pn);
-            let mut dd: Vec<f64> = y_new.iter().map(|y| w[0] * y).collect();
-            for (wi, (_, yi)) in w[1..].iter().zip(&this.hist) {
-                for (a, b) in dd.iter_mut().zip(yi) {
+    /// The step control's order and step limits.
+    fn limits(&self) -> StepLimits {
+        let replay = matches!(self.opts.control, StepControl::Replay { .. });
+        let fixed = replay || matches!(self.opts.control, StepControl::Fixed { .. });
+        let (max_order, min_step, max_step) = match self.opts.control {
+            StepControl::Adaptive {
+                max_order,
+                min_step,
+                max_step,
+                ..
+            } => (max_order, min_step, max_step),
+            StepControl::Fixed { order, step } => (order, step * 1e-12, f64::INFINITY),
+            StepControl::Replay { .. } => (5, 0.0, f64::INFINITY),
+        };
+        StepLimits {
+            replay,
+            fixed,
+            max_order,
+            min_step,
+            max_step,
+        }
+    }
+
+    /// The next trial step `(h, t_new)` towards `t_stop` (or the next breakpoint): the replayed
+    /// one, or the current step cut to land on `t_stop` without a sliver; `None` at `t_stop`.
+    fn plan_step(
+        &mut self,
+        t_stop: f64,
+        limits: &StepLimits,
+    ) -> Result<Option<(f64, f64)>, IntegrationError> {
+        let (replay, fixed, min_step) = (limits.replay, limits.fixed, limits.min_step);
+        if self.stats.steps + self.stats.rejected_steps + self.stats.newton_failures
+            >= self.opts.max_steps
+        {
+            return Err(self.fail(IntegrationFailure::TooManySteps {
+                max_steps: self.opts.max_steps,
+            }));
+        }
+        let (tn, _) = self.current();
+        // adaptive steps stop at the next breakpoint
+        let next = self.breakpoints[self
+            .breakpoints
+            .partition_point(|&b| b <= tn + 1e-12 * tn.abs())..]
+            .first();
+        let t_stop = match next {
+            Some(&b) if !fixed && b < t_stop => b,
+            _ => t_stop,
+        };
+        if self.first_step {
+            self.h = self.h.min(0.01 * (t_stop - tn));
+        }
+        let mut h = self.h;
+        let remaining = t_stop - tn;
+        if remaining <= 0.0 {
+            return Ok(None);
+        }
+        let mut t_new = tn + h;
+        if let StepControl::Replay {
+            ref times,
+            ref orders,
+            ..
+        } = self.opts.control
+        {
+            let Some(&t1) = times.get(self.replay_pos) else {
+                return Err(self.fail(IntegrationFailure::Settings(
+                    "the replayed step sequence ends before t_stop",
+                )));
+            };
+            t_new = t1.min(t_stop);
+            h = t_new - tn;
+            self.order = orders[self.replay_pos];
+        } else if h >= remaining - 1e-8 * h {
+            h = remaining;
+            t_new = t_stop;
+        } else if !fixed && h > 0.5 * remaining && h < remaining {
+            // avoid a sliver step before t_stop
+            h = 0.5 * remaining;
+        }
+        if h < min_step && h < remaining {
+            return Err(self.fail(IntegrationFailure::StepTooSmall { min_step }));
+        }
+        if !replay {
+            t_new = tn + h;
+        }
+        Ok(Some((h, t_new)))
+    }
+
+    /// The nodes and coefficients of the BDF formula of order `k` for the step to `t_new`,
+    /// the predictor (the interpolant through up to `k + 1` past points, or explicit Euler at
+    /// the start) and the constant part `ψ` of the formula.
+    #[allow(clippy::type_complexity)]
+    fn predict(&self, k: usize, t_new: f64, h: f64) -> (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>) {
+        let mut nodes = Vec::with_capacity(k + 1);
+        nodes.push(t_new);
+        nodes.extend(self.hist.iter().take(k).map(|x| x.0));
+        let coeffs = bdf_coefficients(&nodes);
+        // predictor: interpolant through up to k+1 past points, or explicit Euler at start
+        let y_pred: Vec<f64> = if self.hist.len() >= 2 {
+            let np = (k + 1).min(self.hist.len());
+            let pn: Vec<f64> = self.hist.iter().take(np).map(|x| x.0).collect();
+            let w = lagrange_weights(&pn, t_new);
+            let mut y = vec![0.0; self.n];
+            for (wi, (_, yi)) in w.iter().zip(&self.hist) {
+                for (a, b) in y.iter_mut().zip(yi) {
                     *a += wi * b;
                 }
             }
-            let mut prod = 1.0;
-            let mut sum = 0.0;
-            for x in &pn[1..=q] {
-                prod *= t_new - x;
-                sum += 1.0 / (t_new - x);
+            y
+        } else {
+            self.hist[0]
+                .1
+                .iter()
+                .zip(&self.f0)
+                .map(|(y, f)| y + h * f)
+                .collect()
+        };
+        // constant part of the formula
+        let mut psi = vec![0.0; self.n];
+        for j in 1..=k {
+            for (a, b) in psi.iter_mut().zip(&self.hist[j - 1].1) {
+                *a += coeffs[j] * b;
             }
-            let e: Vec<f64> = dd.iter().map(|d| d * prod / sum).collect();
-            Some(this.wrms(&e, &this.hist[0].1))
         }
+        (nodes, coeffs, y_pred, psi)
+    }
+
+    /// Newton's method on the step's formula, with a Jacobian refreshed when it is old or
+    /// when Newton fails on an older one; `None` when it does not converge.
+    fn solve_step<Sys: OdeSystem, E: StepExtension<Sys>>(
+        &mut self,
+        sys: &mut Sys,
+        ext: &mut E,
+        nodes: &[f64],
+        coeffs: &[f64],
+        y_pred: &[f64],
+        psi: &[f64],
+    ) -> Result<Option<Vec<f64>>, IntegrationError> {
+        let t_new = nodes[0];
+        let c0 = coeffs[0];
+        if self.jac_age.is_none() || self.jac_age.unwrap() >= self.opts.jacobian_age {
+            self.refresh_jacobian(sys, t_new, y_pred)?;
+        }
+        let mut jac_fresh = self.jac_age == Some(0);
+        let mut result = None;
+        for _attempt in 0..2 {
+            if self.lu.is_none() || ((c0 / self.lu_c0) - 1.0).abs() > 0.2 {
+                self.factorize(c0)?;
+            }
+            match self.newton(sys, ext, nodes, coeffs, y_pred, psi)? {
+                Some(y) => {
+                    result = Some(y);
+                    break;
+                }
+                None if !jac_fresh => {
+                    self.refresh_jacobian(sys, t_new, y_pred)?;
+                    jac_fresh = true;
+                }
+                None => break,
+            }
+        }
+        if result.is_some() {
+            self.last_rhs_error = None;
+        }
+        Ok(result)
+    }
+
+    /// The local error norm of the trial point `(t_new, y_new)` of order `k` (0 for fixed
+    /// steps; at the start, backward against explicit Euler).
+    fn local_error(&self, k: usize, t_new: f64, y_new: &[f64], y_pred: &[f64], fixed: bool) -> f64 {
+        if fixed {
+            return 0.0;
+        }
+        let y_ref = &self.hist[0].1;
+        if self.hist.len() < k + 1 {
+            // start-up: backward vs explicit Euler, LTE ≈ ½ |difference|
+            let d: Vec<f64> = y_new
+                .iter()
+                .zip(y_pred)
+                .map(|(a, b)| 0.5 * (a - b))
+                .collect();
+            return self.wrms(&d, y_ref);
+        }
+        // the divided difference of order k + 1 through the new point and the history
+        let mut pn = vec![t_new];
+        pn.extend(self.hist.iter().take(k + 1).map(|x| x.0));
+        let w = divided_difference_weights(&pn);
+        let mut dd = y_new.iter().map(|y| w[0] * y).collect::<Vec<_>>();
+        for (wi, (_, yi)) in w[1..].iter().zip(&self.hist) {
+            for (a, b) in dd.iter_mut().zip(yi) {
+                *a += wi * b;
+            }
+        }
+        let mut prod = 1.0;
+        let mut sum = 0.0;
+        for x in &pn[1..=k] {
+            prod *= t_new - x;
+            sum += 1.0 / (t_new - x);
+        }
+        let scale = prod / sum;
+        let e: Vec<f64> = dd.iter().map(|d| d * scale).collect();
+        self.wrms(&e, y_ref)
+    }
+
+    /// A trial step rejected by the error test (the `error_fails`-th in a row): the next step
+    /// cut, down to order 1 after three rejections; an error after twelve, or below the
+    /// smallest step.
+    fn reject(
+        &mut self,
+        err: f64,
+        k: usize,
+        h: f64,
+        error_fails: usize,
+        min_step: f64,
+    ) -> Result<(), IntegrationError> {
+        self.stats.rejected_steps += 1;
+        if error_fails >= 12 {
+            return Err(self.fail(IntegrationFailure::ErrorTestFailed {
+                attempts: error_fails,
+            }));
+        }
+        let factor = (0.9 * err.powf(-1.0 / (k as f64 + 1.0))).clamp(0.1, 0.9);
+        self.h = h * if error_fails >= 3 {
+            factor.min(0.25)
+        } else {
+            factor
+        };
+        if error_fails >= 3 {
+            self.order = 1;
+            self.steps_at_order = 0;
+        }
+        if self.h < min_step {
+            return Err(self.fail(IntegrationFailure::StepTooSmall { min_step }));
+        }
+        Ok(())
+    }
+
+    /// Accept the step of order `k` to `(t_new, y_new)`; the next step and order of a fixed
+    /// or replayed sequence. Whether the step control still has to choose them (adaptive).
+    fn accept(
+        &mut self,
+        k: usize,
+        nodes: Vec<f64>,
+        coeffs: Vec<f64>,
+        t_new: f64,
+        y_new: Vec<f64>,
+    ) -> bool {
+        self.first_step = false;
+        self.stats.steps += 1;
+        if let Some(a) = self.jac_age.as_mut() {
+            *a += 1;
+        }
+        self.hist.push_front((t_new, y_new));
+        if self.hist.len() > HISTORY {
+            self.hist.pop_back();
+        }
+        self.last_times = nodes;
+        self.last_coeffs = coeffs;
+        self.last_order = k;
+        self.steps_at_order += 1;
+        match self.opts.control {
+            StepControl::Fixed { order, step } => {
+                self.order = order.min(self.hist.len());
+                self.h = step;
+                false
+            }
+            StepControl::Replay {
+                ref times,
+                ref orders,
+                ..
+            } => {
+                self.replay_pos += 1;
+                if let Some(&t1) = times.get(self.replay_pos) {
+                    self.h = t1 - self.hist[0].0;
+                    self.order = orders[self.replay_pos];
+                }
+                false
+            }
+            StepControl::Adaptive { .. } => true,
+        }
+    }
+
+    /// The order and step after an accepted adaptive step of order `k` and step `h` with error
+    /// norm `err`: the candidate orders `k − 1`, `k`, `k + 1` with the steps their error
+    /// estimates allow, each cut to keep every oscillatory eigenvalue of the Jacobian in its
+    /// order's stability region (the orders down to 2 joining when that cut something).
+    fn choose_next(&mut self, k: usize, h: f64, err: f64, error_fails: usize, limits: &StepLimits) {
+        let (max_order, min_step, max_step) = (limits.max_order, limits.min_step, limits.max_step);
+        // order and step for the next step (estimates relative to the accepted step)
+        let safety = |e: f64, q: usize, s: f64| {
+            if e <= 0.0 {
+                10.0
+            } else {
+                (e.powf(-1.0 / (q as f64 + 1.0))) / s
+            }
+        };
+        let limit = |f: f64| {
+            let mut f = f.min(if self.stats.steps < 5 { 10.0 } else { 5.0 });
+            if (1.0..1.5).contains(&f) || (error_fails > 0 && f > 1.0) {
+                // no growth right after a rejection; small growth is not worth a new matrix
+                f = 1.0;
+            }
+            f.max(0.2)
+        };
+        // candidate orders with the steps their error estimates allow
+        let mut candidates = vec![(k, safety(err, k, 1.4))];
+        if self.steps_at_order > k {
+            // the estimates need the previous state set; recompute on the shifted history
+            let (t_acc, y_acc) = self.hist.pop_front().unwrap();
+            if k > 1
+                && let Some(e) = est_shift(self, t_acc, &y_acc, k - 1)
+            {
+                candidates.push((k - 1, safety(e, k - 1, 1.5)));
+            }
+            if k < max_order
+                && let Some(e) = est_shift(self, t_acc, &y_acc, k + 1)
+            {
+                candidates.push((k + 1, safety(e, k + 1, 1.7)));
+            }
+            self.hist.push_front((t_acc, y_acc));
+        }
+        let by_error = |&(q, f): &(usize, f64)| (q, (h * limit(f)).clamp(min_step, max_step));
+        let longest = |a: (usize, f64), b: (usize, f64)| if b.1 > a.1 { b } else { a };
+        let unlimited = candidates.iter().map(by_error).fold((k, 0.0), longest);
+        let mut next = unlimited;
+        if !self.oscillatory.is_empty() {
+            // every oscillatory eigenvalue must stay in the stability region of the order
+            // used: each candidate's step is cut to where its order holds them all, and the
+            // orders below, down to the A-stable order 2, join when that cut something
+            let within = |(q, hq): (usize, f64)| {
+                let mut edges = self.stability_edges.borrow_mut();
+                (
+                    q,
+                    stable_step_cached(q, hq, &self.oscillatory, Some(&mut edges)),
+                )
+            };
+            next = candidates
+                .iter()
+                .map(by_error)
+                .map(within)
+                .fold((k, 0.0), longest);
+            if next.1 < unlimited.1 && k > 2 {
+                let (t_acc, y_acc) = self.hist.pop_front().unwrap();
+                for q in 2..k.saturating_sub(1) {
+                    if let Some(e) = est_shift(self, t_acc, &y_acc, q) {
+                        next = longest(next, within(by_error(&(q, safety(e, q, 1.5)))));
+                    }
+                }
+                self.hist.push_front((t_acc, y_acc));
+            }
+            if next != unlimited {
+                self.stats.stability_limited += 1;
+            }
+        }
+        if next.0 != k {
+            self.order = next.0;
+            self.steps_at_order = 0;
+        }
+        self.h = next.1.clamp(min_step, max_step);
     }
 
     /// Newton iteration for `c0 y + ψ = f(t, y)` (`t = nodes[0]`, `c0 = coeffs[0]`), with a
@@ -1441,6 +1509,31 @@ impl Bdf {
         }
         Ok(out)
     }
+}
+
+/// Error estimate of order `q` for the just-accepted point `(t_new, y_new)`, with the
+/// history (without it) in `this`.
+fn est_shift(this: &Bdf, t_new: f64, y_new: &[f64], q: usize) -> Option<f64> {
+    if this.hist.len() < q + 1 {
+        return None;
+    }
+    let mut pn = vec![t_new];
+    pn.extend(this.hist.iter().take(q + 1).map(|x| x.0));
+    let w = divided_difference_weights(&pn);
+    let mut dd: Vec<f64> = y_new.iter().map(|y| w[0] * y).collect();
+    for (wi, (_, yi)) in w[1..].iter().zip(&this.hist) {
+        for (a, b) in dd.iter_mut().zip(yi) {
+            *a += wi * b;
+        }
+    }
+    let mut prod = 1.0;
+    let mut sum = 0.0;
+    for x in &pn[1..=q] {
+        prod *= t_new - x;
+        sum += 1.0 / (t_new - x);
+    }
+    let e: Vec<f64> = dd.iter().map(|d| d * prod / sum).collect();
+    Some(this.wrms(&e, &this.hist[0].1))
 }
 
 #[cfg(test)]
