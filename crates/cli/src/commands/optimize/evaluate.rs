@@ -1,0 +1,365 @@
+//! One evaluation of the optimisation problem: the deck built at a design, and the
+//! objective and constrained quantities read with their exact gradients.
+
+use super::*;
+
+impl Problem<'_> {
+    /// The `--set` arguments that put the design `x` into the deck.
+    pub(super) fn sets(&self, x: &[f64]) -> Vec<String> {
+        let mut sets = self.overrides.to_vec();
+        for (v, &b) in self.variables.iter().zip(x) {
+            sets.extend(v.overrides(b));
+        }
+        sets
+    }
+
+    /// Every quantity the problem reads, with its gradient, at the design `x`.
+    pub(super) fn evaluate(&self, x: &[f64]) -> Result<Eval, CliError> {
+        let sets = self.sets(x);
+        let (src, raw) = deck::load(self.path, &sets)?;
+        let quantities: Vec<&Quantity> = std::iter::once(&self.def.objective)
+            .chain(self.def.constraints.iter().map(|c| &c.quantity))
+            .collect();
+        // the run, once, when an objective of it is asked for
+        let objectives = if quantities
+            .iter()
+            .any(|q| matches!(q, Quantity::Objective { .. }))
+        {
+            let mut mech = Study::validate(&src, &raw, true)?;
+            mech.design.finite_differences = None;
+            let c = crate::commands::compute::compute(&src, &mech)?;
+            c.objectives
+                .into_iter()
+                .map(|o| (o.name, (o.value, o.gradient, o.unit)))
+                .collect()
+        } else {
+            std::collections::BTreeMap::new()
+        };
+        let lam = validate_laminates(&src, &raw)?;
+        let design = validate_design(&src, &raw, &lam)?;
+        // each flexible body's modal analysis and masses once per evaluation
+        let mut bodies = std::collections::BTreeMap::<String, FlexibleQuantities>::new();
+        let mut flexible = |body: &String| -> Result<FlexibleQuantities, CliError> {
+            if let Some(b) = bodies.get(body) {
+                return Ok(b.clone());
+            }
+            let b = flexible_quantities(&src, &raw, &lam, &design, body)?;
+            bodies.insert(body.clone(), b.clone());
+            Ok(b)
+        };
+        let mut read = |q: &Quantity| -> Result<(f64, Vec<f64>, &'static str), CliError> {
+            Ok(match q {
+                Quantity::Objective { name } => objectives[name].clone(),
+                Quantity::Frequency { body, mode } => {
+                    let b = flexible(body)?;
+                    let n = b.frequencies.len();
+                    let f = b.frequencies.get(*mode).ok_or_else(|| {
+                        CliError::Input(src.error(
+                            None,
+                            Some("optimize".into()),
+                            format!("frequency.{body}.{}: the body keeps {n} modes", mode + 1),
+                        ))
+                    })?;
+                    (*f, b.d_frequencies[*mode].clone(), "Hz")
+                }
+                Quantity::Mass { body } if raw.body.contains_key(body) => {
+                    let b = flexible(body)?;
+                    (b.mass, b.d_mass, "kg")
+                }
+                Quantity::ArealMass { laminate } => {
+                    let def = &lam.laminates[laminate];
+                    let d = crate::study::flexible::shell_design(
+                        &def.stack,
+                        laminate,
+                        &def.ply_materials,
+                        DesignRequest::Variables(&design.variables),
+                    );
+                    let grad = crate::commands::laminate::derivatives(&d)
+                        .iter()
+                        .map(|k| k.mass_per_area)
+                        .collect();
+                    (def.stack.stiffness().mass_per_area, grad, "kg/m^2")
+                }
+                Quantity::Mass { body } => {
+                    let rigid = mechanism::rigid_bodies(&src, &raw)?;
+                    let r = rigid
+                        .iter()
+                        .find(|r| r.name == *body)
+                        .expect("validated body name");
+                    let grad = self
+                        .variables
+                        .iter()
+                        .map(|v| match &v.target {
+                            Target::RigidMass { body: b } if b == body => 1.0,
+                            _ => 0.0,
+                        })
+                        .collect();
+                    (r.mass, grad, "kg")
+                }
+            })
+        };
+        let n = self.variables.len();
+        let gradient_of = |q: &Quantity, g: &[f64]| -> Result<(), CliError> {
+            if g.len() == n {
+                return Ok(());
+            }
+            Err(CliError::Input(src.error(
+                None,
+                Some("optimize".into()),
+                format!(
+                    "{} has no gradient (its response has no sensitivities, or [sensitivity] \
+                     enabled = false): an optimisation needs one",
+                    q.label()
+                ),
+            )))
+        };
+        let (f, df, unit) = read(&self.def.objective)?;
+        gradient_of(&self.def.objective, &df)?;
+        let mut units = vec![unit.to_string()];
+        let mut q = Vec::new();
+        let mut dq = Vec::new();
+        for c in &self.def.constraints {
+            let (v, g, unit) = read(&c.quantity)?;
+            gradient_of(&c.quantity, &g)?;
+            units.push(unit.to_string());
+            q.push(v);
+            dq.push(g);
+        }
+        let ok = |x: f64| x.is_finite();
+        let all_ok = ok(f)
+            && df.iter().copied().all(ok)
+            && q.iter().copied().all(ok)
+            && dq.iter().flatten().copied().all(ok);
+        if !all_ok {
+            return Err(runtime("a quantity or its gradient is not finite"));
+        }
+        Ok(Eval {
+            units,
+            f,
+            df,
+            q,
+            dq,
+        })
+    }
+
+    /// The constraints as `g ≤ 0` in physical units: `(constraint, sign)` with
+    /// `g = sign (q − bound)`; an equality gives both signs.
+    pub(super) fn inequalities(&self) -> Vec<(usize, f64)> {
+        let mut g = Vec::new();
+        for (i, (bound, _)) in self.limits.iter().enumerate() {
+            match bound {
+                Bound::AtLeast(_) => g.push((i, -1.0)),
+                Bound::AtMost(_) => g.push((i, 1.0)),
+                Bound::Equals(_) | Bound::EqualsNominal => {
+                    g.push((i, 1.0));
+                    g.push((i, -1.0));
+                }
+            }
+        }
+        g
+    }
+
+    pub(super) fn bound_value(&self, i: usize) -> f64 {
+        match self.limits[i].0 {
+            Bound::AtLeast(b) | Bound::AtMost(b) | Bound::Equals(b) => b,
+            Bound::EqualsNominal => unreachable!("resolved when the problem is made"),
+        }
+    }
+
+    /// The largest violation of a constraint, relative to its scale.
+    pub(super) fn violation(&self, e: &Eval) -> f64 {
+        self.inequalities()
+            .into_iter()
+            .map(|(i, s)| (s * (e.q[i] - self.bound_value(i)) / self.limits[i].1).max(0.0))
+            .fold(0.0, f64::max)
+    }
+
+    /// KKT stationarity of the (minimised) objective at `x` with the constraints within
+    /// `FEASIBLE` of their bounds taken as active: the multipliers `λ ≥ 0` (free in sign for
+    /// an equality) that best cancel the gradient on the variables not at a bound, and the
+    /// largest remaining component of the Lagrangian's gradient, as the change of the
+    /// objective across the variable's range relative to the objective (`|r_j| (upper_j −
+    /// lower_j) / |f|`; components at a bound count only when they point out of the box): 0 at
+    /// a KKT point. Multipliers are in the objective's unit per the constraint quantity's
+    /// unit (`dF*/d bound`).
+    pub(super) fn kkt(&self, x: &[f64], e: &Eval) -> (f64, Vec<f64>) {
+        let sign = if self.def.maximize { -1.0 } else { 1.0 };
+        let g: Vec<f64> = e.df.iter().map(|d| sign * d).collect();
+        let n = x.len();
+        let at_lower: Vec<bool> = (0..n)
+            .map(|j| x[j] <= self.def.bounds[j].0 + 1e-9 * (1.0 + x[j].abs()))
+            .collect();
+        let at_upper: Vec<bool> = (0..n)
+            .map(|j| x[j] >= self.def.bounds[j].1 - 1e-9 * (1.0 + x[j].abs()))
+            .collect();
+        // active constraints: (constraint, sign of g, free sign?)
+        let mut active: Vec<(usize, f64, bool)> = Vec::new();
+        for (i, (bound, scale)) in self.limits.iter().enumerate() {
+            let r = (e.q[i] - self.bound_value(i)) / scale;
+            match bound {
+                Bound::AtLeast(_) if r <= FEASIBLE => active.push((i, -1.0, false)),
+                Bound::AtMost(_) if r >= -FEASIBLE => active.push((i, 1.0, false)),
+                Bound::Equals(_) | Bound::EqualsNominal => active.push((i, 1.0, true)),
+                _ => {}
+            }
+        }
+        let free: Vec<usize> = (0..n).filter(|&j| !at_lower[j] && !at_upper[j]).collect();
+        let mut lambda = vec![0.0; self.limits.len()];
+        loop {
+            let m = active.len();
+            if m == 0 || free.is_empty() {
+                break;
+            }
+            // least squares over the free variables: min ‖g_F + A_F λ‖
+            let a = DMatrix::from_fn(free.len(), m, |r, c| {
+                let (i, s, _) = active[c];
+                s * e.dq[i][free[r]]
+            });
+            let rhs = DVector::from_iterator(free.len(), free.iter().map(|&j| -g[j]));
+            let ata = a.transpose() * &a
+                + DMatrix::identity(m, m) * 1e-14 * (a.norm_squared() + f64::MIN_POSITIVE);
+            let sol = ata
+                .lu()
+                .solve(&(a.transpose() * rhs))
+                .unwrap_or_else(|| DVector::zeros(m));
+            // drop the most negative multiplier of an inequality and solve again
+            let worst = (0..m)
+                .filter(|&c| !active[c].2 && sol[c] < 0.0)
+                .min_by(|&p, &q| sol[p].total_cmp(&sol[q]));
+            match worst {
+                Some(c) => {
+                    active.remove(c);
+                }
+                None => {
+                    for (c, &(i, s, _)) in active.iter().enumerate() {
+                        lambda[i] += s * sol[c];
+                    }
+                    break;
+                }
+            }
+        }
+        // residual ∇f + Σ λ_i ∇q_i (λ signed: g = s (q − b), λ_g = λ_i s)
+        let r: Vec<f64> = (0..n)
+            .map(|j| {
+                g[j] + (0..lambda.len())
+                    .map(|i| lambda[i] * e.dq[i][j])
+                    .sum::<f64>()
+            })
+            .collect();
+        let worst = (0..n)
+            .map(|j| {
+                let out_of_box = if at_lower[j] {
+                    (-r[j]).max(0.0)
+                } else if at_upper[j] {
+                    r[j].max(0.0)
+                } else {
+                    r[j].abs()
+                };
+                out_of_box * (self.def.bounds[j].1 - self.def.bounds[j].0)
+            })
+            .fold(0.0, f64::max);
+        // relative to the objective, or absolute where it is zero
+        let size = if e.f != 0.0 { e.f.abs() } else { 1.0 };
+        // multipliers as the sensitivity of the optimum to each bound b_i: with
+        // ℒ = sign f + Σ λ_i (q_i − b_i), d(sign f*)/db_i = −λ_i
+        // (+ 0.0: an inactive constraint prints 0, not −0)
+        let multipliers = lambda.iter().map(|l| -sign * l + 0.0).collect();
+        (worst / size.max(f64::MIN_POSITIVE), multipliers)
+    }
+}
+
+/// `--set` arguments that give every mesh file of the deck (`section.*.file`, `body.*.file`)
+/// as an absolute path, so that the optimum deck, written elsewhere, reads the same meshes.
+pub(super) fn absolute_file_keys(
+    path: &Path,
+    overrides: &[String],
+) -> Result<Vec<String>, CliError> {
+    let (_, raw) = deck::load(path, overrides)?;
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let absolute = |f: &str| {
+        let p = dir.join(f);
+        std::fs::canonicalize(&p).unwrap_or(p).display().to_string()
+    };
+    let quote = |s: String| toml::Value::String(s).to_string();
+    let mut sets = Vec::new();
+    for (name, s) in &raw.section {
+        if let Some(f) = &s.get_ref().file {
+            sets.push(format!(
+                "section.{name}.file={}",
+                quote(absolute(f.get_ref()))
+            ));
+        }
+    }
+    for (name, b) in &raw.body {
+        if let Some(f) = &b.get_ref().file {
+            sets.push(format!("body.{name}.file={}", quote(absolute(f.get_ref()))));
+        }
+    }
+    Ok(sets)
+}
+
+/// A flexible body's frequencies and mass with their gradients (per design variable).
+#[derive(Clone)]
+pub(super) struct FlexibleQuantities {
+    frequencies: Vec<f64>,
+    /// `[mode][variable]`, Hz per unit of the variable.
+    d_frequencies: Vec<Vec<f64>>,
+    mass: f64,
+    d_mass: Vec<f64>,
+}
+
+/// The retained modes' frequencies (Nelson's eigenvalue derivatives, updated modes) and the
+/// mass (lumped masses in dual numbers) of flexible body `name`, at the deck's design.
+pub(super) fn flexible_quantities(
+    src: &Source,
+    raw: &deck::RawDeck,
+    lam: &crate::deck::laminates::LaminateModel,
+    design: &crate::deck::design::DesignDef,
+    name: &str,
+) -> Result<FlexibleQuantities, CliError> {
+    let table = &raw.body[name];
+    let def = bodies::validate_one(src, raw, name, table, lam)?;
+    let mut built = build(src, name, &def, DesignRequest::Variables(&design.variables))?;
+    let span = table.span();
+    let (analysis, _) =
+        crate::study::flexible::analyse(src, name, span.clone(), &def, &mut built, false)?;
+    let d = built.eigenvalue_derivatives::<CHUNK>(src, name, span.clone(), &analysis)?;
+    let m = design.variables.len();
+    let mut frequencies = Vec::new();
+    let mut d_frequencies = Vec::new();
+    for &i in &analysis.kept {
+        let l = analysis.pairs.values[i];
+        frequencies.push(l.max(0.0).sqrt() / (2.0 * std::f64::consts::PI));
+        d_frequencies.push(
+            (0..m)
+                .map(|v| d.eigenvalues[v][i] / (4.0 * std::f64::consts::PI * l.max(0.0).sqrt()))
+                .collect(),
+        );
+    }
+    let mut mass = 0.0;
+    let mut d_mass = vec![0.0; m];
+    for range in sens::chunk_ranges(m, CHUNK) {
+        let seeded = sens::seed_chunk::<CHUNK>(built.design.values(), range.start);
+        let props = built.design.properties(&seeded).map_err(|e| {
+            runtime(format!(
+                "{}: body `{name}`: its section: {e}",
+                src.file.display()
+            ))
+        })?;
+        let (masses, _) = fem::lumped_nodal_masses(&built.mesh, &props, &analysis.options.element)
+            .map_err(|e| fem_error(src, name, span.clone(), e))?;
+        let total = masses
+            .iter()
+            .fold(Dual::<CHUNK>::constant(0.0), |s, &x| s + x);
+        mass = total.v;
+        for (k, v) in range.enumerate() {
+            d_mass[v] = total.d[k];
+        }
+    }
+    Ok(FlexibleQuantities {
+        frequencies,
+        d_frequencies,
+        mass,
+        d_mass,
+    })
+}
