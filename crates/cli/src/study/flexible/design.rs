@@ -1,0 +1,394 @@
+//! How a flexible body's element properties move with the design variables: the section and
+//! shell design maps, material links, and the properties at a (dual) design.
+
+use super::*;
+
+/// [`section::analyse_with_derivatives`] in chunks no wider than the map's variables: the work
+/// of a dual number grows with its width, and the results do not depend on it. (A deck with one
+/// angle analysed its sections in `Dual<8>`, eight times the tangent work it needs; with
+/// Dailey's terms the §5.1 rod's section is analysed three times, and that deck's run with
+/// sensitivities went from 370 to 343 ms.)
+pub fn section_derivatives(
+    mesh: &section::SectionMesh,
+    map: &section::DesignMap,
+) -> Result<section::SectionSensitivities, section::SectionError> {
+    match map.variables.len() {
+        0 | 1 => section::analyse_with_derivatives::<1>(mesh, map),
+        2 => section::analyse_with_derivatives::<2>(mesh, map),
+        3 | 4 => section::analyse_with_derivatives::<4>(mesh, map),
+        _ => section::analyse_with_derivatives::<CHUNK>(mesh, map),
+    }
+}
+
+/// The design variables a body's derivatives are taken with respect to.
+#[derive(Clone, Copy)]
+pub enum DesignRequest<'a> {
+    /// None: the plain analysis.
+    None,
+    /// One variable per ply (section region) angle, per radian (`flexsens modes --derivatives`).
+    EachPly,
+    /// The deck's `[design.*]` variables (per degree).
+    Variables(&'a [DesignVariable]),
+}
+
+/// Per design variable, `(part, law)` of the parts (plies, section regions) whose material's
+/// nine elastic constants and density it moves (`deck::design::material_constants` order).
+pub type MaterialLinks = Vec<Vec<(usize, MaterialLaw)>>;
+
+/// The design of a body: how its stiffness depends on the design variables.
+pub enum Design {
+    /// A beam: the section's values and derivatives with respect to each variable at the
+    /// nominal design `values`, and what the section at another design needs (its mesh and
+    /// design map).
+    Beam {
+        sens: Box<SectionSensitivities>,
+        names: Vec<String>,
+        values: Vec<f64>,
+        mesh: Box<section::SectionMesh>,
+        map: DesignMap,
+        /// Per variable, `(region, law)` of the regions whose material it moves.
+        materials: MaterialLinks,
+    },
+    /// A shell: the laminate's ply angles move with the variables, `θ_p = θ_p0 + Σ_j f (b_j −
+    /// b_j0)` for each `(p, f)` of `links[j]` (θ in radians).
+    Shell {
+        stack: PlyStack<f64>,
+        names: Vec<String>,
+        values: Vec<f64>,
+        links: Vec<Vec<(usize, f64)>>,
+        /// Per variable, `(ply, law)` of the plies whose material it moves.
+        materials: MaterialLinks,
+        /// Per variable, `(ply, dt/db)` of the plies whose thickness it moves.
+        thicknesses: Vec<Vec<(usize, f64)>>,
+    },
+}
+
+impl Design {
+    pub fn names(&self) -> &[String] {
+        match self {
+            Design::Beam { names, .. } | Design::Shell { names, .. } => names,
+        }
+    }
+
+    /// The nominal values of the design variables.
+    pub fn values(&self) -> &[f64] {
+        match self {
+            Design::Beam { values, .. } | Design::Shell { values, .. } => values,
+        }
+    }
+
+    /// Whether variable `j` changes this body's stiffness.
+    pub fn depends_on(&self, j: usize) -> bool {
+        match self {
+            Design::Beam { sens, .. } => sens.derivatives.get(j).is_some_and(|d| {
+                d.stiffness.iter().any(|x| *x != 0.0)
+                    || d.mass_per_length != 0.0
+                    || d.mass_inertia.iter().any(|x| *x != 0.0)
+            }),
+            Design::Shell {
+                links,
+                materials,
+                thicknesses,
+                ..
+            } => {
+                links.get(j).is_some_and(|l| !l.is_empty())
+                    || materials.get(j).is_some_and(|m| !m.is_empty())
+                    || thicknesses.get(j).is_some_and(|t| !t.is_empty())
+            }
+        }
+    }
+
+    /// Element properties at the design `b` (values and tangents): at the nominal design from
+    /// the stored derivatives; elsewhere (Dailey's second-derivative terms perturb the design)
+    /// beams analyse their section at `b` again.
+    pub fn properties<const N: usize>(
+        &self,
+        b: &[Dual<N>],
+    ) -> Result<Properties<Dual<N>>, section::SectionError> {
+        Ok(match self {
+            Design::Beam {
+                sens,
+                values,
+                mesh,
+                map,
+                materials,
+                ..
+            } => {
+                let steps: Vec<f64> = b.iter().zip(values).map(|(bj, b0)| bj.v - b0).collect();
+                let section = if steps.iter().any(|&s| s != 0.0) {
+                    let mut at = (**mesh).clone();
+                    for (j, &step) in steps.iter().enumerate() {
+                        at = map.step(&at, j, step);
+                    }
+                    for (r, c) in moved_constants(mesh.regions.len(), materials, &steps, |r| {
+                        material_constants(&mesh.regions[r].material)
+                    }) {
+                        at.regions[r].material =
+                            with_material_constants(&at.regions[r].material, &c)
+                                .map_err(|e| section::SectionError::InvalidInput(e.to_string()))?;
+                    }
+                    let map_at = with_materials(map, &at, materials);
+                    BeamSection::from_sensitivities(&section_derivatives(&at, &map_at)?, b)
+                } else {
+                    BeamSection::from_sensitivities(sens, b)
+                };
+                Properties {
+                    sections: vec![section],
+                    laminates: Vec::new(),
+                }
+            }
+            Design::Shell {
+                stack,
+                links,
+                values,
+                materials,
+                thicknesses,
+                ..
+            } => {
+                let mut thickness: Vec<Dual<N>> = stack
+                    .plies()
+                    .iter()
+                    .map(|p| Dual::constant(p.thickness))
+                    .collect();
+                for ((bj, l), b0) in b.iter().zip(thicknesses).zip(values) {
+                    let step = *bj - Dual::constant(*b0);
+                    for &(p, f) in l {
+                        thickness[p] += step * Dual::constant(f);
+                    }
+                }
+                let mut angles: Vec<Dual<N>> = stack
+                    .plies()
+                    .iter()
+                    .map(|p| Dual::constant(p.angle))
+                    .collect();
+                for ((bj, l), b0) in b.iter().zip(links).zip(values) {
+                    let step = *bj - Dual::constant(*b0);
+                    for &(p, f) in l {
+                        angles[p] += step * Dual::constant(f);
+                    }
+                }
+                let bad =
+                    |e: laminate::LaminateError| section::SectionError::InvalidInput(e.to_string());
+                // each ply's material at b, with its tangents dC̄/db · db
+                let steps: Vec<f64> = b.iter().zip(values).map(|(bj, b0)| bj.v - b0).collect();
+                let plies = stack.plies();
+                let mut at: Vec<laminate::OrthotropicMaterial> =
+                    plies.iter().map(|p| p.material).collect();
+                for (p, c) in moved_constants(plies.len(), materials, &steps, |p| {
+                    material_constants(&plies[p].material)
+                }) {
+                    at[p] = with_material_constants(&at[p], &c).map_err(bad)?;
+                }
+                let mut c_bar: Vec<nalgebra::Matrix6<Dual<N>>> = at
+                    .iter()
+                    .map(|m| m.stiffness().map(Dual::constant))
+                    .collect();
+                let mut density: Vec<Dual<N>> =
+                    at.iter().map(|m| Dual::constant(m.density())).collect();
+                for (bj, m) in b.iter().zip(materials) {
+                    let db = *bj - Dual::constant(bj.v);
+                    for (p, law) in m {
+                        let dc = law.tangent(&material_constants(&at[*p]));
+                        let d = at[*p].stiffness_derivative(&elastic(&dc));
+                        for (x, y) in c_bar[*p].iter_mut().zip(d.iter()) {
+                            *x += db * Dual::constant(*y);
+                        }
+                        density[*p] += db * Dual::constant(dc[9]);
+                    }
+                }
+                let dual = stack.with_plies(&angles, &thickness).map_err(bad)?;
+                Properties {
+                    sections: Vec::new(),
+                    laminates: vec![dual.stiffness_with_materials(&c_bar, &density)],
+                }
+            }
+        })
+    }
+}
+
+/// The elastic constants of the parts (plies, regions) that material variables move, at the
+/// design steps `b − b0` ([`MaterialLaw::moved`]), for each part moved.
+fn moved_constants(
+    parts: usize,
+    materials: &[Vec<(usize, MaterialLaw)>],
+    steps: &[f64],
+    nominal: impl Fn(usize) -> [f64; 10],
+) -> Vec<(usize, [f64; 10])> {
+    let mut moves: Vec<Vec<(&MaterialLaw, f64)>> = vec![Vec::new(); parts];
+    for (m, &step) in materials.iter().zip(steps) {
+        if step == 0.0 {
+            continue;
+        }
+        for (part, law) in m {
+            moves[*part].push((law, step));
+        }
+    }
+    moves
+        .into_iter()
+        .enumerate()
+        .filter(|(_, m)| !m.is_empty())
+        .map(|(p, m)| (p, MaterialLaw::moved(nominal(p), m)))
+        .collect()
+}
+
+/// The section design map `map` (ply-angle links) with the material links of `materials`,
+/// their `dC̄/db` taken at the materials of `mesh`.
+fn with_materials(
+    map: &DesignMap,
+    mesh: &section::SectionMesh,
+    materials: &[Vec<(usize, MaterialLaw)>],
+) -> DesignMap {
+    let mut out = map.clone();
+    for (v, m) in out.variables.iter_mut().zip(materials) {
+        // dc/db where each region's material is
+        let tangents: Vec<(usize, [f64; 10])> = m
+            .iter()
+            .map(|(r, law)| {
+                (
+                    *r,
+                    law.tangent(&material_constants(&mesh.regions[*r].material)),
+                )
+            })
+            .collect();
+        v.materials = tangents
+            .iter()
+            .filter(|(_, dc)| dc[..9].iter().any(|&x| x != 0.0))
+            .map(|(r, dc)| {
+                let d = mesh.regions[*r].material.stiffness_derivative(&elastic(dc));
+                (*r, d)
+            })
+            .collect();
+        v.densities = tangents
+            .iter()
+            .filter(|(_, dc)| dc[9] != 0.0)
+            .map(|(r, dc)| (*r, dc[9]))
+            .collect();
+    }
+    out
+}
+
+/// The section design map of the deck's variables: region `r` turns with variable `j` when it
+/// is a ply of `j` ([`SectionDef::plies`]), its material moves with `j` when `j` is a
+/// constant of its material ([`SectionDef::materials`]), and the nodes of a generated section
+/// move with `j` when `j` is the thickness of one of its plies
+/// ([`SectionDef::generator_plies`]); with, per variable, the `(region, dc/db)` of those
+/// materials.
+pub fn section_design(
+    section: &SectionDef,
+    vars: &[DesignVariable],
+) -> Result<(DesignMap, MaterialLinks), String> {
+    let mut map = DesignMap::new();
+    let mut materials = Vec::new();
+    for v in vars {
+        // dt/db of a ply of the section's generator
+        let dthickness = |p: &section::PlySpec| {
+            section.generator_plies.get(&p.name).map_or(0.0, |tag| {
+                v.thickness_links(&tag.laminate)
+                    .iter()
+                    .filter(|&&(ply, _)| ply == tag.ply)
+                    .map(|&(_, f)| f)
+                    .sum()
+            })
+        };
+        // a ply of the section whose thickness the variable moves
+        let thickened = section.plies.iter().flatten().find(|t| {
+            v.thickness_links(&t.laminate)
+                .iter()
+                .any(|&(p, _)| p == t.ply)
+        });
+        let velocities = match (thickened, &section.generated) {
+            (None, _) => Vec::new(),
+            (Some(_), Some(g)) => g
+                .node_velocities(dthickness)
+                .map_err(|e| format!("design variable `{}`: {e}", v.name))?,
+            (Some(tag), None) => {
+                return Err(format!(
+                    "design variable `{}` moves the thickness of ply {} of laminate `{}`, which \
+                     builds this {} section: a ply thickness can move the nodes of a generated \
+                     section (tube, box, channel, I beam) or a shell, not of a mesh file, whose \
+                     geometry is fixed",
+                    v.name, tag.ply, tag.laminate, section.shape
+                ));
+            }
+        };
+        let mut links = Vec::new();
+        for (r, tag) in section.plies.iter().enumerate() {
+            let Some(tag) = tag else { continue };
+            for &(p, f) in v.ply_links(&tag.laminate) {
+                if p == tag.ply {
+                    links.push((r, f));
+                }
+            }
+        }
+        map = map.with_variable(v.name.clone(), links);
+        if let Some(last) = map.variables.last_mut() {
+            last.nodes = section::DesignVariable::node_links(&velocities);
+        }
+        materials.push(
+            section
+                .materials
+                .iter()
+                .enumerate()
+                .filter_map(|(r, m)| Some((r, *v.material_links(m.as_deref()?)?)))
+                .collect(),
+        );
+    }
+    let map = with_materials(&map, &section.mesh, &materials);
+    Ok((map, materials))
+}
+
+/// The design of a laminate `laminate` (a shell body's, or the `laminate` command's): how its
+/// plies turn, thicken and change material with the requested variables.
+pub fn shell_design(
+    stack: &PlyStack<f64>,
+    laminate: &str,
+    ply_materials: &[String],
+    request: DesignRequest,
+) -> Design {
+    let plies = stack.plies();
+    let (names, values, links) = match request {
+        DesignRequest::None => (Vec::new(), Vec::new(), Vec::new()),
+        DesignRequest::EachPly => (
+            (0..plies.len())
+                .map(|i| format!("{laminate}.plies.{i}.angle"))
+                .collect(),
+            plies.iter().map(|p| p.angle).collect(),
+            (0..plies.len()).map(|i| vec![(i, 1.0)]).collect(),
+        ),
+        DesignRequest::Variables(vars) => (
+            vars.iter().map(|v| v.name.clone()).collect(),
+            vars.iter().map(|v| v.value).collect(),
+            vars.iter()
+                .map(|v| v.ply_links(laminate).to_vec())
+                .collect(),
+        ),
+    };
+    let materials = match request {
+        DesignRequest::Variables(vars) => vars
+            .iter()
+            .map(|v| {
+                ply_materials
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(p, m)| Some((p, *v.material_links(m)?)))
+                    .collect()
+            })
+            .collect(),
+        _ => vec![Vec::new(); links.len()],
+    };
+    let thicknesses = match request {
+        DesignRequest::Variables(vars) => vars
+            .iter()
+            .map(|v| v.thickness_links(laminate).to_vec())
+            .collect(),
+        _ => vec![Vec::new(); links.len()],
+    };
+    Design::Shell {
+        stack: stack.clone(),
+        names,
+        values,
+        links,
+        materials,
+        thicknesses,
+    }
+}

@@ -1,0 +1,566 @@
+//! Flexible bodies from their validated deck tables: the mesh, the element properties, the
+//! modal options, and the design of each body (how its stiffness moves with the design
+//! variables).
+
+use fem::{BeamSection, ModalOptions, Properties, ReferenceCondition};
+use laminate::PlyStack;
+use section::{DesignMap, SectionSensitivities};
+use sens::Dual;
+
+use crate::deck::Source;
+use crate::deck::bodies::{BodyDef, BodyShape, Reference};
+use crate::deck::design::{
+    DesignVariable, MaterialLaw, elastic, material_constants, with_material_constants,
+};
+use crate::deck::sections::SectionDef;
+use crate::error::CliError;
+
+/// Width of the dual-number chunks (results do not depend on it).
+mod design;
+
+pub use design::{Design, DesignRequest, section_derivatives, section_design, shell_design};
+
+pub const CHUNK: usize = 8;
+
+impl Built {
+    /// The derivatives of the eigenvalues of `analysis` (this body's) with respect to every
+    /// design variable, without the eigenvectors' (which `flexsens modes` and the optimiser do
+    /// not use): the element matrices' tangents are projected on the modes element by element
+    /// (`fem::analysis_eigenvalue_derivatives`), with neither the derivative matrices nor
+    /// Nelson's factorisations. The eigenvalue derivatives equal those of
+    /// [`Built::mode_derivatives`].
+    pub fn eigenvalue_derivatives<const N: usize>(
+        &self,
+        src: &Source,
+        name: &str,
+        span: std::ops::Range<usize>,
+        analysis: &fem::ModalAnalysis,
+    ) -> Result<fem::ModeDerivatives, CliError> {
+        let mut failed = None;
+        let d = fem::analysis_eigenvalue_derivatives::<N, _>(
+            &self.mesh,
+            analysis,
+            self.design.values(),
+            |bd| self.properties_or_nominal(bd, &mut failed),
+        );
+        self.finish(src, name, span, d, failed)
+    }
+
+    /// The derivatives of the modes of `analysis` (this body's) with respect to every design
+    /// variable (`fem::analysis_derivatives` through [`Design::properties`]).
+    pub fn mode_derivatives<const N: usize>(
+        &self,
+        src: &Source,
+        name: &str,
+        span: std::ops::Range<usize>,
+        analysis: &fem::ModalAnalysis,
+        update: fem::ModeUpdate,
+    ) -> Result<(Vec<fem::DesignMatrices>, fem::ModeDerivatives), CliError> {
+        let mut failed = None;
+        let d = fem::analysis_derivatives::<N, _>(
+            &self.mesh,
+            analysis,
+            self.design.values(),
+            |bd| self.properties_or_nominal(bd, &mut failed),
+            update,
+        );
+        self.finish(src, name, span, d, failed)
+    }
+
+    /// The dual modal bodies of `analysis` (this body's) for every chunk of `N` design
+    /// variables, with their mode derivatives (`fem::design_bodies` through
+    /// [`Design::properties`]).
+    pub fn design_bodies<const N: usize>(
+        &self,
+        src: &Source,
+        name: &str,
+        span: std::ops::Range<usize>,
+        analysis: &fem::ModalAnalysis,
+        update: fem::ModeUpdate,
+    ) -> Result<fem::DesignBodies<N>, CliError> {
+        let mut failed = None;
+        let d = fem::design_bodies::<N, _>(
+            &self.mesh,
+            &self.props,
+            analysis,
+            self.design.values(),
+            |bd| self.properties_or_nominal(bd, &mut failed),
+            update,
+        );
+        self.finish(src, name, span, d, failed)
+    }
+
+    /// [`Design::properties`] at `bd`; on a failure the nominal properties stand in and the
+    /// error is kept in `failed` (returned by [`Built::finish`]).
+    fn properties_or_nominal<const N: usize>(
+        &self,
+        bd: &[Dual<N>],
+        failed: &mut Option<section::SectionError>,
+    ) -> Properties<Dual<N>> {
+        self.design.properties(bd).unwrap_or_else(|e| {
+            failed.get_or_insert(e);
+            let nominal: Vec<Dual<N>> = bd
+                .iter()
+                .zip(self.design.values())
+                .map(|(x, &b0)| Dual::new(b0, x.d))
+                .collect();
+            self.design.properties(&nominal).unwrap_or_default()
+        })
+    }
+
+    /// The result of a derivative computation, or the first failure of the section at a
+    /// perturbed design.
+    fn finish<T>(
+        &self,
+        src: &Source,
+        name: &str,
+        span: std::ops::Range<usize>,
+        d: Result<T, fem::FemError>,
+        failed: Option<section::SectionError>,
+    ) -> Result<T, CliError> {
+        if let Some(e) = failed {
+            return Err(CliError::Runtime(format!(
+                "{}: body `{name}`: the section at a perturbed design: {e}",
+                src.file.display()
+            )));
+        }
+        d.map_err(|e| fem_error(src, name, span, e))
+    }
+}
+
+/// A body ready for the finite-element analysis.
+pub struct Built {
+    pub mesh: fem::Mesh,
+    pub props: Properties<f64>,
+    pub options: ModalOptions,
+    pub design: Design,
+    pub kind: &'static str,
+}
+
+/// A shell body's mesh, properties and design from its laminate.
+fn shell(
+    mesh: fem::Mesh,
+    stack: &PlyStack<f64>,
+    laminate: &str,
+    ply_materials: &[String],
+    request: DesignRequest,
+) -> (fem::Mesh, Properties<f64>, Design, &'static str) {
+    let props = Properties {
+        sections: Vec::new(),
+        laminates: vec![stack.stiffness()],
+    };
+    let design = shell_design(stack, laminate, ply_materials, request);
+    (mesh, props, design, "shell")
+}
+
+pub fn build(
+    src: &Source,
+    name: &str,
+    def: &BodyDef,
+    request: DesignRequest,
+) -> Result<Built, CliError> {
+    let input = |key: &str, m: String| {
+        CliError::Input(src.error(Some(def.span.clone()), Some(format!("body.{name}{key}")), m))
+    };
+    let (mesh, props, design, kind) = match &def.shape {
+        BodyShape::Beam {
+            section_name,
+            section,
+            start,
+            end,
+            orientation,
+            elements,
+        } => {
+            let mesh = fem::Mesh::straight_beam(*start, *end, *elements, 0, *orientation)
+                .map_err(|e| input(".elements", e.to_string()))?;
+            let (props, design) =
+                beam(section_name, section, request).map_err(|(key, m)| input(key, m))?;
+            (mesh, props, design, "beam")
+        }
+        BodyShape::ShellRectangle {
+            laminate,
+            stack,
+            ply_materials,
+            length,
+            width,
+            elements,
+            axis,
+        } => {
+            let mut mesh = fem::Mesh::rectangle(*length, *width, elements[0], elements[1], 0)
+                .map_err(|e| input(".elements", e.to_string()))?;
+            for e in &mut mesh.elements {
+                if let fem::Element::Shell { material_axis, .. } = e {
+                    *material_axis = *axis;
+                }
+            }
+            shell(mesh, stack, laminate, ply_materials, request)
+        }
+        BodyShape::ShellMesh {
+            laminate,
+            stack,
+            ply_materials,
+            mesh_text,
+            file,
+            axis,
+        } => {
+            let tri = fem::parse_gmsh_v4(mesh_text)
+                .map_err(|e| input(".file", format!("in the mesh {file}: {e}")))?;
+            shell(
+                tri.to_mesh(0, *axis),
+                stack,
+                laminate,
+                ply_materials,
+                request,
+            )
+        }
+    };
+    let reference = reference_condition(def, mesh.nodes.len()).map_err(|(key, m)| input(key, m))?;
+    let supports = def
+        .supports
+        .iter()
+        .map(|sd| support_nodes(src, sd, &mesh))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut options = ModalOptions::new(def.computed);
+    options.supports = supports;
+    options.kept = def.kept.clone();
+    options.couplings = couplings(src, def, &mesh)?;
+    options.correction = def.correction.clone();
+    if def.interface {
+        // the joints' and forces' nodes that the reference condition leaves free, then every
+        // coupling (numbered after the mesh's nodes)
+        if let ReferenceCondition::ClampedNode(c) = reference {
+            options.correction.retain(|&n| n != c);
+        }
+        let n = mesh.nodes.len();
+        options.correction.retain(|&k| k < n);
+        options.correction.extend(n..n + def.couplings.len());
+    }
+    options.reference = reference;
+    options.planar = def.planar;
+    options.damping = def.damping;
+    options.mass = if def.lumped {
+        fem::MassKind::Lumped
+    } else {
+        fem::MassKind::Consistent
+    };
+    Ok(Built {
+        mesh,
+        props,
+        options,
+        design,
+        kind,
+    })
+}
+
+/// A beam body's properties from its section, and its design (the section's derivatives with
+/// respect to the variables `request` asks for); an error names the key at fault.
+fn beam(
+    section_name: &str,
+    section: &SectionDef,
+    request: DesignRequest,
+) -> Result<(Properties<f64>, Design), (&'static str, String)> {
+    let (map, materials) = match request {
+        DesignRequest::None => (None, Vec::new()),
+        DesignRequest::EachPly => {
+            let map = DesignMap::each_region(&section.mesh);
+            let none = vec![Vec::new(); map.variables.len()];
+            (Some(map), none)
+        }
+        DesignRequest::Variables(vars) => {
+            let (map, materials) = section_design(section, vars)
+                .map_err(|e| (".section", format!("section `{section_name}`: {e}")))?;
+            (Some(map), materials)
+        }
+    };
+    let s = match &map {
+        Some(map) => section_derivatives(&section.mesh, map),
+        None => section::analyse(&section.mesh).map(|p| SectionSensitivities {
+            properties: p,
+            ..Default::default()
+        }),
+    }
+    .map_err(|e| ("", format!("section `{section_name}`: {e}")))?;
+    let props = Properties {
+        sections: vec![BeamSection::from_section(&s.properties)],
+        laminates: Vec::new(),
+    };
+    let (names, values) = match request {
+        DesignRequest::None => (Vec::new(), Vec::new()),
+        DesignRequest::EachPly => (
+            s.variables.iter().map(|n| format!("{n}.angle")).collect(),
+            vec![0.0; s.variables.len()],
+        ),
+        DesignRequest::Variables(vars) => (
+            vars.iter().map(|v| v.name.clone()).collect(),
+            vars.iter().map(|v| v.value).collect(),
+        ),
+    };
+    let design = Design::Beam {
+        sens: Box::new(s),
+        names,
+        values,
+        mesh: Box::new(section.mesh.clone()),
+        map: map.unwrap_or_default(),
+        materials,
+    };
+    Ok((props, design))
+}
+
+/// The reference condition of `def` on a mesh of `n_nodes` nodes; an error names the key at
+/// fault.
+fn reference_condition(
+    def: &BodyDef,
+    n_nodes: usize,
+) -> Result<ReferenceCondition, (&'static str, String)> {
+    Ok(match def.reference {
+        Reference::CentreOfMass => ReferenceCondition::ClampedAtCentreOfMass,
+        Reference::ClampedSection => ReferenceCondition::ClampedSectionAtCentre,
+        Reference::FreeFree => ReferenceCondition::FreeFree,
+        Reference::Supports => ReferenceCondition::Supports,
+        Reference::ClampedNode(node) => {
+            if node >= n_nodes {
+                return Err((
+                    ".clamped",
+                    format!(
+                        "node {node} does not exist (the mesh has {} nodes)",
+                        n_nodes
+                    ),
+                ));
+            }
+            ReferenceCondition::ClampedNode(node)
+        }
+        Reference::PinnedEnds(Some([a, b])) => {
+            if a.max(b) >= n_nodes {
+                return Err((
+                    ".pinned",
+                    format!(
+                        "node {} does not exist (the mesh has {} nodes)",
+                        a.max(b),
+                        n_nodes
+                    ),
+                ));
+            }
+            ReferenceCondition::PinnedEnds { a, b }
+        }
+        Reference::PinnedEnds(None) => match &def.shape {
+            BodyShape::Beam { elements, .. } => {
+                ReferenceCondition::PinnedEnds { a: 0, b: *elements }
+            }
+            _ => {
+                return Err((
+                    ".pinned",
+                    "a shell with reference = \"pinned-ends\" needs pinned = [node a, node b]"
+                        .to_string(),
+                ));
+            }
+        },
+    })
+}
+
+/// The couplings of `def` resolved on `mesh`; a node in two rigid couplings is refused.
+fn couplings(
+    src: &Source,
+    def: &BodyDef,
+    mesh: &fem::Mesh,
+) -> Result<Vec<fem::Coupling>, CliError> {
+    let couplings = def
+        .couplings
+        .iter()
+        .map(|c| {
+            Ok(fem::Coupling {
+                nodes: node_set(src, &c.nodes, &c.key, c.span.clone(), mesh)?,
+                point: c.point,
+                rigid: c.rigid,
+            })
+        })
+        .collect::<Result<Vec<_>, CliError>>()?;
+    // a node follows one rigid coupling only
+    let mut rigid_owner: std::collections::BTreeMap<usize, &str> = Default::default();
+    for (c, def_c) in couplings.iter().zip(&def.couplings) {
+        if !c.rigid {
+            continue;
+        }
+        for &k in &c.nodes {
+            if let Some(other) = rigid_owner.insert(k, &def_c.name) {
+                return Err(CliError::Input(src.error(
+                    Some(def_c.span.clone()),
+                    Some(def_c.key.clone()),
+                    format!(
+                        "node {k} is also in the rigid coupling `{other}`: a node can follow \
+                     one rigid coupling only (merge the two sets, or make one distributing)"
+                    ),
+                )));
+            }
+        }
+    }
+    Ok(couplings)
+}
+
+/// The modal analysis of the built body `def`, and with `with_check` its basis check
+/// ([`basis_check`]; `None` without it, or for a free-free body). With `modes = "auto"` the
+/// fewest eigenmodes of [`crate::deck::bodies::AUTO_MODES`] (at least `def.computed`) whose
+/// check meets `def.basis_tolerance`, or the most the body has dof for (`built.options` are
+/// left at that number); the check is then always made.
+pub fn analyse(
+    src: &Source,
+    name: &str,
+    span: std::ops::Range<usize>,
+    def: &BodyDef,
+    built: &mut Built,
+    with_check: bool,
+) -> Result<(fem::ModalAnalysis, Option<fem::Completeness>), CliError> {
+    let run = |built: &Built| -> Result<_, CliError> {
+        let a = fem::modal_analysis(&built.mesh, &built.props, &built.options)
+            .map_err(|e| fem_error(src, name, span.clone(), e))?;
+        let check = if with_check || def.auto_modes {
+            basis_check(def, built, &a).map_err(|e| fem_error(src, name, span.clone(), e))?
+        } else {
+            None
+        };
+        Ok((a, check))
+    };
+    if !def.auto_modes {
+        return run(built);
+    }
+    let mut counts: Vec<usize> = std::iter::once(def.computed)
+        .chain(crate::deck::bodies::AUTO_MODES)
+        .filter(|&n| n >= def.computed)
+        .collect();
+    counts.dedup();
+    let mut best = None;
+    for n in counts {
+        built.options.n_modes = n;
+        let result = match run(built) {
+            Ok(r) => r,
+            // more modes than the body has dof for: keep the last that worked
+            Err(_) if best.is_some() => break,
+            Err(e) => return Err(e),
+        };
+        let met = result
+            .1
+            .as_ref()
+            .and_then(|c| c.worst())
+            .is_none_or(|w| w.missed <= def.basis_tolerance);
+        best = Some(result);
+        if met {
+            break;
+        }
+    }
+    let (a, check) = best.expect("at least one count tried");
+    built.options.n_modes = a.n_modes;
+    Ok((a, check))
+}
+
+/// The basis check of `analysis` (`fem::static_completeness`) under the loads the deck's
+/// joints and forces put on the body.
+pub fn basis_check(
+    def: &BodyDef,
+    built: &Built,
+    analysis: &fem::ModalAnalysis,
+) -> Result<Option<fem::Completeness>, fem::FemError> {
+    use crate::deck::bodies::InterfaceSite;
+    let n = built.mesh.nodes.len();
+    let interfaces: Vec<fem::InterfaceLoads> = def
+        .interfaces
+        .iter()
+        .filter_map(|i| {
+            let target = match &i.site {
+                InterfaceSite::Node(k) => Some(*k).filter(|&k| k < n),
+                InterfaceSite::Coupling(c) => def
+                    .couplings
+                    .iter()
+                    .position(|x| &x.name == c)
+                    .map(|p| n + p),
+            }?;
+            Some(fem::InterfaceLoads {
+                target,
+                forces: i.forces.clone(),
+                moments: i.moments.clone(),
+            })
+        })
+        .collect();
+    fem::static_completeness(&built.mesh, &built.props, analysis, &interfaces)
+}
+
+/// The nodes of `mesh` a support holds (an error naming the support when there are none).
+fn support_nodes(
+    src: &Source,
+    sd: &crate::deck::bodies::SupportDef,
+    mesh: &fem::Mesh,
+) -> Result<fem::Support, CliError> {
+    Ok(fem::Support {
+        nodes: node_set(src, &sd.nodes, &sd.key, sd.span.clone(), mesh)?,
+        dofs: sd.dofs.clone(),
+    })
+}
+
+/// The nodes of `mesh` in `set` (an error naming the table `key` when there are none).
+fn node_set(
+    src: &Source,
+    set: &crate::deck::bodies::NodeSet,
+    key: &str,
+    span: std::ops::Range<usize>,
+    mesh: &fem::Mesh,
+) -> Result<Vec<usize>, CliError> {
+    use crate::deck::bodies::NodeSet;
+    let fail = |m: String| CliError::Input(src.error(Some(span.clone()), Some(key.to_string()), m));
+    let n = mesh.nodes.len();
+    let (lo, hi) = mesh.bounding_box();
+    // coordinates within 1e-9 of the mesh's size count as on a plane or in a box
+    let tol = 1e-9 * (hi - lo).norm().max(f64::MIN_POSITIVE);
+    let nodes: Vec<usize> = match set {
+        NodeSet::Nodes(list) => {
+            if let Some(&k) = list.iter().find(|&&k| k >= n) {
+                return Err(fail(format!(
+                    "node {k} does not exist (the mesh has {n} nodes)"
+                )));
+            }
+            if let Some(w) = list
+                .iter()
+                .enumerate()
+                .find(|(i, k)| list[..*i].contains(k))
+            {
+                return Err(fail(format!("node {} is listed twice", w.1)));
+            }
+            list.clone()
+        }
+        NodeSet::Plane { axis, value } => (0..n)
+            .filter(|&k| (mesh.nodes[k][*axis] - value).abs() <= tol)
+            .collect(),
+        NodeSet::Inside([a, b]) => (0..n)
+            .filter(|&k| {
+                (0..3).all(|i| mesh.nodes[k][i] >= a[i] - tol && mesh.nodes[k][i] <= b[i] + tol)
+            })
+            .collect(),
+    };
+    if nodes.is_empty() {
+        return Err(fail(format!(
+            "no node of the body lies there (its mesh spans [{:e}, {:e}, {:e}] to [{:e}, {:e}, \
+             {:e}] m)",
+            lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
+        )));
+    }
+    Ok(nodes)
+}
+
+/// A failed eigen solution is a runtime failure; every other error of the finite-element layer
+/// (too many modes, a degenerate element, a bad mesh, …) is bad input.
+pub fn fem_error(
+    src: &Source,
+    name: &str,
+    span: std::ops::Range<usize>,
+    e: fem::FemError,
+) -> CliError {
+    match e {
+        fem::FemError::Eigen(m) => CliError::Runtime(format!(
+            "{}: body `{name}`: the eigen solution failed: {m}",
+            src.file.display()
+        )),
+        other => {
+            CliError::Input(src.error(Some(span), Some(format!("body.{name}")), other.to_string()))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;
