@@ -216,349 +216,9 @@ pub fn validate_one(
             ));
         }
     }
-    let elements_value = raw.elements.as_ref();
-    let elements_error = |what: &str| {
-        src.error(
-            elements_value.map(|e| e.span()),
-            Some(k("elements")),
-            format!("expected {what}"),
-        )
-    };
-    let int = |v: &toml::Value, min: i64| -> Option<usize> {
-        v.as_integer()
-            .filter(|&n| n >= min && n <= crate::limits::get().elements as i64)
-            .map(|n| n as usize)
-    };
-    let shape = match kind.get_ref().as_str() {
-        "beam" => {
-            let sname = required(
-                src,
-                table.clone(),
-                &k("section"),
-                &raw.section,
-                "section (a [section.*] name)",
-            )?;
-            let s = deck.section.get(sname.get_ref()).ok_or_else(|| {
-                let known: Vec<&str> = deck.section.keys().map(String::as_str).collect();
-                src.error(
-                    span(sname),
-                    Some(k("section")),
-                    format!(
-                        "undefined section `{}`{}",
-                        sname.get_ref(),
-                        suggestion(sname.get_ref(), &known)
-                    ),
-                )
-            })?;
-            let section = sections::validate_one(src, sname.get_ref(), s, model)?;
-            let start = vector(
-                src,
-                &k("start"),
-                required(
-                    src,
-                    table.clone(),
-                    &k("start"),
-                    &raw.start,
-                    "start [x, y, z] (m)",
-                )?,
-            )?;
-            let end = vector(
-                src,
-                &k("end"),
-                required(src, table.clone(), &k("end"), &raw.end, "end [x, y, z] (m)")?,
-            )?;
-            let axis = end - start;
-            // below a nanometre (or a billionth of the coordinates) a length is round-off, and
-            // the element matrices would not be finite
-            let negligible = 1e-9 * start.norm().max(end.norm()).max(1.0);
-            if axis.norm() <= negligible {
-                return Err(src.error(
-                    raw.end.as_ref().map(|e| e.span()),
-                    Some(k("end")),
-                    format!(
-                        "the beam's length |end − start| = {:e} m is zero or negligible (at \
-                         least {negligible:e} m)",
-                        axis.norm()
-                    ),
-                ));
-            }
-            let orientation = match &raw.orientation {
-                Some(o) => nonzero_vector(src, &k("orientation"), o)?,
-                None if axis.normalize().cross(&Vector3::y()).norm() > 1e-6 => Vector3::y(),
-                None => Vector3::z(),
-            };
-            if orientation.normalize().cross(&axis.normalize()).norm() < 1e-6 {
-                return Err(src.error(
-                    raw.orientation.as_ref().map(|o| o.span()),
-                    Some(k("orientation")),
-                    "must not be parallel to the beam axis",
-                ));
-            }
-            let elements = match elements_value {
-                None => 10,
-                Some(e) => int(e.get_ref(), 1).ok_or_else(|| {
-                    elements_error(&format!(
-                        "a whole number of beam elements, from 1 to the limit of {} \
-                         (--max-elements raises it)",
-                        crate::limits::get().elements
-                    ))
-                })?,
-            };
-            BodyShape::Beam {
-                section_name: sname.get_ref().clone(),
-                section,
-                start,
-                end,
-                orientation,
-                elements,
-            }
-        }
-        _ => {
-            let lname = required(
-                src,
-                table.clone(),
-                &k("laminate"),
-                &raw.laminate,
-                "laminate (a [laminate.*] name)",
-            )?;
-            let def = model.laminates.get(lname.get_ref()).ok_or_else(|| {
-                let known: Vec<&str> = model.laminates.keys().map(String::as_str).collect();
-                src.error(
-                    span(lname),
-                    Some(k("laminate")),
-                    format!(
-                        "undefined laminate `{}`{}",
-                        lname.get_ref(),
-                        suggestion(lname.get_ref(), &known)
-                    ),
-                )
-            })?;
-            let (stack, ply_materials) = (def.stack.clone(), def.ply_materials.clone());
-            let axis = raw
-                .material_axis
-                .as_ref()
-                .map(|a| nonzero_vector(src, &k("material_axis"), a))
-                .transpose()?
-                .unwrap_or(Vector3::x());
-            match &raw.file {
-                Some(f) => {
-                    for (key, v) in [("length", &raw.length), ("width", &raw.width)] {
-                        if let Some(v) = v {
-                            return Err(src.error(
-                                span(v),
-                                Some(k(key)),
-                                "a shell read from a file takes its size from the mesh",
-                            ));
-                        }
-                    }
-                    if let Some(e) = elements_value {
-                        return Err(src.error(
-                            span(e),
-                            Some(k("elements")),
-                            "a shell read from a file takes its elements from the mesh",
-                        ));
-                    }
-                    let path = src
-                        .file
-                        .parent()
-                        .unwrap_or(std::path::Path::new("."))
-                        .join(f.get_ref());
-                    let mesh_text = crate::limits::read_text(&path).map_err(|e| {
-                        src.error(
-                            span(f),
-                            Some(k("file")),
-                            format!("cannot read the mesh {}: {e}", path.display()),
-                        )
-                    })?;
-                    BodyShape::ShellMesh {
-                        laminate: lname.get_ref().clone(),
-                        stack,
-                        ply_materials: ply_materials.clone(),
-                        mesh_text,
-                        file: path.display().to_string(),
-                        axis,
-                    }
-                }
-                None => {
-                    let length = positive(
-                        src,
-                        &k("length"),
-                        required(
-                            src,
-                            table.clone(),
-                            &k("length"),
-                            &raw.length,
-                            "length along x (m), or file",
-                        )?,
-                        "m",
-                    )?;
-                    let width = positive(
-                        src,
-                        &k("width"),
-                        required(
-                            src,
-                            table.clone(),
-                            &k("width"),
-                            &raw.width,
-                            "width along y (m)",
-                        )?,
-                        "m",
-                    )?;
-                    let elements = match elements_value {
-                        None => {
-                            let nx = 16usize;
-                            [nx, ((nx as f64 * width / length).round() as usize).max(2)]
-                        }
-                        Some(e) => match e.get_ref().as_array().map(|a| a.as_slice()) {
-                            Some([a, b]) => [
-                                int(a, 1).ok_or_else(|| {
-                                    elements_error(&format!(
-                                        "[along x, along y], whole numbers from 1 to the limit \
-                                         of {} (--max-elements raises it)",
-                                        crate::limits::get().elements
-                                    ))
-                                })?,
-                                int(b, 1).ok_or_else(|| {
-                                    elements_error(&format!(
-                                        "[along x, along y], whole numbers from 1 to the limit \
-                                         of {} (--max-elements raises it)",
-                                        crate::limits::get().elements
-                                    ))
-                                })?,
-                            ],
-                            _ => {
-                                return Err(elements_error(
-                                    "[along x, along y] for a shell rectangle",
-                                ));
-                            }
-                        },
-                    };
-                    super::check::mesh_size(
-                        src,
-                        &k("elements"),
-                        elements_value.map(|e| e.span()),
-                        elements[0].saturating_mul(elements[1]),
-                    )?;
-                    BodyShape::ShellRectangle {
-                        laminate: lname.get_ref().clone(),
-                        stack,
-                        ply_materials: ply_materials.clone(),
-                        length,
-                        width,
-                        elements,
-                        axis,
-                    }
-                }
-            }
-        }
-    };
-    let modes_value = required(
-        src,
-        table.clone(),
-        &k("modes"),
-        &raw.modes,
-        "modes (number of elastic modes retained, or a list of mode numbers)",
-    )?;
-    let modes_error = |m: String| src.error(span(modes_value), Some(k("modes")), m);
-    let auto_modes = modes_value.get_ref().as_str() == Some("auto");
-    let (modes, mut computed, kept) = match modes_value.get_ref() {
-        v @ toml::Value::Integer(n) => match int(v, 1) {
-            Some(n) => (n, n, None),
-            None => {
-                return Err(modes_error(format!(
-                    "{n} must be a whole number of at least 1"
-                )));
-            }
-        },
-        toml::Value::String(w) if w == "auto" => (AUTO_MODES[0], AUTO_MODES[0], None),
-        toml::Value::Array(list) => {
-            let numbers: Option<Vec<usize>> = list.iter().map(|v| int(v, 1)).collect();
-            match numbers {
-                Some(n) if !n.is_empty() && n.windows(2).all(|w| w[1] > w[0]) => {
-                    let last = *n.last().expect("non-empty");
-                    (n.len(), last, Some(n.iter().map(|i| i - 1).collect()))
-                }
-                _ => {
-                    return Err(modes_error(
-                        "a list of mode numbers needs whole numbers from 1, strictly ascending, \
-                         e.g. [1, 2, 5]"
-                            .into(),
-                    ));
-                }
-            }
-        }
-        _ => {
-            return Err(modes_error(
-                "expected a number of modes (e.g. 4), a list of mode numbers (e.g. [1, 2, 5]) \
-                 or \"auto\""
-                    .into(),
-            ));
-        }
-    };
-    let reference = match raw.reference.as_ref().map(|r| (r, r.get_ref().as_str())) {
-        None | Some((_, "centre-of-mass")) => Reference::CentreOfMass,
-        Some((_, "clamped-section")) => Reference::ClampedSection,
-        Some((_, "free-free")) => Reference::FreeFree,
-        Some((_, "pinned-ends")) => Reference::PinnedEnds(match &raw.pinned {
-            None => None,
-            Some(p) => {
-                let [a, b] = *p.get_ref();
-                if a < 0 || b < 0 || a == b {
-                    return Err(src.error(
-                        span(p),
-                        Some(k("pinned")),
-                        "two different node indices (from 0) are needed",
-                    ));
-                }
-                Some([a as usize, b as usize])
-            }
-        }),
-        Some((_, "clamped-node")) => Reference::ClampedNode(match &raw.clamped {
-            None => 0,
-            Some(c) if *c.get_ref() >= 0 => *c.get_ref() as usize,
-            Some(c) => {
-                return Err(src.error(
-                    span(c),
-                    Some(k("clamped")),
-                    "a node index (from 0) is needed",
-                ));
-            }
-        }),
-        Some((_, "supports")) => Reference::Supports,
-        Some((r, other)) => {
-            let choices = [
-                "centre-of-mass",
-                "clamped-section",
-                "free-free",
-                "pinned-ends",
-                "clamped-node",
-                "supports",
-            ];
-            return Err(src.error(
-                span(r),
-                Some(k("reference")),
-                format!(
-                    "unknown reference condition `{other}`: expected one of {}{}",
-                    choices.join(", "),
-                    suggestion(other, &choices)
-                ),
-            ));
-        }
-    };
-    if let (Some(p), false) = (&raw.pinned, matches!(reference, Reference::PinnedEnds(_))) {
-        return Err(src.error(
-            span(p),
-            Some(k("pinned")),
-            "pinned is only used with reference = \"pinned-ends\"",
-        ));
-    }
-    if let (Some(c), false) = (&raw.clamped, matches!(reference, Reference::ClampedNode(_))) {
-        return Err(src.error(
-            span(c),
-            Some(k("clamped")),
-            "clamped is only used with reference = \"clamped-node\"",
-        ));
-    }
+    let shape = shape(src, deck, name, raw, table.clone(), kind, model)?;
+    let (modes, mut computed, kept, auto_modes) = modes(src, name, raw, table.clone())?;
+    let reference = reference(src, name, raw)?;
     let beam = matches!(shape, BodyShape::Beam { .. });
     let stiffening = match &raw.stiffening {
         None => beam && STIFFENING_DEFAULT,
@@ -590,86 +250,7 @@ pub fn validate_one(
         }
         _ => {}
     }
-    let dk = |key: &str| format!("body.{name}.damping.{key}");
-    let damping = match &raw.damping {
-        None => None,
-        Some(d) if d.get_ref().alpha.is_some() || d.get_ref().beta.is_some() => {
-            let rd = d.get_ref();
-            if let Some(m) = &rd.modes {
-                return Err(src.error(
-                    span(m),
-                    Some(dk("modes")),
-                    "give either modes and ratios, or alpha and beta, not both",
-                ));
-            }
-            if let Some(r) = &rd.ratios {
-                return Err(src.error(
-                    span(r),
-                    Some(dk("ratios")),
-                    "give either modes and ratios, or alpha and beta, not both",
-                ));
-            }
-            let coefficient = |key: &str, v: &Option<Spanned<f64>>, unit: &str| {
-                let Some(v) = v else { return Ok(0.0) };
-                let x = *v.get_ref();
-                if x.is_finite() && x >= 0.0 {
-                    Ok(x)
-                } else {
-                    Err(src.error(
-                        span(v),
-                        Some(dk(key)),
-                        format!("{x} must be a finite coefficient ≥ 0 ({unit})"),
-                    ))
-                }
-            };
-            Some(fem::Damping::Coefficients {
-                alpha: coefficient("alpha", &rd.alpha, "1/s")?,
-                beta: coefficient("beta", &rd.beta, "s")?,
-            })
-        }
-        Some(d) => {
-            let m = required(
-                src,
-                span(d),
-                &dk("modes"),
-                &d.get_ref().modes,
-                "modes = [i, j] (counted from 1)",
-            )?;
-            let r = required(
-                src,
-                span(d),
-                &dk("ratios"),
-                &d.get_ref().ratios,
-                "ratios = [ζi, ζj]",
-            )?;
-            let [i, j] = *m.get_ref();
-            if auto_modes && i >= 1 && j >= 1 {
-                // the automatic choice computes at least the modes the fit refers to
-                computed = computed.max(i.max(j) as usize);
-            }
-            if i < 1 || j < 1 || i == j || i as usize > computed || j as usize > computed {
-                return Err(src.error(
-                    span(m),
-                    Some(dk("modes")),
-                    format!("two different mode numbers, between 1 and {computed}, are needed"),
-                ));
-            }
-            let ratios = *r.get_ref();
-            for (n, z) in ratios.iter().enumerate() {
-                if !(z.is_finite() && *z >= 0.0) {
-                    return Err(src.error(
-                        span(r),
-                        Some(format!("{}[{n}]", dk("ratios"))),
-                        format!("{z} must be a finite damping ratio ≥ 0"),
-                    ));
-                }
-            }
-            Some(fem::Damping::Ratios(fem::RayleighDamping {
-                modes: [i as usize - 1, j as usize - 1],
-                ratios,
-            }))
-        }
-    };
+    let damping = damping(src, name, raw, auto_modes, &mut computed)?;
     let lumped = match raw.mass.as_ref().map(|m| (m, m.get_ref().as_str())) {
         None | Some((_, "lumped")) => true,
         Some((_, "consistent")) => false,
@@ -775,10 +356,11 @@ pub fn validate_one(
             }
         }
         if reference == Reference::FreeFree {
-            return Err(modes_error(
+            return Err(src.error(
+                raw.modes.as_ref().and_then(span),
+                Some(k("modes")),
                 "modes = \"auto\" chooses by the basis check, which needs a reference condition \
-                 that holds the body (not free-free)"
-                    .into(),
+                 that holds the body (not free-free)",
             ));
         }
     }
@@ -890,6 +472,516 @@ fn node_set(
                 "give the nodes in one way: nodes = [...], plane = { x = … } or box = [[…], \
                  […]]",
             ));
+        }
+    })
+}
+
+/// A body's mesh: a beam along its section, or a shell of a laminate (a rectangle, or a mesh
+/// file).
+fn shape(
+    src: &Source,
+    deck: &RawDeck,
+    name: &str,
+    raw: &RawBody,
+    table: Option<std::ops::Range<usize>>,
+    kind: &Spanned<String>,
+    model: &LaminateModel,
+) -> Result<BodyShape, DeckError> {
+    let k = |key: &str| format!("body.{name}.{key}");
+    let elements_value = raw.elements.as_ref();
+    Ok(match kind.get_ref().as_str() {
+        "beam" => {
+            let sname = required(
+                src,
+                table.clone(),
+                &k("section"),
+                &raw.section,
+                "section (a [section.*] name)",
+            )?;
+            let s = deck.section.get(sname.get_ref()).ok_or_else(|| {
+                let known: Vec<&str> = deck.section.keys().map(String::as_str).collect();
+                src.error(
+                    span(sname),
+                    Some(k("section")),
+                    format!(
+                        "undefined section `{}`{}",
+                        sname.get_ref(),
+                        suggestion(sname.get_ref(), &known)
+                    ),
+                )
+            })?;
+            let section = sections::validate_one(src, sname.get_ref(), s, model)?;
+            let start = vector(
+                src,
+                &k("start"),
+                required(
+                    src,
+                    table.clone(),
+                    &k("start"),
+                    &raw.start,
+                    "start [x, y, z] (m)",
+                )?,
+            )?;
+            let end = vector(
+                src,
+                &k("end"),
+                required(src, table.clone(), &k("end"), &raw.end, "end [x, y, z] (m)")?,
+            )?;
+            let axis = end - start;
+            // below a nanometre (or a billionth of the coordinates) a length is round-off, and
+            // the element matrices would not be finite
+            let negligible = 1e-9 * start.norm().max(end.norm()).max(1.0);
+            if axis.norm() <= negligible {
+                return Err(src.error(
+                    raw.end.as_ref().map(|e| e.span()),
+                    Some(k("end")),
+                    format!(
+                        "the beam's length |end − start| = {:e} m is zero or negligible (at \
+                         least {negligible:e} m)",
+                        axis.norm()
+                    ),
+                ));
+            }
+            let orientation = match &raw.orientation {
+                Some(o) => nonzero_vector(src, &k("orientation"), o)?,
+                None if axis.normalize().cross(&Vector3::y()).norm() > 1e-6 => Vector3::y(),
+                None => Vector3::z(),
+            };
+            if orientation.normalize().cross(&axis.normalize()).norm() < 1e-6 {
+                return Err(src.error(
+                    raw.orientation.as_ref().map(|o| o.span()),
+                    Some(k("orientation")),
+                    "must not be parallel to the beam axis",
+                ));
+            }
+            let elements = match elements_value {
+                None => 10,
+                Some(e) => element_count(e.get_ref(), 1).ok_or_else(|| {
+                    elements_error(
+                        src,
+                        name,
+                        raw,
+                        &format!(
+                            "a whole number of beam elements, from 1 to the limit of {} \
+                         (--max-elements raises it)",
+                            crate::limits::get().elements
+                        ),
+                    )
+                })?,
+            };
+            BodyShape::Beam {
+                section_name: sname.get_ref().clone(),
+                section,
+                start,
+                end,
+                orientation,
+                elements,
+            }
+        }
+        _ => shell_shape(src, name, raw, table, model)?,
+    })
+}
+
+/// A shell body's mesh: a rectangle or a mesh file, of a laminate.
+fn shell_shape(
+    src: &Source,
+    name: &str,
+    raw: &RawBody,
+    table: Option<std::ops::Range<usize>>,
+    model: &LaminateModel,
+) -> Result<BodyShape, DeckError> {
+    let k = |key: &str| format!("body.{name}.{key}");
+    let elements_value = raw.elements.as_ref();
+    let lname = required(
+        src,
+        table.clone(),
+        &k("laminate"),
+        &raw.laminate,
+        "laminate (a [laminate.*] name)",
+    )?;
+    let def = shell_laminate(src, name, lname, model)?;
+    let (stack, ply_materials) = (def.stack.clone(), def.ply_materials.clone());
+    let axis = raw
+        .material_axis
+        .as_ref()
+        .map(|a| nonzero_vector(src, &k("material_axis"), a))
+        .transpose()?
+        .unwrap_or(Vector3::x());
+    Ok(match &raw.file {
+        Some(f) => {
+            for (key, v) in [("length", &raw.length), ("width", &raw.width)] {
+                if let Some(v) = v {
+                    return Err(src.error(
+                        span(v),
+                        Some(k(key)),
+                        "a shell read from a file takes its size from the mesh",
+                    ));
+                }
+            }
+            if let Some(e) = elements_value {
+                return Err(src.error(
+                    span(e),
+                    Some(k("elements")),
+                    "a shell read from a file takes its elements from the mesh",
+                ));
+            }
+            let path = src
+                .file
+                .parent()
+                .unwrap_or(std::path::Path::new("."))
+                .join(f.get_ref());
+            let mesh_text = crate::limits::read_text(&path).map_err(|e| {
+                src.error(
+                    span(f),
+                    Some(k("file")),
+                    format!("cannot read the mesh {}: {e}", path.display()),
+                )
+            })?;
+            BodyShape::ShellMesh {
+                laminate: lname.get_ref().clone(),
+                stack,
+                ply_materials: ply_materials.clone(),
+                mesh_text,
+                file: path.display().to_string(),
+                axis,
+            }
+        }
+        None => {
+            let length = positive(
+                src,
+                &k("length"),
+                required(
+                    src,
+                    table.clone(),
+                    &k("length"),
+                    &raw.length,
+                    "length along x (m), or file",
+                )?,
+                "m",
+            )?;
+            let width = positive(
+                src,
+                &k("width"),
+                required(
+                    src,
+                    table.clone(),
+                    &k("width"),
+                    &raw.width,
+                    "width along y (m)",
+                )?,
+                "m",
+            )?;
+            let elements = match elements_value {
+                None => {
+                    let nx = 16usize;
+                    [nx, ((nx as f64 * width / length).round() as usize).max(2)]
+                }
+                Some(e) => match e.get_ref().as_array().map(|a| a.as_slice()) {
+                    Some([a, b]) => [
+                        element_count(a, 1).ok_or_else(|| {
+                            elements_error(
+                                src,
+                                name,
+                                raw,
+                                &format!(
+                                    "[along x, along y], whole numbers from 1 to the limit \
+                                 of {} (--max-elements raises it)",
+                                    crate::limits::get().elements
+                                ),
+                            )
+                        })?,
+                        element_count(b, 1).ok_or_else(|| {
+                            elements_error(
+                                src,
+                                name,
+                                raw,
+                                &format!(
+                                    "[along x, along y], whole numbers from 1 to the limit \
+                                 of {} (--max-elements raises it)",
+                                    crate::limits::get().elements
+                                ),
+                            )
+                        })?,
+                    ],
+                    _ => {
+                        return Err(elements_error(
+                            src,
+                            name,
+                            raw,
+                            "[along x, along y] for a shell rectangle",
+                        ));
+                    }
+                },
+            };
+            super::check::mesh_size(
+                src,
+                &k("elements"),
+                elements_value.map(|e| e.span()),
+                elements[0].saturating_mul(elements[1]),
+            )?;
+            BodyShape::ShellRectangle {
+                laminate: lname.get_ref().clone(),
+                stack,
+                ply_materials: ply_materials.clone(),
+                length,
+                width,
+                elements,
+                axis,
+            }
+        }
+    })
+}
+
+/// The laminate a shell body names.
+fn shell_laminate<'m>(
+    src: &Source,
+    name: &str,
+    lname: &Spanned<String>,
+    model: &'m LaminateModel,
+) -> Result<&'m super::laminates::LaminateDef, DeckError> {
+    model.laminates.get(lname.get_ref()).ok_or_else(|| {
+        let known: Vec<&str> = model.laminates.keys().map(String::as_str).collect();
+        src.error(
+            span(lname),
+            Some(format!("body.{name}.laminate")),
+            format!(
+                "undefined laminate `{}`{}",
+                lname.get_ref(),
+                suggestion(lname.get_ref(), &known)
+            ),
+        )
+    })
+}
+
+/// A count of elements or modes: a whole number from `min` up to the element limit.
+fn element_count(v: &toml::Value, min: i64) -> Option<usize> {
+    v.as_integer()
+        .filter(|&n| n >= min && n <= crate::limits::get().elements as i64)
+        .map(|n| n as usize)
+}
+
+/// The error of a malformed `elements` value of body `name`.
+fn elements_error(src: &Source, name: &str, raw: &RawBody, what: &str) -> DeckError {
+    src.error(
+        raw.elements.as_ref().map(|e| e.span()),
+        Some(format!("body.{name}.elements")),
+        format!("expected {what}"),
+    )
+}
+
+/// A body's retained modes: their number, the number of lowest modes computed, the retained
+/// ones when the deck lists mode numbers (zero-based), and whether `modes = "auto"`.
+#[allow(clippy::type_complexity)]
+fn modes(
+    src: &Source,
+    name: &str,
+    raw: &RawBody,
+    table: Option<std::ops::Range<usize>>,
+) -> Result<(usize, usize, Option<Vec<usize>>, bool), DeckError> {
+    let k = |key: &str| format!("body.{name}.{key}");
+    let modes_value = required(
+        src,
+        table.clone(),
+        &k("modes"),
+        &raw.modes,
+        "modes (number of elastic modes retained, or a list of mode numbers)",
+    )?;
+    let modes_error = |m: String| src.error(span(modes_value), Some(k("modes")), m);
+    let auto_modes = modes_value.get_ref().as_str() == Some("auto");
+    let (modes, computed, kept) = match modes_value.get_ref() {
+        v @ toml::Value::Integer(n) => match element_count(v, 1) {
+            Some(n) => (n, n, None),
+            None => {
+                return Err(modes_error(format!(
+                    "{n} must be a whole number of at least 1"
+                )));
+            }
+        },
+        toml::Value::String(w) if w == "auto" => (AUTO_MODES[0], AUTO_MODES[0], None),
+        toml::Value::Array(list) => {
+            let numbers: Option<Vec<usize>> = list.iter().map(|v| element_count(v, 1)).collect();
+            match numbers {
+                Some(n) if !n.is_empty() && n.windows(2).all(|w| w[1] > w[0]) => {
+                    let last = *n.last().expect("non-empty");
+                    (n.len(), last, Some(n.iter().map(|i| i - 1).collect()))
+                }
+                _ => {
+                    return Err(modes_error(
+                        "a list of mode numbers needs whole numbers from 1, strictly ascending, \
+                         e.g. [1, 2, 5]"
+                            .into(),
+                    ));
+                }
+            }
+        }
+        _ => {
+            return Err(modes_error(
+                "expected a number of modes (e.g. 4), a list of mode numbers (e.g. [1, 2, 5]) \
+                 or \"auto\""
+                    .into(),
+            ));
+        }
+    };
+    Ok((modes, computed, kept, auto_modes))
+}
+
+/// A body's reference condition (and `pinned` or `clamped`, given only with theirs).
+fn reference(src: &Source, name: &str, raw: &RawBody) -> Result<Reference, DeckError> {
+    let k = |key: &str| format!("body.{name}.{key}");
+    let reference = match raw.reference.as_ref().map(|r| (r, r.get_ref().as_str())) {
+        None | Some((_, "centre-of-mass")) => Reference::CentreOfMass,
+        Some((_, "clamped-section")) => Reference::ClampedSection,
+        Some((_, "free-free")) => Reference::FreeFree,
+        Some((_, "pinned-ends")) => Reference::PinnedEnds(match &raw.pinned {
+            None => None,
+            Some(p) => {
+                let [a, b] = *p.get_ref();
+                if a < 0 || b < 0 || a == b {
+                    return Err(src.error(
+                        span(p),
+                        Some(k("pinned")),
+                        "two different node indices (from 0) are needed",
+                    ));
+                }
+                Some([a as usize, b as usize])
+            }
+        }),
+        Some((_, "clamped-node")) => Reference::ClampedNode(match &raw.clamped {
+            None => 0,
+            Some(c) if *c.get_ref() >= 0 => *c.get_ref() as usize,
+            Some(c) => {
+                return Err(src.error(
+                    span(c),
+                    Some(k("clamped")),
+                    "a node index (from 0) is needed",
+                ));
+            }
+        }),
+        Some((_, "supports")) => Reference::Supports,
+        Some((r, other)) => {
+            let choices = [
+                "centre-of-mass",
+                "clamped-section",
+                "free-free",
+                "pinned-ends",
+                "clamped-node",
+                "supports",
+            ];
+            return Err(src.error(
+                span(r),
+                Some(k("reference")),
+                format!(
+                    "unknown reference condition `{other}`: expected one of {}{}",
+                    choices.join(", "),
+                    suggestion(other, &choices)
+                ),
+            ));
+        }
+    };
+    if let (Some(p), false) = (&raw.pinned, matches!(reference, Reference::PinnedEnds(_))) {
+        return Err(src.error(
+            span(p),
+            Some(k("pinned")),
+            "pinned is only used with reference = \"pinned-ends\"",
+        ));
+    }
+    if let (Some(c), false) = (&raw.clamped, matches!(reference, Reference::ClampedNode(_))) {
+        return Err(src.error(
+            span(c),
+            Some(k("clamped")),
+            "clamped is only used with reference = \"clamped-node\"",
+        ));
+    }
+    Ok(reference)
+}
+
+/// A body's damping: Rayleigh coefficients, or ratios at two modes (which `computed`, the
+/// number of modes computed, then includes with `modes = "auto"`).
+fn damping(
+    src: &Source,
+    name: &str,
+    raw: &RawBody,
+    auto_modes: bool,
+    computed: &mut usize,
+) -> Result<Option<fem::Damping>, DeckError> {
+    let dk = |key: &str| format!("body.{name}.damping.{key}");
+    Ok(match &raw.damping {
+        None => None,
+        Some(d) if d.get_ref().alpha.is_some() || d.get_ref().beta.is_some() => {
+            let rd = d.get_ref();
+            if let Some(m) = &rd.modes {
+                return Err(src.error(
+                    span(m),
+                    Some(dk("modes")),
+                    "give either modes and ratios, or alpha and beta, not both",
+                ));
+            }
+            if let Some(r) = &rd.ratios {
+                return Err(src.error(
+                    span(r),
+                    Some(dk("ratios")),
+                    "give either modes and ratios, or alpha and beta, not both",
+                ));
+            }
+            let coefficient = |key: &str, v: &Option<Spanned<f64>>, unit: &str| {
+                let Some(v) = v else { return Ok(0.0) };
+                let x = *v.get_ref();
+                if x.is_finite() && x >= 0.0 {
+                    Ok(x)
+                } else {
+                    Err(src.error(
+                        span(v),
+                        Some(dk(key)),
+                        format!("{x} must be a finite coefficient ≥ 0 ({unit})"),
+                    ))
+                }
+            };
+            Some(fem::Damping::Coefficients {
+                alpha: coefficient("alpha", &rd.alpha, "1/s")?,
+                beta: coefficient("beta", &rd.beta, "s")?,
+            })
+        }
+        Some(d) => {
+            let m = required(
+                src,
+                span(d),
+                &dk("modes"),
+                &d.get_ref().modes,
+                "modes = [i, j] (counted from 1)",
+            )?;
+            let r = required(
+                src,
+                span(d),
+                &dk("ratios"),
+                &d.get_ref().ratios,
+                "ratios = [ζi, ζj]",
+            )?;
+            let [i, j] = *m.get_ref();
+            if auto_modes && i >= 1 && j >= 1 {
+                // the automatic choice computes at least the modes the fit refers to
+                *computed = (*computed).max(i.max(j) as usize);
+            }
+            if i < 1 || j < 1 || i == j || i as usize > *computed || j as usize > *computed {
+                return Err(src.error(
+                    span(m),
+                    Some(dk("modes")),
+                    format!("two different mode numbers, between 1 and {computed}, are needed"),
+                ));
+            }
+            let ratios = *r.get_ref();
+            for (n, z) in ratios.iter().enumerate() {
+                if !(z.is_finite() && *z >= 0.0) {
+                    return Err(src.error(
+                        span(r),
+                        Some(format!("{}[{n}]", dk("ratios"))),
+                        format!("{z} must be a finite damping ratio ≥ 0"),
+                    ));
+                }
+            }
+            Some(fem::Damping::Ratios(fem::RayleighDamping {
+                modes: [i as usize - 1, j as usize - 1],
+                ratios,
+            }))
         }
     })
 }
