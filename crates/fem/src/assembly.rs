@@ -3,8 +3,9 @@
 //! Dof numbering: node-major, six per node, `6 k + [u_x, u_y, u_z, θ_x, θ_y, θ_z]`. Constrained
 //! dof are eliminated: the assembled matrices act on the *free* dof only, `u = T u_free`
 //! ([`Assembly::expand`]): a fixed dof is zero, the dof of a rigidly tied node set follow the
-//! set's rigid motion ([`RigidTie`], an RBE2 element). Values are assembled generically over [`Scalar`], in the fixed CSC order of the
-//! pattern, so that a dual evaluation yields `K_b`, `M_b` on the same pattern (one code path).
+//! set's rigid motion ([`RigidTie`], an RBE2 element). Values are assembled generically over
+//! [`Scalar`], in the fixed CSC order of the pattern, so that a dual evaluation yields `K_b`,
+//! `M_b` on the same pattern (one code path).
 
 use std::collections::BTreeSet;
 
@@ -171,7 +172,7 @@ pub enum ReducedDof {
     /// A free dof of a node (its global dof `6 k + d`).
     Node(usize),
     /// Coordinate `coordinate` of the rigid motion of tie `tie` ([`Constraints::ties`]);
-    /// `node` is the tie's first node (where a factorisation orders it).
+    /// `node` is the tie's lowest-numbered node (where a factorisation orders it).
     Tie {
         tie: usize,
         coordinate: usize,
@@ -180,7 +181,7 @@ pub enum ReducedDof {
 }
 
 impl ReducedDof {
-    /// The node the dof belongs to (a tie's first node).
+    /// The node the dof belongs to (a tie's lowest-numbered node).
     pub fn node(&self) -> NodeId {
         match *self {
             ReducedDof::Node(g) => g / 6,

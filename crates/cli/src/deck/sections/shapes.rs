@@ -1,5 +1,5 @@
-//! The validation of each section shape: solid circles and rectangles, tubes, thin-walled
-//! boxes, channels and I beams, and mesh files.
+//! The validation of each generated section shape: solid circles and rectangles, tubes,
+//! thin-walled boxes, channels and I beams (mesh files: `mesh_file.rs`).
 
 use super::*;
 
