@@ -1,0 +1,421 @@
+//! Validation of `[body.*]`: flexible bodies meshed with beams or shells, and their modal
+//! reduction settings.
+
+use laminate::PlyStack;
+use nalgebra::Vector3;
+use toml::Spanned;
+
+use super::check::{nonzero_vector, positive, required, span, vector};
+use super::laminates::{LaminateModel, suggestion};
+use super::raw::{RawBody, RawCoupling, RawDeck, RawMarker, RawPlane, RawSupport};
+use super::sections::{self, SectionDef};
+use super::{DeckError, Source};
+
+mod reduction;
+mod sets;
+mod shape;
+
+use reduction::{damping, modes, reference};
+pub use sets::{InterfaceDef, InterfaceSite, interface_loads};
+use sets::{couplings, interface_nodes, supports};
+use shape::{element_count, shape};
+
+/// How a body is meshed.
+#[derive(Debug, Clone)]
+pub enum BodyShape {
+    Beam {
+        section_name: String,
+        section: SectionDef,
+        start: Vector3<f64>,
+        end: Vector3<f64>,
+        orientation: Vector3<f64>,
+        elements: usize,
+    },
+    ShellRectangle {
+        laminate: String,
+        stack: PlyStack<f64>,
+        /// The material name of each ply of the stack.
+        ply_materials: Vec<String>,
+        length: f64,
+        width: f64,
+        elements: [usize; 2],
+        axis: Vector3<f64>,
+    },
+    ShellMesh {
+        laminate: String,
+        stack: PlyStack<f64>,
+        /// The material name of each ply of the stack.
+        ply_materials: Vec<String>,
+        mesh_text: String,
+        file: String,
+        axis: Vector3<f64>,
+    },
+}
+
+/// A validated flexible body.
+#[derive(Debug, Clone)]
+pub struct BodyDef {
+    /// The body's table in the deck (where errors found while building it point).
+    pub span: std::ops::Range<usize>,
+    pub shape: BodyShape,
+    /// Number of modes retained.
+    pub modes: usize,
+    /// Number of lowest modes computed (the highest retained mode number).
+    pub computed: usize,
+    /// Zero-based retained modes when the deck lists mode numbers (`None`: the lowest `modes`).
+    pub kept: Option<Vec<usize>>,
+    pub reference: Reference,
+    /// Normal of the plane the modes are restricted to.
+    pub planar: Option<Vector3<f64>>,
+    pub damping: Option<fem::Damping>,
+    pub lumped: bool,
+    /// Static correction nodes (mesh nodes).
+    pub correction: Vec<usize>,
+    /// The interface basis: `correction` are the nodes the joints and forces act at, and every
+    /// coupling takes static correction modes too (nodes the reference condition clamps are
+    /// left out).
+    pub interface: bool,
+    /// Distributing couplings, in the order of their nodes in the modal body.
+    pub couplings: Vec<CouplingDef>,
+    /// The loads the deck's joints and forces put on the body (its basis check).
+    pub interfaces: Vec<InterfaceDef>,
+    /// `modes = "auto"`: the fewest of [`AUTO_MODES`] eigenmodes (at least `modes`) whose basis
+    /// check meets `basis_tolerance`.
+    pub auto_modes: bool,
+    /// The largest missed share of the static compliance before a warning.
+    pub basis_tolerance: f64,
+    /// Initial modal coordinates and rates, one per retained mode (zero-padded).
+    pub initial_modal: Vec<f64>,
+    pub initial_modal_rates: Vec<f64>,
+    /// Geometric stiffening of the modal stiffness by the body's axial forces.
+    pub stiffening: bool,
+    pub supports: Vec<SupportDef>,
+}
+
+impl BodyDef {
+    /// The body at the laminates and materials of `model` (a design moved by its variables): a
+    /// beam's section at `model` ([`SectionDef::at`]), a shell's laminate from `model`;
+    /// everything else as validated.
+    pub fn at(&self, model: &LaminateModel) -> Result<BodyDef, section::SectionError> {
+        let mut out = self.clone();
+        match &mut out.shape {
+            BodyShape::Beam { section, .. } => *section = section.at(model)?,
+            BodyShape::ShellRectangle {
+                laminate,
+                stack,
+                ply_materials,
+                ..
+            }
+            | BodyShape::ShellMesh {
+                laminate,
+                stack,
+                ply_materials,
+                ..
+            } => {
+                let def = &model.laminates[laminate.as_str()];
+                (*stack, *ply_materials) = (def.stack.clone(), def.ply_materials.clone());
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// The numbers of eigenmodes `modes = "auto"` tries, in order.
+pub const AUTO_MODES: [usize; 7] = [4, 8, 16, 32, 64, 128, 256];
+
+/// The basis check's tolerance when the deck does not say (`basis_tolerance`).
+pub const DEFAULT_BASIS_TOLERANCE: f64 = 0.02;
+
+/// Reference condition as written.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Reference {
+    CentreOfMass,
+    ClampedSection,
+    FreeFree,
+    PinnedEnds(Option<[usize; 2]>),
+    ClampedNode(usize),
+    Supports,
+}
+
+/// Which nodes a support holds.
+#[derive(Debug, Clone, PartialEq)]
+pub enum NodeSet {
+    Nodes(Vec<usize>),
+    /// The nodes with coordinate `axis` (0, 1, 2) equal to `value`.
+    Plane {
+        axis: usize,
+        value: f64,
+    },
+    Inside([[f64; 3]; 2]),
+}
+
+/// A validated coupling: its name, nodes, point (global at the start, `None`: the centroid),
+/// kind (rigid or distributing) and place in the deck.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CouplingDef {
+    pub name: String,
+    pub nodes: NodeSet,
+    pub point: Option<Vector3<f64>>,
+    pub rigid: bool,
+    pub key: String,
+    pub span: std::ops::Range<usize>,
+}
+
+/// A validated support: its nodes, the local dof fixed there, and its place in the deck.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SupportDef {
+    pub nodes: NodeSet,
+    pub dofs: Vec<usize>,
+    pub key: String,
+    pub span: std::ops::Range<usize>,
+}
+
+/// Validate one body.
+pub fn validate_one(
+    src: &Source,
+    deck: &RawDeck,
+    name: &str,
+    b: &Spanned<RawBody>,
+    model: &LaminateModel,
+) -> Result<BodyDef, DeckError> {
+    let k = |key: &str| format!("body.{name}.{key}");
+    let raw = b.get_ref();
+    let table = span(b);
+    let kind = required(
+        src,
+        table.clone(),
+        &k("kind"),
+        &raw.kind,
+        "kind (\"beam\" or \"shell\")",
+    )?;
+    let specific = [
+        ("section", raw.section.as_ref().map(|x| x.span())),
+        ("start", raw.start.as_ref().map(|x| x.span())),
+        ("end", raw.end.as_ref().map(|x| x.span())),
+        ("orientation", raw.orientation.as_ref().map(|x| x.span())),
+        ("laminate", raw.laminate.as_ref().map(|x| x.span())),
+        ("length", raw.length.as_ref().map(|x| x.span())),
+        ("width", raw.width.as_ref().map(|x| x.span())),
+        ("file", raw.file.as_ref().map(|x| x.span())),
+        (
+            "material_axis",
+            raw.material_axis.as_ref().map(|x| x.span()),
+        ),
+    ];
+    let allowed: &[&str] = match kind.get_ref().as_str() {
+        "beam" => &["section", "start", "end", "orientation"],
+        "shell" => &["laminate", "length", "width", "file", "material_axis"],
+        other => {
+            return Err(src.error(
+                span(kind),
+                Some(k("kind")),
+                format!(
+                    "unknown body kind `{other}`: expected \"beam\" or \"shell\"{}",
+                    suggestion(other, &["beam", "shell"])
+                ),
+            ));
+        }
+    };
+    for (key, at) in specific {
+        if at.is_some() && !allowed.contains(&key) {
+            return Err(src.error(
+                at,
+                Some(k(key)),
+                format!("this key does not apply to kind = \"{}\"", kind.get_ref()),
+            ));
+        }
+    }
+    let shape = shape(src, deck, name, raw, table.clone(), kind, model)?;
+    let (modes, mut computed, kept, auto_modes) = modes(src, name, raw, table.clone())?;
+    let reference = reference(src, name, raw)?;
+    let beam = matches!(shape, BodyShape::Beam { .. });
+    let stiffening = match &raw.stiffening {
+        None => beam && STIFFENING_DEFAULT,
+        Some(s) if *s.get_ref() && !beam => {
+            return Err(src.error(
+                span(s),
+                Some(k("stiffening")),
+                "geometric stiffening is available for beam bodies only (a shell's membrane \
+                 stresses are not computed yet): remove the key or set it to false",
+            ));
+        }
+        Some(s) => *s.get_ref(),
+    };
+    let supports = supports(src, name, raw.supports.as_deref().unwrap_or(&[]))?;
+    match (&reference, supports.is_empty(), &raw.reference) {
+        (Reference::Supports, true, r) => {
+            return Err(src.error(
+                r.as_ref().map(span).unwrap_or(table.clone()),
+                Some(k("reference")),
+                "reference = \"supports\" needs supports = [{ plane | nodes | box, fix }, …]",
+            ));
+        }
+        (Reference::FreeFree, false, r) => {
+            return Err(src.error(
+                r.as_ref().map(span).unwrap_or(table.clone()),
+                Some(k("reference")),
+                "a free-free body has no supports: use reference = \"supports\"",
+            ));
+        }
+        _ => {}
+    }
+    let damping = damping(src, name, raw, auto_modes, &mut computed)?;
+    let lumped = match raw.mass.as_ref().map(|m| (m, m.get_ref().as_str())) {
+        None | Some((_, "lumped")) => true,
+        Some((_, "consistent")) => false,
+        Some((m, other)) => {
+            return Err(src.error(
+                span(m),
+                Some(k("mass")),
+                format!("unknown mass matrix `{other}`: expected \"lumped\" or \"consistent\""),
+            ));
+        }
+    };
+    let planar = raw
+        .planar
+        .as_ref()
+        .map(|p| {
+            let n = nonzero_vector(src, &k("planar"), p)?;
+            let axis = n.iamax();
+            if n.iter().enumerate().any(|(i, x)| i != axis && *x != 0.0) {
+                return Err(src.error(
+                    span(p),
+                    Some(k("planar")),
+                    "the normal of the plane of the modes must be a global axis, e.g. [0, 0, 1]",
+                ));
+            }
+            Ok(n.normalize())
+        })
+        .transpose()?;
+    let initial = |key: &str, v: &Option<Spanned<Vec<f64>>>, unit: &str| {
+        let mut out = vec![0.0; modes];
+        let Some(v) = v else { return Ok(out) };
+        if v.get_ref().len() > modes {
+            return Err(src.error(
+                span(v),
+                Some(k(key)),
+                format!(
+                    "{} values for {modes} retained modes (one per retained mode, in order)",
+                    v.get_ref().len()
+                ),
+            ));
+        }
+        for (i, &x) in v.get_ref().iter().enumerate() {
+            if !x.is_finite() {
+                return Err(src.error(
+                    span(v),
+                    Some(format!("{}[{i}]", k(key))),
+                    format!("{x} must be a finite modal {unit}"),
+                ));
+            }
+            out[i] = x;
+        }
+        Ok(out)
+    };
+    let couplings = couplings(src, name, raw.couplings.as_ref())?;
+    let basis = match raw.basis.as_ref().map(|b| b.get_ref().as_str()) {
+        // static correction needs a reference condition that holds the body
+        None => reference != Reference::FreeFree,
+        Some("interface") if reference == Reference::FreeFree => {
+            return Err(src.error(
+                span(raw.basis.as_ref().expect("given")),
+                Some(k("basis")),
+                "basis = \"interface\" needs a reference condition that holds the body (its \
+                 static correction modes are the static responses to unit loads); a free-free \
+                 body takes basis = \"modes\"",
+            ));
+        }
+        Some("interface") => true,
+        Some("modes") => false,
+        Some(other) => {
+            return Err(src.error(
+                span(raw.basis.as_ref().expect("given")),
+                Some(k("basis")),
+                format!("unknown basis `{other}`: expected \"interface\" or \"modes\""),
+            ));
+        }
+    };
+    let interfaces = interface_loads(deck, name);
+    let (correction, interface) = match &raw.correction {
+        None if basis => (interface_nodes(&interfaces), true),
+        None => (Vec::new(), false),
+        Some(c) => {
+            let list = c.get_ref();
+            if list.is_empty() || list.iter().any(|&n| n < 0) {
+                return Err(src.error(
+                    span(c),
+                    Some(k("correction")),
+                    "a list of node indices (from 0), e.g. the nodes the body's joints act at",
+                ));
+            }
+            (list.iter().map(|&n| n as usize).collect(), false)
+        }
+    };
+    if auto_modes {
+        for (key, v) in [
+            ("initial_modal", &raw.initial_modal),
+            ("initial_modal_rates", &raw.initial_modal_rates),
+        ] {
+            if let Some(v) = v {
+                return Err(src.error(
+                    span(v),
+                    Some(k(key)),
+                    "an initial modal state needs a stated number of modes, not modes = \"auto\"",
+                ));
+            }
+        }
+        if reference == Reference::FreeFree {
+            return Err(src.error(
+                raw.modes.as_ref().and_then(span),
+                Some(k("modes")),
+                "modes = \"auto\" chooses by the basis check, which needs a reference condition \
+                 that holds the body (not free-free)",
+            ));
+        }
+    }
+    let basis_tolerance = match &raw.basis_tolerance {
+        None => DEFAULT_BASIS_TOLERANCE,
+        Some(t) => {
+            let x = *t.get_ref();
+            if !(x > 0.0 && x < 1.0) {
+                return Err(src.error(
+                    span(t),
+                    Some(k("basis_tolerance")),
+                    format!("{x} must be a share of the compliance between 0 and 1 (e.g. 0.02)"),
+                ));
+            }
+            x
+        }
+    };
+    let modes = if auto_modes { computed } else { modes };
+    let initial_modal = initial("initial_modal", &raw.initial_modal, "coordinate (√kg·m)")?;
+    let initial_modal_rates = initial(
+        "initial_modal_rates",
+        &raw.initial_modal_rates,
+        "rate (√kg·m/s)",
+    )?;
+    Ok(BodyDef {
+        span: b.span(),
+        shape,
+        modes,
+        computed,
+        kept,
+        reference,
+        planar,
+        damping,
+        lumped,
+        correction,
+        interface,
+        couplings,
+        interfaces,
+        auto_modes,
+        basis_tolerance,
+        initial_modal,
+        initial_modal_rates,
+        stiffening,
+        supports,
+    })
+}
+
+/// Whether beam bodies are stiffened when the deck does not say (docs/geometric-stiffening.md).
+pub const STIFFENING_DEFAULT: bool = true;

@@ -1,0 +1,297 @@
+//! A body's mesh: a beam along its section, or a shell of a laminate (a rectangle or a mesh
+//! file).
+
+use super::*;
+
+/// A body's mesh: a beam along its section, or a shell of a laminate (a rectangle, or a mesh
+/// file).
+pub(super) fn shape(
+    src: &Source,
+    deck: &RawDeck,
+    name: &str,
+    raw: &RawBody,
+    table: Option<std::ops::Range<usize>>,
+    kind: &Spanned<String>,
+    model: &LaminateModel,
+) -> Result<BodyShape, DeckError> {
+    let k = |key: &str| format!("body.{name}.{key}");
+    let elements_value = raw.elements.as_ref();
+    Ok(match kind.get_ref().as_str() {
+        "beam" => {
+            let sname = required(
+                src,
+                table.clone(),
+                &k("section"),
+                &raw.section,
+                "section (a [section.*] name)",
+            )?;
+            let s = deck.section.get(sname.get_ref()).ok_or_else(|| {
+                let known: Vec<&str> = deck.section.keys().map(String::as_str).collect();
+                src.error(
+                    span(sname),
+                    Some(k("section")),
+                    format!(
+                        "undefined section `{}`{}",
+                        sname.get_ref(),
+                        suggestion(sname.get_ref(), &known)
+                    ),
+                )
+            })?;
+            let section = sections::validate_one(src, sname.get_ref(), s, model)?;
+            let start = vector(
+                src,
+                &k("start"),
+                required(
+                    src,
+                    table.clone(),
+                    &k("start"),
+                    &raw.start,
+                    "start [x, y, z] (m)",
+                )?,
+            )?;
+            let end = vector(
+                src,
+                &k("end"),
+                required(src, table.clone(), &k("end"), &raw.end, "end [x, y, z] (m)")?,
+            )?;
+            let axis = end - start;
+            // below a nanometre (or a billionth of the coordinates) a length is round-off, and
+            // the element matrices would not be finite
+            let negligible = 1e-9 * start.norm().max(end.norm()).max(1.0);
+            if axis.norm() <= negligible {
+                return Err(src.error(
+                    raw.end.as_ref().map(|e| e.span()),
+                    Some(k("end")),
+                    format!(
+                        "the beam's length |end − start| = {:e} m is zero or negligible (at \
+                         least {negligible:e} m)",
+                        axis.norm()
+                    ),
+                ));
+            }
+            let orientation = match &raw.orientation {
+                Some(o) => nonzero_vector(src, &k("orientation"), o)?,
+                None if axis.normalize().cross(&Vector3::y()).norm() > 1e-6 => Vector3::y(),
+                None => Vector3::z(),
+            };
+            if orientation.normalize().cross(&axis.normalize()).norm() < 1e-6 {
+                return Err(src.error(
+                    raw.orientation.as_ref().map(|o| o.span()),
+                    Some(k("orientation")),
+                    "must not be parallel to the beam axis",
+                ));
+            }
+            let elements = match elements_value {
+                None => 10,
+                Some(e) => element_count(e.get_ref(), 1).ok_or_else(|| {
+                    elements_error(
+                        src,
+                        name,
+                        raw,
+                        &format!(
+                            "a whole number of beam elements, from 1 to the limit of {} \
+                         (--max-elements raises it)",
+                            crate::limits::get().elements
+                        ),
+                    )
+                })?,
+            };
+            BodyShape::Beam {
+                section_name: sname.get_ref().clone(),
+                section,
+                start,
+                end,
+                orientation,
+                elements,
+            }
+        }
+        _ => shell_shape(src, name, raw, table, model)?,
+    })
+}
+
+/// A shell body's mesh: a rectangle or a mesh file, of a laminate.
+pub(super) fn shell_shape(
+    src: &Source,
+    name: &str,
+    raw: &RawBody,
+    table: Option<std::ops::Range<usize>>,
+    model: &LaminateModel,
+) -> Result<BodyShape, DeckError> {
+    let k = |key: &str| format!("body.{name}.{key}");
+    let elements_value = raw.elements.as_ref();
+    let lname = required(
+        src,
+        table.clone(),
+        &k("laminate"),
+        &raw.laminate,
+        "laminate (a [laminate.*] name)",
+    )?;
+    let def = shell_laminate(src, name, lname, model)?;
+    let (stack, ply_materials) = (def.stack.clone(), def.ply_materials.clone());
+    let axis = raw
+        .material_axis
+        .as_ref()
+        .map(|a| nonzero_vector(src, &k("material_axis"), a))
+        .transpose()?
+        .unwrap_or(Vector3::x());
+    Ok(match &raw.file {
+        Some(f) => {
+            for (key, v) in [("length", &raw.length), ("width", &raw.width)] {
+                if let Some(v) = v {
+                    return Err(src.error(
+                        span(v),
+                        Some(k(key)),
+                        "a shell read from a file takes its size from the mesh",
+                    ));
+                }
+            }
+            if let Some(e) = elements_value {
+                return Err(src.error(
+                    span(e),
+                    Some(k("elements")),
+                    "a shell read from a file takes its elements from the mesh",
+                ));
+            }
+            let path = src
+                .file
+                .parent()
+                .unwrap_or(std::path::Path::new("."))
+                .join(f.get_ref());
+            let mesh_text = crate::limits::read_text(&path).map_err(|e| {
+                src.error(
+                    span(f),
+                    Some(k("file")),
+                    format!("cannot read the mesh {}: {e}", path.display()),
+                )
+            })?;
+            BodyShape::ShellMesh {
+                laminate: lname.get_ref().clone(),
+                stack,
+                ply_materials: ply_materials.clone(),
+                mesh_text,
+                file: path.display().to_string(),
+                axis,
+            }
+        }
+        None => {
+            let length = positive(
+                src,
+                &k("length"),
+                required(
+                    src,
+                    table.clone(),
+                    &k("length"),
+                    &raw.length,
+                    "length along x (m), or file",
+                )?,
+                "m",
+            )?;
+            let width = positive(
+                src,
+                &k("width"),
+                required(
+                    src,
+                    table.clone(),
+                    &k("width"),
+                    &raw.width,
+                    "width along y (m)",
+                )?,
+                "m",
+            )?;
+            let elements = match elements_value {
+                None => {
+                    let nx = 16usize;
+                    [nx, ((nx as f64 * width / length).round() as usize).max(2)]
+                }
+                Some(e) => match e.get_ref().as_array().map(|a| a.as_slice()) {
+                    Some([a, b]) => [
+                        element_count(a, 1).ok_or_else(|| {
+                            elements_error(
+                                src,
+                                name,
+                                raw,
+                                &format!(
+                                    "[along x, along y], whole numbers from 1 to the limit \
+                                 of {} (--max-elements raises it)",
+                                    crate::limits::get().elements
+                                ),
+                            )
+                        })?,
+                        element_count(b, 1).ok_or_else(|| {
+                            elements_error(
+                                src,
+                                name,
+                                raw,
+                                &format!(
+                                    "[along x, along y], whole numbers from 1 to the limit \
+                                 of {} (--max-elements raises it)",
+                                    crate::limits::get().elements
+                                ),
+                            )
+                        })?,
+                    ],
+                    _ => {
+                        return Err(elements_error(
+                            src,
+                            name,
+                            raw,
+                            "[along x, along y] for a shell rectangle",
+                        ));
+                    }
+                },
+            };
+            crate::deck::check::mesh_size(
+                src,
+                &k("elements"),
+                elements_value.map(|e| e.span()),
+                elements[0].saturating_mul(elements[1]),
+            )?;
+            BodyShape::ShellRectangle {
+                laminate: lname.get_ref().clone(),
+                stack,
+                ply_materials: ply_materials.clone(),
+                length,
+                width,
+                elements,
+                axis,
+            }
+        }
+    })
+}
+
+/// The laminate a shell body names.
+pub(super) fn shell_laminate<'m>(
+    src: &Source,
+    name: &str,
+    lname: &Spanned<String>,
+    model: &'m LaminateModel,
+) -> Result<&'m crate::deck::laminates::LaminateDef, DeckError> {
+    model.laminates.get(lname.get_ref()).ok_or_else(|| {
+        let known: Vec<&str> = model.laminates.keys().map(String::as_str).collect();
+        src.error(
+            span(lname),
+            Some(format!("body.{name}.laminate")),
+            format!(
+                "undefined laminate `{}`{}",
+                lname.get_ref(),
+                suggestion(lname.get_ref(), &known)
+            ),
+        )
+    })
+}
+
+/// A count of elements or modes: a whole number from `min` up to the element limit.
+pub(super) fn element_count(v: &toml::Value, min: i64) -> Option<usize> {
+    v.as_integer()
+        .filter(|&n| n >= min && n <= crate::limits::get().elements as i64)
+        .map(|n| n as usize)
+}
+
+/// The error of a malformed `elements` value of body `name`.
+pub(super) fn elements_error(src: &Source, name: &str, raw: &RawBody, what: &str) -> DeckError {
+    src.error(
+        raw.elements.as_ref().map(|e| e.span()),
+        Some(format!("body.{name}.elements")),
+        format!("expected {what}"),
+    )
+}
