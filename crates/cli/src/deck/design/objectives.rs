@@ -1,0 +1,183 @@
+//! `[objective.*]` and `[finite_differences]`: what the run reports with gradients, and the
+//! finite differences it compares them with.
+
+use super::*;
+
+/// How an objective is written in tables and summaries.
+pub fn objective_label(o: &Objective) -> String {
+    match o {
+        Objective::Integral => "integral".into(),
+        Objective::Mean => "mean".into(),
+        Objective::Rms => "rms".into(),
+        Objective::Max => "max".into(),
+        Objective::Min => "min".into(),
+        Objective::At(t) => format!("at {t} s"),
+    }
+}
+
+/// A validated objective.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ObjectiveDef {
+    pub name: String,
+    pub response: String,
+    pub kind: Objective,
+}
+
+/// Where the perturbed runs of a finite-difference comparison take their steps.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FdSteps {
+    Replay,
+    Adaptive,
+}
+
+/// A validated finite-difference request.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FdDef {
+    pub central: bool,
+    pub relative: bool,
+    pub sizes: Vec<f64>,
+    pub steps: Vec<FdSteps>,
+}
+
+/// How the sensitivities are integrated (`[sensitivity] method`, see `mbs::SensitivityMethod`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SensitivityScheme {
+    /// Staggered direct: the exact derivative of the discrete solution.
+    Direct,
+    /// Staggered corrector with the integrator's Newton matrix.
+    Corrector,
+    /// Simultaneous corrector inside the state's Newton iteration (the cheapest; the default).
+    Simultaneous,
+}
+
+impl SensitivityScheme {
+    /// The deck's name of the method.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Direct => "direct",
+            Self::Corrector => "corrector",
+            Self::Simultaneous => "simultaneous",
+        }
+    }
+}
+
+pub(super) fn objective(
+    src: &Source,
+    raw: &RawDeck,
+    name: &str,
+    o: &Spanned<RawObjective>,
+) -> Result<ObjectiveDef, DeckError> {
+    let k = |s: &str| format!("objective.{name}.{s}");
+    let ro = o.get_ref();
+    let resp = ro.response.as_ref().ok_or_else(|| {
+        src.error(
+            span(o),
+            Some(k("response")),
+            "missing value: response (a [response.*] name)",
+        )
+    })?;
+    if !raw.response.contains_key(resp.get_ref()) {
+        let known: Vec<&str> = raw.response.keys().map(String::as_str).collect();
+        return Err(src.error(
+            span(resp),
+            Some(k("response")),
+            format!(
+                "undefined response `{}`{}",
+                resp.get_ref(),
+                suggestion(resp.get_ref(), &known)
+            ),
+        ));
+    }
+    let kinds = ["integral", "mean", "rms", "max", "min", "at"];
+    let kind_v = ro.kind.as_ref().ok_or_else(|| {
+        src.error(
+            span(o),
+            Some(k("kind")),
+            "missing value: kind (\"integral\", \"mean\", \"rms\", \"max\", \"min\" or \"at\")",
+        )
+    })?;
+    let kind = match choice(src, &k("kind"), Some(kind_v), &kinds)?.unwrap_or_default() {
+        "integral" => Objective::Integral,
+        "mean" => Objective::Mean,
+        "rms" => Objective::Rms,
+        "max" => Objective::Max,
+        "min" => Objective::Min,
+        _ => {
+            let t = ro.time.as_ref().ok_or_else(|| {
+                src.error(
+                    span(o),
+                    Some(k("time")),
+                    "missing value: time (s) for kind = \"at\"",
+                )
+            })?;
+            Objective::At(finite(src, &k("time"), t, "s")?)
+        }
+    };
+    if !matches!(kind, Objective::At(_))
+        && let Some(t) = &ro.time
+    {
+        return Err(src.error(
+            span(t),
+            Some(k("time")),
+            "time is only used with kind = \"at\"",
+        ));
+    }
+    Ok(ObjectiveDef {
+        name: name.to_string(),
+        response: resp.get_ref().clone(),
+        kind,
+    })
+}
+
+pub(super) fn finite_differences(
+    src: &Source,
+    r: &Spanned<RawFiniteDifferences>,
+) -> Result<FdDef, DeckError> {
+    let k = |s: &str| format!("finite_differences.{s}");
+    let rf = r.get_ref();
+    let central = choice(
+        src,
+        &k("scheme"),
+        rf.scheme.as_ref(),
+        &["forward", "central"],
+    )? == Some("central");
+    let relative = choice(
+        src,
+        &k("perturbation"),
+        rf.perturbation.as_ref(),
+        &["relative", "absolute"],
+    )? != Some("absolute");
+    let sizes = match &rf.sizes {
+        None => vec![if relative { 0.01 } else { 0.1 }],
+        Some(s) => {
+            if s.get_ref().is_empty() {
+                return Err(src.error(span(s), Some(k("sizes")), "no sizes given"));
+            }
+            for (i, x) in s.get_ref().iter().enumerate() {
+                positive(
+                    src,
+                    &format!("{}[{i}]", k("sizes")),
+                    &Spanned::new(s.span(), *x),
+                    if relative { "1" } else { "degrees" },
+                )?;
+            }
+            s.get_ref().clone()
+        }
+    };
+    let steps = match choice(
+        src,
+        &k("steps"),
+        rf.steps.as_ref(),
+        &["replay", "adaptive", "both"],
+    )? {
+        None | Some("replay") => vec![FdSteps::Replay],
+        Some("adaptive") => vec![FdSteps::Adaptive],
+        _ => vec![FdSteps::Replay, FdSteps::Adaptive],
+    };
+    Ok(FdDef {
+        central,
+        relative,
+        sizes,
+        steps,
+    })
+}
