@@ -62,6 +62,117 @@ pub(crate) fn results(src: &Source, mech: &Study, c: &Computed) -> Group {
         g.put(&format!("responses/{name}"), &[n], v.clone())
             .units(unit);
     }
+    put_bodies(&mut g, mech, outputs);
+    for (j, name) in mech.joint_names.iter().enumerate() {
+        g.put(
+            &format!("joints/{name}/reaction_on_b"),
+            &[n, 6],
+            outputs
+                .iter()
+                .flat_map(|o| {
+                    let r = &o.reactions[j];
+                    [
+                        r.force_on_b[0],
+                        r.force_on_b[1],
+                        r.force_on_b[2],
+                        r.moment_on_b[0],
+                        r.moment_on_b[1],
+                        r.moment_on_b[2],
+                    ]
+                })
+                .collect(),
+        )
+        .units("N, N*m");
+    }
+    g.put(
+        "constraints/position_violation",
+        &[n],
+        outputs.iter().map(|o| o.position_violation).collect(),
+    )
+    .units("m");
+    g.put(
+        "constraints/removed_position_violation",
+        &[n],
+        outputs
+            .iter()
+            .map(|o| o.removed_position_violation)
+            .collect(),
+    )
+    .units("m");
+    g.put(
+        "constraints/velocity_violation",
+        &[n],
+        outputs.iter().map(|o| o.velocity_violation).collect(),
+    )
+    .units("m/s");
+    g.put(
+        "energy/total",
+        &[n],
+        outputs.iter().map(|o| o.energy.total()).collect(),
+    )
+    .units("J");
+    put_statistics(&mut g, c);
+    let vars = &mech.design.variables;
+    let m = vars.len();
+    if m > 0 {
+        g.put_text(
+            "design/names",
+            vars.iter().map(|v| v.name.clone()).collect(),
+        );
+        g.put(
+            "design/values",
+            &[m],
+            vars.iter().map(|v| v.value).collect(),
+        )
+        .units(&common_unit(vars));
+        g.put_text(
+            "design/units",
+            vars.iter().map(|v| v.unit.to_string()).collect(),
+        );
+        g.put_text(
+            "design/targets",
+            vars.iter().map(DesignVariable::describe).collect(),
+        );
+    }
+    if let Some(s) = &c.sensitivities {
+        let method = format!(
+            "{}, {} modes",
+            mech.design.method.name(),
+            if mech.design.fixed_modes {
+                "fixed"
+            } else {
+                "updated"
+            }
+        );
+        g.group("sensitivities")
+            .attrs
+            .insert("method".into(), Attr::Text(method));
+        for (ResponseDef { name, unit, .. }, d) in mech.responses.iter().zip(&s.responses) {
+            if let Some(d) = d {
+                g.put(&format!("sensitivities/{name}"), &[n, m], row_major(d))
+                    .units(&per_design(unit, vars));
+            }
+        }
+        for (body, df) in &s.frequencies {
+            g.put(
+                &format!("bodies/{body}/frequency_derivatives"),
+                &[df.nrows(), m],
+                row_major(df),
+            )
+            .units(&per_design("Hz", vars));
+        }
+    }
+    put_objectives(&mut g, mech, c);
+    g.put_text("meta/deck", vec![src.text.clone()]);
+    g.put_text("meta/deck_path", vec![src.file.display().to_string()]);
+    g.put_text("meta/overrides", src.overrides.clone());
+    g
+}
+
+/// Every body's position, orientation and, for a flexible body, its modal coordinates,
+/// frequencies and basis check.
+fn put_bodies(g: &mut Group, mech: &Study, outputs: &[mbs::Output]) {
+    let n = mech.times.len();
     for name in &mech.body_order {
         let b = &mech.bodies[name];
         let i = b.id.index();
@@ -126,54 +237,10 @@ pub(crate) fn results(src: &Source, mech: &Study, c: &Computed) -> Group {
             }
         }
     }
-    for (j, name) in mech.joint_names.iter().enumerate() {
-        g.put(
-            &format!("joints/{name}/reaction_on_b"),
-            &[n, 6],
-            outputs
-                .iter()
-                .flat_map(|o| {
-                    let r = &o.reactions[j];
-                    [
-                        r.force_on_b[0],
-                        r.force_on_b[1],
-                        r.force_on_b[2],
-                        r.moment_on_b[0],
-                        r.moment_on_b[1],
-                        r.moment_on_b[2],
-                    ]
-                })
-                .collect(),
-        )
-        .units("N, N*m");
-    }
-    g.put(
-        "constraints/position_violation",
-        &[n],
-        outputs.iter().map(|o| o.position_violation).collect(),
-    )
-    .units("m");
-    g.put(
-        "constraints/removed_position_violation",
-        &[n],
-        outputs
-            .iter()
-            .map(|o| o.removed_position_violation)
-            .collect(),
-    )
-    .units("m");
-    g.put(
-        "constraints/velocity_violation",
-        &[n],
-        outputs.iter().map(|o| o.velocity_violation).collect(),
-    )
-    .units("m/s");
-    g.put(
-        "energy/total",
-        &[n],
-        outputs.iter().map(|o| o.energy.total()).collect(),
-    )
-    .units("J");
+}
+
+/// The integrator's counters as attributes of `/statistics`.
+fn put_statistics(g: &mut Group, c: &Computed) {
     let st = &c.statistics;
     let mut counters = vec![
         ("steps", st.steps),
@@ -197,56 +264,13 @@ pub(crate) fn results(src: &Source, mech: &Study, c: &Computed) -> Group {
             .attrs
             .insert(k.into(), Attr::I64(v as i64));
     }
+}
+
+/// The objectives with their gradients and the finite differences' cases.
+fn put_objectives(g: &mut Group, mech: &Study, c: &Computed) {
+    let n = mech.times.len();
     let vars = &mech.design.variables;
     let m = vars.len();
-    if m > 0 {
-        g.put_text(
-            "design/names",
-            vars.iter().map(|v| v.name.clone()).collect(),
-        );
-        g.put(
-            "design/values",
-            &[m],
-            vars.iter().map(|v| v.value).collect(),
-        )
-        .units(&common_unit(vars));
-        g.put_text(
-            "design/units",
-            vars.iter().map(|v| v.unit.to_string()).collect(),
-        );
-        g.put_text(
-            "design/targets",
-            vars.iter().map(DesignVariable::describe).collect(),
-        );
-    }
-    if let Some(s) = &c.sensitivities {
-        let method = format!(
-            "{}, {} modes",
-            mech.design.method.name(),
-            if mech.design.fixed_modes {
-                "fixed"
-            } else {
-                "updated"
-            }
-        );
-        g.group("sensitivities")
-            .attrs
-            .insert("method".into(), Attr::Text(method));
-        for (ResponseDef { name, unit, .. }, d) in mech.responses.iter().zip(&s.responses) {
-            if let Some(d) = d {
-                g.put(&format!("sensitivities/{name}"), &[n, m], row_major(d))
-                    .units(&per_design(unit, vars));
-            }
-        }
-        for (body, df) in &s.frequencies {
-            g.put(
-                &format!("bodies/{body}/frequency_derivatives"),
-                &[df.nrows(), m],
-                row_major(df),
-            )
-            .units(&per_design("Hz", vars));
-        }
-    }
     for o in &c.objectives {
         let base = format!("objectives/{}", o.name);
         g.put(&format!("{base}/value"), &[1], vec![o.value])
@@ -301,10 +325,6 @@ pub(crate) fn results(src: &Source, mech: &Study, c: &Computed) -> Group {
         }
         cg.attrs.insert("size".into(), Attr::F64(case.size));
     }
-    g.put_text("meta/deck", vec![src.text.clone()]);
-    g.put_text("meta/deck_path", vec![src.file.display().to_string()]);
-    g.put_text("meta/overrides", src.overrides.clone());
-    g
 }
 
 /// `history.csv`: time and every response.
