@@ -5,7 +5,7 @@ use mbs::{Baumgarte, BdfOptions, RedundancyPolicy, StepControl};
 
 use super::check::{count, finite, positive, required, span};
 use super::laminates::suggestion;
-use super::raw::RawDeck;
+use super::raw::{RawAnalysis, RawDeck};
 use super::{DeckError, Source};
 
 /// The validated analysis settings.
@@ -103,107 +103,143 @@ pub fn validate(src: &Source, raw: &RawDeck) -> Result<AnalysisDef, DeckError> {
             format!("{o}: BDF orders are 1 to 5"),
         ));
     }
-    let options = match raw.integrator.as_ref().map(|i| (i, i.get_ref().as_str())) {
-        None | Some((_, "adaptive")) => {
-            if let Some(s) = &raw.step {
-                return Err(src.error(
-                    span(s),
-                    Some(k("step")),
-                    "step is for integrator = \"fixed\"",
-                ));
-            }
-            let max_step_v = raw
-                .max_step
-                .as_ref()
-                .map(|h| positive(src, &k("max_step"), h, "s"))
-                .transpose()?;
-            let initial = raw
-                .initial_step
-                .as_ref()
-                .map(|h| positive(src, &k("initial_step"), h, "s"))
-                .transpose()?;
-            if let (Some(h0), Some(hm), Some(v)) = (initial, max_step_v, &raw.initial_step)
-                && h0 > hm
-            {
-                return Err(src.error(
-                    span(v),
-                    Some(k("initial_step")),
-                    format!("initial_step = {h0} s is larger than max_step = {hm} s"),
-                ));
-            }
-            let mut o = BdfOptions::adaptive(rtol, atol);
-            o.max_steps = crate::limits::get().steps;
-            if let StepControl::Adaptive {
-                max_order,
-                max_step,
-                initial_step,
-                stability_limit,
-                ..
-            } = &mut o.control
-            {
-                *max_order = order.unwrap_or(5);
-                *max_step = max_step_v.unwrap_or(f64::INFINITY);
-                *initial_step = initial;
-                *stability_limit = raw.stability_limit.as_ref().is_none_or(|b| *b.get_ref());
-            }
-            o
-        }
-        Some((_, "fixed")) => {
-            for (key, v) in [
-                ("max_step", raw.max_step.as_ref().map(|v| v.span())),
-                ("initial_step", raw.initial_step.as_ref().map(|v| v.span())),
-                (
-                    "stability_limit",
-                    raw.stability_limit.as_ref().map(|v| v.span()),
-                ),
-            ] {
-                if let Some(sp) = v {
+    let options = integrator(src, raw, span(a), (t0, t_end), rtol, atol, order)?;
+    let baumgarte = baumgarte(src, raw)?;
+    let policy = policy(src, raw)?;
+    let max_violation = raw
+        .max_violation
+        .as_ref()
+        .map(|v| positive(src, &k("max_violation"), v, "m"))
+        .transpose()?;
+    Ok(AnalysisDef {
+        times,
+        options,
+        baumgarte,
+        policy,
+        max_violation,
+    })
+}
+
+/// The integrator's options: adaptive (tolerances, steps, order) or fixed steps over the span
+/// `(t0, t_end)` (`table`: the `[analysis]` table, where a missing step points).
+fn integrator(
+    src: &Source,
+    raw: &RawAnalysis,
+    table: Option<std::ops::Range<usize>>,
+    (t0, t_end): (f64, f64),
+    rtol: f64,
+    atol: f64,
+    order: Option<usize>,
+) -> Result<BdfOptions, DeckError> {
+    let k = |s: &str| format!("analysis.{s}");
+    Ok(
+        match raw.integrator.as_ref().map(|i| (i, i.get_ref().as_str())) {
+            None | Some((_, "adaptive")) => {
+                if let Some(s) = &raw.step {
                     return Err(src.error(
-                        Some(sp),
-                        Some(k(key)),
-                        format!("{key} is for integrator = \"adaptive\""),
+                        span(s),
+                        Some(k("step")),
+                        "step is for integrator = \"fixed\"",
                     ));
                 }
+                let max_step_v = raw
+                    .max_step
+                    .as_ref()
+                    .map(|h| positive(src, &k("max_step"), h, "s"))
+                    .transpose()?;
+                let initial = raw
+                    .initial_step
+                    .as_ref()
+                    .map(|h| positive(src, &k("initial_step"), h, "s"))
+                    .transpose()?;
+                if let (Some(h0), Some(hm), Some(v)) = (initial, max_step_v, &raw.initial_step)
+                    && h0 > hm
+                {
+                    return Err(src.error(
+                        span(v),
+                        Some(k("initial_step")),
+                        format!("initial_step = {h0} s is larger than max_step = {hm} s"),
+                    ));
+                }
+                let mut o = BdfOptions::adaptive(rtol, atol);
+                o.max_steps = crate::limits::get().steps;
+                if let StepControl::Adaptive {
+                    max_order,
+                    max_step,
+                    initial_step,
+                    stability_limit,
+                    ..
+                } = &mut o.control
+                {
+                    *max_order = order.unwrap_or(5);
+                    *max_step = max_step_v.unwrap_or(f64::INFINITY);
+                    *initial_step = initial;
+                    *stability_limit = raw.stability_limit.as_ref().is_none_or(|b| *b.get_ref());
+                }
+                o
             }
-            let h = positive(
-                src,
-                &k("step"),
-                required(
-                    src,
-                    span(a),
-                    &k("step"),
-                    &raw.step,
-                    "step (s) for a fixed-step run",
-                )?,
-                "s",
-            )?;
-            let max_steps = crate::limits::get().steps;
-            let steps = ((t_end - t0) / h).ceil();
-            if steps > max_steps as f64 {
-                return Err(src.error(
-                    raw.step.as_ref().map(|s| s.span()),
-                    Some(k("step")),
-                    format!(
-                        "step = {h} s takes {steps:.3e} steps over the span of {} s, more than \
-                         the limit of {max_steps} (--max-steps raises it)",
-                        t_end - t0
+            Some((_, "fixed")) => {
+                for (key, v) in [
+                    ("max_step", raw.max_step.as_ref().map(|v| v.span())),
+                    ("initial_step", raw.initial_step.as_ref().map(|v| v.span())),
+                    (
+                        "stability_limit",
+                        raw.stability_limit.as_ref().map(|v| v.span()),
                     ),
+                ] {
+                    if let Some(sp) = v {
+                        return Err(src.error(
+                            Some(sp),
+                            Some(k(key)),
+                            format!("{key} is for integrator = \"adaptive\""),
+                        ));
+                    }
+                }
+                let h = positive(
+                    src,
+                    &k("step"),
+                    required(
+                        src,
+                        table,
+                        &k("step"),
+                        &raw.step,
+                        "step (s) for a fixed-step run",
+                    )?,
+                    "s",
+                )?;
+                let max_steps = crate::limits::get().steps;
+                let steps = ((t_end - t0) / h).ceil();
+                if steps > max_steps as f64 {
+                    return Err(src.error(
+                        raw.step.as_ref().map(|s| s.span()),
+                        Some(k("step")),
+                        format!(
+                            "step = {h} s takes {steps:.3e} steps over the span of {} s, more than \
+                         the limit of {max_steps} (--max-steps raises it)",
+                            t_end - t0
+                        ),
+                    ));
+                }
+                let mut o = BdfOptions::fixed(h, order.unwrap_or(2));
+                o.rtol = rtol.min(1e-10);
+                o.max_steps = max_steps;
+                o
+            }
+            Some((i, other)) => {
+                return Err(src.error(
+                    span(i),
+                    Some(k("integrator")),
+                    format!("unknown integrator `{other}`: expected \"adaptive\" or \"fixed\""),
                 ));
             }
-            let mut o = BdfOptions::fixed(h, order.unwrap_or(2));
-            o.rtol = rtol.min(1e-10);
-            o.max_steps = max_steps;
-            o
-        }
-        Some((i, other)) => {
-            return Err(src.error(
-                span(i),
-                Some(k("integrator")),
-                format!("unknown integrator `{other}`: expected \"adaptive\" or \"fixed\""),
-            ));
-        }
-    };
-    let baumgarte = match raw.baumgarte.as_ref().map(|b| (b, b.get_ref())) {
+        },
+    )
+}
+
+/// Baumgarte stabilisation: `{ alpha, beta }` (1/s, 1 when left out) or `false`.
+fn baumgarte(src: &Source, raw: &RawAnalysis) -> Result<Baumgarte, DeckError> {
+    let k = |s: &str| format!("analysis.{s}");
+    Ok(match raw.baumgarte.as_ref().map(|b| (b, b.get_ref())) {
         None => Baumgarte::default(),
         Some((_, toml::Value::Boolean(false))) => Baumgarte::off(),
         Some((_, toml::Value::Boolean(true))) => Baumgarte::default(),
@@ -243,14 +279,20 @@ pub fn validate(src: &Source, raw: &RawDeck) -> Result<AnalysisDef, DeckError> {
                 "expected { alpha, beta } or false",
             ));
         }
-    };
-    let policy = match raw.redundant.as_ref().map(|r| (r, r.get_ref().as_str())) {
-        None | Some((_, "remove")) => RedundancyPolicy::Remove,
-        Some((_, "error")) => RedundancyPolicy::Error,
-        Some((_, "reselect")) => RedundancyPolicy::Reselect,
-        Some((r, other)) => {
-            let choices = ["remove", "reselect", "error"];
-            return Err(src.error(
+    })
+}
+
+/// What to do with redundant constraint equations.
+fn policy(src: &Source, raw: &RawAnalysis) -> Result<RedundancyPolicy, DeckError> {
+    let k = |s: &str| format!("analysis.{s}");
+    Ok(
+        match raw.redundant.as_ref().map(|r| (r, r.get_ref().as_str())) {
+            None | Some((_, "remove")) => RedundancyPolicy::Remove,
+            Some((_, "error")) => RedundancyPolicy::Error,
+            Some((_, "reselect")) => RedundancyPolicy::Reselect,
+            Some((r, other)) => {
+                let choices = ["remove", "reselect", "error"];
+                return Err(src.error(
                 span(r),
                 Some(k("redundant")),
                 format!(
@@ -258,18 +300,7 @@ pub fn validate(src: &Source, raw: &RawDeck) -> Result<AnalysisDef, DeckError> {
                     suggestion(other, &choices)
                 ),
             ));
-        }
-    };
-    let max_violation = raw
-        .max_violation
-        .as_ref()
-        .map(|v| positive(src, &k("max_violation"), v, "m"))
-        .transpose()?;
-    Ok(AnalysisDef {
-        times,
-        options,
-        baumgarte,
-        policy,
-        max_violation,
-    })
+            }
+        },
+    )
 }
