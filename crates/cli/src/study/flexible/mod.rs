@@ -36,14 +36,14 @@ impl Built {
         span: std::ops::Range<usize>,
         analysis: &fem::ModalAnalysis,
     ) -> Result<fem::ModeDerivatives, CliError> {
-        let mut failed = None;
-        let d = fem::analysis_eigenvalue_derivatives::<N, _>(
-            &self.mesh,
-            analysis,
-            self.design.values(),
-            |bd| self.properties_or_nominal(bd, &mut failed),
-        );
-        self.finish(src, name, span, d, failed)
+        self.through_design(src, name, span, |props| {
+            fem::analysis_eigenvalue_derivatives::<N, _>(
+                &self.mesh,
+                analysis,
+                self.design.values(),
+                props,
+            )
+        })
     }
 
     /// The derivatives of the modes of `analysis` (this body's) with respect to every design
@@ -56,15 +56,15 @@ impl Built {
         analysis: &fem::ModalAnalysis,
         update: fem::ModeUpdate,
     ) -> Result<(Vec<fem::DesignMatrices>, fem::ModeDerivatives), CliError> {
-        let mut failed = None;
-        let d = fem::analysis_derivatives::<N, _>(
-            &self.mesh,
-            analysis,
-            self.design.values(),
-            |bd| self.properties_or_nominal(bd, &mut failed),
-            update,
-        );
-        self.finish(src, name, span, d, failed)
+        self.through_design(src, name, span, |props| {
+            fem::analysis_derivatives::<N, _>(
+                &self.mesh,
+                analysis,
+                self.design.values(),
+                props,
+                update,
+            )
+        })
     }
 
     /// The dual modal bodies of `analysis` (this body's) for every chunk of `N` design
@@ -78,46 +78,40 @@ impl Built {
         analysis: &fem::ModalAnalysis,
         update: fem::ModeUpdate,
     ) -> Result<fem::DesignBodies<N>, CliError> {
-        let mut failed = None;
-        let d = fem::design_bodies::<N, _>(
-            &self.mesh,
-            &self.props,
-            analysis,
-            self.design.values(),
-            |bd| self.properties_or_nominal(bd, &mut failed),
-            update,
-        );
-        self.finish(src, name, span, d, failed)
-    }
-
-    /// [`Design::properties`] at `bd`; on a failure the nominal properties stand in and the
-    /// error is kept in `failed` (returned by [`Built::finish`]).
-    fn properties_or_nominal<const N: usize>(
-        &self,
-        bd: &[Dual<N>],
-        failed: &mut Option<section::SectionError>,
-    ) -> Properties<Dual<N>> {
-        self.design.properties(bd).unwrap_or_else(|e| {
-            failed.get_or_insert(e);
-            let nominal: Vec<Dual<N>> = bd
-                .iter()
-                .zip(self.design.values())
-                .map(|(x, &b0)| Dual::new(b0, x.d))
-                .collect();
-            self.design.properties(&nominal).unwrap_or_default()
+        self.through_design(src, name, span, |props| {
+            fem::design_bodies::<N, _>(
+                &self.mesh,
+                &self.props,
+                analysis,
+                self.design.values(),
+                props,
+                update,
+            )
         })
     }
 
-    /// The result of a derivative computation, or the first failure of the section at a
-    /// perturbed design.
-    fn finish<T>(
+    /// `run` (a derivative computation of `fem`) with [`Design::properties`] as its properties
+    /// of a dual design; a failure of the section at a perturbed design lets the nominal
+    /// properties stand in and is returned instead of the result.
+    fn through_design<const N: usize, T>(
         &self,
         src: &Source,
         name: &str,
         span: std::ops::Range<usize>,
-        d: Result<T, fem::FemError>,
-        failed: Option<section::SectionError>,
+        run: impl FnOnce(&mut dyn FnMut(&[Dual<N>]) -> Properties<Dual<N>>) -> Result<T, fem::FemError>,
     ) -> Result<T, CliError> {
+        let mut failed = None;
+        let d = run(&mut |bd: &[Dual<N>]| {
+            self.design.properties(bd).unwrap_or_else(|e| {
+                failed.get_or_insert(e);
+                let nominal: Vec<Dual<N>> = bd
+                    .iter()
+                    .zip(self.design.values())
+                    .map(|(x, &b0)| Dual::new(b0, x.d))
+                    .collect();
+                self.design.properties(&nominal).unwrap_or_default()
+            })
+        });
         if let Some(e) = failed {
             return Err(CliError::Runtime(format!(
                 "{}: body `{name}`: the section at a perturbed design: {e}",
