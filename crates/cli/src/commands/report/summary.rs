@@ -49,7 +49,7 @@ pub(super) fn summary(
     let freq_json = frequencies(&mut md, s, layups);
     let diff_json = differences(&mut md, layups);
     let peak = peaks(&mut md, layups);
-    let (mesh_json, opt, atol, t0, t1, variable_step) = settings(&mut md, st);
+    let settings_json = settings(&mut md, st);
     let runs_json = runs(&mut md, layups);
     let _ = writeln!(
         md,
@@ -67,13 +67,7 @@ pub(super) fn summary(
         "frequencies": freq_json,
         "relative_differences": diff_json,
         "peak_deflection": peak,
-        "settings": {
-            "t_start": t0, "t_end": t1, "output_step": st.output_step,
-            "variable_step": variable_step, "rtol": opt.rtol, "atol": atol,
-            "fixed_step": st.fixed_step,
-            "forward_sizes": SIZES, "fig6_size": FIG6_SIZE, "central_size": CHECK_SIZE,
-            "bodies": mesh_json, "overrides": st.overrides, "threads": st.jobs,
-        },
+        "settings": settings_json,
         "runs": runs_json,
         "files": files,
         "seconds": st.seconds,
@@ -270,21 +264,9 @@ fn peaks(md: &mut String, layups: &[Layup]) -> Vec<serde_json::Value> {
     peak
 }
 
-/// The settings section; the bodies' JSON and the integrator's settings.
-#[allow(clippy::type_complexity)]
-fn settings<'m>(
-    md: &mut String,
-    st: &'m Settings,
-) -> (
-    Vec<serde_json::Value>,
-    &'m mbs::BdfOptions,
-    f64,
-    f64,
-    f64,
-    bool,
-) {
+/// The settings section, and the settings as JSON.
+fn settings(md: &mut String, st: &Settings) -> serde_json::Value {
     let mech = st.nominal;
-    // settings
     let opt = &mech.options;
     let atol = opt.atol.first().copied().unwrap_or(f64::NAN);
     let t0 = mech.times.first().copied().unwrap_or(0.0);
@@ -359,7 +341,13 @@ fn settings<'m>(
             st.overrides.join(" --set ")
         );
     }
-    (mesh_json, opt, atol, t0, t1, variable_step)
+    json!({
+        "t_start": t0, "t_end": t1, "output_step": st.output_step,
+        "variable_step": variable_step, "rtol": opt.rtol, "atol": atol,
+        "fixed_step": st.fixed_step,
+        "forward_sizes": SIZES, "fig6_size": FIG6_SIZE, "central_size": CHECK_SIZE,
+        "bodies": mesh_json, "overrides": st.overrides, "threads": st.jobs,
+    })
 }
 
 /// The table of the runs of every lay-up.

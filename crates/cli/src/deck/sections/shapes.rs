@@ -4,7 +4,6 @@
 use super::*;
 
 /// One `[section.NAME]` table being validated: what every shape's validation reads.
-#[derive(Clone)]
 pub(super) struct Shape<'a> {
     pub(super) src: &'a Source,
     pub(super) name: &'a str,
