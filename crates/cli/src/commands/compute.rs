@@ -7,6 +7,7 @@ use mbs::Output;
 use super::sensitivity::{self, FdCase, ObjectiveResult, Sensitivities};
 use crate::deck;
 use crate::error::CliError;
+use crate::progress::RunProgress;
 use crate::study::Study;
 
 /// Everything a run computed, ready to be written.
@@ -20,8 +21,13 @@ pub(crate) struct Computed {
     pub(crate) fd: Vec<FdCase>,
 }
 
-/// The analysis, its sensitivities, objectives and finite-difference comparisons.
-pub(crate) fn compute(src: &deck::Source, mech: &Study) -> Result<Computed, CliError> {
+/// The analysis, its sensitivities, objectives and finite-difference comparisons (`progress`:
+/// the progress bar, when one is shown).
+pub(crate) fn compute(
+    src: &deck::Source,
+    mech: &Study,
+    progress: Option<&RunProgress>,
+) -> Result<Computed, CliError> {
     let runtime = |m: String| CliError::Runtime(format!("{}: {m}", src.file.display()));
     let mut system = mech.system().map_err(|e| runtime(e.to_string()))?;
     let mut state = mech.state.clone();
@@ -32,7 +38,7 @@ pub(crate) fn compute(src: &deck::Source, mech: &Study) -> Result<Computed, CliE
                 "the initial configuration cannot be assembled: {e}"
             ))
         })?;
-    if let Some(p) = &mech.progress {
+    if let Some(p) = progress {
         system.set_progress(Some(p.observer()));
         if mech.design.enabled
             && let Some(fd) = &mech.design.finite_differences
@@ -61,7 +67,9 @@ pub(crate) fn compute(src: &deck::Source, mech: &Study) -> Result<Computed, CliE
         sens.as_ref().map(|s| s.responses.as_slice()),
     )?;
     let fd = match &sens {
-        Some(s) => sensitivity::finite_differences(src, mech, &system, &state, &s.replay)?,
+        Some(s) => {
+            sensitivity::finite_differences(src, mech, &system, &state, &s.replay, progress)?
+        }
         None => Vec::new(),
     };
     Ok(Computed {
@@ -72,4 +80,84 @@ pub(crate) fn compute(src: &deck::Source, mech: &Study) -> Result<Computed, CliE
         objectives,
         fd,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::deck::Source;
+
+    /// `Study::at` gives the study of the deck validated with the variables written at that
+    /// design (the text path `--set` takes): the same frequencies and, run, the same response
+    /// histories and sensitivities, to round-off (the two may differ in how a ply angle's
+    /// radians are rounded; measured: bitwise equal). Every kind of variable: ply angle, ply thickness, material
+    /// constant, rigid mass; and a second move from the moved study.
+    #[test]
+    fn a_study_moved_to_a_design_is_the_deck_validated_there() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../decks");
+        let text = std::fs::read_to_string(dir.join("slider_crank_beam.toml")).unwrap()
+            + "\n[design.outer]\nkind = \"ply-thickness\"\nlaminate = \"tube_wall\"\n\
+               plies = [2, 3]\n\n[design.e1]\nkind = \"material\"\n\
+               material = \"paper_composite\"\nconstant = \"E1\"\n\
+               \n[design.slider_mass]\nkind = \"rigid-mass\"\nbody = \"slider\"\n";
+        let short = ["analysis.t_end=0.01".to_string()];
+        let src = Source::new("beam.toml", text)
+            .with_overrides(&short)
+            .unwrap();
+        let mut nominal = Study::validate(&src, &src.parse().unwrap(), true).unwrap();
+        nominal.design.finite_differences = None;
+        let b0 = nominal.design_values();
+        let b: Vec<f64> = b0.iter().map(|x| x * 1.07).collect();
+        let b2: Vec<f64> = b0.iter().map(|x| x * 0.96).collect();
+        let moved = nominal.at(&src, &b).unwrap();
+        let moved_twice = moved.at(&src, &b2).unwrap();
+        for (b, moved) in [(&b, &moved), (&b2, &moved_twice)] {
+            let mut sets = short.to_vec();
+            for (v, &x) in nominal.design.variables.iter().zip(b.iter()) {
+                sets.extend(v.overrides(x));
+            }
+            let there_src = src.edited(&sets).unwrap();
+            let mut there = Study::validate(&there_src, &there_src.parse().unwrap(), true).unwrap();
+            there.design.finite_differences = None;
+            for (v, w) in moved.design.variables.iter().zip(&there.design.variables) {
+                assert!(
+                    (v.value - w.value).abs() <= 1e-12 * v.value.abs(),
+                    "{}",
+                    v.name
+                );
+            }
+            let (fa, fb) = (
+                &moved.bodies["rod"].frequencies,
+                &there.bodies["rod"].frequencies,
+            );
+            assert_eq!(fa.len(), fb.len());
+            for (x, y) in fa.iter().zip(fb) {
+                assert!((x - y).abs() <= 1e-10 * y, "frequency {x} vs {y}");
+            }
+            let f0 = &nominal.bodies["rod"].frequencies;
+            assert!(
+                (fa[0] - f0[0]).abs() > 1e-3 * f0[0],
+                "the design moves the rod"
+            );
+            let ca = compute(&src, moved, None).unwrap();
+            let cb = compute(&there_src, &there, None).unwrap();
+            let close = |a: &[f64], b: &[f64], what: &str| {
+                let scale = b.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+                let worst = a
+                    .iter()
+                    .zip(b)
+                    .fold(0.0_f64, |m, (x, y)| m.max((x - y).abs()));
+                assert!(worst <= 1e-12 * scale, "{what}: {worst:e} of {scale:e}");
+            };
+            for (i, r) in moved.responses.iter().enumerate() {
+                close(&ca.values[i], &cb.values[i], &r.name);
+                let (sa, sb) = (ca.sensitivities.as_ref(), cb.sensitivities.as_ref());
+                if let (Some(Some(x)), Some(Some(y))) =
+                    (sa.map(|s| &s.responses[i]), sb.map(|s| &s.responses[i]))
+                {
+                    close(x.as_slice(), y.as_slice(), &format!("d {}/db", r.name));
+                }
+            }
+        }
+    }
 }

@@ -5,11 +5,11 @@
 
 use std::path::{Path, PathBuf};
 
-use super::compute::compute;
+use super::compute::{Computed, compute};
 use super::run_files::{
     gradients_csv, history_csv, results, sensitivities_csv, summary, summary_text,
 };
-use crate::deck;
+use crate::deck::{self, Source};
 use crate::error::CliError;
 use crate::files::{Staged, remove_stale_partials};
 use crate::progress::RunProgress;
@@ -37,24 +37,53 @@ pub(crate) const OUTPUT_FILES: [&str; 4] = [
 /// Run the command; the returned text goes to stdout.
 pub fn run(path: &Path, overrides: &[String], req: &RunRequest) -> Result<String, CliError> {
     let (src, raw) = deck::load(path, overrides)?;
-    let mut mech = Study::validate(&src, &raw, true)?;
-    if req.progress {
+    let mech = Study::validate(&src, &raw, true)?;
+    let progress = req.progress.then(|| {
         let t_end = *mech.times.last().expect("output times");
-        mech.progress = Some(RunProgress::new(mech.times[0], t_end));
-    }
+        RunProgress::new(mech.times[0], t_end)
+    });
     let out = req
         .out
         .map(Path::to_path_buf)
         .unwrap_or_else(|| super::default_dir(path, "out", None));
+    let done = run_study(&src, &mech, &out, progress.as_ref())?;
+    if req.json {
+        return Ok(done.summary.to_string() + "\n");
+    }
+    Ok(summary_text(
+        &mech,
+        &done.computed,
+        &done.summary,
+        &done.written,
+    ))
+}
+
+/// A finished run: what it computed, its summary (the JSON of `--json`) and the files it
+/// wrote.
+pub(crate) struct Done {
+    pub(crate) computed: Computed,
+    pub(crate) summary: serde_json::Value,
+    pub(crate) written: Vec<PathBuf>,
+}
+
+/// Run the study `mech` (of the deck `src`) into the directory `out`: the old run's files
+/// removed first, every file written under a temporary name and committed once all are
+/// encoded, `results.h5` last (its presence means the run completed).
+pub(crate) fn run_study(
+    src: &Source,
+    mech: &Study,
+    out: &Path,
+    progress: Option<&RunProgress>,
+) -> Result<Done, CliError> {
     // a failed run must not leave the previous run's files looking like its own, nor a killed
     // one its temporary files
-    std::fs::create_dir_all(&out).map_err(|e| {
+    std::fs::create_dir_all(out).map_err(|e| {
         CliError::Runtime(format!(
             "cannot create the output directory {}: {e}",
             out.display()
         ))
     })?;
-    remove_stale_partials(&out, &OUTPUT_FILES);
+    remove_stale_partials(out, &OUTPUT_FILES);
     for f in OUTPUT_FILES {
         match std::fs::remove_file(out.join(f)) {
             Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
@@ -66,27 +95,27 @@ pub fn run(path: &Path, overrides: &[String], req: &RunRequest) -> Result<String
             _ => {}
         }
     }
-    let computed = compute(&src, &mech);
-    if let Some(p) = &mech.progress {
+    let computed = compute(src, mech, progress);
+    if let Some(p) = progress {
         p.finish();
     }
     let computed = computed?;
-    let g = results(&src, &mech, &computed);
+    let g = results(src, mech, &computed);
     let bytes = g
         .to_hdf5()
         .map_err(|e| CliError::Runtime(format!("cannot encode the results: {e}")))?;
     // every file is written under a temporary name first: a failure (a full disk) leaves none
     let mut files = vec![(
         out.join("history.csv"),
-        history_csv(&mech, &computed).into_bytes(),
+        history_csv(mech, &computed).into_bytes(),
     )];
-    if let Some(csv) = sensitivities_csv(&mech, &computed) {
+    if let Some(csv) = sensitivities_csv(mech, &computed) {
         files.push((out.join("sensitivities.csv"), csv.into_bytes()));
     }
     if !computed.objectives.is_empty() {
         files.push((
             out.join("gradients.csv"),
-            gradients_csv(&mech, &computed).into_bytes(),
+            gradients_csv(mech, &computed).into_bytes(),
         ));
     }
     // results.h5 last: its presence means the run completed
@@ -99,9 +128,10 @@ pub fn run(path: &Path, overrides: &[String], req: &RunRequest) -> Result<String
         s.commit()?;
     }
     let written: Vec<PathBuf> = files.into_iter().map(|(path, _)| path).collect();
-    let summary = summary(&src, &mech, &computed, &out);
-    if req.json {
-        return Ok(summary.to_string() + "\n");
-    }
-    Ok(summary_text(&raw, &mech, &computed, &summary, &written))
+    let summary = summary(src, mech, &computed, out);
+    Ok(Done {
+        computed,
+        summary,
+        written,
+    })
 }

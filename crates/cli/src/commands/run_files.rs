@@ -9,10 +9,10 @@ use nalgebra::DMatrix;
 
 use super::compute::Computed;
 use super::sensitivity;
+use crate::deck::Source;
 use crate::deck::design::FdSteps;
 use crate::deck::design::{DesignVariable, objective_label};
 use crate::deck::responses::ResponseDef;
-use crate::deck::{RawDeck, Source};
 use crate::results::{Attr, Group};
 use crate::study::Study;
 
@@ -490,7 +490,6 @@ pub(crate) fn summary(src: &Source, mech: &Study, c: &Computed, out: &Path) -> s
 
 /// The one-screen summary for people.
 pub(crate) fn summary_text(
-    raw: &RawDeck,
     mech: &Study,
     c: &Computed,
     summary: &serde_json::Value,
@@ -499,7 +498,7 @@ pub(crate) fn summary_text(
     let n = mech.times.len();
     let st = &c.statistics;
     let mut s = String::new();
-    if let Some(t) = &raw.title {
+    if let Some(t) = &mech.title {
         let _ = writeln!(s, "{t}");
     }
     let _ = writeln!(

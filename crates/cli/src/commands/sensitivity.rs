@@ -19,6 +19,7 @@ use sens::Dual;
 use crate::deck::Source;
 use crate::deck::design::{FdSteps, SensitivityScheme};
 use crate::error::CliError;
+use crate::progress::RunProgress;
 use crate::study::Study;
 
 /// Results of the direct sensitivity analysis, at the output times.
@@ -261,9 +262,10 @@ fn perturbed_outputs(
     state: &State,
     b: &[f64],
     options: &BdfOptions,
+    progress: Option<&RunProgress>,
 ) -> Result<Vec<f64>, CliError> {
     let model = mech.model_at(src, b)?;
-    if let Some(p) = &mech.progress {
+    if let Some(p) = progress {
         p.next_phase();
     }
     let mut sys = nominal.with_model(model);
@@ -299,6 +301,7 @@ pub(crate) fn finite_differences(
     nominal: &MultibodySystem,
     state: &State,
     replay: &BdfOptions,
+    progress: Option<&RunProgress>,
 ) -> Result<Vec<FdCase>, CliError> {
     let Some(fd) = &mech.design.finite_differences else {
         return Ok(Vec::new());
@@ -332,7 +335,7 @@ pub(crate) fn finite_differences(
         let designs = mbs::finite_difference_designs(&b, scheme, &perturbations);
         let values =
             super::parallel_map(designs.len(), super::job_count(None, designs.len()), |i| {
-                perturbed_outputs(src, mech, nominal, state, &designs[i], &options)
+                perturbed_outputs(src, mech, nominal, state, &designs[i], &options, progress)
             })
             .into_iter()
             .collect::<Result<Vec<_>, _>>()?;

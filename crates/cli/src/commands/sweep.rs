@@ -16,11 +16,11 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use serde_json::Value;
 
-use super::run::RunRequest;
+use super::run::run_study;
 use super::shard::{
     SHARD_FILE, manifest_strings, move_dir, parse_shard, remove_old, shard_cases, write_manifest,
 };
-use crate::deck::{self, DeckError};
+use crate::deck::{DeckError, Source};
 use crate::error::CliError;
 use crate::files::write_atomic;
 use crate::study::Study;
@@ -122,34 +122,33 @@ fn round(x: f64) -> f64 {
     format!("{x:.11e}").parse().unwrap_or(x)
 }
 
-/// The `--set` arguments of one case: the varied deck keys, and each varied design variable
-/// expanded into the deck entries it sets (its ply angles, a rigid body's mass or inertia).
-fn case_overrides(
-    path: &Path,
-    global: &[String],
-    axes: &[Axis],
-    values: &[f64],
-) -> Result<Vec<String>, CliError> {
-    let mut sets = global.to_vec();
-    let design: Vec<(&Axis, f64)> = axes
-        .iter()
-        .zip(values.iter().copied())
-        .filter(|(a, _)| a.key.starts_with("design."))
-        .collect();
-    for (a, v) in axes.iter().zip(values) {
-        if !a.key.starts_with("design.") {
-            sets.push(format!("{}={v:?}", a.key));
-        }
-    }
-    if !design.is_empty() {
-        let (src, raw) = deck::load(path, &sets)?;
+/// What the cases of a sweep start from: the deck as read, the `--set` arguments of the
+/// command line, and, when every axis sets a design variable, the deck's study (each case is
+/// then that study moved to its design, in memory).
+struct Cases<'a> {
+    /// The deck as read from its file.
+    base: Source,
+    global: &'a [String],
+    axes: &'a [Axis],
+    /// The deck with the command line's `--set` arguments and its study, when no axis edits
+    /// the deck.
+    nominal: Option<(Source, Study)>,
+}
+
+impl<'a> Cases<'a> {
+    /// Read the deck once; check that every `design.NAME` axis names a design variable.
+    fn new(path: &Path, global: &'a [String], axes: &'a [Axis]) -> Result<Self, CliError> {
+        let base = Source::read(path)?;
+        let src = base.edited(global)?;
+        let raw = src.parse()?;
         let lam = crate::deck::laminates::validate(&src, &raw)?;
-        let d = crate::deck::design::validate(&src, &raw, &lam)?;
-        for (a, v) in design {
-            let name = &a.key["design.".len()..];
-            let var = d.variables.iter().find(|x| x.name == name).ok_or_else(|| {
-                let known: Vec<&str> = d.variables.iter().map(|x| x.name.as_str()).collect();
-                CliError::Input(DeckError {
+        let design = crate::deck::design::validate(&src, &raw, &lam)?;
+        let known: Vec<&str> = design.variables.iter().map(|x| x.name.as_str()).collect();
+        for a in axes {
+            if let Some(name) = a.key.strip_prefix("design.")
+                && !known.contains(&name)
+            {
+                return Err(CliError::Input(DeckError {
                     file: path.to_path_buf(),
                     line: None,
                     key: Some(a.key.clone()),
@@ -159,12 +158,73 @@ fn case_overrides(
                     ),
                     snippet: None,
                     note: None,
-                })
-            })?;
-            sets.extend(var.overrides(v));
+                }));
+            }
         }
+        let nominal = if axes.iter().all(|a| a.key.starts_with("design.")) {
+            let study = Study::validate(&src, &raw, true)?;
+            Some((src, study))
+        } else {
+            None
+        };
+        Ok(Cases {
+            base,
+            global,
+            axes,
+            nominal,
+        })
     }
-    Ok(sets)
+
+    /// `run` on the deck and study of the case with the axes at `values`: the deck's keys
+    /// set (a deck edited in memory and validated), then the design variables set
+    /// ([`Study::at`]).
+    fn with_case<R>(
+        &self,
+        values: &[f64],
+        run: impl FnOnce(&Source, &Study) -> Result<R, CliError>,
+    ) -> Result<R, CliError> {
+        let edited;
+        let (src, study) = match &self.nominal {
+            Some((src, study)) => (src, study),
+            None => {
+                let mut sets = self.global.to_vec();
+                for (a, v) in self.axes.iter().zip(values) {
+                    if !a.key.starts_with("design.") {
+                        sets.push(format!("{}={v:?}", a.key));
+                    }
+                }
+                let src = self.base.edited(&sets)?;
+                let study = Study::validate(&src, &src.parse()?, true)?;
+                edited = (src, study);
+                (&edited.0, &edited.1)
+            }
+        };
+        let design: Vec<(&str, f64)> = self
+            .axes
+            .iter()
+            .zip(values)
+            .filter_map(|(a, &v)| a.key.strip_prefix("design.").map(|n| (n, v)))
+            .collect();
+        if design.is_empty() {
+            return run(src, study);
+        }
+        let mut b = study.design_values();
+        for (name, v) in design {
+            let j = study
+                .design
+                .variables
+                .iter()
+                .position(|x| x.name == name)
+                .ok_or_else(|| {
+                    CliError::Runtime(format!(
+                        "{}: the case's deck has no design variable `{name}`",
+                        src.file.display()
+                    ))
+                })?;
+            b[j] = v;
+        }
+        run(src, &study.at(src, &b)?)
+    }
 }
 
 /// The varied values of case `i` (0-based; the last axis fastest).
@@ -268,12 +328,11 @@ pub fn run(
     let Plan { axes, n_cases } = plan(req.vary)?;
     let shard = req.shard.map(parse_shard).transpose()?;
     // the corner cases (each axis at its first and last value, the others at their first) are
-    // validated before anything runs, so that bad input is reported at once; an error that
-    // only another combination meets fails that case alone, and the summary says so
+    // built before anything runs, so that bad input is reported at once; an error that only
+    // another combination meets fails that case alone, and the summary says so
+    let start = Cases::new(path, overrides, &axes)?;
     for c in corner_cases(&axes) {
-        let s = case_overrides(path, overrides, &axes, &case_values(&axes, c))?;
-        let (src, raw) = deck::load(path, &s)?;
-        Study::validate(&src, &raw, true)?;
+        start.with_case(&case_values(&axes, c), |_, _| Ok(()))?;
     }
     let out = req
         .out
@@ -296,19 +355,10 @@ pub fn run(
     let results = super::parallel_map(cases.len(), jobs, |j| {
         let i = cases[j];
         let dir = case_dir(i);
-        let request = RunRequest {
-            out: Some(&dir),
-            json: true,
-            progress: false,
-        };
         let values = case_values(&axes, i);
-        let outcome = case_overrides(path, overrides, &axes, &values)
-            .and_then(|sets| super::run::run(path, &sets, &request))
-            .and_then(|s| {
-                serde_json::from_str::<Value>(&s)
-                    .map_err(|e| CliError::Runtime(format!("case {}: {e}", i + 1)))
-            })
-            .map(summary_fields)
+        let outcome = start
+            .with_case(&values, |src, study| run_study(src, study, &dir, None))
+            .map(|done| summary_fields(done.summary))
             .map_err(|e| e.to_string());
         let n = done.fetch_add(1, Ordering::SeqCst) + 1;
         if !req.quiet {

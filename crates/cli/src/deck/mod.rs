@@ -74,6 +74,8 @@ pub struct Source {
     pub text: String,
     /// The `--set` arguments applied to `text`, if any.
     pub overrides: Vec<String>,
+    /// The text as read, when `--set` arguments changed it.
+    original: Option<String>,
     /// Warnings already printed: each once per run, however often the deck is validated
     /// (finite differences rebuild the model).
     warned: std::sync::Mutex<std::collections::BTreeSet<String>>,
@@ -86,6 +88,7 @@ impl Source {
             file: file.into(),
             text: text.into(),
             overrides: Vec::new(),
+            original: None,
             warned: Default::default(),
         }
     }
@@ -141,9 +144,21 @@ impl Source {
             .collect::<Result<Vec<_>, _>>()
             .map_err(bad)?;
         let text = overrides::apply(&self.text, &parsed).map_err(bad)?;
+        self.original.get_or_insert_with(|| self.text.clone());
         self.text = text;
         self.overrides = args.to_vec();
         Ok(self)
+    }
+
+    /// This deck's file text (before any `--set`) with the `--set` arguments `args` applied
+    /// (see [`overrides`]): another case of the same file, without reading it again.
+    pub fn edited(&self, args: &[String]) -> Result<Self, DeckError> {
+        Source::new(self.file.clone(), self.file_text().to_string()).with_overrides(args)
+    }
+
+    /// The text as read from the file.
+    fn file_text(&self) -> &str {
+        self.original.as_deref().unwrap_or(&self.text)
     }
 
     /// 1-based line and column of a byte offset.

@@ -26,7 +26,6 @@ use crate::deck::mechanism::{self, BodyInfo};
 use crate::deck::responses::{self, ResponseDef};
 use crate::deck::{DeckError, RawDeck, Source};
 use crate::error::CliError;
-use crate::progress::RunProgress;
 use flexible::{Built, DesignRequest, fem_error};
 
 /// A flexible body of the mechanism with what its design derivatives need.
@@ -84,8 +83,11 @@ pub(crate) struct Study {
     pub(crate) policy: RedundancyPolicy,
     /// `analysis.max_violation` (m): the step guard's limit, when the deck sets it.
     pub(crate) max_violation: Option<f64>,
-    /// The progress bar, when one is wanted.
-    pub(crate) progress: Option<RunProgress>,
+    /// The deck's title.
+    pub(crate) title: Option<String>,
+    /// The flexible bodies carry their design derivatives (section derivatives): a study for
+    /// a run with sensitivities.
+    pub(crate) derivatives: bool,
 }
 
 /// A body's initial placement: frame origin, orientation (body → global), velocity of the
@@ -255,6 +257,7 @@ impl Study {
         }
         let laminates = validate_laminates(src, raw)?;
         let design = validate_design(src, raw, &laminates)?;
+        let design_enabled = design.enabled;
         let request = if derivatives && design.enabled {
             DesignRequest::Variables(&design.variables)
         } else {
@@ -404,7 +407,8 @@ impl Study {
             options,
             policy,
             max_violation,
-            progress: None,
+            title: raw.title.clone(),
+            derivatives: derivatives && design_enabled,
         };
         study.check_objective_times(src, raw)?;
         if derivatives && study.design.enabled {
@@ -491,17 +495,119 @@ impl Study {
 
     /// The laminates moved to the design `b`.
     pub(crate) fn laminates_at(&self, src: &Source, b: &[f64]) -> Result<LaminateModel, CliError> {
-        let mut lam = self.laminates.clone();
-        for (v, &bj) in self.design.variables.iter().zip(b) {
-            v.apply(&mut lam, bj).map_err(|e| {
+        self.design
+            .laminates_at(&self.laminates, b)
+            .map_err(|(name, e)| {
                 CliError::Runtime(format!(
-                    "{}: design variable `{}` = {bj}: {e}",
+                    "{}: design variable `{name}` at the design {b:?}: {e}",
                     src.file.display(),
-                    v.name
                 ))
-            })?;
+            })
+    }
+
+    /// The definition of flexible body `part` moved to the laminates `lam` of the design `b`,
+    /// with the number of eigenmodes of this study's design (`modes = "auto"` chose it here).
+    fn part_at(
+        &self,
+        src: &Source,
+        part: &FlexiblePart,
+        lam: &LaminateModel,
+        b: &[f64],
+    ) -> Result<BodyDef, CliError> {
+        let mut def = part.def.at(lam).map_err(|e| {
+            CliError::Runtime(format!(
+                "{}: body `{}` at the design {b:?}: its section: {e}",
+                src.file.display(),
+                part.name
+            ))
+        })?;
+        if def.auto_modes {
+            def.auto_modes = false;
+            def.modes = part.analysis.n_modes;
+            def.computed = part.analysis.n_modes;
         }
-        Ok(lam)
+        Ok(def)
+    }
+
+    /// The study at the design `b` (one value per design variable), built in memory from the
+    /// validated definitions, as validating the deck with the variables at `b` builds it: the
+    /// laminates moved ([`DesignDef::laminates_at`]), every flexible body rebuilt from its
+    /// definition there ([`BodyDef::at`]) with its basis check (and its warning when the basis
+    /// no longer converges) and, in a study with derivatives, its design derivatives; the rigid
+    /// bodies' mass and inertia variables set. The number of eigenmodes `modes = "auto"` chose
+    /// at this study's design is kept, so the state's layout and the responses that name modes
+    /// stay valid; a body whose frame origin (the node nearest its centre of mass) moves at
+    /// `b` is refused, since the joints were placed in that frame.
+    pub(crate) fn at(&self, src: &Source, b: &[f64]) -> Result<Study, CliError> {
+        let laminates = self.laminates_at(src, b)?;
+        let design = self.design.at(b);
+        let request = if self.derivatives {
+            DesignRequest::Variables(&design.variables)
+        } else {
+            DesignRequest::None
+        };
+        let mut model = self.model.clone();
+        let mut bodies = self.bodies.clone();
+        let mut flexible = Vec::new();
+        for part in &self.flexible {
+            let def = self.part_at(src, part, &laminates, b)?;
+            let (built, analysis, modal, basis) =
+                flexible_body(src, &part.name, part.span.clone(), &def, request, true)?;
+            if analysis.origin != part.analysis.origin {
+                return Err(CliError::Runtime(format!(
+                    "{}: body `{}` at the design {b:?}: its frame origin (the node nearest its \
+                     centre of mass) moves from {:?} to {:?} m; the joints are placed in the \
+                     frame of the deck's design (validate the deck at this design instead)",
+                    src.file.display(),
+                    part.name,
+                    part.analysis.origin.as_slice(),
+                    analysis.origin.as_slice()
+                )));
+            }
+            let body = flexible_model_body(
+                &part.name,
+                &built.mesh,
+                &analysis.couplings,
+                modal,
+                def.stiffening,
+            )
+            .map_err(|e| fem_error(src, &part.name, part.span.clone(), e))?;
+            *model.body_mut(part.id) = Body::Flexible(body);
+            let info = bodies
+                .get_mut(&part.name)
+                .expect("every flexible body has its entry");
+            info.frequencies = analysis.frequencies_hz();
+            info.basis = Some(basis);
+            flexible.push(FlexiblePart {
+                id: part.id,
+                name: part.name.clone(),
+                built,
+                analysis,
+                span: part.span.clone(),
+                stiffening: def.stiffening,
+                def,
+            });
+        }
+        for (v, &bj) in self.design.variables.iter().zip(b) {
+            set_rigid(&mut model, &self.bodies, &v.target, bj);
+        }
+        Ok(Study {
+            model,
+            flexible,
+            laminates,
+            design,
+            state: self.state.clone(),
+            bodies,
+            body_order: self.body_order.clone(),
+            joint_names: self.joint_names.clone(),
+            responses: self.responses.clone(),
+            times: self.times.clone(),
+            options: self.options.clone(),
+            policy: self.policy,
+            max_violation: self.max_violation,
+            title: self.title.clone(),
+            derivatives: self.derivatives,
+        })
     }
 
     /// The mechanism's model at the design `b`: every flexible body rebuilt from the laminates
@@ -511,19 +617,7 @@ impl Study {
         let lam = self.laminates_at(src, b)?;
         let mut model = self.model.clone();
         for part in &self.flexible {
-            let mut def = part.def.at(&lam).map_err(|e| {
-                CliError::Runtime(format!(
-                    "{}: body `{}` at the design {b:?}: its section: {e}",
-                    src.file.display(),
-                    part.name
-                ))
-            })?;
-            // the nominal design's number of modes (`modes = "auto"` chose it there)
-            if def.auto_modes {
-                def.auto_modes = false;
-                def.modes = part.analysis.n_modes;
-                def.computed = part.analysis.n_modes;
-            }
+            let def = self.part_at(src, part, &lam, b)?;
             // the perturbed designs of finite differences: no check (nor its warning) again
             let (built, analysis, mut body, _) = flexible_body(
                 src,

@@ -4,7 +4,7 @@
 use super::*;
 
 impl Problem<'_> {
-    /// The `--set` arguments that put the design `x` into the deck.
+    /// The `--set` arguments that write the design `x` into the deck (the optimum's deck).
     pub(super) fn sets(&self, x: &[f64]) -> Vec<String> {
         let mut sets = self.overrides.to_vec();
         for (v, &b) in self.variables.iter().zip(x) {
@@ -13,38 +13,54 @@ impl Problem<'_> {
         sets
     }
 
-    /// Every quantity the problem reads, with its gradient, at the design `x`.
+    /// An error of the evaluation at `[optimize]`.
+    fn at_optimize(&self, message: String) -> CliError {
+        CliError::Input(self.src.error(None, Some("optimize".into()), message))
+    }
+
+    /// Every quantity the problem reads, with its gradient, at the design `x`: the validated
+    /// model moved there in memory.
     pub(super) fn evaluate(&self, x: &[f64]) -> Result<Eval, CliError> {
-        let sets = self.sets(x);
-        let (src, raw) = deck::load(self.path, &sets)?;
-        let quantities: Vec<&Quantity> = std::iter::once(&self.def.objective)
-            .chain(self.def.constraints.iter().map(|c| &c.quantity))
-            .collect();
+        let src = &self.src;
         // the run, once, when an objective of it is asked for
-        let objectives = if quantities
-            .iter()
-            .any(|q| matches!(q, Quantity::Objective { .. }))
-        {
-            let mut mech = Study::validate(&src, &raw, true)?;
-            mech.design.finite_differences = None;
-            let c = crate::commands::compute::compute(&src, &mech)?;
-            c.objectives
-                .into_iter()
-                .map(|o| (o.name, (o.value, o.gradient, o.unit)))
-                .collect()
-        } else {
-            std::collections::BTreeMap::new()
+        let objectives = match &self.study {
+            Some(study) => {
+                let c = crate::commands::compute::compute(src, &study.at(src, x)?, None)?;
+                c.objectives
+                    .into_iter()
+                    .map(|o| (o.name, (o.value, o.gradient, o.unit)))
+                    .collect()
+            }
+            None => BTreeMap::new(),
         };
-        let lam = validate_laminates(&src, &raw)?;
-        let design = validate_design(&src, &raw, &lam)?;
+        let lam = self
+            .design
+            .laminates_at(&self.laminates, x)
+            .map_err(|(name, e)| {
+                runtime(format!(
+                    "{}: design variable `{name}` at the design {x:?}: {e}",
+                    src.file.display()
+                ))
+            })?;
+        let design = self.design.at(x);
         // each flexible body's modal analysis and masses once per evaluation
-        let mut bodies = std::collections::BTreeMap::<String, FlexibleQuantities>::new();
+        let mut bodies = BTreeMap::<&String, FlexibleQuantities>::new();
         let mut flexible = |body: &String| -> Result<FlexibleQuantities, CliError> {
-            if let Some(b) = bodies.get(body) {
+            let (name, (def, span)) = self
+                .bodies
+                .get_key_value(body)
+                .expect("constrained bodies are validated");
+            if let Some(b) = bodies.get(name) {
                 return Ok(b.clone());
             }
-            let b = flexible_quantities(&src, &raw, &lam, &design, body)?;
-            bodies.insert(body.clone(), b.clone());
+            let def = def.at(&lam).map_err(|e| {
+                runtime(format!(
+                    "{}: body `{name}` at the design {x:?}: its section: {e}",
+                    src.file.display()
+                ))
+            })?;
+            let b = flexible_quantities(src, name, span.clone(), &def, &design)?;
+            bodies.insert(name, b.clone());
             Ok(b)
         };
         let mut read = |q: &Quantity| -> Result<(f64, Vec<f64>, &'static str), CliError> {
@@ -54,15 +70,14 @@ impl Problem<'_> {
                     let b = flexible(body)?;
                     let n = b.frequencies.len();
                     let f = b.frequencies.get(*mode).ok_or_else(|| {
-                        CliError::Input(src.error(
-                            None,
-                            Some("optimize".into()),
-                            format!("frequency.{body}.{}: the body keeps {n} modes", mode + 1),
+                        self.at_optimize(format!(
+                            "frequency.{body}.{}: the body keeps {n} modes",
+                            mode + 1
                         ))
                     })?;
                     (*f, b.d_frequencies[*mode].clone(), "Hz")
                 }
-                Quantity::Mass { body } if raw.body.contains_key(body) => {
+                Quantity::Mass { body } if self.bodies.contains_key(body) => {
                     let b = flexible(body)?;
                     (b.mass, b.d_mass, "kg")
                 }
@@ -81,20 +96,21 @@ impl Problem<'_> {
                     (def.stack.stiffness().mass_per_area, grad, "kg/m^2")
                 }
                 Quantity::Mass { body } => {
-                    let rigid = mechanism::rigid_bodies(&src, &raw)?;
-                    let r = rigid
-                        .iter()
-                        .find(|r| r.name == *body)
-                        .expect("validated body name");
+                    // a rigid body: its mass variable's value, or its mass in the deck
+                    let mut mass = self.rigid_masses[body];
                     let grad = self
                         .variables
                         .iter()
-                        .map(|v| match &v.target {
-                            Target::RigidMass { body: b } if b == body => 1.0,
+                        .zip(x)
+                        .map(|(v, &xj)| match &v.target {
+                            Target::RigidMass { body: b } if b == body => {
+                                mass = xj;
+                                1.0
+                            }
                             _ => 0.0,
                         })
                         .collect();
-                    (r.mass, grad, "kg")
+                    (mass, grad, "kg")
                 }
             })
         };
@@ -103,14 +119,10 @@ impl Problem<'_> {
             if g.len() == n {
                 return Ok(());
             }
-            Err(CliError::Input(src.error(
-                None,
-                Some("optimize".into()),
-                format!(
-                    "{} has no gradient (its response has no sensitivities, or [sensitivity] \
-                     enabled = false): an optimisation needs one",
-                    q.label()
-                ),
+            Err(self.at_optimize(format!(
+                "{} has no gradient (its response has no sensitivities, or [sensitivity] \
+                 enabled = false): an optimisation needs one",
+                q.label()
             )))
         };
         let (f, df, unit) = read(&self.def.objective)?;
@@ -270,11 +282,7 @@ impl Problem<'_> {
 
 /// `--set` arguments that give every mesh file of the deck (`section.*.file`, `body.*.file`)
 /// as an absolute path, so that the optimum deck, written elsewhere, reads the same meshes.
-pub(super) fn absolute_file_keys(
-    path: &Path,
-    overrides: &[String],
-) -> Result<Vec<String>, CliError> {
-    let (_, raw) = deck::load(path, overrides)?;
+pub(super) fn absolute_file_keys(path: &Path, raw: &deck::RawDeck) -> Vec<String> {
     let dir = path.parent().unwrap_or(Path::new("."));
     let absolute = |f: &str| {
         let p = dir.join(f);
@@ -295,7 +303,7 @@ pub(super) fn absolute_file_keys(
             sets.push(format!("body.{name}.file={}", quote(absolute(f.get_ref()))));
         }
     }
-    Ok(sets)
+    sets
 }
 
 /// A flexible body's frequencies and mass with their gradients (per design variable).
@@ -309,20 +317,18 @@ pub(super) struct FlexibleQuantities {
 }
 
 /// The retained modes' frequencies (Nelson's eigenvalue derivatives, updated modes) and the
-/// mass (lumped masses in dual numbers) of flexible body `name`, at the deck's design.
+/// mass (lumped masses in dual numbers) of flexible body `name` (deck table `span`), defined
+/// by `def` at the design `design`.
 pub(super) fn flexible_quantities(
     src: &Source,
-    raw: &deck::RawDeck,
-    lam: &crate::deck::laminates::LaminateModel,
-    design: &crate::deck::design::DesignDef,
     name: &str,
+    span: Range<usize>,
+    def: &BodyDef,
+    design: &DesignDef,
 ) -> Result<FlexibleQuantities, CliError> {
-    let table = &raw.body[name];
-    let def = bodies::validate_one(src, raw, name, table, lam)?;
-    let mut built = build(src, name, &def, DesignRequest::Variables(&design.variables))?;
-    let span = table.span();
+    let mut built = build(src, name, def, DesignRequest::Variables(&design.variables))?;
     let (analysis, _) =
-        crate::study::flexible::analyse(src, name, span.clone(), &def, &mut built, false)?;
+        crate::study::flexible::analyse(src, name, span.clone(), def, &mut built, false)?;
     let d = built.eigenvalue_derivatives::<CHUNK>(src, name, span.clone(), &analysis)?;
     let m = design.variables.len();
     let mut frequencies = Vec::new();

@@ -1,8 +1,10 @@
 //! `flexsens optimize`: gradient-based optimisation of the deck's `[design.*]` variables
 //! (`[optimize]`, see `docs/optimization.md`).
 //!
-//! Each evaluation builds the deck at the design `x` (the variables' values written in as
-//! `--set` would), and reads each quantity with its exact gradient: an `[objective.*]` from
+//! The deck is read and validated once. Each evaluation moves the validated model to the
+//! design `x` in memory (the study's [`Study::at`], the bodies' `BodyDef::at`, the laminates'
+//! `DesignDef::laminates_at`: no deck text is edited or read again) and reads each quantity
+//! with its exact gradient: an `[objective.*]` from
 //! the run's direct sensitivities, a frequency from the modal analysis and Nelson's eigenvalue
 //! derivative, a flexible body's mass from its lumped masses in dual numbers (a rigid body's
 //! from its mass variable), a laminate's mass per area through the shells' design map. The
@@ -13,7 +15,9 @@
 //! feasible design is written as a deck, run, and summarised.
 
 use std::cell::RefCell;
+use std::collections::BTreeMap;
 use std::fmt::Write as _;
+use std::ops::Range;
 use std::path::Path;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -21,8 +25,9 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use nalgebra::{DMatrix, DVector};
 use sens::Dual;
 
-use crate::deck::design::{DesignVariable, Target, validate as validate_design};
-use crate::deck::laminates::validate as validate_laminates;
+use crate::deck::bodies::BodyDef;
+use crate::deck::design::{DesignDef, DesignVariable, Target, validate as validate_design};
+use crate::deck::laminates::{LaminateModel, validate as validate_laminates};
 use crate::deck::optimize::{Bound, OptimizeDef, Quantity, validate as validate_optimize};
 use crate::deck::{self, Source, bodies, mechanism};
 use crate::error::CliError;
@@ -93,12 +98,24 @@ pub(super) struct Row {
     multipliers: Vec<f64>,
 }
 
-/// The problem: the deck, its design variables and `[optimize]`, and the constraint bounds
-/// resolved (`"nominal"` replaced by the value at the deck's design).
+/// The problem: the deck validated once, its design variables and `[optimize]`, and the
+/// constraint bounds resolved (`"nominal"` replaced by the value at the deck's design).
 pub(super) struct Problem<'a> {
     path: &'a Path,
     overrides: &'a [String],
+    /// The deck with the command line's `--set` arguments.
+    src: Source,
+    /// Its laminates and design, at the deck's design.
+    laminates: LaminateModel,
+    design: DesignDef,
     variables: Vec<DesignVariable>,
+    /// The flexible bodies whose frequency or mass is constrained: their validated
+    /// definitions and deck tables.
+    bodies: BTreeMap<String, (BodyDef, Range<usize>)>,
+    /// The rigid bodies' masses at the deck's design.
+    rigid_masses: BTreeMap<String, f64>,
+    /// The deck's study (without finite differences), when an objective is read.
+    study: Option<Study>,
     def: OptimizeDef,
     /// Per constraint: its bound resolved and its scale (for the optimiser and the violation).
     limits: Vec<(Bound, f64)>,
@@ -124,13 +141,54 @@ fn best_feasible(p: &Problem, rows: &[Row], start: Option<usize>) -> Option<usiz
 /// design; and whether the deck is a mechanism (its optimum is run).
 fn setup<'a>(path: &'a Path, overrides: &'a [String]) -> Result<(Problem<'a>, bool), CliError> {
     let (src, raw) = deck::load(path, overrides)?;
-    let lam = validate_laminates(&src, &raw)?;
-    let design = validate_design(&src, &raw, &lam)?;
+    let laminates = validate_laminates(&src, &raw)?;
+    let design = validate_design(&src, &raw, &laminates)?;
     let def = validate_optimize(&src, &raw, &design)?;
+    let quantities: Vec<&Quantity> = std::iter::once(&def.objective)
+        .chain(def.constraints.iter().map(|c| &c.quantity))
+        .collect();
+    let mut bodies = BTreeMap::new();
+    let mut rigid = false;
+    for q in &quantities {
+        if let Quantity::Frequency { body, .. } | Quantity::Mass { body } = q {
+            match raw.body.get(body) {
+                Some(table) if !bodies.contains_key(body) => {
+                    let def = bodies::validate_one(&src, &raw, body, table, &laminates)?;
+                    bodies.insert(body.clone(), (def, table.span()));
+                }
+                Some(_) => {}
+                None => rigid = true,
+            }
+        }
+    }
+    let rigid_masses = if rigid {
+        mechanism::rigid_bodies(&src, &raw)?
+            .into_iter()
+            .map(|r| (r.name, r.mass))
+            .collect()
+    } else {
+        BTreeMap::new()
+    };
+    let study = if quantities
+        .iter()
+        .any(|q| matches!(q, Quantity::Objective { .. }))
+    {
+        let mut study = Study::validate(&src, &raw, true)?;
+        study.design.finite_differences = None;
+        Some(study)
+    } else {
+        None
+    };
     let mut problem = Problem {
         path,
         overrides,
+        src,
+        laminates,
         variables: design.variables.clone(),
+        design,
+        bodies,
+        rigid_masses,
+        study,
         def,
         limits: Vec::new(),
     };

@@ -171,8 +171,8 @@ pub(super) fn finish(
     let best = &rows[k];
     let e = best.eval.as_ref().expect("a feasible row has values");
     let mut sets = problem.sets(&best.x);
-    sets.extend(absolute_file_keys(path, problem.overrides)?);
-    let optimum = Source::read(path)?.with_overrides(&sets)?;
+    sets.extend(absolute_file_keys(path, &problem.src.parse()?));
+    let optimum = problem.src.edited(&sets)?;
     let optimum_path = out.join("optimum.toml");
     write_atomic(&optimum_path, optimum.text.as_bytes())?;
     let _ = writeln!(

@@ -11,9 +11,11 @@
 //! - `central`: central differences of relative size 1e-4 on the replayed steps (the check
 //!   in the summary).
 //!
-//! The lay-up and `analysis.integrator`/`analysis.step` are applied as `--set` overrides of the
-//! deck; the sensitivity and finite-difference settings are set on the validated design, so a
-//! deck needs no `[sensitivity]` or `[finite_differences]` table (those it has are replaced).
+//! The deck is validated twice, as written and with the fixed-step integrator
+//! (`analysis.integrator`/`analysis.step` set in memory); each lay-up is that study moved to
+//! the lay-up's design ([`Study::at`]); the sensitivity and finite-difference settings are set
+//! on the study's design, so a deck needs no `[sensitivity]` or `[finite_differences]` table
+//! (those it has are replaced).
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -190,29 +192,34 @@ pub(super) fn subject(src: &Source, mech: &Study) -> Result<Subject, CliError> {
     })
 }
 
-/// The overrides that put the first design variable at `b`.
-pub(super) fn layup_overrides(mech: &Study, b: f64) -> Vec<String> {
-    mech.design.variables[0].overrides(b)
+/// The design of lay-up `b`: the first design variable at `b`, the others at their values in
+/// the deck.
+pub(super) fn layup(mech: &Study, b: f64) -> Vec<f64> {
+    let mut x = mech.design_values();
+    x[0] = b;
+    x
+}
+
+/// The deck's studies: as written, and with a fixed-step integrator (the `fixed-step` runs).
+pub(super) struct Studies<'a> {
+    pub(super) nominal: (&'a Source, &'a Study),
+    pub(super) fixed_step: (&'a Source, &'a Study),
 }
 
 /// Run the deck for lay-up `b` with the settings of `kind`.
 pub(super) fn run_one(
-    path: &Path,
-    overrides: &[String],
-    layup: &[String],
+    studies: &Studies,
+    b: f64,
     kind: Kind,
-    fixed_step: f64,
     response: usize,
 ) -> Result<RunResult, CliError> {
     let start = Instant::now();
-    let mut args: Vec<String> = overrides.to_vec();
-    args.extend_from_slice(layup);
-    if kind == Kind::FixedStep {
-        args.push("analysis.integrator=fixed".into());
-        args.push(format!("analysis.step={fixed_step:?}"));
-    }
-    let (src, raw) = deck::load(path, &args)?;
-    let mut mech = Study::validate(&src, &raw, true)?;
+    let (src, base) = if kind == Kind::FixedStep {
+        studies.fixed_step
+    } else {
+        studies.nominal
+    };
+    let mut mech = base.at(src, &layup(base, b))?;
     let d = &mut mech.design;
     d.enabled = true;
     // the figures compare the exact derivative of the discrete solution with differences
@@ -241,7 +248,7 @@ pub(super) fn run_one(
             steps: vec![FdSteps::Replay],
         }),
     };
-    let c = compute(&src, &mech)?;
+    let c = compute(src, &mech, None)?;
     let sens = c
         .sensitivities
         .as_ref()
@@ -298,15 +305,12 @@ pub(super) fn run_one(
 
 /// Run every (lay-up, kind) job on `jobs` threads; results in job order.
 pub(super) fn run_all(
-    path: &Path,
-    overrides: &[String],
+    studies: &Studies,
     angles: &[f64],
-    layups: &[Vec<String>],
-    fixed_step: f64,
     response: usize,
     jobs: usize,
 ) -> Result<Vec<RunResult>, CliError> {
-    let work: Vec<(usize, Kind)> = (0..layups.len())
+    let work: Vec<(usize, Kind)> = (0..angles.len())
         .flat_map(|i| Kind::ALL.into_iter().map(move |k| (i, k)))
         .collect();
     let next = std::sync::atomic::AtomicUsize::new(0);
@@ -318,7 +322,7 @@ pub(super) fn run_all(
                 loop {
                     let j = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
                     let Some(&(i, kind)) = work.get(j) else { break };
-                    let r = run_one(path, overrides, &layups[i], kind, fixed_step, response);
+                    let r = run_one(studies, angles[i], kind, response);
                     let failed = r.is_err();
                     results.lock().expect("no panics while holding the lock")[j] = Some(r);
                     if failed {
@@ -415,7 +419,7 @@ pub fn run(path: &Path, overrides: &[String], req: &ReportRequest) -> Result<Str
     let started = Instant::now();
     let angles = parse_layups(req.layups)?;
     let (src, raw) = deck::load(path, overrides)?;
-    let nominal = Study::validate(&src, &raw, false)?;
+    let nominal = Study::validate(&src, &raw, true)?;
     let s = subject(&src, &nominal)?;
     let output_step = match nominal.times.as_slice() {
         [a, b, ..] => b - a,
@@ -438,26 +442,20 @@ pub fn run(path: &Path, overrides: &[String], req: &ReportRequest) -> Result<Str
     if jobs == 0 {
         return Err(CliError::Usage("--jobs 0: expected at least one".into()));
     }
-    let layup_args: Vec<Vec<String>> = angles
-        .iter()
-        .map(|&b| layup_overrides(&nominal, b))
-        .collect();
-    // every lay-up's deck is valid before anything long starts
-    for args in &layup_args {
-        let mut all = overrides.to_vec();
-        all.extend_from_slice(args);
-        let (src, raw) = deck::load(path, &all)?;
-        Study::validate(&src, &raw, false)?;
+    let mut fixed_args = overrides.to_vec();
+    fixed_args.push("analysis.integrator=fixed".into());
+    fixed_args.push(format!("analysis.step={fixed_step:?}"));
+    let fixed_src = src.edited(&fixed_args)?;
+    let fixed = Study::validate(&fixed_src, &fixed_src.parse()?, true)?;
+    // every lay-up builds before anything long starts
+    for &b in &angles {
+        nominal.at(&src, &layup(&nominal, b))?;
     }
-    let results = run_all(
-        path,
-        overrides,
-        &angles,
-        &layup_args,
-        fixed_step,
-        s.response,
-        jobs,
-    )?;
+    let studies = Studies {
+        nominal: (&src, &nominal),
+        fixed_step: (&fixed_src, &fixed),
+    };
+    let results = run_all(&studies, &angles, s.response, jobs)?;
     let layups: Vec<Layup> = angles
         .iter()
         .zip(results.chunks(Kind::ALL.len()))

@@ -168,6 +168,22 @@ impl DesignVariable {
             .collect()
     }
 
+    /// The variable at the value `b`: its nominal value `b`, and the plies as they would be
+    /// written at `b` (what [`Self::overrides`] writes and [`Self::apply`] moves from).
+    pub fn at(&self, b: f64) -> DesignVariable {
+        let mut v = self.clone();
+        let h = b - self.value;
+        if let Target::PlyAngle { deck_plies, .. } | Target::PlyThickness { deck_plies, .. } =
+            &mut v.target
+        {
+            for (_, x0, f) in deck_plies.iter_mut() {
+                *x0 += *f * h;
+            }
+        }
+        v.value = b;
+        v
+    }
+
     /// Move the laminates to the value `b` of this variable (from the nominal laminates: each
     /// linked ply turns by `dθ/db · (b − b0)`; a material's constants move by
     /// `dc/db · (b − b0)`, in every ply made of it); other variables leave them.
@@ -246,6 +262,36 @@ pub struct DesignDef {
     pub error_control: bool,
     pub objectives: Vec<ObjectiveDef>,
     pub finite_differences: Option<FdDef>,
+}
+
+impl DesignDef {
+    /// The design at the values `b` (one per variable): each variable at its value there
+    /// ([`DesignVariable::at`]).
+    pub fn at(&self, b: &[f64]) -> DesignDef {
+        DesignDef {
+            variables: self
+                .variables
+                .iter()
+                .zip(b)
+                .map(|(v, &bj)| v.at(bj))
+                .collect(),
+            ..self.clone()
+        }
+    }
+
+    /// The laminates `nominal` (this design's) moved to the values `b`
+    /// ([`DesignVariable::apply`]); a failure names the variable.
+    pub fn laminates_at(
+        &self,
+        nominal: &LaminateModel,
+        b: &[f64],
+    ) -> Result<LaminateModel, (String, LaminateError)> {
+        let mut lam = nominal.clone();
+        for (v, &bj) in self.variables.iter().zip(b) {
+            v.apply(&mut lam, bj).map_err(|e| (v.name.clone(), e))?;
+        }
+        Ok(lam)
+    }
 }
 
 fn choice<'a>(
