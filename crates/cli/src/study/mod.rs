@@ -221,6 +221,163 @@ pub(crate) fn set_rigid<P: sens::Scalar>(
     }
 }
 
+/// The nominal mechanism as validation builds it, body by body.
+#[derive(Default)]
+struct Mechanism {
+    model: Model<f64>,
+    flexible: Vec<FlexiblePart>,
+    bodies: BTreeMap<String, BodyInfo>,
+    /// Body names in model order.
+    body_order: Vec<String>,
+    placements: Vec<Placement>,
+    /// Per flexible body: its initial modal coordinates and rates as the deck gives them.
+    modal_starts: Vec<(BodyId, Vec<f64>, Vec<f64>)>,
+}
+
+impl Mechanism {
+    /// The flexible bodies: the modes of each mesh as given (global coordinates at t = 0).
+    fn add_flexible_bodies(
+        &mut self,
+        src: &Source,
+        raw: &RawDeck,
+        laminates: &LaminateModel,
+        request: DesignRequest,
+    ) -> Result<(), CliError> {
+        for (name, b) in &raw.body {
+            let def = validate_body(src, raw, name, b, laminates)?;
+            let (built, analysis, modal, basis) =
+                flexible_body(src, name, b.span(), &def, request, true)?;
+            let nodes = modal.node_positions.clone();
+            let body = flexible_model_body(
+                name,
+                &built.mesh,
+                &analysis.couplings,
+                modal,
+                def.stiffening,
+            )
+            .map_err(|e| fem_error(src, name, b.span(), e))?;
+            let id = self
+                .model
+                .add_flexible_body(body)
+                .map_err(|e| at_table(src, b.span(), format!("body.{name}"), e))?;
+            self.modal_starts.push((
+                id,
+                def.initial_modal.clone(),
+                def.initial_modal_rates.clone(),
+            ));
+            self.placements.push(Placement {
+                id,
+                position: analysis.origin,
+                rotation: Matrix3::identity(),
+                velocity: Vector3::zeros(),
+                angular_velocity: Vector3::zeros(),
+            });
+            self.bodies.insert(
+                name.clone(),
+                BodyInfo {
+                    id,
+                    position: analysis.origin,
+                    rotation: Matrix3::identity(),
+                    nodes: Some(nodes),
+                    frequencies: analysis.frequencies_hz(),
+                    couplings: def.couplings.iter().map(|c| c.name.clone()).collect(),
+                    basis: Some(basis),
+                },
+            );
+            self.body_order.push(name.clone());
+            self.flexible.push(FlexiblePart {
+                id,
+                name: name.clone(),
+                built,
+                analysis,
+                span: b.span(),
+                stiffening: def.stiffening,
+                def,
+            });
+        }
+        Ok(())
+    }
+
+    /// The rigid bodies, placed and moving as the deck gives them.
+    fn add_rigid_bodies(&mut self, src: &Source, raw: &RawDeck) -> Result<(), CliError> {
+        for r in mechanism::rigid_bodies(src, raw)? {
+            let id = self
+                .model
+                .add_rigid_body(RigidBody::new(r.name.clone(), r.mass, r.inertia))
+                .map_err(|e| at_table(src, r.span.clone(), format!("rigid.{}", r.name), e))?;
+            self.placements.push(Placement {
+                id,
+                position: r.position,
+                rotation: r.orientation,
+                velocity: r.velocity,
+                angular_velocity: r.angular_velocity,
+            });
+            self.bodies.insert(
+                r.name.clone(),
+                BodyInfo {
+                    id,
+                    position: r.position,
+                    rotation: r.orientation,
+                    nodes: None,
+                    frequencies: Vec::new(),
+                    couplings: Vec::new(),
+                    basis: None,
+                },
+            );
+            self.body_order.push(r.name);
+        }
+        Ok(())
+    }
+
+    /// The joints (named, in deck order) and the forces and gravity (a spring's free length
+    /// from its markers' distance as placed).
+    fn add_joints_and_forces(
+        &mut self,
+        src: &Source,
+        raw: &RawDeck,
+    ) -> Result<Vec<(String, JointId)>, CliError> {
+        let mut named_joints = Vec::new();
+        for joint in mechanism::joints(src, raw, &self.bodies)? {
+            let name = joint.name.clone();
+            let id = self
+                .model
+                .add_joint(joint)
+                .map_err(|e| at_table(src, raw.joint[&name].span(), format!("joint.{name}"), e))?;
+            named_joints.push((name, id));
+        }
+        let q0 = initial_state(&self.model, &self.placements).q;
+        let model = &self.model;
+        let mechanism::ForceDefs { gravity, forces } =
+            mechanism::forces(src, raw, &self.bodies, |a, b| {
+                (model.marker_position(a, &q0) - model.marker_position(b, &q0)).norm()
+            })?;
+        self.model.gravity += gravity;
+        for (name, force) in forces {
+            self.model
+                .add_force(force)
+                .map_err(|e| at_table(src, raw.force[&name].span(), format!("force.{name}"), e))?;
+        }
+        Ok(named_joints)
+    }
+
+    /// The initial state: the bodies as placed (the assembly moves only the rigid-body
+    /// coordinates), the elastic state as the deck gives it, static correction modes (after
+    /// the retained ones) at zero.
+    fn initial_state(&self) -> State {
+        let mut state = initial_state(&self.model, &self.placements);
+        for (id, w, wd) in &self.modal_starts {
+            let n = self.model.body(*id).n_modes();
+            let pad = |x: &Vec<f64>| {
+                let mut x = x.clone();
+                x.resize(n, 0.0);
+                x
+            };
+            self.model.set_modal(&mut state, *id, &pad(w), &pad(wd));
+        }
+        state
+    }
+}
+
 /// Relative gap below which eigenvalues count as repeated when perturbed modes are tracked.
 const CLUSTER_TOL: f64 = 1e-6;
 
@@ -257,95 +414,15 @@ impl Study {
         }
         let laminates = validate_laminates(src, raw)?;
         let design = validate_design(src, raw, &laminates)?;
-        let design_enabled = design.enabled;
-        let request = if derivatives && design.enabled {
+        let derivatives = derivatives && design.enabled;
+        let request = if derivatives {
             DesignRequest::Variables(&design.variables)
         } else {
             DesignRequest::None
         };
-        let mut flexible = Vec::new();
-        let mut model = Model::<f64>::new();
-        let mut bodies = BTreeMap::new();
-        let mut body_order = Vec::new();
-        let mut placements = Vec::new();
-        let mut modal_starts = Vec::new();
-        // flexible bodies: modes of the mesh as given (global coordinates at t = 0)
-        for (name, b) in &raw.body {
-            let def = validate_body(src, raw, name, b, &laminates)?;
-            let (built, analysis, modal, basis) =
-                flexible_body(src, name, b.span(), &def, request, true)?;
-            let nodes = modal.node_positions.clone();
-            let body = flexible_model_body(
-                name,
-                &built.mesh,
-                &analysis.couplings,
-                modal,
-                def.stiffening,
-            )
-            .map_err(|e| fem_error(src, name, b.span(), e))?;
-            let id = model
-                .add_flexible_body(body)
-                .map_err(|e| at_table(src, b.span(), format!("body.{name}"), e))?;
-            modal_starts.push((
-                id,
-                def.initial_modal.clone(),
-                def.initial_modal_rates.clone(),
-            ));
-            placements.push(Placement {
-                id,
-                position: analysis.origin,
-                rotation: Matrix3::identity(),
-                velocity: Vector3::zeros(),
-                angular_velocity: Vector3::zeros(),
-            });
-            bodies.insert(
-                name.clone(),
-                BodyInfo {
-                    id,
-                    position: analysis.origin,
-                    rotation: Matrix3::identity(),
-                    nodes: Some(nodes),
-                    frequencies: analysis.frequencies_hz(),
-                    couplings: def.couplings.iter().map(|c| c.name.clone()).collect(),
-                    basis: Some(basis),
-                },
-            );
-            body_order.push(name.clone());
-            flexible.push(FlexiblePart {
-                id,
-                name: name.clone(),
-                built,
-                analysis,
-                span: b.span(),
-                stiffening: def.stiffening,
-                def,
-            });
-        }
-        for r in mechanism::rigid_bodies(src, raw)? {
-            let id = model
-                .add_rigid_body(RigidBody::new(r.name.clone(), r.mass, r.inertia))
-                .map_err(|e| at_table(src, r.span.clone(), format!("rigid.{}", r.name), e))?;
-            placements.push(Placement {
-                id,
-                position: r.position,
-                rotation: r.orientation,
-                velocity: r.velocity,
-                angular_velocity: r.angular_velocity,
-            });
-            bodies.insert(
-                r.name.clone(),
-                BodyInfo {
-                    id,
-                    position: r.position,
-                    rotation: r.orientation,
-                    nodes: None,
-                    frequencies: Vec::new(),
-                    couplings: Vec::new(),
-                    basis: None,
-                },
-            );
-            body_order.push(r.name);
-        }
+        let mut m = Mechanism::default();
+        m.add_flexible_bodies(src, raw, &laminates, request)?;
+        m.add_rigid_bodies(src, raw)?;
         let AnalysisDef {
             times,
             options,
@@ -353,65 +430,29 @@ impl Study {
             policy,
             max_violation,
         } = analysis::validate(src, raw)?;
-        model.baumgarte = baumgarte;
-        let mut joint_names = Vec::new();
-        let mut joint_ids = Vec::new();
-        for joint in mechanism::joints(src, raw, &bodies)? {
-            let name = joint.name.clone();
-            let id = model
-                .add_joint(joint)
-                .map_err(|e| at_table(src, raw.joint[&name].span(), format!("joint.{name}"), e))?;
-            joint_names.push(name);
-            joint_ids.push(id);
-        }
-        let q0 = initial_state(&model, &placements).q;
-        let mechanism::ForceDefs { gravity, forces } =
-            mechanism::forces(src, raw, &bodies, |a, b| {
-                (model.marker_position(a, &q0) - model.marker_position(b, &q0)).norm()
-            })?;
-        model.gravity += gravity;
-        for (name, force) in forces {
-            model
-                .add_force(force)
-                .map_err(|e| at_table(src, raw.force[&name].span(), format!("force.{name}"), e))?;
-        }
-        let mut state = initial_state(&model, &placements);
-        // the elastic state is the user's; the assembly moves only the rigid-body coordinates
-        for (id, w, wd) in &modal_starts {
-            // static correction modes (after the retained ones) start at zero
-            let n = model.body(*id).n_modes();
-            let pad = |x: &Vec<f64>| {
-                let mut x = x.clone();
-                x.resize(n, 0.0);
-                x
-            };
-            model.set_modal(&mut state, *id, &pad(w), &pad(wd));
-        }
-        let named_joints: Vec<(String, JointId)> = joint_names
-            .iter()
-            .cloned()
-            .zip(joint_ids.iter().copied())
-            .collect();
-        let responses = responses::validate(src, raw, &model, &bodies, &named_joints)?;
+        m.model.baumgarte = baumgarte;
+        let named_joints = m.add_joints_and_forces(src, raw)?;
+        let state = m.initial_state();
+        let responses = responses::validate(src, raw, &m.model, &m.bodies, &named_joints)?;
         let study = Study {
-            model,
-            flexible,
+            model: m.model,
+            flexible: m.flexible,
             laminates,
             design,
             state,
-            bodies,
-            body_order,
-            joint_names,
+            bodies: m.bodies,
+            body_order: m.body_order,
+            joint_names: named_joints.into_iter().map(|(n, _)| n).collect(),
             responses,
             times,
             options,
             policy,
             max_violation,
             title: raw.title.clone(),
-            derivatives: derivatives && design_enabled,
+            derivatives,
         };
         study.check_objective_times(src, raw)?;
-        if derivatives && study.design.enabled {
+        if derivatives {
             study.check_design(src, raw)?;
         }
         Ok(study)

@@ -181,9 +181,90 @@ pub fn validate_one(
     let k = |key: &str| format!("body.{name}.{key}");
     let raw = b.get_ref();
     let table = span(b);
+    let kind = kind(src, name, raw, table.clone())?;
+    let shape = shape(src, deck, name, raw, table.clone(), kind, model)?;
+    let (modes, mut computed, kept, auto_modes) = modes(src, name, raw, table.clone())?;
+    let reference = reference(src, name, raw)?;
+    let beam = matches!(shape, BodyShape::Beam { .. });
+    let stiffening = stiffening(src, name, raw, beam)?;
+    let supports = supports(src, name, raw.supports.as_deref().unwrap_or(&[]))?;
+    check_supports(src, name, raw, table.clone(), &reference, &supports)?;
+    let damping = damping(src, name, raw, auto_modes, &mut computed)?;
+    let lumped = lumped(src, name, raw)?;
+    let planar = planar(src, name, raw)?;
+    let couplings = couplings(src, name, raw.couplings.as_ref())?;
+    let basis = basis(src, name, raw, &reference)?;
+    let interfaces = interface_loads(deck, name);
+    let (correction, interface) = match &raw.correction {
+        None if basis => (interface_nodes(&interfaces), true),
+        None => (Vec::new(), false),
+        Some(c) => {
+            let list = c.get_ref();
+            if list.is_empty() || list.iter().any(|&n| n < 0) {
+                return Err(src.error(
+                    span(c),
+                    Some(k("correction")),
+                    "a list of node indices (from 0), e.g. the nodes the body's joints act at",
+                ));
+            }
+            (list.iter().map(|&n| n as usize).collect(), false)
+        }
+    };
+    if auto_modes {
+        check_auto_modes(src, name, raw, &reference)?;
+    }
+    let basis_tolerance = basis_tolerance(src, name, raw)?;
+    let initial_modal = initial_modal_state(
+        src,
+        name,
+        "initial_modal",
+        &raw.initial_modal,
+        modes,
+        "coordinate (√kg·m)",
+    )?;
+    let initial_modal_rates = initial_modal_state(
+        src,
+        name,
+        "initial_modal_rates",
+        &raw.initial_modal_rates,
+        modes,
+        "rate (√kg·m/s)",
+    )?;
+    let modes = if auto_modes { computed } else { modes };
+    Ok(BodyDef {
+        span: b.span(),
+        shape,
+        modes,
+        computed,
+        kept,
+        reference,
+        planar,
+        damping,
+        lumped,
+        correction,
+        interface,
+        couplings,
+        interfaces,
+        auto_modes,
+        basis_tolerance,
+        initial_modal,
+        initial_modal_rates,
+        stiffening,
+        supports,
+    })
+}
+
+/// The body's `kind` (`"beam"` or `"shell"`), with the keys of the other kind refused.
+fn kind<'a>(
+    src: &Source,
+    name: &str,
+    raw: &'a RawBody,
+    table: Option<std::ops::Range<usize>>,
+) -> Result<&'a Spanned<String>, DeckError> {
+    let k = |key: &str| format!("body.{name}.{key}");
     let kind = required(
         src,
-        table.clone(),
+        table,
         &k("kind"),
         &raw.kind,
         "kind (\"beam\" or \"shell\")",
@@ -225,11 +306,13 @@ pub fn validate_one(
             ));
         }
     }
-    let shape = shape(src, deck, name, raw, table.clone(), kind, model)?;
-    let (modes, mut computed, kept, auto_modes) = modes(src, name, raw, table.clone())?;
-    let reference = reference(src, name, raw)?;
-    let beam = matches!(shape, BodyShape::Beam { .. });
-    let stiffening = match &raw.stiffening {
+    Ok(kind)
+}
+
+/// Geometric stiffening: on by default for beams ([`STIFFENING_DEFAULT`]), refused for shells.
+fn stiffening(src: &Source, name: &str, raw: &RawBody, beam: bool) -> Result<bool, DeckError> {
+    let k = |key: &str| format!("body.{name}.{key}");
+    Ok(match &raw.stiffening {
         None => beam && STIFFENING_DEFAULT,
         Some(s) if *s.get_ref() && !beam => {
             return Err(src.error(
@@ -240,9 +323,20 @@ pub fn validate_one(
             ));
         }
         Some(s) => *s.get_ref(),
-    };
-    let supports = supports(src, name, raw.supports.as_deref().unwrap_or(&[]))?;
-    match (&reference, supports.is_empty(), &raw.reference) {
+    })
+}
+
+/// `reference = "supports"` needs supports; a free-free body has none.
+fn check_supports(
+    src: &Source,
+    name: &str,
+    raw: &RawBody,
+    table: Option<std::ops::Range<usize>>,
+    reference: &Reference,
+    supports: &[SupportDef],
+) -> Result<(), DeckError> {
+    let k = |key: &str| format!("body.{name}.{key}");
+    match (reference, supports.is_empty(), &raw.reference) {
         (Reference::Supports, true, r) => {
             return Err(src.error(
                 r.as_ref().map(span).unwrap_or(table.clone()),
@@ -259,8 +353,13 @@ pub fn validate_one(
         }
         _ => {}
     }
-    let damping = damping(src, name, raw, auto_modes, &mut computed)?;
-    let lumped = match raw.mass.as_ref().map(|m| (m, m.get_ref().as_str())) {
+    Ok(())
+}
+
+/// The mass matrix: lumped (the default) or consistent.
+fn lumped(src: &Source, name: &str, raw: &RawBody) -> Result<bool, DeckError> {
+    let k = |key: &str| format!("body.{name}.{key}");
+    Ok(match raw.mass.as_ref().map(|m| (m, m.get_ref().as_str())) {
         None | Some((_, "lumped")) => true,
         Some((_, "consistent")) => false,
         Some((m, other)) => {
@@ -270,9 +369,13 @@ pub fn validate_one(
                 format!("unknown mass matrix `{other}`: expected \"lumped\" or \"consistent\""),
             ));
         }
-    };
-    let planar = raw
-        .planar
+    })
+}
+
+/// The normal of the plane the modes are kept in (`planar`), a global axis.
+fn planar(src: &Source, name: &str, raw: &RawBody) -> Result<Option<Vector3<f64>>, DeckError> {
+    let k = |key: &str| format!("body.{name}.{key}");
+    raw.planar
         .as_ref()
         .map(|p| {
             let n = nonzero_vector(src, &k("planar"), p)?;
@@ -286,37 +389,58 @@ pub fn validate_one(
             }
             Ok(n.normalize())
         })
-        .transpose()?;
-    let initial = |key: &str, v: &Option<Spanned<Vec<f64>>>, unit: &str| {
-        let mut out = vec![0.0; modes];
-        let Some(v) = v else { return Ok(out) };
-        if v.get_ref().len() > modes {
+        .transpose()
+}
+
+/// An initial modal state (`key`: `initial_modal` or `initial_modal_rates`), one value per
+/// retained mode (the rest zero).
+fn initial_modal_state(
+    src: &Source,
+    name: &str,
+    key: &str,
+    v: &Option<Spanned<Vec<f64>>>,
+    modes: usize,
+    unit: &str,
+) -> Result<Vec<f64>, DeckError> {
+    let k = |key: &str| format!("body.{name}.{key}");
+    let mut out = vec![0.0; modes];
+    let Some(v) = v else { return Ok(out) };
+    if v.get_ref().len() > modes {
+        return Err(src.error(
+            span(v),
+            Some(k(key)),
+            format!(
+                "{} values for {modes} retained modes (one per retained mode, in order)",
+                v.get_ref().len()
+            ),
+        ));
+    }
+    for (i, &x) in v.get_ref().iter().enumerate() {
+        if !x.is_finite() {
             return Err(src.error(
                 span(v),
-                Some(k(key)),
-                format!(
-                    "{} values for {modes} retained modes (one per retained mode, in order)",
-                    v.get_ref().len()
-                ),
+                Some(format!("{}[{i}]", k(key))),
+                format!("{x} must be a finite modal {unit}"),
             ));
         }
-        for (i, &x) in v.get_ref().iter().enumerate() {
-            if !x.is_finite() {
-                return Err(src.error(
-                    span(v),
-                    Some(format!("{}[{i}]", k(key))),
-                    format!("{x} must be a finite modal {unit}"),
-                ));
-            }
-            out[i] = x;
-        }
-        Ok(out)
-    };
-    let couplings = couplings(src, name, raw.couplings.as_ref())?;
-    let basis = match raw.basis.as_ref().map(|b| b.get_ref().as_str()) {
+        out[i] = x;
+    }
+    Ok(out)
+}
+
+/// The basis: static correction at the interfaces (the default for a body a reference
+/// condition holds) or the eigenmodes alone.
+fn basis(
+    src: &Source,
+    name: &str,
+    raw: &RawBody,
+    reference: &Reference,
+) -> Result<bool, DeckError> {
+    let k = |key: &str| format!("body.{name}.{key}");
+    Ok(match raw.basis.as_ref().map(|b| b.get_ref().as_str()) {
         // static correction needs a reference condition that holds the body
-        None => reference != Reference::FreeFree,
-        Some("interface") if reference == Reference::FreeFree => {
+        None => *reference != Reference::FreeFree,
+        Some("interface") if *reference == Reference::FreeFree => {
             return Err(src.error(
                 span(raw.basis.as_ref().expect("given")),
                 Some(k("basis")),
@@ -334,46 +458,45 @@ pub fn validate_one(
                 format!("unknown basis `{other}`: expected \"interface\" or \"modes\""),
             ));
         }
-    };
-    let interfaces = interface_loads(deck, name);
-    let (correction, interface) = match &raw.correction {
-        None if basis => (interface_nodes(&interfaces), true),
-        None => (Vec::new(), false),
-        Some(c) => {
-            let list = c.get_ref();
-            if list.is_empty() || list.iter().any(|&n| n < 0) {
-                return Err(src.error(
-                    span(c),
-                    Some(k("correction")),
-                    "a list of node indices (from 0), e.g. the nodes the body's joints act at",
-                ));
-            }
-            (list.iter().map(|&n| n as usize).collect(), false)
-        }
-    };
-    if auto_modes {
-        for (key, v) in [
-            ("initial_modal", &raw.initial_modal),
-            ("initial_modal_rates", &raw.initial_modal_rates),
-        ] {
-            if let Some(v) = v {
-                return Err(src.error(
-                    span(v),
-                    Some(k(key)),
-                    "an initial modal state needs a stated number of modes, not modes = \"auto\"",
-                ));
-            }
-        }
-        if reference == Reference::FreeFree {
+    })
+}
+
+/// `modes = "auto"` needs a reference condition that holds the body and no initial modal
+/// state.
+fn check_auto_modes(
+    src: &Source,
+    name: &str,
+    raw: &RawBody,
+    reference: &Reference,
+) -> Result<(), DeckError> {
+    let k = |key: &str| format!("body.{name}.{key}");
+    for (key, v) in [
+        ("initial_modal", &raw.initial_modal),
+        ("initial_modal_rates", &raw.initial_modal_rates),
+    ] {
+        if let Some(v) = v {
             return Err(src.error(
-                raw.modes.as_ref().and_then(span),
-                Some(k("modes")),
-                "modes = \"auto\" chooses by the basis check, which needs a reference condition \
-                 that holds the body (not free-free)",
+                span(v),
+                Some(k(key)),
+                "an initial modal state needs a stated number of modes, not modes = \"auto\"",
             ));
         }
     }
-    let basis_tolerance = match &raw.basis_tolerance {
+    if *reference == Reference::FreeFree {
+        return Err(src.error(
+            raw.modes.as_ref().and_then(span),
+            Some(k("modes")),
+            "modes = \"auto\" chooses by the basis check, which needs a reference condition \
+             that holds the body (not free-free)",
+        ));
+    }
+    Ok(())
+}
+
+/// The share of the static compliance the basis may miss before a warning (`basis_tolerance`).
+fn basis_tolerance(src: &Source, name: &str, raw: &RawBody) -> Result<f64, DeckError> {
+    let k = |key: &str| format!("body.{name}.{key}");
+    Ok(match &raw.basis_tolerance {
         None => DEFAULT_BASIS_TOLERANCE,
         Some(t) => {
             let x = *t.get_ref();
@@ -386,34 +509,6 @@ pub fn validate_one(
             }
             x
         }
-    };
-    let modes = if auto_modes { computed } else { modes };
-    let initial_modal = initial("initial_modal", &raw.initial_modal, "coordinate (√kg·m)")?;
-    let initial_modal_rates = initial(
-        "initial_modal_rates",
-        &raw.initial_modal_rates,
-        "rate (√kg·m/s)",
-    )?;
-    Ok(BodyDef {
-        span: b.span(),
-        shape,
-        modes,
-        computed,
-        kept,
-        reference,
-        planar,
-        damping,
-        lumped,
-        correction,
-        interface,
-        couplings,
-        interfaces,
-        auto_modes,
-        basis_tolerance,
-        initial_modal,
-        initial_modal_rates,
-        stiffening,
-        supports,
     })
 }
 
