@@ -11,7 +11,7 @@ use toml::Spanned;
 
 use super::check::{direction, finite, positive, required, span, vector};
 use super::laminates::suggestion;
-use super::raw::{RawDeck, RawMarker, RawMotion, RawRotation};
+use super::raw::{RawDeck, RawForce, RawMarker, RawMotion, RawRotation};
 use super::{DeckError, Source};
 
 mod markers;
@@ -282,129 +282,9 @@ pub fn forces(
                 continue;
             }
             "point-force" | "point-torque" => {
-                let at = marker(
-                    src,
-                    &k("at"),
-                    required(src, span(f), &k("at"), &rf.at, "at (a marker)")?,
-                    bodies,
-                )?;
-                let load = match (&rf.value, &rf.table) {
-                    (Some(v), None) => Load::Constant(vector(src, &k("value"), v)?),
-                    (None, Some(t)) => {
-                        let times = required(
-                            src,
-                            span(t),
-                            &k("table.times"),
-                            &t.get_ref().times,
-                            "times [s]",
-                        )?;
-                        let values = required(
-                            src,
-                            span(t),
-                            &k("table.values"),
-                            &t.get_ref().values,
-                            "values [[x, y, z], …]",
-                        )?;
-                        let ts = times.get_ref().clone();
-                        if ts.is_empty()
-                            || ts.windows(2).any(|w| w[1] <= w[0])
-                            || ts.iter().any(|x| !x.is_finite())
-                        {
-                            return Err(src.error(
-                                span(times),
-                                Some(k("table.times")),
-                                "times must be finite and strictly increasing",
-                            ));
-                        }
-                        if values.get_ref().len() != ts.len() {
-                            return Err(src.error(
-                                span(values),
-                                Some(k("table.values")),
-                                format!("{} values for {} times", values.get_ref().len(), ts.len()),
-                            ));
-                        }
-                        Load::Table {
-                            times: ts,
-                            values: values.get_ref().iter().map(|v| Vector3::from(*v)).collect(),
-                        }
-                    }
-                    (Some(_), Some(t)) => {
-                        return Err(src.error(
-                            span(t),
-                            Some(k("table")),
-                            "give either value or table",
-                        ));
-                    }
-                    (None, None) => {
-                        return Err(src.error(
-                            span(f),
-                            Some(k("value")),
-                            "missing value: value [x, y, z] or table",
-                        ));
-                    }
-                };
-                let frame = match rf.frame.as_ref().map(|x| (x, x.get_ref().as_str())) {
-                    None | Some((_, "global")) => LoadFrame::Global,
-                    Some((_, "body")) => LoadFrame::Body,
-                    Some((x, other)) => {
-                        return Err(src.error(
-                            span(x),
-                            Some(k("frame")),
-                            format!("unknown frame `{other}`: expected \"global\" or \"body\""),
-                        ));
-                    }
-                };
-                if kind.get_ref() == "point-force" {
-                    Force::PointForce {
-                        marker: at,
-                        load,
-                        frame,
-                    }
-                } else {
-                    Force::PointTorque {
-                        marker: at,
-                        load,
-                        frame,
-                    }
-                }
+                point_load(src, name, f, bodies, kind.get_ref() == "point-force")?
             }
-            "spring-damper" => {
-                let a = marker(
-                    src,
-                    &k("a"),
-                    required(src, span(f), &k("a"), &rf.a, "a (a marker)")?,
-                    bodies,
-                )?;
-                let b = marker(
-                    src,
-                    &k("b"),
-                    required(src, span(f), &k("b"), &rf.b, "b (a marker)")?,
-                    bodies,
-                )?;
-                let stiffness = rf
-                    .stiffness
-                    .as_ref()
-                    .map(|s| finite(src, &k("stiffness"), s, "N/m"))
-                    .transpose()?
-                    .unwrap_or(0.0);
-                let damping = rf
-                    .damping
-                    .as_ref()
-                    .map(|s| finite(src, &k("damping"), s, "N·s/m"))
-                    .transpose()?
-                    .unwrap_or(0.0);
-                let free_length = match &rf.free_length {
-                    Some(l) => finite(src, &k("free_length"), l, "m")?,
-                    None => distance(&a, &b),
-                };
-                Force::SpringDamper {
-                    a,
-                    b,
-                    stiffness,
-                    damping,
-                    free_length,
-                }
-            }
+            "spring-damper" => spring_damper(src, name, f, bodies, &distance)?,
             other => {
                 let c = ["gravity", "point-force", "point-torque", "spring-damper"];
                 return Err(src.error(
@@ -419,5 +299,147 @@ pub fn forces(
     Ok(ForceDefs {
         gravity,
         forces: out,
+    })
+}
+
+/// A `point-force` (`force`) or `point-torque` element: its marker, load (constant or a table
+/// of times) and the frame the load is given in.
+fn point_load(
+    src: &Source,
+    name: &str,
+    f: &Spanned<RawForce>,
+    bodies: &BTreeMap<String, BodyInfo>,
+    force: bool,
+) -> Result<Force, DeckError> {
+    let k = |s: &str| format!("force.{name}.{s}");
+    let rf = f.get_ref();
+    let at = marker(
+        src,
+        &k("at"),
+        required(src, span(f), &k("at"), &rf.at, "at (a marker)")?,
+        bodies,
+    )?;
+    let load = match (&rf.value, &rf.table) {
+        (Some(v), None) => Load::Constant(vector(src, &k("value"), v)?),
+        (None, Some(t)) => {
+            let times = required(
+                src,
+                span(t),
+                &k("table.times"),
+                &t.get_ref().times,
+                "times [s]",
+            )?;
+            let values = required(
+                src,
+                span(t),
+                &k("table.values"),
+                &t.get_ref().values,
+                "values [[x, y, z], …]",
+            )?;
+            let ts = times.get_ref().clone();
+            if ts.is_empty()
+                || ts.windows(2).any(|w| w[1] <= w[0])
+                || ts.iter().any(|x| !x.is_finite())
+            {
+                return Err(src.error(
+                    span(times),
+                    Some(k("table.times")),
+                    "times must be finite and strictly increasing",
+                ));
+            }
+            if values.get_ref().len() != ts.len() {
+                return Err(src.error(
+                    span(values),
+                    Some(k("table.values")),
+                    format!("{} values for {} times", values.get_ref().len(), ts.len()),
+                ));
+            }
+            Load::Table {
+                times: ts,
+                values: values.get_ref().iter().map(|v| Vector3::from(*v)).collect(),
+            }
+        }
+        (Some(_), Some(t)) => {
+            return Err(src.error(span(t), Some(k("table")), "give either value or table"));
+        }
+        (None, None) => {
+            return Err(src.error(
+                span(f),
+                Some(k("value")),
+                "missing value: value [x, y, z] or table",
+            ));
+        }
+    };
+    let frame = match rf.frame.as_ref().map(|x| (x, x.get_ref().as_str())) {
+        None | Some((_, "global")) => LoadFrame::Global,
+        Some((_, "body")) => LoadFrame::Body,
+        Some((x, other)) => {
+            return Err(src.error(
+                span(x),
+                Some(k("frame")),
+                format!("unknown frame `{other}`: expected \"global\" or \"body\""),
+            ));
+        }
+    };
+    Ok(if force {
+        Force::PointForce {
+            marker: at,
+            load,
+            frame,
+        }
+    } else {
+        Force::PointTorque {
+            marker: at,
+            load,
+            frame,
+        }
+    })
+}
+
+/// A `spring-damper` element between two markers (its free length, when not given, the
+/// markers' initial distance `distance`).
+fn spring_damper(
+    src: &Source,
+    name: &str,
+    f: &Spanned<RawForce>,
+    bodies: &BTreeMap<String, BodyInfo>,
+    distance: &impl Fn(&Marker, &Marker) -> f64,
+) -> Result<Force, DeckError> {
+    let k = |s: &str| format!("force.{name}.{s}");
+    let rf = f.get_ref();
+    let a = marker(
+        src,
+        &k("a"),
+        required(src, span(f), &k("a"), &rf.a, "a (a marker)")?,
+        bodies,
+    )?;
+    let b = marker(
+        src,
+        &k("b"),
+        required(src, span(f), &k("b"), &rf.b, "b (a marker)")?,
+        bodies,
+    )?;
+    let stiffness = rf
+        .stiffness
+        .as_ref()
+        .map(|s| finite(src, &k("stiffness"), s, "N/m"))
+        .transpose()?
+        .unwrap_or(0.0);
+    let damping = rf
+        .damping
+        .as_ref()
+        .map(|s| finite(src, &k("damping"), s, "N·s/m"))
+        .transpose()?
+        .unwrap_or(0.0);
+    let free_length = match &rf.free_length {
+        Some(l) => finite(src, &k("free_length"), l, "m")?,
+        None => distance(&a, &b),
+    };
+    Ok(Force::SpringDamper {
+        a,
+        b,
+        stiffness,
+        damping,
+        free_length,
     })
 }
