@@ -486,6 +486,17 @@ impl Basis {
             cols.len(),
         )
     }
+
+    /// Restart with the Ritz vectors `nv` and their products by M `nmv` (`n × nkeep` each) as
+    /// the first columns, followed by the next block (columns `mdim..mdim + b` before).
+    fn keep_ritz_vectors(&mut self, nv: &[f64], nmv: &[f64], nkeep: usize, mdim: usize, b: usize) {
+        let n = self.n;
+        // [Ritz vectors, next block]
+        self.v.copy_within(mdim * n..(mdim + b) * n, nkeep * n);
+        self.mv.copy_within(mdim * n..(mdim + b) * n, nkeep * n);
+        self.v[..nkeep * n].copy_from_slice(nv);
+        self.mv[..nkeep * n].copy_from_slice(nmv);
+    }
 }
 
 /// Shift-invert block Lanczos in the `M` inner product with full re-orthogonalisation and
@@ -507,10 +518,7 @@ fn lanczos(
     opts: &EigenOptions,
     node_of: Option<&[usize]>,
 ) -> Result<DMatrix<f64>, FemError> {
-    use faer::linalg::matmul::matmul;
-    use faer::{Accum, get_global_parallelism};
     let n = k.nrows();
-    let par = get_global_parallelism();
     let op = ShiftInvert::new(k, m, node_of)?;
     let b = match opts.block {
         Some(b) => b.max(1),
@@ -528,76 +536,139 @@ fn lanczos(
         let half = (p + mdim).div_ceil(2).min(mdim - 1).max(p.min(mdim - 1));
         mdim - ((mdim - half) / b).max(1) * b
     };
-    let cap = mdim + b;
-    let mut basis = Basis {
-        n,
-        v: vec![0.0; n * cap],
-        mv: vec![0.0; n * cap],
-    };
-    // deterministic random vectors
-    let mut seed = 0x2545_f491_4f6c_dd1du64;
-    let rand_fill = |seed: &mut u64, x: &mut [f64]| {
-        for v in x {
-            *seed ^= *seed << 13;
-            *seed ^= *seed >> 7;
-            *seed ^= *seed << 17;
-            *v = (*seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
-        }
-    };
-    let mut w = vec![0.0; n * b];
-    let mut mw = vec![0.0; n * b];
-    let mut coef = Mat::<f64>::zeros(cap, b);
+    let mut iteration = BlockLanczos::new(op, n, b, mdim);
+    let mut coef = Mat::<f64>::zeros(iteration.cap, b);
     let mut h = DMatrix::<f64>::zeros(mdim, mdim);
     let mut r_last = DMatrix::<f64>::zeros(b, b);
+    iteration.start();
 
-    // Orthogonalise the block `w` (whose products by M are not needed yet) against basis
-    // columns `0..upto`, twice; the coefficients accumulate in `coef[0..upto, ..]`.
-    let orthogonalise = |basis: &Basis, w: &mut [f64], upto: usize, coef: &mut Mat<f64>| {
-        let cols = w.len() / n;
-        coef.as_mut().submatrix_mut(0, 0, upto, cols).fill(0.0);
-        if upto == 0 {
-            return;
+    let mut kept = 0;
+    for restart in 0..=opts.max_restarts {
+        iteration.extend(kept, mdim, &mut coef, &mut h, &mut r_last);
+        let (theta, y) = ritz_pairs(&h);
+        let converged = (0..p).all(|i| ritz_residual(&r_last, &y, i) <= opts.tol * theta[i].abs());
+        let done = converged || mdim == n;
+        let nkeep = if done { p } else { keep_target };
+        // the new basis V Y[:, 0..nkeep], and its products by M
+        let yk = Mat::<f64>::from_fn(mdim, nkeep, |r, c| y[(r, c)]);
+        let nv = basis_combination(iteration.basis.v_ref(0..mdim), yk.as_ref(), iteration.par);
+        if done {
+            return Ok(DMatrix::from_column_slice(n, p, &nv));
         }
-        let mut c = Mat::<f64>::zeros(upto, cols);
-        for _pass in 0..2 {
-            let mut wm = faer::MatMut::from_column_major_slice_mut(w, n, cols);
-            matmul(
-                c.as_mut(),
-                Accum::Replace,
-                basis.mv_ref(0..upto).transpose(),
-                wm.as_ref(),
-                1.0,
-                par,
-            );
-            matmul(
-                wm.as_mut(),
-                Accum::Add,
-                basis.v_ref(0..upto),
-                c.as_ref(),
-                -1.0,
-                par,
-            );
-            let mut dst = coef.as_mut().submatrix_mut(0, 0, upto, cols);
-            for j in 0..cols {
-                for i in 0..upto {
-                    dst[(i, j)] += c[(i, j)];
+        if restart == opts.max_restarts {
+            break;
+        }
+        let nmv = basis_combination(iteration.basis.mv_ref(0..mdim), yk.as_ref(), iteration.par);
+        iteration.basis.keep_ritz_vectors(&nv, &nmv, nkeep, mdim, b);
+        h.fill(0.0);
+        for i in 0..nkeep {
+            h[(i, i)] = theta[i];
+        }
+        kept = nkeep;
+    }
+    Err(FemError::Eigen(format!(
+        "Lanczos did not converge in {} restarts",
+        opts.max_restarts
+    )))
+}
+
+/// The operator, basis and work block of [`lanczos`].
+struct BlockLanczos {
+    op: ShiftInvert,
+    /// Vectors added at a time.
+    b: usize,
+    /// Basis columns held: the subspace dimension and one block beyond it.
+    cap: usize,
+    par: faer::Par,
+    basis: Basis,
+    /// State of the deterministic random numbers ([`xorshift_fill`]).
+    seed: u64,
+    /// The block being built (`n × b`, column-major).
+    w: Vec<f64>,
+    /// Its product by `M`.
+    mw: Vec<f64>,
+}
+
+impl BlockLanczos {
+    /// An empty basis for a subspace of dimension `mdim` of an `n`-dof model, built `b`
+    /// vectors at a time.
+    fn new(op: ShiftInvert, n: usize, b: usize, mdim: usize) -> Self {
+        let cap = mdim + b;
+        Self {
+            op,
+            b,
+            cap,
+            par: faer::get_global_parallelism(),
+            basis: Basis {
+                n,
+                v: vec![0.0; n * cap],
+                mv: vec![0.0; n * cap],
+            },
+            seed: 0x2545_f491_4f6c_dd1du64,
+            w: vec![0.0; n * b],
+            mw: vec![0.0; n * b],
+        }
+    }
+
+    /// The starting block: the operator applied to random vectors, M-orthonormalised into
+    /// basis columns `0..b`.
+    fn start(&mut self) {
+        let b = self.b;
+        xorshift_fill(&mut self.seed, &mut self.mw);
+        spmv_columns(&self.op.m, &self.mw, &mut self.w, b);
+        self.op.llt.solve_columns(&mut self.w, b);
+        let mut r0 = DMatrix::<f64>::zeros(b, b);
+        self.finish_block(0, &mut r0, 0.0);
+    }
+
+    /// Extend the basis from `from` to `mdim` columns (and the next block beyond), a block at
+    /// a time: the coefficients go to `h`, the last block's triangular factor to `r_last`.
+    fn extend(
+        &mut self,
+        from: usize,
+        mdim: usize,
+        coef: &mut Mat<f64>,
+        h: &mut DMatrix<f64>,
+        r_last: &mut DMatrix<f64>,
+    ) {
+        let (n, b) = (self.basis.n, self.b);
+        let mut j = from;
+        while j < mdim {
+            // A V_J: one solve for the block's columns, from the kept products by M
+            self.w.copy_from_slice(&self.basis.mv[j * n..(j + b) * n]);
+            self.op.llt.solve_columns(&mut self.w, b);
+            orthogonalise(&self.basis, &mut self.w, j + b, coef, self.par);
+            for a in 0..b {
+                for i in 0..j + b {
+                    h[(i, j + a)] += coef[(i, a)];
                 }
             }
+            let hn = (0..j + b)
+                .flat_map(|i| (0..b).map(move |a| (i, a)))
+                .map(|(i, a)| coef[(i, a)].abs())
+                .fold(0.0, f64::max);
+            self.finish_block(j + b, r_last, hn);
+            j += b;
         }
-    };
+    }
 
-    // M-orthonormalise the block `w` (already orthogonal to basis columns `0..at`) into basis
-    // columns `at..at + b`: modified Gram–Schmidt within the block, twice, `r` its upper
-    // triangular factor. A direction the block has lost (an invariant subspace) is replaced by
-    // a fresh vector orthogonal to everything, its diagonal entry of `r` zero (the lost vector
-    // was a combination of the ones before it).
-    let finish_block = |basis: &mut Basis,
-                        seed: &mut u64,
-                        w: &mut [f64],
-                        mw: &mut [f64],
-                        at: usize,
-                        r: &mut DMatrix<f64>,
-                        scale: f64| {
+    /// M-orthonormalise the block `w` (already orthogonal to basis columns `0..at`) into basis
+    /// columns `at..at + b`: modified Gram–Schmidt within the block, twice, `r` its upper
+    /// triangular factor. A direction the block has lost (an invariant subspace) is replaced
+    /// by a fresh vector orthogonal to everything, its diagonal entry of `r` zero (the lost
+    /// vector was a combination of the ones before it).
+    fn finish_block(&mut self, at: usize, r: &mut DMatrix<f64>, scale: f64) {
+        let Self {
+            op,
+            b,
+            cap,
+            par,
+            basis,
+            seed,
+            w,
+            mw,
+        } = self;
+        let (n, b) = (basis.n, *b);
         r.fill(0.0);
         // M W for the whole block; the Gram–Schmidt updates below carry it along
         spmv_columns(&op.m, w, mw, b);
@@ -616,10 +687,10 @@ fn lanczos(
             if nrm <= 1e-13 * scale.max(1e-300) {
                 // invariant subspace: continue with a fresh direction
                 let mut fresh = vec![0.0; n];
-                rand_fill(seed, &mut fresh);
+                xorshift_fill(seed, &mut fresh);
                 op.apply(&fresh, wa);
-                let mut dummy = Mat::<f64>::zeros(cap, 1);
-                orthogonalise(basis, wa, at + a, &mut dummy);
+                let mut dummy = Mat::<f64>::zeros(*cap, 1);
+                orthogonalise(basis, wa, at + a, &mut dummy, *par);
                 spmv(&op.m, wa, ma);
                 nrm = dot(wa, ma).max(0.0).sqrt();
             } else {
@@ -633,101 +704,107 @@ fn lanczos(
                 *x = y / nrm;
             }
         }
-    };
-
-    // the starting block: A applied to random vectors
-    rand_fill(&mut seed, &mut mw);
-    spmv_columns(&op.m, &mw, &mut w, b);
-    op.llt.solve_columns(&mut w, b);
-    let mut r0 = DMatrix::<f64>::zeros(b, b);
-    finish_block(&mut basis, &mut seed, &mut w, &mut mw, 0, &mut r0, 0.0);
-
-    let mut kept = 0;
-    for restart in 0..=opts.max_restarts {
-        let mut j = kept;
-        while j < mdim {
-            // A V_J: one solve for the block's columns, from the kept products by M
-            w.copy_from_slice(&basis.mv[j * n..(j + b) * n]);
-            op.llt.solve_columns(&mut w, b);
-            orthogonalise(&basis, &mut w, j + b, &mut coef);
-            for a in 0..b {
-                for i in 0..j + b {
-                    h[(i, j + a)] += coef[(i, a)];
-                }
-            }
-            let hn = (0..j + b)
-                .flat_map(|i| (0..b).map(move |a| (i, a)))
-                .map(|(i, a)| coef[(i, a)].abs())
-                .fold(0.0, f64::max);
-            finish_block(
-                &mut basis,
-                &mut seed,
-                &mut w,
-                &mut mw,
-                j + b,
-                &mut r_last,
-                hn,
-            );
-            j += b;
-        }
-        // symmetric projected matrix from the upper triangle
-        let mut t = DMatrix::<f64>::zeros(mdim, mdim);
-        for j in 0..mdim {
-            for i in 0..=j {
-                t[(i, j)] = h[(i, j)];
-                t[(j, i)] = h[(i, j)];
-            }
-        }
-        let eig = t.symmetric_eigen();
-        let mut order: Vec<usize> = (0..mdim).collect();
-        order.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
-        let theta: Vec<f64> = order.iter().map(|&i| eig.eigenvalues[i]).collect();
-        let y = DMatrix::from_fn(mdim, mdim, |r, c| eig.eigenvectors[(r, order[c])]);
-        let residual = |i: usize| -> f64 {
-            (0..b)
-                .map(|a| {
-                    (0..b)
-                        .map(|c| r_last[(a, c)] * y[(mdim - b + c, i)])
-                        .sum::<f64>()
-                        .powi(2)
-                })
-                .sum::<f64>()
-                .sqrt()
-        };
-        let converged = (0..p).all(|i| residual(i) <= opts.tol * theta[i].abs());
-        let done = converged || mdim == n;
-        let nkeep = if done { p } else { keep_target };
-        // the new basis V Y[:, 0..nkeep], and its products by M
-        let yk = Mat::<f64>::from_fn(mdim, nkeep, |r, c| y[(r, c)]);
-        let combine = |of: faer::MatRef<'_, f64>| {
-            let mut out = vec![0.0; n * nkeep];
-            let dst = faer::MatMut::from_column_major_slice_mut(&mut out, n, nkeep);
-            matmul(dst, Accum::Replace, of, yk.as_ref(), 1.0, par);
-            out
-        };
-        let nv = combine(basis.v_ref(0..mdim));
-        if done {
-            return Ok(DMatrix::from_column_slice(n, p, &nv));
-        }
-        if restart == opts.max_restarts {
-            break;
-        }
-        let nmv = combine(basis.mv_ref(0..mdim));
-        // [Ritz vectors, next block]
-        basis.v.copy_within(mdim * n..(mdim + b) * n, nkeep * n);
-        basis.mv.copy_within(mdim * n..(mdim + b) * n, nkeep * n);
-        basis.v[..nkeep * n].copy_from_slice(&nv);
-        basis.mv[..nkeep * n].copy_from_slice(&nmv);
-        h.fill(0.0);
-        for i in 0..nkeep {
-            h[(i, i)] = theta[i];
-        }
-        kept = nkeep;
     }
-    Err(FemError::Eigen(format!(
-        "Lanczos did not converge in {} restarts",
-        opts.max_restarts
-    )))
+}
+
+/// Fill `x` with deterministic pseudo-random numbers in `[−½, ½)` (xorshift), advancing
+/// `seed`.
+fn xorshift_fill(seed: &mut u64, x: &mut [f64]) {
+    for v in x {
+        *seed ^= *seed << 13;
+        *seed ^= *seed >> 7;
+        *seed ^= *seed << 17;
+        *v = (*seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+    }
+}
+
+/// Orthogonalise the block `w` (whose products by M are not needed yet) against basis
+/// columns `0..upto`, twice; the coefficients accumulate in `coef[0..upto, ..]`.
+fn orthogonalise(basis: &Basis, w: &mut [f64], upto: usize, coef: &mut Mat<f64>, par: faer::Par) {
+    use faer::Accum;
+    use faer::linalg::matmul::matmul;
+    let n = basis.n;
+    let cols = w.len() / n;
+    coef.as_mut().submatrix_mut(0, 0, upto, cols).fill(0.0);
+    if upto == 0 {
+        return;
+    }
+    let mut c = Mat::<f64>::zeros(upto, cols);
+    for _pass in 0..2 {
+        let mut wm = faer::MatMut::from_column_major_slice_mut(w, n, cols);
+        matmul(
+            c.as_mut(),
+            Accum::Replace,
+            basis.mv_ref(0..upto).transpose(),
+            wm.as_ref(),
+            1.0,
+            par,
+        );
+        matmul(
+            wm.as_mut(),
+            Accum::Add,
+            basis.v_ref(0..upto),
+            c.as_ref(),
+            -1.0,
+            par,
+        );
+        let mut dst = coef.as_mut().submatrix_mut(0, 0, upto, cols);
+        for j in 0..cols {
+            for i in 0..upto {
+                dst[(i, j)] += c[(i, j)];
+            }
+        }
+    }
+}
+
+/// The Ritz values `θ` of the projected matrix whose upper triangle is `h`, descending (the
+/// lowest modes first), and their eigenvectors `Y` as columns.
+fn ritz_pairs(h: &DMatrix<f64>) -> (Vec<f64>, DMatrix<f64>) {
+    let mdim = h.nrows();
+    // symmetric projected matrix from the upper triangle
+    let mut t = DMatrix::<f64>::zeros(mdim, mdim);
+    for j in 0..mdim {
+        for i in 0..=j {
+            t[(i, j)] = h[(i, j)];
+            t[(j, i)] = h[(i, j)];
+        }
+    }
+    let eig = t.symmetric_eigen();
+    let mut order: Vec<usize> = (0..mdim).collect();
+    order.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
+    let theta: Vec<f64> = order.iter().map(|&i| eig.eigenvalues[i]).collect();
+    let y = DMatrix::from_fn(mdim, mdim, |r, c| eig.eigenvectors[(r, order[c])]);
+    (theta, y)
+}
+
+/// The residual norm `‖R y_last‖` of Ritz pair `i`: `r_last` the last block's triangular
+/// factor `R`, `y_last` the last block's rows of column `i` of `y`.
+fn ritz_residual(r_last: &DMatrix<f64>, y: &DMatrix<f64>, i: usize) -> f64 {
+    let (b, mdim) = (r_last.nrows(), y.nrows());
+    (0..b)
+        .map(|a| {
+            (0..b)
+                .map(|c| r_last[(a, c)] * y[(mdim - b + c, i)])
+                .sum::<f64>()
+                .powi(2)
+        })
+        .sum::<f64>()
+        .sqrt()
+}
+
+/// `of · yk` (`n × nkeep`, column-major): basis columns combined into Ritz vectors.
+fn basis_combination(
+    of: faer::MatRef<'_, f64>,
+    yk: faer::MatRef<'_, f64>,
+    par: faer::Par,
+) -> Vec<f64> {
+    use faer::Accum;
+    use faer::linalg::matmul::matmul;
+    let (n, nkeep) = (of.nrows(), yk.ncols());
+    let mut out = vec![0.0; n * nkeep];
+    let dst = faer::MatMut::from_column_major_slice_mut(&mut out, n, nkeep);
+    matmul(dst, Accum::Replace, of, yk, 1.0, par);
+    out
 }
 
 /// Groups of (nearly) equal eigenvalues: `|λ_i − λ_j| ≤ rtol·max(|λ_i|, |λ_j|) + atol`.

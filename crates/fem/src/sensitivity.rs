@@ -251,12 +251,84 @@ pub fn mode_derivatives_with(
         for (v, dm) in design.iter().enumerate() {
             let kb = project(&dm.k, &z, &z);
             let mb = project(&dm.m, &z, &z);
-            let (vals, gam) = cluster_derivative(&kb, &mb, lambda);
-            store_cluster(g, &vals, &gam, &mut lam_b[v], &mut rot[v]);
-            per_var.push((vals, gam, mb));
+            let (values, rotation) = cluster_derivative(&kb, &mb, lambda);
+            store_cluster(g, &values, &rotation, &mut lam_b[v], &mut rot[v]);
+            per_var.push(ClusterDerivative {
+                values,
+                rotation,
+                mb,
+            });
         }
         let Some(xb) = x_b.as_mut() else { continue };
-        let removed = pivot_rows(&z);
+        let mut nelson = NelsonSystem::new(
+            k,
+            m,
+            lambda,
+            &z,
+            dense,
+            symbolic_ldlt.as_ref(),
+            &mut symbolic_lu,
+        )?;
+        for (v, dm) in design.iter().enumerate() {
+            let d = &per_var[v];
+            let zr = &z * &d.rotation;
+            let vs = nelson.particular_solutions(m, dm, lambda, &zr, &d.values, &mut tmp)?;
+            let sec = second.and_then(|s| s.get(v)).and_then(|s| s.get(gi));
+            let c = eigenvector_coefficients(m, dm, lambda, &zr, &vs, d, sec);
+            let xv = vs + &zr * c;
+            for (a, &i) in g.iter().enumerate() {
+                xb[v].column_mut(i).copy_from(&xv.column(a));
+            }
+        }
+    }
+    Ok(ModeDerivatives {
+        eigenvalues: lam_b,
+        eigenvectors: x_b,
+        rotations: rot,
+        clusters: groups,
+    })
+}
+
+/// The derivative of a cluster of eigenvalues for one design variable.
+struct ClusterDerivative {
+    /// The eigenvalue derivatives `λ_b`, ascending.
+    values: Vec<f64>,
+    /// The rotation `Γ` of the cluster's basis `Z` they belong to.
+    rotation: DMatrix<f64>,
+    /// `Zᵀ M_b Z` in the unrotated basis.
+    mb: DMatrix<f64>,
+}
+
+/// The Nelson system `(K − λM) v = f` of one cluster, rows and columns of its removed
+/// components replaced by the identity, factorised once for every design variable.
+struct NelsonSystem<'s> {
+    /// The removed components, one per mode of the cluster.
+    removed: Vec<usize>,
+    /// The Nelson matrix.
+    a: SparseColMat<usize, f64>,
+    factor: Factor,
+    /// Whether a solve with the sparse `LDLᵀ` factor has been checked by its residual.
+    checked: bool,
+    /// The symbolic sparse LU shared by the clusters, for the fallback.
+    symbolic_lu: &'s mut Option<SymbolicLu<usize>>,
+}
+
+impl<'s> NelsonSystem<'s> {
+    /// Factorise the Nelson matrix of the cluster with eigenvalue `lambda` and basis `z`:
+    /// dense LU when `dense`, else sparse `LDLᵀ` on `symbolic_ldlt` (sparse LU if it fails).
+    fn new(
+        k: &SparseColMat<usize, f64>,
+        m: &SparseColMat<usize, f64>,
+        lambda: f64,
+        z: &DMatrix<f64>,
+        dense: bool,
+        symbolic_ldlt: Option<
+            &std::sync::Arc<faer::sparse::linalg::cholesky::SymbolicCholesky<usize>>,
+        >,
+        symbolic_lu: &'s mut Option<SymbolicLu<usize>>,
+    ) -> Result<Self, FemError> {
+        let n = k.nrows();
+        let removed = pivot_rows(z);
         let a = nelson_matrix(k, m, lambda, &removed);
         let factor = if dense {
             let ad = Mat::from_fn(n, n, |_, _| 0.0);
@@ -270,102 +342,126 @@ pub fn mode_derivatives_with(
             }
             Factor::Dense(ad.partial_piv_lu())
         } else {
-            match SparseLdlt::new(symbolic_ldlt.clone().expect("symbolic LDLᵀ"), &a) {
+            match SparseLdlt::new(symbolic_ldlt.expect("symbolic LDLᵀ").clone(), &a) {
                 Some(f) => Factor::Ldlt(f),
-                None => sparse_lu(&a, &mut symbolic_lu)?,
+                None => sparse_lu(&a, symbolic_lu)?,
             }
         };
-        // residual-checked solve, with an LU fallback for a poorly pivoted LDLᵀ
-        let mut factor = factor;
-        let mut checked = false;
-        for (v, dm) in design.iter().enumerate() {
-            let (vals, gam, mb) = &per_var[v];
-            let zr = &z * gam;
-            let mut vs = DMatrix::<f64>::zeros(n, r);
+        Ok(Self {
+            removed,
+            a,
+            factor,
+            checked: false,
+            symbolic_lu,
+        })
+    }
+
+    /// Nelson's particular solutions `V` (n × r) of the design variable `dm` for the rotated
+    /// cluster basis `zr` with eigenvalue `lambda` and derivatives `values`; `tmp`: n scratch.
+    fn particular_solutions(
+        &mut self,
+        m: &SparseColMat<usize, f64>,
+        dm: &DesignMatrices,
+        lambda: f64,
+        zr: &DMatrix<f64>,
+        values: &[f64],
+        tmp: &mut [f64],
+    ) -> Result<DMatrix<f64>, FemError> {
+        let (n, r) = (zr.nrows(), zr.ncols());
+        let mut vs = DMatrix::<f64>::zeros(n, r);
+        for j in 0..r {
+            // f = −(K_b − λ M_b − λ_b M) z_j
+            let zj = zr.column(j);
+            let mut f = vec![0.0; n];
+            spmv(&dm.k, zj.as_slice(), tmp);
+            axpy(-1.0, tmp, &mut f);
+            spmv(&dm.m, zj.as_slice(), tmp);
+            axpy(lambda, tmp, &mut f);
+            spmv(m, zj.as_slice(), tmp);
+            axpy(values[j], tmp, &mut f);
+            for &q in &self.removed {
+                f[q] = 0.0;
+            }
+            self.solve_checked(&mut f, tmp)?;
+            vs.column_mut(j).copy_from_slice(&f);
+        }
+        Ok(vs)
+    }
+
+    /// `f ← A⁻¹ f`. The first solve with a sparse `LDLᵀ` factor is checked by its residual;
+    /// a poorly pivoted factor is replaced by a sparse LU one, for this and later solves.
+    fn solve_checked(&mut self, f: &mut [f64], tmp: &mut [f64]) -> Result<(), FemError> {
+        let rhs = f.to_vec();
+        self.factor.solve(f);
+        if !self.checked && matches!(self.factor, Factor::Ldlt(_)) {
+            self.checked = true;
+            spmv(&self.a, f, tmp);
+            let num: f64 = tmp
+                .iter()
+                .zip(&rhs)
+                .map(|(x, y)| (x - y).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            let den: f64 = rhs.iter().map(|y| y * y).sum::<f64>().sqrt();
+            if !(num <= 1e-8 * den) {
+                self.factor = sparse_lu(&self.a, self.symbolic_lu)?;
+                f.copy_from_slice(&rhs);
+                self.factor.solve(f);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The coefficients `c` (r × r) of `x_b = V + Z c` in the rotated cluster basis `zr`, `V` the
+/// particular solutions `vs`: normalisation terms, and Dailey's coupling terms within a cluster
+/// (with the projected second derivatives `second`, unrotated, when given).
+fn eigenvector_coefficients(
+    m: &SparseColMat<usize, f64>,
+    dm: &DesignMatrices,
+    lambda: f64,
+    zr: &DMatrix<f64>,
+    vs: &DMatrix<f64>,
+    derivative: &ClusterDerivative,
+    second: Option<&SecondDerivatives>,
+) -> DMatrix<f64> {
+    let (vals, gam, mb) = (&derivative.values, &derivative.rotation, &derivative.mb);
+    let r = zr.ncols();
+    let mv = project(m, zr, vs); // Zᵀ M V
+    let mbr = gam.transpose() * mb * gam; // Zᵀ M_b Z (rotated)
+    let mut c = DMatrix::<f64>::zeros(r, r);
+    for j in 0..r {
+        c[(j, j)] = -mv[(j, j)] - 0.5 * mbr[(j, j)];
+    }
+    if r > 1 {
+        let kbv = project(&dm.k, zr, vs);
+        let mbv = project(&dm.m, zr, vs);
+        let sec = second.map(|s| gam.transpose() * s * gam);
+        for i in 0..r {
             for j in 0..r {
-                // f = −(K_b − λ M_b − λ_b M) z_j
-                let zj = zr.column(j);
-                let mut f = vec![0.0; n];
-                spmv(&dm.k, zj.as_slice(), &mut tmp);
-                axpy(-1.0, &tmp, &mut f);
-                spmv(&dm.m, zj.as_slice(), &mut tmp);
-                axpy(lambda, &tmp, &mut f);
-                spmv(m, zj.as_slice(), &mut tmp);
-                axpy(vals[j], &tmp, &mut f);
-                for &q in &removed {
-                    f[q] = 0.0;
+                if i == j {
+                    continue;
                 }
-                let rhs = f.clone();
-                factor.solve(&mut f);
-                if !checked && matches!(factor, Factor::Ldlt(_)) {
-                    checked = true;
-                    spmv(&a, &f, &mut tmp);
-                    let num: f64 = tmp
-                        .iter()
-                        .zip(&rhs)
-                        .map(|(x, y)| (x - y).powi(2))
-                        .sum::<f64>()
-                        .sqrt();
-                    let den: f64 = rhs.iter().map(|y| y * y).sum::<f64>().sqrt();
-                    if !(num <= 1e-8 * den) {
-                        factor = sparse_lu(&a, &mut symbolic_lu)?;
-                        f.copy_from_slice(&rhs);
-                        factor.solve(&mut f);
-                    }
+                let gap = vals[j] - vals[i];
+                if gap.abs() <= 1e-12 * vals.iter().fold(0.0f64, |a, b| a.max(b.abs())).max(1e-300)
+                {
+                    // the cluster stays together: the first-order equations leave the
+                    // rotation within it free; take none, so that `Zᵀ M x_b` keeps only
+                    // the symmetric part the normalisation fixes, `−Zᵀ M_b Z / 2` (the
+                    // convention of mode tracking, `ModalBody::align_to`)
+                    c[(i, j)] = -mv[(i, j)] - 0.5 * mbr[(i, j)];
+                    continue;
                 }
-                vs.column_mut(j).copy_from_slice(&f);
-            }
-            // coefficients c (r × r): x_b = V + Z c
-            let mv = project(m, &zr, &vs); // Zᵀ M V
-            let mbr = gam.transpose() * mb * gam; // Zᵀ M_b Z (rotated)
-            let mut c = DMatrix::<f64>::zeros(r, r);
-            for j in 0..r {
-                c[(j, j)] = -mv[(j, j)] - 0.5 * mbr[(j, j)];
-            }
-            if r > 1 {
-                let kbv = project(&dm.k, &zr, &vs);
-                let mbv = project(&dm.m, &zr, &vs);
-                let sec = second
-                    .and_then(|s| s.get(v))
-                    .and_then(|s| s.get(gi))
-                    .map(|s| gam.transpose() * s * gam);
-                for i in 0..r {
-                    for j in 0..r {
-                        if i == j {
-                            continue;
-                        }
-                        let gap = vals[j] - vals[i];
-                        if gap.abs()
-                            <= 1e-12 * vals.iter().fold(0.0f64, |a, b| a.max(b.abs())).max(1e-300)
-                        {
-                            // the cluster stays together: the first-order equations leave the
-                            // rotation within it free; take none, so that `Zᵀ M x_b` keeps only
-                            // the symmetric part the normalisation fixes, `−Zᵀ M_b Z / 2` (the
-                            // convention of mode tracking, `ModalBody::align_to`)
-                            c[(i, j)] = -mv[(i, j)] - 0.5 * mbr[(i, j)];
-                            continue;
-                        }
-                        let mut num = kbv[(i, j)] - vals[j] * mv[(i, j)] - lambda * mbv[(i, j)];
-                        num -= vals[j] * mbr[(i, j)];
-                        if let Some(s) = &sec {
-                            num += 0.5 * s[(i, j)];
-                        }
-                        c[(i, j)] = num / gap;
-                    }
+                let mut num = kbv[(i, j)] - vals[j] * mv[(i, j)] - lambda * mbv[(i, j)];
+                num -= vals[j] * mbr[(i, j)];
+                if let Some(s) = &sec {
+                    num += 0.5 * s[(i, j)];
                 }
-            }
-            let xv = vs + &zr * c;
-            for (a, &i) in g.iter().enumerate() {
-                xb[v].column_mut(i).copy_from(&xv.column(a));
+                c[(i, j)] = num / gap;
             }
         }
     }
-    Ok(ModeDerivatives {
-        eigenvalues: lam_b,
-        eigenvectors: x_b,
-        rotations: rot,
-        clusters: groups,
-    })
+    c
 }
 
 /// The eigenvalue derivatives of a cluster of eigenvalues `λ` (one or repeated) with the

@@ -718,8 +718,39 @@ impl SectionAnalysis {
     /// this module's tests.
     fn compliance_derivatives(&self, design: &DesignMap, vars: &[usize]) -> Vec<Matrix6<f64>> {
         let m = &self.model;
+        let q_tangents = self.ply_stiffness_tangents(design, vars);
+        let mut out = vec![Matrix6::zeros(); vars.len()];
+        if q_tangents.iter().all(Vec::is_empty) {
+            return out;
+        }
+        let adjoints = self.compliance_adjoints();
+
+        // The moments of each region that a variable changes, contracted with its Q'_ply.
+        let mut elements_of: Vec<Vec<usize>> = vec![Vec::new(); m.mesh.regions.len()];
+        for (e, el) in m.mesh.elements.iter().enumerate() {
+            if !q_tangents[el.region].is_empty() {
+                elements_of[el.region].push(e);
+            }
+        }
+        for (r, tangents) in q_tangents.iter().enumerate() {
+            if tangents.is_empty() {
+                continue;
+            }
+            let moments = self.region_moments(r, &elements_of[r], &adjoints);
+            contract_moments(&moments, tangents, &mut out);
+        }
+        out
+    }
+
+    /// `Q'_ply` of each variable of `vars` in each region it changes:
+    /// `[region] → [(slot in vars, Q'_ply)]` (Pa per unit of the variable).
+    fn ply_stiffness_tangents(
+        &self,
+        design: &DesignMap,
+        vars: &[usize],
+    ) -> Vec<Vec<(usize, Matrix6<f64>)>> {
+        let m = &self.model;
         let regions = &m.mesh.regions;
-        // Q'_ply of each variable, in each region it changes.
         let mut q_tangents: Vec<Vec<(usize, Matrix6<f64>)>> = vec![Vec::new(); regions.len()];
         for (slot, &v) in vars.iter().enumerate() {
             let var = &design.variables[v];
@@ -743,11 +774,13 @@ impl SectionAnalysis {
                 q_tangents[r].push((slot, q.map(|x| x.d[0])));
             }
         }
-        let mut out = vec![Matrix6::zeros(); vars.len()];
-        if q_tangents.iter().all(Vec::is_empty) {
-            return out;
-        }
+        q_tangents
+    }
 
+    /// The adjoints `λ = K⁻¹ ∫[BN Z]ᵀ Q ε` and `μ = K⁻¹ (Cᵀ λ + p)` of
+    /// [`SectionAnalysis::compliance_derivatives`]: two six-column solves.
+    fn compliance_adjoints(&self) -> ComplianceAdjoints {
+        let m = &self.model;
         let q = Materials::PerPoint(&self.q_points);
         let solve = |u: &[f64], psi: &[f64; 36]| {
             let mut rhs = m.pack(u, psi);
@@ -798,80 +831,64 @@ impl SectionAnalysis {
             );
             solve(&b, &z)
         };
+        ComplianceAdjoints { lx, ly, mx, my }
+    }
 
-        // The moments of each region that a variable changes, contracted with its Q'_ply.
-        let mut elements_of: Vec<Vec<usize>> = vec![Vec::new(); regions.len()];
-        for (e, el) in m.mesh.elements.iter().enumerate() {
-            if !q_tangents[el.region].is_empty() {
-                elements_of[el.region].push(e);
-            }
-        }
+    /// The moments `Σ w (Tᵀ ε_c)(Tᵀ α_d)ᵀ + (Tᵀ e₁_c)(Tᵀ β_d)ᵀ` of region `r` over the
+    /// integration points of its elements `elements`: `moments[c][d][i·6 + j]`.
+    fn region_moments(
+        &self,
+        r: usize,
+        elements: &[usize],
+        adjoints: &ComplianceAdjoints,
+    ) -> [[[f64; 36]; 6]; 6] {
+        let m = &self.model;
+        let ComplianceAdjoints { lx, ly, mx, my } = adjoints;
         let field = |u, u1, psi| Fields { u, u1, psi };
         let of_eps = field(Some(&self.x[..]), Some(&self.x1[..]), Some(&self.y));
         let of_e1 = field(Some(&self.x1[..]), None, Some(&self.y1));
-        let of_lambda = field(Some(&lx[..]), None, Some(&ly));
+        let of_lambda = field(Some(&lx[..]), None, Some(ly));
         let of_s_lambda = field(None, Some(&lx[..]), None);
-        let of_mu = field(Some(&mx[..]), None, Some(&my));
-        for (r, tangents) in q_tangents.iter().enumerate() {
-            if tangents.is_empty() {
-                continue;
-            }
-            // moments[c][d][i·6 + j]
-            let mut moments = [[[0.0; 36]; 6]; 6];
-            for &e in &elements_of[r] {
-                let el = &m.mesh.elements[e];
-                let nodes = &el.nodes[..el.kind.node_count()];
-                for gp in &m.gps[m.gp_start[e]..m.gp_start[e + 1]] {
-                    let t = bond_stress_matrix(&regions[r].frame.rotation_at(gp.x, gp.dx_dxi));
-                    let eps = strains(nodes, gp, of_eps);
-                    let e1 = strains(nodes, gp, of_e1);
-                    let el_ = strains(nodes, gp, of_lambda);
-                    let sl = strains(nodes, gp, of_s_lambda);
-                    let em = strains(nodes, gp, of_mu);
-                    // Tᵀ a, in the ply axes
-                    let ply = |a: [f64; 6]| -> [f64; 6] {
-                        std::array::from_fn(|j| (0..6).map(|i| t[(i, j)] * a[i]).sum())
-                    };
-                    let mut p_eps = [[0.0; 6]; 6];
-                    let mut p_alpha = [[0.0; 6]; 6];
-                    let mut p_e1 = [[0.0; 6]; 6];
-                    let mut p_beta = [[0.0; 6]; 6];
-                    for c in 0..6 {
-                        p_eps[c] = ply(eps[c]);
-                        p_alpha[c] = ply(std::array::from_fn(|i| 0.5 * eps[c][i] - el_[c][i]));
-                        p_e1[c] = ply(e1[c]);
-                        p_beta[c] = ply(std::array::from_fn(|i| sl[c][i] - em[c][i]));
-                    }
-                    for c in 0..6 {
-                        for d in 0..6 {
-                            let acc = &mut moments[c][d];
-                            for i in 0..6 {
-                                let (a, b) = (gp.w * p_eps[c][i], gp.w * p_e1[c][i]);
-                                for j in 0..6 {
-                                    acc[i * 6 + j] += a * p_alpha[d][j] + b * p_beta[d][j];
-                                }
-                            }
-                        }
-                    }
+        let of_mu = field(Some(&mx[..]), None, Some(my));
+        let mut moments = [[[0.0; 36]; 6]; 6];
+        for &e in elements {
+            let el = &m.mesh.elements[e];
+            let nodes = &el.nodes[..el.kind.node_count()];
+            for gp in &m.gps[m.gp_start[e]..m.gp_start[e + 1]] {
+                let t = bond_stress_matrix(&m.mesh.regions[r].frame.rotation_at(gp.x, gp.dx_dxi));
+                let eps = strains(nodes, gp, of_eps);
+                let e1 = strains(nodes, gp, of_e1);
+                let el_ = strains(nodes, gp, of_lambda);
+                let sl = strains(nodes, gp, of_s_lambda);
+                let em = strains(nodes, gp, of_mu);
+                // Tᵀ a, in the ply axes
+                let ply = |a: [f64; 6]| -> [f64; 6] {
+                    std::array::from_fn(|j| (0..6).map(|i| t[(i, j)] * a[i]).sum())
+                };
+                let mut p_eps = [[0.0; 6]; 6];
+                let mut p_alpha = [[0.0; 6]; 6];
+                let mut p_e1 = [[0.0; 6]; 6];
+                let mut p_beta = [[0.0; 6]; 6];
+                for c in 0..6 {
+                    p_eps[c] = ply(eps[c]);
+                    p_alpha[c] = ply(std::array::from_fn(|i| 0.5 * eps[c][i] - el_[c][i]));
+                    p_e1[c] = ply(e1[c]);
+                    p_beta[c] = ply(std::array::from_fn(|i| sl[c][i] - em[c][i]));
                 }
-            }
-            for (slot, dq) in tangents {
-                let df = &mut out[*slot];
                 for c in 0..6 {
                     for d in 0..6 {
-                        let mut acc = 0.0;
+                        let acc = &mut moments[c][d];
                         for i in 0..6 {
+                            let (a, b) = (gp.w * p_eps[c][i], gp.w * p_e1[c][i]);
                             for j in 0..6 {
-                                acc += dq[(i, j)]
-                                    * (moments[c][d][i * 6 + j] + moments[d][c][i * 6 + j]);
+                                acc[i * 6 + j] += a * p_alpha[d][j] + b * p_beta[d][j];
                             }
                         }
-                        df[(c, d)] += acc;
                     }
                 }
             }
         }
-        out
+        moments
     }
 
     /// Push the residual tangents of one system through the factorisation: returns the dual
@@ -930,6 +947,42 @@ impl SectionAnalysis {
             }
         }
         (x, y)
+    }
+}
+
+/// The adjoint solutions of [`SectionAnalysis::compliance_derivatives`], node-dof-major per
+/// unit section force.
+struct ComplianceAdjoints {
+    /// Warping part of `λ = K⁻¹ ∫[BN Z]ᵀ Q ε`.
+    lx: Vec<f64>,
+    /// Generalised-strain part of `λ`.
+    ly: [f64; 36],
+    /// Warping part of `μ = K⁻¹ (Cᵀ λ + p)`.
+    mx: Vec<f64>,
+    /// Generalised-strain part of `μ`.
+    my: [f64; 36],
+}
+
+/// Add to `out[slot]` the contraction `dF_cd = Σ_ij Q'_ij (moments[c][d] + moments[d][c])_ij`
+/// of a region's moments with the `Q'_ply` of each variable that changes it.
+fn contract_moments(
+    moments: &[[[f64; 36]; 6]; 6],
+    tangents: &[(usize, Matrix6<f64>)],
+    out: &mut [Matrix6<f64>],
+) {
+    for (slot, dq) in tangents {
+        let df = &mut out[*slot];
+        for c in 0..6 {
+            for d in 0..6 {
+                let mut acc = 0.0;
+                for i in 0..6 {
+                    for j in 0..6 {
+                        acc += dq[(i, j)] * (moments[c][d][i * 6 + j] + moments[d][c][i * 6 + j]);
+                    }
+                }
+                df[(c, d)] += acc;
+            }
+        }
     }
 }
 
