@@ -380,7 +380,21 @@ fn variable(
     if kind != "ply-angle" && kind != "ply-thickness" {
         return rigid_variable(src, raw, name, d, kind);
     }
-    let thickness = kind == "ply-thickness";
+    ply_variable(src, raw, name, d, model, kind == "ply-thickness")
+}
+
+/// A ply-angle (or, with `thickness`, ply-thickness) variable: the plies of a laminate it
+/// moves, each by its factor (mirrored plies of a symmetric laminate too).
+fn ply_variable(
+    src: &Source,
+    raw: &RawDeck,
+    name: &str,
+    d: &Spanned<RawDesign>,
+    model: &LaminateModel,
+    thickness: bool,
+) -> Result<DesignVariable, DeckError> {
+    let k = |s: &str| format!("design.{name}.{s}");
+    let rd = d.get_ref();
     let lam = rd.laminate.as_ref().ok_or_else(|| {
         src.error(
             span(d),
@@ -400,61 +414,8 @@ fn variable(
     let raw_lam = raw.laminate[lname].get_ref();
     let n_deck = raw_lam.plies.as_ref().map_or(0, |p| p.get_ref().len());
     let symmetric = raw_lam.symmetric.as_ref().is_some_and(|s| *s.get_ref());
-    let plies: Vec<usize> = match &rd.plies {
-        None => (0..n_deck).collect(),
-        Some(p) => {
-            let mut out = Vec::new();
-            for &i in p.get_ref() {
-                if i < 0 || i as usize >= n_deck {
-                    return Err(src.error(
-                        span(p),
-                        Some(k("plies")),
-                        format!(
-                            "ply {i} does not exist: laminate `{lname}` lists plies 0 to {}",
-                            n_deck.saturating_sub(1)
-                        ),
-                    ));
-                }
-                if out.contains(&(i as usize)) {
-                    return Err(src.error(
-                        span(p),
-                        Some(k("plies")),
-                        format!("ply {i} is listed twice"),
-                    ));
-                }
-                out.push(i as usize);
-            }
-            out
-        }
-    };
-    if plies.is_empty() {
-        return Err(src.error(
-            rd.plies.as_ref().and_then(span).or(span(d)),
-            Some(k("plies")),
-            "a design variable needs at least one ply",
-        ));
-    }
-    let factors: Vec<f64> = match &rd.factors {
-        None => vec![1.0; plies.len()],
-        Some(f) => {
-            let v = f.get_ref();
-            if v.len() != plies.len() {
-                return Err(src.error(
-                    span(f),
-                    Some(k("factors")),
-                    format!("{} factors for {} plies", v.len(), plies.len()),
-                ));
-            }
-            if v.iter().any(|x| !x.is_finite() || *x == 0.0) {
-                return Err(src.error(
-                    span(f),
-                    Some(k("factors")),
-                    "factors must be finite and non-zero",
-                ));
-            }
-            v.clone()
-        }
-    };
+    let plies = ply_list(src, name, d, lname, n_deck)?;
+    let factors = ply_factors(src, name, rd, plies.len())?;
     let stack = def.stack.plies();
     let n_stack = stack.len();
     let mut stack_plies = Vec::new();
@@ -497,6 +458,80 @@ fn variable(
         },
         value,
         unit: if thickness { "m" } else { "deg" },
+    })
+}
+
+/// The deck plies (indices into the laminate's `n_deck` plies) a ply variable moves: `plies`,
+/// or every ply.
+fn ply_list(
+    src: &Source,
+    name: &str,
+    d: &Spanned<RawDesign>,
+    lname: &str,
+    n_deck: usize,
+) -> Result<Vec<usize>, DeckError> {
+    let k = |s: &str| format!("design.{name}.{s}");
+    let rd = d.get_ref();
+    let plies: Vec<usize> = match &rd.plies {
+        None => (0..n_deck).collect(),
+        Some(p) => {
+            let mut out = Vec::new();
+            for &i in p.get_ref() {
+                if i < 0 || i as usize >= n_deck {
+                    return Err(src.error(
+                        span(p),
+                        Some(k("plies")),
+                        format!(
+                            "ply {i} does not exist: laminate `{lname}` lists plies 0 to {}",
+                            n_deck.saturating_sub(1)
+                        ),
+                    ));
+                }
+                if out.contains(&(i as usize)) {
+                    return Err(src.error(
+                        span(p),
+                        Some(k("plies")),
+                        format!("ply {i} is listed twice"),
+                    ));
+                }
+                out.push(i as usize);
+            }
+            out
+        }
+    };
+    if plies.is_empty() {
+        return Err(src.error(
+            rd.plies.as_ref().and_then(span).or(span(d)),
+            Some(k("plies")),
+            "a design variable needs at least one ply",
+        ));
+    }
+    Ok(plies)
+}
+
+/// The factors of a ply variable's `n` plies (`dθ_i/db`, all 1 when not given).
+fn ply_factors(src: &Source, name: &str, rd: &RawDesign, n: usize) -> Result<Vec<f64>, DeckError> {
+    let k = |s: &str| format!("design.{name}.{s}");
+    Ok(match &rd.factors {
+        None => vec![1.0; n],
+        Some(f) => {
+            let v = f.get_ref();
+            if v.len() != n {
+                return Err(src.error(
+                    span(f),
+                    Some(k("factors")),
+                    format!("{} factors for {} plies", v.len(), n),
+                ));
+            }
+            if v.iter().any(|x| !x.is_finite() || *x == 0.0) {
+                return Err(src.error(
+                    span(f),
+                    Some(k("factors")),
+                    "factors must be finite and non-zero",
+                ));
+            }
+            v.clone()
+        }
     })
 }
 

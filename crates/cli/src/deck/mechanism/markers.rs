@@ -84,35 +84,8 @@ pub(super) fn marker(
                 "give one of point, node or coupling",
             ));
         }
-        let nodes = info.nodes.as_ref().map_or(0, Vec::len);
-        let index = info.couplings.iter().position(|x| x == c.get_ref());
-        return match index {
-            Some(i) => Ok(with_axes(
-                Marker::node(info.id, nodes - info.couplings.len() + i),
-                &info.rotation,
-            )),
-            None => {
-                let known: Vec<&str> = info.couplings.iter().map(String::as_str).collect();
-                Err(src.error(
-                    span(c),
-                    Some(k("coupling")),
-                    if known.is_empty() {
-                        format!(
-                            "body `{}` has no couplings (define them in [body.{}.couplings])",
-                            body.get_ref(),
-                            body.get_ref()
-                        )
-                    } else {
-                        format!(
-                            "undefined coupling `{}` of body `{}`{}",
-                            c.get_ref(),
-                            body.get_ref(),
-                            suggestion(c.get_ref(), &known)
-                        )
-                    },
-                ))
-            }
-        };
+        let node = coupling_node(src, key, info, body.get_ref(), c)?;
+        return Ok(with_axes(Marker::node(info.id, node), &info.rotation));
     }
     match (&raw.point, &raw.node) {
         (Some(p), None) => {
@@ -156,6 +129,43 @@ pub(super) fn marker(
             Some(k("point")),
             "missing value: point [x, y, z], node or coupling",
         )),
+    }
+}
+
+/// The node that stands for coupling `c` of flexible body `body` (`info`): the couplings'
+/// nodes follow the mesh's, in the body's order.
+fn coupling_node(
+    src: &Source,
+    key: &str,
+    info: &BodyInfo,
+    body: &str,
+    c: &Spanned<String>,
+) -> Result<usize, DeckError> {
+    let k = |s: &str| format!("{key}.{s}");
+    let nodes = info.nodes.as_ref().map_or(0, Vec::len);
+    let index = info.couplings.iter().position(|x| x == c.get_ref());
+    match index {
+        Some(i) => Ok(nodes - info.couplings.len() + i),
+        None => {
+            let known: Vec<&str> = info.couplings.iter().map(String::as_str).collect();
+            Err(src.error(
+                span(c),
+                Some(k("coupling")),
+                if known.is_empty() {
+                    format!(
+                        "body `{}` has no couplings (define them in [body.{}.couplings])",
+                        body, body
+                    )
+                } else {
+                    format!(
+                        "undefined coupling `{}` of body `{}`{}",
+                        c.get_ref(),
+                        body,
+                        suggestion(c.get_ref(), &known)
+                    )
+                },
+            ))
+        }
     }
 }
 
