@@ -227,7 +227,7 @@ impl Source {
     /// Parse the raw deck; TOML syntax errors, type errors and unknown keys carry their place.
     pub fn parse(&self) -> Result<RawDeck, DeckError> {
         toml::from_str::<RawDeck>(&self.text).map_err(|e| {
-            let mut message = e.message().trim_end().to_string();
+            let mut message = plain_type_names(e.message().trim_end());
             if let Some(hint) = unknown_key_hint(&message) {
                 message.push_str(&hint);
             }
@@ -246,6 +246,29 @@ impl Source {
             self.error(e.span(), key, message)
         })
     }
+}
+
+/// A serde message with the reader's type names (`struct RawPly`) said as what they are in
+/// the deck (`a table`, here `{ material, thickness, angle }`).
+fn plain_type_names(message: &str) -> String {
+    let mut out = String::new();
+    let mut rest = message;
+    while let Some(i) = rest.find("struct Raw") {
+        out.push_str(&rest[..i]);
+        let after = &rest[i + "struct Raw".len()..];
+        let end = after
+            .find(|c: char| !c.is_ascii_alphanumeric())
+            .unwrap_or(after.len());
+        out.push_str(match &after[..end] {
+            "Ply" => "a ply table { material, thickness, angle }",
+            "SectionPly" => "a ply table { material, thickness, angle, elements }",
+            "Marker" => "a marker table { body, point | node | coupling, … }",
+            _ => "a table",
+        });
+        rest = &after[end..];
+    }
+    out.push_str(rest);
+    out
 }
 
 /// "; did you mean `x`?" for serde's "unknown field `y`, expected one of `a`, `b`, …" when one

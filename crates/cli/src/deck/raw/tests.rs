@@ -133,3 +133,26 @@ fn every_deck_key_is_documented_in_the_section_of_its_table() {
         missing.join("\n")
     );
 }
+
+/// A value of the wrong type where the reader expects a table is reported as a table of the
+/// deck, never by the reader's type name (`struct RawPly`).
+#[test]
+fn type_errors_name_tables_not_reader_types() {
+    for (text, expected) in [
+        (
+            "[laminate.l]\nplies = [1]\n",
+            "expected a ply table { material, thickness, angle }",
+        ),
+        (
+            "[joint.pin]\nkind = \"revolute\"\na = 3\n",
+            "expected a marker table",
+        ),
+        ("analysis = 3\n", "expected a table"),
+    ] {
+        let e = crate::deck::Source::new("t.toml", text)
+            .parse()
+            .expect_err(text)
+            .to_string();
+        assert!(e.contains(expected) && !e.contains("Raw"), "{text}: {e}");
+    }
+}
