@@ -1,5 +1,7 @@
 //! Errors of the command line, with their exit codes.
 
+use std::path::PathBuf;
+
 use crate::deck::DeckError;
 
 /// A failed command: bad input (exit code 2) or a runtime failure (exit code 1).
@@ -8,7 +10,27 @@ pub enum CliError {
     /// The deck or the command line is wrong.
     #[error(transparent)]
     Input(#[from] DeckError),
-    /// The computation or writing the results failed, or a comparison found differences.
+    /// A file or directory could not be read, written, created or removed.
+    #[error("cannot {action} {}: {reason}", path.display())]
+    File {
+        /// What was tried (`"write"`, `"remove the old"`, `"create the output directory"`).
+        action: &'static str,
+        path: PathBuf,
+        reason: String,
+    },
+    /// The model of the deck `file` could not be built at a design other than the deck's:
+    /// `item` (a body, a design variable) at the design `design` (one value per variable).
+    #[error("{}: {item} at the design {design:?}: {reason}", file.display())]
+    AtDesign {
+        file: PathBuf,
+        item: String,
+        design: Vec<f64>,
+        reason: String,
+    },
+    /// The computation of the deck `file` failed (assembly, integration, a solve).
+    #[error("{}: {reason}", file.display())]
+    Computation { file: PathBuf, reason: String },
+    /// Another runtime failure, or a comparison found differences.
     #[error("{0}")]
     Runtime(String),
     /// A command-line value is wrong (not tied to a deck).
@@ -21,7 +43,10 @@ impl CliError {
     pub fn exit_code(&self) -> u8 {
         match self {
             CliError::Input(_) | CliError::Usage(_) => 2,
-            CliError::Runtime(_) => 1,
+            CliError::Runtime(_)
+            | CliError::File { .. }
+            | CliError::AtDesign { .. }
+            | CliError::Computation { .. } => 1,
         }
     }
 }

@@ -24,8 +24,12 @@ fn partial_name(path: &Path) -> PathBuf {
     path.with_file_name(format!("{}{}", partial_prefix(&name), std::process::id()))
 }
 
-fn failure(path: &Path, what: &str, e: std::io::Error) -> CliError {
-    CliError::Runtime(format!("cannot {what} {}: {e}", path.display()))
+fn failure(path: &Path, action: &'static str, e: std::io::Error) -> CliError {
+    CliError::File {
+        action,
+        path: path.to_path_buf(),
+        reason: e.to_string(),
+    }
 }
 
 /// Whether `path` exists and is something other than a regular file (or a link to one).
@@ -52,10 +56,11 @@ impl Staged {
                 .map_err(|e| failure(path, "create the directory of", e))?;
         }
         if std::fs::metadata(path).is_ok_and(|m| m.is_dir()) {
-            return Err(CliError::Runtime(format!(
-                "cannot write {}: it is a directory",
-                path.display()
-            )));
+            return Err(CliError::File {
+                action: "write",
+                path: path.to_path_buf(),
+                reason: "it is a directory".into(),
+            });
         }
         if special(path) {
             return Ok(Self {

@@ -97,7 +97,10 @@ pub fn run(path: &Path, overrides: &[String]) -> Result<String, CliError> {
             super::sensitivity::prepare(&src, &mech)?;
         }
         let t0 = mech.times[0];
-        let fail = |m: String| CliError::Runtime(format!("{}: {m}", src.file.display()));
+        let fail = |reason: String| CliError::Computation {
+            file: src.file.clone(),
+            reason,
+        };
         let mut system = mech.system().map_err(|e| fail(e.to_string()))?;
         let mut state = mech.state.clone();
         system.assemble(t0, &mut state, 1e-10).map_err(|e| {

@@ -28,7 +28,10 @@ pub(crate) fn compute(
     mech: &Study,
     progress: Option<&RunProgress>,
 ) -> Result<Computed, CliError> {
-    let runtime = |m: String| CliError::Runtime(format!("{}: {m}", src.file.display()));
+    let runtime = |reason: String| CliError::Computation {
+        file: src.file.clone(),
+        reason,
+    };
     let mut system = mech.system().map_err(|e| runtime(e.to_string()))?;
     let mut state = mech.state.clone();
     system

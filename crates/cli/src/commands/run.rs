@@ -9,6 +9,7 @@ use super::compute::{Computed, compute};
 use super::run_files::{
     gradients_csv, history_csv, results, sensitivities_csv, summary, summary_text,
 };
+use super::shard::remove_old;
 use crate::deck::{self, Source};
 use crate::error::CliError;
 use crate::files::{Staged, remove_stale_partials};
@@ -77,23 +78,14 @@ pub(crate) fn run_study(
 ) -> Result<Done, CliError> {
     // a failed run must not leave the previous run's files looking like its own, nor a killed
     // one its temporary files
-    std::fs::create_dir_all(out).map_err(|e| {
-        CliError::Runtime(format!(
-            "cannot create the output directory {}: {e}",
-            out.display()
-        ))
+    std::fs::create_dir_all(out).map_err(|e| CliError::File {
+        action: "create the output directory",
+        path: out.to_path_buf(),
+        reason: e.to_string(),
     })?;
     remove_stale_partials(out, &OUTPUT_FILES);
     for f in OUTPUT_FILES {
-        match std::fs::remove_file(out.join(f)) {
-            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
-                return Err(CliError::Runtime(format!(
-                    "cannot remove the old {}: {e}",
-                    out.join(f).display()
-                )));
-            }
-            _ => {}
-        }
+        remove_old(&out.join(f))?;
     }
     let computed = compute(src, mech, progress);
     if let Some(p) = progress {

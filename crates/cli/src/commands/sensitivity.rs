@@ -37,7 +37,10 @@ pub(crate) struct Sensitivities {
 }
 
 fn runtime(src: &Source, m: impl std::fmt::Display) -> CliError {
-    CliError::Runtime(format!("{}: {m}", src.file.display()))
+    CliError::Computation {
+        file: src.file.clone(),
+        reason: m.to_string(),
+    }
 }
 
 /// The analysis with its direct sensitivities, from the assembled `state`.

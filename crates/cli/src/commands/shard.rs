@@ -44,10 +44,11 @@ pub(crate) fn shard_cases(n_cases: usize, shard: Option<(usize, usize)>) -> Vec<
 /// Remove `path` if it is there (an earlier run's file), naming it when that fails.
 pub(crate) fn remove_old(path: &Path) -> Result<(), CliError> {
     match std::fs::remove_file(path) {
-        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(CliError::Runtime(format!(
-            "cannot remove the old {}: {e}",
-            path.display()
-        ))),
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(CliError::File {
+            action: "remove the old",
+            path: path.to_path_buf(),
+            reason: e.to_string(),
+        }),
         _ => Ok(()),
     }
 }

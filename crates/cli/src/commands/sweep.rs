@@ -487,22 +487,21 @@ pub(crate) fn merge_shards(
             };
             if !same && from.exists() {
                 if to.exists() {
-                    std::fs::remove_dir_all(&to).map_err(|e| {
-                        CliError::Runtime(format!("cannot remove the old {}: {e}", to.display()))
+                    std::fs::remove_dir_all(&to).map_err(|e| CliError::File {
+                        action: "remove the old",
+                        path: to.clone(),
+                        reason: e.to_string(),
                     })?;
                 }
-                std::fs::create_dir_all(out).map_err(|e| {
-                    CliError::Runtime(format!(
-                        "cannot create the output directory {}: {e}",
-                        out.display()
-                    ))
+                std::fs::create_dir_all(out).map_err(|e| CliError::File {
+                    action: "create the output directory",
+                    path: out.to_path_buf(),
+                    reason: e.to_string(),
                 })?;
-                move_dir(&from, &to).map_err(|e| {
-                    CliError::Runtime(format!(
-                        "cannot move {} to {}: {e}",
-                        from.display(),
-                        to.display()
-                    ))
+                move_dir(&from, &to).map_err(|e| CliError::File {
+                    action: "move",
+                    path: from.clone(),
+                    reason: format!("{e} (into {})", to.display()),
                 })?;
             }
             r.values = case_values(&axes, r.index);

@@ -115,6 +115,16 @@ fn initial_state(model: &Model<f64>, placements: &[Placement]) -> State {
     s
 }
 
+/// A failure to build item `item` of the deck `src` at the design `b`.
+pub(crate) fn at_design(src: &Source, item: String, b: &[f64], reason: impl ToString) -> CliError {
+    CliError::AtDesign {
+        file: src.file.clone(),
+        item,
+        design: b.to_vec(),
+        reason: reason.to_string(),
+    }
+}
+
 /// A model error of a deck table as bad input at that table.
 fn at_table(src: &Source, span: Range<usize>, key: String, e: impl ToString) -> CliError {
     CliError::Input(src.error(Some(span), Some(key), e.to_string()))
@@ -538,12 +548,7 @@ impl Study {
     pub(crate) fn laminates_at(&self, src: &Source, b: &[f64]) -> Result<LaminateModel, CliError> {
         self.design
             .laminates_at(&self.laminates, b)
-            .map_err(|(name, e)| {
-                CliError::Runtime(format!(
-                    "{}: design variable `{name}` at the design {b:?}: {e}",
-                    src.file.display(),
-                ))
-            })
+            .map_err(|(name, e)| at_design(src, format!("design variable `{name}`"), b, e))
     }
 
     /// The definition of flexible body `part` moved to the laminates `lam` of the design `b`,
@@ -556,11 +561,12 @@ impl Study {
         b: &[f64],
     ) -> Result<BodyDef, CliError> {
         let mut def = part.def.at(lam).map_err(|e| {
-            CliError::Runtime(format!(
-                "{}: body `{}` at the design {b:?}: its section: {e}",
-                src.file.display(),
-                part.name
-            ))
+            at_design(
+                src,
+                format!("body `{}`", part.name),
+                b,
+                format!("its section: {e}"),
+            )
         })?;
         if def.auto_modes {
             def.auto_modes = false;
@@ -595,15 +601,18 @@ impl Study {
             let (built, analysis, modal, basis) =
                 flexible_body(src, &part.name, part.span.clone(), &def, request, true)?;
             if analysis.origin != part.analysis.origin {
-                return Err(CliError::Runtime(format!(
-                    "{}: body `{}` at the design {b:?}: its frame origin (the node nearest its \
-                     centre of mass) moves from {:?} to {:?} m; the joints are placed in the \
-                     frame of the deck's design (validate the deck at this design instead)",
-                    src.file.display(),
-                    part.name,
-                    part.analysis.origin.as_slice(),
-                    analysis.origin.as_slice()
-                )));
+                return Err(at_design(
+                    src,
+                    format!("body `{}`", part.name),
+                    b,
+                    format!(
+                        "its frame origin (the node nearest its centre of mass) moves from {:?} \
+                         to {:?} m; the joints are placed in the frame of the deck's design \
+                         (validate the deck at this design instead)",
+                        part.analysis.origin.as_slice(),
+                        analysis.origin.as_slice()
+                    ),
+                ));
             }
             let body = flexible_model_body(
                 &part.name,
@@ -669,13 +678,8 @@ impl Study {
                 false,
             )?;
             if let Body::Flexible(reference) = self.model.body(part.id) {
-                body.align_to(&reference.modal, CLUSTER_TOL).map_err(|e| {
-                    CliError::Runtime(format!(
-                        "{}: body `{}` at the design {b:?}: {e}",
-                        src.file.display(),
-                        part.name
-                    ))
-                })?;
+                body.align_to(&reference.modal, CLUSTER_TOL)
+                    .map_err(|e| at_design(src, format!("body `{}`", part.name), b, e))?;
             }
             let body = flexible_model_body(
                 &part.name,

@@ -36,12 +36,7 @@ impl Problem<'_> {
         let lam = self
             .design
             .laminates_at(&self.laminates, x)
-            .map_err(|(name, e)| {
-                runtime(format!(
-                    "{}: design variable `{name}` at the design {x:?}: {e}",
-                    src.file.display()
-                ))
-            })?;
+            .map_err(|(name, e)| at_design(src, format!("design variable `{name}`"), x, e))?;
         let design = self.design.at(x);
         // each flexible body's modal analysis and masses once per evaluation
         let mut bodies = BTreeMap::<&String, FlexibleQuantities>::new();
@@ -54,10 +49,12 @@ impl Problem<'_> {
                 return Ok(b.clone());
             }
             let def = def.at(&lam).map_err(|e| {
-                runtime(format!(
-                    "{}: body `{name}` at the design {x:?}: its section: {e}",
-                    src.file.display()
-                ))
+                at_design(
+                    src,
+                    format!("body `{name}`"),
+                    x,
+                    format!("its section: {e}"),
+                )
             })?;
             let b = flexible_quantities(src, name, span.clone(), &def, &design)?;
             bodies.insert(name, b.clone());

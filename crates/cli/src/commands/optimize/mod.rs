@@ -33,8 +33,8 @@ use crate::deck::{self, Source, bodies, mechanism};
 use crate::error::CliError;
 use crate::files::write_atomic;
 use crate::plot::{Figure, Panel, Series};
-use crate::study::Study;
 use crate::study::flexible::{CHUNK, DesignRequest, build, fem_error};
+use crate::study::{Study, at_design};
 use crate::table::{CsvTable, number};
 
 mod driver;
