@@ -27,23 +27,7 @@ const MAX_FUNCTION_LINES: usize = 150;
 const LONG_FILES: &[&str] = &[];
 
 /// Functions still over [`MAX_FUNCTION_LINES`]: `(file, function name)`.
-const LONG_FUNCTIONS: &[(&str, &str)] = &[
-    ("crates/cli/src/deck/bodies/mod.rs", "validate_one"),
-    ("crates/cli/src/deck/design/mod.rs", "variable"),
-    ("crates/cli/src/deck/mechanism/markers.rs", "marker"),
-    ("crates/cli/src/deck/mechanism/mod.rs", "forces"),
-    ("crates/cli/src/deck/responses.rs", "validate"),
-    ("crates/cli/src/study/mod.rs", "validate"),
-    (
-        "crates/cli/tests/documented_defaults.rs",
-        "documented_defaults_are_the_codes",
-    ),
-    ("crates/fem/src/eigen.rs", "lanczos"),
-    ("crates/fem/src/sensitivity.rs", "mode_derivatives_with"),
-    ("crates/section/src/analysis.rs", "compliance_derivatives"),
-    ("crates/section/src/parse.rs", "parse_gmsh"),
-    ("crates/section/src/parse.rs", "parse_simple"),
-];
+const LONG_FUNCTIONS: &[(&str, &str)] = &[];
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -6,6 +6,7 @@
 //! model of the direct sensitivities is built from the same parts in
 //! `commands::sensitivity`. `docs/architecture.md` follows one design variable through it.
 
+mod assembly;
 pub mod flexible;
 
 use std::collections::BTreeMap;
@@ -26,6 +27,7 @@ use crate::deck::mechanism::{self, BodyInfo};
 use crate::deck::responses::{self, ResponseDef};
 use crate::deck::{DeckError, RawDeck, Source};
 use crate::error::CliError;
+use assembly::Mechanism;
 use flexible::{Built, DesignRequest, fem_error};
 
 /// A flexible body of the mechanism with what its design derivatives need.
@@ -228,163 +230,6 @@ pub(crate) fn set_rigid<P: sens::Scalar>(
             None => r.mass = value,
             Some(a) => r.inertia[(a, a)] = value,
         }
-    }
-}
-
-/// The nominal mechanism as validation builds it, body by body.
-#[derive(Default)]
-struct Mechanism {
-    model: Model<f64>,
-    flexible: Vec<FlexiblePart>,
-    bodies: BTreeMap<String, BodyInfo>,
-    /// Body names in model order.
-    body_order: Vec<String>,
-    placements: Vec<Placement>,
-    /// Per flexible body: its initial modal coordinates and rates as the deck gives them.
-    modal_starts: Vec<(BodyId, Vec<f64>, Vec<f64>)>,
-}
-
-impl Mechanism {
-    /// The flexible bodies: the modes of each mesh as given (global coordinates at t = 0).
-    fn add_flexible_bodies(
-        &mut self,
-        src: &Source,
-        raw: &RawDeck,
-        laminates: &LaminateModel,
-        request: DesignRequest,
-    ) -> Result<(), CliError> {
-        for (name, b) in &raw.body {
-            let def = validate_body(src, raw, name, b, laminates)?;
-            let (built, analysis, modal, basis) =
-                flexible_body(src, name, b.span(), &def, request, true)?;
-            let nodes = modal.node_positions.clone();
-            let body = flexible_model_body(
-                name,
-                &built.mesh,
-                &analysis.couplings,
-                modal,
-                def.stiffening,
-            )
-            .map_err(|e| fem_error(src, name, b.span(), e))?;
-            let id = self
-                .model
-                .add_flexible_body(body)
-                .map_err(|e| at_table(src, b.span(), format!("body.{name}"), e))?;
-            self.modal_starts.push((
-                id,
-                def.initial_modal.clone(),
-                def.initial_modal_rates.clone(),
-            ));
-            self.placements.push(Placement {
-                id,
-                position: analysis.origin,
-                rotation: Matrix3::identity(),
-                velocity: Vector3::zeros(),
-                angular_velocity: Vector3::zeros(),
-            });
-            self.bodies.insert(
-                name.clone(),
-                BodyInfo {
-                    id,
-                    position: analysis.origin,
-                    rotation: Matrix3::identity(),
-                    nodes: Some(nodes),
-                    frequencies: analysis.frequencies_hz(),
-                    couplings: def.couplings.iter().map(|c| c.name.clone()).collect(),
-                    basis: Some(basis),
-                },
-            );
-            self.body_order.push(name.clone());
-            self.flexible.push(FlexiblePart {
-                id,
-                name: name.clone(),
-                built,
-                analysis,
-                span: b.span(),
-                stiffening: def.stiffening,
-                def,
-            });
-        }
-        Ok(())
-    }
-
-    /// The rigid bodies, placed and moving as the deck gives them.
-    fn add_rigid_bodies(&mut self, src: &Source, raw: &RawDeck) -> Result<(), CliError> {
-        for r in mechanism::rigid_bodies(src, raw)? {
-            let id = self
-                .model
-                .add_rigid_body(RigidBody::new(r.name.clone(), r.mass, r.inertia))
-                .map_err(|e| at_table(src, r.span.clone(), format!("rigid.{}", r.name), e))?;
-            self.placements.push(Placement {
-                id,
-                position: r.position,
-                rotation: r.orientation,
-                velocity: r.velocity,
-                angular_velocity: r.angular_velocity,
-            });
-            self.bodies.insert(
-                r.name.clone(),
-                BodyInfo {
-                    id,
-                    position: r.position,
-                    rotation: r.orientation,
-                    nodes: None,
-                    frequencies: Vec::new(),
-                    couplings: Vec::new(),
-                    basis: None,
-                },
-            );
-            self.body_order.push(r.name);
-        }
-        Ok(())
-    }
-
-    /// The joints (named, in deck order) and the forces and gravity (a spring's free length
-    /// from its markers' distance as placed).
-    fn add_joints_and_forces(
-        &mut self,
-        src: &Source,
-        raw: &RawDeck,
-    ) -> Result<Vec<(String, JointId)>, CliError> {
-        let mut named_joints = Vec::new();
-        for joint in mechanism::joints(src, raw, &self.bodies)? {
-            let name = joint.name.clone();
-            let id = self
-                .model
-                .add_joint(joint)
-                .map_err(|e| at_table(src, raw.joint[&name].span(), format!("joint.{name}"), e))?;
-            named_joints.push((name, id));
-        }
-        let q0 = initial_state(&self.model, &self.placements).q;
-        let model = &self.model;
-        let mechanism::ForceDefs { gravity, forces } =
-            mechanism::forces(src, raw, &self.bodies, |a, b| {
-                (model.marker_position(a, &q0) - model.marker_position(b, &q0)).norm()
-            })?;
-        self.model.gravity += gravity;
-        for (name, force) in forces {
-            self.model
-                .add_force(force)
-                .map_err(|e| at_table(src, raw.force[&name].span(), format!("force.{name}"), e))?;
-        }
-        Ok(named_joints)
-    }
-
-    /// The initial state: the bodies as placed (the assembly moves only the rigid-body
-    /// coordinates), the elastic state as the deck gives it, static correction modes (after
-    /// the retained ones) at zero.
-    fn initial_state(&self) -> State {
-        let mut state = initial_state(&self.model, &self.placements);
-        for (id, w, wd) in &self.modal_starts {
-            let n = self.model.body(*id).n_modes();
-            let pad = |x: &Vec<f64>| {
-                let mut x = x.clone();
-                x.resize(n, 0.0);
-                x
-            };
-            self.model.set_modal(&mut state, *id, &pad(w), &pad(wd));
-        }
-        state
     }
 }
 
@@ -699,85 +544,4 @@ impl Study {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The shipped beam and plate decks with design variables of every kind (ply angles, ply
-    /// thicknesses, material constants) and sections of every generator kind moved by them.
-    fn decks() -> Vec<(String, String)> {
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../decks");
-        let read = |n: &str| std::fs::read_to_string(dir.join(n)).unwrap();
-        let beam = read("slider_crank_beam.toml");
-        let plate = read("slider_crank_plate.toml");
-        let thickness = "\n[design.outer]\nkind = \"ply-thickness\"\nlaminate = \"tube_wall\"\n\
-                         plies = [2, 3]\n";
-        let e1 = "\n[design.e1]\nkind = \"material\"\nmaterial = \"paper_composite\"\n\
-                  constant = \"E1\"\n";
-        let tube = "[section.tube]\nshape = \"tube\"\ninner_radius = 4.529e-3\n\
-                    laminate = \"tube_wall\"\nelements_per_ply = 1\nelements_around = 32\n";
-        assert!(beam.contains(tube));
-        let boxed = beam.replace(
-            tube,
-            "[section.tube]\nshape = \"box\"\nwidth = 0.012\nheight = 0.01\n\
-             laminate = \"tube_wall\"\nelements_per_ply = 1\n",
-        );
-        let solid = beam.replace(
-            tube,
-            "[section.tube]\nshape = \"rectangle\"\nwidth = 0.008\nheight = 0.004\n\
-             material = \"paper_composite\"\nangle = 10.0\n",
-        );
-        let plate_t = "\n[design.t0]\nkind = \"ply-thickness\"\nlaminate = \"plate\"\n\
-                       plies = [0]\n";
-        vec![
-            ("beam".into(), format!("{beam}{thickness}{e1}")),
-            ("box".into(), format!("{boxed}{thickness}{e1}")),
-            (
-                "rectangle".into(),
-                solid.replace("[design.theta]", "[design.unused]") + e1,
-            ),
-            ("plate".into(), format!("{plate}{plate_t}{e1}")),
-        ]
-    }
-
-    /// `BodyDef::at` gives what validating the deck again with the laminates moved by a design
-    /// variable gives, for every variable of every deck (the finite differences' and the
-    /// optimiser's path to another design, which reads no deck).
-    #[test]
-    fn a_body_moved_to_a_design_is_the_body_validated_there() {
-        for (what, text) in decks() {
-            let src = Source::new(format!("{what}.toml"), text);
-            let raw = src.parse().unwrap();
-            let lam = validate_laminates(&src, &raw).unwrap();
-            let design = validate_design(&src, &raw, &lam).unwrap();
-            assert!(!design.variables.is_empty(), "{what}");
-            for v in &design.variables {
-                let mut moved = lam.clone();
-                let b = if v.value == 0.0 { 0.5 } else { v.value * 1.02 };
-                v.apply(&mut moved, b).unwrap();
-                for (name, b) in &raw.body {
-                    let nominal = validate_body(&src, &raw, name, b, &lam).unwrap();
-                    let there = validate_body(&src, &raw, name, b, &moved).unwrap();
-                    let at = nominal.at(&moved).unwrap();
-                    let (a, t) = (format!("{at:?}"), format!("{there:?}"));
-                    if let Some(i) = a.bytes().zip(t.bytes()).position(|(x, y)| x != y) {
-                        let from = i.saturating_sub(200);
-                        panic!(
-                            "{what}: body {name}, variable {}: `at` gives …{}…, validation …{}…",
-                            v.name,
-                            &a[from..(i + 100).min(a.len())],
-                            &t[from..(i + 100).min(t.len())]
-                        );
-                    }
-                    assert_eq!(a.len(), t.len());
-                    // (the rectangle deck keeps the beam deck's angle variable, `unused`)
-                    let moves = format!("{nominal:?}") != t;
-                    assert!(
-                        moves || v.name == "unused",
-                        "{what}: variable {} moves body {name}",
-                        v.name
-                    );
-                }
-            }
-        }
-    }
-}
+mod tests;
