@@ -428,10 +428,10 @@ fn tie_membership(mesh: &Mesh, constraints: &Constraints) -> Result<TieMembershi
     let mut motions = Vec::new();
     for (t, tie) in constraints.ties().iter().enumerate() {
         if tie.nodes.is_empty() {
-            return Err(FemError::Invalid(format!("rigid tie {t} has no node")));
+            return Err(FemError::RigidTie(format!("rigid tie {t} has no node")));
         }
         if !tie.point.iter().all(|x| x.is_finite()) {
-            return Err(FemError::Invalid(format!(
+            return Err(FemError::RigidTie(format!(
                 "rigid tie {t}: its point {:?} must be finite",
                 tie.point
             )));
@@ -439,12 +439,12 @@ fn tie_membership(mesh: &Mesh, constraints: &Constraints) -> Result<TieMembershi
         for &k in &tie.nodes {
             match tie_of.get(k) {
                 None => {
-                    return Err(FemError::Invalid(format!(
+                    return Err(FemError::RigidTie(format!(
                         "rigid tie {t}: node {k} does not exist (the mesh has {n_nodes} nodes)"
                     )));
                 }
                 Some(Some(other)) => {
-                    return Err(FemError::Invalid(format!(
+                    return Err(FemError::RigidTie(format!(
                         "node {k} is in rigid ties {other} and {t} (a node can follow one rigid \
                          tie only; merge the two sets)"
                     )));

@@ -35,7 +35,7 @@ pub enum ReferenceCondition {
     /// equals that of the node nearest the centre of mass is clamped (all six dof). The long
     /// axis is the global axis of the largest extent of the mesh's bounding box (it must be
     /// unique); the line of nodes must pass through the centre of mass (e.g. an even element
-    /// count along the length), otherwise the analysis fails with [`FemError::Invalid`]. The
+    /// count along the length), otherwise the analysis fails with [`FemError::Reference`]. The
     /// body frame sits at the node nearest the centre of mass (on that line), parallel to the
     /// mesh axes. On a beam the line is a single node: the same as [`Self::ClampedAtCentreOfMass`].
     ClampedSectionAtCentre,
@@ -75,7 +75,7 @@ impl RayleighDamping {
         let (wi, wj) = (lambda_i.sqrt(), lambda_j.sqrt());
         let den = lambda_j - lambda_i;
         if !(den.value().abs() > 1e-12 * lambda_j.value().abs()) || !(wi.value() > 0.0) {
-            return Err(FemError::Invalid(
+            return Err(FemError::Damping(
                 "Rayleigh damping needs two distinct, non-zero frequencies".into(),
             ));
         }
@@ -115,7 +115,7 @@ impl Damping {
             Damping::Ratios(d) => {
                 let [i, j] = d.modes;
                 if i >= lambdas.len() || j >= lambdas.len() {
-                    return Err(FemError::Invalid(format!(
+                    return Err(FemError::Damping(format!(
                         "Rayleigh damping refers to modes {} and {}, only {} computed",
                         i + 1,
                         j + 1,
@@ -126,7 +126,7 @@ impl Damping {
             }
             Damping::Coefficients { alpha, beta } => {
                 if !(alpha.is_finite() && alpha >= 0.0 && beta.is_finite() && beta >= 0.0) {
-                    return Err(FemError::Invalid(format!(
+                    return Err(FemError::Damping(format!(
                         "damping coefficients alpha = {alpha}, beta = {beta} must be finite and ≥ 0"
                     )));
                 }
@@ -174,7 +174,7 @@ pub struct ModalOptions {
     /// single-angle tube) it is a constraint that suppresses them and stiffens the body — e.g.
     /// the 15° composite plate rod with a line clamp: 342 Hz unrestricted, 422 Hz with `n = y`.
     /// Only normals along a global axis are supported (checked with a 1e-9 tolerance after
-    /// normalisation); any other normal is rejected with [`FemError::Invalid`]. Free-free bodies
+    /// normalisation); any other normal is rejected with [`FemError::Planar`]. Free-free bodies
     /// then have 3 rigid-body modes instead of 6. `None` (the default): full 3-D motion.
     pub planar: Option<Vector3<f64>>,
     /// Static correction: nodes (e.g. those the body's joints act at) whose static shapes are
@@ -234,14 +234,14 @@ impl ModalOptions {
 pub fn planar_axis(normal: &Vector3<f64>) -> Result<usize, FemError> {
     let norm = normal.norm();
     if !(norm > 0.0) || !norm.is_finite() {
-        return Err(FemError::Invalid(format!(
+        return Err(FemError::Planar(format!(
             "planar normal {normal:?} must be a finite, non-zero vector"
         )));
     }
     let n = normal / norm;
     let axis = n.iamax();
     if (1.0 - n[axis].abs()) > 1e-9 || (n - Vector3::ith(axis, n[axis])).norm() > 1e-9 {
-        return Err(FemError::Invalid(format!(
+        return Err(FemError::Planar(format!(
             "planar normal ({}, {}, {}) is not along a global axis of the mesh; only x, y or z \
              normals are supported",
             normal.x, normal.y, normal.z
@@ -277,24 +277,24 @@ pub fn analysis_constraints(
         add_planar_constraints(mesh, axis, &mut c);
     }
     if opts.reference == ReferenceCondition::Supports && opts.supports.is_empty() {
-        return Err(FemError::Invalid(
+        return Err(FemError::Support(
             "reference condition `supports` without any support".into(),
         ));
     }
     if opts.reference == ReferenceCondition::FreeFree && !opts.supports.is_empty() {
-        return Err(FemError::Invalid(
+        return Err(FemError::Support(
             "supports on a free-free body: use the reference condition `supports`".into(),
         ));
     }
     for s in &opts.supports {
         if let Some(&n) = s.nodes.iter().find(|&&n| n >= mesh.nodes.len()) {
-            return Err(FemError::Invalid(format!(
+            return Err(FemError::Support(format!(
                 "support at node {n}: the mesh has {} nodes",
                 mesh.nodes.len()
             )));
         }
         if let Some(&d) = s.dofs.iter().find(|&&d| d >= 6) {
-            return Err(FemError::Invalid(format!(
+            return Err(FemError::Support(format!(
                 "support of dof {d}: dof are 0 to 5"
             )));
         }
@@ -426,7 +426,7 @@ pub fn reference_constraints(
     let (masses, _) = lumped_nodal_masses(mesh, props, element)?;
     let total: f64 = masses.iter().sum();
     if !(total > 0.0) {
-        return Err(FemError::Invalid("the body has no mass".into()));
+        return Err(FemError::NoMass);
     }
     let com = mesh
         .nodes
@@ -437,27 +437,23 @@ pub fn reference_constraints(
     let mut c = Constraints::new();
     match rc {
         ReferenceCondition::ClampedAtCentreOfMass => {
-            let node = mesh
-                .closest_node(&com)
-                .ok_or(FemError::Invalid("empty mesh".into()))?;
+            let node = mesh.closest_node(&com).ok_or(FemError::EmptyMesh)?;
             c.clamp(node);
             Ok((c, mesh.nodes[node]))
         }
         ReferenceCondition::ClampedSectionAtCentre => {
-            let node = mesh
-                .closest_node(&com)
-                .ok_or(FemError::Invalid("empty mesh".into()))?;
+            let node = mesh.closest_node(&com).ok_or(FemError::EmptyMesh)?;
             let (lo, hi) = mesh.bounding_box();
             let ext = hi - lo;
             let axis = ext.iamax();
             let length = ext[axis];
             if !(length > 0.0) {
-                return Err(FemError::Invalid(
+                return Err(FemError::Reference(
                     "a clamped section needs a mesh with a non-zero length".into(),
                 ));
             }
             if (0..3).any(|a| a != axis && (ext[a] - length).abs() <= 1e-9 * length) {
-                return Err(FemError::Invalid(format!(
+                return Err(FemError::Reference(format!(
                     "clamped section at the centre: the long axis is ambiguous (bounding box \
                      {} × {} × {})",
                     ext.x, ext.y, ext.z
@@ -466,7 +462,7 @@ pub fn reference_constraints(
             let x0 = mesh.nodes[node][axis];
             if (x0 - com[axis]).abs() > 1e-6 * length {
                 let name = ["x", "y", "z"][axis];
-                return Err(FemError::Invalid(format!(
+                return Err(FemError::Reference(format!(
                     "clamped section at the centre: no line of nodes crosses the body at the \
                      centre of mass ({name} = {}; the nearest node is at {name} = {x0}); use an \
                      even number of elements along the length",
@@ -482,14 +478,12 @@ pub fn reference_constraints(
         }
         ReferenceCondition::FreeFree => Ok((c, com)),
         ReferenceCondition::Supports => {
-            let node = mesh
-                .closest_node(&com)
-                .ok_or(FemError::Invalid("empty mesh".into()))?;
+            let node = mesh.closest_node(&com).ok_or(FemError::EmptyMesh)?;
             Ok((c, mesh.nodes[node]))
         }
         ReferenceCondition::ClampedNode(node) => {
             if node >= mesh.nodes.len() {
-                return Err(FemError::Invalid(format!(
+                return Err(FemError::Reference(format!(
                     "clamped node {node} does not exist ({} nodes)",
                     mesh.nodes.len()
                 )));
@@ -500,14 +494,14 @@ pub fn reference_constraints(
         ReferenceCondition::PinnedEnds { a, b } => {
             let n = mesh.nodes.len();
             if a >= n || b >= n || a == b {
-                return Err(FemError::Invalid(format!(
+                return Err(FemError::Reference(format!(
                     "pinned ends {a}, {b} are not two nodes of the mesh"
                 )));
             }
             let d = mesh.nodes[b] - mesh.nodes[a];
             let axis = d.iamax();
             if (d.norm() - d[axis].abs()) > 1e-9 * d.norm() {
-                return Err(FemError::Invalid(
+                return Err(FemError::Reference(
                     "pinned ends must lie on a line parallel to a global axis".into(),
                 ));
             }
@@ -557,7 +551,7 @@ pub fn modal_analysis(
                 || k.windows(2).any(|w| w[1] <= w[0])
                 || k.last().is_some_and(|&m| m >= opts.n_modes)
             {
-                return Err(FemError::Invalid(format!(
+                return Err(FemError::Modes(format!(
                     "retained modes {:?}: strictly ascending mode indices below the {} computed \
                      are needed",
                     k.iter().map(|i| i + 1).collect::<Vec<_>>(),
@@ -569,7 +563,7 @@ pub fn modal_analysis(
     };
     let want = (opts.n_modes + rigid + GUARD_MODES).min(assembly.n_free());
     if opts.n_modes + rigid > assembly.n_free() {
-        return Err(FemError::Invalid(format!(
+        return Err(FemError::Modes(format!(
             "{} modes requested, {} free dof",
             opts.n_modes,
             assembly.n_free()
@@ -606,7 +600,7 @@ pub fn modal_analysis(
             .take_while(|l| l.abs() <= 1e-8 * lmax)
             .count();
         if free > 0 {
-            return Err(FemError::Invalid(format!(
+            return Err(FemError::Support(format!(
                 "the supports leave {free} rigid-body motion(s) free (zero frequencies): fix \
                  more dof, or use the free-free reference condition"
             )));
@@ -621,7 +615,7 @@ pub fn modal_analysis(
         None
     } else {
         if rigid > 0 {
-            return Err(FemError::Invalid(
+            return Err(FemError::Correction(
                 "static correction needs a reference condition that holds the body (not \
                  free-free): its static shapes are K⁻¹ of unit loads"
                     .into(),
@@ -793,7 +787,7 @@ pub fn modal_body_dual<const N: usize>(
     let mut x_b: Vec<DMatrix<f64>> = Vec::new();
     if update == ModeUpdate::Updated {
         let xb = derivs.eigenvectors.as_ref().ok_or_else(|| {
-            FemError::Invalid("updated-mode needs eigenvector derivatives".into())
+            FemError::Derivatives("updated-mode needs eigenvector derivatives".into())
         })?;
         for (t, &v) in vars.iter().enumerate() {
             // Within a cluster of repeated eigenvalues `xb[v]` differentiates the rotated basis
@@ -862,7 +856,7 @@ fn correction_dual<const N: usize>(
     body: &mut ModalBody<Dual<N>>,
 ) -> Result<(), FemError> {
     if let Some(&v) = vars.iter().find(|&&v| v >= matrices.len()) {
-        return Err(FemError::Invalid(format!(
+        return Err(FemError::Derivatives(format!(
             "static correction modes need the design matrices of every variable ({} given, \
              variable {} asked for)",
             matrices.len(),
@@ -994,7 +988,7 @@ fn no_split(
             // derivatives that vanish by symmetry (1e-9 λ per unit of the variable)
             if spread > (1e-6 * size).max(1e-9 * lambda) {
                 let modes: Vec<String> = c.iter().map(|i| (i + 1).to_string()).collect();
-                return Err(FemError::Invalid(format!(
+                return Err(FemError::Derivatives(format!(
                     "design variable {} (in the order given) splits the repeated frequencies of \
                      modes {}: the \
                      sensitivities of a body whose repeated modes split are not available yet \

@@ -89,7 +89,7 @@ pub fn static_completeness(
             }
         };
         if i.target >= n + analysis.couplings.len() {
-            return Err(FemError::Invalid(format!(
+            return Err(FemError::BasisCheck(format!(
                 "basis check at node {}: the mesh has {n} nodes and {} couplings",
                 i.target,
                 analysis.couplings.len()
@@ -167,7 +167,7 @@ pub fn static_completeness(
     // the basis is K-orthogonal with positive Ritz values: a Cholesky factor exists
     let ur = kr
         .cholesky()
-        .ok_or_else(|| FemError::Invalid("basis check: the modal stiffness is singular".into()))?
+        .ok_or_else(|| FemError::BasisCheck("basis check: the modal stiffness is singular".into()))?
         .solve(&bf);
     let exact: Vec<f64> = (0..f.ncols())
         .map(|c| f.column(c).dot(&u.column(c)))

@@ -68,19 +68,19 @@ fn skew(r: &Vector3<f64>) -> Matrix3<f64> {
 pub fn distribution(mesh: &Mesh, coupling: &Coupling) -> Result<Distribution, FemError> {
     let n = mesh.nodes.len();
     if coupling.nodes.is_empty() {
-        return Err(FemError::Invalid(
+        return Err(FemError::Coupling(
             "a coupling needs at least one node".into(),
         ));
     }
     let mut seen = std::collections::BTreeSet::new();
     for &k in &coupling.nodes {
         if k >= n {
-            return Err(FemError::Invalid(format!(
+            return Err(FemError::Coupling(format!(
                 "coupling node {k} does not exist (the mesh has {n} nodes)"
             )));
         }
         if !seen.insert(k) {
-            return Err(FemError::Invalid(format!(
+            return Err(FemError::Coupling(format!(
                 "coupling node {k} is listed twice"
             )));
         }
@@ -92,7 +92,7 @@ pub fn distribution(mesh: &Mesh, coupling: &Coupling) -> Result<Distribution, Fe
         / coupling.nodes.len() as f64;
     let point = coupling.point.unwrap_or(centroid);
     if !point.iter().all(|x| x.is_finite()) {
-        return Err(FemError::Invalid(format!(
+        return Err(FemError::Coupling(format!(
             "coupling point {point:?} must be finite"
         )));
     }
@@ -115,7 +115,7 @@ pub fn distribution(mesh: &Mesh, coupling: &Coupling) -> Result<Distribution, Fe
         a + Matrix3::identity() * r.norm_squared() - r * r.transpose()
     });
     let j_inv = j.try_inverse().ok_or_else(|| {
-        FemError::Invalid("coupling: the fit of its rigid motion is singular".into())
+        FemError::Coupling("coupling: the fit of its rigid motion is singular".into())
     })?;
     let carry = -skew(&(point - centroid));
     let mut weights = DMatrix::zeros(6, 6 * r.len());
@@ -209,7 +209,7 @@ pub(crate) fn interface_loads(
                 }
             }
         } else {
-            return Err(FemError::Invalid(format!(
+            return Err(FemError::Correction(format!(
                 "static correction at node {t}: the mesh has {n_nodes} nodes and {} couplings \
                  (numbered from {n_nodes})",
                 couplings.len()
@@ -217,7 +217,7 @@ pub(crate) fn interface_loads(
         }
     }
     if cols.is_empty() {
-        return Err(FemError::Invalid(
+        return Err(FemError::Correction(
             "static correction: every dof of the correction nodes is fixed by the reference \
              condition"
                 .into(),
@@ -236,7 +236,7 @@ pub(crate) fn stiffness_factor(
         SparseCholesky::symbolic(k.symbolic(), faer::Side::Lower, &assembly.free_dof_nodes())
             .map_err(|e| FemError::Eigen(format!("{e:?}")))?;
     SparseCholesky::new(symbolic, k.as_ref(), faer::Side::Lower).map_err(|_| {
-        FemError::Invalid(
+        FemError::Correction(
             "static correction: the stiffness matrix is not positive definite (the reference \
              condition must hold the body)"
                 .into(),

@@ -199,7 +199,7 @@ pub fn lowest_modes_of_nodes(
 ) -> Result<Eigenpairs, FemError> {
     let n = k.nrows();
     if p == 0 || p > n {
-        return Err(FemError::Invalid(format!(
+        return Err(FemError::Modes(format!(
             "asked for {p} modes of a model with {n} free dof"
         )));
     }

@@ -26,6 +26,42 @@ pub enum FemError {
     NoFreeDof,
     #[error("eigen solver: {0}")]
     Eigen(String),
-    #[error("invalid request: {0}")]
-    Invalid(String),
+    #[error("the body has no mass")]
+    NoMass,
+    #[error("empty mesh")]
+    EmptyMesh,
+    /// The reference condition cannot hold the mesh (a clamped section, node or pinned ends).
+    #[error("{0}")]
+    Reference(String),
+    /// A support names a node or dof that does not exist, or the supports leave the body free.
+    #[error("{0}")]
+    Support(String),
+    /// A coupling (distributing: its nodes, point or rigid-motion fit).
+    #[error("{0}")]
+    Coupling(String),
+    /// A rigid tie (its nodes, point, or a node in two ties).
+    #[error("{0}")]
+    RigidTie(String),
+    /// The number or choice of modes.
+    #[error("{0}")]
+    Modes(String),
+    /// Proportional damping (its modes or coefficients).
+    #[error("{0}")]
+    Damping(String),
+    /// The normal of planar modes.
+    #[error("{0}")]
+    Planar(String),
+    /// Static correction modes (their nodes, or a body the reference condition does not hold).
+    #[error("{0}")]
+    Correction(String),
+    /// The basis check (its load targets, a singular modal stiffness).
+    #[error("{0}")]
+    BasisCheck(String),
+    /// Geometric stiffening (a mesh it does not apply to).
+    #[error("{0}")]
+    Stiffening(String),
+    /// A derivative request the body cannot meet (missing design matrices, repeated
+    /// frequencies that split).
+    #[error("{0}")]
+    Derivatives(String),
 }

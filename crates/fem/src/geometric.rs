@@ -139,13 +139,13 @@ pub fn geometric_stiffness<S: Scalar>(
         || !extra_massless
         || body.modes.nrows() != NODE_DOFS * body.n_nodes()
     {
-        return Err(FemError::Invalid(format!(
+        return Err(FemError::Stiffening(format!(
             "geometric stiffening: the modal body has {} nodes, the mesh {n_nodes}",
             body.n_nodes()
         )));
     }
     if clamp >= n_nodes {
-        return Err(FemError::Invalid(format!(
+        return Err(FemError::Stiffening(format!(
             "geometric stiffening: clamp node {clamp} does not exist ({n_nodes} nodes)"
         )));
     }
@@ -158,7 +158,7 @@ pub fn geometric_stiffness<S: Scalar>(
                 adjacent[nodes[1]].push((e, nodes[0]));
             }
             Element::Shell { .. } => {
-                return Err(FemError::Invalid(
+                return Err(FemError::Stiffening(
                     "geometric stiffening is available for beam bodies only (a shell body's \
                      membrane stresses are not computed yet)"
                         .into(),
@@ -182,7 +182,7 @@ pub fn geometric_stiffness<S: Scalar>(
             }
             used[e] = true;
             if seen[c] {
-                return Err(FemError::Invalid(format!(
+                return Err(FemError::Stiffening(format!(
                     "geometric stiffening needs a beam mesh without closed loops: element {e} \
                      closes one (its axial forces would depend on the stiffness)"
                 )));
@@ -193,7 +193,7 @@ pub fn geometric_stiffness<S: Scalar>(
         }
     }
     if let Some(k) = (0..n_nodes).find(|&k| !seen[k] && body.node_masses[k].value() != 0.0) {
-        return Err(FemError::Invalid(format!(
+        return Err(FemError::Stiffening(format!(
             "geometric stiffening: node {k} has mass but no beam path to the clamp node {clamp}"
         )));
     }
@@ -227,7 +227,7 @@ pub fn geometric_stiffness<S: Scalar>(
         let d = x[c] - x[p];
         let length = d.norm();
         if !(length > 0.0) {
-            return Err(FemError::Invalid(format!(
+            return Err(FemError::Stiffening(format!(
                 "geometric stiffening: beam element {e} has zero length"
             )));
         }

@@ -324,7 +324,7 @@ fn line_clamp_errors_and_the_beam_case() {
     let mut o = ModalOptions::new(2);
     o.reference = ReferenceCondition::ClampedSectionAtCentre;
     match modal_analysis(&rod(23, 4), &iso_props(), &o) {
-        Err(FemError::Invalid(msg)) => assert!(msg.contains("no line of nodes"), "{msg}"),
+        Err(FemError::Reference(msg)) => assert!(msg.contains("no line of nodes"), "{msg}"),
         other => panic!("accepted: {:?}", other.map(|a| a.n_modes)),
     }
     // a square plate has no long axis
@@ -333,7 +333,7 @@ fn line_clamp_errors_and_the_beam_case() {
         &iso_props(),
         &o,
     ) {
-        Err(FemError::Invalid(msg)) => assert!(msg.contains("ambiguous"), "{msg}"),
+        Err(FemError::Reference(msg)) => assert!(msg.contains("ambiguous"), "{msg}"),
         other => panic!("accepted: {:?}", other.map(|a| a.n_modes)),
     }
     // an (isotropic) plate along y: the line runs along x, same frequencies

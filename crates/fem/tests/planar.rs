@@ -185,7 +185,7 @@ fn planar_normals_off_the_axes_are_rejected() {
         let mut o = ModalOptions::new(2);
         o.planar = Some(normal);
         match modal_analysis(&mesh, &r.props(), &o) {
-            Err(FemError::Invalid(msg)) => assert!(msg.contains("planar normal"), "{msg}"),
+            Err(FemError::Planar(msg)) => assert!(msg.contains("planar normal"), "{msg}"),
             other => panic!("normal {normal:?} accepted: {:?}", other.map(|a| a.n_modes)),
         }
     }

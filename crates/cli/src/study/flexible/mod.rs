@@ -551,7 +551,21 @@ pub fn fem_error(
             src.file.display()
         )),
         other => {
-            CliError::Input(src.error(Some(span), Some(format!("body.{name}")), other.to_string()))
+            use fem::FemError as E;
+            // the key of the body table the failure is about
+            let key = match &other {
+                E::Modes(_) => Some("modes"),
+                E::Damping(_) => Some("damping"),
+                E::Planar(_) => Some("planar"),
+                E::Support(_) => Some("supports"),
+                E::Reference(_) => Some("reference"),
+                E::Coupling(_) | E::RigidTie(_) => Some("couplings"),
+                E::Correction(_) => Some("correction"),
+                E::Stiffening(_) => Some("stiffening"),
+                _ => None,
+            };
+            let key = key.map_or(format!("body.{name}"), |k| format!("body.{name}.{k}"));
+            CliError::Input(src.error(Some(span), Some(key), other.to_string()))
         }
     }
 }
