@@ -4,7 +4,6 @@
 use mbs::{Baumgarte, BdfOptions, RedundancyPolicy, StepControl};
 
 use super::check::{count, finite, positive, required, span};
-use super::laminates::suggestion;
 use super::raw::{RawAnalysis, RawDeck};
 use super::{DeckError, Source};
 
@@ -229,7 +228,7 @@ fn integrator(
                 return Err(src.error(
                     span(i),
                     Some(k("integrator")),
-                    format!("unknown integrator `{other}`: expected \"adaptive\" or \"fixed\""),
+                    super::keys::INTEGRATOR.unknown("integrator", other),
                 ));
             }
         },
@@ -291,15 +290,11 @@ fn policy(src: &Source, raw: &RawAnalysis) -> Result<RedundancyPolicy, DeckError
             Some((_, "error")) => RedundancyPolicy::Error,
             Some((_, "reselect")) => RedundancyPolicy::Reselect,
             Some((r, other)) => {
-                let choices = ["remove", "reselect", "error"];
                 return Err(src.error(
-                span(r),
-                Some(k("redundant")),
-                format!(
-                    "unknown policy `{other}`: expected \"remove\", \"reselect\" or \"error\"{}",
-                    suggestion(other, &choices)
-                ),
-            ));
+                    span(r),
+                    Some(k("redundant")),
+                    super::keys::REDUNDANT.unknown("policy", other),
+                ));
             }
         },
     )

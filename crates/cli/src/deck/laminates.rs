@@ -264,10 +264,7 @@ fn laminate(
                 return Err(src.error(
                     span(r),
                     Some(key("reference")),
-                    format!(
-                        "unknown reference surface `{other}`: expected \"mid-plane\", \"bottom\", \"top\" or \"offset\"{}",
-                        suggestion(other, &["mid-plane", "bottom", "top", "offset"])
-                    ),
+                    super::keys::LAMINATE_REFERENCE.unknown("reference surface", other),
                 ));
             }
         },

@@ -11,6 +11,7 @@ pub mod analysis;
 pub mod bodies;
 pub mod check;
 pub mod design;
+pub mod keys;
 pub mod laminates;
 pub mod mechanism;
 pub mod optimize;

@@ -83,20 +83,10 @@ pub fn validate(
             "energy" => (Response::Energy, "J"),
             "constraint-violation" => (Response::ConstraintViolation, "m"),
             other => {
-                let c = [
-                    "position",
-                    "velocity",
-                    "nodal-displacement",
-                    "mid-node-deflection",
-                    "reaction",
-                    "modal",
-                    "energy",
-                    "constraint-violation",
-                ];
                 return Err(src.error(
                     span(kind),
                     Some(t.key("kind")),
-                    format!("unknown response `{other}`{}", suggestion(other, &c)),
+                    super::keys::RESPONSE_KIND.unknown("response", other),
                 ));
             }
         };

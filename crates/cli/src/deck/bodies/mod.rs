@@ -290,10 +290,7 @@ fn kind<'a>(
             return Err(src.error(
                 span(kind),
                 Some(k("kind")),
-                format!(
-                    "unknown body kind `{other}`: expected \"beam\" or \"shell\"{}",
-                    suggestion(other, &["beam", "shell"])
-                ),
+                super::keys::BODY_KIND.unknown("body kind", other),
             ));
         }
     };
@@ -366,7 +363,7 @@ fn lumped(src: &Source, name: &str, raw: &RawBody) -> Result<bool, DeckError> {
             return Err(src.error(
                 span(m),
                 Some(k("mass")),
-                format!("unknown mass matrix `{other}`: expected \"lumped\" or \"consistent\""),
+                super::keys::BODY_MASS.unknown("mass matrix", other),
             ));
         }
     })
@@ -455,7 +452,7 @@ fn basis(
             return Err(src.error(
                 span(raw.basis.as_ref().expect("given")),
                 Some(k("basis")),
-                format!("unknown basis `{other}`: expected \"interface\" or \"modes\""),
+                super::keys::BODY_BASIS.unknown("basis", other),
             ));
         }
     })

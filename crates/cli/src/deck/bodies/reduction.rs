@@ -92,22 +92,10 @@ pub(super) fn reference(src: &Source, name: &str, raw: &RawBody) -> Result<Refer
         }),
         Some((_, "supports")) => Reference::Supports,
         Some((r, other)) => {
-            let choices = [
-                "centre-of-mass",
-                "clamped-section",
-                "free-free",
-                "pinned-ends",
-                "clamped-node",
-                "supports",
-            ];
             return Err(src.error(
                 span(r),
                 Some(k("reference")),
-                format!(
-                    "unknown reference condition `{other}`: expected one of {}{}",
-                    choices.join(", "),
-                    suggestion(other, &choices)
-                ),
+                super::super::keys::BODY_REFERENCE.unknown("reference condition", other),
             ));
         }
     };

@@ -93,14 +93,15 @@ pub(super) fn couplings(
                 "distributing" => false,
                 "rigid" => true,
                 other => {
-                    return Err(src.error(
-                        Some(kind.span()),
-                        Some(format!("{key}.kind")),
+                    return Err(src.error(Some(kind.span()), Some(format!("{key}.kind")), {
+                        let [distributing, rigid] = super::super::keys::COUPLING_KIND.words else {
+                            unreachable!("two kinds of coupling")
+                        };
                         format!(
-                            "unknown coupling kind `{other}`: expected \"distributing\" (RBE3, \
-                             the default) or \"rigid\" (RBE2)"
-                        ),
-                    ));
+                            "unknown coupling kind `{other}`: expected \"{distributing}\" \
+                                 (RBE3, the default) or \"{rigid}\" (RBE2)"
+                        )
+                    }));
                 }
             },
         };

@@ -330,13 +330,7 @@ fn variable(
         src,
         &k("kind"),
         rd.kind.as_ref(),
-        &[
-            "ply-angle",
-            "ply-thickness",
-            "material",
-            "rigid-mass",
-            "rigid-inertia",
-        ],
+        super::keys::DESIGN_KIND.words,
     )?
     .unwrap_or("ply-angle");
     // keys of the other kinds
@@ -582,7 +576,7 @@ fn rigid_variable(
             &rd.axis,
             "axis (\"x\", \"y\" or \"z\")",
         )?;
-        let axis = choice(src, &k("axis"), Some(axis), &["x", "y", "z"])?
+        let axis = choice(src, &k("axis"), Some(axis), super::keys::INERTIA_AXIS.words)?
             .map_or(0, |a| (a.as_bytes()[0] - b'x') as usize);
         let off = (0..3).any(|j| j != axis && r.inertia[(axis, j)] != 0.0);
         if off {
@@ -639,13 +633,13 @@ pub fn validate(
         src,
         "sensitivity.method",
         s.and_then(|s| s.method.as_ref()),
-        &["direct", "simultaneous", "corrector"],
+        super::keys::SENSITIVITY_METHOD.words,
     )?;
     let modes = choice(
         src,
         "sensitivity.modes",
         s.and_then(|s| s.modes.as_ref()),
-        &["updated", "fixed"],
+        super::keys::SENSITIVITY_MODES.words,
     )?;
     let finite_differences = raw
         .finite_differences

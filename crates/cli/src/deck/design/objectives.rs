@@ -88,15 +88,18 @@ pub(super) fn objective(
             ),
         ));
     }
-    let kinds = ["integral", "mean", "rms", "max", "min", "at"];
+    let kinds = crate::deck::keys::OBJECTIVE_KIND.words;
     let kind_v = ro.kind.as_ref().ok_or_else(|| {
         src.error(
             span(o),
             Some(k("kind")),
-            "missing value: kind (\"integral\", \"mean\", \"rms\", \"max\", \"min\" or \"at\")",
+            format!(
+                "missing value: kind ({})",
+                crate::deck::keys::OBJECTIVE_KIND.listed()
+            ),
         )
     })?;
-    let kind = match choice(src, &k("kind"), Some(kind_v), &kinds)?.unwrap_or_default() {
+    let kind = match choice(src, &k("kind"), Some(kind_v), kinds)?.unwrap_or_default() {
         "integral" => Objective::Integral,
         "mean" => Objective::Mean,
         "rms" => Objective::Rms,
@@ -139,13 +142,13 @@ pub(super) fn finite_differences(
         src,
         &k("scheme"),
         rf.scheme.as_ref(),
-        &["forward", "central"],
+        crate::deck::keys::FD_SCHEME.words,
     )? == Some("central");
     let relative = choice(
         src,
         &k("perturbation"),
         rf.perturbation.as_ref(),
-        &["relative", "absolute"],
+        crate::deck::keys::FD_PERTURBATION.words,
     )? != Some("absolute");
     let sizes = match &rf.sizes {
         None => vec![if relative { 0.01 } else { 0.1 }],
@@ -168,7 +171,7 @@ pub(super) fn finite_differences(
         src,
         &k("steps"),
         rf.steps.as_ref(),
-        &["replay", "adaptive", "both"],
+        crate::deck::keys::FD_STEPS.words,
     )? {
         None | Some("replay") => vec![FdSteps::Replay],
         Some("adaptive") => vec![FdSteps::Adaptive],

@@ -278,15 +278,10 @@ pub(super) fn motion(
             }
         }
         other => {
-            let c = ["constant-speed", "polynomial", "ramp", "spin-up"];
             return Err(src.error(
                 span(kind),
                 Some(k("kind")),
-                format!(
-                    "unknown motion `{other}`: expected one of {}{}",
-                    c.join(", "),
-                    suggestion(other, &c)
-                ),
+                crate::deck::keys::MOTION_KIND.unknown("motion", other),
             ));
         }
     })

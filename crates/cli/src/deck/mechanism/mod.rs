@@ -165,16 +165,6 @@ pub fn joints(
         let k = |s: &str| format!("joint.{name}.{s}");
         let rj = j.get_ref();
         let kind_v = required(src, span(j), &k("kind"), &rj.kind, "kind")?;
-        let kinds = [
-            "spherical",
-            "revolute",
-            "universal",
-            "cylindrical",
-            "translational",
-            "fixed",
-            "angle-driver",
-            "distance-driver",
-        ];
         let driver = matches!(
             kind_v.get_ref().as_str(),
             "angle-driver" | "distance-driver"
@@ -205,7 +195,7 @@ pub fn joints(
                 return Err(src.error(
                     span(kind_v),
                     Some(k("kind")),
-                    format!("unknown joint kind `{other}`{}", suggestion(other, &kinds)),
+                    super::keys::JOINT_KIND.unknown("joint kind", other),
                 ));
             }
         };
@@ -286,11 +276,10 @@ pub fn forces(
             }
             "spring-damper" => spring_damper(src, name, f, bodies, &distance)?,
             other => {
-                let c = ["gravity", "point-force", "point-torque", "spring-damper"];
                 return Err(src.error(
                     span(kind),
                     Some(k("kind")),
-                    format!("unknown force kind `{other}`{}", suggestion(other, &c)),
+                    super::keys::FORCE_KIND.unknown("force kind", other),
                 ));
             }
         };
@@ -377,7 +366,7 @@ fn point_load(
             return Err(src.error(
                 span(x),
                 Some(k("frame")),
-                format!("unknown frame `{other}`: expected \"global\" or \"body\""),
+                super::keys::FORCE_FRAME.unknown("frame", other),
             ));
         }
     };

@@ -44,9 +44,7 @@ impl Shape<'_> {
                         return Err(src.error(
                             span(f),
                             Some(k("format")),
-                            format!(
-                                "unknown mesh format `{other}`: expected \"gmsh\" or \"simple\""
-                            ),
+                            crate::deck::keys::MESH_FORMAT.unknown("mesh format", other),
                         ));
                     }
                 },
@@ -179,7 +177,11 @@ fn region_frame(
         }
         Some(other) => {
             let f = rr.frame.as_ref().expect("matched Some");
-            return Err(src.error(span(f), Some(rk("frame")), format!("unknown wall frame `{other}`: expected \"tangent\", \"radial\", \"xi\" or \"eta\"")));
+            return Err(src.error(
+                span(f),
+                Some(rk("frame")),
+                crate::deck::keys::WALL_FRAME.unknown("wall frame", other),
+            ));
         }
     })
 }

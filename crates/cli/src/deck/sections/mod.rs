@@ -276,7 +276,7 @@ pub fn validate_one(
         table.clone(),
         &k("shape"),
         &raw.shape,
-        "shape (\"rectangle\", \"circle\", \"tube\", \"box\", \"channel\", \"i-beam\" or \"mesh\")",
+        &format!("shape ({})", super::keys::SECTION_SHAPE.listed()),
     )?;
     let shape_name = shape.get_ref().as_str();
     let shape_ctx = Shape {
@@ -314,13 +314,7 @@ pub fn validate_one(
             return Err(src.error(
                 span(shape),
                 Some(k("shape")),
-                format!(
-                    "unknown shape `{other}`: expected \"rectangle\", \"circle\", \"tube\", \"box\", \"channel\", \"i-beam\" or \"mesh\"{}",
-                    suggestion(
-                        other,
-                        &["rectangle", "circle", "tube", "box", "channel", "i-beam", "mesh"]
-                    )
-                ),
+                super::keys::SECTION_SHAPE.unknown("shape", other),
             ));
         }
     };
