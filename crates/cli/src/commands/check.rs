@@ -90,7 +90,7 @@ pub fn run(path: &Path, overrides: &[String]) -> Result<String, CliError> {
     }
     let mechanism = raw.analysis.is_some() || !raw.joint.is_empty() || !raw.rigid.is_empty();
     if mechanism {
-        let mech = crate::study::Study::validate(&src, &raw, true)?;
+        let mech = crate::study::Mechanism::validate(&src, &raw, true)?;
         // the design derivatives of the bodies, as a run builds them before it integrates:
         // what they refuse (a variable that splits repeated frequencies, …) is refused here too
         if mech.design.enabled {

@@ -1,6 +1,6 @@
 //! The computation of `flexsens run` (and of each lay-up of `flexsens report`): the
 //! analysis, its direct sensitivities, the objectives and the finite-difference comparisons,
-//! from a validated [`Study`].
+//! from a built [`Mechanism`].
 
 use mbs::Output;
 
@@ -8,7 +8,7 @@ use super::sensitivity::{self, FdCase, ObjectiveResult, Sensitivities};
 use crate::deck;
 use crate::error::CliError;
 use crate::progress::RunProgress;
-use crate::study::Study;
+use crate::study::Mechanism;
 
 /// Everything a run computed, ready to be written.
 pub(crate) struct Computed {
@@ -25,7 +25,7 @@ pub(crate) struct Computed {
 /// the progress bar, when one is shown).
 pub(crate) fn compute(
     src: &deck::Source,
-    mech: &Study,
+    mech: &Mechanism,
     progress: Option<&RunProgress>,
 ) -> Result<Computed, CliError> {
     let runtime = |reason: String| CliError::Computation {
@@ -90,7 +90,7 @@ mod tests {
     use super::*;
     use crate::deck::Source;
 
-    /// `Study::at` gives the study of the deck validated with the variables written at that
+    /// `Mechanism::at` gives the mechanism of the deck validated with the variables written at that
     /// design (the text path `--set` takes): the same frequencies and, run, the same response
     /// histories and sensitivities, to round-off (the two may differ in how a ply angle's
     /// radians are rounded; measured: bitwise equal). Every kind of variable: ply angle, ply thickness, material
@@ -107,7 +107,7 @@ mod tests {
         let src = Source::new("beam.toml", text)
             .with_overrides(&short)
             .unwrap();
-        let mut nominal = Study::validate(&src, &src.parse().unwrap(), true).unwrap();
+        let mut nominal = Mechanism::validate(&src, &src.parse().unwrap(), true).unwrap();
         nominal.design.finite_differences = None;
         let b0 = nominal.design_values();
         let b: Vec<f64> = b0.iter().map(|x| x * 1.07).collect();
@@ -120,7 +120,8 @@ mod tests {
                 sets.extend(v.overrides(x));
             }
             let there_src = src.edited(&sets).unwrap();
-            let mut there = Study::validate(&there_src, &there_src.parse().unwrap(), true).unwrap();
+            let mut there =
+                Mechanism::validate(&there_src, &there_src.parse().unwrap(), true).unwrap();
             there.design.finite_differences = None;
             for (v, w) in moved.design.variables.iter().zip(&there.design.variables) {
                 assert!(

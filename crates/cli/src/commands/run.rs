@@ -14,7 +14,7 @@ use crate::deck::{self, Source};
 use crate::error::CliError;
 use crate::files::{Staged, remove_stale_partials};
 use crate::progress::RunProgress;
-use crate::study::Study;
+use crate::study::Mechanism;
 
 /// What `flexsens run` was asked for.
 pub struct RunRequest<'a> {
@@ -38,7 +38,7 @@ pub(crate) const OUTPUT_FILES: [&str; 4] = [
 /// Run the command; the returned text goes to stdout.
 pub fn run(path: &Path, overrides: &[String], req: &RunRequest) -> Result<String, CliError> {
     let (src, raw) = deck::load(path, overrides)?;
-    let mech = Study::validate(&src, &raw, true)?;
+    let mech = Mechanism::validate(&src, &raw, true)?;
     let progress = req.progress.then(|| {
         let t_end = *mech.times.last().expect("output times");
         RunProgress::new(mech.times[0], t_end)
@@ -72,7 +72,7 @@ pub(crate) struct Done {
 /// encoded, `results.h5` last (its presence means the run completed).
 pub(crate) fn run_study(
     src: &Source,
-    mech: &Study,
+    mech: &Mechanism,
     out: &Path,
     progress: Option<&RunProgress>,
 ) -> Result<Done, CliError> {

@@ -14,7 +14,7 @@ use crate::deck::design::FdSteps;
 use crate::deck::design::{DesignVariable, objective_label};
 use crate::deck::responses::ResponseDef;
 use crate::results::{Attr, Group};
-use crate::study::Study;
+use crate::study::Mechanism;
 
 /// Unit of a derivative of a quantity in `unit` per one `per` (`"1/deg"`, `"m/kg"`).
 pub(crate) fn per(unit: &str, per: &str) -> String {
@@ -49,7 +49,7 @@ pub(crate) fn row_major(m: &DMatrix<f64>) -> Vec<f64> {
 }
 
 /// The result file's contents.
-pub(crate) fn results(src: &Source, mech: &Study, c: &Computed) -> Group {
+pub(crate) fn results(src: &Source, mech: &Mechanism, c: &Computed) -> Group {
     let n = mech.times.len();
     let outputs = &c.outputs;
     let mut g = Group::default();
@@ -171,7 +171,7 @@ pub(crate) fn results(src: &Source, mech: &Study, c: &Computed) -> Group {
 
 /// Every body's position, orientation and, for a flexible body, its modal coordinates,
 /// frequencies and basis check.
-fn put_bodies(g: &mut Group, mech: &Study, outputs: &[mbs::Output]) {
+fn put_bodies(g: &mut Group, mech: &Mechanism, outputs: &[mbs::Output]) {
     let n = mech.times.len();
     for name in &mech.body_order {
         let b = &mech.bodies[name];
@@ -267,7 +267,7 @@ fn put_statistics(g: &mut Group, c: &Computed) {
 }
 
 /// The objectives with their gradients and the finite differences' cases.
-fn put_objectives(g: &mut Group, mech: &Study, c: &Computed) {
+fn put_objectives(g: &mut Group, mech: &Mechanism, c: &Computed) {
     let n = mech.times.len();
     let vars = &mech.design.variables;
     let m = vars.len();
@@ -328,7 +328,7 @@ fn put_objectives(g: &mut Group, mech: &Study, c: &Computed) {
 }
 
 /// `history.csv`: time and every response.
-pub(crate) fn history_csv(mech: &Study, c: &Computed) -> String {
+pub(crate) fn history_csv(mech: &Mechanism, c: &Computed) -> String {
     let mut t = CsvTable::new();
     t.row(
         std::iter::once("time [s]".to_string()).chain(
@@ -345,7 +345,7 @@ pub(crate) fn history_csv(mech: &Study, c: &Computed) -> String {
 
 /// `sensitivities.csv`: time and `d(response)/d(variable)` for every response that has
 /// sensitivities and every design variable.
-pub(crate) fn sensitivities_csv(mech: &Study, c: &Computed) -> Option<String> {
+pub(crate) fn sensitivities_csv(mech: &Mechanism, c: &Computed) -> Option<String> {
     let s = c.sensitivities.as_ref()?;
     let vars = &mech.design.variables;
     let mut head = vec!["time [s]".to_string()];
@@ -369,7 +369,7 @@ pub(crate) fn sensitivities_csv(mech: &Study, c: &Computed) -> Option<String> {
 }
 
 /// `gradients.csv`: one row per objective, its value and one column per design variable.
-pub(crate) fn gradients_csv(mech: &Study, c: &Computed) -> String {
+pub(crate) fn gradients_csv(mech: &Mechanism, c: &Computed) -> String {
     let mut head: Vec<String> = ["objective", "response", "kind", "value", "unit", "time [s]"]
         .map(String::from)
         .into();
@@ -399,7 +399,12 @@ pub(crate) fn gradients_csv(mech: &Study, c: &Computed) -> String {
 }
 
 /// The machine-readable summary (`--json`), also the source of the table.
-pub(crate) fn summary(src: &Source, mech: &Study, c: &Computed, out: &Path) -> serde_json::Value {
+pub(crate) fn summary(
+    src: &Source,
+    mech: &Mechanism,
+    c: &Computed,
+    out: &Path,
+) -> serde_json::Value {
     use serde_json::json;
     let st = &c.statistics;
     let responses: serde_json::Map<_, _> = mech
@@ -490,7 +495,7 @@ pub(crate) fn summary(src: &Source, mech: &Study, c: &Computed, out: &Path) -> s
 
 /// The one-screen summary for people.
 pub(crate) fn summary_text(
-    mech: &Study,
+    mech: &Mechanism,
     c: &Computed,
     summary: &serde_json::Value,
     written: &[PathBuf],

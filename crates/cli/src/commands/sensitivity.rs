@@ -20,7 +20,7 @@ use crate::deck::Source;
 use crate::deck::design::{FdSteps, SensitivityScheme};
 use crate::error::CliError;
 use crate::progress::RunProgress;
-use crate::study::Study;
+use crate::study::Mechanism;
 
 /// Results of the direct sensitivity analysis, at the output times.
 pub(crate) struct Sensitivities {
@@ -46,7 +46,7 @@ fn runtime(src: &Source, m: impl std::fmt::Display) -> CliError {
 /// The analysis with its direct sensitivities, from the assembled `state`.
 pub(crate) fn analyse(
     src: &Source,
-    mech: &Study,
+    mech: &Mechanism,
     system: &mut MultibodySystem,
     state: &State,
 ) -> Result<Sensitivities, CliError> {
@@ -66,7 +66,7 @@ pub(crate) fn analyse(
 #[allow(clippy::type_complexity)]
 fn dual_models<const N: usize>(
     src: &Source,
-    mech: &Study,
+    mech: &Mechanism,
 ) -> Result<(DesignModel<N>, Vec<(String, DMatrix<f64>)>), CliError> {
     let m = mech.design.variables.len();
     let update = if mech.design.fixed_modes {
@@ -116,7 +116,7 @@ fn dual_models<const N: usize>(
 }
 
 /// The model build of a run with sensitivities, without the run ([`dual_models`]).
-pub(crate) fn prepare(src: &Source, mech: &Study) -> Result<(), CliError> {
+pub(crate) fn prepare(src: &Source, mech: &Mechanism) -> Result<(), CliError> {
     match mech.design.variables.len() {
         0 => Ok(()),
         1 => dual_models::<1>(src, mech).map(drop),
@@ -128,7 +128,7 @@ pub(crate) fn prepare(src: &Source, mech: &Study) -> Result<(), CliError> {
 
 fn analyse_chunked<const N: usize>(
     src: &Source,
-    mech: &Study,
+    mech: &Mechanism,
     system: &mut MultibodySystem,
     state: &State,
 ) -> Result<Sensitivities, CliError> {
@@ -206,7 +206,7 @@ pub(crate) struct ObjectiveResult {
 /// times) with their gradients from `gradients` when given.
 pub(crate) fn objectives(
     src: &Source,
-    mech: &Study,
+    mech: &Mechanism,
     values: &[Vec<f64>],
     gradients: Option<&[Option<DMatrix<f64>>]>,
 ) -> Result<Vec<ObjectiveResult>, CliError> {
@@ -257,10 +257,10 @@ pub(crate) struct FdCase {
 }
 
 /// The response histories (differentiable responses, concatenated) and objective values of
-/// the deck with the design `b`: the flexible bodies rebuilt at `b` ([`Study::model_at`]).
+/// the deck with the design `b`: the flexible bodies rebuilt at `b` ([`Mechanism::model_at`]).
 fn perturbed_outputs(
     src: &Source,
-    mech: &Study,
+    mech: &Mechanism,
     nominal: &MultibodySystem,
     state: &State,
     b: &[f64],
@@ -300,7 +300,7 @@ fn perturbed_outputs(
 /// Run the deck's finite-difference comparisons.
 pub(crate) fn finite_differences(
     src: &Source,
-    mech: &Study,
+    mech: &Mechanism,
     nominal: &MultibodySystem,
     state: &State,
     replay: &BdfOptions,

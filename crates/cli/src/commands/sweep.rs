@@ -162,7 +162,7 @@ impl<'a> Cases<'a> {
             }
         }
         let nominal = if axes.iter().all(|a| a.key.starts_with("design.")) {
-            let study = Study::validate(&src, &raw, true)?;
+            let study = Study::validate(&src, &raw)?;
             Some((src, study))
         } else {
             None
@@ -175,17 +175,16 @@ impl<'a> Cases<'a> {
         })
     }
 
-    /// `run` on the deck and study of the case with the axes at `values`: the deck's keys
-    /// set (a deck edited in memory and validated), then the design variables set
-    /// ([`Study::at`]).
-    fn with_case<R>(
+    /// `run` on the deck and study of the case with the axes at `values`, validated (not
+    /// built): the deck's keys set (the deck edited in memory and validated), then the design
+    /// variables set ([`Study::at`]).
+    fn with_study<R>(
         &self,
         values: &[f64],
-        run: impl FnOnce(&Source, &Study) -> Result<R, CliError>,
+        run: impl FnOnce(&Source, Study) -> Result<R, CliError>,
     ) -> Result<R, CliError> {
-        let edited;
-        let (src, study) = match &self.nominal {
-            Some((src, study)) => (src, study),
+        let (edited, study) = match &self.nominal {
+            Some((_, study)) => (None, study.clone()),
             None => {
                 let mut sets = self.global.to_vec();
                 for (a, v) in self.axes.iter().zip(values) {
@@ -194,10 +193,13 @@ impl<'a> Cases<'a> {
                     }
                 }
                 let src = self.base.edited(&sets)?;
-                let study = Study::validate(&src, &src.parse()?, true)?;
-                edited = (src, study);
-                (&edited.0, &edited.1)
+                let study = Study::validate(&src, &src.parse()?)?;
+                (Some(src), study)
             }
+        };
+        let src = match (&edited, &self.nominal) {
+            (Some(src), _) | (None, Some((src, _))) => src,
+            (None, None) => unreachable!("a case's deck is the nominal or an edited one"),
         };
         let design: Vec<(&str, f64)> = self
             .axes
@@ -223,7 +225,8 @@ impl<'a> Cases<'a> {
                 })?;
             b[j] = v;
         }
-        run(src, &study.at(src, &b)?)
+        let moved = study.at(src, &b)?;
+        run(src, moved)
     }
 }
 
@@ -328,11 +331,11 @@ pub fn run(
     let Plan { axes, n_cases } = plan(req.vary)?;
     let shard = req.shard.map(parse_shard).transpose()?;
     // the corner cases (each axis at its first and last value, the others at their first) are
-    // built before anything runs, so that bad input is reported at once; an error that only
+    // validated (not analysed) before anything runs, so that bad input is reported at once; an error that only
     // another combination meets fails that case alone, and the summary says so
     let start = Cases::new(path, overrides, &axes)?;
     for c in corner_cases(&axes) {
-        start.with_case(&case_values(&axes, c), |_, _| Ok(()))?;
+        start.with_study(&case_values(&axes, c), |_, _| Ok(()))?;
     }
     let out = req
         .out
@@ -357,7 +360,9 @@ pub fn run(
         let dir = case_dir(i);
         let values = case_values(&axes, i);
         let outcome = start
-            .with_case(&values, |src, study| run_study(src, study, &dir, None))
+            .with_study(&values, |src, study| {
+                run_study(src, &study.build(src, true)?, &dir, None)
+            })
             .map(|done| summary_fields(done.summary))
             .map_err(|e| e.to_string());
         let n = done.fetch_add(1, Ordering::SeqCst) + 1;

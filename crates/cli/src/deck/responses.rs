@@ -9,17 +9,139 @@ use toml::Spanned;
 
 use super::check::{direction, required, span};
 use super::laminates::suggestion;
-use super::mechanism::BodyInfo;
+use super::mechanism::{BodyInfo, BodyPlace};
 use super::raw::{RawDeck, RawResponse};
 use super::{DeckError, Source};
 
-/// A validated response.
+/// A response of the built mechanism.
 #[derive(Debug, Clone)]
 pub struct ResponseDef {
     pub name: String,
     pub response: Response,
     /// Unit of its values (`"1"` for dimensionless).
     pub unit: &'static str,
+}
+
+/// A validated response in the deck's terms (bodies and joints by name), made an
+/// `mbs::Response` of the built mechanism by [`ResponseSpec::resolve`] (the state indices of
+/// velocities and modal coordinates follow the bodies' numbers of modes).
+#[derive(Debug, Clone)]
+pub struct ResponseSpec {
+    pub name: String,
+    /// Unit of its values (`"1"` for dimensionless).
+    pub unit: &'static str,
+    kind: SpecKind,
+}
+
+#[derive(Debug, Clone)]
+enum SpecKind {
+    Position {
+        body: String,
+        axis: usize,
+    },
+    Velocity {
+        body: String,
+        axis: usize,
+    },
+    NodalDisplacement {
+        body: String,
+        node: usize,
+        dof: usize,
+    },
+    MidNodeDeflection {
+        body: String,
+        nodes: [usize; 3],
+        normal: Vector3<f64>,
+    },
+    /// Component `c` of `[fx, fy, fz, mx, my, mz]`.
+    Reaction {
+        joint: String,
+        c: usize,
+    },
+    /// Modal coordinate `mode` (from 1, as the deck gives it), checked against the body's
+    /// modes when resolved.
+    Modal {
+        body: String,
+        mode: i64,
+        key: String,
+        span: Option<Range<usize>>,
+    },
+    Energy,
+    ConstraintViolation,
+}
+
+impl ResponseSpec {
+    /// The response of the built `model` (`bodies` and `joints`: its bodies and joints by
+    /// name); a modal coordinate beyond the body's modes is an error at its key.
+    pub fn resolve(
+        &self,
+        src: &Source,
+        model: &Model<f64>,
+        bodies: &BTreeMap<String, BodyInfo>,
+        joints: &[(String, JointId)],
+    ) -> Result<ResponseDef, DeckError> {
+        let id = |b: &String| bodies[b].id;
+        let response = match &self.kind {
+            SpecKind::Position { body, axis } => Response::BodyPosition {
+                body: id(body),
+                axis: *axis,
+            },
+            SpecKind::Velocity { body, axis } => {
+                Response::State(model.n_q() + model.v_range(id(body)).start + axis)
+            }
+            SpecKind::NodalDisplacement { body, node, dof } => Response::NodalDisplacement {
+                body: id(body),
+                node: *node,
+                dof: *dof,
+            },
+            SpecKind::MidNodeDeflection {
+                body,
+                nodes,
+                normal,
+            } => Response::MidNodeDeflection {
+                body: id(body),
+                first: nodes[0],
+                mid: nodes[1],
+                last: nodes[2],
+                normal: *normal,
+            },
+            SpecKind::Reaction { joint, c } => {
+                let joint = joints
+                    .iter()
+                    .find(|(n, _)| n == joint)
+                    .map(|(_, j)| *j)
+                    .expect("validated joint name");
+                if *c < 3 {
+                    Response::ReactionForce { joint, axis: *c }
+                } else {
+                    Response::ReactionMoment { joint, axis: c - 3 }
+                }
+            }
+            SpecKind::Modal {
+                body,
+                mode,
+                key,
+                span,
+            } => {
+                let nm = model.body(id(body)).n_modes();
+                if *mode < 1 || *mode as usize > nm {
+                    return Err(src.error(
+                        span.clone(),
+                        Some(key.clone()),
+                        format!("mode {mode}: the body keeps modes 1 to {nm}"),
+                    ));
+                }
+                Response::State(model.q_range(id(body)).start + 7 + *mode as usize - 1)
+            }
+            SpecKind::Energy => Response::Energy,
+            SpecKind::ConstraintViolation => Response::ConstraintViolation,
+        };
+        Ok(ResponseDef {
+            name: self.name.clone(),
+            response,
+            unit: self.unit,
+        })
+    }
 }
 
 const XYZ: [&str; 3] = ["x", "y", "z"];
@@ -54,14 +176,15 @@ fn component(
     })
 }
 
-/// Validate the responses: each as an `mbs::Response` of `model` with its name and unit.
+/// Validate the responses: each with its name and unit, in the deck's terms
+/// ([`ResponseSpec::resolve`] makes them responses of the built mechanism). `joints`: the
+/// joints' names.
 pub fn validate(
     src: &Source,
     raw: &RawDeck,
-    model: &Model<f64>,
-    bodies: &BTreeMap<String, BodyInfo>,
-    joints: &[(String, JointId)],
-) -> Result<Vec<ResponseDef>, DeckError> {
+    bodies: &BTreeMap<String, BodyPlace>,
+    joints: &[String],
+) -> Result<Vec<ResponseSpec>, DeckError> {
     let mut out = Vec::new();
     for (name, r) in &raw.response {
         let t = Table {
@@ -69,19 +192,18 @@ pub fn validate(
             name,
             raw: r.get_ref(),
             span: span(r),
-            model,
             bodies,
         };
         let kind = required(src, t.span.clone(), &t.key("kind"), &t.raw.kind, "kind")?;
-        let (response, unit) = match kind.get_ref().as_str() {
+        let (kind, unit) = match kind.get_ref().as_str() {
             "position" => t.position()?,
             "velocity" => t.velocity()?,
             "nodal-displacement" => t.nodal_displacement()?,
             "mid-node-deflection" => t.mid_node_deflection()?,
             "reaction" => t.reaction(joints)?,
             "modal" => t.modal()?,
-            "energy" => (Response::Energy, "J"),
-            "constraint-violation" => (Response::ConstraintViolation, "m"),
+            "energy" => (SpecKind::Energy, "J"),
+            "constraint-violation" => (SpecKind::ConstraintViolation, "m"),
             other => {
                 return Err(src.error(
                     span(kind),
@@ -90,23 +212,22 @@ pub fn validate(
                 ));
             }
         };
-        out.push(ResponseDef {
+        out.push(ResponseSpec {
             name: name.clone(),
-            response,
             unit,
+            kind,
         });
     }
     Ok(out)
 }
 
-/// One `[response.NAME]` table being validated, with what its kinds refer to.
+/// One `[response.NAME]` table being validated, with the bodies it can name.
 struct Table<'a> {
     src: &'a Source,
     name: &'a str,
     raw: &'a RawResponse,
     span: Option<Range<usize>>,
-    model: &'a Model<f64>,
-    bodies: &'a BTreeMap<String, BodyInfo>,
+    bodies: &'a BTreeMap<String, BodyPlace>,
 }
 
 impl Table<'_> {
@@ -114,11 +235,15 @@ impl Table<'_> {
         format!("response.{}.{s}", self.name)
     }
 
-    /// The body the response names (`flexible`: it must be a flexible one).
-    fn body(&self, flexible: bool) -> Result<&BodyInfo, DeckError> {
+    /// The body the response names (`flexible`: it must be a flexible one): its name and
+    /// geometry (`None` for a rigid body).
+    fn body(
+        &self,
+        flexible: bool,
+    ) -> Result<(String, Option<&super::mechanism::FlexibleGeometry>), DeckError> {
         let (src, k) = (self.src, |s: &str| self.key(s));
         let b = required(src, self.span.clone(), &k("body"), &self.raw.body, "body")?;
-        let (n, info) = self.bodies.get_key_value(b.get_ref()).ok_or_else(|| {
+        let (n, place) = self.bodies.get_key_value(b.get_ref()).ok_or_else(|| {
             let known: Vec<&str> = self.bodies.keys().map(String::as_str).collect();
             src.error(
                 span(b),
@@ -130,27 +255,26 @@ impl Table<'_> {
                 ),
             )
         })?;
-        if flexible && info.nodes.is_none() {
+        if flexible && place.flexible.is_none() {
             return Err(src.error(
                 span(b),
                 Some(k("body")),
                 format!("`{n}` is a rigid body; this response needs a flexible one"),
             ));
         }
-        Ok(info)
+        Ok((n.clone(), place.flexible.as_ref()))
     }
 
-    /// A node index of the flexible body `info` (`key`: where the deck gives it).
-    fn node_index(&self, info: &BodyInfo, v: &Spanned<i64>, key: &str) -> Result<usize, DeckError> {
-        let n = info.nodes.as_ref().map_or(0, Vec::len);
+    /// A node index of a flexible body of `count` nodes (`key`: where the deck gives it).
+    fn node_index(&self, count: usize, v: &Spanned<i64>, key: &str) -> Result<usize, DeckError> {
         let x = *v.get_ref();
-        if x < 0 || x as usize >= n {
+        if x < 0 || x as usize >= count {
             return Err(self.src.error(
                 span(v),
                 Some(self.key(key)),
                 format!(
                     "node {x} does not exist (nodes 0 to {})",
-                    n.saturating_sub(1)
+                    count.saturating_sub(1)
                 ),
             ));
         }
@@ -169,32 +293,22 @@ impl Table<'_> {
     }
 
     /// `kind = "position"`: a component of a body frame's origin.
-    fn position(&self) -> Result<(Response, &'static str), DeckError> {
-        let info = self.body(false)?;
+    fn position(&self) -> Result<(SpecKind, &'static str), DeckError> {
+        let (body, _) = self.body(false)?;
         let axis = self.component(&XYZ)?;
-        Ok((
-            Response::BodyPosition {
-                body: info.id,
-                axis,
-            },
-            "m",
-        ))
+        Ok((SpecKind::Position { body, axis }, "m"))
     }
 
     /// `kind = "velocity"`: a component of a body frame origin's velocity.
-    fn velocity(&self) -> Result<(Response, &'static str), DeckError> {
-        let info = self.body(false)?;
-        let c = self.component(&XYZ)?;
-        let model = self.model;
-        Ok((
-            Response::State(model.n_q() + model.v_range(info.id).start + c),
-            "m/s",
-        ))
+    fn velocity(&self) -> Result<(SpecKind, &'static str), DeckError> {
+        let (body, _) = self.body(false)?;
+        let axis = self.component(&XYZ)?;
+        Ok((SpecKind::Velocity { body, axis }, "m/s"))
     }
 
     /// `kind = "nodal-displacement"`: a nodal dof's elastic displacement or rotation.
-    fn nodal_displacement(&self) -> Result<(Response, &'static str), DeckError> {
-        let info = self.body(true)?;
+    fn nodal_displacement(&self) -> Result<(SpecKind, &'static str), DeckError> {
+        let (body, geometry) = self.body(true)?;
         let raw_node = required(
             self.src,
             self.span.clone(),
@@ -202,37 +316,37 @@ impl Table<'_> {
             &self.raw.node,
             "node",
         )?;
-        let node = self.node_index(info, raw_node, "node")?;
-        let c = self.component(&NODE_DOF)?;
+        let count = geometry.map_or(0, |g| g.nodes.len());
+        let node = self.node_index(count, raw_node, "node")?;
+        let dof = self.component(&NODE_DOF)?;
         Ok((
-            Response::NodalDisplacement {
-                body: info.id,
-                node,
-                dof: c,
-            },
-            if c < 3 { "m" } else { "rad" },
+            SpecKind::NodalDisplacement { body, node, dof },
+            if dof < 3 { "m" } else { "rad" },
         ))
     }
 
     /// `kind = "mid-node-deflection"`: the paper's deflection of a middle node from the chord
     /// of two others, relative to the chord's length.
-    fn mid_node_deflection(&self) -> Result<(Response, &'static str), DeckError> {
-        let info = self.body(true)?;
+    fn mid_node_deflection(&self) -> Result<(SpecKind, &'static str), DeckError> {
+        let (body, geometry) = self.body(true)?;
+        let g = geometry.expect("flexible");
         // the mesh's nodes (couplings' nodes follow them)
-        let count = info.nodes.as_ref().map_or(0, Vec::len) - info.couplings.len();
+        let count = g.nodes.len() - g.couplings.len();
         let nodes = match &self.raw.nodes {
             Some(v) => {
                 let mut out = [0; 3];
                 for i in 0..3 {
-                    out[i] =
-                        self.node_index(info, &Spanned::new(v.span(), v.get_ref()[i]), "nodes")?;
+                    out[i] = self.node_index(
+                        g.nodes.len(),
+                        &Spanned::new(v.span(), v.get_ref()[i]),
+                        "nodes",
+                    )?;
                 }
                 out
             }
             None => [0, (count - 1) / 2, count - 1],
         };
-        let x = info.nodes.as_ref().expect("flexible");
-        let length = (x[nodes[2]] - x[nodes[0]]).norm();
+        let length = (g.nodes[nodes[2]] - g.nodes[nodes[0]]).norm();
         if length == 0.0 {
             return Err(self.src.error(
                 self.span.clone(),
@@ -248,11 +362,9 @@ impl Table<'_> {
             .transpose()?
             .unwrap_or(Vector3::z());
         Ok((
-            Response::MidNodeDeflection {
-                body: info.id,
-                first: nodes[0],
-                mid: nodes[1],
-                last: nodes[2],
+            SpecKind::MidNodeDeflection {
+                body,
+                nodes,
                 normal,
             },
             "1",
@@ -260,10 +372,7 @@ impl Table<'_> {
     }
 
     /// `kind = "reaction"`: a component of a joint's reaction force or moment.
-    fn reaction(
-        &self,
-        joints: &[(String, JointId)],
-    ) -> Result<(Response, &'static str), DeckError> {
+    fn reaction(&self, joints: &[String]) -> Result<(SpecKind, &'static str), DeckError> {
         let (src, k) = (self.src, |s: &str| self.key(s));
         let j = required(
             src,
@@ -272,36 +381,32 @@ impl Table<'_> {
             &self.raw.joint,
             "joint",
         )?;
-        let joint = joints
-            .iter()
-            .find(|(x, _)| x == j.get_ref())
-            .map(|(_, id)| *id)
-            .ok_or_else(|| {
-                let known: Vec<&str> = joints.iter().map(|(n, _)| n.as_str()).collect();
-                src.error(
-                    span(j),
-                    Some(k("joint")),
-                    format!(
-                        "undefined joint `{}`{}",
-                        j.get_ref(),
-                        suggestion(j.get_ref(), &known)
-                    ),
-                )
-            })?;
+        if !joints.contains(j.get_ref()) {
+            let known: Vec<&str> = joints.iter().map(String::as_str).collect();
+            return Err(src.error(
+                span(j),
+                Some(k("joint")),
+                format!(
+                    "undefined joint `{}`{}",
+                    j.get_ref(),
+                    suggestion(j.get_ref(), &known)
+                ),
+            ));
+        }
         let c = self.component(&REACTION)?;
         Ok((
-            if c < 3 {
-                Response::ReactionForce { joint, axis: c }
-            } else {
-                Response::ReactionMoment { joint, axis: c - 3 }
+            SpecKind::Reaction {
+                joint: j.get_ref().clone(),
+                c,
             },
             if c < 3 { "N" } else { "N*m" },
         ))
     }
 
-    /// `kind = "modal"`: a retained mode's coordinate.
-    fn modal(&self) -> Result<(Response, &'static str), DeckError> {
-        let info = self.body(true)?;
+    /// `kind = "modal"`: a retained mode's coordinate (checked against the body's modes when
+    /// the mechanism is built).
+    fn modal(&self) -> Result<(SpecKind, &'static str), DeckError> {
+        let (body, _) = self.body(true)?;
         let m = required(
             self.src,
             self.span.clone(),
@@ -309,17 +414,13 @@ impl Table<'_> {
             &self.raw.mode,
             "mode (from 1)",
         )?;
-        let nm = self.model.body(info.id).n_modes();
-        let mode = *m.get_ref();
-        if mode < 1 || mode as usize > nm {
-            return Err(self.src.error(
-                span(m),
-                Some(self.key("mode")),
-                format!("mode {mode}: the body keeps modes 1 to {nm}"),
-            ));
-        }
         Ok((
-            Response::State(self.model.q_range(info.id).start + 7 + mode as usize - 1),
+            SpecKind::Modal {
+                body,
+                mode: *m.get_ref(),
+                key: self.key("mode"),
+                span: span(m),
+            },
             "1",
         ))
     }

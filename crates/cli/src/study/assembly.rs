@@ -1,11 +1,11 @@
-//! The nominal mechanism as `Study::validate` builds it: flexible and rigid bodies placed,
-//! joints, forces and the initial state.
+//! The nominal mechanism as [`Study::build`](super::Study::build) assembles it: flexible and
+//! rigid bodies placed, joints and forces on their markers, the initial state.
 
 use super::*;
 
-/// The nominal mechanism as validation builds it, body by body.
+/// The mechanism being built, body by body.
 #[derive(Default)]
-pub(super) struct Mechanism {
+pub(super) struct Assembly {
     pub(super) model: Model<f64>,
     pub(super) flexible: Vec<FlexiblePart>,
     pub(super) bodies: BTreeMap<String, BodyInfo>,
@@ -16,19 +16,17 @@ pub(super) struct Mechanism {
     modal_starts: Vec<(BodyId, Vec<f64>, Vec<f64>)>,
 }
 
-impl Mechanism {
+impl Assembly {
     /// The flexible bodies: the modes of each mesh as given (global coordinates at t = 0).
     pub(super) fn add_flexible_bodies(
         &mut self,
         src: &Source,
-        raw: &RawDeck,
-        laminates: &LaminateModel,
+        defs: &[FlexibleDef],
         request: DesignRequest,
     ) -> Result<(), CliError> {
-        for (name, b) in &raw.body {
-            let def = validate_body(src, raw, name, b, laminates)?;
+        for FlexibleDef { name, span, def } in defs {
             let (built, analysis, modal, basis) =
-                flexible_body(src, name, b.span(), &def, request, true)?;
+                flexible_body(src, name, span.clone(), def, request, true)?;
             let nodes = modal.node_positions.clone();
             let body = flexible_model_body(
                 name,
@@ -37,11 +35,11 @@ impl Mechanism {
                 modal,
                 def.stiffening,
             )
-            .map_err(|e| fem_error(src, name, b.span(), e))?;
+            .map_err(|e| fem_error(src, name, span.clone(), e))?;
             let id = self
                 .model
                 .add_flexible_body(body)
-                .map_err(|e| at_table(src, b.span(), format!("body.{name}"), e))?;
+                .map_err(|e| at_table(src, span.clone(), format!("body.{name}"), e))?;
             self.modal_starts.push((
                 id,
                 def.initial_modal.clone(),
@@ -72,17 +70,21 @@ impl Mechanism {
                 name: name.clone(),
                 built,
                 analysis,
-                span: b.span(),
+                span: span.clone(),
                 stiffening: def.stiffening,
-                def,
+                def: def.clone(),
             });
         }
         Ok(())
     }
 
     /// The rigid bodies, placed and moving as the deck gives them.
-    pub(super) fn add_rigid_bodies(&mut self, src: &Source, raw: &RawDeck) -> Result<(), CliError> {
-        for r in mechanism::rigid_bodies(src, raw)? {
+    pub(super) fn add_rigid_bodies(
+        &mut self,
+        src: &Source,
+        defs: &[RigidDef],
+    ) -> Result<(), CliError> {
+        for r in defs {
             let id = self
                 .model
                 .add_rigid_body(RigidBody::new(r.name.clone(), r.mass, r.inertia))
@@ -106,38 +108,39 @@ impl Mechanism {
                     basis: None,
                 },
             );
-            self.body_order.push(r.name);
+            self.body_order.push(r.name.clone());
         }
         Ok(())
     }
 
-    /// The joints (named, in deck order) and the forces and gravity (a spring's free length
-    /// from its markers' distance as placed).
+    /// The joints (named, in deck order) and the forces and gravity on the bodies' markers (a
+    /// spring's default free length: its markers' distance as placed).
     pub(super) fn add_joints_and_forces(
         &mut self,
         src: &Source,
-        raw: &RawDeck,
+        joints: &[JointDef],
+        forces: &ForceDefs,
     ) -> Result<Vec<(String, JointId)>, CliError> {
         let mut named_joints = Vec::new();
-        for joint in mechanism::joints(src, raw, &self.bodies)? {
-            let name = joint.name.clone();
+        for joint in joints {
             let id = self
                 .model
-                .add_joint(joint)
-                .map_err(|e| at_table(src, raw.joint[&name].span(), format!("joint.{name}"), e))?;
-            named_joints.push((name, id));
+                .add_joint(joint.resolve(&self.bodies))
+                .map_err(|e| {
+                    at_table(src, joint.span.clone(), format!("joint.{}", joint.name), e)
+                })?;
+            named_joints.push((joint.name.clone(), id));
         }
         let q0 = initial_state(&self.model, &self.placements).q;
-        let model = &self.model;
-        let mechanism::ForceDefs { gravity, forces } =
-            mechanism::forces(src, raw, &self.bodies, |a, b| {
+        self.model.gravity += forces.gravity;
+        for (name, force, span) in &forces.forces {
+            let model = &self.model;
+            let force = force.resolve(&self.bodies, |a, b| {
                 (model.marker_position(a, &q0) - model.marker_position(b, &q0)).norm()
-            })?;
-        self.model.gravity += gravity;
-        for (name, force) in forces {
+            });
             self.model
                 .add_force(force)
-                .map_err(|e| at_table(src, raw.force[&name].span(), format!("force.{name}"), e))?;
+                .map_err(|e| at_table(src, span.clone(), format!("force.{name}"), e))?;
         }
         Ok(named_joints)
     }

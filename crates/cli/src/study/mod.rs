@@ -1,19 +1,26 @@
-//! The study: a deck validated into what every command works on. [`Study::validate`] checks
-//! every table (errors name the file, line, column and key) and builds the nominal mechanism;
-//! [`Study::model_at`] rebuilds its flexible bodies at another design from their validated
-//! definitions moved to the laminates of that design (`BodyDef::at`: no deck is read again, no
-//! text is edited), for finite differences. The dual
-//! model of the direct sensitivities is built from the same parts in
-//! `commands::sensitivity`. `docs/architecture.md` follows one design variable through it.
+//! The study: a deck validated into what every command works on, and the mechanism built
+//! from it.
+//!
+//! [`Study::validate`] checks every table (errors name the file, line, column and key) into
+//! validated definitions: laminates, design, bodies, joints, forces, responses, analysis. It
+//! reads the meshes' geometry but analyses nothing: no section, no modes. [`Study::at`] moves
+//! the definitions to another design in memory (the laminates by the design variables, every
+//! body's sections and shells to them: `BodyDef::at`), and [`Study::build`] builds the
+//! [`Mechanism`]: each flexible body's sections, modes and basis (with its design derivatives
+//! for a run with sensitivities), the markers placed in the bodies' frames, the initial state,
+//! the responses. [`Mechanism::model_at`] gives the model of a perturbed design for finite
+//! differences (modes aligned to the nominal ones). The dual model of the direct sensitivities
+//! is built from the same parts in `commands::sensitivity`. `docs/architecture.md` follows one
+//! design variable through it.
 
 mod assembly;
 pub mod flexible;
 
 use std::collections::BTreeMap;
-use std::ops::Range;
+use std::ops::{Deref, DerefMut, Range};
 
 use mbs::{
-    BdfOptions, Body, BodyId, FlexibleBody, JointId, Model, MultibodySystem, Output,
+    Baumgarte, BdfOptions, Body, BodyId, FlexibleBody, JointId, Model, MultibodySystem, Output,
     RedundancyPolicy, RigidBody, State,
 };
 use nalgebra::{Matrix3, Vector3};
@@ -23,11 +30,11 @@ use crate::deck::bodies::{BodyDef, validate_one as validate_body};
 use crate::deck::check::span;
 use crate::deck::design::{DesignDef, Target, validate as validate_design};
 use crate::deck::laminates::{LaminateModel, validate as validate_laminates};
-use crate::deck::mechanism::{self, BodyInfo};
-use crate::deck::responses::{self, ResponseDef};
+use crate::deck::mechanism::{self, BodyInfo, BodyPlace, ForceDefs, JointDef, RigidDef};
+use crate::deck::responses::{self, ResponseDef, ResponseSpec};
 use crate::deck::{DeckError, RawDeck, Source};
 use crate::error::CliError;
-use assembly::Mechanism;
+use assembly::Assembly;
 use flexible::{Built, DesignRequest, fem_error};
 
 /// A flexible body of the mechanism with what its design derivatives need.
@@ -65,13 +72,54 @@ pub(crate) fn flexible_model_body<S: sens::Scalar>(
     Ok(body.with_geometric_stiffness(g))
 }
 
-/// The validated deck with its nominal mechanism.
+/// A validated flexible body: its definition and its table in the deck.
+#[derive(Debug, Clone)]
+pub(crate) struct FlexibleDef {
+    pub(crate) name: String,
+    pub(crate) span: Range<usize>,
+    pub(crate) def: BodyDef,
+}
+
+/// Where the deck's design variables and objectives are written, for the checks of a build
+/// with sensitivities.
+#[derive(Debug, Clone, Default)]
+struct DesignSpans {
+    /// Each `[design.NAME]` table.
+    variables: BTreeMap<String, Range<usize>>,
+    /// Each objective's `response` value.
+    objective_responses: BTreeMap<String, Option<Range<usize>>>,
+}
+
+/// The validated deck: definitions only (no raw deck, no file, nothing analysed).
+#[derive(Debug, Clone)]
 pub(crate) struct Study {
-    pub(crate) model: Model<f64>,
-    pub(crate) flexible: Vec<FlexiblePart>,
     /// The laminates as the deck gives them (the design variables move them).
     pub(crate) laminates: LaminateModel,
     pub(crate) design: DesignDef,
+    /// The flexible bodies, in deck order (the model's first bodies).
+    pub(crate) flexible_bodies: Vec<FlexibleDef>,
+    /// The rigid bodies, in deck order (after the flexible ones in the model).
+    pub(crate) rigid_bodies: Vec<RigidDef>,
+    pub(crate) joints: Vec<JointDef>,
+    pub(crate) forces: ForceDefs,
+    pub(crate) response_specs: Vec<ResponseSpec>,
+    pub(crate) times: Vec<f64>,
+    pub(crate) options: BdfOptions,
+    pub(crate) baumgarte: Baumgarte,
+    pub(crate) policy: RedundancyPolicy,
+    /// `analysis.max_violation` (m): the step guard's limit, when the deck sets it.
+    pub(crate) max_violation: Option<f64>,
+    /// The deck's title.
+    pub(crate) title: Option<String>,
+    spans: DesignSpans,
+}
+
+/// A study built: the nominal mechanism with each flexible body's analysis, the initial state
+/// and the responses; the study's definitions through `Deref`.
+pub(crate) struct Mechanism {
+    pub(crate) study: Study,
+    pub(crate) model: Model<f64>,
+    pub(crate) flexible: Vec<FlexiblePart>,
     /// The initial state: rigid-body coordinates as placed (not yet assembled), elastic state
     /// as given.
     pub(crate) state: State,
@@ -80,16 +128,22 @@ pub(crate) struct Study {
     pub(crate) body_order: Vec<String>,
     pub(crate) joint_names: Vec<String>,
     pub(crate) responses: Vec<ResponseDef>,
-    pub(crate) times: Vec<f64>,
-    pub(crate) options: BdfOptions,
-    pub(crate) policy: RedundancyPolicy,
-    /// `analysis.max_violation` (m): the step guard's limit, when the deck sets it.
-    pub(crate) max_violation: Option<f64>,
-    /// The deck's title.
-    pub(crate) title: Option<String>,
-    /// The flexible bodies carry their design derivatives (section derivatives): a study for
-    /// a run with sensitivities.
+    /// The flexible bodies carry their design derivatives (section derivatives): a mechanism
+    /// for a run with sensitivities.
     pub(crate) derivatives: bool,
+}
+
+impl Deref for Mechanism {
+    type Target = Study;
+    fn deref(&self) -> &Study {
+        &self.study
+    }
+}
+
+impl DerefMut for Mechanism {
+    fn deref_mut(&mut self) -> &mut Study {
+        &mut self.study
+    }
 }
 
 /// A body's initial placement: frame origin, orientation (body → global), velocity of the
@@ -150,14 +204,8 @@ fn flexible_body(
     ),
     CliError,
 > {
+    // (validation refuses a consistent mass: the floating frame needs lumped masses)
     let mut built = flexible::build(src, name, def, request)?;
-    if built.options.mass != fem::MassKind::Lumped {
-        return Err(CliError::Input(src.error(
-            Some(span),
-            Some(format!("body.{name}.mass")),
-            "the floating frame of reference needs mass = \"lumped\"",
-        )));
-    }
     let (analysis, check) =
         flexible::analyse(src, name, span.clone(), def, &mut built, with_check)?;
     let modal = fem::modal_body(&built.mesh, &built.props, &analysis)
@@ -237,26 +285,9 @@ pub(crate) fn set_rigid<P: sens::Scalar>(
 const CLUSTER_TOL: f64 = 1e-6;
 
 impl Study {
-    /// The `f64` system of the nominal model at the start time, with the deck's step guard.
-    pub(crate) fn system(&self) -> Result<MultibodySystem, mbs::ConstraintError> {
-        let mut system =
-            MultibodySystem::new_at(self.model.clone(), self.times[0], &self.state, self.policy)?;
-        if let Some(v) = self.max_violation {
-            let mut guard = system.guard();
-            guard.max_violation = v;
-            system.set_guard(guard);
-        }
-        Ok(system)
-    }
-
-    /// Validate the deck and build its nominal mechanism; with `derivatives`, each flexible
-    /// body also gets its derivatives with respect to the deck's design variables ready
-    /// (section derivatives).
-    pub(crate) fn validate(
-        src: &Source,
-        raw: &RawDeck,
-        derivatives: bool,
-    ) -> Result<Study, CliError> {
+    /// Validate the deck into definitions: every table checked, the meshes generated (or read)
+    /// to place the markers and responses; no section or modal analysis.
+    pub(crate) fn validate(src: &Source, raw: &RawDeck) -> Result<Study, CliError> {
         if raw.body.is_empty() && raw.rigid.is_empty() {
             return Err(src
                 .error(
@@ -269,15 +300,34 @@ impl Study {
         }
         let laminates = validate_laminates(src, raw)?;
         let design = validate_design(src, raw, &laminates)?;
-        let derivatives = derivatives && design.enabled;
-        let request = if derivatives {
-            DesignRequest::Variables(&design.variables)
-        } else {
-            DesignRequest::None
-        };
-        let mut m = Mechanism::default();
-        m.add_flexible_bodies(src, raw, &laminates, request)?;
-        m.add_rigid_bodies(src, raw)?;
+        let mut places = BTreeMap::new();
+        let mut flexible_bodies = Vec::new();
+        for (name, b) in &raw.body {
+            let def = validate_body(src, raw, name, b, &laminates)?;
+            if !def.lumped {
+                return Err(CliError::Input(src.error(
+                    Some(b.span()),
+                    Some(format!("body.{name}.mass")),
+                    "the floating frame of reference needs mass = \"lumped\"",
+                )));
+            }
+            let geometry = flexible::geometry(src, name, &def)?;
+            places.insert(
+                name.clone(),
+                BodyPlace {
+                    flexible: Some(geometry),
+                },
+            );
+            flexible_bodies.push(FlexibleDef {
+                name: name.clone(),
+                span: b.span(),
+                def,
+            });
+        }
+        let rigid_bodies = mechanism::rigid_bodies(src, raw)?;
+        for r in &rigid_bodies {
+            places.insert(r.name.clone(), BodyPlace { flexible: None });
+        }
         let AnalysisDef {
             times,
             options,
@@ -285,31 +335,128 @@ impl Study {
             policy,
             max_violation,
         } = analysis::validate(src, raw)?;
-        m.model.baumgarte = baumgarte;
-        let named_joints = m.add_joints_and_forces(src, raw)?;
-        let state = m.initial_state();
-        let responses = responses::validate(src, raw, &m.model, &m.bodies, &named_joints)?;
+        let joints = mechanism::joints(src, raw, &places)?;
+        let forces = mechanism::forces(src, raw, &places)?;
+        let joint_names: Vec<String> = joints.iter().map(|j| j.name.clone()).collect();
+        let response_specs = responses::validate(src, raw, &places, &joint_names)?;
+        let spans = DesignSpans {
+            variables: raw
+                .design
+                .iter()
+                .map(|(n, d)| (n.clone(), d.span()))
+                .collect(),
+            objective_responses: raw
+                .objective
+                .iter()
+                .map(|(n, o)| (n.clone(), o.get_ref().response.as_ref().and_then(span)))
+                .collect(),
+        };
         let study = Study {
-            model: m.model,
-            flexible: m.flexible,
             laminates,
             design,
-            state,
-            bodies: m.bodies,
-            body_order: m.body_order,
-            joint_names: named_joints.into_iter().map(|(n, _)| n).collect(),
-            responses,
+            flexible_bodies,
+            rigid_bodies,
+            joints,
+            forces,
+            response_specs,
             times,
             options,
+            baumgarte,
             policy,
             max_violation,
             title: raw.title.clone(),
-            derivatives,
+            spans,
         };
         study.check_objective_times(src, raw)?;
+        Ok(study)
+    }
+
+    /// Build the nominal mechanism; with `derivatives` (and design variables enabled), each
+    /// flexible body also gets its derivatives with respect to the design variables ready
+    /// (section derivatives), and the design is checked for a run with sensitivities.
+    pub(crate) fn build(self, src: &Source, derivatives: bool) -> Result<Mechanism, CliError> {
+        let derivatives = derivatives && self.design.enabled;
+        let request = if derivatives {
+            DesignRequest::Variables(&self.design.variables)
+        } else {
+            DesignRequest::None
+        };
+        let mut a = Assembly::default();
+        a.add_flexible_bodies(src, &self.flexible_bodies, request)?;
+        a.add_rigid_bodies(src, &self.rigid_bodies)?;
+        a.model.baumgarte = self.baumgarte;
+        let named_joints = a.add_joints_and_forces(src, &self.joints, &self.forces)?;
+        let state = a.initial_state();
+        let responses = self
+            .response_specs
+            .iter()
+            .map(|r| r.resolve(src, &a.model, &a.bodies, &named_joints))
+            .collect::<Result<Vec<_>, _>>()?;
+        let mechanism = Mechanism {
+            study: self,
+            model: a.model,
+            flexible: a.flexible,
+            state,
+            bodies: a.bodies,
+            body_order: a.body_order,
+            joint_names: named_joints.into_iter().map(|(n, _)| n).collect(),
+            responses,
+            derivatives,
+        };
         if derivatives {
-            study.check_design(src, raw)?;
+            mechanism.check_design(src)?;
         }
+        Ok(mechanism)
+    }
+
+    /// The nominal values of the design variables.
+    pub(crate) fn design_values(&self) -> Vec<f64> {
+        self.design.variables.iter().map(|v| v.value).collect()
+    }
+
+    /// The laminates moved to the design `b`.
+    pub(crate) fn laminates_at(&self, src: &Source, b: &[f64]) -> Result<LaminateModel, CliError> {
+        self.design
+            .laminates_at(&self.laminates, b)
+            .map_err(|(name, e)| at_design(src, format!("design variable `{name}`"), b, e))
+    }
+
+    /// The study at the design `b` (one value per design variable), in memory: the laminates
+    /// moved ([`DesignDef::laminates_at`]), each variable at its value there
+    /// ([`DesignDef::at`]), every flexible body's sections and shells moved to those laminates
+    /// ([`BodyDef::at`]), the rigid bodies' mass and inertia variables set. What validating
+    /// the deck with the variables written at `b` gives.
+    pub(crate) fn at(&self, src: &Source, b: &[f64]) -> Result<Study, CliError> {
+        let laminates = self.laminates_at(src, b)?;
+        let mut study = self.clone();
+        for f in &mut study.flexible_bodies {
+            f.def = f.def.at(&laminates).map_err(|e| {
+                at_design(
+                    src,
+                    format!("body `{}`", f.name),
+                    b,
+                    format!("its section: {e}"),
+                )
+            })?;
+        }
+        for (v, &bj) in self.design.variables.iter().zip(b) {
+            let (body, axis) = match &v.target {
+                Target::RigidMass { body } => (body, None),
+                Target::RigidInertia { body, axis, .. } => (body, Some(*axis)),
+                _ => continue,
+            };
+            let r = study
+                .rigid_bodies
+                .iter_mut()
+                .find(|r| &r.name == body)
+                .expect("a validated variable names a rigid body");
+            match axis {
+                None => r.mass = bj,
+                Some(a) => r.inertia[(a, a)] = bj,
+            }
+        }
+        study.laminates = laminates;
+        study.design = self.design.at(b);
         Ok(study)
     }
 
@@ -331,10 +478,46 @@ impl Study {
         }
         Ok(())
     }
+}
+
+impl Mechanism {
+    /// Validate the deck and build its nominal mechanism ([`Study::validate`],
+    /// [`Study::build`]).
+    pub(crate) fn validate(
+        src: &Source,
+        raw: &RawDeck,
+        derivatives: bool,
+    ) -> Result<Mechanism, CliError> {
+        Study::validate(src, raw)?.build(src, derivatives)
+    }
+
+    /// The `f64` system of the nominal model at the start time, with the deck's step guard.
+    pub(crate) fn system(&self) -> Result<MultibodySystem, mbs::ConstraintError> {
+        let mut system =
+            MultibodySystem::new_at(self.model.clone(), self.times[0], &self.state, self.policy)?;
+        if let Some(v) = self.max_violation {
+            let mut guard = system.guard();
+            guard.max_violation = v;
+            system.set_guard(guard);
+        }
+        Ok(system)
+    }
+
+    /// The mechanism at the design `b` (one value per design variable): the study moved there
+    /// ([`Study::at`]) and built as this one was (with derivatives when this one has them),
+    /// every body with `modes = "auto"` keeping the number of eigenmodes chosen here (so the
+    /// state's layout and the responses that name modes stay those of this mechanism).
+    pub(crate) fn at(&self, src: &Source, b: &[f64]) -> Result<Mechanism, CliError> {
+        let mut study = self.study.at(src, b)?;
+        for (f, part) in study.flexible_bodies.iter_mut().zip(&self.flexible) {
+            fix_auto_modes(&mut f.def, part);
+        }
+        study.build(src, self.derivatives)
+    }
 
     /// Design variables must move some flexible body; objectives of a run with sensitivities
     /// need responses that have them.
-    fn check_design(&self, src: &Source, raw: &RawDeck) -> Result<(), DeckError> {
+    fn check_design(&self, src: &Source) -> Result<(), DeckError> {
         for (j, v) in self.design.variables.iter().enumerate() {
             let rigid = matches!(
                 v.target,
@@ -342,7 +525,7 @@ impl Study {
             );
             if !rigid && !self.flexible.iter().any(|p| p.built.design.depends_on(j)) {
                 return Err(src.error(
-                    Some(raw.design[&v.name].span()),
+                    self.spans.variables.get(&v.name).cloned(),
                     Some(format!("design.{}", v.name)),
                     format!(
                         "the design variable ({}) changes no flexible body: no shell body and no \
@@ -355,9 +538,12 @@ impl Study {
         for o in &self.design.objectives {
             let r = self.response(&o.response);
             if !r.response.differentiable() {
-                let ro = raw.objective[&o.name].get_ref();
                 return Err(src.error(
-                    ro.response.as_ref().and_then(span),
+                    self.spans
+                        .objective_responses
+                        .get(&o.name)
+                        .cloned()
+                        .flatten(),
                     Some(format!("objective.{}.response", o.name)),
                     format!(
                         "response `{}` has no design sensitivities (energies, constraint \
@@ -384,20 +570,8 @@ impl Study {
         self.responses[i].response.value(&self.model, o)
     }
 
-    /// The nominal values of the design variables.
-    pub(crate) fn design_values(&self) -> Vec<f64> {
-        self.design.variables.iter().map(|v| v.value).collect()
-    }
-
-    /// The laminates moved to the design `b`.
-    pub(crate) fn laminates_at(&self, src: &Source, b: &[f64]) -> Result<LaminateModel, CliError> {
-        self.design
-            .laminates_at(&self.laminates, b)
-            .map_err(|(name, e)| at_design(src, format!("design variable `{name}`"), b, e))
-    }
-
     /// The definition of flexible body `part` moved to the laminates `lam` of the design `b`,
-    /// with the number of eigenmodes of this study's design (`modes = "auto"` chose it here).
+    /// with the number of eigenmodes of this mechanism (`modes = "auto"` chose it here).
     fn part_at(
         &self,
         src: &Source,
@@ -413,96 +587,8 @@ impl Study {
                 format!("its section: {e}"),
             )
         })?;
-        if def.auto_modes {
-            def.auto_modes = false;
-            def.modes = part.analysis.n_modes;
-            def.computed = part.analysis.n_modes;
-        }
+        fix_auto_modes(&mut def, part);
         Ok(def)
-    }
-
-    /// The study at the design `b` (one value per design variable), built in memory from the
-    /// validated definitions, as validating the deck with the variables at `b` builds it: the
-    /// laminates moved ([`DesignDef::laminates_at`]), every flexible body rebuilt from its
-    /// definition there ([`BodyDef::at`]) with its basis check (and its warning when the basis
-    /// no longer converges) and, in a study with derivatives, its design derivatives; the rigid
-    /// bodies' mass and inertia variables set. The number of eigenmodes `modes = "auto"` chose
-    /// at this study's design is kept, so the state's layout and the responses that name modes
-    /// stay valid; a body whose frame origin (the node nearest its centre of mass) moves at
-    /// `b` is refused, since the joints were placed in that frame.
-    pub(crate) fn at(&self, src: &Source, b: &[f64]) -> Result<Study, CliError> {
-        let laminates = self.laminates_at(src, b)?;
-        let design = self.design.at(b);
-        let request = if self.derivatives {
-            DesignRequest::Variables(&design.variables)
-        } else {
-            DesignRequest::None
-        };
-        let mut model = self.model.clone();
-        let mut bodies = self.bodies.clone();
-        let mut flexible = Vec::new();
-        for part in &self.flexible {
-            let def = self.part_at(src, part, &laminates, b)?;
-            let (built, analysis, modal, basis) =
-                flexible_body(src, &part.name, part.span.clone(), &def, request, true)?;
-            if analysis.origin != part.analysis.origin {
-                return Err(at_design(
-                    src,
-                    format!("body `{}`", part.name),
-                    b,
-                    format!(
-                        "its frame origin (the node nearest its centre of mass) moves from {:?} \
-                         to {:?} m; the joints are placed in the frame of the deck's design \
-                         (validate the deck at this design instead)",
-                        part.analysis.origin.as_slice(),
-                        analysis.origin.as_slice()
-                    ),
-                ));
-            }
-            let body = flexible_model_body(
-                &part.name,
-                &built.mesh,
-                &analysis.couplings,
-                modal,
-                def.stiffening,
-            )
-            .map_err(|e| fem_error(src, &part.name, part.span.clone(), e))?;
-            *model.body_mut(part.id) = Body::Flexible(body);
-            let info = bodies
-                .get_mut(&part.name)
-                .expect("every flexible body has its entry");
-            info.frequencies = analysis.frequencies_hz();
-            info.basis = Some(basis);
-            flexible.push(FlexiblePart {
-                id: part.id,
-                name: part.name.clone(),
-                built,
-                analysis,
-                span: part.span.clone(),
-                stiffening: def.stiffening,
-                def,
-            });
-        }
-        for (v, &bj) in self.design.variables.iter().zip(b) {
-            set_rigid(&mut model, &self.bodies, &v.target, bj);
-        }
-        Ok(Study {
-            model,
-            flexible,
-            laminates,
-            design,
-            state: self.state.clone(),
-            bodies,
-            body_order: self.body_order.clone(),
-            joint_names: self.joint_names.clone(),
-            responses: self.responses.clone(),
-            times: self.times.clone(),
-            options: self.options.clone(),
-            policy: self.policy,
-            max_violation: self.max_violation,
-            title: self.title.clone(),
-            derivatives: self.derivatives,
-        })
     }
 
     /// The mechanism's model at the design `b`: every flexible body rebuilt from the laminates
@@ -540,6 +626,16 @@ impl Study {
             set_rigid(&mut model, &self.bodies, &v.target, bj);
         }
         Ok(model)
+    }
+}
+
+/// A body definition with `modes = "auto"` set to the number of eigenmodes the built `part`
+/// has (its choice at that design).
+fn fix_auto_modes(def: &mut BodyDef, part: &FlexiblePart) {
+    if def.auto_modes {
+        def.auto_modes = false;
+        def.modes = part.analysis.n_modes;
+        def.computed = part.analysis.n_modes;
     }
 }
 

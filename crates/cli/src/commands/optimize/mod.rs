@@ -2,7 +2,7 @@
 //! (`[optimize]`, see `docs/optimization.md`).
 //!
 //! The deck is read and validated once. Each evaluation moves the validated model to the
-//! design `x` in memory (the study's [`Study::at`], the bodies' `BodyDef::at`, the laminates'
+//! design `x` in memory (the mechanism's [`Mechanism::at`], the bodies' `BodyDef::at`, the laminates'
 //! `DesignDef::laminates_at`: no deck text is edited or read again) and reads each quantity
 //! with its exact gradient: an `[objective.*]` from
 //! the run's direct sensitivities, a frequency from the modal analysis and Nelson's eigenvalue
@@ -34,7 +34,7 @@ use crate::error::CliError;
 use crate::files::write_atomic;
 use crate::plot::{Figure, Panel, Series};
 use crate::study::flexible::{CHUNK, DesignRequest, build, fem_error};
-use crate::study::{Study, at_design};
+use crate::study::{Mechanism, at_design};
 use crate::table::{CsvTable, number};
 
 mod driver;
@@ -115,7 +115,7 @@ pub(super) struct Problem<'a> {
     /// The rigid bodies' masses at the deck's design.
     rigid_masses: BTreeMap<String, f64>,
     /// The deck's study (without finite differences), when an objective is read.
-    study: Option<Study>,
+    study: Option<Mechanism>,
     def: OptimizeDef,
     /// Per constraint: its bound resolved and its scale (for the optimiser and the violation).
     limits: Vec<(Bound, f64)>,
@@ -173,7 +173,7 @@ fn setup<'a>(path: &'a Path, overrides: &'a [String]) -> Result<(Problem<'a>, bo
         .iter()
         .any(|q| matches!(q, Quantity::Objective { .. }))
     {
-        let mut study = Study::validate(&src, &raw, true)?;
+        let mut study = Mechanism::validate(&src, &raw, true)?;
         study.design.finite_differences = None;
         Some(study)
     } else {

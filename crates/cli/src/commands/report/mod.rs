@@ -13,7 +13,7 @@
 //!
 //! The deck is validated twice, as written and with the fixed-step integrator
 //! (`analysis.integrator`/`analysis.step` set in memory); each lay-up is that study moved to
-//! the lay-up's design ([`Study::at`]); the sensitivity and finite-difference settings are set
+//! the lay-up's design ([`Study::at`](crate::study::Study::at)) and built; the sensitivity and finite-difference settings are set
 //! on the study's design, so a deck needs no `[sensitivity]` or `[finite_differences]` table
 //! (those it has are replaced).
 
@@ -31,7 +31,7 @@ use crate::deck::{self, RawDeck, Source};
 use crate::error::CliError;
 use crate::files::write_atomic;
 use crate::plot::{Figure, Panel, Series};
-use crate::study::Study;
+use crate::study::{Mechanism, Study};
 
 mod figures;
 mod summary;
@@ -144,13 +144,13 @@ pub(super) fn angle_name(b: f64) -> String {
 pub(super) struct Subject {
     variable: String,
     laminate: String,
-    /// Index in `Study::responses`.
+    /// Index in `Mechanism::responses`.
     response: usize,
     response_name: String,
     other_variables: Vec<String>,
 }
 
-pub(super) fn subject(src: &Source, mech: &Study) -> Result<Subject, CliError> {
+pub(super) fn subject(src: &Source, mech: &Mechanism) -> Result<Subject, CliError> {
     let Some(var) = mech.design.variables.first() else {
         return Err(CliError::Input(src.error(
             None,
@@ -219,7 +219,7 @@ pub(super) fn run_one(
     } else {
         studies.nominal
     };
-    let mut mech = base.at(src, &layup(base, b))?;
+    let mut mech = base.at(src, &layup(base, b))?.build(src, true)?;
     let d = &mut mech.design;
     d.enabled = true;
     // the figures compare the exact derivative of the discrete solution with differences
@@ -419,7 +419,7 @@ pub fn run(path: &Path, overrides: &[String], req: &ReportRequest) -> Result<Str
     let started = Instant::now();
     let angles = parse_layups(req.layups)?;
     let (src, raw) = deck::load(path, overrides)?;
-    let nominal = Study::validate(&src, &raw, true)?;
+    let nominal = Mechanism::validate(&src, &raw, false)?;
     let s = subject(&src, &nominal)?;
     let output_step = match nominal.times.as_slice() {
         [a, b, ..] => b - a,
@@ -446,13 +446,13 @@ pub fn run(path: &Path, overrides: &[String], req: &ReportRequest) -> Result<Str
     fixed_args.push("analysis.integrator=fixed".into());
     fixed_args.push(format!("analysis.step={fixed_step:?}"));
     let fixed_src = src.edited(&fixed_args)?;
-    let fixed = Study::validate(&fixed_src, &fixed_src.parse()?, true)?;
-    // every lay-up builds before anything long starts
+    let fixed = Study::validate(&fixed_src, &fixed_src.parse()?)?;
+    // every lay-up's design is valid before anything long starts
     for &b in &angles {
-        nominal.at(&src, &layup(&nominal, b))?;
+        nominal.study.at(&src, &layup(&nominal, b))?;
     }
     let studies = Studies {
-        nominal: (&src, &nominal),
+        nominal: (&src, &nominal.study),
         fixed_step: (&fixed_src, &fixed),
     };
     let results = run_all(&studies, &angles, s.response, jobs)?;

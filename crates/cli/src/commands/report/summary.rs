@@ -5,7 +5,7 @@ use super::*;
 
 pub(super) struct Settings<'a> {
     pub(super) raw: &'a RawDeck,
-    pub(super) nominal: &'a Study,
+    pub(super) nominal: &'a Mechanism,
     pub(super) output_step: f64,
     pub(super) fixed_step: f64,
     pub(super) jobs: usize,

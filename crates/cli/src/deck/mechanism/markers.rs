@@ -2,13 +2,73 @@
 
 use super::*;
 
+/// A validated marker in the deck's terms (global point and axes at the start), placed on the
+/// built bodies by [`MarkerDef::resolve`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct MarkerDef {
+    /// The body's name; `None`: the ground.
+    pub body: Option<String>,
+    pub site: SiteDef,
+    /// The joint axis `e3` (global, unit).
+    pub axis: Vector3<f64>,
+    /// The reference direction `e1` (global, unit), when given.
+    pub reference: Option<Vector3<f64>>,
+}
+
+/// Where a validated marker sits.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SiteDef {
+    /// A point, global coordinates at the start.
+    Point(Vector3<f64>),
+    /// A node of a flexible body (its mesh's, or a coupling's numbered after them).
+    Node(usize),
+    /// The `i`-th coupling of a flexible body.
+    Coupling(usize),
+}
+
+impl MarkerDef {
+    /// The marker on the built bodies: a point in its body's frame, a node, or a coupling's
+    /// node (the couplings' nodes follow the mesh's, in the body's order); the axes in the
+    /// body's components.
+    pub fn resolve(&self, bodies: &BTreeMap<String, BodyInfo>) -> Marker {
+        let with_axes = |mk: Marker, rot: &Matrix3<f64>| {
+            let a = rot.transpose() * self.axis;
+            match self.reference {
+                Some(r) => {
+                    let e1 = rot.transpose() * r;
+                    mk.with_axes(e1, a.cross(&e1))
+                }
+                None => mk.with_axis(a),
+            }
+        };
+        let Some(body) = &self.body else {
+            let SiteDef::Point(p) = self.site else {
+                unreachable!("a ground marker is a point")
+            };
+            return with_axes(Marker::ground(p), &Matrix3::identity());
+        };
+        let info = &bodies[body];
+        let marker = match self.site {
+            SiteDef::Point(p) => {
+                Marker::on(info.id, info.rotation.transpose() * (p - info.position))
+            }
+            SiteDef::Node(k) => Marker::node(info.id, k),
+            SiteDef::Coupling(i) => {
+                let nodes = info.nodes.as_ref().map_or(0, Vec::len);
+                Marker::node(info.id, nodes - info.couplings.len() + i)
+            }
+        };
+        with_axes(marker, &info.rotation)
+    }
+}
+
 /// A marker from its deck description (global point and axes in the initial configuration).
 pub(super) fn marker(
     src: &Source,
     key: &str,
     m: &Spanned<RawMarker>,
-    bodies: &BTreeMap<String, BodyInfo>,
-) -> Result<Marker, DeckError> {
+    bodies: &BTreeMap<String, BodyPlace>,
+) -> Result<MarkerDef, DeckError> {
     let raw = m.get_ref();
     let k = |s: &str| format!("{key}.{s}");
     let body = required(
@@ -38,16 +98,11 @@ pub(super) fn marker(
             "must not be parallel to the axis",
         ));
     }
-    // axes in the body's (or global) components
-    let with_axes = |mk: Marker, rot: &Matrix3<f64>| {
-        let a = rot.transpose() * axis;
-        match reference {
-            Some(r) => {
-                let e1 = rot.transpose() * r;
-                mk.with_axes(e1, a.cross(&e1))
-            }
-            None => mk.with_axis(a),
-        }
+    let def = |body: Option<String>, site: SiteDef| MarkerDef {
+        body,
+        site,
+        axis,
+        reference,
     };
     if body.get_ref() == "ground" {
         if let Some(n) = &raw.node {
@@ -61,9 +116,9 @@ pub(super) fn marker(
             &k("point"),
             required(src, span(m), &k("point"), &raw.point, "point [x, y, z] (m)")?,
         )?;
-        return Ok(with_axes(Marker::ground(p), &Matrix3::identity()));
+        return Ok(def(None, SiteDef::Point(p)));
     }
-    let info = bodies.get(body.get_ref()).ok_or_else(|| {
+    let place = bodies.get(body.get_ref()).ok_or_else(|| {
         let mut known: Vec<&str> = bodies.keys().map(String::as_str).collect();
         known.push("ground");
         src.error(
@@ -76,6 +131,7 @@ pub(super) fn marker(
             ),
         )
     })?;
+    let on = |site| Ok(def(Some(body.get_ref().clone()), site));
     if let Some(c) = &raw.coupling {
         if raw.point.is_some() || raw.node.is_some() {
             return Err(src.error(
@@ -84,25 +140,28 @@ pub(super) fn marker(
                 "give one of point, node or coupling",
             ));
         }
-        let node = coupling_node(src, key, info, body.get_ref(), c)?;
-        return Ok(with_axes(Marker::node(info.id, node), &info.rotation));
+        return on(SiteDef::Coupling(coupling_index(
+            src,
+            key,
+            place,
+            body.get_ref(),
+            c,
+        )?));
     }
     match (&raw.point, &raw.node) {
-        (Some(p), None) => {
-            let p = vector(src, &k("point"), p)?;
-            Ok(with_axes(
-                Marker::on(info.id, info.rotation.transpose() * (p - info.position)),
-                &info.rotation,
-            ))
-        }
+        (Some(p), None) => on(SiteDef::Point(vector(src, &k("point"), p)?)),
         (None, Some(n)) => {
-            let count = info.nodes.as_ref().map(Vec::len).ok_or_else(|| {
-                src.error(
-                    span(n),
-                    Some(k("node")),
-                    format!("`{}` is a rigid body: give a point", body.get_ref()),
-                )
-            })?;
+            let count = place
+                .flexible
+                .as_ref()
+                .map(|g| g.nodes.len())
+                .ok_or_else(|| {
+                    src.error(
+                        span(n),
+                        Some(k("node")),
+                        format!("`{}` is a rigid body: give a point", body.get_ref()),
+                    )
+                })?;
             let node = *n.get_ref();
             if node < 0 || node as usize >= count {
                 return Err(src.error(
@@ -114,10 +173,7 @@ pub(super) fn marker(
                     ),
                 ));
             }
-            Ok(with_axes(
-                Marker::node(info.id, node as usize),
-                &info.rotation,
-            ))
+            on(SiteDef::Node(node as usize))
         }
         (Some(_), Some(n)) => Err(src.error(
             span(n),
@@ -132,22 +188,23 @@ pub(super) fn marker(
     }
 }
 
-/// The node that stands for coupling `c` of flexible body `body` (`info`): the couplings'
-/// nodes follow the mesh's, in the body's order.
-fn coupling_node(
+/// The index of coupling `c` among the couplings of body `body` (`place`).
+fn coupling_index(
     src: &Source,
     key: &str,
-    info: &BodyInfo,
+    place: &BodyPlace,
     body: &str,
     c: &Spanned<String>,
 ) -> Result<usize, DeckError> {
     let k = |s: &str| format!("{key}.{s}");
-    let nodes = info.nodes.as_ref().map_or(0, Vec::len);
-    let index = info.couplings.iter().position(|x| x == c.get_ref());
-    match index {
-        Some(i) => Ok(nodes - info.couplings.len() + i),
+    let couplings = place
+        .flexible
+        .as_ref()
+        .map_or(&[][..], |g| &g.couplings[..]);
+    match couplings.iter().position(|x| x == c.get_ref()) {
+        Some(i) => Ok(i),
         None => {
-            let known: Vec<&str> = info.couplings.iter().map(String::as_str).collect();
+            let known: Vec<&str> = couplings.iter().map(String::as_str).collect();
             Err(src.error(
                 span(c),
                 Some(k("coupling")),

@@ -17,6 +17,7 @@ use super::{DeckError, Source};
 mod markers;
 mod values;
 
+pub use markers::{MarkerDef, SiteDef};
 use markers::{marker, motion};
 pub use values::{angle, angular_rate, inertia, quantity, rotation};
 
@@ -37,6 +38,118 @@ pub struct BodyInfo {
     /// Flexible bodies: the basis (eigenmodes, correction modes) and its static check (`None`
     /// for a rigid body).
     pub basis: Option<BasisReport>,
+}
+
+/// A flexible body's places for markers and responses, from its definition (no analysis): its
+/// nodes (the mesh's, then one per coupling at the coupling's point; global coordinates at the
+/// start) and its couplings' names.
+#[derive(Debug, Clone)]
+pub struct FlexibleGeometry {
+    pub nodes: Vec<Vector3<f64>>,
+    pub couplings: Vec<String>,
+}
+
+/// A body as the validation of markers and responses sees it: a flexible body's geometry,
+/// `None` for a rigid one.
+#[derive(Debug, Clone)]
+pub struct BodyPlace {
+    pub flexible: Option<FlexibleGeometry>,
+}
+
+/// A validated joint or driver: its markers placed on the built bodies by
+/// [`JointDef::resolve`].
+#[derive(Debug, Clone)]
+pub struct JointDef {
+    pub name: String,
+    pub kind: JointKind,
+    pub a: MarkerDef,
+    pub b: MarkerDef,
+    /// The joint's table in the deck.
+    pub span: Range<usize>,
+}
+
+impl JointDef {
+    /// The joint on the built bodies.
+    pub fn resolve(&self, bodies: &BTreeMap<String, BodyInfo>) -> Joint {
+        Joint::new(
+            self.name.clone(),
+            self.kind.clone(),
+            self.a.resolve(bodies),
+            self.b.resolve(bodies),
+        )
+    }
+}
+
+/// A validated force element (other than gravity), its markers placed on the built bodies by
+/// [`ForceDef::resolve`].
+#[derive(Debug, Clone)]
+pub enum ForceDef {
+    /// A point force (`torque`: a point torque).
+    Point {
+        marker: MarkerDef,
+        load: Load,
+        frame: LoadFrame,
+        torque: bool,
+    },
+    SpringDamper {
+        a: MarkerDef,
+        b: MarkerDef,
+        stiffness: f64,
+        damping: f64,
+        /// `None`: the markers' distance at the start.
+        free_length: Option<f64>,
+    },
+}
+
+impl ForceDef {
+    /// The force on the built bodies; `distance(a, b)` is the initial distance between two
+    /// markers (a spring's default free length).
+    pub fn resolve(
+        &self,
+        bodies: &BTreeMap<String, BodyInfo>,
+        distance: impl Fn(&Marker, &Marker) -> f64,
+    ) -> Force {
+        match self {
+            ForceDef::Point {
+                marker,
+                load,
+                frame,
+                torque,
+            } => {
+                let (marker, load, frame) = (marker.resolve(bodies), load.clone(), *frame);
+                if *torque {
+                    Force::PointTorque {
+                        marker,
+                        load,
+                        frame,
+                    }
+                } else {
+                    Force::PointForce {
+                        marker,
+                        load,
+                        frame,
+                    }
+                }
+            }
+            ForceDef::SpringDamper {
+                a,
+                b,
+                stiffness,
+                damping,
+                free_length,
+            } => {
+                let (a, b) = (a.resolve(bodies), b.resolve(bodies));
+                let free_length = free_length.unwrap_or_else(|| distance(&a, &b));
+                Force::SpringDamper {
+                    a,
+                    b,
+                    stiffness: *stiffness,
+                    damping: *damping,
+                    free_length,
+                }
+            }
+        }
+    }
 }
 
 /// A flexible body's basis and how completely it takes the mechanism's loads
@@ -158,8 +271,8 @@ pub fn rigid_bodies(src: &Source, raw: &RawDeck) -> Result<Vec<RigidDef>, DeckEr
 pub fn joints(
     src: &Source,
     raw: &RawDeck,
-    bodies: &BTreeMap<String, BodyInfo>,
-) -> Result<Vec<Joint>, DeckError> {
+    bodies: &BTreeMap<String, BodyPlace>,
+) -> Result<Vec<JointDef>, DeckError> {
     let mut out = Vec::new();
     for (name, j) in &raw.joint {
         let k = |s: &str| format!("joint.{name}.{s}");
@@ -223,26 +336,31 @@ pub fn joints(
             )?,
             bodies,
         )?;
-        out.push(Joint::new(name.clone(), kind, a, b));
+        out.push(JointDef {
+            name: name.clone(),
+            kind,
+            a,
+            b,
+            span: j.span(),
+        });
     }
     Ok(out)
 }
 
 /// The validated force elements.
+#[derive(Debug, Clone)]
 pub struct ForceDefs {
     /// The sum of the `gravity` elements (m/s²).
     pub gravity: Vector3<f64>,
-    /// The other forces by name, in deck order.
-    pub forces: Vec<(String, Force)>,
+    /// The other forces by name, in deck order, with their tables in the deck.
+    pub forces: Vec<(String, ForceDef, Range<usize>)>,
 }
 
-/// Validate the force elements. `distance(a, b)` is the initial distance between two markers (a spring's default
-/// free length).
+/// Validate the force elements.
 pub fn forces(
     src: &Source,
     raw: &RawDeck,
-    bodies: &BTreeMap<String, BodyInfo>,
-    distance: impl Fn(&Marker, &Marker) -> f64,
+    bodies: &BTreeMap<String, BodyPlace>,
 ) -> Result<ForceDefs, DeckError> {
     let mut gravity = Vector3::zeros();
     let mut out = Vec::new();
@@ -274,7 +392,7 @@ pub fn forces(
             "point-force" | "point-torque" => {
                 point_load(src, name, f, bodies, kind.get_ref() == "point-force")?
             }
-            "spring-damper" => spring_damper(src, name, f, bodies, &distance)?,
+            "spring-damper" => spring_damper(src, name, f, bodies)?,
             other => {
                 return Err(src.error(
                     span(kind),
@@ -283,7 +401,7 @@ pub fn forces(
                 ));
             }
         };
-        out.push((name.clone(), force));
+        out.push((name.clone(), force, f.span()));
     }
     Ok(ForceDefs {
         gravity,
@@ -297,9 +415,9 @@ fn point_load(
     src: &Source,
     name: &str,
     f: &Spanned<RawForce>,
-    bodies: &BTreeMap<String, BodyInfo>,
+    bodies: &BTreeMap<String, BodyPlace>,
     force: bool,
-) -> Result<Force, DeckError> {
+) -> Result<ForceDef, DeckError> {
     let k = |s: &str| format!("force.{name}.{s}");
     let rf = f.get_ref();
     let at = marker(
@@ -370,30 +488,22 @@ fn point_load(
             ));
         }
     };
-    Ok(if force {
-        Force::PointForce {
-            marker: at,
-            load,
-            frame,
-        }
-    } else {
-        Force::PointTorque {
-            marker: at,
-            load,
-            frame,
-        }
+    Ok(ForceDef::Point {
+        marker: at,
+        load,
+        frame,
+        torque: !force,
     })
 }
 
 /// A `spring-damper` element between two markers (its free length, when not given, the
-/// markers' initial distance `distance`).
+/// markers' distance at the start: [`ForceDef::resolve`]).
 fn spring_damper(
     src: &Source,
     name: &str,
     f: &Spanned<RawForce>,
-    bodies: &BTreeMap<String, BodyInfo>,
-    distance: &impl Fn(&Marker, &Marker) -> f64,
-) -> Result<Force, DeckError> {
+    bodies: &BTreeMap<String, BodyPlace>,
+) -> Result<ForceDef, DeckError> {
     let k = |s: &str| format!("force.{name}.{s}");
     let rf = f.get_ref();
     let a = marker(
@@ -420,11 +530,12 @@ fn spring_damper(
         .map(|s| finite(src, &k("damping"), s, "N·s/m"))
         .transpose()?
         .unwrap_or(0.0);
-    let free_length = match &rf.free_length {
-        Some(l) => finite(src, &k("free_length"), l, "m")?,
-        None => distance(&a, &b),
-    };
-    Ok(Force::SpringDamper {
+    let free_length = rf
+        .free_length
+        .as_ref()
+        .map(|l| finite(src, &k("free_length"), l, "m"))
+        .transpose()?;
+    Ok(ForceDef::SpringDamper {
         a,
         b,
         stiffness,

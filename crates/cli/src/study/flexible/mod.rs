@@ -147,6 +147,73 @@ fn shell(
     (mesh, props, design, "shell")
 }
 
+/// The mesh of body `name` as its definition gives it (global coordinates at t = 0).
+pub fn mesh(src: &Source, name: &str, def: &BodyDef) -> Result<fem::Mesh, CliError> {
+    let input = |key: &str, m: String| {
+        CliError::Input(src.error(Some(def.span.clone()), Some(format!("body.{name}{key}")), m))
+    };
+    Ok(match &def.shape {
+        BodyShape::Beam {
+            start,
+            end,
+            orientation,
+            elements,
+            ..
+        } => fem::Mesh::straight_beam(*start, *end, *elements, 0, *orientation)
+            .map_err(|e| input(".elements", e.to_string()))?,
+        BodyShape::ShellRectangle {
+            length,
+            width,
+            elements,
+            axis,
+            ..
+        } => {
+            let mut mesh = fem::Mesh::rectangle(*length, *width, elements[0], elements[1], 0)
+                .map_err(|e| input(".elements", e.to_string()))?;
+            for e in &mut mesh.elements {
+                if let fem::Element::Shell { material_axis, .. } = e {
+                    *material_axis = *axis;
+                }
+            }
+            mesh
+        }
+        BodyShape::ShellMesh {
+            mesh_text,
+            file,
+            axis,
+            ..
+        } => fem::parse_gmsh_v4(mesh_text)
+            .map_err(|e| input(".file", format!("in the mesh {file}: {e}")))?
+            .to_mesh(0, *axis),
+    })
+}
+
+/// Where the markers and responses of the deck can sit on a flexible body: its nodes (the
+/// mesh's, then one per coupling at the coupling's point; global coordinates at t = 0) and its
+/// couplings' names, from its definition (no analysis).
+pub fn geometry(
+    src: &Source,
+    name: &str,
+    def: &BodyDef,
+) -> Result<crate::deck::mechanism::FlexibleGeometry, CliError> {
+    let mesh = mesh(src, name, def)?;
+    let couplings = couplings(src, def, &mesh)?;
+    let mut nodes = mesh.nodes.clone();
+    for c in &couplings {
+        nodes.push(c.point.unwrap_or_else(|| {
+            let sum = c
+                .nodes
+                .iter()
+                .fold(nalgebra::Vector3::zeros(), |s, &k| s + mesh.nodes[k]);
+            sum / c.nodes.len().max(1) as f64
+        }));
+    }
+    Ok(crate::deck::mechanism::FlexibleGeometry {
+        nodes,
+        couplings: def.couplings.iter().map(|c| c.name.clone()).collect(),
+    })
+}
+
 pub fn build(
     src: &Source,
     name: &str,
@@ -156,17 +223,13 @@ pub fn build(
     let input = |key: &str, m: String| {
         CliError::Input(src.error(Some(def.span.clone()), Some(format!("body.{name}{key}")), m))
     };
+    let mesh = mesh(src, name, def)?;
     let (mesh, props, design, kind) = match &def.shape {
         BodyShape::Beam {
             section_name,
             section,
-            start,
-            end,
-            orientation,
-            elements,
+            ..
         } => {
-            let mesh = fem::Mesh::straight_beam(*start, *end, *elements, 0, *orientation)
-                .map_err(|e| input(".elements", e.to_string()))?;
             let (props, design) =
                 beam(section_name, section, request).map_err(|(key, m)| input(key, m))?;
             (mesh, props, design, "beam")
@@ -175,38 +238,14 @@ pub fn build(
             laminate,
             stack,
             ply_materials,
-            length,
-            width,
-            elements,
-            axis,
-        } => {
-            let mut mesh = fem::Mesh::rectangle(*length, *width, elements[0], elements[1], 0)
-                .map_err(|e| input(".elements", e.to_string()))?;
-            for e in &mut mesh.elements {
-                if let fem::Element::Shell { material_axis, .. } = e {
-                    *material_axis = *axis;
-                }
-            }
-            shell(mesh, stack, laminate, ply_materials, request)
+            ..
         }
-        BodyShape::ShellMesh {
+        | BodyShape::ShellMesh {
             laminate,
             stack,
             ply_materials,
-            mesh_text,
-            file,
-            axis,
-        } => {
-            let tri = fem::parse_gmsh_v4(mesh_text)
-                .map_err(|e| input(".file", format!("in the mesh {file}: {e}")))?;
-            shell(
-                tri.to_mesh(0, *axis),
-                stack,
-                laminate,
-                ply_materials,
-                request,
-            )
-        }
+            ..
+        } => shell(mesh, stack, laminate, ply_materials, request),
     };
     let reference = reference_condition(def, mesh.nodes.len()).map_err(|(key, m)| input(key, m))?;
     let supports = def
