@@ -2,7 +2,7 @@
 //! (`[optimize]`, see `docs/optimization.md`).
 //!
 //! The deck is read and validated once. Each evaluation moves the validated model to the
-//! design `x` in memory (the mechanism's [`Mechanism::at`], the bodies' `BodyDef::at`, the laminates'
+//! design `x` in memory (the mechanism's `Mechanism::at`, the bodies' `BodyDef::at`, the laminates'
 //! `DesignDef::laminates_at`: no deck text is edited or read again) and reads each quantity
 //! with its exact gradient: an `[objective.*]` from
 //! the run's direct sensitivities, a frequency from the modal analysis and Nelson's eigenvalue

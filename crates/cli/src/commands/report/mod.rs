@@ -13,7 +13,7 @@
 //!
 //! The deck is validated twice, as written and with the fixed-step integrator
 //! (`analysis.integrator`/`analysis.step` set in memory); each lay-up is that study moved to
-//! the lay-up's design ([`Study::at`](crate::study::Study::at)) and built; the sensitivity and finite-difference settings are set
+//! the lay-up's design (`Study::at`) and built; the sensitivity and finite-difference settings are set
 //! on the study's design, so a deck needs no `[sensitivity]` or `[finite_differences]` table
 //! (those it has are replaced).
 
