@@ -184,9 +184,12 @@ impl DesignVariable {
         v
     }
 
-    /// Move the laminates to the value `b` of this variable (from the nominal laminates: each
-    /// linked ply turns by `dθ/db · (b − b0)`; a material's constants move by
-    /// `dc/db · (b − b0)`, in every ply made of it); other variables leave them.
+    /// Move the laminates to the value `b` of this variable (from the nominal laminates): each
+    /// linked ply to `θ_i0 + f_i (b − b0)` as written in degrees (or metres), converted as
+    /// validation converts a written value, so that the laminates are those of the deck with
+    /// the variable written at `b`, bit for bit (their tangent `dθ/db` is the target's
+    /// `stack_plies`); a material's constants move by `dc/db · (b − b0)`, in every ply made of
+    /// it; other variables leave them.
     pub fn apply(&self, model: &mut LaminateModel, b: f64) -> Result<(), LaminateError> {
         if b == self.value {
             return Ok(());
@@ -218,17 +221,17 @@ impl DesignVariable {
             }
             return Ok(());
         }
-        let (laminate, stack_plies, thickness) = match &self.target {
+        let (laminate, stack_plies, deck_plies, thickness) = match &self.target {
             Target::PlyAngle {
                 laminate,
                 stack_plies,
-                ..
-            } => (laminate, stack_plies, false),
+                deck_plies,
+            } => (laminate, stack_plies, deck_plies, false),
             Target::PlyThickness {
                 laminate,
                 stack_plies,
-                ..
-            } => (laminate, stack_plies, true),
+                deck_plies,
+            } => (laminate, stack_plies, deck_plies, true),
             _ => return Ok(()),
         };
         let def = model
@@ -236,6 +239,7 @@ impl DesignVariable {
             .get_mut(laminate)
             .expect("a validated variable names a laminate of the model");
         let plies = def.stack.plies();
+        let n = plies.len();
         let mut angles: Vec<f64> = plies.iter().map(|p| p.angle).collect();
         let mut thicknesses: Vec<f64> = plies.iter().map(|p| p.thickness).collect();
         let moved = if thickness {
@@ -243,8 +247,21 @@ impl DesignVariable {
         } else {
             &mut angles
         };
-        for &(p, f) in stack_plies {
-            moved[p] += f * (b - self.value);
+        // each ply as the deck would write it at `b` (`x_i0 + f_i (b − b0)`, degrees or
+        // metres), taken as validation takes a written value: the same bits as the deck with
+        // the variable written at `b`; the mirrored ply of a symmetric laminate too
+        for &(i, x0, f) in deck_plies {
+            let written = x0 + f * (b - self.value);
+            let value = if thickness {
+                written
+            } else {
+                written.to_radians()
+            };
+            for &(p, _) in stack_plies {
+                if p == i || p == n - 1 - i {
+                    moved[p] = value;
+                }
+            }
         }
         def.stack = def.stack.with_plies(&angles, &thicknesses)?;
         Ok(())
