@@ -154,7 +154,7 @@ impl<'a> Cases<'a> {
                     key: Some(a.key.clone()),
                     message: format!(
                         "--vary: no design variable `{name}`{}",
-                        crate::deck::laminates::suggestion(name, &known)
+                        crate::deck::check::suggestion(name, &known)
                     ),
                     snippet: None,
                     note: None,

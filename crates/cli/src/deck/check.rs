@@ -152,3 +152,30 @@ pub fn direction(
 ) -> Result<Vector3<f64>, DeckError> {
     nonzero_vector(src, key, v).map(|d| d / d.norm())
 }
+
+/// ", did you mean `x`?" for the closest known name, or "; defined: a, b" when none is close.
+pub fn suggestion(word: &str, known: &[&str]) -> String {
+    let best = known.iter().map(|k| (edit_distance(word, k), *k)).min();
+    match best {
+        Some((d, k)) if d <= 2.max(word.chars().count() / 3 + 1) => {
+            format!(", did you mean `{k}`?")
+        }
+        _ if known.is_empty() => " (none defined)".to_string(),
+        _ => format!(" (defined: {})", known.join(", ")),
+    }
+}
+
+/// Levenshtein distance.
+fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut prev: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut cur = vec![i + 1];
+        for (j, cb) in b.iter().enumerate() {
+            let sub = prev[j] + usize::from(ca != *cb);
+            cur.push(sub.min(prev[j + 1] + 1).min(cur[j] + 1));
+        }
+        prev = cur;
+    }
+    prev[b.len()]
+}

@@ -3,7 +3,7 @@
 //! and a test checks that `docs/decks.md` names every word in the key's section, so the
 //! accepted words, the messages and the reference cannot drift apart.
 
-use super::laminates::suggestion;
+use super::check::suggestion;
 
 /// A key whose value is one of `words`.
 pub struct Choices {

@@ -5,6 +5,7 @@ use std::collections::BTreeMap;
 use laminate::{LaminateError, OrthotropicMaterial, Ply, PlyStack, ReferenceSurface};
 use toml::Spanned;
 
+use super::check::suggestion;
 use super::raw::{RawDeck, RawLaminate, RawMaterial};
 use super::{DeckError, Source};
 
@@ -305,31 +306,4 @@ pub fn validate(src: &Source, deck: &RawDeck) -> Result<LaminateModel, DeckError
         model.laminates.insert(name.clone(), def);
     }
     Ok(model)
-}
-
-/// ", did you mean `x`?" for the closest known name, or "; defined: a, b" when none is close.
-pub fn suggestion(word: &str, known: &[&str]) -> String {
-    let best = known.iter().map(|k| (edit_distance(word, k), *k)).min();
-    match best {
-        Some((d, k)) if d <= 2.max(word.chars().count() / 3 + 1) => {
-            format!(", did you mean `{k}`?")
-        }
-        _ if known.is_empty() => " (none defined)".to_string(),
-        _ => format!(" (defined: {})", known.join(", ")),
-    }
-}
-
-/// Levenshtein distance.
-fn edit_distance(a: &str, b: &str) -> usize {
-    let b: Vec<char> = b.chars().collect();
-    let mut prev: Vec<usize> = (0..=b.len()).collect();
-    for (i, ca) in a.chars().enumerate() {
-        let mut cur = vec![i + 1];
-        for (j, cb) in b.iter().enumerate() {
-            let sub = prev[j] + usize::from(ca != *cb);
-            cur.push(sub.min(prev[j + 1] + 1).min(cur[j] + 1));
-        }
-        prev = cur;
-    }
-    prev[b.len()]
 }

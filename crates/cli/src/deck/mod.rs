@@ -278,7 +278,7 @@ fn unknown_key_hint(message: &str) -> Option<String> {
     let rest = message.strip_prefix("unknown field `")?;
     let (word, rest) = rest.split_once('`')?;
     let expected: Vec<&str> = rest.split('`').skip(1).step_by(2).collect();
-    let hint = laminates::suggestion(word, &expected);
+    let hint = check::suggestion(word, &expected);
     hint.starts_with(", did you mean")
         .then(|| hint.replacen(", ", "; ", 1))
 }
@@ -307,7 +307,7 @@ pub fn select<'a, T>(
                     None,
                     format!(
                         "no {kind} `{name}` in this deck{}",
-                        laminates::suggestion(name, &known)
+                        check::suggestion(name, &known)
                     ),
                 )
             })?;

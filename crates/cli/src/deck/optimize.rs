@@ -9,9 +9,9 @@
 
 use toml::Spanned;
 
+use super::check::suggestion;
 use super::check::{finite, required, span};
 use super::design::DesignDef;
-use super::laminates::suggestion;
 use super::raw::RawConstraint;
 use super::{DeckError, RawDeck, Source};
 

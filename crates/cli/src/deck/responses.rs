@@ -7,8 +7,8 @@ use mbs::{JointId, Model, Response};
 use nalgebra::Vector3;
 use toml::Spanned;
 
+use super::check::suggestion;
 use super::check::{direction, required, span};
-use super::laminates::suggestion;
 use super::mechanism::{BodyInfo, BodyPlace};
 use super::raw::{RawDeck, RawResponse};
 use super::{DeckError, Source};

@@ -5,8 +5,9 @@ use laminate::PlyStack;
 use nalgebra::Vector3;
 use toml::Spanned;
 
+use super::check::suggestion;
 use super::check::{nonzero_vector, positive, required, span, vector};
-use super::laminates::{LaminateModel, suggestion};
+use super::laminates::LaminateModel;
 use super::raw::{RawBody, RawCoupling, RawDeck, RawMarker, RawPlane, RawSupport};
 use super::sections::{self, SectionDef};
 use super::{DeckError, Source};

@@ -11,8 +11,9 @@ use laminate::LaminateError;
 use mbs::Objective;
 use toml::Spanned;
 
+use super::check::suggestion;
 use super::check::{finite, positive, required, span};
-use super::laminates::{LaminateModel, suggestion};
+use super::laminates::LaminateModel;
 use super::raw::{RawDesign, RawFiniteDifferences, RawObjective};
 use super::{DeckError, RawDeck, Source};
 

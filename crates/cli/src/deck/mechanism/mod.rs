@@ -9,8 +9,8 @@ use mbs::{BodyId, Force, Joint, JointKind, Load, LoadFrame, Marker, TimeFunction
 use nalgebra::{Matrix3, Rotation3, Unit, Vector3};
 use toml::Spanned;
 
+use super::check::suggestion;
 use super::check::{direction, finite, positive, required, span, vector};
-use super::laminates::suggestion;
 use super::raw::{RawDeck, RawForce, RawMarker, RawMotion, RawRotation};
 use super::{DeckError, Source};
 

@@ -7,8 +7,9 @@ use laminate::OrthotropicMaterial;
 use section::{BoxWalls, ElementDirection, PlySpec, RegionSpec, SectionMesh, WallFrame};
 use toml::Spanned;
 
+use super::check::suggestion;
 use super::check::{count, finite, mesh_size, not_applicable, positive, required, span};
-use super::laminates::{LaminateModel, suggestion};
+use super::laminates::LaminateModel;
 use super::raw::{RawRegion, RawSection};
 use super::{DeckError, Source};
 
