@@ -49,9 +49,36 @@ pub fn get() -> Limits {
     *LIMITS.read().unwrap_or_else(|e| e.into_inner())
 }
 
-/// Put `limits` in force for the rest of the process.
+/// Put `limits` in force for the rest of the process. A count above `i64::MAX` (more than any
+/// deck can write) means no limit and is held there, so that comparing it with a deck's
+/// signed integers cannot wrap.
 pub fn set(limits: Limits) {
+    let held = |n: usize| n.min(i64::MAX as usize);
+    let limits = Limits {
+        elements: held(limits.elements),
+        steps: held(limits.steps),
+        cases: held(limits.cases),
+        input_bytes: limits.input_bytes,
+    };
     *LIMITS.write().unwrap_or_else(|e| e.into_inner()) = limits;
+}
+
+/// A `--max-*` count on the command line: a whole number of at least 1.
+pub fn parse_count(arg: &str) -> Result<usize, String> {
+    let digits = arg.trim();
+    if digits.is_empty() || !digits.bytes().all(|b| b.is_ascii_digit()) {
+        return Err(format!("`{arg}` is not a whole number"));
+    }
+    if digits.bytes().all(|b| b == b'0') {
+        return Err("a limit of 0 would refuse every input: give at least 1".into());
+    }
+    // a count beyond the machine's is no limit
+    Ok(digits.parse::<usize>().unwrap_or(usize::MAX))
+}
+
+/// `--max-input-bytes`: a whole number of at least 1.
+pub fn parse_bytes(arg: &str) -> Result<u64, String> {
+    parse_count(arg).map(|n| n as u64)
 }
 
 /// Read a whole input file as bytes, refusing one larger than the input-size limit before
@@ -105,6 +132,18 @@ fn utf8(bytes: Vec<u8>) -> Result<String, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A count on the command line is a whole number of at least 1; one beyond the machine's
+    /// counts is no limit.
+    #[test]
+    fn command_line_counts_are_whole_and_positive() {
+        assert_eq!(parse_count("25"), Ok(25));
+        assert_eq!(parse_count("18446744073709551616000"), Ok(usize::MAX));
+        for bad in ["0", "000", "-5", "1e6", "", "ten"] {
+            assert!(parse_count(bad).is_err(), "{bad}");
+        }
+        assert_eq!(parse_bytes("4096"), Ok(4096));
+    }
 
     #[test]
     fn reading_stops_at_the_limit_for_unsized_files() {

@@ -29,16 +29,20 @@ struct Cli {
     #[arg(long, short = 'q', global = true)]
     quiet: bool,
     /// Largest mesh accepted, in elements (also per direction of a generated mesh).
-    #[arg(long, value_name = "N", global = true, default_value_t = Limits::DEFAULT.elements)]
+    #[arg(long, value_name = "N", global = true, default_value_t = Limits::DEFAULT.elements,
+          value_parser = limits::parse_count)]
     max_elements: usize,
     /// Largest number of time steps of a fixed-step run, or step attempts of an adaptive one.
-    #[arg(long, value_name = "N", global = true, default_value_t = Limits::DEFAULT.steps)]
+    #[arg(long, value_name = "N", global = true, default_value_t = Limits::DEFAULT.steps,
+          value_parser = limits::parse_count)]
     max_steps: usize,
     /// Largest number of cases of a sweep.
-    #[arg(long, value_name = "N", global = true, default_value_t = Limits::DEFAULT.cases)]
+    #[arg(long, value_name = "N", global = true, default_value_t = Limits::DEFAULT.cases,
+          value_parser = limits::parse_count)]
     max_cases: usize,
     /// Largest input file (deck, mesh, result file) read, in bytes.
-    #[arg(long, value_name = "BYTES", global = true, default_value_t = Limits::DEFAULT.input_bytes)]
+    #[arg(long, value_name = "BYTES", global = true, default_value_t = Limits::DEFAULT.input_bytes,
+          value_parser = limits::parse_bytes)]
     max_input_bytes: u64,
 }
 

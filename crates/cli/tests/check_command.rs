@@ -25,6 +25,32 @@ fn every_shipped_deck_passes_check() {
     assert!(n >= 7, "the shipped decks were found ({n})");
 }
 
+/// A limit beyond every count a deck can write is no limit (it used to wrap to a negative
+/// number and refuse every deck), for each `--max-*` flag.
+#[test]
+fn the_largest_limits_refuse_nothing() {
+    let deck =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../decks/slider_crank_beam.toml");
+    for flag in [
+        "--max-elements",
+        "--max-steps",
+        "--max-cases",
+        "--max-input-bytes",
+    ] {
+        let o = run(&[
+            "check",
+            deck.to_str().unwrap(),
+            flag,
+            "18446744073709551615",
+        ]);
+        assert!(
+            o.status.success(),
+            "{flag}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
+}
+
 #[test]
 fn check_lists_the_design_variables_with_what_they_move() {
     let (_dir, path) = with_extra(
