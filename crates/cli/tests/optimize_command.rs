@@ -290,7 +290,18 @@ fn an_interrupted_optimisation_writes_its_best_design() {
     let text = String::from_utf8_lossy(&o.stdout);
     assert_eq!(o.status.code(), Some(130), "{text}\n{rest:?}");
     assert!(text.contains("interrupted"), "{text}");
-    assert!(out.join("optimum.toml").exists() && out.join("iterations.csv").exists());
+    assert!(out.join("iterations.csv").exists());
+    // the deck says what it is, and still reads as a deck
+    let optimum = std::fs::read_to_string(out.join("optimum.toml")).unwrap();
+    assert!(
+        optimum.starts_with("# flexsens optimize was interrupted"),
+        "{optimum}"
+    );
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_flexsens"))
+        .args(["check", &out.join("optimum.toml").display().to_string()])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
 
 /// `optimize --shard I/N` as separate processes and `merge` give what one optimisation writes:

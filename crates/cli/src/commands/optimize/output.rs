@@ -174,7 +174,19 @@ pub(super) fn finish(
     sets.extend(absolute_file_keys(path, &problem.src.parse()?));
     let optimum = problem.src.edited(&sets)?;
     let optimum_path = out.join("optimum.toml");
-    write_atomic(&optimum_path, optimum.text.as_bytes())?;
+    let deck_text = if interrupted {
+        format!(
+            "# flexsens optimize was interrupted: this is the best feasible design of the {} \
+             evaluations made (start {}, evaluation {}), not a converged optimum\n{}",
+            rows.len(),
+            best.start,
+            best.evaluation,
+            optimum.text
+        )
+    } else {
+        optimum.text
+    };
+    write_atomic(&optimum_path, deck_text.as_bytes())?;
     let _ = writeln!(
         text,
         "optimum (start {}, evaluation {}): {} = {:.9e}",
