@@ -249,6 +249,29 @@ fn bad_optimize_tables_are_refused_with_their_key() {
             "design.theta",
             "lies outside [lower, upper]",
         ),
+        // bounds the model cannot take: a ply of no thickness, a material with a negative
+        // modulus
+        (
+            base.clone()
+                + "\n[design.wall]\nkind = \"ply-thickness\"\nlaminate = \"tube_wall\"\n\
+                   plies = [0]\nlower = 0.0\nupper = 0.5e-3\n",
+            "design.wall.lower",
+            "not physical",
+        ),
+        (
+            base.clone()
+                + "\n[design.stiff]\nkind = \"material\"\nmaterial = \"paper_composite\"\n\
+                   constant = \"E1\"\nlower = -1e9\nupper = 1e12\n",
+            "design.stiff.lower",
+            "not physical",
+        ),
+        (
+            std::fs::read_to_string(deck("slider_crank_rigid.toml")).unwrap()
+                + "\n[design.m]\nkind = \"rigid-mass\"\nbody = \"slider\"\nlower = -1.0\n\
+                   upper = 1.0\n\n[optimize]\nminimize = \"mass.slider\"\n",
+            "design.m.lower",
+            "mass of rigid body `slider` must be positive",
+        ),
     ] {
         let (_d, err) = common::bad_deck(&edit, |p| common::with_deck("optimize", p, &[]));
         assert!(

@@ -77,7 +77,7 @@ pub fn run(path: &Path, overrides: &[String]) -> Result<String, CliError> {
         );
     }
     if raw.optimize.is_some() {
-        let o = crate::deck::optimize::validate(&src, &raw, &design)?;
+        let o = crate::deck::optimize::validate(&src, &raw, &design, &model)?;
         let _ = writeln!(
             s,
             "optimize: {} {} over {} variables, {} constraints, {} starts",

@@ -11,7 +11,8 @@ use toml::Spanned;
 
 use super::check::suggestion;
 use super::check::{finite, required, span};
-use super::design::DesignDef;
+use super::design::{DesignDef, Target};
+use super::laminates::LaminateModel;
 use super::raw::RawConstraint;
 use super::{DeckError, RawDeck, Source};
 
@@ -193,7 +194,12 @@ fn constraint(
 }
 
 /// Validate `[optimize]` against the deck's design variables.
-pub fn validate(src: &Source, raw: &RawDeck, design: &DesignDef) -> Result<OptimizeDef, DeckError> {
+pub fn validate(
+    src: &Source,
+    raw: &RawDeck,
+    design: &DesignDef,
+    laminates: &LaminateModel,
+) -> Result<OptimizeDef, DeckError> {
     let table = raw.optimize.as_ref().ok_or_else(|| {
         src.error(
             None,
@@ -241,6 +247,32 @@ pub fn validate(src: &Source, raw: &RawDeck, design: &DesignDef) -> Result<Optim
                 Some(k("upper")),
                 format!("upper = {hi} must be above lower = {lo}"),
             ));
+        }
+        // a bound must be a design the model can take: a positive mass, inertia and thickness,
+        // a material that stays physical (between the bounds too: each moves linearly)
+        for (key, x) in [("lower", lo), ("upper", hi)] {
+            let rigid = matches!(
+                v.target,
+                Target::RigidMass { .. } | Target::RigidInertia { .. }
+            );
+            let bad = if rigid {
+                (x <= 0.0).then(|| format!("a {} must be positive", v.describe()))
+            } else {
+                v.apply(&mut laminates.clone(), x)
+                    .err()
+                    .map(|e| e.to_string())
+            };
+            if let Some(why) = bad {
+                let at = if key == "lower" { &d.lower } else { &d.upper };
+                return Err(src.error(
+                    at.as_ref().map(|s| s.span()),
+                    Some(k(key)),
+                    format!(
+                        "{key} = {x} {}: the design there is not physical: {why}",
+                        v.unit
+                    ),
+                ));
+            }
         }
         if v.value < lo || v.value > hi {
             return Err(src.error(

@@ -143,7 +143,7 @@ fn setup<'a>(path: &'a Path, overrides: &'a [String]) -> Result<(Problem<'a>, bo
     let (src, raw) = deck::load(path, overrides)?;
     let laminates = validate_laminates(&src, &raw)?;
     let design = validate_design(&src, &raw, &laminates)?;
-    let def = validate_optimize(&src, &raw, &design)?;
+    let def = validate_optimize(&src, &raw, &design, &laminates)?;
     let quantities: Vec<&Quantity> = std::iter::once(&def.objective)
         .chain(def.constraints.iter().map(|c| &c.quantity))
         .collect();
