@@ -429,20 +429,37 @@ enum Band {
     High(usize),
 }
 
+/// The walls across one axis of a walled section, for messages: the size that holds them
+/// (`"width"`, `"height"`), the low and the high wall, and what lies between them.
+struct AxisWalls {
+    size: &'static str,
+    low: &'static str,
+    high: &'static str,
+    between: &'static str,
+}
+
 /// Grid breaks along one axis: low wall (plies outermost first), `n_mid` cells, high wall;
 /// the ply thicknesses are `thickness(ply)`.
 fn box_axis<S: Scalar>(
     extent: f64,
-    low: &[PlySpec],
-    high: &[PlySpec],
+    (low, high): (&[PlySpec], &[PlySpec]),
+    names: AxisWalls,
     n_mid: usize,
     thickness: &dyn Fn(&PlySpec) -> S,
 ) -> Result<(Vec<S>, Vec<Band>), SectionError> {
     let tl: f64 = low.iter().map(|p| p.thickness).sum();
     let th: f64 = high.iter().map(|p| p.thickness).sum();
     if tl + th >= extent {
+        let AxisWalls {
+            size,
+            low,
+            high,
+            between,
+        } = names;
         return Err(SectionError::InvalidInput(format!(
-            "box walls of thickness {tl} and {th} m do not fit in an outer size of {extent} m"
+            "the {low} wall ({tl} m thick) and the {high} wall ({th} m) leave no room for the \
+             {between} in a {size} of {extent} m: the {size} must exceed {} m",
+            tl + th
         )));
     }
     let sum = |plies: &[PlySpec]| plies.iter().map(thickness).sum::<S>();
@@ -559,8 +576,30 @@ fn walled<S: Scalar>(
             p.check()?;
         }
     }
-    let (xs, cols) = box_axis(width, &walls.left, &walls.right, n_width, thickness)?;
-    let (ys, rows) = box_axis(height, &walls.bottom, &walls.top, n_height, thickness)?;
+    let (xs, cols) = box_axis(
+        width,
+        (&walls.left, &walls.right),
+        AxisWalls {
+            size: "width",
+            low: "left",
+            high: "right",
+            between: "section's inside",
+        },
+        n_width,
+        thickness,
+    )?;
+    let (ys, rows) = box_axis(
+        height,
+        (&walls.bottom, &walls.top),
+        AxisWalls {
+            size: "height",
+            low: "bottom",
+            high: "top",
+            between: "section's inside",
+        },
+        n_height,
+        thickness,
+    )?;
     let coord = |i2: usize, j2: usize| [at_half_index(&xs, i2), at_half_index(&ys, j2)];
     let mut grid = Grid::new(coord, None);
     let mut walls_regions = WallRegions::default();
@@ -725,7 +764,18 @@ fn i_section_of<S: Scalar>(
     for _ in 0..n_side {
         push(side / n_side as f64, None);
     }
-    let (ys, rows) = box_axis(height, &walls.bottom, &walls.top, n_web, thickness)?;
+    let (ys, rows) = box_axis(
+        height,
+        (&walls.bottom, &walls.top),
+        AxisWalls {
+            size: "height",
+            low: "bottom flange",
+            high: "top flange",
+            between: "web",
+        },
+        n_web,
+        thickness,
+    )?;
     let coord = |i2: usize, j2: usize| [at_half_index(&xs, i2), at_half_index(&ys, j2)];
     let mut grid = Grid::new(coord, None);
     let mut walls_regions = WallRegions::default();

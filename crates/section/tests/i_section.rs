@@ -119,3 +119,32 @@ fn zero_degree_composite_i_section_axial_stiffness() {
     let e = too_thick.mesh().unwrap_err().to_string();
     assert!(e.contains("does not fit"), "{e}");
 }
+
+/// Flanges as thick as the height leave no web: the message names the web, the height and the
+/// height it needs; a web as wide as the flanges names the width.
+#[test]
+fn walls_that_do_not_fit_are_named() {
+    let mut s = i_beam(
+        laminate::OrthotropicMaterial::isotropic(70e9, 0.3, 2700.0).unwrap(),
+        2,
+    );
+    if let GeneratedSection::I { height, .. } = &mut s {
+        *height = 2.0 * TF;
+    }
+    let e = s.mesh().unwrap_err().to_string();
+    assert!(
+        e.contains("no room for the web")
+            && e.contains("height of 0.008 m")
+            && e.contains("must exceed 0.008 m"),
+        "{e}"
+    );
+    let mut s = i_beam(
+        laminate::OrthotropicMaterial::isotropic(70e9, 0.3, 2700.0).unwrap(),
+        2,
+    );
+    if let GeneratedSection::I { width, .. } = &mut s {
+        *width = TW;
+    }
+    let e = s.mesh().unwrap_err().to_string();
+    assert!(e.contains("web") && e.contains("width"), "{e}");
+}
