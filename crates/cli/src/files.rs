@@ -10,6 +10,84 @@ use std::path::{Path, PathBuf};
 
 use crate::error::CliError;
 
+/// The lock file of an output directory ([`DirLock`]).
+pub const LOCK_FILE: &str = ".flexsens.lock";
+
+/// The output directories this process holds: a command nested in another (the optimum's run
+/// inside `optimize`) writing into a directory its caller holds takes no second lock.
+static HELD: std::sync::Mutex<std::collections::BTreeSet<PathBuf>> =
+    std::sync::Mutex::new(std::collections::BTreeSet::new());
+
+/// An advisory lock on an output directory, held while a command writes there: a second
+/// flexsens writing into the same directory fails at once (exit 1) naming the holder, instead
+/// of mixing its files with the first's. The lock is on `DIR/.flexsens.lock` (which holds the
+/// holder's process id and command, and stays after it), released when dropped or when the
+/// process ends, however it ends.
+pub struct DirLock {
+    _file: Option<std::fs::File>,
+    held: Option<PathBuf>,
+}
+
+impl DirLock {
+    /// Lock `dir` (created if needed) for `command`.
+    pub fn acquire(dir: &Path, command: &str) -> Result<DirLock, CliError> {
+        std::fs::create_dir_all(dir).map_err(|e| failure(dir, "create the output directory", e))?;
+        let key = std::fs::canonicalize(dir).unwrap_or_else(|_| dir.to_path_buf());
+        let mut held = HELD.lock().unwrap_or_else(|e| e.into_inner());
+        if held.contains(&key) {
+            return Ok(DirLock {
+                _file: None,
+                held: None,
+            });
+        }
+        let path = dir.join(LOCK_FILE);
+        let mut file = std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(false)
+            .open(&path)
+            .map_err(|e| failure(&path, "open the lock file", e))?;
+        match file.try_lock() {
+            Ok(()) => {}
+            Err(std::fs::TryLockError::WouldBlock) => {
+                let holder = std::fs::read_to_string(&path).unwrap_or_default();
+                let holder = holder.trim();
+                return Err(CliError::Runtime(format!(
+                    "{}: another flexsens is writing into this directory ({}); wait for it to \
+                     finish, or write elsewhere (-o)",
+                    dir.display(),
+                    if holder.is_empty() {
+                        "its process is not recorded".to_string()
+                    } else {
+                        format!("process {holder}")
+                    }
+                )));
+            }
+            Err(std::fs::TryLockError::Error(e)) => {
+                return Err(failure(&path, "lock", e));
+            }
+        }
+        // the holder, for the message of a second writer
+        let _ = file
+            .set_len(0)
+            .and_then(|_| writeln!(file, "{} (flexsens {command})", std::process::id()));
+        held.insert(key.clone());
+        Ok(DirLock {
+            _file: Some(file),
+            held: Some(key),
+        })
+    }
+}
+
+impl Drop for DirLock {
+    fn drop(&mut self) {
+        if let Some(key) = &self.held {
+            HELD.lock().unwrap_or_else(|e| e.into_inner()).remove(key);
+        }
+    }
+}
+
 /// The prefix of the temporary names of `name` (`.NAME.partial-`), followed by the process id.
 fn partial_prefix(name: &str) -> String {
     format!(".{name}.partial-")

@@ -191,6 +191,57 @@ fn same_deck_same_results_and_compare_catches_a_change() {
     assert!(text.contains("/responses/slider_x: t = "), "{text}");
 }
 
+/// While one flexsens writes into a directory (here the test holds its lock, as a running
+/// flexsens does), a second one writing there fails at once with exit 1, naming the holder,
+/// and writes nothing; once the holder is done the directory works again.
+#[test]
+fn a_second_writer_into_a_directory_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    std::fs::create_dir_all(&out).unwrap();
+    let lock = std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .create(true)
+        .truncate(true)
+        .open(out.join(".flexsens.lock"))
+        .unwrap();
+    lock.try_lock().unwrap();
+    std::fs::write(out.join(".flexsens.lock"), "4242 (flexsens run)\n").unwrap();
+    let deck_path = deck("slider_crank_rigid.toml");
+    let args = |command: &str| -> Vec<String> {
+        let mut a = vec![command.to_string(), deck_path.display().to_string()];
+        a.extend(["-o".to_string(), out.display().to_string()]);
+        if command == "sweep" {
+            a.extend([
+                "--vary".to_string(),
+                "rigid.slider.mass=0.04,0.05".to_string(),
+            ]);
+        }
+        a.extend(["--set".to_string(), "analysis.t_end=0.002".to_string()]);
+        a
+    };
+    for command in ["run", "sweep"] {
+        let a = args(command);
+        let a: Vec<&str> = a.iter().map(String::as_str).collect();
+        let o = run(&a);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{command}: {err}");
+        assert!(
+            err.contains("another flexsens is writing into this directory")
+                && err.contains("process 4242 (flexsens run)"),
+            "{command}: {err}"
+        );
+        assert!(!out.join("results.h5").exists() && !out.join("summary.csv").exists());
+    }
+    drop(lock);
+    let a = args("run");
+    let a: Vec<&str> = a.iter().map(String::as_str).collect();
+    let o = run(&a);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(out.join("results.h5").exists());
+}
+
 #[test]
 fn a_failed_run_leaves_no_result_file_and_exits_1() {
     let dir = tempfile::tempdir().unwrap();

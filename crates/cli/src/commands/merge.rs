@@ -17,6 +17,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(String, bool), CliError> {
         .map(|d| read_manifest(d))
         .collect::<Result<Vec<_>, _>>()?;
     let n = check_shard_set(dirs, &manifests)?;
+    let _lock = crate::files::DirLock::acquire(out, "merge")?;
     if manifests[0]["command"] == "optimize" {
         return super::optimize::merge(dirs, &manifests, out).map(|(t, code)| (t, code == 0));
     }

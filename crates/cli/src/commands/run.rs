@@ -12,7 +12,7 @@ use super::run_files::{
 use super::shard::remove_old;
 use crate::deck::{self, Source};
 use crate::error::CliError;
-use crate::files::{Staged, remove_stale_partials};
+use crate::files::{DirLock, Staged, remove_stale_partials};
 use crate::progress::RunProgress;
 use crate::study::Mechanism;
 
@@ -47,6 +47,7 @@ pub fn run(path: &Path, overrides: &[String], req: &RunRequest) -> Result<String
         .out
         .map(Path::to_path_buf)
         .unwrap_or_else(|| super::default_dir(path, "out", None));
+    let _lock = DirLock::acquire(&out, "run")?;
     let done = run_study(&src, &mech, &out, progress.as_ref())?;
     if req.json {
         return Ok(done.summary.to_string() + "\n");

@@ -348,6 +348,7 @@ pub fn run(
             req.shard.unwrap_or_default()
         )));
     }
+    let _lock = crate::files::DirLock::acquire(&out, "sweep")?;
     let summary_path = out.join("summary.csv");
     for f in ["summary.csv", SHARD_FILE, CASES_FILE] {
         remove_old(&out.join(f))?;

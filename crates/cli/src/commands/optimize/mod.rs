@@ -264,12 +264,7 @@ pub fn run(
         .out
         .map(Path::to_path_buf)
         .unwrap_or_else(|| super::default_dir(path, "optimize", shard));
-    std::fs::create_dir_all(&out).map_err(|e| {
-        runtime(format!(
-            "cannot create the output directory {}: {e}",
-            out.display()
-        ))
-    })?;
+    let _lock = crate::files::DirLock::acquire(&out, "optimize")?;
     // the optimum's run files too: a new optimisation without a feasible design (or without
     // a mechanism) must not leave an earlier optimum's results.h5 looking like its own
     for f in [
