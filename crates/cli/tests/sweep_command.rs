@@ -206,6 +206,19 @@ fn sharded_sweeps_merge_into_the_single_sweep() {
     // the summary names the case directories under the merged directory, as a single sweep
     // names them under its own: compared at the same path, byte for byte
     let merged = std::fs::read(out.join("summary.csv")).unwrap();
+    // merging again into the same directory gives the same; into another, whose cases the
+    // first merge moved away, is refused naming a case
+    let o = merge(&[1, 2, 3], &out);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(std::fs::read(out.join("summary.csv")).unwrap(), merged);
+    let o = merge(&[1, 2, 3], &dir.path().join("elsewhere"));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("case 1 of shard 1/3 ran, but neither"),
+        "{err}"
+    );
+    assert!(!dir.path().join("elsewhere").join("summary.csv").exists());
     std::fs::rename(&out, dir.path().join("merged")).unwrap();
     std::fs::rename(&single, &out).unwrap();
     assert_eq!(
@@ -265,4 +278,67 @@ fn bad_shards_are_refused() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(err.contains("not a shard of a sweep"), "{err}");
+}
+
+/// `merge` verifies what it is given: shards run on a deck that changed between them are
+/// refused (their manifests fingerprint the deck's text), and a case a shard lists as run
+/// whose directory was removed is named (exit 1) before anything moves.
+#[test]
+fn merge_refuses_changed_decks_and_missing_cases() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("rigid.toml");
+    let text = std::fs::read_to_string(deck("slider_crank_rigid.toml")).unwrap();
+    std::fs::write(&path, &text).unwrap();
+    let shard_dir = |i: usize| dir.path().join(format!("shard_{i}"));
+    let shard = |i: usize| {
+        let args = [
+            "sweep".to_string(),
+            path.display().to_string(),
+            "--vary".into(),
+            "rigid.slider.mass=0.04,0.05".into(),
+            "--shard".into(),
+            format!("{i}/2"),
+            "-o".into(),
+            shard_dir(i).display().to_string(),
+            "--quiet".into(),
+            "--set".into(),
+            "analysis.t_end=0.002".into(),
+        ];
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let o = run(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    let merge = |to: &std::path::Path| {
+        let args = [
+            "merge".to_string(),
+            shard_dir(1).display().to_string(),
+            shard_dir(2).display().to_string(),
+            "-o".into(),
+            to.display().to_string(),
+        ];
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        run(&args)
+    };
+    shard(1);
+    std::fs::write(&path, text.clone() + "# edited between the shards\n").unwrap();
+    shard(2);
+    let o = merge(&dir.path().join("out"));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("changed between them"), "{err}");
+    std::fs::write(&path, &text).unwrap();
+    shard(2);
+    std::fs::remove_dir_all(shard_dir(2).join("case_002")).unwrap();
+    let o = merge(&dir.path().join("out"));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("case 2 of shard 2/2 ran, but neither"),
+        "{err}"
+    );
+    // nothing moved
+    assert!(shard_dir(1).join("case_001").join("results.h5").exists());
+    shard(2);
+    let o = merge(&dir.path().join("out"));
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }

@@ -56,13 +56,23 @@ pub(crate) fn remove_old(path: &Path) -> Result<(), CliError> {
 /// What a shard writes beside its cases for `flexsens merge`.
 pub(crate) const SHARD_FILE: &str = "shard.json";
 
+/// A fingerprint of a deck's text (64-bit FNV-1a, hexadecimal): shards run on decks that differ
+/// are not merged.
+pub(crate) fn deck_fingerprint(text: &str) -> String {
+    let hash = text.bytes().fold(0xcbf2_9ce4_8422_2325_u64, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
+    });
+    format!("{hash:016x}")
+}
+
 /// Write shard `(i, n)`'s manifest (`shard.json`) into `out`: the command, the version, the
-/// deck's absolute path, its `--set` arguments and the command's own `extra` fields. Written
-/// last, after the shard's record: a shard that has it is complete.
+/// deck's absolute path and the fingerprint of its text as the shard read it (`deck_text`),
+/// its `--set` arguments and the command's own `extra` fields. Written last, after the
+/// shard's record: a shard that has it is complete.
 pub(crate) fn write_manifest(
     out: &Path,
     command: &str,
-    path: &Path,
+    (path, deck_text): (&Path, &str),
     overrides: &[String],
     (i, n): (usize, usize),
     extra: Value,
@@ -74,6 +84,7 @@ pub(crate) fn write_manifest(
             .unwrap_or_else(|_| path.to_path_buf())
             .display()
             .to_string(),
+        "deck_fingerprint": deck_fingerprint(deck_text),
         "set": overrides,
         "shard": [i, n],
     });
@@ -104,6 +115,7 @@ pub(crate) fn check_shard_set(dirs: &[PathBuf], manifests: &[Value]) -> Result<u
     for key in [
         "command",
         "deck",
+        "deck_fingerprint",
         "set",
         "vary",
         "cases",
@@ -111,8 +123,16 @@ pub(crate) fn check_shard_set(dirs: &[PathBuf], manifests: &[Value]) -> Result<u
         "flexsens_version",
     ] {
         if let Some(k) = manifests.iter().position(|m| m[key] != first[key]) {
+            let why = if key == "deck_fingerprint" {
+                format!(
+                    "the deck {} changed between them: run every shard on one version of it",
+                    first["deck"].as_str().unwrap_or("?")
+                )
+            } else {
+                format!("their `{key}` differ")
+            };
             return Err(usage(format!(
-                "{} and {} are shards of different runs (their `{key}` differ)",
+                "{} and {} are shards of different runs ({why})",
                 dirs[0].display(),
                 dirs[k].display()
             )));

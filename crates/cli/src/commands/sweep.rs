@@ -393,7 +393,14 @@ pub fn run(
             .collect();
         write_atomic(&out.join(CASES_FILE), lines.as_bytes())?;
         let extra = serde_json::json!({ "vary": req.vary, "cases": n_cases });
-        write_manifest(&out, "sweep", path, overrides, shard, extra)?;
+        write_manifest(
+            &out,
+            "sweep",
+            (path, start.base.file_text()),
+            overrides,
+            shard,
+            extra,
+        )?;
     }
     let csv = summary_csv(&axes, &results, &case_dir);
     write_atomic(&summary_path, csv.as_bytes())?;
@@ -469,6 +476,7 @@ pub(crate) fn merge_shards(
             first.dir.display()
         )));
     }
+    check_case_results(&shards, n, n_cases, out)?;
     // every case once, from the shard it belongs to
     let mut merged: Vec<Option<CaseResult>> = (0..n_cases).map(|_| None).collect();
     for s in shards {
@@ -528,6 +536,37 @@ pub(crate) fn merge_shards(
         ),
         failed == 0,
     ))
+}
+
+/// Before anything moves: every case a shard lists as run has its complete results
+/// (`results.h5`), in its shard's directory or — merged before into `out` — there; a case
+/// whose directory is gone or incomplete is named with its shard (exit 1).
+fn check_case_results(
+    shards: &[Shard],
+    n: usize,
+    n_cases: usize,
+    out: &Path,
+) -> Result<(), CliError> {
+    for s in shards {
+        let i = s.manifest["shard"][0].as_u64().unwrap_or(0);
+        for r in s.results.iter().filter(|r| r.outcome.is_ok()) {
+            let name = case_name(r.index, n_cases);
+            let (from, to) = (s.dir.join(&name), out.join(&name));
+            let complete = |d: &Path| d.join("results.h5").is_file();
+            if !complete(&from) && !complete(&to) {
+                return Err(CliError::Runtime(format!(
+                    "{}: case {} of shard {i}/{n} ran, but neither {} nor {} holds its complete \
+                     results (results.h5): its directory was removed, moved by a merge into \
+                     another directory, or cut short; run the shard again",
+                    s.dir.display(),
+                    r.index + 1,
+                    from.display(),
+                    to.display()
+                )));
+            }
+        }
+    }
+    Ok(())
 }
 
 fn summary_csv(

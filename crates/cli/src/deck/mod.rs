@@ -158,7 +158,7 @@ impl Source {
     }
 
     /// The text as read from the file.
-    fn file_text(&self) -> &str {
+    pub fn file_text(&self) -> &str {
         self.original.as_deref().unwrap_or(&self.text)
     }
 

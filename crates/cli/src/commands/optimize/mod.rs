@@ -299,7 +299,14 @@ pub fn run(
         // complete (an interrupted one — Ctrl-C, a batch system's time limit — is not merged)
         if !interrupted {
             let extra = serde_json::json!({ "starts": n_starts });
-            super::shard::write_manifest(&out, "optimize", path, overrides, (i, n), extra)?;
+            super::shard::write_manifest(
+                &out,
+                "optimize",
+                (path, problem.src.file_text()),
+                overrides,
+                (i, n),
+                extra,
+            )?;
         }
         let text = format!(
             "shard {i}/{n}: {} of {n_starts} starts, {} evaluations{}; gather the shards with \
