@@ -67,6 +67,67 @@ fn rigid_slider_crank_follows_the_closed_form_over_two_revolutions() {
     );
 }
 
+/// A fixed-step run estimates each step's local error against the deck's tolerances: a step
+/// too long for them is warned about (and its largest ratio kept in results.h5), and the
+/// warning is right — that run is far from the closed form, while a step short enough for the
+/// tolerances runs without a word and follows it.
+#[test]
+fn a_fixed_step_too_long_for_the_tolerances_is_warned_about() {
+    let dir = tempfile::tempdir().unwrap();
+    let fixed = |step: &str, out: &std::path::Path| {
+        run(&[
+            "run",
+            deck("slider_crank_rigid.toml").to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--set",
+            "analysis.t_end=0.02",
+            "--set",
+            "analysis.integrator=\"fixed\"",
+            "--set",
+            &format!("analysis.step={step}"),
+            "--set",
+            "analysis.rtol=1e-6",
+            "--set",
+            "analysis.atol=1e-8",
+        ])
+    };
+    let error = |out: &std::path::Path| {
+        let (_, rows) = read_csv(&out.join("history.csv"));
+        rows.iter()
+            .map(|r| (r[2] - slider_exact(r[0]).0).abs())
+            .fold(0.0_f64, f64::max)
+    };
+    let (coarse, fine) = (dir.path().join("coarse"), dir.path().join("fine"));
+    let o = fixed("1e-4", &coarse);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("key `analysis.step`") && err.contains("misses the deck's local error"),
+        "{err}"
+    );
+    let o = fixed("5e-6", &fine);
+    let quiet = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success() && !quiet.contains("misses"), "{quiet}");
+    // against rtol = 1e-6 of the 0.456 m stroke scale
+    assert!(error(&coarse) > 1e-5, "coarse error {}", error(&coarse));
+    assert!(error(&fine) < 0.456e-6, "fine error {}", error(&fine));
+    if common::h5py_available() {
+        let ratio = |out: &std::path::Path| -> f64 {
+            let o = Command::new("python3")
+                .args([
+                    "-c",
+                    "import h5py,sys; print(h5py.File(sys.argv[1])['statistics'].attrs['max_error_ratio'])",
+                    out.join("results.h5").to_str().unwrap(),
+                ])
+                .output()
+                .unwrap();
+            String::from_utf8_lossy(&o.stdout).trim().parse().unwrap()
+        };
+        assert!(ratio(&coarse) > 1.0 && ratio(&fine) < 1.0);
+    }
+}
+
 #[test]
 fn json_summary_for_scripts() {
     let dir = tempfile::tempdir().unwrap();

@@ -91,6 +91,10 @@ pub struct BdfOptions {
     pub max_newton_iterations: usize,
     /// Recompute the Jacobian after this many steps even if Newton converges.
     pub jacobian_age: usize,
+    /// Fixed steps only: the `(rtol, atol)` the run is meant to meet. Each step's local error
+    /// is estimated against them as the adaptive control would (the steps do not change), and
+    /// the largest ratio is reported in [`Statistics::max_error_ratio`].
+    pub accuracy: Option<(f64, f64)>,
 }
 
 /// The order and step limits of a step control ([`Bdf::step_with`]).
@@ -127,6 +131,7 @@ impl BdfOptions {
             max_steps: 1_000_000,
             max_newton_iterations: 4,
             jacobian_age: JACOBIAN_AGE,
+            accuracy: None,
         }
     }
 
@@ -150,6 +155,7 @@ impl BdfOptions {
             max_steps: 10_000_000,
             max_newton_iterations: 30,
             jacobian_age: JACOBIAN_AGE,
+            accuracy: None,
         }
     }
 
@@ -162,12 +168,13 @@ impl BdfOptions {
             max_steps: 10_000_000,
             max_newton_iterations: 8,
             jacobian_age: JACOBIAN_AGE,
+            accuracy: None,
         }
     }
 }
 
 /// Work counters.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Statistics {
     /// Accepted steps.
     pub steps: usize,
@@ -184,6 +191,10 @@ pub struct Statistics {
     pub stability_limited: usize,
     /// Steps refused by [`OdeSystem::check_step`] (and retried).
     pub refused_steps: usize,
+    /// A fixed-step run with [`BdfOptions::accuracy`]: the largest estimated local error of a
+    /// step relative to those tolerances (above 1: the steps are too long for them); 0
+    /// otherwise.
+    pub max_error_ratio: f64,
 }
 
 /// Why integration stopped.
@@ -935,6 +946,7 @@ impl Bdf {
                 continue;
             };
             let mut err = self.local_error(k, t_new, &y_new, &y_pred, fixed);
+            self.observe_accuracy(k, t_new, &y_new, &y_pred);
             if !err.is_finite() {
                 return Err(self.fail(IntegrationFailure::NonFinite));
             }
@@ -1148,20 +1160,51 @@ impl Bdf {
     }
 
     /// The local error norm of the trial point `(t_new, y_new)` of order `k` (0 for fixed
-    /// steps; at the start, backward against explicit Euler).
+    /// steps).
     fn local_error(&self, k: usize, t_new: f64, y_new: &[f64], y_pred: &[f64], fixed: bool) -> f64 {
         if fixed {
             return 0.0;
         }
-        let y_ref = &self.hist[0].1;
+        self.wrms(
+            &self.error_estimate(k, t_new, y_new, y_pred),
+            &self.hist[0].1,
+        )
+    }
+
+    /// A fixed-step run with [`BdfOptions::accuracy`]: the trial point's estimated local error
+    /// against those tolerances, the largest kept in the statistics.
+    fn observe_accuracy(&mut self, k: usize, t_new: f64, y_new: &[f64], y_pred: &[f64]) {
+        let (StepControl::Fixed { .. }, Some((rtol, atol))) =
+            (&self.opts.control, self.opts.accuracy)
+        else {
+            return;
+        };
+        let e = self.error_estimate(k, t_new, y_new, y_pred);
+        let y = &self.hist[0].1;
+        let s: f64 = e
+            .iter()
+            .zip(y)
+            .map(|(&e, &y)| {
+                let w = rtol * y.abs() + atol;
+                (e / w) * (e / w)
+            })
+            .sum();
+        let ratio = (s / e.len().max(1) as f64).sqrt();
+        if ratio.is_finite() {
+            self.stats.max_error_ratio = self.stats.max_error_ratio.max(ratio);
+        }
+    }
+
+    /// The estimated local error of the trial point `(t_new, y_new)` of order `k`, per
+    /// component (at the start, backward against explicit Euler).
+    fn error_estimate(&self, k: usize, t_new: f64, y_new: &[f64], y_pred: &[f64]) -> Vec<f64> {
         if self.hist.len() < k + 1 {
             // start-up: backward vs explicit Euler, LTE ≈ ½ |difference|
-            let d: Vec<f64> = y_new
+            return y_new
                 .iter()
                 .zip(y_pred)
                 .map(|(a, b)| 0.5 * (a - b))
                 .collect();
-            return self.wrms(&d, y_ref);
         }
         // the divided difference of order k + 1 through the new point and the history
         let mut pn = vec![t_new];
@@ -1180,8 +1223,7 @@ impl Bdf {
             sum += 1.0 / (t_new - x);
         }
         let scale = prod / sum;
-        let e: Vec<f64> = dd.iter().map(|d| d * scale).collect();
-        self.wrms(&e, y_ref)
+        dd.iter().map(|d| d * scale).collect()
     }
 
     /// A trial step rejected by the error test (the `error_fails`-th in a row): the next step

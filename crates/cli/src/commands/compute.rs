@@ -60,6 +60,7 @@ pub(crate) fn compute(
             .map_err(|e| runtime(e.to_string()))?;
         (sim.outputs, sim.statistics, None)
     };
+    warn_fixed_step_accuracy(src, mech, &statistics);
     let values: Vec<Vec<f64>> = (0..mech.responses.len())
         .map(|i| outputs.iter().map(|o| mech.value(i, o)).collect())
         .collect();
@@ -83,6 +84,29 @@ pub(crate) fn compute(
         objectives,
         fd,
     })
+}
+
+/// A warning when a fixed-step run's estimated local error exceeds the deck's tolerances
+/// (`mbs::Statistics::max_error_ratio`): its results are not converged to them.
+fn warn_fixed_step_accuracy(src: &deck::Source, mech: &Mechanism, st: &mbs::Statistics) {
+    let (mbs::StepControl::Fixed { step, .. }, Some((rtol, atol))) =
+        (&mech.options.control, mech.options.accuracy)
+    else {
+        return;
+    };
+    if st.max_error_ratio > 1.0 {
+        src.warn(
+            None,
+            Some("analysis.step".into()),
+            format!(
+                "the fixed step of {step} s misses the deck's local error tolerances (rtol = \
+                 {rtol}, atol = {atol}) by up to {:.1} times, estimated as the adaptive \
+                 integrator estimates it: the results are not converged to those tolerances; \
+                 take a smaller step, or integrator = \"adaptive\"",
+                st.max_error_ratio
+            ),
+        );
+    }
 }
 
 #[cfg(test)]

@@ -111,7 +111,7 @@ pub(crate) fn results(src: &Source, mech: &Mechanism, c: &Computed) -> Group {
         outputs.iter().map(|o| o.energy.total()).collect(),
     )
     .units("J");
-    put_statistics(&mut g, c);
+    put_statistics(&mut g, mech, c);
     let vars = &mech.design.variables;
     let m = vars.len();
     if m > 0 {
@@ -239,8 +239,9 @@ fn put_bodies(g: &mut Group, mech: &Mechanism, outputs: &[mbs::Output]) {
     }
 }
 
-/// The integrator's counters as attributes of `/statistics`.
-fn put_statistics(g: &mut Group, c: &Computed) {
+/// The integrator's counters as attributes of `/statistics` (and, for a fixed-step run,
+/// `max_error_ratio`: its largest estimated local error relative to the deck's tolerances).
+fn put_statistics(g: &mut Group, mech: &Mechanism, c: &Computed) {
     let st = &c.statistics;
     let mut counters = vec![
         ("steps", st.steps),
@@ -263,6 +264,12 @@ fn put_statistics(g: &mut Group, c: &Computed) {
         g.group("statistics")
             .attrs
             .insert(k.into(), Attr::I64(v as i64));
+    }
+    // a fixed-step run: its largest estimated local error against the deck's tolerances
+    if mech.options.accuracy.is_some() {
+        g.group("statistics")
+            .attrs
+            .insert("max_error_ratio".into(), Attr::F64(st.max_error_ratio));
     }
 }
 

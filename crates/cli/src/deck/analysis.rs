@@ -221,6 +221,8 @@ fn integrator(
                 }
                 let mut o = BdfOptions::fixed(h, order.unwrap_or(2));
                 o.rtol = rtol.min(1e-10);
+                // the deck's tolerances: each step's local error is estimated against them
+                o.accuracy = Some((rtol, atol));
                 o.max_steps = max_steps;
                 o
             }
