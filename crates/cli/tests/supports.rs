@@ -329,6 +329,62 @@ fn strip_pinned_along_its_end_lines_bends_and_twists_as_a_beam() {
     assert!(previous < 1e-2, "torsion {previous:e}");
 }
 
+/// A strip held only in its deflection along both end lines, its in-plane rigid motions held
+/// at its two corners on one edge (the recipe of the error for unheld rigid motions), is a
+/// simply supported beam in bending — f_k = k² (π / 2L²) √(EI / ρA) — and in its plane a beam
+/// simply supported at those corners, f = (π / 2L²) √(E b² / 12ρ). `fix = "pinned"` on the end
+/// lines holds the in-plane motion along the whole lines instead: that in-plane mode is gone.
+/// Left out, the corners' supports are asked for by the error.
+#[test]
+fn strip_held_only_in_deflection_is_simply_supported() {
+    let (e, rho, l, b, h): (f64, f64, f64, f64, f64) = (70e9, 2700.0, 0.5, 0.04, 0.004);
+    let pi = std::f64::consts::PI;
+    let bending = pi / (2.0 * l * l) * (e * h * h / (12.0 * rho)).sqrt();
+    let in_plane = pi / (2.0 * l * l) * (e * b * b / (12.0 * rho)).sqrt();
+    let pinned = "supports = [\n  { plane = { x = 0.0 }, fix = \"pinned\" },\n  \
+                  { plane = { x = 0.5 }, fix = \"pinned\" },\n";
+    let deflection_only = "supports = [\n  { plane = { x = 0.0 }, fix = [\"uz\"] },\n  \
+                           { plane = { x = 0.5 }, fix = [\"uz\"] },\n";
+    assert!(STRIP.contains(pinned));
+    let base = STRIP.replace(pinned, deflection_only);
+    // node 0 is the corner (0, 0), node 80 the corner (L, 0) of an 80 × 4 mesh
+    let held = base.replace(
+        deflection_only,
+        &format!(
+            "{deflection_only}  {{ nodes = [0], fix = [\"ux\", \"uy\"] }},\n  \
+             {{ nodes = [80], fix = [\"uy\"] }},\n"
+        ),
+    );
+    let sets = ["body.strip.elements=[80, 4]", "body.strip.modes=12"];
+    let nearest = |got: &[f64], f: f64| {
+        got.iter()
+            .map(|g| g / f - 1.0)
+            .min_by(|a, b| a.abs().total_cmp(&b.abs()))
+            .unwrap()
+    };
+    let got = frequencies(&held, &sets, "strip");
+    for k in 1..=3 {
+        let e = nearest(&got, (k * k) as f64 * bending);
+        // measured 4e-5, 4e-4, 3.0e-3 (80 elements along)
+        assert!(e.abs() < 5e-3, "bending mode {k}: {e:e}");
+    }
+    // measured −1.7 %: the shear of a strip 0.08 of its length wide
+    let e = nearest(&got, in_plane);
+    assert!(e.abs() < 3e-2, "in-plane mode: {e:e}");
+    let got = frequencies(STRIP, &sets, "strip");
+    assert!(
+        nearest(&got, in_plane).abs() > 5e-2,
+        "pinned lines hold the in-plane motion: {got:?}"
+    );
+    let (_d, err) = bad_deck(&base, |p| with_deck("modes", p, &[]));
+    assert!(
+        err.contains("rigid-body motion(s) free")
+            && err.contains("fix = [\"ux\", \"uy\"]")
+            && !err.contains("free-free"),
+        "{err}"
+    );
+}
+
 /// In a mechanism the supports define the body's mode basis: the paper's beam slider-crank with
 /// its rod's pinned ends stated as supports runs as with `reference = "pinned-ends"` (the frame
 /// sits at the node nearest the centre of mass instead of an end, so the curves agree to the

@@ -601,8 +601,11 @@ pub fn modal_analysis(
             .count();
         if free > 0 {
             return Err(FemError::Support(format!(
-                "the supports leave {free} rigid-body motion(s) free (zero frequencies): fix \
-                 more dof, or use the free-free reference condition"
+                "the supports leave {free} rigid-body motion(s) free (zero frequencies): every \
+                 rigid motion needs a support that holds it. A support that holds only the \
+                 deflection (`uz` along a line) leaves the in-plane translations and the \
+                 rotation about the normal free: hold them at two nodes of one line, e.g. \
+                 `fix = [\"ux\", \"uy\"]` at one end of it and `fix = [\"uy\"]` at the other"
             )));
         }
     }
