@@ -80,3 +80,56 @@ fn a_body_moved_to_a_design_is_the_body_validated_there() {
         }
     }
 }
+
+/// A variable moves each ply it names to its own value as written at the design, bit for bit
+/// the laminate of the deck written there (`DesignVariable::overrides`): plies of different
+/// angles and factors, in a plain and a symmetric laminate, angles and thicknesses.
+#[test]
+fn a_variable_moves_each_ply_to_the_deck_written_there() {
+    for symmetric in [false, true] {
+        for (kind, key) in [("ply-angle", "angle"), ("ply-thickness", "thickness")] {
+            let text = format!(
+                "[material.m]\nE = 70e9\nnu = 0.3\ndensity = 2700.0\n\n[laminate.l]\n\
+                 symmetric = {symmetric}\nplies = [\n\
+                 {{ material = \"m\", thickness = 1.0e-3, angle = 10.0 }},\n\
+                 {{ material = \"m\", thickness = 2.0e-3, angle = 25.0 }},\n\
+                 {{ material = \"m\", thickness = 1.5e-3, angle = -40.0 }},\n\
+                 {{ material = \"m\", thickness = 0.5e-3, angle = 70.0 }},\n]\n\n\
+                 [design.v]\nkind = \"{kind}\"\nlaminate = \"l\"\nplies = [0, 3]\n\
+                 factors = [1.0, -2.0]\n"
+            );
+            let src = Source::new("plies.toml", text);
+            let raw = src.parse().unwrap();
+            let lam = validate_laminates(&src, &raw).unwrap();
+            let design = validate_design(&src, &raw, &lam).unwrap();
+            let v = &design.variables[0];
+            let b = if key == "angle" {
+                v.value * 1.3 + 7.0
+            } else {
+                v.value * 1.1
+            };
+            let mut moved = lam.clone();
+            v.apply(&mut moved, b).unwrap();
+            let there = src.edited(&v.overrides(b)).unwrap();
+            let there = validate_laminates(&there, &there.parse().unwrap()).unwrap();
+            let plies = |m: &LaminateModel| -> Vec<(u64, u64)> {
+                m.laminates["l"]
+                    .stack
+                    .plies()
+                    .iter()
+                    .map(|p| (p.angle.to_bits(), p.thickness.to_bits()))
+                    .collect()
+            };
+            assert_eq!(
+                plies(&moved),
+                plies(&there),
+                "{kind}, symmetric {symmetric}"
+            );
+            assert_ne!(
+                plies(&moved),
+                plies(&lam),
+                "{kind}: the variable moves the plies"
+            );
+        }
+    }
+}

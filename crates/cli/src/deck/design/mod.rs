@@ -240,7 +240,6 @@ impl DesignVariable {
             .get_mut(laminate)
             .expect("a validated variable names a laminate of the model");
         let plies = def.stack.plies();
-        let n = plies.len();
         let mut angles: Vec<f64> = plies.iter().map(|p| p.angle).collect();
         let mut thicknesses: Vec<f64> = plies.iter().map(|p| p.thickness).collect();
         let moved = if thickness {
@@ -251,17 +250,18 @@ impl DesignVariable {
         // each ply as the deck would write it at `b` (`x_i0 + f_i (b − b0)`, degrees or
         // metres), taken as validation takes a written value: the same bits as the deck with
         // the variable written at `b`; the mirrored ply of a symmetric laminate too
-        for &(i, x0, f) in deck_plies {
+        // (`stack_plies` holds one stack ply per deck ply, or two in a symmetric laminate: the
+        // ply and its mirror, in the order of `deck_plies`)
+        let per_ply = stack_plies.len() / deck_plies.len().max(1);
+        for (k, &(_, x0, f)) in deck_plies.iter().enumerate() {
             let written = x0 + f * (b - self.value);
             let value = if thickness {
                 written
             } else {
                 written.to_radians()
             };
-            for &(p, _) in stack_plies {
-                if p == i || p == n - 1 - i {
-                    moved[p] = value;
-                }
+            for &(p, _) in &stack_plies[per_ply * k..per_ply * (k + 1)] {
+                moved[p] = value;
             }
         }
         def.stack = def.stack.with_plies(&angles, &thicknesses)?;
