@@ -214,6 +214,8 @@ pub fn geometry(
     })
 }
 
+/// Body `name` ready for the finite-element analysis: its mesh, element properties, modal
+/// options and design (with the derivatives `request` asks for).
 pub fn build(
     src: &Source,
     name: &str,
