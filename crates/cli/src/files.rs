@@ -22,7 +22,7 @@ static HELD: std::sync::Mutex<std::collections::BTreeSet<PathBuf>> =
 /// flexsens writing into the same directory fails at once (exit 1) naming the holder, instead
 /// of mixing its files with the first's. The lock is on `DIR/.flexsens.lock` (which holds the
 /// holder's process id and command, and stays after it), released when dropped or when the
-/// process ends, however it ends.
+/// process ends, however it ends. On a file system without locks the command writes unguarded.
 pub struct DirLock {
     _file: Option<std::fs::File>,
     held: Option<PathBuf>,
@@ -64,8 +64,13 @@ impl DirLock {
                     }
                 )));
             }
-            Err(std::fs::TryLockError::Error(e)) => {
-                return Err(failure(&path, "lock", e));
+            // a file system without locks (some network ones): write without the guard rather
+            // than refuse to write at all
+            Err(std::fs::TryLockError::Error(_)) => {
+                return Ok(DirLock {
+                    _file: None,
+                    held: None,
+                });
             }
         }
         // the holder, for the message of a second writer
