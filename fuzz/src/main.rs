@@ -493,6 +493,7 @@ fn main() -> std::process::ExitCode {
         steps: 10_000,
         cases: 10,
         input_bytes: 1 << 22,
+        memory: 1 << 30,
     });
     panic::set_hook(Box::new(|info| {
         let at = info

@@ -44,6 +44,11 @@ struct Cli {
     #[arg(long, value_name = "BYTES", global = true, default_value_t = Limits::DEFAULT.input_bytes,
           value_parser = limits::parse_bytes)]
     max_input_bytes: u64,
+    /// Largest memory an analysis may need by its estimate, in bytes (a cross-section's
+    /// warping analysis: about 32 KiB per element).
+    #[arg(long, value_name = "BYTES", global = true, default_value_t = Limits::DEFAULT.memory,
+          value_parser = limits::parse_bytes)]
+    max_memory: u64,
 }
 
 #[derive(Subcommand)]
@@ -239,6 +244,7 @@ fn main() -> ExitCode {
         steps: cli.max_steps,
         cases: cli.max_cases,
         input_bytes: cli.max_input_bytes,
+        memory: cli.max_memory,
     });
     // text for stdout and the exit code, or an error
     let result: Result<(String, u8), CliError> = match &cli.command {
