@@ -36,6 +36,7 @@ fn the_largest_limits_refuse_nothing() {
         "--max-steps",
         "--max-cases",
         "--max-input-bytes",
+        "--max-memory",
     ] {
         let o = run(&[
             "check",
