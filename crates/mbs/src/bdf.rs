@@ -831,16 +831,7 @@ impl Bdf {
     }
 
     fn wrms(&self, e: &[f64], y: &[f64]) -> f64 {
-        let s: f64 = e
-            .iter()
-            .zip(y)
-            .zip(&self.atol)
-            .map(|((&e, &y), &a)| {
-                let w = self.opts.rtol * y.abs() + a;
-                (e / w) * (e / w)
-            })
-            .sum();
-        (s / e.len().max(1) as f64).sqrt()
+        weighted_rms(e, y, self.opts.rtol, self.atol.iter().copied())
     }
 
     fn refresh_jacobian(
@@ -1180,16 +1171,7 @@ impl Bdf {
             return;
         };
         let e = self.error_estimate(k, t_new, y_new, y_pred);
-        let y = &self.hist[0].1;
-        let s: f64 = e
-            .iter()
-            .zip(y)
-            .map(|(&e, &y)| {
-                let w = rtol * y.abs() + atol;
-                (e / w) * (e / w)
-            })
-            .sum();
-        let ratio = (s / e.len().max(1) as f64).sqrt();
+        let ratio = weighted_rms(&e, &self.hist[0].1, rtol, std::iter::repeat(atol));
         if ratio.is_finite() {
             self.stats.max_error_ratio = self.stats.max_error_ratio.max(ratio);
         }
@@ -1551,6 +1533,21 @@ impl Bdf {
         }
         Ok(out)
     }
+}
+
+/// The weighted root mean square of the error `e` of the state `y`: each component over
+/// `rtol |y_i| + atol_i`.
+fn weighted_rms(e: &[f64], y: &[f64], rtol: f64, atol: impl Iterator<Item = f64>) -> f64 {
+    let s: f64 = e
+        .iter()
+        .zip(y)
+        .zip(atol)
+        .map(|((&e, &y), a)| {
+            let w = rtol * y.abs() + a;
+            (e / w) * (e / w)
+        })
+        .sum();
+    (s / e.len().max(1) as f64).sqrt()
 }
 
 /// Error estimate of order `q` for the just-accepted point `(t_new, y_new)`, with the
