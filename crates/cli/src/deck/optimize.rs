@@ -11,7 +11,7 @@ use toml::Spanned;
 
 use super::check::suggestion;
 use super::check::{finite, required, span};
-use super::design::{DesignDef, Target};
+use super::design::DesignDef;
 use super::laminates::LaminateModel;
 use super::raw::RawConstraint;
 use super::{DeckError, RawDeck, Source};
@@ -251,11 +251,7 @@ pub fn validate(
         // a bound must be a design the model can take: a positive mass, inertia and thickness,
         // a material that stays physical (between the bounds too: each moves linearly)
         for (key, x) in [("lower", lo), ("upper", hi)] {
-            let rigid = matches!(
-                v.target,
-                Target::RigidMass { .. } | Target::RigidInertia { .. }
-            );
-            let bad = if rigid {
+            let bad = if v.target.rigid().is_some() {
                 (x <= 0.0).then(|| format!("a {} must be positive", v.describe()))
             } else {
                 v.apply(&mut laminates.clone(), x)

@@ -266,12 +266,8 @@ pub(crate) fn set_rigid<P: sens::Scalar>(
     target: &Target,
     value: P,
 ) {
-    let (body, axis) = match target {
-        Target::RigidMass { body } => (body, None),
-        Target::RigidInertia { body, axis, .. } => (body, Some(*axis)),
-        Target::PlyAngle { .. } | Target::PlyThickness { .. } | Target::Material { .. } => {
-            return;
-        }
+    let Some((body, axis)) = target.rigid() else {
+        return;
     };
     if let Body::Rigid(r) = model.body_mut(bodies[body].id) {
         match axis {
@@ -440,15 +436,13 @@ impl Study {
             })?;
         }
         for (v, &bj) in self.design.variables.iter().zip(b) {
-            let (body, axis) = match &v.target {
-                Target::RigidMass { body } => (body, None),
-                Target::RigidInertia { body, axis, .. } => (body, Some(*axis)),
-                _ => continue,
+            let Some((body, axis)) = v.target.rigid() else {
+                continue;
             };
             let r = study
                 .rigid_bodies
                 .iter_mut()
-                .find(|r| &r.name == body)
+                .find(|r| r.name == body)
                 .expect("a validated variable names a rigid body");
             match axis {
                 None => r.mass = bj,
@@ -519,10 +513,7 @@ impl Mechanism {
     /// need responses that have them.
     fn check_design(&self, src: &Source) -> Result<(), DeckError> {
         for (j, v) in self.design.variables.iter().enumerate() {
-            let rigid = matches!(
-                v.target,
-                Target::RigidMass { .. } | Target::RigidInertia { .. }
-            );
+            let rigid = v.target.rigid().is_some();
             if !rigid && !self.flexible.iter().any(|p| p.built.design.depends_on(j)) {
                 return Err(src.error(
                     self.spans.variables.get(&v.name).cloned(),

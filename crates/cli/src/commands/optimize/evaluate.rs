@@ -99,12 +99,13 @@ impl Problem<'_> {
                         .variables
                         .iter()
                         .zip(x)
-                        .map(|(v, &xj)| match &v.target {
-                            Target::RigidMass { body: b } if b == body => {
+                        .map(|(v, &xj)| {
+                            if v.target.rigid() == Some((body, None)) {
                                 mass = xj;
                                 1.0
+                            } else {
+                                0.0
                             }
-                            _ => 0.0,
                         })
                         .collect();
                     (mass, grad, "kg")

@@ -26,7 +26,7 @@ use nalgebra::{DMatrix, DVector};
 use sens::Dual;
 
 use crate::deck::bodies::BodyDef;
-use crate::deck::design::{DesignDef, DesignVariable, Target, validate as validate_design};
+use crate::deck::design::{DesignDef, DesignVariable, validate as validate_design};
 use crate::deck::laminates::{LaminateModel, validate as validate_laminates};
 use crate::deck::optimize::{Bound, OptimizeDef, Quantity, validate as validate_optimize};
 use crate::deck::{self, Source, bodies, mechanism};
