@@ -27,7 +27,7 @@ pub enum Target {
     },
     /// An elastic constant or the density of a material: `law` says how its nine elastic
     /// constants (`OrthotropicMaterial::constants` order) and its density move with the
-    /// variable ([`material_constants`]). Every ply and section region of the material
+    /// variable ([`material_constants`](super::material_constants)). Every ply and section region of the material
     /// follows. `constant` is the deck's name of the constant (`"E1"`, `"nu12"`, `"E"`,
     /// `"nu"`, `"density"`).
     Material {
