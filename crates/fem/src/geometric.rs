@@ -11,6 +11,12 @@
 //! the multibody layer combines them with the current parameters at every evaluation (the
 //! "standard input data" approach of substructure codes, e.g. Wallrapp 1994).
 //!
+//! The nodal matrices are also the beam's second-order displacement field: `−nodal[3k + i]`
+//! is component `i` of `Q_k`, the foreshortening `u_k = ½ Q_k(w, w)` of node `k` towards the
+//! clamp along its path (each element keeps its length to second order while it bends), whose
+//! work under a force `F` at the node is `−½ wᵀ K_G(F) w`. The multibody layer uses them that
+//! way (docs/geometric-stiffening.md), and the inertia cases are their mass-weighted sums.
+//!
 //! The statics are those of the beam mesh clamped at one node (any node of an isostatic support
 //! gives the same stresses under self-equilibrated loads): on a tree-shaped mesh the axial force
 //! of an element is the axial component of the loads beyond it, so no stiffness enters and the
@@ -44,7 +50,8 @@ pub struct GeometricStiffness<S: Scalar> {
     /// Per product `ω_i ω_j` of the frame's angular velocity, at `3i + j` (symmetric pairs
     /// share the load equally).
     pub spin: Vec<DMatrix<S>>,
-    /// Per component `i` of a force at node `k` (N), at `3k + i` (zero at the clamp).
+    /// Per component `i` of a force at node `k` (N), at `3k + i` (zero at the clamp); minus
+    /// component `i` of the node's second-order field `Q_k` (see the module doc).
     pub nodal: Vec<DMatrix<S>>,
 }
 

@@ -58,15 +58,18 @@ impl<P: Scalar> RigidBody<P> {
 /// inertias, evaluated at the deformed nodal positions; the elastic and damping forces are
 /// `Λ w` and `diag(2ζω) ẇ`.
 ///
-/// With [`FlexibleBody::geometric`] the modal stiffness also carries the geometric stiffness of
-/// the body's current axial forces (stress stiffening, docs/geometric-stiffening.md): `K_G w`
-/// with `K_G` linear in the frame's accelerations, its angular velocity and the joint and
-/// applied forces at the body's nodes.
+/// With [`FlexibleBody::geometric`] the deformation field carries its second-order part, the
+/// foreshortening of the beams (docs/geometric-stiffening.md): `u' = X w + ½ Q(w, w)`, with
+/// `Q_k,i = −nodal[3k + i]` of the [`GeometricStiffness`]. It enters the nodes' and markers'
+/// positions, the mass matrix and the inertia forces, and the Jacobians through which joint
+/// and applied forces act, so the geometric stiffness of the body's axial forces (inertia,
+/// joints, applied loads) follows from the same field.
 #[derive(Clone, Debug)]
 pub struct FlexibleBody<P: Scalar> {
     pub name: String,
     pub modal: ModalBody<P>,
-    /// Modal geometric stiffness for unit load parameters (`None`: linear floating frame).
+    /// The second-order field of the beams, as the modal geometric stiffness of unit nodal
+    /// forces (`None`: the linear floating frame).
     pub geometric: Option<Box<GeometricStiffness<P>>>,
 }
 
@@ -79,7 +82,8 @@ impl<P: Scalar> FlexibleBody<P> {
         }
     }
 
-    /// The same body with geometric stiffening ([`fem::geometric_stiffness`] of its modes).
+    /// The same body with its second-order field and so geometric stiffening
+    /// ([`fem::geometric_stiffness`] of its modes).
     pub fn with_geometric_stiffness(mut self, g: GeometricStiffness<P>) -> Self {
         self.geometric = Some(Box::new(g));
         self
@@ -180,6 +184,51 @@ pub(crate) fn mode_vec<P: Scalar, S: Scalar + From<P>>(
     )
 }
 
+/// The second-order displacement of node `k` of a body with field `g` (docs/geometric-stiffening.md)
+/// at modal coordinates `w` and rates `wd`: with `Q_k,i = −nodal[3k + i]`,
+/// - `half`: `½ Q_k(w, w)`, the node's foreshortening (body components);
+/// - `columns[j]`: `Q_k(w)_j = Σ_l Q_k,jl w_l`, what the mode columns of the node gain
+///   (`∂u'/∂w_j = X_j + Q_k(w)_j`), so that the node's rate gains `Σ_j columns[j] ẇ_j`;
+/// - `rates`: `Q_k(ẇ, ẇ)`, its acceleration at zero modal accelerations.
+pub(crate) struct SecondOrderNode<S: Scalar> {
+    pub half: Vector3<S>,
+    pub columns: Vec<Vector3<S>>,
+    pub rates: Vector3<S>,
+}
+
+pub(crate) fn second_order_node<P: Scalar, S: Scalar + From<P>>(
+    g: &GeometricStiffness<P>,
+    k: usize,
+    w: &[S],
+    wd: &[S],
+) -> SecondOrderNode<S> {
+    let nm = g.n_modes;
+    let mut columns = vec![Vector3::<S>::zeros(); nm];
+    let mut rates = Vector3::<S>::zeros();
+    for i in 0..3 {
+        let q = &g.nodal[3 * k + i];
+        for j in 0..nm {
+            let (mut c, mut r) = (S::zero(), S::zero());
+            for l in 0..nm {
+                let x: S = lift(q[(j, l)]);
+                c -= x * w[l];
+                r -= x * wd[l];
+            }
+            columns[j][i] = c;
+            rates[i] += r * wd[j];
+        }
+    }
+    let mut half = Vector3::<S>::zeros();
+    for (j, c) in columns.iter().enumerate() {
+        half += c * (w[j] * S::from_f64(0.5));
+    }
+    SecondOrderNode {
+        half,
+        columns,
+        rates,
+    }
+}
+
 /// Body pose read from the body's coordinate slice.
 pub(crate) struct Pose<S: Scalar> {
     pub r: Vector3<S>,
@@ -228,8 +277,12 @@ pub(crate) fn body_dynamics<P: Scalar, S: Scalar + From<P>>(
             }
         }
         Body::Flexible(b) => {
-            let inv = invariants.get_or_init(|| ModalInvariants::new(&b.modal));
             let Pose { a, .. } = pose(q);
+            if let Some(second_order) = &b.geometric {
+                second_order_dynamics(&b.modal, second_order, &a, q, v, g, mass, off, force);
+                return;
+            }
+            let inv = invariants.get_or_init(|| ModalInvariants::new(&b.modal));
             flexible_dynamics(&b.modal, inv, &a, q, v, g, mass, off, force);
         }
     }
@@ -435,6 +488,115 @@ fn flexible_dynamics<P: Scalar, S: Scalar + From<P>>(
     elastic_forces(modal, w, wd, &mut force[off + 6..off + 6 + nm]);
 }
 
+/// The mass matrix block and generalised forces of a flexible body with a second-order field
+/// `u' = X w + ½ Q(w, w)`: the nodal sums of Eq. (2) at the field's positions, node by node
+/// and exact in `w` (a truncation of the field's terms would leave the equations of motion
+/// without an energy they conserve, which lets a large deflection run away). With the mode
+/// columns `X̃ = X + Q(w)` of the field, each node's acceleration is
+/// `r̈ + A(α × u + ω × (ω × u) + 2 ω × u̇ + X̃ ẅ + Q(ẇ, ẇ))`, and its rotary inertia follows the
+/// linear rotations as in [`flexible_dynamics`].
+#[allow(clippy::too_many_arguments)]
+fn second_order_dynamics<P: Scalar, S: Scalar + From<P>>(
+    modal: &ModalBody<P>,
+    field: &GeometricStiffness<P>,
+    a: &Matrix3<S>,
+    q: &[S],
+    v: &[S],
+    g: Vector3<S>,
+    mass: &mut DMatrix<S>,
+    off: usize,
+    force: &mut [S],
+) {
+    let nm = modal.n_modes();
+    let w = &q[7..7 + nm];
+    let wd = &v[6..6 + nm];
+    let om = vec3(&v[3..6]);
+    let two = S::from_f64(2.0);
+    let g_body = mtv(a, &g);
+    let mut total = S::zero();
+    let mut first = Vector3::<S>::zeros(); // Σ m u
+    let mut m_oo = Matrix3::<S>::zeros();
+    let mut m_rw = vec![Vector3::<S>::zeros(); nm]; // Σ m X̃_j
+    let mut m_ow = vec![Vector3::<S>::zeros(); nm];
+    let mut m_ww = DMatrix::<S>::zeros(nm, nm);
+    let mut qc = Vector3::<S>::zeros(); // Σ m c
+    let mut s_o = Vector3::<S>::zeros(); // Σ m u × c
+    let mut hj = Vector3::<S>::zeros(); // Σ μ ∘ (ω + θ̇)
+    let mut s_w = vec![S::zero(); nm]; // Σ m X̃_j · (g' − c)
+    let mut x = vec![Vector3::<S>::zeros(); nm];
+    let mut t = vec![Vector3::<S>::zeros(); nm];
+    for k in 0..modal.n_nodes() {
+        let mk: S = lift(modal.node_masses[k]);
+        let jk: Vector3<S> = modal.node_inertias[k].map(lift);
+        let second = second_order_node(field, k, w, wd);
+        let mut u: Vector3<S> = vec3f(&modal.node_positions[k]);
+        u += second.half;
+        let mut ud = Vector3::<S>::zeros();
+        let mut th_d = Vector3::<S>::zeros();
+        for j in 0..nm {
+            x[j] = mode_vec::<P, S>(modal, k, j, false) + second.columns[j];
+            t[j] = mode_vec(modal, k, j, true);
+            u += mode_vec::<P, S>(modal, k, j, false) * w[j];
+            ud += x[j] * wd[j];
+            th_d += t[j] * wd[j];
+        }
+        total += mk;
+        first += u * mk;
+        let ut = skew(&u);
+        m_oo += ut.transpose() * ut * mk;
+        for i in 0..3 {
+            m_oo[(i, i)] += jk[i];
+        }
+        // the node's acceleration at zero accelerations, beyond the frame's r̈
+        let c = om.cross(&om.cross(&u)) + om.cross(&ud) * two + second.rates;
+        qc += c * mk;
+        s_o += u.cross(&c) * mk;
+        hj += (om + th_d).component_mul(&jk);
+        let gc = (g_body - c) * mk;
+        for j in 0..nm {
+            m_rw[j] += x[j] * mk;
+            m_ow[j] += u.cross(&x[j]) * mk + t[j].component_mul(&jk);
+            s_w[j] += x[j].dot(&gc);
+            for l in j..nm {
+                m_ww[(j, l)] += x[j].dot(&x[l]) * mk + t[j].dot(&t[l].component_mul(&jk));
+            }
+        }
+    }
+    let a_first = a * skew(&first); // A Σ m ũ
+    for i in 0..3 {
+        mass[(off + i, off + i)] = total;
+        for k in 0..3 {
+            mass[(off + i, off + 3 + k)] = -a_first[(i, k)];
+            mass[(off + 3 + k, off + i)] = -a_first[(i, k)];
+            mass[(off + 3 + i, off + 3 + k)] = m_oo[(i, k)];
+        }
+    }
+    for j in 0..nm {
+        let acol = mv(a, &m_rw[j]);
+        for i in 0..3 {
+            mass[(off + i, off + 6 + j)] = acol[i];
+            mass[(off + 6 + j, off + i)] = acol[i];
+            mass[(off + 3 + i, off + 6 + j)] = m_ow[j][i];
+            mass[(off + 6 + j, off + 3 + i)] = m_ow[j][i];
+        }
+        for l in j..nm {
+            mass[(off + 6 + j, off + 6 + l)] = m_ww[(j, l)];
+            mass[(off + 6 + l, off + 6 + j)] = m_ww[(j, l)];
+        }
+    }
+    let s_r = mv(a, &qc);
+    let s_om = s_o + om.cross(&hj);
+    let gu = first.cross(&g_body);
+    for i in 0..3 {
+        force[off + i] += g[i] * total - s_r[i];
+        force[off + 3 + i] += gu[i] - s_om[i];
+    }
+    for j in 0..nm {
+        force[off + 6 + j] += s_w[j];
+    }
+    elastic_forces(modal, w, wd, &mut force[off + 6..off + 6 + nm]);
+}
+
 /// Subtract the elastic and damping forces `K_r w + C_r ẇ` of the modal coordinates `w` and
 /// rates `wd` from `force`: diagonal (`eigenvalues`, `modal_damping`) unless the body carries
 /// full modal matrices.
@@ -633,6 +795,135 @@ mod tests {
         let (mut m2, mut f2) = (DMatrix::zeros(n, n), vec![S::zero(); n]);
         nodal_dynamics(modal, q, v, &gravity, &mut m2, 0, &mut f2);
         ((m1, f1), (m2, f2))
+    }
+
+    /// An arbitrary second-order field of [`body`]'s nodes (symmetric in the mode pair).
+    fn field(modal: &ModalBody<f64>) -> GeometricStiffness<f64> {
+        let nm = modal.n_modes();
+        let zero = || DMatrix::zeros(nm, nm);
+        let nodal = (0..3 * modal.n_nodes())
+            .map(|r| {
+                DMatrix::from_fn(nm, nm, |j, l| {
+                    0.8 * ((r * 5 + (j + l) * 3 + j * l) as f64 * 0.61).cos()
+                })
+            })
+            .collect();
+        GeometricStiffness {
+            n_modes: nm,
+            clamp: 0,
+            acceleration: [zero(), zero(), zero()],
+            angular_acceleration: [zero(), zero(), zero()],
+            spin: vec![zero(); 9],
+            nodal,
+        }
+    }
+
+    /// The mass matrix and forces of `body` with second-order field `field` at `(q, v)`.
+    fn with_field<S: Scalar + From<f64>>(
+        modal: &ModalBody<f64>,
+        field: &GeometricStiffness<f64>,
+        q: &[S],
+        v: &[S],
+        gravity: &Vector3<f64>,
+    ) -> Dynamics<S> {
+        let n = 6 + modal.n_modes();
+        let body = Body::Flexible(
+            FlexibleBody::new("rod", modal.clone()).with_geometric_stiffness(field.clone()),
+        );
+        let (mut m, mut f) = (DMatrix::zeros(n, n), vec![S::zero(); n]);
+        body_dynamics(&body, &OnceLock::new(), q, v, gravity, &mut m, 0, &mut f);
+        (m, f)
+    }
+
+    /// A zero second-order field takes the node-by-node path: it gives what the invariants give.
+    #[test]
+    fn a_zero_field_gives_the_linear_dynamics() {
+        let modal = body();
+        let mut zero = field(&modal);
+        zero.nodal.iter_mut().for_each(|k| k.fill(0.0));
+        let (q, v) = state(modal.n_modes());
+        let gravity = Vector3::new(0.0, -9.81, 1.0);
+        let ((m1, f1), _) = both(&modal, &q, &v);
+        let (m2, f2) = with_field(&modal, &zero, &q, &v, &gravity);
+        assert!((&m1 - &m2).amax() <= 1e-14 * m1.amax());
+        let scale = f1.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+        for (a, b) in f1.iter().zip(&f2) {
+            assert!((a - b).abs() <= 1e-13 * scale, "{a} vs {b}");
+        }
+    }
+
+    /// With a second-order field, `vᵀ M v / 2` is the kinetic energy of the lumped masses at
+    /// the field's velocities `ṙ + A (ω × u + (X + Q(w)) ẇ)`, and the inertia forces do no work
+    /// on the body's own motion: `vᵀ f = −½ vᵀ Ṁ v` (`Ṁ` along the motion, from dual numbers),
+    /// which is what makes the kinetic energy a conserved quantity of the free body.
+    #[test]
+    fn second_order_field_keeps_the_kinetic_energy_and_its_balance() {
+        let mut modal = body();
+        // no elastic or damping forces: only inertia
+        modal.eigenvalues.fill(0.0);
+        modal.modal_damping.fill(0.0);
+        let g = field(&modal);
+        let nm = modal.n_modes();
+        let (q, v) = state(nm);
+        let none = Vector3::zeros();
+        let (m, f) = with_field(&modal, &g, &q, &v, &none);
+        let vv = nalgebra::DVector::from_column_slice(&v);
+        let t = 0.5 * vv.dot(&(&m * &vv));
+        let a = pose(&q).a;
+        let om = vec3(&v[3..6]);
+        let (w, wd) = (&q[7..], &v[6..]);
+        let mut expected = 0.0;
+        for k in 0..modal.n_nodes() {
+            let second = second_order_node(&g, k, w, wd);
+            let mut u = modal.node_positions[k] + second.half;
+            let mut ud = Vector3::zeros();
+            let mut thd = Vector3::zeros();
+            for j in 0..nm {
+                let x: Vector3<f64> = mode_vec(&modal, k, j, false);
+                let r: Vector3<f64> = mode_vec(&modal, k, j, true);
+                u += x * w[j];
+                ud += (x + second.columns[j]) * wd[j];
+                thd += r * wd[j];
+            }
+            let vel = vec3(&v[0..3]) + a * (om.cross(&u) + ud);
+            let spin = om + thd;
+            expected += 0.5 * modal.node_masses[k] * vel.norm_squared()
+                + 0.5 * spin.dot(&spin.component_mul(&modal.node_inertias[k]));
+        }
+        assert!(
+            (t - expected).abs() <= 1e-13 * expected,
+            "{t} vs {expected}"
+        );
+        // Ṁ along q̇ = (ṙ, ½ Lᵀ ω', ẇ)
+        let p = Vector4::new(q[3], q[4], q[5], q[6]);
+        let pd = crate::kin::l_matrix(&p).transpose() * om * 0.5;
+        let mut qd = v[0..3].to_vec();
+        qd.extend(pd.iter());
+        qd.extend_from_slice(wd);
+        let qs: Vec<Dual<1>> = q
+            .iter()
+            .zip(&qd)
+            .map(|(&x, &d)| Dual::new(x, [d]))
+            .collect();
+        let vs: Vec<Dual<1>> = v.iter().map(|&x| Dual::constant(x)).collect();
+        let (md, _) = with_field(&modal, &g, &qs, &vs, &none);
+        let m_dot = md.map(|x| x.d[0]);
+        let work: f64 = v.iter().zip(&f).map(|(a, b)| a * b).sum();
+        let half = 0.5 * vv.dot(&(&m_dot * &vv));
+        let scale = f.iter().zip(&v).map(|(a, b)| (a * b).abs()).sum::<f64>();
+        assert!(
+            (work + half).abs() <= 1e-12 * scale,
+            "vᵀf {work} against −½ vᵀṀv {}",
+            -half
+        );
+        // and the field shows in both
+        let (m0, f0) = {
+            let mut zero = g.clone();
+            zero.nodal.iter_mut().for_each(|k| k.fill(0.0));
+            with_field(&modal, &zero, &q, &v, &none)
+        };
+        assert!((&m - &m0).amax() > 1e-3 * m.amax());
+        assert!(f.iter().zip(&f0).any(|(a, b)| (a - b).abs() > 1e-3 * scale));
     }
 
     /// The invariants give the nodal sums' mass matrix and forces (values and tangents).

@@ -19,10 +19,11 @@
 //! - [`Model<P>`]: bodies ([`RigidBody`], [`FlexibleBody`] around a [`fem::ModalBody`]),
 //!   [`Joint`]s between [`Marker`]s, [`Force`]s, gravity, [`Baumgarte`] constants. `P` is the
 //!   scalar of the model data. State: `q = (r, p, w)` and `v = (ṙ, ω', ẇ)` per body
-//!   ([`Model::q_range`], [`Model::v_range`]). A flexible body may carry geometric stiffening
-//!   ([`FlexibleBody::with_geometric_stiffness`], docs/geometric-stiffening.md): `−K_G w` with
-//!   `K_G` linear in its frame's accelerations, spin and nodal joint and applied forces, so
-//!   Eq. (12) gains coupling entries in the acceleration and multiplier columns (still one LU).
+//!   ([`Model::q_range`], [`Model::v_range`]). A flexible body may carry the second-order part of its
+//!   deformation field, the beams' foreshortening ([`FlexibleBody::with_geometric_stiffness`],
+//!   docs/geometric-stiffening.md): `u' = X w + ½ Q(w, w)` in its nodes' and markers'
+//!   positions, its mass matrix and inertia forces, so that the geometric stiffness of its axial
+//!   forces (inertia, joints, applied loads) follows and Eq. (12) keeps its symmetric form.
 //! - Generic evaluation, any `S: Scalar + From<P>`: [`Model::kinematic_rates`] (`q̇`),
 //!   [`Model::mass_and_forces`], [`Model::constraints`] (`Φ`, `Φ̇`, `γ`, `Φ_v`),
 //!   [`Model::equations`] (the matrix and right-hand side of Eq. 12) and [`Model::residual`]
@@ -89,7 +90,6 @@ mod marker;
 mod model;
 mod response;
 mod sensitivity;
-mod stiffening;
 mod system;
 
 pub use bdf::{

@@ -5,7 +5,7 @@
 use nalgebra::{Matrix3, Vector3};
 use sens::Scalar;
 
-use crate::body::{Body, BodyId, Pose, mode_vec, vec3, vec3f};
+use crate::body::{Body, BodyId, Pose, mode_vec, second_order_node, vec3, vec3f};
 use crate::kin::{Cols, Jac, Kin3, mv};
 
 /// Where a marker sits on its body.
@@ -14,7 +14,8 @@ pub enum Site {
     /// A point fixed in the body frame (m). On a flexible body it follows the floating frame,
     /// not the deformation.
     Point(Vector3<f64>),
-    /// FE node `k` of a flexible body: follows the nodal translations and rotations `u' = X w`.
+    /// FE node `k` of a flexible body: follows the nodal translations and rotations `u' = X w`
+    /// (with the body's second-order field, `+ ½ Q_k(w, w)` in the translation).
     Node(usize),
 }
 
@@ -180,6 +181,8 @@ pub(crate) fn marker_kin<P: Scalar, S: Scalar + From<P>>(
     let mut thd = Vector3::<S>::zeros();
     let mut xd = Vec::new();
     let mut xt = Vec::new();
+    // the node's acceleration at zero modal accelerations, beyond the frame's terms
+    let mut udd = Vector3::<S>::zeros();
     match (&marker.site, body) {
         (Site::Point(p), _) => u = vec3f(p),
         (Site::Node(k), Body::Flexible(fb)) => {
@@ -193,6 +196,17 @@ pub(crate) fn marker_kin<P: Scalar, S: Scalar + From<P>>(
                 thd += t * v[vo + 6 + j];
                 xd.push(d);
                 xt.push(t);
+            }
+            if let Some(g) = &fb.geometric {
+                let w = &q[qo + 7..qo + 7 + nm];
+                let wd = &v[vo + 6..vo + 6 + nm];
+                let second = second_order_node(g, *k, w, wd);
+                u += second.half;
+                for (j, c) in second.columns.iter().enumerate() {
+                    ud += c * wd[j];
+                    xd[j] += c;
+                }
+                udd = second.rates;
             }
         }
         (Site::Node(_), Body::Rigid(_)) => unreachable!("validated: nodes only on flexible bodies"),
@@ -212,7 +226,7 @@ pub(crate) fn marker_kin<P: Scalar, S: Scalar + From<P>>(
     let point = Kin3 {
         val: ps.r + mv(&a, &u),
         rate: rd + mv(&a, &(om.cross(&u) + ud)),
-        quad: mv(&a, &(om.cross(&om.cross(&u)) + om.cross(&ud) * two)),
+        quad: mv(&a, &(om.cross(&om.cross(&u)) + om.cross(&ud) * two + udd)),
         jac: Jac::from_entries(cols.clone(), jac),
     };
     MarkerKin {

@@ -8,14 +8,14 @@ use nalgebra::{DMatrix, DVector, Matrix3, Vector3, Vector4};
 use sens::Scalar;
 
 use crate::body::{
-    Body, BodyId, FlexibleBody, ModalInvariants, Pose, RigidBody, body_dynamics, pose, vec3, vec3f,
+    Body, BodyId, FlexibleBody, ModalInvariants, Pose, RigidBody, body_dynamics, pose,
+    second_order_node, vec3, vec3f,
 };
 use crate::error::ModelError;
 use crate::force::{Force, ForceId, LoadFrame};
 use crate::joint::{JointId, JointKind, TimeFunction, joint_equations};
 use crate::kin::{Kin, l_matrix, quat_from_matrix};
 use crate::marker::{Marker, MarkerKin, Site, marker_kin};
-use crate::stiffening::{BodyLoads, Stiffening, body_stiffening, load_node};
 
 /// Baumgarte stabilisation constants of Eq. (10a): `γ − 2αΦ̇ − β²Φ`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -636,91 +636,6 @@ impl<P: Scalar> Model<P> {
         }
     }
 
-    /// The geometric-stiffness forces of the stiffened flexible bodies at `(t, q, v)` (empty
-    /// when no body is stiffened), with the constraint kinematics `k` of all rows (their
-    /// Jacobians carry the joint forces per unit multiplier).
-    pub(crate) fn stiffening<S: Scalar + From<P>>(
-        &self,
-        t: f64,
-        q: &[S],
-        v: &[S],
-        k: &[Kin<S>],
-    ) -> Vec<Stiffening<S>> {
-        let mut out = Vec::new();
-        for (index, s) in self.bodies.iter().enumerate() {
-            let Body::Flexible(body) = &s.body else {
-                continue;
-            };
-            let Some(geometric) = &body.geometric else {
-                continue;
-            };
-            let id = BodyId(index);
-            let a = pose(&q[s.q_off..]).a;
-            let at = a.transpose();
-            // the one marker of a force or joint on this body (none, or both ends on it: no
-            // load from outside)
-            let only = |ms: &[&Marker]| -> Option<usize> {
-                let mut on = ms.iter().filter(|m| m.body == Some(id));
-                match (on.next(), on.next()) {
-                    (Some(m), None) => Some(load_node(&body.modal, &m.site)),
-                    _ => None,
-                }
-            };
-            let trans = s.v_off..s.v_off + 3;
-            let mut forces = Vec::new();
-            let mut f = Vec::new();
-            for force in &self.forces {
-                if matches!(force, Force::PointTorque { .. }) {
-                    continue;
-                }
-                if let Some(node) = only(&force.markers()) {
-                    f.clear();
-                    f.resize(self.n_v, S::zero());
-                    self.apply_force(force, t, q, v, &mut f);
-                    forces.push((node, at * vec3(&f[trans.clone()])));
-                }
-            }
-            let mut joints = Vec::new();
-            for (ji, joint) in self.joints.iter().enumerate() {
-                let Some(node) = only(&[&joint.a, &joint.b]) else {
-                    continue;
-                };
-                for row in self.joint_rows[ji].clone() {
-                    // the force on the body per unit multiplier is −Φ_rᵀ on its translations
-                    let mut fg = Vector3::<S>::zeros();
-                    for (col, &x) in k[row].jac.iter() {
-                        if trans.contains(&col) {
-                            fg[col - s.v_off] = -x;
-                        }
-                    }
-                    joints.push((node, row, at * fg));
-                }
-            }
-            let nm = body.modal.n_modes();
-            out.push(body_stiffening(
-                geometric,
-                &q[s.q_off + 7..s.q_off + 7 + nm],
-                &vec3(&v[s.v_off + 3..s.v_off + 6]),
-                s.v_off,
-                &self.gravity,
-                &BodyLoads { a, forces, joints },
-            ));
-        }
-        out
-    }
-
-    /// Position of each constraint row among `rows` (only made when `g` is not empty).
-    fn row_positions<S: Scalar>(&self, g: &[Stiffening<S>], rows: &[usize]) -> Vec<Option<usize>> {
-        let mut position = Vec::new();
-        if !g.is_empty() {
-            position = vec![None; self.n_c];
-            for (r, &row) in rows.iter().enumerate() {
-                position[row] = Some(r);
-            }
-        }
-        position
-    }
-
     /// The augmented system of Eq. (12) at `(t, q, v)` for constraint rows `rows`.
     pub fn equations<S: Scalar + From<P>>(
         &self,
@@ -744,8 +659,7 @@ impl<P: Scalar> Model<P> {
         rows: &[usize],
     ) -> Equations<S> {
         let (m, f) = self.mass_and_forces(t, q, v);
-        let g = self.stiffening(t, q, v, k);
-        self.assemble(&m, &f, k, &g, rows)
+        self.assemble(&m, &f, k, rows)
     }
 
     /// Eq. (12) from its blocks: the mass matrix, generalised forces and constraint
@@ -755,10 +669,9 @@ impl<P: Scalar> Model<P> {
         m: &DMatrix<S>,
         f: &[S],
         k: &[Kin<S>],
-        g: &[Stiffening<S>],
         rows: &[usize],
     ) -> Equations<S> {
-        self.assemble_as(m, f, k, g, rows, |x| x)
+        self.assemble_as(m, f, k, rows, |x| x)
     }
 
     /// [`Model::assemble`] converting every entry with `conv` (e.g. the values of dual
@@ -768,7 +681,6 @@ impl<P: Scalar> Model<P> {
         m: &DMatrix<S>,
         f: &[S],
         k: &[Kin<S>],
-        g: &[Stiffening<S>],
         rows: &[usize],
         conv: impl Fn(S) -> T,
     ) -> Equations<T> {
@@ -795,25 +707,6 @@ impl<P: Scalar> Model<P> {
             }
             rhs[nv + r] = -conv(c.quad) - two_alpha * conv(c.rate) - beta2 * conv(c.val);
         }
-        // geometric stiffening: M v̇ + Φᵀλ = f + f_G(v̇, λ) with f_G affine
-        let position = self.row_positions(g, rows);
-        for s in g {
-            for (j, &x) in s.known.iter().enumerate() {
-                rhs[s.row + j] += conv(x);
-            }
-            for (col, c) in s.accel() {
-                for (j, &x) in c.iter().enumerate() {
-                    matrix[(s.row + j, col)] -= conv(x);
-                }
-            }
-            for (row, c) in s.lambda() {
-                if let Some(r) = position[row] {
-                    for (j, &x) in c.iter().enumerate() {
-                        matrix[(s.row + j, nv + r)] -= conv(x);
-                    }
-                }
-            }
-        }
         Equations { matrix, rhs }
     }
 
@@ -829,8 +722,7 @@ impl<P: Scalar> Model<P> {
     ) -> Vec<S> {
         let (m, f) = self.mass_and_forces(t, q, v);
         let k = self.constraint_kin(t, q, v);
-        let g = self.stiffening(t, q, v, &k);
-        self.residual_from(&m, &f, &k, &g, rows, x_hat)
+        self.residual_from(&m, &f, &k, rows, x_hat)
     }
 
     /// [`Model::residual`] from the blocks of Eq. (12) (see [`Model::assemble`]): applied to x̂
@@ -841,7 +733,6 @@ impl<P: Scalar> Model<P> {
         m: &DMatrix<S>,
         f: &[S],
         k: &[Kin<S>],
-        g: &[Stiffening<S>],
         rows: &[usize],
         x_hat: &[f64],
     ) -> Vec<S> {
@@ -865,26 +756,6 @@ impl<P: Scalar> Model<P> {
             if lambda != 0.0 {
                 for (col, &x) in k[row].jac.iter() {
                     out[col] -= x * lambda;
-                }
-            }
-        }
-        let position = self.row_positions(g, rows);
-        for s in g {
-            for (j, &x) in s.known.iter().enumerate() {
-                out[s.row + j] += x;
-            }
-            for (col, c) in s.accel() {
-                if x_hat[col] != 0.0 {
-                    for (j, &x) in c.iter().enumerate() {
-                        out[s.row + j] += x * x_hat[col];
-                    }
-                }
-            }
-            for (row, c) in s.lambda() {
-                if let Some(r) = position[row] {
-                    for (j, &x) in c.iter().enumerate() {
-                        out[s.row + j] += x * x_hat[nv + r];
-                    }
                 }
             }
         }
@@ -995,7 +866,8 @@ impl Model<f64> {
     }
 
     /// Nodal displacements `u' = X w` of flexible body `id` (body frame; per node translation
-    /// and rotation). Empty for rigid bodies.
+    /// and rotation), with the second-order part `½ Q(w, w)` of the translations when the body
+    /// has one. Empty for rigid bodies.
     pub fn nodal_displacements(&self, id: BodyId, q: &[f64]) -> Vec<[f64; 6]> {
         let s = &self.bodies[id.0];
         let Body::Flexible(b) = &s.body else {
@@ -1003,9 +875,19 @@ impl Model<f64> {
         };
         let nm = b.modal.n_modes();
         let w = &q[s.q_off + 7..s.q_off + 7 + nm];
+        let wd = vec![0.0; nm];
         (0..b.modal.n_nodes())
             .map(|k| {
-                std::array::from_fn(|i| (0..nm).map(|j| b.modal.modes[(6 * k + i, j)] * w[j]).sum())
+                let mut u: [f64; 6] = std::array::from_fn(|i| {
+                    (0..nm).map(|j| b.modal.modes[(6 * k + i, j)] * w[j]).sum()
+                });
+                if let Some(g) = &b.geometric {
+                    let half = second_order_node(g, k, w, &wd).half;
+                    for i in 0..3 {
+                        u[i] += half[i];
+                    }
+                }
+                u
             })
             .collect()
     }

@@ -13,7 +13,7 @@
 use nalgebra::{DMatrix, Vector3};
 use sens::{Dual, Scalar};
 
-use crate::body::{BodyId, mode_vec, pose};
+use crate::body::{BodyId, mode_vec, pose, second_order_node};
 use crate::joint::JointId;
 use crate::model::Model;
 use crate::sensitivity::{DesignModel, SensitivityError, SensitivityRun, seeded};
@@ -145,6 +145,10 @@ impl Response {
                 for j in 0..f.modal.n_modes() {
                     u += S::from(f.modal.modes[(6 * node + dof, j)]) * q[qr.start + 7 + j];
                 }
+                if let (Some(g), true) = (&f.geometric, dof < 3) {
+                    let w = &q[qr.start + 7..qr.end];
+                    u += second_order_node(g, node, w, w).half[dof];
+                }
                 Ok(u)
             }
             Response::MidNodeDeflection {
@@ -167,6 +171,9 @@ impl Response {
                     let mut u = Vector3::new(S::from_f64(p.x), S::from_f64(p.y), S::from_f64(p.z));
                     for (j, &wj) in w.iter().enumerate() {
                         u += mode_vec::<P, S>(&f.modal, k, j, false) * wj;
+                    }
+                    if let Some(g) = &f.geometric {
+                        u += second_order_node(g, k, w, w).half;
                     }
                     ps.r + ps.a * u
                 };

@@ -362,11 +362,10 @@ impl MultibodySystem {
     ) -> Result<(Solution, Vec<Dual<N>>), ConstraintError> {
         let k = model.constraint_kin(t, q, v);
         let (m, f) = model.mass_and_forces(t, q, v);
-        let g = model.stiffening(t, q, v, &k);
         let rows = self.select_rows(&k);
-        let e = self.model.assemble_as(&m, &f, &k, &g, &rows, |x| x.value());
+        let e = self.model.assemble_as(&m, &f, &k, &rows, |x| x.value());
         let sol = self.factor_and_solve(t, e, rows)?;
-        let res = model.residual_from(&m, &f, &k, &g, &sol.rows, &sol.x);
+        let res = model.residual_from(&m, &f, &k, &sol.rows, &sol.x);
         Ok((sol, res))
     }
 

@@ -5,10 +5,32 @@
 mod common;
 
 use common::{Beam, flow};
+use fem::GeometricStiffness;
 use mbs::{FlexibleBody, Joint, JointKind, Marker, Model, RigidBody, TimeFunction};
-use nalgebra::{Matrix3, Rotation3, Vector3};
+use nalgebra::{DMatrix, Matrix3, Rotation3, Vector3};
 
-fn model_with_every_joint() -> (Model<f64>, Vec<f64>, Vec<f64>) {
+/// A second-order field for every node of a body with `nodes` nodes and `modes` modes
+/// (arbitrary, symmetric in the mode pair; large enough to show in `Φ̇` and `γ`).
+fn second_order_field(nodes: usize, modes: usize) -> fem::GeometricStiffness<f64> {
+    let zero = || DMatrix::zeros(modes, modes);
+    GeometricStiffness {
+        n_modes: modes,
+        clamp: 0,
+        acceleration: [zero(), zero(), zero()],
+        angular_acceleration: [zero(), zero(), zero()],
+        spin: vec![zero(); 9],
+        nodal: (0..3 * nodes)
+            .map(|r| {
+                DMatrix::from_fn(modes, modes, |j, l| {
+                    40.0 * ((r * 7 + (j + l) * 3 + j * l) as f64 * 0.53).sin()
+                })
+            })
+            .collect(),
+    }
+}
+
+/// Joints of every kind; the flexible body with a second-order field when `second_order`.
+fn model_with_every_joint(second_order: bool) -> (Model<f64>, Vec<f64>, Vec<f64>) {
     let mut model = Model::new();
     let r1 = model
         .add_rigid_body(RigidBody::new("r1", 1.0, Matrix3::identity()))
@@ -17,9 +39,11 @@ fn model_with_every_joint() -> (Model<f64>, Vec<f64>, Vec<f64>) {
         .add_rigid_body(RigidBody::new("r2", 2.0, Matrix3::identity() * 0.1))
         .unwrap();
     let beam = Beam::slider_crank_rod(8);
-    let f = model
-        .add_flexible_body(FlexibleBody::new("f", beam.modal_body(-0.152, 4, 4, 0.01)))
-        .unwrap();
+    let mut flexible = FlexibleBody::new("f", beam.modal_body(-0.152, 4, 4, 0.01));
+    if second_order {
+        flexible = flexible.with_geometric_stiffness(second_order_field(beam.n_nodes(), 4));
+    }
+    let f = model.add_flexible_body(flexible).unwrap();
     let p = |x: f64, y: f64, z: f64| Vector3::new(x, y, z);
     let joints = vec![
         (
@@ -106,7 +130,31 @@ fn model_with_every_joint() -> (Model<f64>, Vec<f64>, Vec<f64>) {
 
 #[test]
 fn every_joint_kind_has_rates_and_gamma_consistent_with_its_constraint() {
-    let (model, q, v) = model_with_every_joint();
+    joint_rates_and_gamma_are_consistent(false);
+}
+
+/// The nodes' second-order displacement `½ Q(w, w)` enters the markers' `Φ̇` and `γ`
+/// consistently (its Jacobian columns `Q(w)` and acceleration `Q(ẇ, ẇ)`).
+#[test]
+fn with_a_second_order_field_rates_and_gamma_stay_consistent() {
+    joint_rates_and_gamma_are_consistent(true);
+    // and the field shows: the constraints move
+    let (a, q, v) = model_with_every_joint(false);
+    let (b, ..) = model_with_every_joint(true);
+    let (ca, cb) = (a.constraints(0.3, &q, &v), b.constraints(0.3, &q, &v));
+    let moved = |x: &[f64], y: &[f64]| {
+        x.iter()
+            .zip(y)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max)
+    };
+    assert!(moved(&ca.phi, &cb.phi) > 1e-5);
+    assert!(moved(&ca.phi_dot, &cb.phi_dot) > 1e-3);
+    assert!(moved(&ca.gamma, &cb.gamma) > 1.0);
+}
+
+fn joint_rates_and_gamma_are_consistent(second_order: bool) {
+    let (model, q, v) = model_with_every_joint(second_order);
     assert_eq!(model.n_constraints(), 3 + 5 + 4 + 4 + 5 + 6 + 1 + 1);
     let t = 0.3;
     let h = 1e-5;
