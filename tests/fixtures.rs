@@ -35,6 +35,10 @@
 //! Design variables are ply angles in **degrees**: either one common angle of all plies
 //! ([`Design::Common`], the paper's variable) or one per ply ([`Design::PerPly`]).
 
+/// Independent co-rotational finite-element reference of the flexible slider-crank.
+#[path = "reference/corotational.rs"]
+pub mod corotational;
+
 use fem::{
     BeamSection, Mesh, ModalAnalysis, ModalBody, ModalOptions, ModeUpdate, Properties,
     RayleighDamping, design_bodies, modal_analysis, modal_body,
