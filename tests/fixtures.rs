@@ -35,7 +35,7 @@
 //! Design variables are ply angles in **degrees**: either one common angle of all plies
 //! ([`Design::Common`], the paper's variable) or one per ply ([`Design::PerPly`]).
 
-/// Independent co-rotational finite-element reference of the flexible slider-crank.
+// Independent co-rotational finite-element reference of the flexible slider-crank (module doc).
 #[path = "reference/corotational.rs"]
 pub mod corotational;
 

@@ -445,23 +445,8 @@ fn flexible_dynamics<P: Scalar, S: Scalar + From<P>>(
     let g_body = mtv(a, &g);
     let gu = first.cross(&g_body);
     // mass matrix blocks
-    let a_first = a * skew(&first); // A Σ m ũ
-    for i in 0..3 {
-        mass[(off + i, off + i)] = total;
-        for k in 0..3 {
-            mass[(off + i, off + 3 + k)] = -a_first[(i, k)];
-            mass[(off + 3 + k, off + i)] = -a_first[(i, k)];
-            mass[(off + 3 + i, off + 3 + k)] = m_oo[(i, k)];
-        }
-    }
+    frame_blocks(mass, off, a, total, &first, &m_oo, &c2, &m_ow);
     for j in 0..nm {
-        let acol = mv(a, &c2[j]);
-        for i in 0..3 {
-            mass[(off + i, off + 6 + j)] = acol[i];
-            mass[(off + 6 + j, off + i)] = acol[i];
-            mass[(off + 3 + i, off + 6 + j)] = m_ow[j][i];
-            mass[(off + 6 + j, off + 3 + i)] = m_ow[j][i];
-        }
         for l in j..nm {
             let x: S = lift(inv.modal_mass[j * nm + l]);
             mass[(off + 6 + j, off + 6 + l)] = x;
@@ -486,6 +471,40 @@ fn flexible_dynamics<P: Scalar, S: Scalar + From<P>>(
         force[off + 6 + j] += c2[j].dot(&g_body) - centripetal - coriolis * two;
     }
     elastic_forces(modal, w, wd, &mut force[off + 6..off + 6 + nm]);
+}
+
+/// The blocks of a flexible body's mass matrix that involve its frame: mass `total`, first
+/// moment `first` (`Σ m u`, body components), rotational inertia `m_oo`, and per mode the
+/// translation coupling `c[j]` (`Σ m X_j`, body components) and rotation coupling `m_ow[j]`.
+#[allow(clippy::too_many_arguments)]
+fn frame_blocks<S: Scalar>(
+    mass: &mut DMatrix<S>,
+    off: usize,
+    a: &Matrix3<S>,
+    total: S,
+    first: &Vector3<S>,
+    m_oo: &Matrix3<S>,
+    c: &[Vector3<S>],
+    m_ow: &[Vector3<S>],
+) {
+    let a_first = a * skew(first); // A Σ m ũ
+    for i in 0..3 {
+        mass[(off + i, off + i)] = total;
+        for k in 0..3 {
+            mass[(off + i, off + 3 + k)] = -a_first[(i, k)];
+            mass[(off + 3 + k, off + i)] = -a_first[(i, k)];
+            mass[(off + 3 + i, off + 3 + k)] = m_oo[(i, k)];
+        }
+    }
+    for (j, (cj, oj)) in c.iter().zip(m_ow).enumerate() {
+        let acol = mv(a, cj);
+        for i in 0..3 {
+            mass[(off + i, off + 6 + j)] = acol[i];
+            mass[(off + 6 + j, off + i)] = acol[i];
+            mass[(off + 3 + i, off + 6 + j)] = oj[i];
+            mass[(off + 6 + j, off + 3 + i)] = oj[i];
+        }
+    }
 }
 
 /// The mass matrix block and generalised forces of a flexible body with a second-order field
@@ -562,23 +581,8 @@ fn second_order_dynamics<P: Scalar, S: Scalar + From<P>>(
             }
         }
     }
-    let a_first = a * skew(&first); // A Σ m ũ
-    for i in 0..3 {
-        mass[(off + i, off + i)] = total;
-        for k in 0..3 {
-            mass[(off + i, off + 3 + k)] = -a_first[(i, k)];
-            mass[(off + 3 + k, off + i)] = -a_first[(i, k)];
-            mass[(off + 3 + i, off + 3 + k)] = m_oo[(i, k)];
-        }
-    }
+    frame_blocks(mass, off, a, total, &first, &m_oo, &m_rw, &m_ow);
     for j in 0..nm {
-        let acol = mv(a, &m_rw[j]);
-        for i in 0..3 {
-            mass[(off + i, off + 6 + j)] = acol[i];
-            mass[(off + 6 + j, off + i)] = acol[i];
-            mass[(off + 3 + i, off + 6 + j)] = m_ow[j][i];
-            mass[(off + 6 + j, off + 3 + i)] = m_ow[j][i];
-        }
         for l in j..nm {
             mass[(off + 6 + j, off + 6 + l)] = m_ww[(j, l)];
             mass[(off + 6 + l, off + 6 + j)] = m_ww[(j, l)];
