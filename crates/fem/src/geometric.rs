@@ -1,100 +1,55 @@
-//! Geometric (stress) stiffening of beam bodies: modal geometric-stiffness matrices for unit
-//! values of the load parameters of a floating frame (docs/geometric-stiffening.md).
+//! The second-order displacement field of beam bodies, in the form of modal geometric
+//! stiffness matrices of unit nodal forces (docs/geometric-stiffening.md).
 //!
-//! A beam carrying an axial force `N` gains the stiffness `N ∫ |v'|² dx / 2` of its transverse
-//! deflection `v`. In a floating frame the axial forces are those of the body's quasi-static
-//! equilibrium under the inertia loads of the frame's motion and the forces at its nodes. Both
-//! are linear in a few load parameters (in body components): the frame's effective acceleration
-//! `a = Aᵀ(r̈ − g)`, its angular acceleration `α`, the products `ω_i ω_j` of its angular velocity,
-//! and the force at each node. So the modal geometric stiffness is
-//! `K_G = Σ_c p_c K_c` with one `n_modes × n_modes` matrix `K_c` per parameter, made here once;
-//! the multibody layer combines them with the current parameters at every evaluation (the
-//! "standard input data" approach of substructure codes, e.g. Wallrapp 1994).
+//! A bent beam's ends come closer: each element keeps its length to second order while it
+//! bends, so node `k` moves towards the body's *clamp* (the node at its body frame) by
+//! `½ Q_k(w, w)`, `Q_k,jl = −Σ_e t_e ∫_e φ′_j · φ′_l dx` over the elements `e` on the path from
+//! the clamp to `k` (axis `t_e`, transverse slopes `φ′` of the modes). A force `F` at the node
+//! does the work `½ Fᵀ Q_k(w, w) = −½ wᵀ K_G(F) w` on it: `K_G(F) = Σ_i F_i nodal[3k + i]` is the
+//! geometric stiffness of the axial forces `F` causes, which on a tree-shaped beam mesh are the
+//! axial components of the loads beyond each element (exact statics, no stiffness enters, exact
+//! in any scalar). The multibody layer uses `Q_k = −nodal[3k + i]` as the body's second-order
+//! field, from which the geometric stiffness of inertia, joint and applied loads follows.
 //!
-//! The nodal matrices are also the beam's second-order displacement field: `−nodal[3k + i]`
-//! is component `i` of `Q_k`, the foreshortening `u_k = ½ Q_k(w, w)` of node `k` towards the
-//! clamp along its path (each element keeps its length to second order while it bends), whose
-//! work under a force `F` at the node is `−½ wᵀ K_G(F) w`. The multibody layer uses them that
-//! way (docs/geometric-stiffening.md), and the inertia cases are their mass-weighted sums.
-//!
-//! The statics are those of the beam mesh clamped at one node (any node of an isostatic support
-//! gives the same stresses under self-equilibrated loads): on a tree-shaped mesh the axial force
-//! of an element is the axial component of the loads beyond it, so no stiffness enters and the
-//! result is exact in any scalar. Lumped nodal masses carry the inertia loads. Each element's
-//! geometric stiffness is the consistent cubic (Hermite) one of a unit axial force, with the
-//! nodal slopes taken from the nodal rotations (`θ × t`), projected on the mode shapes.
+//! Each element's matrix is the consistent cubic (Hermite) one of `∫ |v′|² dx` for a unit axial
+//! force, with the nodal slopes taken from the nodal rotations (`θ × t`), projected on the mode
+//! shapes.
 
-use nalgebra::{DMatrix, Matrix3, Vector3};
+use nalgebra::{DMatrix, Vector3};
 use sens::Scalar;
 
 use crate::error::FemError;
 use crate::mesh::{Element, Mesh};
 use crate::modal::{ModalBody, NODE_DOFS};
 
-/// The modal geometric-stiffness matrices of a beam body for unit load parameters, all in body
-/// components (see the module doc). The geometric stiffness of the body is
-///
-/// ```text
-/// K_G = Σ_i a_i acceleration[i] + Σ_i α_i angular_acceleration[i]
-///     + Σ_ij ω_i ω_j spin[3i + j] + Σ_k Σ_i F_ki nodal[3k + i]
-/// ```
+/// The second-order field of a beam body as the modal geometric stiffness of unit nodal forces,
+/// in body components (see the module doc): a force `F_k` at node `k` has the geometric
+/// stiffness `Σ_i F_k,i nodal[3k + i]`, and `−nodal[3k + i]` is component `i` of the node's
+/// second-order field `Q_k`.
 #[derive(Clone, Debug)]
 pub struct GeometricStiffness<S: Scalar> {
     pub n_modes: usize,
-    /// The node at which the load cases are reacted (the statics' clamp).
+    /// The node the field is measured from (where it is zero).
     pub clamp: usize,
-    /// Per component of the frame's effective acceleration `Aᵀ(r̈ − g)` (m/s²).
-    pub acceleration: [DMatrix<S>; 3],
-    /// Per component of the frame's angular acceleration (rad/s²).
-    pub angular_acceleration: [DMatrix<S>; 3],
-    /// Per product `ω_i ω_j` of the frame's angular velocity, at `3i + j` (symmetric pairs
-    /// share the load equally).
-    pub spin: Vec<DMatrix<S>>,
-    /// Per component `i` of a force at node `k` (N), at `3k + i` (zero at the clamp); minus
-    /// component `i` of the node's second-order field `Q_k` (see the module doc).
+    /// Per component `i` of a force at node `k` (N), at `3k + i` (zero at the clamp).
     pub nodal: Vec<DMatrix<S>>,
 }
 
 impl<S: Scalar> GeometricStiffness<S> {
     /// Convert the entries to another scalar.
     pub fn map<Q: Scalar>(&self, f: &impl Fn(S) -> Q) -> GeometricStiffness<Q> {
-        let m = |x: &DMatrix<S>| x.map(f);
         GeometricStiffness {
             n_modes: self.n_modes,
             clamp: self.clamp,
-            acceleration: [
-                m(&self.acceleration[0]),
-                m(&self.acceleration[1]),
-                m(&self.acceleration[2]),
-            ],
-            angular_acceleration: [
-                m(&self.angular_acceleration[0]),
-                m(&self.angular_acceleration[1]),
-                m(&self.angular_acceleration[2]),
-            ],
-            spin: self.spin.iter().map(m).collect(),
-            nodal: self.nodal.iter().map(m).collect(),
+            nodal: self.nodal.iter().map(|x| x.map(f)).collect(),
         }
     }
 
-    /// The modal geometric stiffness `K_G` for given load parameters (body components): the
-    /// frame's effective acceleration `a`, angular acceleration `alpha`, angular velocity
-    /// `omega` and nodal forces `(node, force)`.
-    pub fn at(
-        &self,
-        a: &Vector3<S>,
-        alpha: &Vector3<S>,
-        omega: &Vector3<S>,
-        forces: &[(usize, Vector3<S>)],
-    ) -> DMatrix<S> {
+    /// The modal geometric stiffness `K_G` of the nodal forces `(node, force)` (body
+    /// components).
+    pub fn at(&self, forces: &[(usize, Vector3<S>)]) -> DMatrix<S> {
         let n = self.n_modes;
         let mut k = DMatrix::zeros(n, n);
-        for i in 0..3 {
-            k += &self.acceleration[i] * a[i] + &self.angular_acceleration[i] * alpha[i];
-            for j in 0..3 {
-                k += &self.spin[3 * i + j] * (omega[i] * omega[j]);
-            }
-        }
         for (node, f) in forces {
             for i in 0..3 {
                 k += &self.nodal[3 * node + i] * f[i];
@@ -128,12 +83,14 @@ impl<S: Scalar> GeometricStiffness<S> {
     }
 }
 
-/// The [`GeometricStiffness`] of the beam body `body` whose FE mesh is `mesh` (node positions
-/// of `body` are the mesh's, moved to the body frame), its load cases reacted at node `clamp`.
+/// The [`GeometricStiffness`] (second-order field) of the beam body `body` whose FE mesh is
+/// `mesh` (node positions of `body` are the mesh's, moved to the body frame), measured from
+/// node `clamp`.
 ///
 /// Errors: a mesh with shell elements (not available for shells yet), a mesh that is not a
 /// tree connected to `clamp` (closed loops make the axial forces depend on the stiffness; a
-/// node with mass that the clamp does not reach carries no load path), a zero-length element.
+/// node with mass that the clamp does not reach has no path along which to foreshorten), a
+/// zero-length element.
 pub fn geometric_stiffness<S: Scalar>(
     mesh: &Mesh,
     body: &ModalBody<S>,
@@ -206,26 +163,10 @@ pub fn geometric_stiffness<S: Scalar>(
     }
     let nm = body.n_modes();
     let x = &body.node_positions;
-    // mass and first moment of the subtree beyond each node
-    let mut s0: Vec<S> = body.node_masses.clone();
-    let mut s1: Vec<Vector3<S>> = (0..n_nodes)
-        .map(|k| x[k].map(S::from_f64) * body.node_masses[k])
-        .collect();
-    for &c in order.iter().rev() {
-        if let Some((_, p)) = parent[c] {
-            let (m, f) = (s0[c], s1[c]);
-            s0[p] += m;
-            s1[p] += f;
-        }
-    }
-    let zero = || DMatrix::<S>::zeros(nm, nm);
     let mut out = GeometricStiffness {
         n_modes: nm,
         clamp,
-        acceleration: [zero(), zero(), zero()],
-        angular_acceleration: [zero(), zero(), zero()],
-        spin: vec![zero(); 9],
-        nodal: vec![zero(); 3 * n_nodes],
+        nodal: vec![DMatrix::<S>::zeros(nm, nm); 3 * n_nodes],
     };
     // each element's modal geometric stiffness for a unit tension, and its axial unit vector
     let mut unit: Vec<Option<(DMatrix<S>, Vector3<f64>)>> = vec![None; mesh.elements.len()];
@@ -239,24 +180,7 @@ pub fn geometric_stiffness<S: Scalar>(
             )));
         }
         let t = d / length;
-        let g = element_modal(body, p, c, &t, length);
-        // the axial force of the element is the axial component of the loads beyond it
-        let (m, f) = (s0[c], s1[c]);
-        let tt: Vector3<S> = t.map(S::from_f64);
-        let fxt = f.cross(&tt);
-        let ft = f.dot(&tt);
-        let spin = Matrix3::<S>::from_fn(|i, j| {
-            let diag = if i == j { ft } else { S::zero() };
-            diag - (f[i] * tt[j] + f[j] * tt[i]) * S::from_f64(0.5)
-        });
-        for i in 0..3 {
-            out.acceleration[i] -= &g * (m * tt[i]);
-            out.angular_acceleration[i] -= &g * fxt[i];
-            for j in 0..3 {
-                out.spin[3 * i + j] += &g * spin[(i, j)];
-            }
-        }
-        unit[e] = Some((g, t));
+        unit[e] = Some((element_modal(body, p, c, &t, length), t));
     }
     // a force at node k is carried by every element on the path from k to the clamp
     for k in 0..n_nodes {
@@ -351,27 +275,13 @@ mod tests {
         (mesh, body)
     }
 
-    /// The inertia load cases are sums of nodal force cases: a uniform acceleration `a` is the
-    /// force `−m_k a` at every node, a spin `Ω` about z the force `m_k Ω² x_k` along x.
+    /// A tension at the tip stiffens every mode; forces at the clamp do nothing (the field is
+    /// zero there).
     #[test]
-    fn inertia_load_cases_are_the_sums_of_their_nodal_forces() {
+    fn a_tip_tension_stiffens_and_the_clamp_carries_nothing() {
         let (mesh, body) = cantilever(10);
         let g = geometric_stiffness(&mesh, &body, 0).unwrap();
         let n = body.n_modes();
-        for i in 0..3 {
-            let mut sum = DMatrix::zeros(n, n);
-            for (k, m) in body.node_masses.iter().enumerate() {
-                sum -= &g.nodal[3 * k + i] * *m;
-            }
-            assert!((&sum - &g.acceleration[i]).amax() < 1e-12 * sum.amax().max(1.0));
-        }
-        let mut spin = DMatrix::zeros(n, n);
-        for (k, m) in body.node_masses.iter().enumerate() {
-            spin += &g.nodal[3 * k] * (m * body.node_positions[k].x);
-        }
-        assert!((&spin - &g.spin[8]).amax() < 1e-12 * spin.amax());
-        assert!(spin.amax() > 0.0);
-        // a tension at the tip stiffens every mode; loads at the clamp do nothing
         assert!((0..n).all(|j| g.nodal[3 * 10][(j, j)] > 0.0));
         assert!(g.nodal[..3].iter().all(|k| k.amax() == 0.0));
     }

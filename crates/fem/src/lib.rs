@@ -21,7 +21,8 @@
 //! variables (in chunks of `N`), assembles `K_b`, `M_b` on the same sparse pattern and returns
 //! eigenvalue and (Nelson/Dailey) eigenvector derivatives; [`modal_body_dual`] packs them into a
 //! `ModalBody<Dual<N>>` (fixed-mode or updated-mode); [`geometric_stiffness`] gives a beam
-//! body's modal geometric-stiffness matrices for unit load parameters (stress stiffening).
+//! body's second-order field (the foreshortening of its beams), as the modal geometric
+//! stiffness of unit nodal forces.
 //! [`correction`] adds distributing couplings over node sets and static correction modes at a
 //! body's interfaces (with exact derivatives); [`completeness`] checks how much of the static
 //! compliance under a mechanism's loads a body's basis misses.

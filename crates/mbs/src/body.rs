@@ -229,6 +229,16 @@ pub(crate) fn second_order_node<P: Scalar, S: Scalar + From<P>>(
     }
 }
 
+/// `½ Q_k(w, w)`: the second-order displacement of node `k` at modal coordinates `w`
+/// ([`second_order_node`]).
+pub(crate) fn foreshortening<P: Scalar, S: Scalar + From<P>>(
+    g: &GeometricStiffness<P>,
+    k: usize,
+    w: &[S],
+) -> Vector3<S> {
+    second_order_node(g, k, w, w).half
+}
+
 /// Body pose read from the body's coordinate slice.
 pub(crate) struct Pose<S: Scalar> {
     pub r: Vector3<S>,
@@ -553,9 +563,10 @@ fn second_order_dynamics<P: Scalar, S: Scalar + From<P>>(
         let mut ud = Vector3::<S>::zeros();
         let mut th_d = Vector3::<S>::zeros();
         for j in 0..nm {
-            x[j] = mode_vec::<P, S>(modal, k, j, false) + second.columns[j];
+            let d: Vector3<S> = mode_vec(modal, k, j, false);
+            u += d * w[j];
+            x[j] = d + second.columns[j];
             t[j] = mode_vec(modal, k, j, true);
-            u += mode_vec::<P, S>(modal, k, j, false) * w[j];
             ud += x[j] * wd[j];
             th_d += t[j] * wd[j];
         }
@@ -804,7 +815,6 @@ mod tests {
     /// An arbitrary second-order field of [`body`]'s nodes (symmetric in the mode pair).
     fn field(modal: &ModalBody<f64>) -> GeometricStiffness<f64> {
         let nm = modal.n_modes();
-        let zero = || DMatrix::zeros(nm, nm);
         let nodal = (0..3 * modal.n_nodes())
             .map(|r| {
                 DMatrix::from_fn(nm, nm, |j, l| {
@@ -815,9 +825,6 @@ mod tests {
         GeometricStiffness {
             n_modes: nm,
             clamp: 0,
-            acceleration: [zero(), zero(), zero()],
-            angular_acceleration: [zero(), zero(), zero()],
-            spin: vec![zero(); 9],
             nodal,
         }
     }

@@ -8,8 +8,8 @@ use nalgebra::{DMatrix, DVector, Matrix3, Vector3, Vector4};
 use sens::Scalar;
 
 use crate::body::{
-    Body, BodyId, FlexibleBody, ModalInvariants, Pose, RigidBody, body_dynamics, pose,
-    second_order_node, vec3, vec3f,
+    Body, BodyId, FlexibleBody, ModalInvariants, Pose, RigidBody, body_dynamics, foreshortening,
+    pose, vec3, vec3f,
 };
 use crate::error::ModelError;
 use crate::force::{Force, ForceId, LoadFrame};
@@ -202,9 +202,7 @@ impl<P: Scalar> Model<P> {
             });
         }
         if let Some(g) = &body.geometric
-            && (g.n_modes != body.modal.n_modes()
-                || g.nodal.len() != 3 * body.modal.n_nodes()
-                || g.spin.len() != 9)
+            && (g.n_modes != body.modal.n_modes() || g.nodal.len() != 3 * body.modal.n_nodes())
         {
             return Err(ModelError::BadBody {
                 name: body.name,
@@ -875,14 +873,13 @@ impl Model<f64> {
         };
         let nm = b.modal.n_modes();
         let w = &q[s.q_off + 7..s.q_off + 7 + nm];
-        let wd = vec![0.0; nm];
         (0..b.modal.n_nodes())
             .map(|k| {
                 let mut u: [f64; 6] = std::array::from_fn(|i| {
                     (0..nm).map(|j| b.modal.modes[(6 * k + i, j)] * w[j]).sum()
                 });
                 if let Some(g) = &b.geometric {
-                    let half = second_order_node(g, k, w, &wd).half;
+                    let half = foreshortening(g, k, w);
                     for i in 0..3 {
                         u[i] += half[i];
                     }

@@ -13,7 +13,7 @@
 use nalgebra::{DMatrix, Vector3};
 use sens::{Dual, Scalar};
 
-use crate::body::{BodyId, mode_vec, pose, second_order_node};
+use crate::body::{BodyId, foreshortening, mode_vec, pose};
 use crate::joint::JointId;
 use crate::model::Model;
 use crate::sensitivity::{DesignModel, SensitivityError, SensitivityRun, seeded};
@@ -147,7 +147,7 @@ impl Response {
                 }
                 if let (Some(g), true) = (&f.geometric, dof < 3) {
                     let w = &q[qr.start + 7..qr.end];
-                    u += second_order_node(g, node, w, w).half[dof];
+                    u += foreshortening(g, node, w)[dof];
                 }
                 Ok(u)
             }
@@ -173,7 +173,7 @@ impl Response {
                         u += mode_vec::<P, S>(&f.modal, k, j, false) * wj;
                     }
                     if let Some(g) = &f.geometric {
-                        u += second_order_node(g, k, w, w).half;
+                        u += foreshortening(g, k, w);
                     }
                     ps.r + ps.a * u
                 };

@@ -12,13 +12,9 @@ use nalgebra::{DMatrix, Matrix3, Rotation3, Vector3};
 /// A second-order field for every node of a body with `nodes` nodes and `modes` modes
 /// (arbitrary, symmetric in the mode pair; large enough to show in `Φ̇` and `γ`).
 fn second_order_field(nodes: usize, modes: usize) -> fem::GeometricStiffness<f64> {
-    let zero = || DMatrix::zeros(modes, modes);
     GeometricStiffness {
         n_modes: modes,
         clamp: 0,
-        acceleration: [zero(), zero(), zero()],
-        angular_acceleration: [zero(), zero(), zero()],
-        spin: vec![zero(); 9],
         nodal: (0..3 * nodes)
             .map(|r| {
                 DMatrix::from_fn(modes, modes, |j, l| {
