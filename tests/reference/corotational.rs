@@ -934,6 +934,24 @@ impl<'a> Integrator<'a> {
         }
     }
 
+    /// The Newton increment of the free accelerations at `state` (into `rhs`): the residual of
+    /// the equations of motion and their Jacobian for the step's `coefficients`, solved.
+    fn newton_increment(
+        &mut self,
+        state: &State,
+        coefficients: Coefficients,
+    ) -> Result<(), String> {
+        self.problem.assemble(
+            state,
+            coefficients,
+            &self.free,
+            &mut self.residual,
+            &mut self.jacobian,
+        );
+        gather(&self.free, &self.residual, &mut self.rhs);
+        self.jacobian.solve(&mut self.rhs)
+    }
+
     /// Solves the equations of motion at the current state for the free accelerations
     /// (linear in them); sets `a` = accelerations.
     fn initial_accelerations(&mut self, state: &mut State) -> Result<(), String> {
@@ -947,15 +965,7 @@ impl<'a> Integrator<'a> {
             vel: 0.0,
             pos: 0.0,
         };
-        self.problem.assemble(
-            state,
-            coefficients,
-            &self.free,
-            &mut self.residual,
-            &mut self.jacobian,
-        );
-        gather(&self.free, &self.residual, &mut self.rhs);
-        self.jacobian.solve(&mut self.rhs)?;
+        self.newton_increment(state, coefficients)?;
         for (i, f) in self.free.iter().enumerate() {
             if let Some(f) = *f {
                 state.acc[i] = self.rhs[f];
@@ -978,15 +988,7 @@ impl<'a> Integrator<'a> {
         self.problem.prescribe(t, state);
         for _ in 0..MAX_NEWTON_ITERATIONS {
             self.update(&old, state);
-            self.problem.assemble(
-                state,
-                coefficients,
-                &self.free,
-                &mut self.residual,
-                &mut self.jacobian,
-            );
-            gather(&self.free, &self.residual, &mut self.rhs);
-            self.jacobian.solve(&mut self.rhs)?;
+            self.newton_increment(state, coefficients)?;
             let mut largest: f64 = 0.0;
             for (i, f) in self.free.iter().enumerate() {
                 if let Some(f) = *f {
