@@ -32,6 +32,20 @@ pub struct Properties<S: Scalar> {
     pub laminates: Vec<LaminateStiffness<S>>,
 }
 
+impl<S: Scalar> Properties<S> {
+    /// The laminate `property` of shell element `e` (an error naming both when it is missing).
+    pub fn laminate(&self, e: usize, property: usize) -> Result<&LaminateStiffness<S>, FemError> {
+        self.laminates
+            .get(property)
+            .ok_or(FemError::MissingProperty {
+                element: e,
+                kind: "laminate",
+                property,
+                available: self.laminates.len(),
+            })
+    }
+}
+
 impl<S: Scalar> Default for Properties<S> {
     fn default() -> Self {
         Self {
@@ -313,15 +327,7 @@ pub fn element_matrices<S: Scalar>(
             property,
             material_axis,
         } => {
-            let lam = props
-                .laminates
-                .get(property)
-                .ok_or(FemError::MissingProperty {
-                    element: e,
-                    kind: "laminate",
-                    property,
-                    available: props.laminates.len(),
-                })?;
+            let lam = props.laminate(e, property)?;
             let p = nodes.map(|n| mesh.nodes[n]);
             let g = TriGeometry::new(p, &material_axis, e)?;
             let k = linear_in_laminate(lam, |l| {

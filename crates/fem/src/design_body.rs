@@ -23,6 +23,9 @@ pub struct DesignBodies<const N: usize> {
     /// One body per chunk of `N` variables, in order (`sens::chunk_ranges`): its tangents are
     /// the derivatives with respect to that chunk's variables.
     pub chunks: Vec<ModalBody<Dual<N>>>,
+    /// The element properties of each chunk's seeded design (what its second-order field,
+    /// [`crate::second_order_field`], needs besides the body).
+    pub properties: Vec<Properties<Dual<N>>>,
     /// The derivatives of the analysis's modes for every variable.
     pub derivatives: ModeDerivatives,
     /// `K_b`, `M_b` of every variable on the analysis's dof.
@@ -66,6 +69,7 @@ where
     let (matrices, derivatives) =
         analysis_derivatives::<N, _>(mesh, analysis, b, &mut props, update)?;
     let mut chunks = Vec::new();
+    let mut seeded_properties = Vec::new();
     for range in chunk_ranges(b.len(), N) {
         let mut body = modal_body_dual::<N>(
             mesh,
@@ -84,9 +88,11 @@ where
             body.node_inertias[k] = Vector3::new(mu[0], mu[1], mu[2]);
         }
         chunks.push(body);
+        seeded_properties.push(seeded);
     }
     Ok(DesignBodies {
         chunks,
+        properties: seeded_properties,
         derivatives,
         matrices,
     })

@@ -1,5 +1,6 @@
-//! The second-order displacement field of beam bodies, in the form of modal geometric
-//! stiffness matrices of unit nodal forces (docs/geometric-stiffening.md).
+//! The second-order displacement field of flexible bodies, in the form of modal geometric
+//! stiffness matrices of unit nodal forces (docs/geometric-stiffening.md): beams here, shells in
+//! [`crate::shell_geometric_stiffness`], either through [`second_order_field`].
 //!
 //! A bent beam's ends come closer: each element keeps its length to second order while it
 //! bends, so node `k` moves towards the body's *clamp* (the node at its body frame) by
@@ -26,9 +27,16 @@ use crate::modal::{ModalBody, NODE_DOFS};
 /// in body components (see the module doc): a force `F_k` at node `k` has the geometric
 /// stiffness `Σ_i F_k,i nodal[3k + i]`, and `−nodal[3k + i]` is component `i` of the node's
 /// second-order field `Q_k`.
+///
+/// The field may involve only the body's leading `field_modes` modes (a shell's eigenmodes,
+/// not its static correction modes): the matrices are then `field_modes × field_modes`, and the
+/// field of every other mode is zero.
 #[derive(Clone, Debug)]
 pub struct GeometricStiffness<S: Scalar> {
+    /// The body's modes.
     pub n_modes: usize,
+    /// The leading modes the field involves (`≤ n_modes`), the order of the matrices.
+    pub field_modes: usize,
     /// The node the field is measured from (where it is zero).
     pub clamp: usize,
     /// Per component `i` of a force at node `k` (N), at `3k + i` (zero at the clamp).
@@ -40,19 +48,21 @@ impl<S: Scalar> GeometricStiffness<S> {
     pub fn map<Q: Scalar>(&self, f: &impl Fn(S) -> Q) -> GeometricStiffness<Q> {
         GeometricStiffness {
             n_modes: self.n_modes,
+            field_modes: self.field_modes,
             clamp: self.clamp,
             nodal: self.nodal.iter().map(|x| x.map(f)).collect(),
         }
     }
 
     /// The modal geometric stiffness `K_G` of the nodal forces `(node, force)` (body
-    /// components).
+    /// components), `n_modes × n_modes`.
     pub fn at(&self, forces: &[(usize, Vector3<S>)]) -> DMatrix<S> {
-        let n = self.n_modes;
-        let mut k = DMatrix::zeros(n, n);
+        let n = self.field_modes;
+        let mut k = DMatrix::zeros(self.n_modes, self.n_modes);
         for (node, f) in forces {
             for i in 0..3 {
-                k += &self.nodal[3 * node + i] * f[i];
+                let mut block = k.view_mut((0, 0), (n, n));
+                block += &self.nodal[3 * node + i] * f[i];
             }
         }
         k
@@ -67,7 +77,7 @@ impl<S: Scalar> GeometricStiffness<S> {
     pub fn with_couplings(mut self, couplings: &[crate::correction::Distribution]) -> Self {
         for c in couplings {
             for axis in 0..3 {
-                let mut k = DMatrix::<S>::zeros(self.n_modes, self.n_modes);
+                let mut k = DMatrix::<S>::zeros(self.field_modes, self.field_modes);
                 for (i, &node) in c.nodes.iter().enumerate() {
                     for d in 0..3 {
                         let w = c.weights[(axis, 6 * i + d)];
@@ -83,36 +93,46 @@ impl<S: Scalar> GeometricStiffness<S> {
     }
 }
 
+/// The [`GeometricStiffness`] (second-order field) of the flexible body `body` (the modes of
+/// `analysis`) whose FE mesh is `mesh`, with the element properties `props`, measured from
+/// node `clamp`: [`geometric_stiffness`] on a beam mesh (exact statics along the tree, every
+/// mode), [`crate::shell_geometric_stiffness`] on a shell mesh (the membrane's quadratic modes,
+/// of the eigenmodes).
+pub fn second_order_field<S: Scalar>(
+    mesh: &Mesh,
+    props: &crate::Properties<S>,
+    analysis: &crate::ModalAnalysis,
+    body: &ModalBody<S>,
+    clamp: usize,
+) -> Result<GeometricStiffness<S>, FemError> {
+    if mesh
+        .elements
+        .iter()
+        .any(|e| matches!(e, Element::Shell { .. }))
+    {
+        // the eigenmodes carry the field; the static correction modes after them, whose
+        // amplitudes are the joints' local deformation, do not
+        let eigenmodes = analysis.kept.len().min(body.n_modes());
+        crate::shell_geometric_stiffness(mesh, props, &analysis.options, body, clamp, eigenmodes)
+    } else {
+        geometric_stiffness(mesh, body, clamp)
+    }
+}
+
 /// The [`GeometricStiffness`] (second-order field) of the beam body `body` whose FE mesh is
 /// `mesh` (node positions of `body` are the mesh's, moved to the body frame), measured from
 /// node `clamp`.
 ///
-/// Errors: a mesh with shell elements (not available for shells yet), a mesh that is not a
-/// tree connected to `clamp` (closed loops make the axial forces depend on the stiffness; a
-/// node with mass that the clamp does not reach has no path along which to foreshorten), a
-/// zero-length element.
+/// Errors: a mesh with shell elements ([`crate::shell_geometric_stiffness`] is theirs), a mesh
+/// that is not a tree connected to `clamp` (closed loops make the axial forces depend on the
+/// stiffness; a node with mass that the clamp does not reach has no path along which to
+/// foreshorten), a zero-length element.
 pub fn geometric_stiffness<S: Scalar>(
     mesh: &Mesh,
     body: &ModalBody<S>,
     clamp: usize,
 ) -> Result<GeometricStiffness<S>, FemError> {
-    let n_nodes = mesh.nodes.len();
-    // the mesh's nodes, then possibly the couplings' nodes, which carry no mass
-    let extra_massless = (n_nodes..body.n_nodes()).all(|k| body.node_masses[k].value() == 0.0);
-    if body.n_nodes() < n_nodes
-        || !extra_massless
-        || body.modes.nrows() != NODE_DOFS * body.n_nodes()
-    {
-        return Err(FemError::Stiffening(format!(
-            "geometric stiffening: the modal body has {} nodes, the mesh {n_nodes}",
-            body.n_nodes()
-        )));
-    }
-    if clamp >= n_nodes {
-        return Err(FemError::Stiffening(format!(
-            "geometric stiffening: clamp node {clamp} does not exist ({n_nodes} nodes)"
-        )));
-    }
+    let n_nodes = check_body(mesh, body, clamp)?;
     // adjacency of the beam elements
     let mut adjacent: Vec<Vec<(usize, usize)>> = vec![Vec::new(); n_nodes];
     for (e, el) in mesh.elements.iter().enumerate() {
@@ -123,8 +143,8 @@ pub fn geometric_stiffness<S: Scalar>(
             }
             Element::Shell { .. } => {
                 return Err(FemError::Stiffening(
-                    "geometric stiffening is available for beam bodies only (a shell body's \
-                     membrane stresses are not computed yet)"
+                    "this second-order field is for beam bodies only (a shell body's comes from \
+                     its membrane: shell_geometric_stiffness, or second_order_field for either)"
                         .into(),
                 ));
             }
@@ -165,6 +185,7 @@ pub fn geometric_stiffness<S: Scalar>(
     let x = &body.node_positions;
     let mut out = GeometricStiffness {
         n_modes: nm,
+        field_modes: nm,
         clamp,
         nodal: vec![DMatrix::<S>::zeros(nm, nm); 3 * n_nodes],
     };
@@ -194,6 +215,32 @@ pub fn geometric_stiffness<S: Scalar>(
         }
     }
     Ok(out)
+}
+
+/// The number of mesh nodes, after checking that `body` holds the mesh's nodes (then possibly
+/// the couplings' nodes, which carry no mass) and `clamp` is one of them.
+pub(crate) fn check_body<S: Scalar>(
+    mesh: &Mesh,
+    body: &ModalBody<S>,
+    clamp: usize,
+) -> Result<usize, FemError> {
+    let n_nodes = mesh.nodes.len();
+    let extra_massless = (n_nodes..body.n_nodes()).all(|k| body.node_masses[k].value() == 0.0);
+    if body.n_nodes() < n_nodes
+        || !extra_massless
+        || body.modes.nrows() != NODE_DOFS * body.n_nodes()
+    {
+        return Err(FemError::Stiffening(format!(
+            "second-order field: the modal body has {} nodes, the mesh {n_nodes}",
+            body.n_nodes()
+        )));
+    }
+    if clamp >= n_nodes {
+        return Err(FemError::Stiffening(format!(
+            "second-order field: clamp node {clamp} does not exist ({n_nodes} nodes)"
+        )));
+    }
+    Ok(n_nodes)
 }
 
 /// The modal geometric stiffness of the element from node `a` to node `b` (axis `t`, length

@@ -43,6 +43,7 @@ mod design_body;
 pub mod eigen;
 mod error;
 pub mod geometric;
+mod geometric_shell;
 pub mod mesh;
 mod modal;
 pub mod sensitivity;
@@ -65,7 +66,8 @@ pub use correction::{Coupling, Distribution, StaticCorrection, distribution};
 pub use design_body::{DesignBodies, design_bodies};
 pub use eigen::{EigenMethod, EigenOptions, Eigenpairs, lowest_modes, lowest_modes_of_nodes};
 pub use error::FemError;
-pub use geometric::{GeometricStiffness, geometric_stiffness};
+pub use geometric::{GeometricStiffness, geometric_stiffness, second_order_field};
+pub use geometric_shell::shell_geometric_stiffness;
 pub use mesh::{Element, GmshTriangles, Mesh, MeshError, NodeId, bounding_box, parse_gmsh_v4};
 pub use modal::{ModalBody, ModalBodyError, NODE_DOFS};
 pub use sensitivity::{

@@ -173,6 +173,32 @@ fn shell_b(g: &TriGeometry) -> ShellB {
     ShellB { bm, bb, bs, bd }
 }
 
+/// The area coordinates of the three-point rule (exact for quadratics) that integrates the
+/// membrane terms.
+pub(crate) const MEMBRANE_POINTS: [[f64; 3]; 3] = [
+    [2.0 / 3.0, 1.0 / 6.0, 1.0 / 6.0],
+    [1.0 / 6.0, 2.0 / 3.0, 1.0 / 6.0],
+    [1.0 / 6.0, 1.0 / 6.0, 2.0 / 3.0],
+];
+
+/// The strain operators of the membrane part of a triangle, local frame: the membrane strain
+/// at each of [`MEMBRANE_POINTS`] and the (constant) curvature.
+pub(crate) struct MembraneOperators {
+    pub bm: [SMatrix<f64, 3, 18>; 3],
+    pub bb: SMatrix<f64, 3, 18>,
+}
+
+pub(crate) fn membrane_operators(g: &TriGeometry, membrane: Membrane) -> MembraneOperators {
+    let b = shell_b(g);
+    MembraneOperators {
+        bm: MEMBRANE_POINTS.map(|l| match membrane {
+            Membrane::Allman => b.bm + allman_b(g, l),
+            Membrane::Cst => b.bm,
+        }),
+        bb: b.bb,
+    }
+}
+
 /// Local-frame stiffness (18×18) of a laminated triangle.
 pub fn shell_stiffness_local<S: Scalar>(
     g: &TriGeometry,
@@ -187,16 +213,8 @@ pub fn shell_stiffness_local<S: Scalar>(
     let bbt = bb.transpose();
     let mut k = bbt * lam.d * bb * a;
     // membrane and membrane–bending coupling: linear membrane strain (Allman), three-point rule
-    const PTS: [[f64; 3]; 3] = [
-        [2.0 / 3.0, 1.0 / 6.0, 1.0 / 6.0],
-        [1.0 / 6.0, 2.0 / 3.0, 1.0 / 6.0],
-        [1.0 / 6.0, 1.0 / 6.0, 2.0 / 3.0],
-    ];
-    for l in PTS {
-        let bm = match membrane {
-            Membrane::Allman => cast3(&(b.bm + allman_b(g, l))),
-            Membrane::Cst => cast3(&b.bm),
-        };
+    for bm in membrane_operators(g, membrane).bm {
+        let bm = cast3(&bm);
         let bmt = bm.transpose();
         k += (bmt * lam.a * bm + bmt * lam.b * bb + bbt * lam.b * bm) * (a * (1.0 / 3.0));
     }

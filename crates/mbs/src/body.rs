@@ -192,6 +192,7 @@ pub(crate) fn mode_vec<P: Scalar, S: Scalar + From<P>>(
 /// - `rates`: `Q_k(ẇ, ẇ)`, its acceleration at zero modal accelerations.
 pub(crate) struct SecondOrderNode<S: Scalar> {
     pub half: Vector3<S>,
+    /// One per mode of the field (`field_modes`); the other modes' columns gain nothing.
     pub columns: Vec<Vector3<S>>,
     pub rates: Vector3<S>,
 }
@@ -202,30 +203,43 @@ pub(crate) fn second_order_node<P: Scalar, S: Scalar + From<P>>(
     w: &[S],
     wd: &[S],
 ) -> SecondOrderNode<S> {
-    let nm = g.n_modes;
-    let mut columns = vec![Vector3::<S>::zeros(); nm];
-    let mut rates = Vector3::<S>::zeros();
+    let mut out = SecondOrderNode {
+        half: Vector3::zeros(),
+        columns: vec![Vector3::zeros(); g.field_modes],
+        rates: Vector3::zeros(),
+    };
+    second_order_node_into(g, k, w, wd, &mut out);
+    out
+}
+
+/// [`second_order_node`] into `out` (whose `columns` has `g.field_modes` entries).
+pub(crate) fn second_order_node_into<P: Scalar, S: Scalar + From<P>>(
+    g: &GeometricStiffness<P>,
+    k: usize,
+    w: &[S],
+    wd: &[S],
+    out: &mut SecondOrderNode<S>,
+) {
+    let nf = g.field_modes;
+    out.rates = Vector3::zeros();
     for i in 0..3 {
         let q = &g.nodal[3 * k + i];
-        for j in 0..nm {
+        for j in 0..nf {
+            // column j (= row j: the matrices are symmetric), contiguous
+            let col = q.column(j);
             let (mut c, mut r) = (S::zero(), S::zero());
-            for l in 0..nm {
-                let x: S = lift(q[(j, l)]);
+            for l in 0..nf {
+                let x: S = lift(col[l]);
                 c -= x * w[l];
                 r -= x * wd[l];
             }
-            columns[j][i] = c;
-            rates[i] += r * wd[j];
+            out.columns[j][i] = c;
+            out.rates[i] += r * wd[j];
         }
     }
-    let mut half = Vector3::<S>::zeros();
-    for (j, c) in columns.iter().enumerate() {
-        half += c * (w[j] * S::from_f64(0.5));
-    }
-    SecondOrderNode {
-        half,
-        columns,
-        rates,
+    out.half = Vector3::zeros();
+    for (j, c) in out.columns.iter().enumerate() {
+        out.half += c * (w[j] * S::from_f64(0.5));
     }
 }
 
@@ -288,11 +302,12 @@ pub(crate) fn body_dynamics<P: Scalar, S: Scalar + From<P>>(
         }
         Body::Flexible(b) => {
             let Pose { a, .. } = pose(q);
+            let inv =
+                invariants.get_or_init(|| ModalInvariants::new(&b.modal, b.geometric.as_deref()));
             if let Some(second_order) = &b.geometric {
-                second_order_dynamics(&b.modal, second_order, &a, q, v, g, mass, off, force);
+                second_order_dynamics(&b.modal, second_order, inv, &a, q, v, g, mass, off, force);
                 return;
             }
-            let inv = invariants.get_or_init(|| ModalInvariants::new(&b.modal));
             flexible_dynamics(&b.modal, inv, &a, q, v, g, mass, off, force);
         }
     }
@@ -325,10 +340,60 @@ pub(crate) struct ModalInvariants<P: Scalar> {
     mode_spin: Vec<Vector3<P>>,
     /// The modal mass matrix `Σ_k m_k X_kjᵀ X_kl + T_kjᵀ diag(μ_k) T_kl` (row-major).
     modal_mass: Vec<P>,
+    /// The sums of the second-order field, when the body has one.
+    field: Option<FieldInvariants<P>>,
+}
+
+/// Sums over the nodes of a body's second-order field `Q` (`Q_k,i = −nodal[3k + i]`, of the
+/// leading `nf` modes) that the modal mass matrix needs: with the columns `C_kl = Q_k(w)_l`,
+/// `Σ m X_j · C_l = Σ_p R[j, l, p] w_p` and `Σ m C_j · C_l = Σ_pq T[j, p, l, q] w_p w_q`.
+#[derive(Clone, Debug)]
+pub(crate) struct FieldInvariants<P: Scalar> {
+    /// `R[j, l, p] = Σ_k m_k X_kj · Q_k,lp` at `(j · nf + l) · nf + p`.
+    r: Vec<P>,
+    /// `T[j, p, l, q] = Σ_k m_k Q_k,jp · Q_k,lq` at `((j · nf + p) · nf + l) · nf + q`.
+    t: Vec<P>,
+}
+
+impl<P: Scalar> FieldInvariants<P> {
+    fn new(modal: &ModalBody<P>, g: &GeometricStiffness<P>) -> Self {
+        let (nm, nf) = (modal.n_modes(), g.field_modes);
+        let mut r = vec![P::zero(); nm * nf * nf];
+        let mut t = vec![P::zero(); nf * nf * nf * nf];
+        for k in 0..modal.n_nodes() {
+            let m = modal.node_masses[k];
+            if m == P::zero() {
+                continue;
+            }
+            for i in 0..3 {
+                let q = &g.nodal[3 * k + i];
+                for j in 0..nm {
+                    let x = modal.modes[(fem::NODE_DOFS * k + i, j)] * m;
+                    for l in 0..nf {
+                        for p in 0..nf {
+                            r[(j * nf + l) * nf + p] -= x * q[(l, p)];
+                        }
+                    }
+                }
+                for j in 0..nf {
+                    for p in 0..nf {
+                        let a = q[(j, p)] * m;
+                        for l in 0..nf {
+                            for qq in 0..nf {
+                                t[((j * nf + p) * nf + l) * nf + qq] += a * q[(l, qq)];
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        Self { r, t }
+    }
 }
 
 impl<P: Scalar> ModalInvariants<P> {
-    pub(crate) fn new(modal: &ModalBody<P>) -> Self {
+    /// The invariants of `modal`, with those of its second-order field `field` if any.
+    pub(crate) fn new(modal: &ModalBody<P>, field: Option<&GeometricStiffness<P>>) -> Self {
         let nm = modal.n_modes();
         let mut inv = Self {
             n_modes: nm,
@@ -341,6 +406,7 @@ impl<P: Scalar> ModalInvariants<P> {
             mode_second: vec![Matrix3::zeros(); nm * nm],
             mode_spin: vec![Vector3::zeros(); nm],
             modal_mass: vec![P::zero(); nm * nm],
+            field: field.map(|g| FieldInvariants::new(modal, g)),
         };
         for k in 0..modal.n_nodes() {
             let m = modal.node_masses[k];
@@ -523,11 +589,14 @@ fn frame_blocks<S: Scalar>(
 /// without an energy they conserve, which lets a large deflection run away). With the mode
 /// columns `X̃ = X + Q(w)` of the field, each node's acceleration is
 /// `r̈ + A(α × u + ω × (ω × u) + 2 ω × u̇ + X̃ ẅ + Q(ẇ, ẇ))`, and its rotary inertia follows the
-/// linear rotations as in [`flexible_dynamics`].
+/// linear rotations as in [`flexible_dynamics`]. The sums that are polynomials of low degree
+/// come from the invariants `inv` (the rotary terms, and the modal mass
+/// `Σ m X̃_jᵀ X̃_l` through [`FieldInvariants`]); the rest is summed node by node.
 #[allow(clippy::too_many_arguments)]
 fn second_order_dynamics<P: Scalar, S: Scalar + From<P>>(
     modal: &ModalBody<P>,
     field: &GeometricStiffness<P>,
+    inv: &ModalInvariants<P>,
     a: &Matrix3<S>,
     q: &[S],
     v: &[S],
@@ -537,6 +606,7 @@ fn second_order_dynamics<P: Scalar, S: Scalar + From<P>>(
     force: &mut [S],
 ) {
     let nm = modal.n_modes();
+    let nf = field.field_modes;
     let w = &q[7..7 + nm];
     let wd = &v[6..6 + nm];
     let om = vec3(&v[3..6]);
@@ -546,57 +616,91 @@ fn second_order_dynamics<P: Scalar, S: Scalar + From<P>>(
     let mut first = Vector3::<S>::zeros(); // Σ m u
     let mut m_oo = Matrix3::<S>::zeros();
     let mut m_rw = vec![Vector3::<S>::zeros(); nm]; // Σ m X̃_j
-    let mut m_ow = vec![Vector3::<S>::zeros(); nm];
-    let mut m_ww = DMatrix::<S>::zeros(nm, nm);
+    let mut m_ow: Vec<Vector3<S>> = inv.mode_spin.iter().map(|x| x.map(lift)).collect();
     let mut qc = Vector3::<S>::zeros(); // Σ m c
     let mut s_o = Vector3::<S>::zeros(); // Σ m u × c
-    let mut hj = Vector3::<S>::zeros(); // Σ μ ∘ (ω + θ̇)
     let mut s_w = vec![S::zero(); nm]; // Σ m X̃_j · (g' − c)
     let mut x = vec![Vector3::<S>::zeros(); nm];
-    let mut t = vec![Vector3::<S>::zeros(); nm];
+    let mut second = SecondOrderNode {
+        half: Vector3::zeros(),
+        columns: vec![Vector3::zeros(); nf],
+        rates: Vector3::zeros(),
+    };
     for k in 0..modal.n_nodes() {
         let mk: S = lift(modal.node_masses[k]);
-        let jk: Vector3<S> = modal.node_inertias[k].map(lift);
-        let second = second_order_node(field, k, w, wd);
+        if mk == S::zero() {
+            continue;
+        }
+        second_order_node_into(field, k, w, wd, &mut second);
         let mut u: Vector3<S> = vec3f(&modal.node_positions[k]);
         u += second.half;
         let mut ud = Vector3::<S>::zeros();
-        let mut th_d = Vector3::<S>::zeros();
         for j in 0..nm {
             let d: Vector3<S> = mode_vec(modal, k, j, false);
             u += d * w[j];
-            x[j] = d + second.columns[j];
-            t[j] = mode_vec(modal, k, j, true);
+            x[j] = if j < nf { d + second.columns[j] } else { d };
             ud += x[j] * wd[j];
-            th_d += t[j] * wd[j];
         }
         total += mk;
         first += u * mk;
         let ut = skew(&u);
         m_oo += ut.transpose() * ut * mk;
-        for i in 0..3 {
-            m_oo[(i, i)] += jk[i];
-        }
         // the node's acceleration at zero accelerations, beyond the frame's r̈
         let c = om.cross(&om.cross(&u)) + om.cross(&ud) * two + second.rates;
         qc += c * mk;
         s_o += u.cross(&c) * mk;
-        hj += (om + th_d).component_mul(&jk);
         let gc = (g_body - c) * mk;
         for j in 0..nm {
             m_rw[j] += x[j] * mk;
-            m_ow[j] += u.cross(&x[j]) * mk + t[j].component_mul(&jk);
+            m_ow[j] += u.cross(&x[j]) * mk;
             s_w[j] += x[j].dot(&gc);
-            for l in j..nm {
-                m_ww[(j, l)] += x[j].dot(&x[l]) * mk + t[j].dot(&t[l].component_mul(&jk));
+        }
+    }
+    let inertia: Vector3<S> = inv.inertia.map(lift);
+    for i in 0..3 {
+        m_oo[(i, i)] += inertia[i];
+    }
+    // Σ μ ∘ (ω + θ̇): the rotations are linear
+    let mut hj = om.component_mul(&inertia);
+    for j in 0..nm {
+        hj += inv.mode_spin[j].map(lift) * wd[j];
+    }
+    frame_blocks(mass, off, a, total, &first, &m_oo, &m_rw, &m_ow);
+    // Σ m X̃_jᵀ X̃_l = modal mass + Σ m (X_j · C_l + C_j · X_l + C_j · C_l)
+    let fi = inv
+        .field
+        .as_ref()
+        .expect("the invariants of a body with a field have the field's");
+    let mut m_ww = DMatrix::<S>::from_fn(nm, nm, |j, l| lift(inv.modal_mass[j * nm + l]));
+    for j in 0..nm {
+        for l in 0..nf {
+            let mut x = S::zero();
+            for p in 0..nf {
+                x += lift::<P, S>(fi.r[(j * nf + l) * nf + p]) * w[p];
+            }
+            m_ww[(j, l)] += x;
+            m_ww[(l, j)] += x;
+        }
+    }
+    for j in 0..nf {
+        for l in j..nf {
+            let mut x = S::zero();
+            for p in 0..nf {
+                let mut y = S::zero();
+                for qq in 0..nf {
+                    y += lift::<P, S>(fi.t[((j * nf + p) * nf + l) * nf + qq]) * w[qq];
+                }
+                x += y * w[p];
+            }
+            m_ww[(j, l)] += x;
+            if l != j {
+                m_ww[(l, j)] += x;
             }
         }
     }
-    frame_blocks(mass, off, a, total, &first, &m_oo, &m_rw, &m_ow);
     for j in 0..nm {
-        for l in j..nm {
+        for l in 0..nm {
             mass[(off + 6 + j, off + 6 + l)] = m_ww[(j, l)];
-            mass[(off + 6 + l, off + 6 + j)] = m_ww[(j, l)];
         }
     }
     let s_r = mv(a, &qc);
@@ -645,6 +749,102 @@ fn elastic_forces<P: Scalar, S: Scalar + From<P>>(
 mod tests {
     use super::*;
     use sens::Dual;
+
+    /// The straightforward node-by-node sums of a body with a second-order field (the reference
+    /// of `second_order_dynamics`): every term at every node, with a field
+    /// `u' = X w + ½ Q(w, w)`: the nodal sums of Eq. (2) at the field's positions, node by node
+    /// and exact in `w` (a truncation of the field's terms would leave the equations of motion
+    /// without an energy they conserve, which lets a large deflection run away). With the mode
+    /// columns `X̃ = X + Q(w)` of the field, each node's acceleration is
+    /// `r̈ + A(α × u + ω × (ω × u) + 2 ω × u̇ + X̃ ẅ + Q(ẇ, ẇ))`, and its rotary inertia follows the
+    /// linear rotations as in [`flexible_dynamics`].
+    #[allow(clippy::too_many_arguments)]
+    fn nodal_second_order_dynamics<P: Scalar, S: Scalar + From<P>>(
+        modal: &ModalBody<P>,
+        field: &GeometricStiffness<P>,
+        a: &Matrix3<S>,
+        q: &[S],
+        v: &[S],
+        g: Vector3<S>,
+        mass: &mut DMatrix<S>,
+        off: usize,
+        force: &mut [S],
+    ) {
+        let nm = modal.n_modes();
+        let w = &q[7..7 + nm];
+        let wd = &v[6..6 + nm];
+        let om = vec3(&v[3..6]);
+        let two = S::from_f64(2.0);
+        let g_body = mtv(a, &g);
+        let mut total = S::zero();
+        let mut first = Vector3::<S>::zeros(); // Σ m u
+        let mut m_oo = Matrix3::<S>::zeros();
+        let mut m_rw = vec![Vector3::<S>::zeros(); nm]; // Σ m X̃_j
+        let mut m_ow = vec![Vector3::<S>::zeros(); nm];
+        let mut m_ww = DMatrix::<S>::zeros(nm, nm);
+        let mut qc = Vector3::<S>::zeros(); // Σ m c
+        let mut s_o = Vector3::<S>::zeros(); // Σ m u × c
+        let mut hj = Vector3::<S>::zeros(); // Σ μ ∘ (ω + θ̇)
+        let mut s_w = vec![S::zero(); nm]; // Σ m X̃_j · (g' − c)
+        let mut x = vec![Vector3::<S>::zeros(); nm];
+        let mut t = vec![Vector3::<S>::zeros(); nm];
+        for k in 0..modal.n_nodes() {
+            let mk: S = lift(modal.node_masses[k]);
+            let jk: Vector3<S> = modal.node_inertias[k].map(lift);
+            let second = second_order_node(field, k, w, wd);
+            let mut u: Vector3<S> = vec3f(&modal.node_positions[k]);
+            u += second.half;
+            let mut ud = Vector3::<S>::zeros();
+            let mut th_d = Vector3::<S>::zeros();
+            for j in 0..nm {
+                let d: Vector3<S> = mode_vec(modal, k, j, false);
+                u += d * w[j];
+                x[j] = d + second.columns.get(j).copied().unwrap_or_default();
+                t[j] = mode_vec(modal, k, j, true);
+                ud += x[j] * wd[j];
+                th_d += t[j] * wd[j];
+            }
+            total += mk;
+            first += u * mk;
+            let ut = skew(&u);
+            m_oo += ut.transpose() * ut * mk;
+            for i in 0..3 {
+                m_oo[(i, i)] += jk[i];
+            }
+            // the node's acceleration at zero accelerations, beyond the frame's r̈
+            let c = om.cross(&om.cross(&u)) + om.cross(&ud) * two + second.rates;
+            qc += c * mk;
+            s_o += u.cross(&c) * mk;
+            hj += (om + th_d).component_mul(&jk);
+            let gc = (g_body - c) * mk;
+            for j in 0..nm {
+                m_rw[j] += x[j] * mk;
+                m_ow[j] += u.cross(&x[j]) * mk + t[j].component_mul(&jk);
+                s_w[j] += x[j].dot(&gc);
+                for l in j..nm {
+                    m_ww[(j, l)] += x[j].dot(&x[l]) * mk + t[j].dot(&t[l].component_mul(&jk));
+                }
+            }
+        }
+        frame_blocks(mass, off, a, total, &first, &m_oo, &m_rw, &m_ow);
+        for j in 0..nm {
+            for l in j..nm {
+                mass[(off + 6 + j, off + 6 + l)] = m_ww[(j, l)];
+                mass[(off + 6 + l, off + 6 + j)] = m_ww[(j, l)];
+            }
+        }
+        let s_r = mv(a, &qc);
+        let s_om = s_o + om.cross(&hj);
+        let gu = first.cross(&g_body);
+        for i in 0..3 {
+            force[off + i] += g[i] * total - s_r[i];
+            force[off + 3 + i] += gu[i] - s_om[i];
+        }
+        for j in 0..nm {
+            force[off + 6 + j] += s_w[j];
+        }
+        elastic_forces(modal, w, wd, &mut force[off + 6..off + 6 + nm]);
+    }
 
     /// The nodal sums of Eq. (2), node by node (the reference for the invariants).
     fn nodal_dynamics<P: Scalar, S: Scalar + From<P>>(
@@ -824,6 +1024,7 @@ mod tests {
             .collect();
         GeometricStiffness {
             n_modes: nm,
+            field_modes: nm,
             clamp: 0,
             nodal,
         }
@@ -935,6 +1136,52 @@ mod tests {
         };
         assert!((&m - &m0).amax() > 1e-3 * m.amax());
         assert!(f.iter().zip(&f0).any(|(a, b)| (a - b).abs() > 1e-3 * scale));
+    }
+
+    /// The second-order dynamics (invariants for the rotary terms and the modal mass, nodes
+    /// for the rest) equal the straightforward node-by-node sums, values and tangents, for a
+    /// field of every mode and of the leading ones only (a shell's eigenmodes).
+    #[test]
+    fn second_order_dynamics_equal_the_nodal_sums() {
+        let modal = body();
+        let nm = modal.n_modes();
+        let (q, v) = state(nm);
+        let gravity = Vector3::new(0.0, -9.81, 1.0);
+        let qd: Vec<Dual<2>> = q
+            .iter()
+            .enumerate()
+            .map(|(i, &x)| Dual::new(x, [0.1 * (i as f64).sin(), 0.0]))
+            .collect();
+        let vd: Vec<Dual<2>> = v
+            .iter()
+            .enumerate()
+            .map(|(i, &x)| Dual::new(x, [0.0, 0.3 * (i as f64).cos()]))
+            .collect();
+        for nf in [nm, nm - 2] {
+            let mut g = field(&modal);
+            g.field_modes = nf;
+            for k in g.nodal.iter_mut() {
+                *k = k.view((0, 0), (nf, nf)).into_owned();
+            }
+            let (m1, f1) = with_field(&modal, &g, &qd, &vd, &gravity);
+            let n = 6 + nm;
+            let (mut m2, mut f2) = (DMatrix::zeros(n, n), vec![Dual::<2>::constant(0.0); n]);
+            let a = pose(&qd).a;
+            let gs: Vector3<Dual<2>> = vec3f(&gravity);
+            nodal_second_order_dynamics(&modal, &g, &a, &qd, &vd, gs, &mut m2, 0, &mut f2);
+            let scale_m = m2.iter().fold(0.0f64, |a, x| a.max(x.v.abs()));
+            let scale_f = f2.iter().fold(0.0f64, |a, x| a.max(x.v.abs()));
+            let close = |a: &[Dual<2>], b: &[Dual<2>], tol: f64| {
+                for (a, b) in a.iter().zip(b) {
+                    assert!((a.v - b.v).abs() <= tol, "field of {nf} modes: {a} vs {b}");
+                    for k in 0..2 {
+                        assert!((a.d[k] - b.d[k]).abs() <= tol, "field of {nf}: {a} vs {b}");
+                    }
+                }
+            };
+            close(m1.as_slice(), m2.as_slice(), 1e-13 * scale_m);
+            close(&f1, &f2, 1e-12 * scale_f);
+        }
     }
 
     /// The invariants give the nodal sums' mass matrix and forces (values and tangents).

@@ -202,7 +202,12 @@ impl<P: Scalar> Model<P> {
             });
         }
         if let Some(g) = &body.geometric
-            && (g.n_modes != body.modal.n_modes() || g.nodal.len() != 3 * body.modal.n_nodes())
+            && (g.n_modes != body.modal.n_modes()
+                || g.field_modes > g.n_modes
+                || g.nodal.len() != 3 * body.modal.n_nodes()
+                || g.nodal
+                    .iter()
+                    .any(|k| k.nrows() != g.field_modes || k.ncols() != g.field_modes))
         {
             return Err(ModelError::BadBody {
                 name: body.name,

@@ -9,15 +9,18 @@ use fem::GeometricStiffness;
 use mbs::{FlexibleBody, Joint, JointKind, Marker, Model, RigidBody, TimeFunction};
 use nalgebra::{DMatrix, Matrix3, Rotation3, Vector3};
 
-/// A second-order field for every node of a body with `nodes` nodes and `modes` modes
-/// (arbitrary, symmetric in the mode pair; large enough to show in `Φ̇` and `γ`).
+/// A second-order field for every node of a body with `nodes` nodes and `modes` modes, of all
+/// but its last mode (arbitrary, symmetric in the mode pair; large enough to show in `Φ̇` and
+/// `γ`).
 fn second_order_field(nodes: usize, modes: usize) -> fem::GeometricStiffness<f64> {
+    let field = modes - 1;
     GeometricStiffness {
         n_modes: modes,
+        field_modes: field,
         clamp: 0,
         nodal: (0..3 * nodes)
             .map(|r| {
-                DMatrix::from_fn(modes, modes, |j, l| {
+                DMatrix::from_fn(field, field, |j, l| {
                     40.0 * ((r * 7 + (j + l) * 3 + j * l) as f64 * 0.53).sin()
                 })
             })

@@ -41,6 +41,7 @@ pub(crate) fn compute(
                 "the initial configuration cannot be assembled: {e}"
             ))
         })?;
+    warn_redundant_with_stiffening(src, mech, &system, &state);
     if let Some(p) = progress {
         system.set_progress(Some(p.observer()));
         if mech.design.enabled
@@ -84,6 +85,76 @@ pub(crate) fn compute(
         objectives,
         fd,
     })
+}
+
+/// A warning when a stiffened flexible body with three-dimensional modes moves in a mechanism
+/// whose joints hold the rigid motions more than once: the equations that only the bodies'
+/// modes make independent have reactions the rigid mechanism does not determine (as large as
+/// the stiff modes they strain), and the body's second-order field turns them into stiffness
+/// (docs/geometric-stiffening.md, "Redundant constraints"). Planar modes leave the redundant
+/// directions (out of the plane) without a field.
+fn warn_redundant_with_stiffening(
+    src: &deck::Source,
+    mech: &Mechanism,
+    system: &mbs::MultibodySystem,
+    state: &mbs::State,
+) {
+    let stiffened: Vec<&str> = mech
+        .flexible
+        .iter()
+        .filter(|p| p.stiffening && p.def.planar.is_none())
+        .map(|p| p.name.as_str())
+        .collect();
+    if stiffened.is_empty() {
+        return;
+    }
+    let model = system.model();
+    let jacobian = model
+        .constraints(mech.times[0], &state.q, &state.v)
+        .jacobian;
+    // the rows that depend on the rows before them in the frames' columns alone
+    let frames: Vec<usize> = model
+        .body_ids()
+        .flat_map(|id| model.v_range(id).start..model.v_range(id).start + 6)
+        .collect();
+    let mut kept: Vec<nalgebra::DVector<f64>> = Vec::new();
+    let mut joints: Vec<&str> = Vec::new();
+    for r in 0..jacobian.nrows() {
+        let row = nalgebra::DVector::from_iterator(
+            frames.len(),
+            frames.iter().map(|&c| jacobian[(r, c)]),
+        );
+        let mut rest = row.clone();
+        for k in &kept {
+            rest -= k * k.dot(&rest);
+        }
+        if rest.norm() > 1e-8 * row.norm().max(f64::MIN_POSITIVE) {
+            kept.push(rest.normalize());
+        } else {
+            let name = model.joint(model.joint_of_row(r)).name.as_str();
+            if !joints.contains(&name) {
+                joints.push(name);
+            }
+        }
+    }
+    let redundant = jacobian.nrows() - kept.len();
+    if redundant == 0 {
+        return;
+    }
+    src.warn(
+        None,
+        None,
+        format!(
+            "{redundant} joint equations hold rigid motions that other joints already hold (at \
+             {}): only the flexible bodies' modes make them independent, so their reactions are \
+             not determined by the mechanism, and the second-order field of the stiffened body \
+             {} turns them into stiffness; state joints that hold the mechanism once (e.g. a \
+             spherical and a universal joint at a rod's ends instead of two revolute joints), \
+             or set stiffening = false on the body",
+            joints.join(", "),
+            stiffened.join(", ")
+        ),
+    );
 }
 
 /// A warning when a fixed-step run's estimated local error exceeds the deck's tolerances

@@ -90,11 +90,12 @@ fn dual_models<const N: usize>(
             part.name.clone(),
             bodies.frequency_derivatives(&part.analysis),
         ));
-        for (model, body) in chunks.iter_mut().zip(bodies.chunks) {
+        for ((model, body), props) in chunks.iter_mut().zip(bodies.chunks).zip(&bodies.properties) {
             let body = crate::study::flexible_model_body(
                 &part.name,
                 &built.mesh,
-                &part.analysis.couplings,
+                props,
+                &part.analysis,
                 body,
                 part.stiffening,
             )

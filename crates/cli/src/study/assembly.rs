@@ -31,7 +31,8 @@ impl Assembly {
             let body = flexible_model_body(
                 name,
                 &built.mesh,
-                &analysis.couplings,
+                &built.props,
+                &analysis,
                 modal,
                 def.stiffening,
             )

@@ -51,12 +51,14 @@ pub(crate) struct FlexiblePart {
     pub(crate) def: BodyDef,
 }
 
-/// The multibody body of a flexible body's modes `modal` (mesh `mesh`), with its modal
-/// geometric stiffness when `stiffening` (load cases reacted at the node at the body frame).
+/// The multibody body of a flexible body's modes `modal` (of `analysis`, on the mesh `mesh`
+/// with the element properties `props` in the design's scalar), with its second-order field
+/// when `stiffening` (measured from the node at the body frame).
 pub(crate) fn flexible_model_body<S: sens::Scalar>(
     name: &str,
     mesh: &fem::Mesh,
-    couplings: &[fem::Distribution],
+    props: &fem::Properties<S>,
+    analysis: &fem::ModalAnalysis,
     modal: fem::ModalBody<S>,
     stiffening: bool,
 ) -> Result<FlexibleBody<S>, fem::FemError> {
@@ -68,7 +70,8 @@ pub(crate) fn flexible_model_body<S: sens::Scalar>(
         .modal
         .closest_node(&nalgebra::Vector3::zeros())
         .unwrap_or(0);
-    let g = fem::geometric_stiffness(mesh, &body.modal, clamp)?.with_couplings(couplings);
+    let g = fem::second_order_field(mesh, props, analysis, &body.modal, clamp)?
+        .with_couplings(&analysis.couplings);
     Ok(body.with_geometric_stiffness(g))
 }
 
@@ -606,7 +609,8 @@ impl Mechanism {
             let body = flexible_model_body(
                 &part.name,
                 &built.mesh,
-                &analysis.couplings,
+                &built.props,
+                &analysis,
                 body,
                 def.stiffening,
             )

@@ -186,8 +186,7 @@ pub fn validate_one(
     let shape = shape(src, deck, name, raw, table.clone(), kind, model)?;
     let (modes, mut computed, kept, auto_modes) = modes(src, name, raw, table.clone())?;
     let reference = reference(src, name, raw)?;
-    let beam = matches!(shape, BodyShape::Beam { .. });
-    let stiffening = stiffening(src, name, raw, beam)?;
+    let stiffening = stiffening(raw);
     let supports = supports(src, name, raw.supports.as_deref().unwrap_or(&[]))?;
     check_supports(src, name, raw, table.clone(), &reference, &supports)?;
     let damping = damping(src, name, raw, auto_modes, &mut computed)?;
@@ -307,21 +306,11 @@ fn kind<'a>(
     Ok(kind)
 }
 
-/// Geometric stiffening: on by default for beams ([`STIFFENING_DEFAULT`]), refused for shells.
-fn stiffening(src: &Source, name: &str, raw: &RawBody, beam: bool) -> Result<bool, DeckError> {
-    let k = |key: &str| format!("body.{name}.{key}");
-    Ok(match &raw.stiffening {
-        None => beam && STIFFENING_DEFAULT,
-        Some(s) if *s.get_ref() && !beam => {
-            return Err(src.error(
-                span(s),
-                Some(k("stiffening")),
-                "geometric stiffening is available for beam bodies only (a shell's membrane \
-                 stresses are not computed yet): remove the key or set it to false",
-            ));
-        }
-        Some(s) => *s.get_ref(),
-    })
+/// Geometric stiffening (the second-order field): on by default ([`STIFFENING_DEFAULT`]).
+fn stiffening(raw: &RawBody) -> bool {
+    raw.stiffening
+        .as_ref()
+        .map_or(STIFFENING_DEFAULT, |s| *s.get_ref())
 }
 
 /// `reference = "supports"` needs supports; a free-free body has none.
@@ -510,5 +499,6 @@ fn basis_tolerance(src: &Source, name: &str, raw: &RawBody) -> Result<f64, DeckE
     })
 }
 
-/// Whether beam bodies are stiffened when the deck does not say (docs/geometric-stiffening.md).
+/// Whether flexible bodies are stiffened when the deck does not say
+/// (docs/geometric-stiffening.md).
 pub const STIFFENING_DEFAULT: bool = true;
