@@ -99,6 +99,44 @@ pub fn mesh_size(
     Ok(())
 }
 
+/// Refuse an analysis of a mesh of `n` elements whose memory, estimated at `per_element`
+/// bytes an element, is above the memory limit ([`crate::limits`]), naming `key`. Checked
+/// before anything of the size is allocated; `what` names the analysis.
+pub fn memory_need(
+    src: &Source,
+    key: &str,
+    at: Option<std::ops::Range<usize>>,
+    n: usize,
+    per_element: u64,
+    what: &str,
+) -> Result<(), DeckError> {
+    let limit = crate::limits::get().memory;
+    let need = (n as u64).saturating_mul(per_element);
+    if need <= limit {
+        return Ok(());
+    }
+    let size = |b: u64| {
+        if b >= 1 << 30 {
+            format!("{:.1} GiB", b as f64 / (1u64 << 30) as f64)
+        } else if b >= 1 << 20 {
+            format!("{:.1} MiB", b as f64 / (1u64 << 20) as f64)
+        } else {
+            format!("{:.1} KiB", b as f64 / 1024.0)
+        }
+    };
+    Err(src.error(
+        at,
+        Some(key.to_string()),
+        format!(
+            "the mesh of {n} elements needs about {} for its {what} (about {} KiB an element), \
+             more than the memory limit of {} (--max-memory raises it)",
+            size(need),
+            per_element / 1024,
+            size(limit)
+        ),
+    ))
+}
+
 /// A key that does not apply in this context (e.g. `inner_radius` of a rectangle).
 pub fn not_applicable<T>(
     src: &Source,

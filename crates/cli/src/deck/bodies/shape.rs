@@ -96,6 +96,14 @@ pub(super) fn shape(
                     )
                 })?,
             };
+            crate::deck::check::memory_need(
+                src,
+                &k("elements"),
+                elements_value.map(|e| e.span()),
+                elements,
+                crate::limits::BEAM_BYTES_PER_ELEMENT,
+                "modal analysis",
+            )?;
             BodyShape::Beam {
                 section_name: sname.get_ref().clone(),
                 section,
@@ -245,6 +253,15 @@ pub(super) fn shell_shape(
                 &k("elements"),
                 elements_value.map(|e| e.span()),
                 elements[0].saturating_mul(elements[1]),
+            )?;
+            // two triangles a cell
+            crate::deck::check::memory_need(
+                src,
+                &k("elements"),
+                elements_value.map(|e| e.span()),
+                elements[0].saturating_mul(elements[1]).saturating_mul(2),
+                crate::limits::SHELL_BYTES_PER_ELEMENT,
+                "modal analysis",
             )?;
             BodyShape::ShellRectangle {
                 laminate: lname.get_ref().clone(),

@@ -321,30 +321,14 @@ pub fn validate_one(
     };
     mesh.validate().map_err(bad)?;
     // the warping analysis's memory, estimated before anything is allocated for it
-    let limits = crate::limits::get();
-    let need =
-        (mesh.elements.len() as u64).saturating_mul(crate::limits::SECTION_BYTES_PER_ELEMENT);
-    if need > limits.memory {
-        let size = |b: u64| {
-            if b >= 1 << 30 {
-                format!("{:.1} GiB", b as f64 / (1u64 << 30) as f64)
-            } else {
-                format!("{:.1} MiB", b as f64 / (1u64 << 20) as f64)
-            }
-        };
-        return Err(src.error(
-            table.clone(),
-            Some(format!("section.{name}")),
-            format!(
-                "the mesh of {} elements needs about {} for its analysis (about {} KiB an \
-                 element), more than the memory limit of {} (--max-memory raises it)",
-                mesh.elements.len(),
-                size(need),
-                crate::limits::SECTION_BYTES_PER_ELEMENT / 1024,
-                size(limits.memory)
-            ),
-        ));
-    }
+    crate::deck::check::memory_need(
+        src,
+        &format!("section.{name}"),
+        table.clone(),
+        mesh.elements.len(),
+        crate::limits::SECTION_BYTES_PER_ELEMENT,
+        "analysis",
+    )?;
     // a box names its regions "<wall>/<ply name>"
     let plies: Vec<Option<PlyRef>> = mesh
         .regions

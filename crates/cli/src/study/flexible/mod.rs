@@ -182,9 +182,21 @@ pub fn mesh(src: &Source, name: &str, def: &BodyDef) -> Result<fem::Mesh, CliErr
             file,
             axis,
             ..
-        } => fem::parse_gmsh_v4(mesh_text)
-            .map_err(|e| input(".file", format!("in the mesh {file}: {e}")))?
-            .to_mesh(0, *axis),
+        } => {
+            let mesh = fem::parse_gmsh_v4(mesh_text)
+                .map_err(|e| input(".file", format!("in the mesh {file}: {e}")))?
+                .to_mesh(0, *axis);
+            crate::deck::check::memory_need(
+                src,
+                &format!("body.{name}.file"),
+                Some(def.span.clone()),
+                mesh.elements.len(),
+                crate::limits::SHELL_BYTES_PER_ELEMENT,
+                "modal analysis",
+            )
+            .map_err(CliError::Input)?;
+            mesh
+        }
     })
 }
 
