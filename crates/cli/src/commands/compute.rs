@@ -19,7 +19,18 @@ pub(crate) struct Computed {
     pub(crate) sensitivities: Option<Sensitivities>,
     pub(crate) objectives: Vec<ObjectiveResult>,
     pub(crate) fd: Vec<FdCase>,
+    /// A loose adaptive run's estimate of each response's history error, relative to the
+    /// response's largest magnitude ([`history_error`]; `None` for a constraint violation);
+    /// `None` for other runs.
+    pub(crate) history_error: Option<Vec<Option<f64>>>,
 }
+
+/// The relative tolerance from which an adaptive run estimates the error of its histories.
+pub(crate) const LOOSE_RTOL: f64 = 1e-3;
+
+/// The history error above which a loose run warns, relative to the response's largest
+/// magnitude.
+const HISTORY_WARNING: f64 = 0.01;
 
 /// The analysis, its sensitivities, objectives and finite-difference comparisons (`progress`:
 /// the progress bar, when one is shown).
@@ -65,6 +76,7 @@ pub(crate) fn compute(
     let values: Vec<Vec<f64>> = (0..mech.responses.len())
         .map(|i| outputs.iter().map(|o| mech.value(i, o)).collect())
         .collect();
+    let history_error = history_error(src, mech, &values);
     let objectives = sensitivity::objectives(
         src,
         mech,
@@ -84,7 +96,81 @@ pub(crate) fn compute(
         sensitivities: sens,
         objectives,
         fd,
+        history_error,
     })
+}
+
+/// The error of a loose adaptive run's histories (`rtol` at least [`LOOSE_RTOL`]): a step's
+/// local error control leaves a history free to drift (in phase, typically) by much more than
+/// `rtol`. Estimated by the same analysis at a tenth of the tolerances, whose error is about a
+/// tenth: per response, the largest difference of the two histories relative to the largest
+/// magnitude of the tighter one, with a warning at `analysis.rtol` above 1 % (a constraint
+/// violation, which measures the integrator's own error, has none). `None` for a fixed-step
+/// or tight run, or when the tighter run fails (then with a warning).
+fn history_error(
+    src: &deck::Source,
+    mech: &Mechanism,
+    values: &[Vec<f64>],
+) -> Option<Vec<Option<f64>>> {
+    if !matches!(mech.options.control, mbs::StepControl::Adaptive { .. })
+        || mech.options.rtol < LOOSE_RTOL
+        || values.is_empty()
+    {
+        return None;
+    }
+    let mut options = mech.options.clone();
+    options.rtol /= 10.0;
+    options.atol.iter_mut().for_each(|a| *a /= 10.0);
+    let tighter = mech.system().ok().and_then(|mut system| {
+        let mut state = mech.state.clone();
+        system.assemble(mech.times[0], &mut state, 1e-10).ok()?;
+        mbs::simulate(&mut system, &state, &mech.times, options).ok()
+    });
+    let Some(tighter) = tighter else {
+        src.warn(
+            None,
+            Some("analysis.rtol".into()),
+            "the run at a tenth of the tolerances, which estimates this loose run's history \
+             error, failed: the histories' error is not known",
+        );
+        return None;
+    };
+    let errors: Vec<Option<f64>> = values
+        .iter()
+        .zip(&mech.responses)
+        .enumerate()
+        .map(|(i, (loose, r))| {
+            if matches!(r.response, mbs::Response::ConstraintViolation) {
+                return None;
+            }
+            let tight: Vec<f64> = tighter.outputs.iter().map(|o| mech.value(i, o)).collect();
+            let scale = tight.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            let diff = loose
+                .iter()
+                .zip(&tight)
+                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+            Some(if scale > 0.0 { diff / scale } else { diff })
+        })
+        .collect();
+    for (r, e) in mech.responses.iter().zip(&errors) {
+        if let Some(e) = e
+            && *e > HISTORY_WARNING
+        {
+            src.warn(
+                None,
+                Some("analysis.rtol".into()),
+                format!(
+                    "the history of response `{}` is estimated to be off by {:.1} % of its \
+                     largest value (a run at a tenth of the tolerances differs by that much): \
+                     at rtol = {} the steps' local errors add up along the run; tighten rtol",
+                    r.name,
+                    100.0 * e,
+                    mech.options.rtol
+                ),
+            );
+        }
+    }
+    Some(errors)
 }
 
 /// A warning when a stiffened flexible body with three-dimensional modes moves in a mechanism

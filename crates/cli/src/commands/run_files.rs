@@ -240,7 +240,9 @@ fn put_bodies(g: &mut Group, mech: &Mechanism, outputs: &[mbs::Output]) {
 }
 
 /// The integrator's counters as attributes of `/statistics` (and, for a fixed-step run,
-/// `max_error_ratio`: its largest estimated local error relative to the deck's tolerances).
+/// `max_error_ratio`: its largest estimated local error relative to the deck's tolerances; for
+/// a loose adaptive run, `history_error_NAME`: each response's estimated history error
+/// relative to its largest value).
 fn put_statistics(g: &mut Group, mech: &Mechanism, c: &Computed) {
     let st = &c.statistics;
     let mut counters = vec![
@@ -264,6 +266,16 @@ fn put_statistics(g: &mut Group, mech: &Mechanism, c: &Computed) {
         g.group("statistics")
             .attrs
             .insert(k.into(), Attr::I64(v as i64));
+    }
+    // a loose adaptive run: the estimated error of each response's history
+    if let Some(errors) = &c.history_error {
+        for (r, e) in mech.responses.iter().zip(errors) {
+            if let Some(e) = e {
+                g.group("statistics")
+                    .attrs
+                    .insert(format!("history_error_{}", r.name), Attr::F64(*e));
+            }
+        }
     }
     // a fixed-step run: its largest estimated local error against the deck's tolerances
     if mech.options.accuracy.is_some() {
