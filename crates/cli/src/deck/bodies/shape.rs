@@ -206,63 +206,7 @@ pub(super) fn shell_shape(
                 )?,
                 "m",
             )?;
-            let elements = match elements_value {
-                None => {
-                    let nx = 16usize;
-                    [nx, ((nx as f64 * width / length).round() as usize).max(2)]
-                }
-                Some(e) => match e.get_ref().as_array().map(|a| a.as_slice()) {
-                    Some([a, b]) => [
-                        element_count(a, 1).ok_or_else(|| {
-                            elements_error(
-                                src,
-                                name,
-                                raw,
-                                &format!(
-                                    "[along x, along y], whole numbers from 1 to the limit \
-                                 of {} (--max-elements raises it)",
-                                    crate::limits::get().elements
-                                ),
-                            )
-                        })?,
-                        element_count(b, 1).ok_or_else(|| {
-                            elements_error(
-                                src,
-                                name,
-                                raw,
-                                &format!(
-                                    "[along x, along y], whole numbers from 1 to the limit \
-                                 of {} (--max-elements raises it)",
-                                    crate::limits::get().elements
-                                ),
-                            )
-                        })?,
-                    ],
-                    _ => {
-                        return Err(elements_error(
-                            src,
-                            name,
-                            raw,
-                            "[along x, along y] for a shell rectangle",
-                        ));
-                    }
-                },
-            };
-            crate::deck::check::mesh_size(
-                src,
-                &k("elements"),
-                elements_value.map(|e| e.span()),
-                elements[0].saturating_mul(elements[1]),
-            )?;
-            // two triangles a cell
-            crate::deck::check::memory_need(
-                src,
-                &k("elements"),
-                elements_value.map(|e| e.span()),
-                elements[0].saturating_mul(elements[1]).saturating_mul(2),
-                crate::limits::SHELL_BYTES_PER_ELEMENT,
-                "modal analysis",
-            )?;
+            let elements = rectangle_elements(src, name, raw, length, width)?;
             BodyShape::ShellRectangle {
                 laminate: lname.get_ref().clone(),
                 stack,
@@ -274,6 +218,77 @@ pub(super) fn shell_shape(
             }
         }
     })
+}
+
+/// The cells `[along x, along y]` of a shell rectangle `length × width` (16 along x by
+/// default, square cells), checked against the element and memory limits.
+fn rectangle_elements(
+    src: &Source,
+    name: &str,
+    raw: &RawBody,
+    length: f64,
+    width: f64,
+) -> Result<[usize; 2], DeckError> {
+    let k = |key: &str| format!("body.{name}.{key}");
+    let elements_value = raw.elements.as_ref();
+    let elements = match elements_value {
+        None => {
+            let nx = 16usize;
+            [nx, ((nx as f64 * width / length).round() as usize).max(2)]
+        }
+        Some(e) => match e.get_ref().as_array().map(|a| a.as_slice()) {
+            Some([a, b]) => [
+                element_count(a, 1).ok_or_else(|| {
+                    elements_error(
+                        src,
+                        name,
+                        raw,
+                        &format!(
+                            "[along x, along y], whole numbers from 1 to the limit \
+                         of {} (--max-elements raises it)",
+                            crate::limits::get().elements
+                        ),
+                    )
+                })?,
+                element_count(b, 1).ok_or_else(|| {
+                    elements_error(
+                        src,
+                        name,
+                        raw,
+                        &format!(
+                            "[along x, along y], whole numbers from 1 to the limit \
+                         of {} (--max-elements raises it)",
+                            crate::limits::get().elements
+                        ),
+                    )
+                })?,
+            ],
+            _ => {
+                return Err(elements_error(
+                    src,
+                    name,
+                    raw,
+                    "[along x, along y] for a shell rectangle",
+                ));
+            }
+        },
+    };
+    crate::deck::check::mesh_size(
+        src,
+        &k("elements"),
+        elements_value.map(|e| e.span()),
+        elements[0].saturating_mul(elements[1]),
+    )?;
+    // two triangles a cell
+    crate::deck::check::memory_need(
+        src,
+        &k("elements"),
+        elements_value.map(|e| e.span()),
+        elements[0].saturating_mul(elements[1]).saturating_mul(2),
+        crate::limits::SHELL_BYTES_PER_ELEMENT,
+        "modal analysis",
+    )?;
+    Ok(elements)
 }
 
 /// The laminate a shell body names.
