@@ -189,9 +189,9 @@ fn spin_up_deck_stays_bounded_and_the_linear_model_fails_cleanly() {
 }
 
 /// The paper's revolute joints at both ends of the plate rod hold the rod's lateral motion
-/// twice: a run warns that the stiffened rod's second-order field turns the indeterminate
-/// reactions into stiffness, and names the way out; the shipped deck's joints hold the
-/// mechanism once, and its run does not warn.
+/// twice: `check` and a run warn that the stiffened rod's second-order field turns the
+/// indeterminate reactions into stiffness, and name the way out; the shipped deck's joints hold
+/// the mechanism once, and its run does not warn.
 #[test]
 fn redundant_joints_around_a_stiffened_shell_are_warned_of() {
     let plate = std::fs::read_to_string(deck("slider_crank_plate.toml")).unwrap();
@@ -228,6 +228,13 @@ fn redundant_joints_around_a_stiffened_shell_are_warned_of() {
     std::fs::write(&path, &revolute).unwrap();
     let err = warned(&path, "revolute");
     assert!(err.contains("warning:"), "{err}");
+    // `check` says so too
+    let o = common::run(&["check", path.to_str().unwrap()]);
+    let checked = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        o.status.success() && checked.contains("3 joint equations hold rigid motions"),
+        "{checked}"
+    );
     assert!(
         err.contains("3 joint equations hold rigid motions"),
         "{err}"

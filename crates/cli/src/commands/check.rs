@@ -108,6 +108,7 @@ pub fn run(path: &Path, overrides: &[String]) -> Result<String, CliError> {
                 "the initial configuration cannot be assembled: {e}"
             ))
         })?;
+        super::compute::warn_redundant_with_stiffening(&src, &mech, &system, &state);
         for name in &mech.body_order {
             if let Some(b) = &mech.bodies[name].basis {
                 let _ = writeln!(s, "basis of body {name}: {}", b.describe());

@@ -179,7 +179,7 @@ fn history_error(
 /// the stiff modes they strain), and the body's second-order field turns them into stiffness
 /// (docs/geometric-stiffening.md, "Redundant constraints"). Planar modes leave the redundant
 /// directions (out of the plane) without a field.
-fn warn_redundant_with_stiffening(
+pub(crate) fn warn_redundant_with_stiffening(
     src: &deck::Source,
     mech: &Mechanism,
     system: &mbs::MultibodySystem,
