@@ -170,7 +170,7 @@ impl Group {
         }
         let read = std::panic::catch_unwind(move || {
             let file = hdf5_pure::File::from_bytes(bytes).map_err(|e| e.to_string())?;
-            read_group(&file.root())
+            read_group(&file.root(), 0)
         });
         read.unwrap_or_else(|_| Err("a malformed HDF5 file (its structure is inconsistent)".into()))
     }
@@ -229,7 +229,18 @@ fn read_attr(v: &AttrValue) -> Option<Attr> {
     })
 }
 
-fn read_group(g: &hdf5_pure::Group) -> Result<Group, String> {
+/// Groups nested deeper than this are refused: a result file is a few levels deep, and a
+/// malformed file can make a group its own descendant (a cycle the reader would follow until
+/// the stack overflows).
+const MAX_GROUP_DEPTH: usize = 32;
+
+fn read_group(g: &hdf5_pure::Group, depth: usize) -> Result<Group, String> {
+    if depth > MAX_GROUP_DEPTH {
+        return Err(format!(
+            "groups nested more than {MAX_GROUP_DEPTH} deep (a malformed file whose groups \
+             contain themselves?)"
+        ));
+    }
     let e = |e: hdf5_pure::Error| e.to_string();
     let mut out = Group::default();
     for (n, v) in g.attrs().map_err(e)? {
@@ -254,7 +265,7 @@ fn read_group(g: &hdf5_pure::Group) -> Result<Group, String> {
     }
     for n in g.groups().map_err(e)? {
         let sub = g.group(&n).map_err(e)?;
-        out.groups.insert(n, read_group(&sub)?);
+        out.groups.insert(n, read_group(&sub, depth + 1)?);
     }
     Ok(out)
 }
