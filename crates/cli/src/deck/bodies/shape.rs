@@ -237,32 +237,23 @@ fn rectangle_elements(
             [nx, ((nx as f64 * width / length).round() as usize).max(2)]
         }
         Some(e) => match e.get_ref().as_array().map(|a| a.as_slice()) {
-            Some([a, b]) => [
-                element_count(a, 1).ok_or_else(|| {
-                    elements_error(
-                        src,
-                        name,
-                        raw,
-                        &format!(
-                            "[along x, along y], whole numbers from 1 to the limit \
-                         of {} (--max-elements raises it)",
-                            crate::limits::get().elements
-                        ),
-                    )
-                })?,
-                element_count(b, 1).ok_or_else(|| {
-                    elements_error(
-                        src,
-                        name,
-                        raw,
-                        &format!(
-                            "[along x, along y], whole numbers from 1 to the limit \
-                         of {} (--max-elements raises it)",
-                            crate::limits::get().elements
-                        ),
-                    )
-                })?,
-            ],
+            Some([a, b]) => {
+                let count = |v: &toml::Value| {
+                    element_count(v, 1).ok_or_else(|| {
+                        elements_error(
+                            src,
+                            name,
+                            raw,
+                            &format!(
+                                "[along x, along y], whole numbers from 1 to the limit of {} \
+                                 (--max-elements raises it)",
+                                crate::limits::get().elements
+                            ),
+                        )
+                    })
+                };
+                [count(a)?, count(b)?]
+            }
             _ => {
                 return Err(elements_error(
                     src,
