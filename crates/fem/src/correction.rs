@@ -232,16 +232,26 @@ pub(crate) fn stiffness_factor(
     assembly: &Assembly,
     k: &SparseColMat<usize, f64>,
 ) -> Result<SparseCholesky, FemError> {
-    let symbolic =
-        SparseCholesky::symbolic(k.symbolic(), faer::Side::Lower, &assembly.free_dof_nodes())
-            .map_err(|e| FemError::Eigen(format!("{e:?}")))?;
-    SparseCholesky::new(symbolic, k.as_ref(), faer::Side::Lower).map_err(|_| {
+    factor_held(assembly, k, || {
         FemError::Correction(
             "static correction: the stiffness matrix is not positive definite (the reference \
              condition must hold the body)"
                 .into(),
         )
     })
+}
+
+/// The Cholesky factor of the free-dof stiffness `k`, or `not_held()` when it is not positive
+/// definite (the constraints leave a motion free).
+pub(crate) fn factor_held(
+    assembly: &Assembly,
+    k: &SparseColMat<usize, f64>,
+    not_held: impl FnOnce() -> FemError,
+) -> Result<SparseCholesky, FemError> {
+    let symbolic =
+        SparseCholesky::symbolic(k.symbolic(), faer::Side::Lower, &assembly.free_dof_nodes())
+            .map_err(|e| FemError::Eigen(format!("{e:?}")))?;
+    SparseCholesky::new(symbolic, k.as_ref(), faer::Side::Lower).map_err(|_| not_held())
 }
 
 fn solve(llt: &SparseCholesky, rhs: &DMatrix<f64>) -> DMatrix<f64> {

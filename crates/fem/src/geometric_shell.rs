@@ -24,13 +24,12 @@
 //! laminate enter the right-hand sides (`K Q_b = −f_b − K_b Q`, one triangular solve per
 //! tangent).
 
-use faer::sparse::SparseColMat;
 use nalgebra::{DMatrix, Matrix3, SMatrix, Vector3};
-use sens::{LinearSolver, Scalar, SparseCholesky};
+use sens::{LinearSolver, Scalar};
 
 use crate::assembly::{Assembly, Constraints, MassKind, Properties};
 use crate::body::ModalOptions;
-use crate::correction::distribution;
+use crate::correction::{distribution, factor_held};
 use crate::error::FemError;
 use crate::geometric::GeometricStiffness;
 use crate::mesh::{Element, Mesh};
@@ -76,7 +75,12 @@ pub fn shell_geometric_stiffness<S: Scalar>(
     let assembly = Assembly::new(mesh, &constraints)?;
     let (k, _) = assembly.values(mesh, props, &options.element, MassKind::Lumped)?;
     let k0 = assembly.matrix(k.iter().map(|x| x.value()).collect());
-    let llt = factor(&assembly, &k0, clamp)?;
+    let llt = factor_held(&assembly, &k0, || {
+        FemError::Stiffening(format!(
+            "second-order field: the shell held at node {clamp} is not stiff against every \
+             motion (is the mesh in one piece?)"
+        ))
+    })?;
 
     let nf = field_modes.min(body.n_modes());
     let pairs: Vec<(usize, usize)> = (0..nf).flat_map(|j| (j..nf).map(move |l| (j, l))).collect();
@@ -136,23 +140,6 @@ pub fn shell_geometric_stiffness<S: Scalar>(
         }
     }
     Ok(out)
-}
-
-/// The Cholesky factor of the stiffness held at `clamp` (and the rigid couplings).
-fn factor(
-    assembly: &Assembly,
-    k: &SparseColMat<usize, f64>,
-    clamp: usize,
-) -> Result<SparseCholesky, FemError> {
-    let symbolic =
-        SparseCholesky::symbolic(k.symbolic(), faer::Side::Lower, &assembly.free_dof_nodes())
-            .map_err(|e| FemError::Eigen(format!("{e:?}")))?;
-    SparseCholesky::new(symbolic, k.as_ref(), faer::Side::Lower).map_err(|_| {
-        FemError::Stiffening(format!(
-            "second-order field: the shell held at node {clamp} is not stiff against every \
-             motion (is the mesh in one piece?)"
-        ))
-    })
 }
 
 /// The internal forces `f_jl` (all dof of the mesh, global axes) of the quadratic membrane

@@ -96,18 +96,7 @@ pub fn run(path: &Path, overrides: &[String]) -> Result<String, CliError> {
         if mech.design.enabled {
             super::sensitivity::prepare(&src, &mech)?;
         }
-        let t0 = mech.times[0];
-        let fail = |reason: String| CliError::Computation {
-            file: src.file.clone(),
-            reason,
-        };
-        let mut system = mech.system().map_err(|e| fail(e.to_string()))?;
-        let mut state = mech.state.clone();
-        system.assemble(t0, &mut state, 1e-10).map_err(|e| {
-            fail(format!(
-                "the initial configuration cannot be assembled: {e}"
-            ))
-        })?;
+        let (system, state) = super::compute::assembled(&src, &mech)?;
         super::compute::warn_redundant_with_stiffening(&src, &mech, &system, &state);
         for name in &mech.body_order {
             if let Some(b) = &mech.bodies[name].basis {

@@ -43,15 +43,7 @@ pub(crate) fn compute(
         file: src.file.clone(),
         reason,
     };
-    let mut system = mech.system().map_err(|e| runtime(e.to_string()))?;
-    let mut state = mech.state.clone();
-    system
-        .assemble(mech.times[0], &mut state, 1e-10)
-        .map_err(|e| {
-            runtime(format!(
-                "the initial configuration cannot be assembled: {e}"
-            ))
-        })?;
+    let (mut system, state) = assembled(src, mech)?;
     warn_redundant_with_stiffening(src, mech, &system, &state);
     if let Some(p) = progress {
         system.set_progress(Some(p.observer()));
@@ -100,6 +92,28 @@ pub(crate) fn compute(
     })
 }
 
+/// The mechanism's system and its initial state assembled (the positions made consistent
+/// with the joints, the redundant equations chosen).
+pub(crate) fn assembled(
+    src: &deck::Source,
+    mech: &Mechanism,
+) -> Result<(mbs::MultibodySystem, mbs::State), CliError> {
+    let fail = |reason: String| CliError::Computation {
+        file: src.file.clone(),
+        reason,
+    };
+    let mut system = mech.system().map_err(|e| fail(e.to_string()))?;
+    let mut state = mech.state.clone();
+    system
+        .assemble(mech.times[0], &mut state, 1e-10)
+        .map_err(|e| {
+            fail(format!(
+                "the initial configuration cannot be assembled: {e}"
+            ))
+        })?;
+    Ok((system, state))
+}
+
 /// The error of a loose adaptive run's histories (`rtol` at least [`LOOSE_RTOL`]): a step's
 /// local error control leaves a history free to drift (in phase, typically) by much more than
 /// `rtol`. Estimated by the same analysis at a tenth of the tolerances, whose error is about a
@@ -121,9 +135,7 @@ fn history_error(
     let mut options = mech.options.clone();
     options.rtol /= 10.0;
     options.atol.iter_mut().for_each(|a| *a /= 10.0);
-    let tighter = mech.system().ok().and_then(|mut system| {
-        let mut state = mech.state.clone();
-        system.assemble(mech.times[0], &mut state, 1e-10).ok()?;
+    let tighter = assembled(src, mech).ok().and_then(|(mut system, state)| {
         mbs::simulate(&mut system, &state, &mech.times, options).ok()
     });
     let Some(tighter) = tighter else {
