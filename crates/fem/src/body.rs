@@ -48,8 +48,16 @@ pub enum ReferenceCondition {
     ClampedNode(NodeId),
     /// Only the [`ModalOptions::supports`] hold the body (edges, lines, symmetry planes, single
     /// dof); the body frame sits at the node nearest the centre of mass, parallel to the mesh
-    /// axes. The supports must hold every rigid motion, else the analysis fails.
+    /// axes. The supports must hold every rigid motion, else the analysis fails naming the
+    /// motions they leave free ([`crate::free_rigid_motions`]).
     Supports,
+    /// The [`ModalOptions::supports`] hold some rigid motions and leave the others free, as
+    /// free-free leaves all six (a strip held only in its deflection along its end lines moves
+    /// freely in its plane): the zero-frequency modes of the free motions are computed and
+    /// discarded, so the elastic modes carry no momentum along them, and the body frame sits at
+    /// the centre of mass, parallel to the mesh axes. The supports must hold at least one
+    /// rigid motion (else use [`Self::FreeFree`]).
+    PartlyFree,
 }
 
 /// Dof fixed at a set of nodes: local dof indices `0..6` (`[u_x, u_y, u_z, θ_x, θ_y, θ_z]`,
@@ -276,14 +284,21 @@ pub fn analysis_constraints(
     if let Some(axis) = axis {
         add_planar_constraints(mesh, axis, &mut c);
     }
-    if opts.reference == ReferenceCondition::Supports && opts.supports.is_empty() {
-        return Err(FemError::Support(
-            "reference condition `supports` without any support".into(),
-        ));
+    if matches!(
+        opts.reference,
+        ReferenceCondition::Supports | ReferenceCondition::PartlyFree
+    ) && opts.supports.is_empty()
+    {
+        return Err(FemError::Support(format!(
+            "reference condition {:?} without any support (a body held by nothing is free-free)",
+            opts.reference
+        )));
     }
     if opts.reference == ReferenceCondition::FreeFree && !opts.supports.is_empty() {
         return Err(FemError::Support(
-            "supports on a free-free body: use the reference condition `supports`".into(),
+            "supports on a free-free body: use the reference condition `supports` (they hold \
+             every rigid motion) or `partly-free` (the motions they leave free stay free)"
+                .into(),
         ));
     }
     for s in &opts.supports {
@@ -329,7 +344,7 @@ pub struct ModalAnalysis {
     pub correction: Option<StaticCorrection>,
     /// The couplings of [`ModalOptions::couplings`] resolved on the mesh.
     pub couplings: Vec<Distribution>,
-    /// Rigid-body modes discarded (free-free).
+    /// Rigid-body modes discarded (free-free, partly free).
     pub n_rigid: usize,
     /// Body-frame origin (mesh coordinates).
     pub origin: Vector3<f64>,
@@ -476,7 +491,7 @@ pub fn reference_constraints(
             c.fix_nodes(&line, &dof::ALL);
             Ok((c, mesh.nodes[node]))
         }
-        ReferenceCondition::FreeFree => Ok((c, com)),
+        ReferenceCondition::FreeFree | ReferenceCondition::PartlyFree => Ok((c, com)),
         ReferenceCondition::Supports => {
             let node = mesh.closest_node(&com).ok_or(FemError::EmptyMesh)?;
             Ok((c, mesh.nodes[node]))
@@ -517,6 +532,65 @@ pub fn reference_constraints(
     }
 }
 
+/// The number of rigid-body modes the reference condition `rc` discards: the rigid motions
+/// `constraints` leave free, which only a free-free or partly free body may have; any other
+/// condition that leaves one free is refused, naming the motions.
+fn rigid_modes(
+    mesh: &Mesh,
+    constraints: &Constraints,
+    origin: &Vector3<f64>,
+    rc: ReferenceCondition,
+) -> Result<usize, FemError> {
+    let free = crate::rigid::free_rigid_motions(mesh, constraints, origin);
+    if free.is_empty()
+        || matches!(
+            rc,
+            ReferenceCondition::FreeFree | ReferenceCondition::PartlyFree
+        )
+    {
+        return Ok(free.len());
+    }
+    let list: Vec<String> = free.iter().map(|m| m.to_string()).collect();
+    Err(FemError::Support(format!(
+        "the supports leave {} rigid-body motion(s) free: {}. Hold each with a support (one that \
+         holds only the deflection, `uz` along a line, leaves the in-plane translations and the \
+         rotation about the normal free: hold them at two nodes of one line, e.g. `fix = \
+         [\"ux\", \"uy\"]` at one end of it and `fix = [\"uy\"]` at the other), or leave them \
+         free and let the body frame follow them with reference = \"partly-free\"",
+        free.len(),
+        list.join("; ")
+    )))
+}
+
+/// Drop the `rigid` zero-frequency modes from the bottom of `pairs`; an error unless exactly
+/// that many frequencies are zero (more is a mechanism: a part moves without deforming).
+fn discard_rigid_modes(pairs: &mut Eigenpairs, rigid: usize) -> Result<(), FemError> {
+    let lmax = pairs.values.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+    let zeros = pairs
+        .values
+        .iter()
+        .take_while(|l| l.abs() <= 1e-8 * lmax)
+        .count();
+    if zeros != rigid {
+        return Err(FemError::Eigen(format!(
+            "the body has {zeros} zero frequencies where its constraints leave {rigid} rigid-body \
+             motion(s) free{}",
+            if zeros > rigid {
+                ": part of it moves without deforming (elements not connected to the rest, or \
+                 a node without stiffness)"
+            } else {
+                ""
+            }
+        )));
+    }
+    pairs.values.drain(..rigid);
+    pairs.vectors = pairs
+        .vectors
+        .columns(rigid, pairs.vectors.ncols() - rigid)
+        .into_owned();
+    Ok(())
+}
+
 /// Number of extra modes computed beyond those requested, so that a cluster of repeated
 /// eigenvalues straddling the last retained mode is seen whole.
 pub const GUARD_MODES: usize = 4;
@@ -537,13 +611,7 @@ pub fn modal_analysis(
     let (kv, mv) = assembly.values(mesh, props, &opts.element, opts.mass)?;
     let k = assembly.matrix(kv);
     let m = assembly.matrix(mv);
-    // rigid-body modes of a free-free body: 6 in space, 3 in a plane (2 translations and the
-    // rotation about the normal)
-    let rigid = match (opts.reference, opts.planar) {
-        (ReferenceCondition::FreeFree, None) => 6,
-        (ReferenceCondition::FreeFree, Some(_)) => 3,
-        _ => 0,
-    };
+    let rigid = rigid_modes(mesh, &constraints, &origin, opts.reference)?;
     let kept = match &opts.kept {
         None => (0..opts.n_modes).collect(),
         Some(k) => {
@@ -571,44 +639,8 @@ pub fn modal_analysis(
     }
     let node_of = assembly.free_dof_nodes();
     let mut pairs = lowest_modes_of_nodes(&k, &m, want, &opts.eigen, Some(&node_of))?;
-    let mut n_rigid = 0;
-    if rigid > 0 {
-        let lmax = pairs.values.iter().fold(0.0f64, |a, b| a.max(b.abs()));
-        n_rigid = pairs
-            .values
-            .iter()
-            .take_while(|l| l.abs() <= 1e-8 * lmax)
-            .count();
-        if n_rigid != rigid {
-            return Err(FemError::Eigen(format!(
-                "free-free body has {n_rigid} rigid-body modes, expected {rigid}"
-            )));
-        }
-        pairs.values.drain(..n_rigid);
-        pairs.vectors = pairs
-            .vectors
-            .columns(n_rigid, pairs.vectors.ncols() - n_rigid)
-            .into_owned();
-    }
+    discard_rigid_modes(&mut pairs, rigid)?;
     crate::eigen::canonical_cluster_bases(&mut pairs, crate::sensitivity::CLUSTER_RTOL);
-    if opts.reference == ReferenceCondition::Supports {
-        // supports that leave a rigid motion free show it as a zero frequency
-        let lmax = pairs.values.iter().fold(0.0f64, |a, b| a.max(b.abs()));
-        let free = pairs
-            .values
-            .iter()
-            .take_while(|l| l.abs() <= 1e-8 * lmax)
-            .count();
-        if free > 0 {
-            return Err(FemError::Support(format!(
-                "the supports leave {free} rigid-body motion(s) free (zero frequencies): every \
-                 rigid motion needs a support that holds it. A support that holds only the \
-                 deflection (`uz` along a line) leaves the in-plane translations and the \
-                 rotation about the normal free: hold them at two nodes of one line, e.g. \
-                 `fix = [\"ux\", \"uy\"]` at one end of it and `fix = [\"uy\"]` at the other"
-            )));
-        }
-    }
     let couplings = opts
         .couplings
         .iter()
@@ -619,8 +651,8 @@ pub fn modal_analysis(
     } else {
         if rigid > 0 {
             return Err(FemError::Correction(
-                "static correction needs a reference condition that holds the body (not \
-                 free-free): its static shapes are K⁻¹ of unit loads"
+                "static correction needs a reference condition that holds every rigid motion \
+                 (not free-free or partly-free): its static shapes are K⁻¹ of unit loads"
                     .into(),
             ));
         }
@@ -642,7 +674,7 @@ pub fn modal_analysis(
         kept,
         correction,
         couplings,
-        n_rigid,
+        n_rigid: rigid,
         origin,
         constraints,
         options: opts.clone(),

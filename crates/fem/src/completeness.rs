@@ -19,7 +19,7 @@
 use nalgebra::{DMatrix, DVector, Vector3};
 
 use crate::assembly::{Properties, lumped_nodal_masses};
-use crate::body::{ModalAnalysis, ReferenceCondition};
+use crate::body::ModalAnalysis;
 use crate::correction::stiffness_factor;
 use crate::error::FemError;
 use crate::mesh::{Mesh, NodeId};
@@ -62,14 +62,14 @@ impl Completeness {
 }
 
 /// The basis check of `analysis` for the loads `interfaces` and the frame's inertia loads.
-/// `None` for a free-free body.
+/// `None` for a body with rigid motions free (free-free, partly free).
 pub fn static_completeness(
     mesh: &Mesh,
     props: &Properties<f64>,
     analysis: &ModalAnalysis,
     interfaces: &[InterfaceLoads],
 ) -> Result<Option<Completeness>, FemError> {
-    if analysis.options.reference == ReferenceCondition::FreeFree {
+    if analysis.n_rigid > 0 {
         return Ok(None);
     }
     let assembly = &analysis.assembly;

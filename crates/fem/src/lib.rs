@@ -14,7 +14,8 @@
 //! [`Properties`] (beam sections, laminates from `laminate::PlyStack::stiffness`); run
 //! [`modal_analysis`] with [`ModalOptions`] (reference condition — clamped node or clamped
 //! cross-section line at the centre of mass, free-free, pinned ends, a clamped node of one's
-//! choice, or [`Support`]s alone: dof fixed at node sets — number of modes, Rayleigh
+//! choice, or [`Support`]s alone: dof fixed at node sets, holding every rigid motion or
+//! leaving some free as free-free leaves all six ([`free_rigid_motions`] names them) — number of modes, Rayleigh
 //! damping, lumped or consistent mass, optional restriction to motion in a plane normal to a
 //! global axis); [`modal_body`] gives the `ModalBody<f64>`;
 //! [`analysis_derivatives`] evaluates the properties on `Dual<N>` numbers seeded with the design
@@ -46,6 +47,7 @@ pub mod geometric;
 mod geometric_shell;
 pub mod mesh;
 mod modal;
+mod rigid;
 pub mod sensitivity;
 pub mod shell;
 mod small;
@@ -70,6 +72,7 @@ pub use geometric::{GeometricStiffness, geometric_stiffness, second_order_field}
 pub use geometric_shell::shell_geometric_stiffness;
 pub use mesh::{Element, GmshTriangles, Mesh, MeshError, NodeId, bounding_box, parse_gmsh_v4};
 pub use modal::{ModalBody, ModalBodyError, NODE_DOFS};
+pub use rigid::{RigidMotion, free_rigid_motions};
 pub use sensitivity::{
     DesignMatrices, ModeDerivatives, ProjectedDerivative, cluster_second_derivatives,
     directional_eigenvalue_derivatives, eigenvalue_derivatives, mode_derivatives,

@@ -651,3 +651,87 @@ fn eigenvalue_derivatives_from_element_projections_equal_the_assembled_ones() {
     );
     same(&full, &fast, "square plate, repeated pair");
 }
+
+/// The strip held only in its deflection along both end lines, its in-plane motion free
+/// ([`ReferenceCondition::PartlyFree`]).
+fn partly_free_analysis(b: &[f64]) -> fem::ModalAnalysis {
+    let mut o = ModalOptions::new(5);
+    o.reference = ReferenceCondition::PartlyFree;
+    // node (i, j) of the 12 × 2 mesh is 13 j + i: the lines x = 0 and x = 0.3
+    o.supports = [0, 12]
+        .map(|i| fem::Support {
+            nodes: (0..3).map(|j| 13 * j + i).collect(),
+            dofs: vec![dof::UZ],
+        })
+        .to_vec();
+    modal_analysis(&strip(), &strip_props(b), &o).unwrap()
+}
+
+/// A partly free body discards the three in-plane rigid modes its supports leave (its elastic
+/// modes carry no in-plane momentum), and its eigenvalue and eigenvector derivatives match
+/// Richardson-extrapolated central differences as a held body's do.
+#[test]
+fn partly_free_modes_and_derivatives_match_central_differences() {
+    let an = partly_free_analysis(&B0);
+    assert_eq!(an.n_rigid, 3);
+    assert!(an.pairs.values[0] > 1e-3 * an.pairs.values[4]);
+    let p = an.n_modes;
+    let x0 = an.pairs.vectors.columns(0, p).into_owned();
+    let n = strip().nodes.len();
+    for d in [dof::UX, dof::UY] {
+        let mut r = vec![0.0; 6 * n];
+        (0..n).for_each(|k| r[6 * k + d] = 1.0);
+        let r = DMatrix::from_column_slice(
+            an.assembly.n_free(),
+            1,
+            an.assembly.restrict(&r).as_slice(),
+        );
+        let mr = fem::eigen::project(&an.m, &x0, &r);
+        let total = fem::eigen::project(&an.m, &r, &r)[(0, 0)];
+        for i in 0..p {
+            assert!(
+                mr[(i, 0)].abs() < 1e-9 * total.sqrt(),
+                "mode {i} carries momentum along dof {d}: {}",
+                mr[(i, 0)]
+            );
+        }
+    }
+    let (_, d) =
+        analysis_derivatives::<3, _>(&strip(), &an, &B0, strip_props, ModeUpdate::Updated).unwrap();
+    let xb = d.eigenvectors.as_ref().unwrap();
+    let h = 1e-3;
+    for k in 0..3 {
+        let at = |s: f64| {
+            let mut b = B0;
+            b[k] += s;
+            partly_free_analysis(&b)
+        };
+        let (ap, am, ap2, am2) = (at(h), at(-h), at(2.0 * h), at(-2.0 * h));
+        for i in 0..p {
+            let fd = (4.0 * (ap.pairs.values[i] - am.pairs.values[i]) / (2.0 * h)
+                - (ap2.pairs.values[i] - am2.pairs.values[i]) / (4.0 * h))
+                / 3.0;
+            let got = d.eigenvalues[k][i];
+            let scale = (0..3)
+                .map(|v| d.eigenvalues[v][i].abs())
+                .fold(0.0, f64::max);
+            assert!(
+                (got - fd).abs() <= 1e-6 * scale,
+                "var {k} mode {i}: λ_b {got} vs FD {fd}"
+            );
+        }
+        let cols =
+            |a: &fem::ModalAnalysis| aligned(&a.pairs.vectors.columns(0, p).into_owned(), &x0);
+        let fd = ((cols(&ap) - cols(&am)) / (2.0 * h) * 4.0
+            - (cols(&ap2) - cols(&am2)) / (4.0 * h))
+            / 3.0;
+        for i in 0..p {
+            let scale = (0..3).map(|v| xb[v].column(i).norm()).fold(0.0, f64::max);
+            let err = (xb[k].column(i) - fd.column(i)).norm() / scale;
+            assert!(
+                err < 1e-6,
+                "var {k} mode {i}: |x_b − FD|/max|x_b| = {err:e}"
+            );
+        }
+    }
+}

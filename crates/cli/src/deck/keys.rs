@@ -73,6 +73,7 @@ choices! {
         "pinned-ends",
         "clamped-node",
         "supports",
+        "partly-free",
     ];
     BODY_MASS: "[body.NAME]", "body.NAME.mass", ["lumped", "consistent"];
     BODY_BASIS: "[body.NAME]", "body.NAME.basis", ["interface", "modes"];

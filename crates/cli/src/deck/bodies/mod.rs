@@ -136,6 +136,15 @@ pub enum Reference {
     PinnedEnds(Option<[usize; 2]>),
     ClampedNode(usize),
     Supports,
+    /// Supports that hold some rigid motions; the others stay free, as in free-free.
+    PartlyFree,
+}
+
+impl Reference {
+    /// Whether the reference condition holds every rigid motion (static shapes `K⁻¹ f` exist).
+    pub fn holds_body(&self) -> bool {
+        !matches!(self, Reference::FreeFree | Reference::PartlyFree)
+    }
 }
 
 /// Which nodes a support holds.
@@ -324,18 +333,28 @@ fn check_supports(
 ) -> Result<(), DeckError> {
     let k = |key: &str| format!("body.{name}.{key}");
     match (reference, supports.is_empty(), &raw.reference) {
-        (Reference::Supports, true, r) => {
+        (Reference::Supports | Reference::PartlyFree, true, r) => {
+            let word = if *reference == Reference::Supports {
+                "supports"
+            } else {
+                "partly-free"
+            };
             return Err(src.error(
                 r.as_ref().map(span).unwrap_or(table.clone()),
                 Some(k("reference")),
-                "reference = \"supports\" needs supports = [{ plane | nodes | box, fix }, …]",
+                format!(
+                    "reference = \"{word}\" needs supports = [{{ plane | nodes | box, fix }}, …] \
+                     (a body nothing holds is reference = \"free-free\")"
+                ),
             ));
         }
         (Reference::FreeFree, false, r) => {
             return Err(src.error(
                 r.as_ref().map(span).unwrap_or(table.clone()),
                 Some(k("reference")),
-                "a free-free body has no supports: use reference = \"supports\"",
+                "a free-free body has no supports: use reference = \"supports\" (the supports \
+                 hold every rigid motion) or \"partly-free\" (the motions they leave free stay \
+                 free)",
             ));
         }
         _ => {}
@@ -426,14 +445,14 @@ fn basis(
     let k = |key: &str| format!("body.{name}.{key}");
     Ok(match raw.basis.as_ref().map(|b| b.get_ref().as_str()) {
         // static correction needs a reference condition that holds the body
-        None => *reference != Reference::FreeFree,
-        Some("interface") if *reference == Reference::FreeFree => {
+        None => reference.holds_body(),
+        Some("interface") if !reference.holds_body() => {
             return Err(src.error(
                 span(raw.basis.as_ref().expect("given")),
                 Some(k("basis")),
-                "basis = \"interface\" needs a reference condition that holds the body (its \
-                 static correction modes are the static responses to unit loads); a free-free \
-                 body takes basis = \"modes\"",
+                "basis = \"interface\" needs a reference condition that holds every rigid \
+                 motion (its static correction modes are the static responses to unit loads); a \
+                 free-free or partly-free body takes basis = \"modes\"",
             ));
         }
         Some("interface") => true,
@@ -469,12 +488,12 @@ fn check_auto_modes(
             ));
         }
     }
-    if *reference == Reference::FreeFree {
+    if !reference.holds_body() {
         return Err(src.error(
             raw.modes.as_ref().and_then(span),
             Some(k("modes")),
             "modes = \"auto\" chooses by the basis check, which needs a reference condition \
-             that holds the body (not free-free)",
+             that holds every rigid motion (not free-free or partly-free)",
         ));
     }
     Ok(())

@@ -91,6 +91,7 @@ pub(super) fn reference(src: &Source, name: &str, raw: &RawBody) -> Result<Refer
             }
         }),
         Some((_, "supports")) => Reference::Supports,
+        Some((_, "partly-free")) => Reference::PartlyFree,
         Some((r, other)) => {
             return Err(src.error(
                 span(r),

@@ -171,8 +171,8 @@ pub struct RawBody {
     /// Number of elastic modes retained (the lowest), the mode numbers retained, e.g.
     /// `[1, 2, 5]` (counted from 1, ascending), or `"auto"`.
     pub modes: Option<Spanned<toml::Value>>,
-    /// `"centre-of-mass"` (default), `"clamped-section"`, `"free-free"`, `"pinned-ends"` or
-    /// `"clamped-node"`.
+    /// `"centre-of-mass"` (default), `"clamped-section"`, `"free-free"`, `"pinned-ends"`,
+    /// `"clamped-node"`, `"supports"` or `"partly-free"`.
     pub reference: Option<Spanned<String>>,
     /// Clamped node: the node index (default 0, a generated beam's start).
     pub clamped: Option<Spanned<i64>>,

@@ -364,6 +364,7 @@ fn reference_condition(
         Reference::ClampedSection => ReferenceCondition::ClampedSectionAtCentre,
         Reference::FreeFree => ReferenceCondition::FreeFree,
         Reference::Supports => ReferenceCondition::Supports,
+        Reference::PartlyFree => ReferenceCondition::PartlyFree,
         Reference::ClampedNode(node) => {
             if node >= n_nodes {
                 return Err((
