@@ -12,6 +12,7 @@
 //! | `section-gmsh` | a Gmsh section mesh | `flexsens section` on a deck reading it |
 //! | `shell-gmsh` | a Gmsh shell mesh | `flexsens modes` on a deck reading it |
 //! | `hdf5` | a result file | `flexsens compare`'s reader and comparison |
+//! | `merge` | a sweep shard's manifest and case list | `flexsens merge` of it with a valid second shard |
 //!
 //! An error is the expected answer to bad input; a panic is a crash. Crashing inputs are saved
 //! in the output directory with their panic message, and the exit code is 1. The input being
@@ -69,15 +70,17 @@ enum Target {
     SectionGmsh,
     ShellGmsh,
     Hdf5,
+    Merge,
 }
 
 impl Target {
-    const ALL: [Target; 5] = [
+    const ALL: [Target; 6] = [
         Target::Deck,
         Target::SectionSimple,
         Target::SectionGmsh,
         Target::ShellGmsh,
         Target::Hdf5,
+        Target::Merge,
     ];
 
     fn name(self) -> &'static str {
@@ -87,6 +90,7 @@ impl Target {
             Target::SectionGmsh => "section-gmsh",
             Target::ShellGmsh => "shell-gmsh",
             Target::Hdf5 => "hdf5",
+            Target::Merge => "merge",
         }
     }
 
@@ -98,6 +102,7 @@ impl Target {
             Target::SectionGmsh => "mesh.msh",
             Target::ShellGmsh => "shell.msh",
             Target::Hdf5 => "results.h5",
+            Target::Merge => "shard.merge",
         }
     }
 
@@ -113,6 +118,7 @@ impl Target {
             Target::SectionGmsh => &[("crates/section/tests/data", ".msh")],
             Target::ShellGmsh => &[("fuzz/seeds", ".msh")],
             Target::Hdf5 => &[("crates/cli/tests/golden", ".h5")],
+            Target::Merge => &[("fuzz/seeds", ".merge")],
         }
     }
 }
@@ -432,11 +438,54 @@ fn execute(target: Target, work: &Path, input: &[u8]) -> String {
             let c = compare(&g, &g, 0.0, 0.0);
             format!("{} datasets, same: {}", g.flatten().len(), c.matches())
         }),
+        Target::Merge => merge_shards(work, input),
     };
     match outcome {
         Ok(_) => "ok".into(),
         Err(e) => e.lines().next().unwrap_or("").to_string(),
     }
+}
+
+/// The second shard of the sweep the `merge` seeds are the first shard of (as `sweep --shard
+/// 2/2` writes it): its manifest and case list.
+const SHARD_2: [&str; 2] = [
+    r#"{"cases": 2, "command": "sweep", "deck": "rigid.toml",
+"deck_fingerprint": "fde47ca3085bbf24", "flexsens_version": "@VERSION@",
+"set": ["analysis.t_end=0.002"], "shard": [2, 2], "vary": ["rigid.slider.mass=0.04,0.05"]}"#,
+    r#"{"case":2,"summary":{"design":[],"max_position_violation":4.8e-10,"objectives":[],"steps":35}}"#,
+];
+
+/// `flexsens merge` of a first shard made from `input` (its `shard.json`, a line
+/// `# cases.jsonl`, then its `cases.jsonl`; `@VERSION@` stands for this build's version) and
+/// the valid [`SHARD_2`], each with the case directory its case list names; made afresh for
+/// every input, since a merge moves the case directories.
+fn merge_shards(work: &Path, input: &[u8]) -> Result<String, String> {
+    let dir = work.join("merge");
+    let _ = std::fs::remove_dir_all(&dir);
+    let version = env!("CARGO_PKG_VERSION");
+    let text = String::from_utf8_lossy(input).replace("@VERSION@", version);
+    let (manifest, cases) = text
+        .split_once("\n# cases.jsonl\n")
+        .unwrap_or((text.as_str(), ""));
+    let second = SHARD_2.map(|s| s.replace("@VERSION@", version));
+    let shards = [dir.join("shard_1"), dir.join("shard_2")];
+    for (d, [manifest, cases], case) in [
+        (&shards[0], [manifest, cases], "case_001"),
+        (
+            &shards[1],
+            [second[0].as_str(), second[1].as_str()],
+            "case_002",
+        ),
+    ] {
+        std::fs::create_dir_all(d.join(case)).expect("the work directory is writable");
+        std::fs::write(d.join("shard.json"), manifest).expect("writable");
+        std::fs::write(d.join("cases.jsonl"), cases).expect("writable");
+        std::fs::write(d.join(case).join("results.h5"), b"(merge reads no result)")
+            .expect("writable");
+    }
+    commands::merge::merge(&shards, &dir.join("out"))
+        .map(|(t, _)| t)
+        .map_err(|e| e.to_string())
 }
 
 /// The first words of an answer with numbers and paths blurred: a rough count of the

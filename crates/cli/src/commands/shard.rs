@@ -129,7 +129,10 @@ pub(crate) fn check_shard_set(dirs: &[PathBuf], manifests: &[Value]) -> Result<u
                     first["deck"].as_str().unwrap_or("?")
                 )
             } else {
-                format!("their `{key}` differ")
+                format!(
+                    "their `{key}` differ: {} against {}",
+                    first[key], manifests[k][key]
+                )
             };
             return Err(usage(format!(
                 "{} and {} are shards of different runs ({why})",
