@@ -458,8 +458,9 @@ fn free_free_timoshenko(
 /// are free, as free-free leaves all six) is a simply supported beam in bending —
 /// f_k = k² (π / 2L²) √(EI / ρA) — and a free-free beam in its plane: Euler–Bernoulli
 /// f_k = (β_k L)² / (2π L²) √(E b² / 12ρ), β₁L = 4.7300, β₂L = 7.8532, lowered 2.2 % and 5.9 %
-/// by shear and rotary inertia (Timoshenko, Cowper's κ), which the mesh converges to. The
-/// supports alone are refused, naming the motions they leave free and offering `partly-free`.
+/// by shear and rotary inertia (Timoshenko, Cowper's κ), which the mesh converges to: the
+/// shipped `decks/modes_strip_partly_free.toml` and two coarser meshes. The supports alone are
+/// refused, naming the motions they leave free and offering `partly-free`.
 #[test]
 fn strip_held_only_in_deflection_and_free_in_its_plane_is_free_free_in_plane() {
     let (e, nu, rho, l, b, h): (f64, f64, f64, f64, f64, f64) =
@@ -472,19 +473,10 @@ fn strip_held_only_in_deflection_and_free_in_its_plane_is_free_free_in_plane() {
         let i = h * b.powi(3) / 12.0;
         free_free_timoshenko(e * i, kga, rho * b * h, rho * i, l, 0.8 * euler, euler)
     });
-    let pinned = "reference = \"supports\"\nsupports = [\n  { plane = { x = 0.0 }, fix = \"pinned\" },\n  \
-                  { plane = { x = 0.5 }, fix = \"pinned\" },\n";
-    let deflection_only = "supports = [\n  { plane = { x = 0.0 }, fix = [\"uz\"] },\n  \
-                           { plane = { x = 0.5 }, fix = [\"uz\"] },\n";
-    assert!(STRIP.contains(pinned));
-    let supports = STRIP.replace(
-        pinned,
-        &format!("reference = \"supports\"\n{deflection_only}"),
-    );
-    let free = STRIP.replace(
-        pinned,
-        &format!("reference = \"partly-free\"\n{deflection_only}"),
-    );
+    // the shipped example, at three meshes
+    let free = std::fs::read_to_string(deck("modes_strip_partly_free.toml")).unwrap();
+    let supports = free.replace("reference = \"partly-free\"", "reference = \"supports\"");
+    assert_ne!(free, supports);
     let nearest = |got: &[f64], f: f64| {
         got.iter()
             .map(|g| g / f - 1.0)
