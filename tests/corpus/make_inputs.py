@@ -102,7 +102,7 @@ write("value_objective_unknown_response.toml", edit(BEAM, 'response = "mid_defle
 
 # --- sizes (refused before allocation)
 write("size_beam_1e9_elements.toml", edit(BEAM, "elements = 8 ", "elements = 1000000000 "))
-write("size_shell_1e5_squared.toml", edit(PLATE, "elements = [24, 4]", "elements = [100000, 100000]"))
+write("size_shell_1e5_squared.toml", edit(PLATE, "elements = [64, 8]", "elements = [100000, 100000]"))
 write("size_tube_1e9_around.toml", edit(BEAM, "elements_around = 32", "elements_around = 1000000000"))
 write("size_section_rectangle_huge.toml", edit(RECT, "elements = [32, 6]", "elements = [100000, 100000]"))
 write("size_modes_million.toml", edit(BEAM, "modes = 4\n", "modes = 1000000\n"))
@@ -202,3 +202,24 @@ bad = bytearray(GOLD)
 for k in range(200, 208):
     bad[k] = 0xFF
 write("corrupt_header.h5", bytes(bad), binary=True)
+
+# --- sections whose walls do not fit
+I_BEAM = """[material.al]
+E = 70.0e9
+nu = 0.3
+density = 2700.0
+
+[laminate.flange]
+plies = [{ material = "al", thickness = 0.004, angle = 0.0 }]
+
+[laminate.web]
+plies = [{ material = "al", thickness = 0.003, angle = 0.0 }]
+
+[section.i]
+shape = "i-beam"
+width = 0.05
+height = 0.008
+walls = { top = "flange", bottom = "flange", web = "web" }
+elements_per_ply = 2
+"""
+write("i_beam_no_web_height.toml", I_BEAM)
