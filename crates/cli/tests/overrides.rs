@@ -148,6 +148,32 @@ fn bad_overrides_name_the_path() {
     ));
 }
 
+/// A path into a single table the deck leaves out (`[sensitivity]`, `[analysis]`, …) creates
+/// it after the deck's text (its lines keep their numbers); a missing named table is still an
+/// error.
+#[test]
+fn overrides_create_the_single_tables_a_deck_leaves_out() {
+    let text = "# a deck\n[laminate.a]\nplies = [ { angle = 0 } ]\n";
+    let out = set(
+        text,
+        &[
+            "sensitivity.method=\"direct\"",
+            "analysis.baumgarte.alpha=2.0",
+            "analysis.t_end=0.5",
+        ],
+    )
+    .unwrap();
+    assert!(out.starts_with(text), "{out}");
+    let v: toml::Table = out.parse().unwrap();
+    assert_eq!(v["sensitivity"]["method"].as_str(), Some("direct"));
+    assert_eq!(v["analysis"]["baumgarte"]["alpha"].as_float(), Some(2.0));
+    assert_eq!(v["analysis"]["t_end"].as_float(), Some(0.5));
+    for bad in ["body.rod.modes=4", "laminate.b.plies.0.angle=1"] {
+        let e = set(text, &[bad]).unwrap_err();
+        assert!(e.to_string().contains("is not in the deck"), "{bad}: {e}");
+    }
+}
+
 #[test]
 fn an_invalid_value_set_from_the_command_line_is_reported_with_a_note() {
     let (o, _) = laminate_json(&["--set", "laminate.layup_0.plies.2.thickness=-1e-3"]);

@@ -4,6 +4,11 @@
 //! `material.cfrp.E1=130e9`. The deck text is edited in place (formatting, comments and line
 //! numbers are kept), so errors still point at the user's file. `VALUE` is a TOML value
 //! (`30`, `1.5e9`, `true`, `"text"`, `[1, 2]`); a bare word that is not one is taken as a string.
+//!
+//! A path into one of the deck's single tables ([`CREATABLE`]: `[analysis]`, `[sensitivity]`,
+//! `[finite_differences]`, `[optimize]`) creates the table, or a table inside it, when the deck
+//! leaves it out (its keys then take their defaults). Any other missing path is an error, so a
+//! misspelt name (`body.rdo.modes`) is not taken for a new body.
 
 use toml_edit::{DocumentMut, Item, Table, Value};
 
@@ -85,6 +90,10 @@ fn set(root: &mut Table, o: &Override) -> Result<(), OverrideError> {
     in_table(root, o, 0)
 }
 
+/// The deck's single tables, every key of which has a default or is named by the error that
+/// asks for it: `--set` creates them when the deck leaves them out.
+pub const CREATABLE: [&str; 4] = ["analysis", "sensitivity", "finite_differences", "optimize"];
+
 /// `o.path[depth]` is a key of table `t`.
 fn in_table(t: &mut Table, o: &Override, depth: usize) -> Result<(), OverrideError> {
     let key = &o.path[depth];
@@ -92,6 +101,12 @@ fn in_table(t: &mut Table, o: &Override, depth: usize) -> Result<(), OverrideErr
         let v = replacement(o, t.get(key).and_then(Item::as_value));
         t.insert(key, Item::Value(v));
         return Ok(());
+    }
+    if !t.contains_key(key) && CREATABLE.contains(&o.path[0].as_str()) {
+        // a new table is written after everything else, so the deck's lines keep their numbers
+        let mut new = Table::new();
+        new.set_implicit(depth > 0);
+        t.insert(key, Item::Table(new));
     }
     let item = t
         .get_mut(key)
