@@ -62,15 +62,15 @@ fn sweep_runs_every_combination_and_does_not_depend_on_the_job_count() {
         [
             "case",
             "directory",
-            "design.theta",
+            "design.theta [deg]",
             "analysis.rtol",
             "status",
             "steps",
             "max_position_violation [m]",
-            "peak_deflection",
-            "d peak_deflection/d theta",
-            "rms_deflection",
-            "d rms_deflection/d theta",
+            "peak_deflection [1]",
+            "d peak_deflection/d theta [1/deg]",
+            "rms_deflection [1]",
+            "d rms_deflection/d theta [1/deg]",
             "error"
         ]
     );

@@ -17,6 +17,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use serde_json::Value;
 
 use super::run::run_study;
+use super::run_files::per;
 use super::shard::{
     SHARD_FILE, manifest_strings, move_dir, parse_shard, remove_old, shard_cases, write_manifest,
 };
@@ -426,38 +427,56 @@ fn summary_csv(
 ) -> String {
     // objective columns from the first successful case (every case has the same deck tables)
     let first = results.iter().find_map(|r| r.outcome.as_ref().ok());
-    let objectives: Vec<(String, Vec<String>)> = first
+    // the design variables: (name, unit)
+    let vars: Vec<(String, String)> = first
+        .and_then(|s| s["design"].as_array())
+        .map(|d| {
+            d.iter()
+                .map(|v| {
+                    let text = |k: &str| v[k].as_str().unwrap_or("").to_string();
+                    (text("name"), text("unit"))
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    // (name, unit, whether it carries a gradient)
+    let objectives: Vec<(String, String, bool)> = first
         .and_then(|s| s["objectives"].as_array())
         .map(|objs| {
-            let vars: Vec<String> = first
-                .and_then(|s| s["design"].as_array())
-                .map(|d| {
-                    d.iter()
-                        .map(|v| v["name"].as_str().unwrap_or("").to_string())
-                        .collect()
-                })
-                .unwrap_or_default();
             objs.iter()
                 .map(|o| {
-                    let has_gradient = o["gradient"].as_array().is_some_and(|g| !g.is_empty());
                     (
                         o["name"].as_str().unwrap_or("").to_string(),
-                        if has_gradient {
-                            vars.clone()
-                        } else {
-                            Vec::new()
-                        },
+                        o["unit"].as_str().unwrap_or("1").to_string(),
+                        o["gradient"].as_array().is_some_and(|g| !g.is_empty()),
                     )
                 })
                 .collect()
         })
         .unwrap_or_default();
+    let n_gradient = |has: bool| if has { vars.len() } else { 0 };
     let mut head = vec!["case".to_string(), "directory".to_string()];
-    head.extend(axes.iter().map(|a| a.key.clone()));
+    head.extend(axes.iter().map(|a| {
+        // a design axis carries its variable's unit; a deck key's unit is the deck's
+        let unit = a
+            .key
+            .strip_prefix("design.")
+            .and_then(|n| vars.iter().find(|(v, _)| v == n))
+            .map(|(_, u)| u.as_str());
+        match unit {
+            Some(u) if !u.is_empty() => format!("{} [{u}]", a.key),
+            _ => a.key.clone(),
+        }
+    }));
     head.extend(["status", "steps", "max_position_violation [m]"].map(String::from));
-    for (name, vars) in &objectives {
-        head.push(name.clone());
-        head.extend(vars.iter().map(|v| format!("d {name}/d {v}")));
+    for (name, unit, has) in &objectives {
+        head.push(format!("{name} [{unit}]"));
+        if *has {
+            head.extend(
+                vars.iter()
+                    .map(|(v, u)| format!("d {name}/d {v} [{}]", per(unit, u))),
+            );
+        }
     }
     head.push("error".into());
     let mut t = CsvTable::new();
@@ -476,11 +495,11 @@ fn summary_csv(
                     number(s["max_position_violation"].as_f64().unwrap_or(f64::NAN)),
                 ]);
                 let objs = s["objectives"].as_array().cloned().unwrap_or_default();
-                for ((_, vars), o) in objectives.iter().zip(objs.iter()) {
+                for ((_, _, has), o) in objectives.iter().zip(objs.iter()) {
                     row.push(number(o["value"].as_f64().unwrap_or(f64::NAN)));
                     let g = o["gradient"].as_array().cloned().unwrap_or_default();
                     row.extend(
-                        (0..vars.len())
+                        (0..n_gradient(*has))
                             .map(|k| number(g.get(k).and_then(Value::as_f64).unwrap_or(f64::NAN))),
                     );
                 }
@@ -488,8 +507,8 @@ fn summary_csv(
             }
             Err(e) => {
                 row.extend(["failed".to_string(), String::new(), String::new()]);
-                for (_, vars) in &objectives {
-                    row.extend(std::iter::repeat_n(String::new(), 1 + vars.len()));
+                for (_, _, has) in &objectives {
+                    row.extend(std::iter::repeat_n(String::new(), 1 + n_gradient(*has)));
                 }
                 row.push(e.replace('\n', " "));
             }
