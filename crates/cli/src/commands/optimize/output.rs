@@ -251,7 +251,9 @@ fn optimum_lines(problem: &Problem, best: &Row, e: &Eval) -> String {
         } else {
             ""
         };
-        let _ = writeln!(text, "  {} = {x} {}{at}", v.name, v.unit);
+        // to 1e-7 of the range (the written optimum.toml keeps every digit)
+        let decimals = (-(1e-7 * (hi - lo)).log10()).ceil().clamp(0.0, 17.0) as usize;
+        let _ = writeln!(text, "  {} = {x:.decimals$} {}{at}", v.name, v.unit);
     }
     for (i, c) in problem.def.constraints.iter().enumerate() {
         let bound = match problem.limits[i].0 {
