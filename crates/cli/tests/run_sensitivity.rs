@@ -389,6 +389,17 @@ fn design_that_moves_nothing_or_objectives_without_gradients_are_rejected() {
     let (_, err) = bad_deck(&text, |p| with_deck("check", p, &[]));
     assert!(err.contains("key `finite_differences`"), "{err}");
     assert!(err.contains("need design variables"), "{err}");
+    // ... unless the table turns them off (as a script's `--set` does on every deck)
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("no_design.toml");
+    std::fs::write(&p, &text).unwrap();
+    let o = common::run(&[
+        "check",
+        p.to_str().unwrap(),
+        "--set",
+        "finite_differences.enabled=false",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
 
 /// The paper's plate deck (shell rod on its end edges through couplings, interface basis with

@@ -628,8 +628,10 @@ pub fn validate(
                 .and_then(|r| r.get_ref().enabled.as_ref())
                 .is_none_or(|e| *e.get_ref())
         });
+    // (a table that turns them off asks for nothing)
     if let Some(fd) = &raw.finite_differences
         && variables.is_empty()
+        && finite_differences.is_some()
     {
         return Err(src.error(
             span(fd),
