@@ -11,6 +11,7 @@ use std::sync::OnceLock;
 use nalgebra::{DMatrix, Matrix3, Vector3, Vector4};
 use sens::Scalar;
 
+use crate::field_gram::{FieldGram, FrameSums};
 use crate::kin::{mtv, mv, rotation, skew};
 
 /// Handle of a body in a [`crate::Model`].
@@ -342,6 +343,13 @@ pub(crate) struct ModalInvariants<P: Scalar> {
     modal_mass: Vec<P>,
     /// The sums of the second-order field, when the body has one.
     field: Option<FieldInvariants<P>>,
+    /// The Gram table of the second-order field, when the body has one with enough nodes that
+    /// it is cheaper than the loop over them ([`FieldGram::pays`]).
+    gram: Option<FieldGram<P>>,
+    /// `max_k |X_kj|` (translations) for each mode `j`, values.
+    reach: Vec<f64>,
+    /// `max_k |Q_k,jl|` at `j · nf + l` for the field's modes, values (empty without a field).
+    field_reach: Vec<f64>,
 }
 
 /// Sums over the nodes of a body's second-order field `Q` (`Q_k,i = −nodal[3k + i]`, of the
@@ -407,6 +415,33 @@ impl<P: Scalar> ModalInvariants<P> {
             mode_spin: vec![Vector3::zeros(); nm],
             modal_mass: vec![P::zero(); nm * nm],
             field: field.map(|g| FieldInvariants::new(modal, g)),
+            gram: field
+                .filter(|g| FieldGram::pays(modal, g.field_modes))
+                .map(|g| FieldGram::new(modal, g)),
+            reach: (0..nm)
+                .map(|j| {
+                    (0..modal.n_nodes())
+                        .map(|k| {
+                            mode_vec::<P, P>(modal, k, j, false)
+                                .map(|x| x.value())
+                                .norm()
+                        })
+                        .fold(0.0, f64::max)
+                })
+                .collect(),
+            field_reach: field.map_or(Vec::new(), |g| {
+                let nf = g.field_modes;
+                (0..nf * nf)
+                    .map(|jl| {
+                        (0..modal.n_nodes())
+                            .map(|k| {
+                                let c = |i: usize| g.nodal[3 * k + i][(jl / nf, jl % nf)].value();
+                                Vector3::new(c(0), c(1), c(2)).norm()
+                            })
+                            .fold(0.0, f64::max)
+                    })
+                    .collect()
+            }),
         };
         for k in 0..modal.n_nodes() {
             let m = modal.node_masses[k];
@@ -435,15 +470,32 @@ impl<P: Scalar> ModalInvariants<P> {
     }
 }
 
+impl<P: Scalar> ModalInvariants<P> {
+    /// An upper bound of the largest nodal translation `|X_k w + ½ Q_k(w, w)|` at modal
+    /// coordinates `w` (values), from the largest translation of each mode and field pair:
+    /// `Σ_j r_j |w_j| + ½ Σ_jl r_jl |w_j| |w_l|`.
+    pub(crate) fn deformation_bound(&self, w: &[f64]) -> f64 {
+        let linear: f64 = self.reach.iter().zip(w).map(|(r, x)| r * x.abs()).sum();
+        let nf = (self.field_reach.len() as f64).sqrt() as usize;
+        let mut second = 0.0;
+        for j in 0..nf {
+            for l in 0..nf {
+                second += self.field_reach[j * nf + l] * (w[j] * w[l]).abs();
+            }
+        }
+        linear + 0.5 * second
+    }
+}
+
 /// `a bᵀ`.
 #[inline]
-fn outer<S: Scalar>(a: &Vector3<S>, b: &Vector3<S>) -> Matrix3<S> {
+pub(crate) fn outer<S: Scalar>(a: &Vector3<S>, b: &Vector3<S>) -> Matrix3<S> {
     Matrix3::from_fn(|i, j| a[i] * b[j])
 }
 
 /// `Σ m a × b` from `M = Σ m a bᵀ`.
 #[inline]
-fn axial<S: Scalar>(m: &Matrix3<S>) -> Vector3<S> {
+pub(crate) fn axial<S: Scalar>(m: &Matrix3<S>) -> Vector3<S> {
     Vector3::new(
         m[(1, 2)] - m[(2, 1)],
         m[(2, 0)] - m[(0, 2)],
@@ -592,26 +644,21 @@ fn frame_blocks<S: Scalar>(
 /// linear rotations as in [`flexible_dynamics`]. The sums that are polynomials of low degree
 /// come from the invariants `inv` (the rotary terms, and the modal mass
 /// `Σ m X̃_jᵀ X̃_l` through [`FieldInvariants`]); the rest is summed node by node.
+/// The [`FrameSums`] of a second-order body by a loop over its nodes (the reference form;
+/// [`FieldGram::sums`] gives the same from the body's Gram table).
 #[allow(clippy::too_many_arguments)]
-fn second_order_dynamics<P: Scalar, S: Scalar + From<P>>(
+fn node_sums<P: Scalar, S: Scalar + From<P>>(
     modal: &ModalBody<P>,
     field: &GeometricStiffness<P>,
     inv: &ModalInvariants<P>,
-    a: &Matrix3<S>,
-    q: &[S],
-    v: &[S],
-    g: Vector3<S>,
-    mass: &mut DMatrix<S>,
-    off: usize,
-    force: &mut [S],
-) {
+    w: &[S],
+    wd: &[S],
+    om: &Vector3<S>,
+    g_body: &Vector3<S>,
+) -> FrameSums<S> {
     let nm = modal.n_modes();
     let nf = field.field_modes;
-    let w = &q[7..7 + nm];
-    let wd = &v[6..6 + nm];
-    let om = vec3(&v[3..6]);
     let two = S::from_f64(2.0);
-    let g_body = mtv(a, &g);
     let mut total = S::zero();
     let mut first = Vector3::<S>::zeros(); // Σ m u
     let mut m_oo = Matrix3::<S>::zeros();
@@ -656,6 +703,50 @@ fn second_order_dynamics<P: Scalar, S: Scalar + From<P>>(
             s_w[j] += x[j].dot(&gc);
         }
     }
+    FrameSums {
+        total,
+        first,
+        m_oo,
+        m_rw,
+        m_ow,
+        qc,
+        s_o,
+        s_w,
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn second_order_dynamics<P: Scalar, S: Scalar + From<P>>(
+    modal: &ModalBody<P>,
+    field: &GeometricStiffness<P>,
+    inv: &ModalInvariants<P>,
+    a: &Matrix3<S>,
+    q: &[S],
+    v: &[S],
+    g: Vector3<S>,
+    mass: &mut DMatrix<S>,
+    off: usize,
+    force: &mut [S],
+) {
+    let nm = modal.n_modes();
+    let nf = field.field_modes;
+    let w = &q[7..7 + nm];
+    let wd = &v[6..6 + nm];
+    let om = vec3(&v[3..6]);
+    let g_body = mtv(a, &g);
+    let FrameSums {
+        total,
+        first,
+        mut m_oo,
+        m_rw,
+        m_ow,
+        qc,
+        s_o,
+        s_w,
+    } = match &inv.gram {
+        Some(gram) => gram.sums(&inv.mode_spin, w, wd, &om, &g_body),
+        None => node_sums(modal, field, inv, w, wd, &om, &g_body),
+    };
     let inertia: Vector3<S> = inv.inertia.map(lift);
     for i in 0..3 {
         m_oo[(i, i)] += inertia[i];
@@ -1181,6 +1272,152 @@ mod tests {
             };
             close(m1.as_slice(), m2.as_slice(), 1e-13 * scale_m);
             close(&f1, &f2, 1e-12 * scale_f);
+        }
+    }
+
+    /// The dynamics of `modal` with field `field` through the Gram table (`gram`) or the node
+    /// loop, whichever [`FieldGram::pays`] would choose.
+    fn with_path<P: Scalar, S: Scalar + From<P>>(
+        modal: &ModalBody<P>,
+        field: &GeometricStiffness<P>,
+        gram: bool,
+        q: &[S],
+        v: &[S],
+        gravity: &Vector3<f64>,
+    ) -> Dynamics<S> {
+        let n = 6 + modal.n_modes();
+        let body = Body::Flexible(
+            FlexibleBody::new("rod", modal.clone()).with_geometric_stiffness(field.clone()),
+        );
+        let mut inv = ModalInvariants::new(modal, Some(field));
+        inv.gram = gram.then(|| FieldGram::new(modal, field));
+        let lock = OnceLock::new();
+        assert!(lock.set(inv).is_ok());
+        let (mut m, mut f) = (DMatrix::zeros(n, n), vec![S::zero(); n]);
+        body_dynamics(&body, &lock, q, v, gravity, &mut m, 0, &mut f);
+        (m, f)
+    }
+
+    /// The Gram table gives what the loop over the nodes gives, values and tangents: with
+    /// dual states, and with design-dependent modes, masses and field (dual parameters).
+    #[test]
+    fn the_gram_table_gives_the_node_sums() {
+        let modal = body();
+        let nm = modal.n_modes();
+        let (q, v) = state(nm);
+        let gravity = Vector3::new(0.0, -9.81, 1.0);
+        let qd: Vec<Dual<2>> = q
+            .iter()
+            .enumerate()
+            .map(|(i, &x)| Dual::new(x, [0.1 * (i as f64).sin(), 0.0]))
+            .collect();
+        let vd: Vec<Dual<2>> = v
+            .iter()
+            .enumerate()
+            .map(|(i, &x)| Dual::new(x, [0.0, 0.3 * (i as f64).cos()]))
+            .collect();
+        let close = |a: &[Dual<2>], b: &[Dual<2>], tol: f64, what: &str| {
+            for (a, b) in a.iter().zip(b) {
+                assert!((a.v - b.v).abs() <= tol, "{what}: {a} vs {b}");
+                for k in 0..2 {
+                    assert!((a.d[k] - b.d[k]).abs() <= tol, "{what}: {a} vs {b}");
+                }
+            }
+        };
+        let scale = |x: &[Dual<2>]| x.iter().fold(0.0f64, |a, x| a.max(x.v.abs()));
+        for nf in [nm, nm - 2] {
+            let mut g = field(&modal);
+            g.field_modes = nf;
+            for k in g.nodal.iter_mut() {
+                *k = k.view((0, 0), (nf, nf)).into_owned();
+            }
+            let (m1, f1) = with_path(&modal, &g, true, &qd, &vd, &gravity);
+            let (m2, f2) = with_path(&modal, &g, false, &qd, &vd, &gravity);
+            let what = format!("field of {nf} modes");
+            close(
+                m1.as_slice(),
+                m2.as_slice(),
+                1e-13 * scale(m2.as_slice()),
+                &what,
+            );
+            close(&f1, &f2, 1e-12 * scale(&f2), &what);
+            // design tangents: masses, modes and field on dual numbers
+            let dm = ModalBody {
+                node_positions: modal.node_positions.clone(),
+                node_masses: modal
+                    .node_masses
+                    .iter()
+                    .enumerate()
+                    .map(|(k, &m)| Dual::new(m, [0.1 * m * (1.0 + (k as f64).sin()), 0.0]))
+                    .collect(),
+                node_inertias: modal
+                    .node_inertias
+                    .iter()
+                    .map(|x| x.map(Dual::constant))
+                    .collect(),
+                modes: DMatrix::from_fn(modal.modes.nrows(), nm, |r, j| {
+                    Dual::new(
+                        modal.modes[(r, j)],
+                        [0.0, 0.05 * ((r + 3 * j) as f64).cos()],
+                    )
+                }),
+                eigenvalues: modal
+                    .eigenvalues
+                    .iter()
+                    .map(|&x| Dual::constant(x))
+                    .collect(),
+                modal_damping: modal
+                    .modal_damping
+                    .iter()
+                    .map(|&x| Dual::constant(x))
+                    .collect(),
+                stiffness_matrix: None,
+                damping_matrix: None,
+            };
+            let dg = g.map(&|x| Dual::<2>::new(x, [0.02 * x, -0.01 * x]));
+            let (q2, v2): (Vec<Dual<2>>, Vec<Dual<2>>) = (
+                q.iter().map(|&x| Dual::constant(x)).collect(),
+                v.iter().map(|&x| Dual::constant(x)).collect(),
+            );
+            let (m1, f1) = with_path(&dm, &dg, true, &q2, &v2, &gravity);
+            let (m2, f2) = with_path(&dm, &dg, false, &q2, &v2, &gravity);
+            let what = format!("dual parameters, field of {nf} modes");
+            close(
+                m1.as_slice(),
+                m2.as_slice(),
+                1e-13 * scale(m2.as_slice()),
+                &what,
+            );
+            close(&f1, &f2, 1e-12 * scale(&f2), &what);
+        }
+    }
+
+    /// The deformation bound of the step guard is at least the largest nodal translation, and
+    /// within a small factor of it.
+    #[test]
+    fn the_deformation_bound_bounds_the_largest_translation() {
+        let modal = body();
+        let g = field(&modal);
+        let inv = ModalInvariants::new(&modal, Some(&g));
+        let nm = modal.n_modes();
+        for s in 0..20 {
+            let w: Vec<f64> = (0..nm)
+                .map(|j| 0.3 * ((s * 7 + j * 3) as f64 * 0.37).sin() * 10f64.powi(-(s as i32 % 4)))
+                .collect();
+            let largest = (0..modal.n_nodes())
+                .map(|k| {
+                    let mut u: Vector3<f64> = foreshortening(&g, k, &w);
+                    for (j, wj) in w.iter().enumerate() {
+                        u += mode_vec::<f64, f64>(&modal, k, j, false) * *wj;
+                    }
+                    u.norm()
+                })
+                .fold(0.0, f64::max);
+            let bound = inv.deformation_bound(&w);
+            assert!(
+                bound >= largest && bound <= 50.0 * largest,
+                "{bound} for {largest}"
+            );
         }
     }
 

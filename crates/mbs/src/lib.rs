@@ -83,6 +83,7 @@ mod bdf;
 mod body;
 mod error;
 mod fd;
+mod field_gram;
 mod force;
 mod joint;
 pub mod kin;

@@ -894,6 +894,28 @@ impl Model<f64> {
             .collect()
     }
 
+    /// An upper bound of the largest nodal translation of flexible body `id` at `q` (body
+    /// frame; [`ModalInvariants::deformation_bound`]), cheap whatever the number of nodes;
+    /// `None` for rigid bodies.
+    pub(crate) fn deformation_bound(&self, id: BodyId, q: &[f64]) -> Option<f64> {
+        let s = &self.bodies[id.0];
+        let Body::Flexible(b) = &s.body else {
+            return None;
+        };
+        let nm = b.modal.n_modes();
+        let inv = s
+            .invariants
+            .get_or_init(|| ModalInvariants::new(&b.modal, b.geometric.as_deref()));
+        Some(
+            inv.deformation_bound(
+                &q[s.q_off + 7..s.q_off + 7 + nm]
+                    .iter()
+                    .map(|x| x.value())
+                    .collect::<Vec<_>>(),
+            ),
+        )
+    }
+
     /// Orientation (body → global) of body `id`.
     pub fn rotation_of(&self, id: BodyId, q: &[f64]) -> Matrix3<f64> {
         pose(&q[self.bodies[id.0].q_off..]).a

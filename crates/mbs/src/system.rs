@@ -275,6 +275,14 @@ impl MultibodySystem {
                 // a one-node body has no size to measure its deformation against
                 continue;
             }
+            // the bound is cheap, the exact largest translation a loop over the nodes
+            if self
+                .model
+                .deformation_bound(id, q)
+                .is_some_and(|b| b <= self.guard.max_deformation * size)
+            {
+                continue;
+            }
             let largest = self
                 .model
                 .nodal_displacements(id, q)
