@@ -69,6 +69,22 @@ fn a_tube_frequency_is_largest_with_fibres_along_the_axis() {
     assert_eq!(code, Some(0), "{text}\n{err}");
     let theta = summary_value(&text, "theta");
     assert!(theta.abs() < 1e-4, "θ* = {theta} deg\n{text}");
+    assert!(!text.contains("bound)"), "θ* is inside its bounds\n{text}");
+    // with the optimum outside the bounds the optimiser stops at (near) the bound, and says so
+    let (bounded, err, code) = optimize(
+        &path,
+        &dir.path().join("bounded"),
+        &["--quiet", "--set", "design.theta.lower=10.0"],
+    );
+    assert_eq!(code, Some(0), "{bounded}\n{err}");
+    let at = summary_value(&bounded, "theta");
+    assert!((at - 10.0).abs() < 1e-4, "θ* = {at} deg\n{bounded}");
+    assert!(
+        bounded
+            .lines()
+            .any(|l| l.trim_start().starts_with("theta = ") && l.ends_with("(at its lower bound)")),
+        "{bounded}"
+    );
     // the optimum deck is a deck: its frequency is the one reported, and its derivative there
     // vanishes (the run of `modes --derivatives` on it)
     let f = summary_value(

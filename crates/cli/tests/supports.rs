@@ -545,27 +545,35 @@ fn supports_define_the_mode_basis_of_a_mechanism_body() {
         &dir.path().join("a"),
         &with_ref,
     ));
-    let text = std::fs::read_to_string(common::deck("slider_crank_beam.toml"))
-        .unwrap()
-        .replace(
-            "[body.rod]\n",
-            "[body.rod]\nreference = \"supports\"\nsupports = [\n  { nodes = [0], fix = [\"ux\", \
-             \"uy\", \"uz\", \"rx\"] },\n  { nodes = [8], fix = [\"uy\", \"uz\"] },\n]\n",
-        );
-    let p = dir.path().join("supported.toml");
-    std::fs::write(&p, text).unwrap();
-    let out = dir.path().join("b");
-    let mut args = vec![
-        "run",
-        p.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--json",
-    ];
-    for s in &sets {
-        args.extend(["--set", s]);
-    }
-    let supported = peak(&json(&args));
+    // the beam deck with `rod` written at the top of its rod's table, run with `extra` too
+    let run_rod = |name: &str, rod: &str, extra: &[&str]| {
+        let text = std::fs::read_to_string(common::deck("slider_crank_beam.toml"))
+            .unwrap()
+            .replace("[body.rod]\n", &format!("[body.rod]\n{rod}"));
+        let p = dir.path().join(format!("{name}.toml"));
+        std::fs::write(&p, text).unwrap();
+        let out = dir.path().join(name);
+        let mut args = vec![
+            "run",
+            p.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--json",
+        ];
+        for s in sets.iter().chain(extra) {
+            args.extend(["--set", s]);
+        }
+        let o = common::run(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        o
+    };
+    let o = run_rod(
+        "supported",
+        "reference = \"supports\"\nsupports = [\n  { nodes = [0], fix = [\"ux\", \"uy\", \"uz\", \
+         \"rx\"] },\n  { nodes = [8], fix = [\"uy\", \"uz\"] },\n]\n",
+        &[],
+    );
+    let supported = peak(&serde_json::from_slice(&o.stdout).unwrap());
     assert!(
         (supported / pinned - 1.0).abs() < 1e-3,
         "{supported} against {pinned}"
@@ -573,30 +581,11 @@ fn supports_define_the_mode_basis_of_a_mechanism_body() {
     // held only across at both ends, free along its axis (partly free): the same motion to the
     // modal truncation (measured 8.6e-4 with 4 modes, 7.0e-4 with 8), and a warning that its
     // basis cannot be checked
-    let text = std::fs::read_to_string(common::deck("slider_crank_beam.toml"))
-        .unwrap()
-        .replace(
-            "[body.rod]\n",
-            "[body.rod]\nreference = \"partly-free\"\nsupports = [{ nodes = [0, 8], fix = \
-             [\"uy\"] }]\n",
-        );
-    let p = dir.path().join("partly_free.toml");
-    std::fs::write(&p, text).unwrap();
-    let out = dir.path().join("c");
-    let mut args = vec![
-        "run",
-        p.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--json",
-        "--set",
-        "body.rod.modes=8",
-    ];
-    for s in &sets {
-        args.extend(["--set", s]);
-    }
-    let o = common::run(&args);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = run_rod(
+        "partly_free",
+        "reference = \"partly-free\"\nsupports = [{ nodes = [0, 8], fix = [\"uy\"] }]\n",
+        &["body.rod.modes=8"],
+    );
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(
         stderr.contains("body.rod") && stderr.contains("is not checked"),

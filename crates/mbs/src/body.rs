@@ -13,6 +13,7 @@ use sens::Scalar;
 
 use crate::field_gram::{FieldGram, FrameSums};
 use crate::kin::{mtv, mv, rotation, skew};
+pub(crate) use crate::nodal::{axial, lift, mode_vec, outer, vec3, vec3f};
 
 /// Handle of a body in a [`crate::Model`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -150,39 +151,6 @@ impl<P: Scalar> Body<P> {
             }),
         }
     }
-}
-
-/// Convert a parameter to the evaluation scalar.
-#[inline]
-pub(crate) fn lift<P: Scalar, S: Scalar + From<P>>(x: P) -> S {
-    S::from(x)
-}
-
-#[inline]
-pub(crate) fn vec3<S: Scalar>(s: &[S]) -> Vector3<S> {
-    Vector3::new(s[0], s[1], s[2])
-}
-
-#[inline]
-pub(crate) fn vec3f<S: Scalar>(a: &Vector3<f64>) -> Vector3<S> {
-    Vector3::new(S::from_f64(a.x), S::from_f64(a.y), S::from_f64(a.z))
-}
-
-/// Translation (rows 0..3) and rotation (rows 3..6) of node `k` in mode `j`, as evaluation
-/// scalars.
-#[inline]
-pub(crate) fn mode_vec<P: Scalar, S: Scalar + From<P>>(
-    modal: &ModalBody<P>,
-    k: usize,
-    j: usize,
-    rot: bool,
-) -> Vector3<S> {
-    let r = 6 * k + if rot { 3 } else { 0 };
-    Vector3::new(
-        lift(modal.modes[(r, j)]),
-        lift(modal.modes[(r + 1, j)]),
-        lift(modal.modes[(r + 2, j)]),
-    )
 }
 
 /// The second-order displacement of node `k` of a body with field `g` (docs/geometric-stiffening.md)
@@ -485,22 +453,6 @@ impl<P: Scalar> ModalInvariants<P> {
         }
         linear + 0.5 * second
     }
-}
-
-/// `a bᵀ`.
-#[inline]
-pub(crate) fn outer<S: Scalar>(a: &Vector3<S>, b: &Vector3<S>) -> Matrix3<S> {
-    Matrix3::from_fn(|i, j| a[i] * b[j])
-}
-
-/// `Σ m a × b` from `M = Σ m a bᵀ`.
-#[inline]
-pub(crate) fn axial<S: Scalar>(m: &Matrix3<S>) -> Vector3<S> {
-    Vector3::new(
-        m[(1, 2)] - m[(2, 1)],
-        m[(2, 0)] - m[(0, 2)],
-        m[(0, 1)] - m[(1, 0)],
-    )
 }
 
 /// The mass matrix block and generalised forces of a flexible body from its invariants:
@@ -1121,6 +1073,32 @@ mod tests {
         }
     }
 
+    /// `(q, v)` as dual numbers with tangents along arbitrary directions of `q` (first) and `v`
+    /// (second).
+    fn dual_state(q: &[f64], v: &[f64]) -> (Vec<Dual<2>>, Vec<Dual<2>>) {
+        let qd = q
+            .iter()
+            .enumerate()
+            .map(|(i, &x)| Dual::new(x, [0.1 * (i as f64).sin(), 0.0]))
+            .collect();
+        let vd = v
+            .iter()
+            .enumerate()
+            .map(|(i, &x)| Dual::new(x, [0.0, 0.3 * (i as f64).cos()]))
+            .collect();
+        (qd, vd)
+    }
+
+    /// [`field`] of the leading `nf` modes only (a shell's eigenmodes).
+    fn leading_field(modal: &ModalBody<f64>, nf: usize) -> GeometricStiffness<f64> {
+        let mut g = field(modal);
+        g.field_modes = nf;
+        for k in g.nodal.iter_mut() {
+            *k = k.view((0, 0), (nf, nf)).into_owned();
+        }
+        g
+    }
+
     /// The mass matrix and forces of `body` with second-order field `field` at `(q, v)`.
     fn with_field<S: Scalar + From<f64>>(
         modal: &ModalBody<f64>,
@@ -1238,22 +1216,9 @@ mod tests {
         let nm = modal.n_modes();
         let (q, v) = state(nm);
         let gravity = Vector3::new(0.0, -9.81, 1.0);
-        let qd: Vec<Dual<2>> = q
-            .iter()
-            .enumerate()
-            .map(|(i, &x)| Dual::new(x, [0.1 * (i as f64).sin(), 0.0]))
-            .collect();
-        let vd: Vec<Dual<2>> = v
-            .iter()
-            .enumerate()
-            .map(|(i, &x)| Dual::new(x, [0.0, 0.3 * (i as f64).cos()]))
-            .collect();
+        let (qd, vd) = dual_state(&q, &v);
         for nf in [nm, nm - 2] {
-            let mut g = field(&modal);
-            g.field_modes = nf;
-            for k in g.nodal.iter_mut() {
-                *k = k.view((0, 0), (nf, nf)).into_owned();
-            }
+            let g = leading_field(&modal, nf);
             let (m1, f1) = with_field(&modal, &g, &qd, &vd, &gravity);
             let n = 6 + nm;
             let (mut m2, mut f2) = (DMatrix::zeros(n, n), vec![Dual::<2>::constant(0.0); n]);
@@ -1306,16 +1271,7 @@ mod tests {
         let nm = modal.n_modes();
         let (q, v) = state(nm);
         let gravity = Vector3::new(0.0, -9.81, 1.0);
-        let qd: Vec<Dual<2>> = q
-            .iter()
-            .enumerate()
-            .map(|(i, &x)| Dual::new(x, [0.1 * (i as f64).sin(), 0.0]))
-            .collect();
-        let vd: Vec<Dual<2>> = v
-            .iter()
-            .enumerate()
-            .map(|(i, &x)| Dual::new(x, [0.0, 0.3 * (i as f64).cos()]))
-            .collect();
+        let (qd, vd) = dual_state(&q, &v);
         let close = |a: &[Dual<2>], b: &[Dual<2>], tol: f64, what: &str| {
             for (a, b) in a.iter().zip(b) {
                 assert!((a.v - b.v).abs() <= tol, "{what}: {a} vs {b}");
@@ -1326,11 +1282,7 @@ mod tests {
         };
         let scale = |x: &[Dual<2>]| x.iter().fold(0.0f64, |a, x| a.max(x.v.abs()));
         for nf in [nm, nm - 2] {
-            let mut g = field(&modal);
-            g.field_modes = nf;
-            for k in g.nodal.iter_mut() {
-                *k = k.view((0, 0), (nf, nf)).into_owned();
-            }
+            let g = leading_field(&modal, nf);
             let (m1, f1) = with_path(&modal, &g, true, &qd, &vd, &gravity);
             let (m2, f2) = with_path(&modal, &g, false, &qd, &vd, &gravity);
             let what = format!("field of {nf} modes");
@@ -1438,16 +1390,7 @@ mod tests {
             assert!((a - b).abs() <= 1e-13 * scale_f, "{a} vs {b}");
         }
         // tangents along arbitrary directions of q and v
-        let qd: Vec<Dual<2>> = q
-            .iter()
-            .enumerate()
-            .map(|(i, &x)| Dual::new(x, [0.1 * (i as f64).sin(), 0.0]))
-            .collect();
-        let vd: Vec<Dual<2>> = v
-            .iter()
-            .enumerate()
-            .map(|(i, &x)| Dual::new(x, [0.0, 0.3 * (i as f64).cos()]))
-            .collect();
+        let (qd, vd) = dual_state(&q, &v);
         let ((m1, f1), (m2, f2)) = both(&modal, &qd, &vd);
         let close = |a: &[Dual<2>], b: &[Dual<2>], tol: f64| {
             for (a, b) in a.iter().zip(b) {

@@ -20,7 +20,7 @@ use fem::{GeometricStiffness, ModalBody};
 use nalgebra::{Matrix3, Vector3};
 use sens::Scalar;
 
-use crate::body::{axial, lift, mode_vec, outer, vec3f};
+use crate::nodal::{axial, lift, mode_vec, outer, vec3f};
 
 /// The sums over a second-order body's nodes that its mass matrix block and inertia forces
 /// take (body components): `total = Σ m`, `first = Σ m u`, `m_oo = Σ m ũᵀũ` (the nodal

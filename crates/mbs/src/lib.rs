@@ -89,6 +89,7 @@ mod joint;
 pub mod kin;
 mod marker;
 mod model;
+mod nodal;
 mod response;
 mod sensitivity;
 mod system;

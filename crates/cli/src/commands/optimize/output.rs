@@ -244,16 +244,16 @@ fn optimum_lines(problem: &Problem, best: &Row, e: &Eval) -> String {
         .zip(&best.x)
         .zip(&problem.def.bounds)
     {
-        let at = if *x <= lo + 1e-9 * (1.0 + x.abs()) {
+        // the optimiser stops near an active bound, not on it: within 1e-6 of the range
+        let near = 1e-6 * (hi - lo);
+        let at = if *x <= lo + near {
             " (at its lower bound)"
-        } else if *x >= hi - 1e-9 * (1.0 + x.abs()) {
+        } else if *x >= hi - near {
             " (at its upper bound)"
         } else {
             ""
         };
-        // to 1e-7 of the range (the written optimum.toml keeps every digit)
-        let decimals = (-(1e-7 * (hi - lo)).log10()).ceil().clamp(0.0, 17.0) as usize;
-        let _ = writeln!(text, "  {} = {x:.decimals$} {}{at}", v.name, v.unit);
+        let _ = writeln!(text, "  {} = {x} {}{at}", v.name, v.unit);
     }
     for (i, c) in problem.def.constraints.iter().enumerate() {
         let bound = match problem.limits[i].0 {

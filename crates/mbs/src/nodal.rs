@@ -1,0 +1,55 @@
+//! Small helpers for the nodal sums of the bodies: parameters lifted to the evaluation scalar,
+//! node vectors of a modal body, outer products and their axial vectors.
+
+use fem::ModalBody;
+use nalgebra::{Matrix3, Vector3};
+use sens::Scalar;
+
+/// Convert a parameter to the evaluation scalar.
+#[inline]
+pub(crate) fn lift<P: Scalar, S: Scalar + From<P>>(x: P) -> S {
+    S::from(x)
+}
+
+#[inline]
+pub(crate) fn vec3<S: Scalar>(s: &[S]) -> Vector3<S> {
+    Vector3::new(s[0], s[1], s[2])
+}
+
+#[inline]
+pub(crate) fn vec3f<S: Scalar>(a: &Vector3<f64>) -> Vector3<S> {
+    Vector3::new(S::from_f64(a.x), S::from_f64(a.y), S::from_f64(a.z))
+}
+
+/// Translation (rows 0..3) and rotation (rows 3..6) of node `k` in mode `j`, as evaluation
+/// scalars.
+#[inline]
+pub(crate) fn mode_vec<P: Scalar, S: Scalar + From<P>>(
+    modal: &ModalBody<P>,
+    k: usize,
+    j: usize,
+    rot: bool,
+) -> Vector3<S> {
+    let r = 6 * k + if rot { 3 } else { 0 };
+    Vector3::new(
+        lift(modal.modes[(r, j)]),
+        lift(modal.modes[(r + 1, j)]),
+        lift(modal.modes[(r + 2, j)]),
+    )
+}
+
+/// `a bᵀ`.
+#[inline]
+pub(crate) fn outer<S: Scalar>(a: &Vector3<S>, b: &Vector3<S>) -> Matrix3<S> {
+    Matrix3::from_fn(|i, j| a[i] * b[j])
+}
+
+/// `Σ m a × b` from `M = Σ m a bᵀ`.
+#[inline]
+pub(crate) fn axial<S: Scalar>(m: &Matrix3<S>) -> Vector3<S> {
+    Vector3::new(
+        m[(1, 2)] - m[(2, 1)],
+        m[(2, 0)] - m[(0, 2)],
+        m[(0, 1)] - m[(1, 0)],
+    )
+}
