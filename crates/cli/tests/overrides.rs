@@ -168,6 +168,10 @@ fn overrides_create_the_single_tables_a_deck_leaves_out() {
     assert_eq!(v["sensitivity"]["method"].as_str(), Some("direct"));
     assert_eq!(v["analysis"]["baumgarte"]["alpha"].as_float(), Some(2.0));
     assert_eq!(v["analysis"]["t_end"].as_float(), Some(0.5));
+    // a table inside one the deck has goes after the deck's text too
+    let text = "[analysis]\nt_end = 1.0\n\n[laminate.a]\nplies = [ { angle = 0 } ]\n";
+    let out = set(text, &["analysis.baumgarte.alpha=2.0"]).unwrap();
+    assert!(out.starts_with(text), "{out}");
     for bad in ["body.rod.modes=4", "laminate.b.plies.0.angle=1"] {
         let e = set(text, &[bad]).unwrap_err();
         assert!(e.to_string().contains("is not in the deck"), "{bad}: {e}");

@@ -55,8 +55,9 @@ pub enum ReferenceCondition {
     /// free-free leaves all six (a strip held only in its deflection along its end lines moves
     /// freely in its plane): the zero-frequency modes of the free motions are computed and
     /// discarded, so the elastic modes carry no momentum along them, and the body frame sits at
-    /// the centre of mass, parallel to the mesh axes. The supports must hold at least one
-    /// rigid motion (else use [`Self::FreeFree`]).
+    /// the centre of mass, parallel to the mesh axes. Supports are needed (a body held by
+    /// nothing is [`Self::FreeFree`]); supports that hold every rigid motion make it
+    /// [`Self::Supports`] with the frame at the centre of mass.
     PartlyFree,
 }
 

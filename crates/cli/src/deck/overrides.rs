@@ -106,6 +106,7 @@ fn in_table(t: &mut Table, o: &Override, depth: usize) -> Result<(), OverrideErr
         // a new table is written after everything else, so the deck's lines keep their numbers
         let mut new = Table::new();
         new.set_implicit(depth > 0);
+        new.set_position(Some(isize::MAX));
         t.insert(key, Item::Table(new));
     }
     let item = t
