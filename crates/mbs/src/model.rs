@@ -906,14 +906,7 @@ impl Model<f64> {
         let inv = s
             .invariants
             .get_or_init(|| ModalInvariants::new(&b.modal, b.geometric.as_deref()));
-        Some(
-            inv.deformation_bound(
-                &q[s.q_off + 7..s.q_off + 7 + nm]
-                    .iter()
-                    .map(|x| x.value())
-                    .collect::<Vec<_>>(),
-            ),
-        )
+        Some(inv.deformation_bound(&q[s.q_off + 7..s.q_off + 7 + nm]))
     }
 
     /// Orientation (body → global) of body `id`.
