@@ -621,3 +621,62 @@ fn modes_chosen_by_number_keep_exact_sensitivities() {
         "{err}"
     );
 }
+
+/// The replayed finite differences estimate their own noise (a replay whose start and Newton
+/// iterations go on to a tenth of their tolerances): it falls as the perturbation grows (about
+/// as its inverse), and a difference within three times it is reported as not resolved. On the
+/// beam deck at rtol 1e-7 with the direct method the slider's difference (1e-5 of its
+/// derivative) is within its noise, the mid-node deflection's is not.
+#[test]
+fn finite_differences_report_their_noise() {
+    let dir = tempfile::tempdir().unwrap();
+    let sets = [
+        "sensitivity.method=\"direct\"",
+        "analysis.rtol=1e-7",
+        "analysis.atol=1e-10",
+    ];
+    let mut with_sizes = sets.to_vec();
+    with_sizes.push("finite_differences.sizes=[1e-5, 1e-3]");
+    let doc = common::run_json("slider_crank_beam.toml", &dir.path().join("a"), &with_sizes);
+    let cases = doc["finite_differences"].as_array().unwrap();
+    let noise = |c: usize, r: &str| cases[c]["relative_noise"][r].as_f64().unwrap();
+    for r in ["mid_deflection", "slider_x"] {
+        let (small, large) = (noise(0, r), noise(1, r));
+        assert!(
+            small > 5.0 * large && large > 0.0,
+            "{r}: {small:e} at 1e-5, {large:e} at 1e-3"
+        );
+    }
+    let dir_b = dir.path().join("b");
+    let o = run(&[
+        "run",
+        deck("slider_crank_beam.toml").to_str().unwrap(),
+        "-o",
+        dir_b.to_str().unwrap(),
+        "--set",
+        sets[0],
+        "--set",
+        sets[1],
+        "--set",
+        sets[2],
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8_lossy(&o.stdout);
+    let line = text
+        .lines()
+        .find(|l| l.contains("central_relative_0.0001_replay"))
+        .unwrap_or_else(|| panic!("{text}"));
+    assert!(
+        line.contains("slider_x") && line.contains(": not resolved)"),
+        "{line}"
+    );
+    let mid = line
+        .split(", ")
+        .find(|p| p.contains("mid_deflection"))
+        .unwrap();
+    assert!(!mid.contains("not resolved"), "{line}");
+    assert!(
+        text.contains("(not resolved: the replays' Newton tolerance"),
+        "{text}"
+    );
+}

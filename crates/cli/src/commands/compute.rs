@@ -53,7 +53,13 @@ pub(crate) fn compute(
             let m = mech.design.variables.len();
             let k = fd.sizes.len();
             let per_steps = if fd.central { 2 * m * k } else { 1 + m * k };
-            p.add_phases(per_steps * fd.steps.len());
+            // and one run more for the noise of the replayed differences
+            let replays = fd
+                .steps
+                .iter()
+                .filter(|s| matches!(s, crate::deck::design::FdSteps::Replay))
+                .count();
+            p.add_phases(per_steps * fd.steps.len() + replays);
         }
     }
     let (outputs, statistics, sens) = if mech.design.enabled {

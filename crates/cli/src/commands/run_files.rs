@@ -16,6 +16,10 @@ use crate::deck::responses::ResponseDef;
 use crate::results::{Attr, Group};
 use crate::study::Mechanism;
 
+/// A finite difference within this many times its estimated noise of the direct derivative
+/// is reported as not resolved.
+const NOISE_MARGIN: f64 = 3.0;
+
 /// Unit of a derivative of a quantity in `unit` per one `per` (`"1/deg"`, `"m/kg"`).
 pub(crate) fn per(unit: &str, per: &str) -> String {
     let per = if per.contains('*') {
@@ -319,6 +323,12 @@ fn put_objectives(g: &mut Group, mech: &Mechanism, c: &Computed) {
             g.put(&format!("{base}/objectives/{}", o.name), &[m], d.clone())
                 .units(&per_design(o.unit, vars));
         }
+        for (ResponseDef { name, unit, .. }, noise) in mech.responses.iter().zip(&case.noise) {
+            if let Some(noise) = noise {
+                g.put(&format!("{base}/noise/{name}"), &[m], noise.clone())
+                    .units(&per_design(unit, vars));
+            }
+        }
         g.put(&format!("{base}/perturbations"), &[m], case.deltas.clone())
             .units(&common_unit(vars));
         let cg = g.group(&base);
@@ -488,10 +498,29 @@ pub(crate) fn summary(
                         ))
                     })
                     .collect();
+                // the noise relative to the largest derivative, per variable, the worst
+                let noise: serde_json::Map<_, _> = mech
+                    .responses
+                    .iter()
+                    .zip(case.noise.iter().zip(&s.responses))
+                    .filter_map(|(ResponseDef { name, .. }, (noise, d))| {
+                        let (noise, d) = (noise.as_ref()?, d.as_ref()?);
+                        let ratio = noise
+                            .iter()
+                            .enumerate()
+                            .map(|(j, x)| {
+                                let scale = d.column(j).amax();
+                                if scale > 0.0 { x / scale } else { *x }
+                            })
+                            .fold(0.0, f64::max);
+                        Some((name.clone(), json!(ratio)))
+                    })
+                    .collect();
                 json!({
                     "case": case.label,
                     "max_relative_difference": worst,
                     "max_absolute": absolute,
+                    "relative_noise": noise,
                 })
             })
             .collect();
@@ -630,17 +659,36 @@ pub(crate) fn summary_text(
             s,
             "finite differences: largest |FD − direct| / max |direct| per response"
         );
+        let mut unresolved = false;
         for case in cases {
             let worst = case["max_relative_difference"]
                 .as_object()
                 .map(|m| {
                     m.iter()
-                        .map(|(k, v)| format!("{k} {:.2e}", v.as_f64().unwrap_or(f64::NAN)))
+                        .map(|(k, v)| {
+                            let v = v.as_f64().unwrap_or(f64::NAN);
+                            match case["relative_noise"][k].as_f64() {
+                                // a difference within a few times the noise resolves nothing
+                                Some(noise) if v <= NOISE_MARGIN * noise => {
+                                    unresolved = true;
+                                    format!("{k} {v:.2e} (noise {noise:.1e}: not resolved)")
+                                }
+                                _ => format!("{k} {v:.2e}"),
+                            }
+                        })
                         .collect::<Vec<_>>()
                         .join(", ")
                 })
                 .unwrap_or_default();
             let _ = writeln!(s, "  {:<36} {worst}", case["case"].as_str().unwrap_or(""));
+        }
+        if unresolved {
+            let _ = writeln!(
+                s,
+                "  (not resolved: the replays' Newton tolerance over the perturbation is as large \
+                 as the difference; a larger perturbation or sensitivity.method = \"direct\" \
+                 resolves more)"
+            );
         }
     }
     let files: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();

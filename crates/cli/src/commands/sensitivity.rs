@@ -255,10 +255,26 @@ pub(crate) struct FdCase {
     pub(crate) responses: Vec<Option<DMatrix<f64>>>,
     /// Per objective: the differences of its value, one per variable.
     pub(crate) objectives: Vec<Vec<f64>>,
+    /// Per response with sensitivities, on replayed steps: the noise of the differences, one
+    /// per variable — the largest change of the response when the first perturbed run's start
+    /// is assembled and its Newton iterations go on to a tenth of their tolerances, over the
+    /// perturbation
+    /// (central: `δr / δ`, forward: `2 δr / δ`). `None` on adaptive steps (their noise is the
+    /// step selection's) and when that tighter run fails (round-off can stop its iterations).
+    pub(crate) noise: Vec<Option<Vec<f64>>>,
 }
 
+/// The factor by which the noise estimate's second run tightens the replays' Newton
+/// tolerance ([`FdCase::noise`]).
+const NOISE_TIGHTENING: f64 = 10.0;
+
+/// The position tolerance (m) to which a perturbed run's start is assembled.
+const PERTURBED_ASSEMBLY_TOL: f64 = 1e-10;
+
 /// The response histories (differentiable responses, concatenated) and objective values of
-/// the deck with the design `b`: the flexible bodies rebuilt at `b` ([`Mechanism::model_at`]).
+/// the deck with the design `b`: the flexible bodies rebuilt at `b` ([`Mechanism::model_at`]),
+/// the start assembled to `assembly_tol`.
+#[allow(clippy::too_many_arguments)]
 fn perturbed_outputs(
     src: &Source,
     mech: &Mechanism,
@@ -266,6 +282,7 @@ fn perturbed_outputs(
     state: &State,
     b: &[f64],
     options: &BdfOptions,
+    assembly_tol: f64,
     progress: Option<&RunProgress>,
 ) -> Result<Vec<f64>, CliError> {
     let model = mech.model_at(src, b)?;
@@ -275,7 +292,7 @@ fn perturbed_outputs(
     let mut sys = nominal.with_model(model);
     let mut st = state.clone();
     let t0 = mech.times[0];
-    sys.assemble(t0, &mut st, 1e-10)
+    sys.assemble(t0, &mut st, assembly_tol)
         .map_err(|e| runtime(src, format!("perturbed design {b:?}: {e}")))?;
     let sim = mbs::simulate(&mut sys, &st, &mech.times, options.clone())
         .map_err(|e| runtime(src, format!("perturbed design {b:?}: {e}")))?;
@@ -296,6 +313,54 @@ fn perturbed_outputs(
         out.push(o.value);
     }
     Ok(out)
+}
+
+/// The noise of replayed runs per response (`None` for one without sensitivities): the
+/// largest change of its history `values` (the design `b`'s replay with `options`) when the
+/// replay's start is assembled and its Newton iterations go on to a tenth of their tolerances;
+/// `None` for every response when that run fails.
+#[allow(clippy::too_many_arguments)]
+fn response_noise(
+    src: &Source,
+    mech: &Mechanism,
+    nominal: &MultibodySystem,
+    state: &State,
+    b: &[f64],
+    values: &[f64],
+    options: &BdfOptions,
+    progress: Option<&RunProgress>,
+) -> Vec<Option<f64>> {
+    let mut tight = options.clone();
+    if let mbs::StepControl::Replay { newton_tol, .. } = &mut tight.control {
+        *newton_tol /= NOISE_TIGHTENING;
+    }
+    let tighter = perturbed_outputs(
+        src,
+        mech,
+        nominal,
+        state,
+        b,
+        &tight,
+        PERTURBED_ASSEMBLY_TOL / NOISE_TIGHTENING,
+        progress,
+    );
+    let Ok(tighter) = tighter else {
+        return vec![None; mech.responses.len()];
+    };
+    let n = mech.times.len();
+    let mut row = 0;
+    mech.responses
+        .iter()
+        .map(|r| {
+            r.response.differentiable().then(|| {
+                let d = (row..row + n)
+                    .map(|i| (values[i] - tighter[i]).abs())
+                    .fold(0.0, f64::max);
+                row += n;
+                d
+            })
+        })
+        .collect()
 }
 
 /// Run the deck's finite-difference comparisons.
@@ -339,10 +404,32 @@ pub(crate) fn finite_differences(
         let designs = mbs::finite_difference_designs(&b, scheme, &perturbations);
         let values =
             super::parallel_map(designs.len(), super::job_count(None, designs.len()), |i| {
-                perturbed_outputs(src, mech, nominal, state, &designs[i], &options, progress)
+                perturbed_outputs(
+                    src,
+                    mech,
+                    nominal,
+                    state,
+                    &designs[i],
+                    &options,
+                    PERTURBED_ASSEMBLY_TOL,
+                    progress,
+                )
             })
             .into_iter()
             .collect::<Result<Vec<_>, _>>()?;
+        let noise = match steps {
+            FdSteps::Replay => Some(response_noise(
+                src,
+                mech,
+                nominal,
+                state,
+                &designs[0],
+                &values[0],
+                &options,
+                progress,
+            )),
+            FdSteps::Adaptive => None,
+        };
         let results = mbs::finite_differences_from(&b, scheme, &perturbations, &values);
         for r in results {
             let mut responses = Vec::new();
@@ -361,6 +448,19 @@ pub(crate) fn finite_differences(
             let size = match r.perturbation {
                 Perturbation::Relative(s) | Perturbation::Absolute(s) => s,
             };
+            let per_variable = |dr: f64| -> Vec<f64> {
+                let factor = if fd.central { 1.0 } else { 2.0 };
+                r.steps.iter().map(|d| factor * dr / d.abs()).collect()
+            };
+            let noise = mech
+                .responses
+                .iter()
+                .enumerate()
+                .map(|(i, resp)| {
+                    let dr = noise.as_ref()?[i]?;
+                    resp.response.differentiable().then(|| per_variable(dr))
+                })
+                .collect();
             cases.push(FdCase {
                 label: format!(
                     "{}_{}_{size}_{}",
@@ -378,6 +478,7 @@ pub(crate) fn finite_differences(
                 deltas: r.steps,
                 responses,
                 objectives,
+                noise,
             });
         }
     }
