@@ -16,10 +16,6 @@ use crate::deck::responses::ResponseDef;
 use crate::results::{Attr, Group};
 use crate::study::Mechanism;
 
-/// A finite difference within this many times its estimated noise of the direct derivative
-/// is reported as not resolved.
-const NOISE_MARGIN: f64 = 3.0;
-
 /// Unit of a derivative of a quantity in `unit` per one `per` (`"1/deg"`, `"m/kg"`).
 pub(crate) fn per(unit: &str, per: &str) -> String {
     let per = if per.contains('*') {
@@ -652,45 +648,7 @@ pub(crate) fn summary_text(
             let _ = writeln!(s, "  {}{at}", o.unit);
         }
     }
-    if let Some(cases) = summary["finite_differences"].as_array()
-        && !cases.is_empty()
-    {
-        let _ = writeln!(
-            s,
-            "finite differences: largest |FD − direct| / max |direct| per response"
-        );
-        let mut unresolved = false;
-        for case in cases {
-            let worst = case["max_relative_difference"]
-                .as_object()
-                .map(|m| {
-                    m.iter()
-                        .map(|(k, v)| {
-                            let v = v.as_f64().unwrap_or(f64::NAN);
-                            match case["relative_noise"][k].as_f64() {
-                                // a difference within a few times the noise resolves nothing
-                                Some(noise) if v <= NOISE_MARGIN * noise => {
-                                    unresolved = true;
-                                    format!("{k} {v:.2e} (noise {noise:.1e}: not resolved)")
-                                }
-                                _ => format!("{k} {v:.2e}"),
-                            }
-                        })
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                })
-                .unwrap_or_default();
-            let _ = writeln!(s, "  {:<36} {worst}", case["case"].as_str().unwrap_or(""));
-        }
-        if unresolved {
-            let _ = writeln!(
-                s,
-                "  (not resolved: the replays' Newton tolerance over the perturbation is as large \
-                 as the difference; a larger perturbation or sensitivity.method = \"direct\" \
-                 resolves more)"
-            );
-        }
-    }
+    s.push_str(&super::sensitivity::fd_summary_text(summary));
     let files: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
     let _ = writeln!(s, "written: {}", files.join(", "));
     s

@@ -256,11 +256,11 @@ pub(crate) struct FdCase {
     /// Per objective: the differences of its value, one per variable.
     pub(crate) objectives: Vec<Vec<f64>>,
     /// Per response with sensitivities, on replayed steps: the noise of the differences, one
-    /// per variable — the largest change of the response when the first perturbed run's start
-    /// is assembled and its Newton iterations go on to a tenth of their tolerances, over the
-    /// perturbation
-    /// (central: `δr / δ`, forward: `2 δr / δ`). `None` on adaptive steps (their noise is the
-    /// step selection's) and when that tighter run fails (round-off can stop its iterations).
+    /// per variable — the largest change `δr` of the response when the first perturbed run's
+    /// start is assembled and its Newton iterations go on to a tenth of their tolerances, over
+    /// the perturbation `δ` (central: `δr / δ`, forward: `2 δr / δ`). `None` on adaptive steps
+    /// (their noise is the step selection's) and when that tighter run fails (round-off can
+    /// stop its iterations).
     pub(crate) noise: Vec<Option<Vec<f64>>>,
 }
 
@@ -495,4 +495,56 @@ pub(crate) fn relative_difference(a: &DMatrix<f64>, reference: &DMatrix<f64>) ->
             if scale > 0.0 { diff / scale } else { diff }
         })
         .fold(0.0, f64::max)
+}
+
+/// A finite difference within this many times its estimated noise of the direct derivative
+/// is reported as not resolved.
+const NOISE_MARGIN: f64 = 3.0;
+
+/// The lines of a run's summary text on its finite-difference comparisons (`summary`: the run's
+/// JSON summary): each case's largest relative difference per response, marked where it is
+/// within its noise.
+pub(crate) fn fd_summary_text(summary: &serde_json::Value) -> String {
+    use std::fmt::Write;
+    let mut s = String::new();
+    if let Some(cases) = summary["finite_differences"].as_array()
+        && !cases.is_empty()
+    {
+        let _ = writeln!(
+            s,
+            "finite differences: largest |FD − direct| / max |direct| per response"
+        );
+        let mut unresolved = false;
+        for case in cases {
+            let worst = case["max_relative_difference"]
+                .as_object()
+                .map(|m| {
+                    m.iter()
+                        .map(|(k, v)| {
+                            let v = v.as_f64().unwrap_or(f64::NAN);
+                            match case["relative_noise"][k].as_f64() {
+                                // a difference within a few times the noise resolves nothing
+                                Some(noise) if v <= NOISE_MARGIN * noise => {
+                                    unresolved = true;
+                                    format!("{k} {v:.2e} (noise {noise:.1e}: not resolved)")
+                                }
+                                _ => format!("{k} {v:.2e}"),
+                            }
+                        })
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                })
+                .unwrap_or_default();
+            let _ = writeln!(s, "  {:<36} {worst}", case["case"].as_str().unwrap_or(""));
+        }
+        if unresolved {
+            let _ = writeln!(
+                s,
+                "  (not resolved: the replays' Newton tolerance over the perturbation is as large \
+                 as the difference; a larger perturbation or sensitivity.method = \"direct\" \
+                 resolves more)"
+            );
+        }
+    }
+    s
 }
