@@ -213,13 +213,12 @@ fn flexible_body(
         flexible::analyse(src, name, span.clone(), def, &mut built, with_check)?;
     let modal = fem::modal_body(&built.mesh, &built.props, &analysis)
         .map_err(|e| fem_error(src, name, span.clone(), e))?;
-    let report = basis_report(src, name, span, def, &analysis, check, with_check);
+    let report = basis_report(src, name, span, def, &analysis, check);
     Ok((built, analysis, modal, report))
 }
 
 /// The basis of a flexible body and its static check at the joints' nodes and couplings; a
-/// warning (once) when it misses more than the body's `basis_tolerance`, or, `with_check`,
-/// when a body with free rigid motions cannot be checked.
+/// warning (once) when it misses more than the body's `basis_tolerance`.
 fn basis_report(
     src: &Source,
     name: &str,
@@ -227,26 +226,12 @@ fn basis_report(
     def: &BodyDef,
     analysis: &fem::ModalAnalysis,
     check: Option<fem::Completeness>,
-    with_check: bool,
 ) -> mechanism::BasisReport {
     let report = mechanism::BasisReport {
         eigenmodes: analysis.kept.len(),
         correction_modes: analysis.correction.as_ref().map_or(0, |c| c.values.len()),
         check,
     };
-    if with_check && analysis.n_rigid > 0 && !def.interfaces.is_empty() {
-        src.warn(
-            Some(span.clone()),
-            Some(format!("body.{name}")),
-            format!(
-                "the basis ({} eigenmodes) is not checked: the basis check needs a reference \
-                 condition that holds every rigid motion, and this body's leaves {} free; \
-                 whether the motion has converged in the number of modes is not known (compare \
-                 a run with more modes, or hold the body with supports and basis = \"interface\")",
-                report.eigenmodes, analysis.n_rigid
-            ),
-        );
-    }
     if let Some(w) = report.check.as_ref().and_then(|c| c.worst())
         && w.missed > def.basis_tolerance
     {
@@ -263,12 +248,26 @@ fn basis_report(
                 w.name,
                 100.0 * w.captured,
                 def.basis_tolerance,
-                if def.auto_modes {
-                    "modes = \"auto\" stopped at the most eigenmodes it tries; use basis = \
-                     \"interface\", or attach the joints through couplings"
-                } else {
-                    "use basis = \"interface\", attach the joints through couplings, or retain \
-                     more modes (modes = \"auto\" chooses them by this check)"
+                match (def.auto_modes, def.reference.holds_body()) {
+                    (true, true) => {
+                        "modes = \"auto\" stopped at the most eigenmodes it tries; use basis = \
+                         \"interface\", or attach the joints through couplings"
+                    }
+                    (false, true) => {
+                        "use basis = \"interface\", attach the joints through couplings, or \
+                         retain more modes (modes = \"auto\" chooses them by this check)"
+                    }
+                    // no static correction without supports that hold every rigid motion
+                    (true, false) => {
+                        "modes = \"auto\" stopped at the most eigenmodes it tries; hold the \
+                         body with supports (reference = \"supports\") to use basis = \
+                         \"interface\""
+                    }
+                    (false, false) => {
+                        "retain more modes (modes = \"auto\" chooses them by this check), or \
+                         hold the body with supports (reference = \"supports\") to use basis = \
+                         \"interface\""
+                    }
                 }
             ),
         );

@@ -220,7 +220,7 @@ pub fn validate_one(
         }
     };
     if auto_modes {
-        check_auto_modes(src, name, raw, &reference)?;
+        check_auto_modes(src, name, raw)?;
     }
     let basis_tolerance = basis_tolerance(src, name, raw)?;
     let initial_modal = initial_modal_state(
@@ -467,14 +467,8 @@ fn basis(
     })
 }
 
-/// `modes = "auto"` needs a reference condition that holds the body and no initial modal
-/// state.
-fn check_auto_modes(
-    src: &Source,
-    name: &str,
-    raw: &RawBody,
-    reference: &Reference,
-) -> Result<(), DeckError> {
+/// `modes = "auto"` needs no initial modal state.
+fn check_auto_modes(src: &Source, name: &str, raw: &RawBody) -> Result<(), DeckError> {
     let k = |key: &str| format!("body.{name}.{key}");
     for (key, v) in [
         ("initial_modal", &raw.initial_modal),
@@ -487,14 +481,6 @@ fn check_auto_modes(
                 "an initial modal state needs a stated number of modes, not modes = \"auto\"",
             ));
         }
-    }
-    if !reference.holds_body() {
-        return Err(src.error(
-            raw.modes.as_ref().and_then(span),
-            Some(k("modes")),
-            "modes = \"auto\" chooses by the basis check, which needs a reference condition \
-             that holds every rigid motion (not free-free or partly-free)",
-        ));
     }
     Ok(())
 }
