@@ -156,7 +156,7 @@ pub fn static_completeness(
         // a load the frame carries whole (an acceleration along a free motion) is no case
         let mut kept = Vec::new();
         for (name, f) in names.drain(..).zip(loads.drain(..)) {
-            let relieved = r.relieve(&analysis.m, &f);
+            let relieved = r.relieve(&f);
             if relieved.norm() > 1e-9 * f.norm() {
                 kept.push((name, relieved));
             }
@@ -174,7 +174,7 @@ pub fn static_completeness(
             Some(r) => {
                 r.factor.solve_columns(u.as_mut_slice(), f.ncols());
                 for mut c in u.column_iter_mut() {
-                    let elastic = r.relieve_displacement(&analysis.m, &c.clone_owned());
+                    let elastic = r.relieve_displacement(&c.clone_owned());
                     c.copy_from(&elastic);
                 }
             }
@@ -217,30 +217,21 @@ pub fn static_completeness(
 /// springs at a statically determinate set of dof.
 struct Relief {
     r: DMatrix<f64>,
+    /// `M R`, made once.
+    mr: DMatrix<f64>,
     factor: sens::SparseCholesky,
 }
 
 impl Relief {
     /// `f − M R Rᵀ f`: the load without its rigid-body part.
-    fn relieve(
-        &self,
-        m: &faer::sparse::SparseColMat<usize, f64>,
-        f: &DVector<f64>,
-    ) -> DVector<f64> {
-        let mut mr = DMatrix::zeros(self.r.nrows(), self.r.ncols());
-        crate::eigen::spmv_columns(m, self.r.as_slice(), mr.as_mut_slice(), self.r.ncols());
-        f - mr * (self.r.transpose() * f)
+    fn relieve(&self, f: &DVector<f64>) -> DVector<f64> {
+        f - &self.mr * (self.r.transpose() * f)
     }
 
-    /// `u − R Rᵀ M u`: the displacement without its rigid-body part.
-    fn relieve_displacement(
-        &self,
-        m: &faer::sparse::SparseColMat<usize, f64>,
-        u: &DVector<f64>,
-    ) -> DVector<f64> {
-        let mut mu = vec![0.0; u.len()];
-        crate::eigen::spmv(m, u.as_slice(), &mut mu);
-        u - &self.r * (self.r.transpose() * DVector::from_vec(mu))
+    /// `u − R (M R)ᵀ u = u − R Rᵀ M u` (`M` symmetric): the displacement without its
+    /// rigid-body part.
+    fn relieve_displacement(&self, u: &DVector<f64>) -> DVector<f64> {
+        u - &self.r * (self.mr.transpose() * u)
     }
 }
 
@@ -320,7 +311,9 @@ fn relief(mesh: &Mesh, analysis: &ModalAnalysis) -> Result<Option<Relief>, FemEr
     let factor = crate::correction::factor_held(assembly, &held_k, || {
         bad("the stiffness held at its rigid motions is not positive definite (a mechanism)")
     })?;
-    Ok(Some(Relief { r, factor }))
+    let mut mr = DMatrix::zeros(nf, r.ncols());
+    crate::eigen::spmv_columns(&analysis.m, r.as_slice(), mr.as_mut_slice(), r.ncols());
+    Ok(Some(Relief { r, mr, factor }))
 }
 
 #[cfg(test)]
@@ -381,14 +374,14 @@ mod tests {
             full[6 * ((nx + 1) * j + nx)] += force * w;
         }
         let f = an.assembly.restrict(&full);
-        let relieved = relief.relieve(&an.m, &f);
+        let relieved = relief.relieve(&f);
         assert!((&relieved - &f).norm() <= 1e-12 * f.norm());
         let mut u = relieved.clone();
         {
             use sens::LinearSolver;
             relief.factor.solve_columns(u.as_mut_slice(), 1);
         }
-        let u = relief.relieve_displacement(&an.m, &u);
+        let u = relief.relieve_displacement(&u);
         let exact = force * force * l / (70e9 * b * h);
         let mut mu = vec![0.0; u.len()];
         crate::eigen::spmv(&an.m, u.as_slice(), &mut mu);
@@ -398,7 +391,7 @@ mod tests {
         let mut m_along = vec![0.0; an.assembly.n_free()];
         crate::eigen::spmv(&an.m, an.assembly.restrict(&along).as_slice(), &mut m_along);
         let m_along = DVector::from_vec(m_along);
-        let left = relief.relieve(&an.m, &m_along).norm() / m_along.norm();
+        let left = relief.relieve(&m_along).norm() / m_along.norm();
         (relieved.dot(&u) / exact - 1.0, momentum, left)
     }
 
