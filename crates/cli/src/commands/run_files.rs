@@ -471,47 +471,36 @@ pub(crate) fn summary(
                     .sensitivities
                     .as_ref()
                     .expect("comparisons need sensitivities");
-                let worst: serde_json::Map<_, _> = mech
-                    .responses
-                    .iter()
-                    .zip(case.responses.iter().zip(&s.responses))
-                    .filter_map(|(ResponseDef { name, .. }, (f, d))| {
-                        Some((
-                            name.clone(),
-                            json!(sensitivity::relative_difference(f.as_ref()?, d.as_ref()?)),
-                        ))
-                    })
-                    .collect();
-                let absolute: serde_json::Map<_, _> = mech
-                    .responses
-                    .iter()
-                    .zip(case.responses.iter().zip(&s.responses))
-                    .filter_map(|(ResponseDef { name, .. }, (f, d))| {
-                        let (f, d) = (f.as_ref()?, d.as_ref()?);
-                        Some((
-                            name.clone(),
-                            json!({"difference": (f - d).amax(), "sensitivity": d.amax()}),
-                        ))
-                    })
-                    .collect();
+                let mut worst = serde_json::Map::new();
+                let mut absolute = serde_json::Map::new();
                 // the noise relative to the largest derivative, per variable, the worst
-                let noise: serde_json::Map<_, _> = mech
+                let mut noise = serde_json::Map::new();
+                for ((ResponseDef { name, .. }, (f, d)), n) in mech
                     .responses
                     .iter()
-                    .zip(case.noise.iter().zip(&s.responses))
-                    .filter_map(|(ResponseDef { name, .. }, (noise, d))| {
-                        let (noise, d) = (noise.as_ref()?, d.as_ref()?);
-                        let ratio = noise
+                    .zip(case.responses.iter().zip(&s.responses))
+                    .zip(&case.noise)
+                {
+                    let (Some(f), Some(d)) = (f, d) else {
+                        continue;
+                    };
+                    worst.insert(name.clone(), json!(sensitivity::relative_difference(f, d)));
+                    absolute.insert(
+                        name.clone(),
+                        json!({"difference": (f - d).amax(), "sensitivity": d.amax()}),
+                    );
+                    if let Some(n) = n {
+                        let ratio = n
                             .iter()
-                            .enumerate()
-                            .map(|(j, x)| {
-                                let scale = d.column(j).amax();
+                            .zip(d.column_iter())
+                            .map(|(x, column)| {
+                                let scale = column.amax();
                                 if scale > 0.0 { x / scale } else { *x }
                             })
                             .fold(0.0, f64::max);
-                        Some((name.clone(), json!(ratio)))
-                    })
-                    .collect();
+                        noise.insert(name.clone(), json!(ratio));
+                    }
+                }
                 json!({
                     "case": case.label,
                     "max_relative_difference": worst,

@@ -452,14 +452,9 @@ pub(crate) fn finite_differences(
                 let factor = if fd.central { 1.0 } else { 2.0 };
                 r.steps.iter().map(|d| factor * dr / d.abs()).collect()
             };
-            let noise = mech
-                .responses
-                .iter()
-                .enumerate()
-                .map(|(i, resp)| {
-                    let dr = noise.as_ref()?[i]?;
-                    resp.response.differentiable().then(|| per_variable(dr))
-                })
+            // (`response_noise` leaves the responses without sensitivities out)
+            let noise = (0..mech.responses.len())
+                .map(|i| noise.as_ref()?[i].map(per_variable))
                 .collect();
             cases.push(FdCase {
                 label: format!(
