@@ -3,20 +3,21 @@
 //! Step `n → n+1` of order `k` solves `Σ_{j=0..k} c_j y_{n+1−j} = f(t_{n+1}, y_{n+1})`, where
 //! `c_j = ℓ_j'(t_{n+1})` are the derivatives of the Lagrange basis through
 //! `t_{n+1}, t_n, …, t_{n+1−k}`, by Newton's method with the matrix `c_0 I − J` (`J = f_y`,
-//! kept and reused while Newton converges). The local error of order `j` is estimated from
+//! kept and reused while Newton converges; dense, or in a structure of the system's own for
+//! large systems, [`OdeSystem::structured_jacobian`]). The local error of order `j` is estimated from
 //! the divided difference of order `j+1` through the new point and the history,
 //! `err_j ≈ |y[t_{n+1}, …, t_{n−j}]| Π_{i=1..j} h_i / Σ_{i=1..j} 1/h_i` with
 //! `h_i = t_{n+1} − t_{n+1−i}` (exact leading term of the variable-grid local error).
 //!
 //! After every accepted step [`Bdf::last_step`] describes it (order, step, coefficients, the
-//! times and states of the formula, the Jacobian and the factorised Newton matrix): the
+//! times and states of the formula and the factorised Newton matrix): the
 //! sensitivity integration ([`crate::sensitivity`]) solves
 //! `(c_0 I − f_y) s_{n+1} = −Σ_{j≥1} c_j s_{n+1−j} + f_b` on exactly this step sequence.
 
 use std::collections::VecDeque;
 
 use nalgebra::{Complex, DMatrix};
-use sens::DenseLu;
+use sens::{DenseLu, LinearSolver};
 
 /// An ODE `y' = f(t, y)` with an exact Jacobian.
 pub trait OdeSystem {
@@ -25,6 +26,16 @@ pub trait OdeSystem {
     fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), RhsError>;
     /// `jac = ∂f/∂y (t, y)`.
     fn jacobian(&mut self, t: f64, y: &[f64], jac: &mut DMatrix<f64>) -> Result<(), RhsError>;
+    /// `∂f/∂y (t, y)` in a structure of the system's own, for systems too large for the dense
+    /// Jacobian and its LU; `None` (the default): the integrator uses
+    /// [`OdeSystem::jacobian`].
+    fn structured_jacobian(
+        &mut self,
+        _t: f64,
+        _y: &[f64],
+    ) -> Option<Result<Box<dyn StructuredJacobian>, RhsError>> {
+        None
+    }
     /// A state that passed the error test, before it is accepted: `Err(why)` refuses a state
     /// that no tolerance would allow (a broken constraint, a deformation far outside the
     /// model's range). The step is retried at order 1 with a quarter of the step; a refusal
@@ -37,6 +48,65 @@ pub trait OdeSystem {
     /// of the forcing falls between two evaluations.
     fn breakpoints(&self) -> Vec<f64> {
         Vec::new()
+    }
+}
+
+/// `∂f/∂y` kept in a structure of the system's own ([`OdeSystem::structured_jacobian`]).
+pub trait StructuredJacobian {
+    /// `c0 · I − ∂f/∂y`, factorised; `None` if it is singular.
+    fn factor(&self, c0: f64) -> Option<Box<dyn LinearSolver>>;
+    /// The eigenvalues of `∂f/∂y` the stability limit keeps inside the stability region (see
+    /// [`StepControl::Adaptive`]): the oscillatory ones, `Im λ > |Re λ|`, `Re λ ≤ 0`, or
+    /// estimates of them.
+    fn oscillatory_eigenvalues(&self) -> Vec<Complex<f64>>;
+}
+
+/// `∂f/∂y` as the integrator keeps it between refreshes.
+enum Jacobian {
+    Dense(DMatrix<f64>),
+    Structured(Box<dyn StructuredJacobian>),
+}
+
+/// The matrix of the integrator's Newton iterations, `c0 · I − ∂f/∂y`, factorised.
+pub enum NewtonMatrix {
+    /// The LU of the dense matrix.
+    Dense(DenseLu),
+    /// The system's factorisation ([`StructuredJacobian::factor`]).
+    Structured(Box<dyn LinearSolver>),
+}
+
+impl std::fmt::Debug for NewtonMatrix {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Dense(lu) => f.debug_tuple("Dense").field(lu).finish(),
+            Self::Structured(s) => write!(f, "Structured({} unknowns)", s.dim()),
+        }
+    }
+}
+
+impl NewtonMatrix {
+    /// `b ← N⁻¹ b`; `false` if the dense matrix is singular (a structured factorisation
+    /// refused singular matrices when it was made).
+    pub fn solve_in_place(&self, b: &mut [f64]) -> bool {
+        match self {
+            Self::Dense(lu) => lu.solve_in_place(b),
+            Self::Structured(s) => {
+                s.solve_columns(b, 1);
+                true
+            }
+        }
+    }
+
+    /// `B ← N⁻¹ B`; `false` if the dense matrix is singular.
+    pub fn solve_matrix(&self, b: &mut DMatrix<f64>) -> bool {
+        match self {
+            Self::Dense(lu) => lu.solve_matrix(b),
+            Self::Structured(s) => {
+                let n = b.ncols();
+                s.solve_columns(b.as_mut_slice(), n);
+                true
+            }
+        }
     }
 }
 
@@ -243,11 +313,9 @@ pub struct AcceptedStep<'a> {
     pub coefficients: &'a [f64],
     /// `y_{n+1}, y_n, …` (most recent first; at least `k+1` entries).
     pub states: Vec<&'a [f64]>,
-    /// The Jacobian the Newton matrix was built from (evaluated at an earlier state when
-    /// reused).
-    pub jacobian: &'a DMatrix<f64>,
-    /// LU of `newton_c0 · I − jacobian`.
-    pub newton_matrix: &'a DenseLu,
+    /// `newton_c0 · I − J`, factorised, with the Jacobian `J` of an earlier state when
+    /// reused.
+    pub newton_matrix: &'a NewtonMatrix,
     pub newton_c0: f64,
 }
 
@@ -266,10 +334,8 @@ pub struct TrialStep<'a> {
     /// Accepted states `y_n, y_{n−1}, …` (most recent first) and their times.
     pub history: Vec<&'a [f64]>,
     pub history_times: Vec<f64>,
-    /// The Jacobian the Newton matrix was built from (possibly evaluated at an older state).
-    pub jacobian: &'a DMatrix<f64>,
-    /// LU of `newton_c0 · I − jacobian`.
-    pub newton_matrix: &'a DenseLu,
+    /// `newton_c0 · I − J`, factorised, with the Jacobian `J` possibly of an older state.
+    pub newton_matrix: &'a NewtonMatrix,
     pub newton_c0: f64,
     /// Error weights of the state: `rtol·|y| + atol_i`.
     pub rtol: f64,
@@ -316,7 +382,7 @@ pub trait StepExtension<Sys: ?Sized> {
     /// weighted RMS norm in the integrator's error weights (`rtol`, `atol` of the state).
     fn newton_correct(
         &mut self,
-        _newton_matrix: &DenseLu,
+        _newton_matrix: &NewtonMatrix,
         _scale: f64,
         _rtol: f64,
         _atol: &[f64],
@@ -488,7 +554,7 @@ fn stable_step_cached(
 /// upper half-plane within 45° of the imaginary axis, `Im λ > |Re λ|`, with `Re λ ≤ 0`
 /// (growing physical modes grow under any method). Every BDF order up to 5 is stable within
 /// 51° of the negative real axis. Empty if the eigenvalues cannot be computed.
-fn oscillatory_eigenvalues(jac: &DMatrix<f64>) -> Vec<Complex<f64>> {
+pub(crate) fn oscillatory_eigenvalues(jac: &DMatrix<f64>) -> Vec<Complex<f64>> {
     if jac.iter().any(|x| !x.is_finite()) {
         return Vec::new();
     }
@@ -553,9 +619,9 @@ pub struct Bdf {
     order: usize,
     h: f64,
     steps_at_order: usize,
-    jac: DMatrix<f64>,
+    jac: Jacobian,
     jac_age: Option<usize>,
-    lu: Option<DenseLu>,
+    lu: Option<NewtonMatrix>,
     lu_c0: f64,
     /// Newton convergence-rate estimate (reset to 1 with every new matrix).
     newton_rate: f64,
@@ -588,7 +654,7 @@ impl Bdf {
             order: 1,
             h: 0.0,
             steps_at_order: 0,
-            jac: DMatrix::zeros(0, 0),
+            jac: Jacobian::Dense(DMatrix::zeros(0, 0)),
             jac_age: None,
             lu: None,
             lu_c0: 0.0,
@@ -840,18 +906,29 @@ impl Bdf {
         t: f64,
         y: &[f64],
     ) -> Result<(), IntegrationError> {
-        if self.jac.nrows() != self.n {
-            self.jac = DMatrix::zeros(self.n, self.n);
+        match sys.structured_jacobian(t, y) {
+            Some(j) => self.jac = Jacobian::Structured(j.map_err(|e| self.fail(e.into()))?),
+            None => {
+                if !matches!(&self.jac, Jacobian::Dense(j) if j.nrows() == self.n) {
+                    self.jac = Jacobian::Dense(DMatrix::zeros(self.n, self.n));
+                }
+                let Jacobian::Dense(jac) = &mut self.jac else {
+                    unreachable!("made dense above")
+                };
+                let r = sys.jacobian(t, y, jac);
+                r.map_err(|e| self.fail(e.into()))?;
+            }
         }
-        sys.jacobian(t, y, &mut self.jac)
-            .map_err(|e| self.fail(e.into()))?;
         self.stats.jacobians += 1;
         if let StepControl::Adaptive {
             stability_limit: true,
             ..
         } = self.opts.control
         {
-            self.oscillatory = oscillatory_eigenvalues(&self.jac);
+            self.oscillatory = match &self.jac {
+                Jacobian::Dense(j) => oscillatory_eigenvalues(j),
+                Jacobian::Structured(j) => j.oscillatory_eigenvalues(),
+            };
             *self.stability_edges.borrow_mut() = vec![[f64::NAN; 6]; self.oscillatory.len()];
         }
         self.jac_age = Some(0);
@@ -860,15 +937,21 @@ impl Bdf {
     }
 
     fn factorize(&mut self, c0: f64) -> Result<(), IntegrationError> {
-        let mut m = -self.jac.clone();
-        for i in 0..self.n {
-            m[(i, i)] += c0;
-        }
-        let lu = DenseLu::new(&m);
+        let lu = match &self.jac {
+            Jacobian::Dense(jac) => {
+                let mut m = -jac.clone();
+                for i in 0..self.n {
+                    m[(i, i)] += c0;
+                }
+                let lu = DenseLu::new(&m);
+                lu.is_invertible().then_some(NewtonMatrix::Dense(lu))
+            }
+            Jacobian::Structured(j) => j.factor(c0).map(NewtonMatrix::Structured),
+        };
         self.stats.factorizations += 1;
-        if !lu.is_invertible() {
+        let Some(lu) = lu else {
             return Err(self.fail(IntegrationFailure::SingularNewtonMatrix));
-        }
+        };
         self.lu = Some(lu);
         self.lu_c0 = c0;
         self.newton_rate = 1.0;
@@ -883,7 +966,6 @@ impl Bdf {
             y_new: y_new.to_vec(),
             history: self.hist.iter().map(|x| x.1.as_slice()).collect(),
             history_times: self.hist.iter().map(|x| x.0).collect(),
-            jacobian: &self.jac,
             newton_matrix: self.lu.as_ref().expect("factorised"),
             newton_c0: self.lu_c0,
             rtol: self.opts.rtol,
@@ -1464,7 +1546,6 @@ impl Bdf {
                 .take(self.last_order + 1)
                 .map(|x| x.1.as_slice())
                 .collect(),
-            jacobian: &self.jac,
             newton_matrix: self.lu.as_ref().expect("factorised"),
             newton_c0: self.lu_c0,
         }

@@ -30,9 +30,12 @@
 //!   (`rhs − matrix · x̂` with `x̂ = [v̇; λ]` fixed: on `Dual<N>` its tangents are the right-hand
 //!   side of Eq. 40).
 //! - [`MultibodySystem`]: the `f64` side — redundant rows ([`RedundancyPolicy`]), consistent
-//!   initial conditions ([`MultibodySystem::assemble`]), the LU solve ([`MultibodySystem::solve`]
-//!   returns `x̂` and the factorisation, a [`sens::LinearSolver`]), outputs, and the
-//!   [`OdeSystem`] `y' = f(t, y)`, `y = [q; v]`, whose Jacobian comes from the dual path.
+//!   initial conditions ([`MultibodySystem::assemble`]), the solve of Eq. (12)
+//!   ([`MultibodySystem::solve`] returns `x̂` and the factorisation, an [`Eq12Factor`]: the dense
+//!   LU, or for large mechanisms the body blocks of the [`BodyMass`] and a sparse Schur
+//!   complement on the constraints), outputs, and the [`OdeSystem`] `y' = f(t, y)`,
+//!   `y = [q; v]`, whose Jacobian comes from the dual path (for large mechanisms as a sparse
+//!   Newton system, seeded body colour by body colour; docs/design.md §3).
 //! - [`Bdf`]: the integrator. After each accepted step [`Bdf::last_step`] gives the order, step,
 //!   coefficients `c_j` of `Σ c_j y_{n+1−j} = f(y_{n+1})`, the states of the formula and the
 //!   Newton matrix; [`Bdf::integrate_to`] calls an observer after every accepted step.
@@ -81,6 +84,7 @@
 
 mod bdf;
 mod body;
+mod eq12;
 mod error;
 mod fd;
 mod field_gram;
@@ -89,17 +93,20 @@ mod joint;
 pub mod kin;
 mod marker;
 mod model;
+mod newton;
 mod nodal;
 mod response;
 mod sensitivity;
 mod system;
 
 pub use bdf::{
-    AcceptedStep, Bdf, BdfOptions, IntegrationError, IntegrationFailure, JACOBIAN_AGE, NoExtension,
-    OdeSystem, RhsError, STABILITY_GROWTH, Statistics, StepControl, StepExtension, TrialStep,
-    bdf_stable, error_estimate_weights, lagrange_weights, stable_step,
+    AcceptedStep, Bdf, BdfOptions, IntegrationError, IntegrationFailure, JACOBIAN_AGE,
+    NewtonMatrix, NoExtension, OdeSystem, RhsError, STABILITY_GROWTH, Statistics, StepControl,
+    StepExtension, StructuredJacobian, TrialStep, bdf_stable, error_estimate_weights,
+    lagrange_weights, stable_step,
 };
 pub use body::{Body, BodyId, FlexibleBody, RigidBody};
+pub use eq12::{BodyMass, BodySchur, Eq12Factor};
 pub use error::{ConstraintError, ModelError};
 pub use fd::{
     FdScheme, FiniteDifference, Perturbation, finite_difference_designs, finite_differences,

@@ -11,6 +11,7 @@ use crate::body::{
     Body, BodyId, FlexibleBody, ModalInvariants, Pose, RigidBody, body_dynamics, foreshortening,
     pose, vec3, vec3f,
 };
+use crate::eq12::BodyMass;
 use crate::error::ModelError;
 use crate::force::{Force, ForceId, LoadFrame};
 use crate::joint::{JointId, JointKind, TimeFunction, joint_equations};
@@ -380,6 +381,21 @@ impl<P: Scalar> Model<P> {
                 .expect("row in range"),
         )
     }
+    /// The bodies of each joint and each force (the ground left out): the bodies whose
+    /// states meet in one of their equations.
+    pub(crate) fn couplings(&self) -> Vec<Vec<usize>> {
+        let bodies = |ms: &[&Marker]| -> Vec<usize> {
+            let mut b: Vec<usize> = ms.iter().filter_map(|m| m.body.map(|id| id.0)).collect();
+            b.sort_unstable();
+            b.dedup();
+            b
+        };
+        self.joints
+            .iter()
+            .map(|j| bodies(&[&j.a, &j.b]))
+            .chain(self.forces.iter().map(|f| bodies(&f.markers())))
+            .collect()
+    }
     /// Number of position coordinates.
     pub fn n_q(&self) -> usize {
         self.n_q
@@ -548,26 +564,26 @@ impl<P: Scalar> Model<P> {
         }
     }
 
-    /// Mass matrix `M` (`n_v × n_v`) and generalised forces `g + s − Λw − Dẇ` (applied forces,
+    /// Mass matrix `M` (`n_v × n_v`, one block per body) and generalised forces `g + s − Λw − Dẇ` (applied forces,
     /// gravity, quadratic-velocity terms, modal stiffness and damping).
     pub fn mass_and_forces<S: Scalar + From<P>>(
         &self,
         t: f64,
         q: &[S],
         v: &[S],
-    ) -> (DMatrix<S>, Vec<S>) {
-        let mut m = DMatrix::zeros(self.n_v, self.n_v);
+    ) -> (BodyMass<S>, Vec<S>) {
+        let mut m = BodyMass::zeros(self.bodies.iter().map(|s| 6 + s.body.n_modes()));
         let mut f = vec![S::zero(); self.n_v];
-        for s in &self.bodies {
+        for (b, s) in self.bodies.iter().enumerate() {
             body_dynamics(
                 &s.body,
                 &s.invariants,
                 &q[s.q_off..],
                 &v[s.v_off..],
                 &self.gravity,
-                &mut m,
-                s.v_off,
-                &mut f,
+                m.block_mut(b),
+                0,
+                &mut f[s.v_off..],
             );
         }
         for force in &self.forces {
@@ -669,7 +685,7 @@ impl<P: Scalar> Model<P> {
     /// kinematics (any scalar; the blocks must not depend on `P`).
     pub(crate) fn assemble<S: Scalar>(
         &self,
-        m: &DMatrix<S>,
+        m: &BodyMass<S>,
         f: &[S],
         k: &[Kin<S>],
         rows: &[usize],
@@ -681,7 +697,7 @@ impl<P: Scalar> Model<P> {
     /// blocks), the same operations on the converted entries.
     pub(crate) fn assemble_as<S: Scalar, T: Scalar>(
         &self,
-        m: &DMatrix<S>,
+        m: &BodyMass<S>,
         f: &[S],
         k: &[Kin<S>],
         rows: &[usize],
@@ -690,27 +706,41 @@ impl<P: Scalar> Model<P> {
         let nv = self.n_v;
         let n = nv + rows.len();
         let mut matrix = DMatrix::zeros(n, n);
-        for j in 0..nv {
-            for i in 0..nv {
-                matrix[(i, j)] = conv(m[(i, j)]);
+        for (o, block) in m.blocks() {
+            for j in 0..block.ncols() {
+                for i in 0..block.nrows() {
+                    matrix[(o + i, o + j)] = conv(block[(i, j)]);
+                }
             }
         }
-        let mut rhs = DVector::zeros(n);
-        for i in 0..nv {
-            rhs[i] = conv(f[i]);
-        }
-        let two_alpha = T::from_f64(2.0 * self.baumgarte.alpha);
-        let beta2 = T::from_f64(self.baumgarte.beta * self.baumgarte.beta);
         for (r, &row) in rows.iter().enumerate() {
-            let c = &k[row];
-            for (col, &x) in c.jac.iter() {
+            for (col, &x) in k[row].jac.iter() {
                 let x = conv(x);
                 matrix[(nv + r, col)] = x;
                 matrix[(col, nv + r)] = x;
             }
-            rhs[nv + r] = -conv(c.quad) - two_alpha * conv(c.rate) - beta2 * conv(c.val);
         }
+        let rhs = DVector::from_vec(self.rhs_as(f, k, rows, conv));
         Equations { matrix, rhs }
+    }
+
+    /// The right-hand side of Eq. (12) (see [`Model::assemble`]), every entry converted with
+    /// `conv`: `[g + s − Λw − Dẇ; γ − 2αΦ̇ − β²Φ]` on the rows `rows`.
+    pub(crate) fn rhs_as<S: Scalar, T: Scalar>(
+        &self,
+        f: &[S],
+        k: &[Kin<S>],
+        rows: &[usize],
+        conv: impl Fn(S) -> T,
+    ) -> Vec<T> {
+        let two_alpha = T::from_f64(2.0 * self.baumgarte.alpha);
+        let beta2 = T::from_f64(self.baumgarte.beta * self.baumgarte.beta);
+        let mut rhs: Vec<T> = f.iter().map(|&x| conv(x)).collect();
+        rhs.extend(rows.iter().map(|&row| {
+            let c = &k[row];
+            -conv(c.quad) - two_alpha * conv(c.rate) - beta2 * conv(c.val)
+        }));
+        rhs
     }
 
     /// The residual `rhs − matrix · x̂` of Eq. (12) with `x̂ = [v̇; λ]` held fixed: evaluated on
@@ -733,7 +763,7 @@ impl<P: Scalar> Model<P> {
     /// nonzero entries, in the same order).
     pub(crate) fn residual_from<S: Scalar>(
         &self,
-        m: &DMatrix<S>,
+        m: &BodyMass<S>,
         f: &[S],
         k: &[Kin<S>],
         rows: &[usize],
@@ -741,14 +771,12 @@ impl<P: Scalar> Model<P> {
     ) -> Vec<S> {
         let nv = self.n_v;
         let mut out = Vec::with_capacity(nv + rows.len());
-        // the mass matrix is block diagonal, one block per body
-        for s in &self.bodies {
-            let block = s.v_off..s.v_off + 6 + s.body.n_modes();
-            for i in block.clone() {
-                let mut r = f[i];
-                for j in block.clone() {
-                    if x_hat[j] != 0.0 {
-                        r -= m[(i, j)] * x_hat[j];
+        for (o, block) in m.blocks() {
+            for i in 0..block.nrows() {
+                let mut r = f[o + i];
+                for j in 0..block.ncols() {
+                    if x_hat[o + j] != 0.0 {
+                        r -= block[(i, j)] * x_hat[o + j];
                     }
                 }
                 out.push(r);
@@ -782,8 +810,7 @@ impl Model<f64> {
     /// Kinetic, gravitational, elastic and spring energies at `(t, q, v)`.
     pub fn energy(&self, t: f64, q: &[f64], v: &[f64]) -> Energy {
         let (m, _) = self.mass_and_forces(t, q, v);
-        let vv = DVector::from_column_slice(v);
-        let kinetic = 0.5 * vv.dot(&(&m * &vv));
+        let kinetic = 0.5 * v.iter().zip(m.mul(v)).map(|(a, b)| a * b).sum::<f64>();
         let mut gravity = 0.0;
         let mut elastic = 0.0;
         for s in &self.bodies {

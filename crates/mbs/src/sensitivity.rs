@@ -49,8 +49,8 @@ use nalgebra::DMatrix;
 use sens::{DenseLu, Dual};
 
 use crate::bdf::{
-    Bdf, BdfOptions, IntegrationError, IntegrationFailure, OdeSystem, RhsError, Statistics,
-    StepExtension, TrialStep, error_estimate_weights, lagrange_weights,
+    Bdf, BdfOptions, IntegrationError, IntegrationFailure, NewtonMatrix, OdeSystem, RhsError,
+    Statistics, StepExtension, TrialStep, error_estimate_weights, lagrange_weights,
 };
 use crate::error::ConstraintError;
 use crate::model::{Model, State};
@@ -963,7 +963,7 @@ impl<const N: usize> StepExtension<MultibodySystem> for Extension<'_, N> {
 
     fn newton_correct(
         &mut self,
-        newton_matrix: &DenseLu,
+        newton_matrix: &NewtonMatrix,
         scale: f64,
         rtol: f64,
         atol: &[f64],

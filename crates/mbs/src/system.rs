@@ -2,15 +2,21 @@
 //! conditions, the LU solution of Eq. (12), the exact state Jacobian from the dual path, and
 //! the outputs per time.
 
-use nalgebra::{DMatrix, DVector, Dyn, LU, Matrix3, Vector3};
-use sens::{DenseLu, Dual, Scalar, chunk_ranges};
+use std::sync::{Arc, Mutex};
 
-use crate::bdf::{Bdf, BdfOptions, IntegrationError, OdeSystem, RhsError, Statistics};
+use nalgebra::{DMatrix, DVector, Dyn, LU, Matrix3, Vector3};
+use sens::{Dual, Scalar, chunk_ranges};
+
+use crate::bdf::{
+    Bdf, BdfOptions, IntegrationError, OdeSystem, RhsError, Statistics, StructuredJacobian,
+};
 use crate::body::{Body, BodyId};
+use crate::eq12::{BodyMass, DENSE_LIMIT, Eq12Factor, SchurPattern};
 use crate::error::ConstraintError;
 use crate::joint::JointId;
-use crate::kin::{Kin, quat_from_rotation_vector, quat_mul};
+use crate::kin::{Jac, Kin, quat_from_rotation_vector, quat_mul};
 use crate::model::{Baumgarte, Energy, Model, State};
+use crate::newton::{Colouring, NewtonCache, SparseNewton};
 use nalgebra::Vector4;
 
 /// What to do with redundant constraint equations.
@@ -81,8 +87,8 @@ pub struct Output {
 pub struct Solution {
     /// `[v̇; λ_active]`.
     pub x: Vec<f64>,
-    /// The LU of Eq. (12)'s leading matrix, for the tangent solves at this state.
-    pub lu: DenseLu,
+    /// The factorisation of Eq. (12)'s leading matrix, for the tangent solves at this state.
+    pub lu: Eq12Factor,
     /// The constraint rows kept in Eq. (12) at this state (the order of `λ_active`). With
     /// [`RedundancyPolicy::Reselect`] they are chosen at every state (see
     /// [`MultibodySystem::solve`]); the tangents of this solution must use the same rows.
@@ -99,6 +105,12 @@ pub struct MultibodySystem {
     /// What the last [`MultibodySystem::assemble`] started from.
     start: Option<StartGuess>,
     guard: StepGuard,
+    /// The symbolic analysis of Eq. (12)'s Schur complement, kept while its pattern stays.
+    schur: Mutex<Option<SchurPattern>>,
+    /// The colouring and symbolic analysis of the sparse Newton matrices (large mechanisms).
+    newton: NewtonCache,
+    /// Dense Eq. (12) and Newton matrices whatever the size ([`MultibodySystem::set_dense`]).
+    dense: bool,
 }
 
 /// Limits of the check of every integration step ([`OdeSystem::check_step`]): states that no
@@ -188,7 +200,24 @@ impl MultibodySystem {
             progress: None,
             start: None,
             guard,
+            schur: Mutex::new(None),
+            newton: NewtonCache::default(),
+            dense: false,
         })
+    }
+
+    /// Solve Eq. (12) and the integrator's Newton iterations with dense matrices whatever the
+    /// size of the mechanism (`true`), or with the body blocks, the Schur complement and the
+    /// sparse Newton system above 80 unknowns in Eq. (12) (`false`, the default; docs/design.md
+    /// §3): the same solutions, the dense path slower for large mechanisms. For comparisons.
+    pub fn set_dense(&mut self, dense: bool) {
+        self.dense = dense;
+    }
+
+    /// Whether Eq. (12) and the Newton matrix are solved by their structure: above the size
+    /// limit, unless [`MultibodySystem::set_dense`].
+    fn structured(&self) -> bool {
+        !self.dense && self.model.n_v() + self.rows.len() > DENSE_LIMIT
     }
 
     /// Report progress: `observer(t)` is called at every right-hand-side evaluation (times of
@@ -222,6 +251,9 @@ impl MultibodySystem {
             progress: self.progress.clone(),
             start: self.start.clone(),
             guard: self.guard,
+            schur: Mutex::new(None),
+            newton: NewtonCache::default(),
+            dense: self.dense,
         }
     }
 
@@ -371,8 +403,10 @@ impl MultibodySystem {
         let k = model.constraint_kin(t, q, v);
         let (m, f) = model.mass_and_forces(t, q, v);
         let rows = self.select_rows(&k);
-        let e = self.model.assemble_as(&m, &f, &k, &rows, |x| x.value());
-        let sol = self.factor_and_solve(t, e, rows)?;
+        let mass = m.map(|x| x.value());
+        let jac: Vec<Jac<f64>> = rows.iter().map(|&r| k[r].jac.map(|x| x.value())).collect();
+        let rhs = self.model.rhs_as(&f, &k, &rows, |x| x.value());
+        let sol = self.factor_and_solve(t, &mass, jac.iter().collect(), rhs, rows)?;
         let res = model.residual_from(&m, &f, &k, &sol.rows, &sol.x);
         Ok((sol, res))
     }
@@ -395,14 +429,17 @@ impl MultibodySystem {
         k: &[Kin<f64>],
     ) -> Result<Solution, ConstraintError> {
         let rows = self.select_rows(k);
-        let e = self.model.equations_with(t, q, v, k, &rows);
-        self.factor_and_solve(t, e, rows).map_err(|e| match e {
-            ConstraintError::NonFinite { t, .. } => ConstraintError::NonFinite {
-                t,
-                cause: self.non_finite_cause(q, v),
-            },
-            e => e,
-        })
+        let (m, f) = self.model.mass_and_forces(t, q, v);
+        let rhs = self.model.rhs_as(&f, k, &rows, |x| x);
+        let jac = rows.iter().map(|&r| &k[r].jac).collect();
+        self.factor_and_solve(t, &m, jac, rhs, rows)
+            .map_err(|e| match e {
+                ConstraintError::NonFinite { t, .. } => ConstraintError::NonFinite {
+                    t,
+                    cause: self.non_finite_cause(q, v),
+                },
+                e => e,
+            })
     }
 
     /// Why accelerations came out non-finite, as far as can be told: a non-finite state, or a
@@ -428,14 +465,16 @@ impl MultibodySystem {
     fn factor_and_solve(
         &self,
         t: f64,
-        e: crate::model::Equations<f64>,
+        mass: &BodyMass<f64>,
+        jac: Vec<&Jac<f64>>,
+        mut x: Vec<f64>,
         rows: Vec<usize>,
     ) -> Result<Solution, ConstraintError> {
-        let lu = DenseLu::new(&e.matrix);
-        let mut x: Vec<f64> = e.rhs.as_slice().to_vec();
-        if !lu.solve_in_place(&mut x) {
+        let schur = (!self.dense).then_some(&self.schur);
+        let Some(lu) = Eq12Factor::new(mass, &jac, schur) else {
             return Err(ConstraintError::Singular { t });
-        }
+        };
+        lu.solve_in_place(&mut x);
         if x.iter().any(|a| !a.is_finite()) {
             return Err(ConstraintError::NonFinite {
                 t,
@@ -548,7 +587,7 @@ impl MultibodySystem {
     ) -> Result<StartProjection, ConstraintError> {
         let v = vec![0.0; self.model.n_v()];
         let (m, _) = self.model.mass_and_forces(t, q, &v);
-        let w = m.select_rows(cols).select_columns(cols);
+        let w = DMatrix::from_fn(cols.len(), cols.len(), |i, j| m[(cols[i], cols[j])]);
         let jr = jac.select_columns(cols);
         let dense: Vec<Vec<f64>> = (0..jr.nrows())
             .map(|r| jr.row(r).iter().copied().collect())
@@ -777,15 +816,14 @@ impl MultibodySystem {
 /// [`sens::solve_tangents`] through the rows of a [`DenseLu`]: the `N` tangents of each row
 /// side by side, as the dual numbers hold them.
 pub(crate) fn lu_tangents<const N: usize>(
-    lu: &DenseLu,
+    lu: &Eq12Factor,
     x_hat: &[f64],
     residual: &[Dual<N>],
 ) -> Vec<Dual<N>> {
     let n = x_hat.len();
     assert_eq!(residual.len(), n, "residual has the wrong length");
     let mut rhs: Vec<f64> = residual.iter().flat_map(|r| r.d).collect();
-    let ok = lu.solve_rows(&mut rhs, N);
-    debug_assert!(ok, "tangent solve with a singular LU factor");
+    lu.solve_rows(&mut rhs, N);
     (0..n)
         .map(|i| Dual::new(x_hat[i], std::array::from_fn(|k| rhs[i * N + k])))
         .collect()
@@ -897,6 +935,37 @@ impl OdeSystem for MultibodySystem {
         let sol = self.solve(t, q, v).map_err(|e| RhsError(e.to_string()))?;
         self.write_rates(y, &sol, dy);
         Ok(())
+    }
+
+    /// `∂f/∂y` of a mechanism whose Eq. (12) has more than 80 unknowns, as the sparse Newton
+    /// system of docs/design.md §3; `None` (the dense Jacobian) for smaller ones, or
+    /// should its symbolic analysis fail.
+    fn structured_jacobian(
+        &mut self,
+        t: f64,
+        y: &[f64],
+    ) -> Option<Result<Box<dyn StructuredJacobian>, RhsError>> {
+        if !self.structured() {
+            return None;
+        }
+        let (q, v) = y.split_at(self.model.n_q());
+        let sol = match self.solve(t, q, v) {
+            Ok(sol) => sol,
+            Err(e) => return Some(Err(RhsError(e.to_string()))),
+        };
+        let colouring = self
+            .newton
+            .colouring
+            .get_or_init(|| Arc::new(Colouring::new(&self.model)));
+        let j = SparseNewton::new(
+            &self.model,
+            colouring,
+            t,
+            (q, v),
+            (&sol.rows, &sol.x),
+            &self.newton.pattern,
+        )?;
+        Some(Ok(Box::new(j)))
     }
 
     /// Exact `∂f/∂y`: the residual of Eq. (12) in `Dual<8>` seeded with chunks of the state,

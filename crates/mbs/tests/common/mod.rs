@@ -291,6 +291,47 @@ pub fn slider_crank_framed(
     (model, state, slider)
 }
 
+/// `n` beams of 0.304 m (6 elements, `modes` modes, frame at the middle node) in a line along
+/// x, the first pinned to the ground at the origin, each pinned to the end node of the one
+/// before, all pins about z; gravity along −y, every mode damped by `zeta`.
+pub fn chain(n: usize, modes: usize, zeta: f64) -> (Model<f64>, State) {
+    let beam = Beam::slider_crank_rod(6);
+    let l = beam.length;
+    let mut model = Model::new();
+    model.gravity = Vector3::new(0.0, -9.81, 0.0);
+    let mut bodies: Vec<mbs::BodyId> = Vec::new();
+    for i in 0..n {
+        let modal = beam.modal_body(-l / 2.0, 3, modes, zeta);
+        let b = model
+            .add_flexible_body(FlexibleBody::new(format!("beam {i}"), modal))
+            .unwrap();
+        let a = match bodies.last() {
+            None => Marker::ground(Vector3::zeros()),
+            Some(&p) => Marker::node(p, beam.elements),
+        };
+        model
+            .add_joint(Joint::new(
+                format!("pin {i}"),
+                JointKind::Revolute,
+                a,
+                Marker::node(b, 0),
+            ))
+            .unwrap();
+        bodies.push(b);
+    }
+    let mut state = model.rest_state();
+    for (i, &b) in bodies.iter().enumerate() {
+        let x = (i as f64 + 0.5) * l;
+        model.set_pose(
+            &mut state,
+            b,
+            Vector3::new(x, 0.0, 0.0),
+            &Matrix3::identity(),
+        );
+    }
+    (model, state)
+}
+
 /// System with redundant equations removed and a consistent initial state.
 pub fn assembled(model: Model<f64>, mut state: State) -> (MultibodySystem, State) {
     let mut sys = MultibodySystem::new(model, &state, RedundancyPolicy::Remove).unwrap();
