@@ -6,6 +6,8 @@
 //! Before criterion's samples, each deck is run a few times in both settings and the ratio of
 //! the best times (sensitivities over analysis) is printed with the step count, so that the
 //! ratio rows come from one run on one machine: `cargo bench -p flexsens --bench paper_decks`.
+//! Then the beam deck with 8 and 32 design variables (ply angles, ply thicknesses): the cost
+//! against the number of variables.
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -86,7 +88,50 @@ fn paper_decks(c: &mut Criterion) {
             b.iter(|| run_once(&path, true, out))
         });
     }
+    // the cost against the number of variables: the beam deck with `n − 1` more variables,
+    // each on one ply of the tube, angles or thicknesses (a thickness moves the section's
+    // nodes, whose derivatives take dual passes of its kernel instead of the adjoint)
+    let beam = best_of(5, &deck("slider_crank_beam.toml"), false, out);
+    for kind in ["ply-angle", "ply-thickness"] {
+        for n in [8, 32] {
+            let path = out.join(format!("{kind}_{n}.toml"));
+            std::fs::write(&path, with_variables(kind, n)).expect("the deck is written");
+            let with = best_of(3, &path, true, out);
+            eprintln!(
+                "beam with {n} variables ({kind}): {:.1} ms, ratio {:.2} (1 + {:.2} N)",
+                with.as_secs_f64() * 1e3,
+                with.as_secs_f64() / beam.as_secs_f64(),
+                (with.as_secs_f64() / beam.as_secs_f64() - 1.0) / n as f64
+            );
+            if n == 32 {
+                group.bench_function(format!("beam_{kind}_32"), |b| {
+                    b.iter(|| run_once(&path, true, out))
+                });
+            }
+        }
+    }
     group.finish();
+}
+
+/// The beam deck with `n − 1` variables of `kind` after its common angle, variable `i` on
+/// ply `i mod 4` with the factor `1 + i/100`.
+fn with_variables(kind: &str, n: usize) -> String {
+    let text = std::fs::read_to_string(deck("slider_crank_beam.toml")).expect("the beam deck");
+    let extra: String = (1..n)
+        .map(|i| {
+            format!(
+                "[design.v{i}]\nkind = \"{kind}\"\nlaminate = \"tube_wall\"\nplies = [{}]\n\
+                 factors = [{}]\n\n",
+                i % 4,
+                1.0 + i as f64 / 100.0
+            )
+        })
+        .collect();
+    text.replacen(
+        "[objective.peak_deflection]",
+        &format!("{extra}[objective.peak_deflection]"),
+        1,
+    )
 }
 
 criterion_group!(benches, paper_decks);

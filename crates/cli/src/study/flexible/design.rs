@@ -127,8 +127,20 @@ impl Design {
                             with_material_constants(&at.regions[r].material, &c)
                                 .map_err(|e| section::SectionError::InvalidInput(e.to_string()))?;
                     }
-                    let map_at = with_materials(map, &at, materials);
-                    BeamSection::from_sensitivities(&section_derivatives(&at, &map_at)?, b)
+                    // derivatives only along the variables whose tangents `b` carries (a
+                    // chunk's, or one of them): the others' would be multiplied by zero, and
+                    // each one that moves nodes costs dual passes of the section's kernel, so
+                    // that all of them at each of Dailey's perturbed designs made the set-up
+                    // quadratic in the number of thickness variables
+                    let active: Vec<usize> = (0..b.len())
+                        .filter(|&j| b[j].d.iter().any(|&x| x != 0.0))
+                        .collect();
+                    let all = with_materials(map, &at, materials);
+                    let map_at = DesignMap {
+                        variables: active.iter().map(|&j| all.variables[j].clone()).collect(),
+                    };
+                    let b_active: Vec<Dual<N>> = active.iter().map(|&j| b[j]).collect();
+                    BeamSection::from_sensitivities(&section_derivatives(&at, &map_at)?, &b_active)
                 } else {
                     BeamSection::from_sensitivities(sens, b)
                 };
