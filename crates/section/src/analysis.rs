@@ -71,12 +71,14 @@ const NONE: usize = usize::MAX;
 ///   the same factorisation and one pass over the integration points of the regions the
 ///   variables change, whatever their number.
 /// - Node coordinates (a ply thickness: the Gauss points' positions, weights and
-///   shape-function gradients, and the wall frames, depend on them): with `X̂₁, Ŷ₁, X̂, Ŷ`
-///   fixed, the residuals of systems 1 and 2 are evaluated with dual coordinates and their
-///   tangents pushed through the same factorisation (the pattern of [`sens::solve_tangents`],
-///   batched so that the `6 N` tangent columns of a system go through one multi-column solve
-///   of [`sens::LinearSolver`]); the compliance is then evaluated in duals. A chunk of `N`
-///   variables with such a variable takes this path for all of them.
+///   shape-function gradients, and the wall frames, depend on them): by the same adjoints
+///   (`SectionAnalysis::compliance_adjoint_dual`), the Lagrangian of both systems evaluated
+///   with dual coordinates (and dual angles and materials, for the chunk's other variables)
+///   over the elements that move, the fields and adjoints held; no dual right-hand side goes
+///   through the factorisation. A chunk of `N` variables with such a variable takes this path
+///   for all of them. The direct form (the residuals of systems 1 and 2 evaluated with dual
+///   coordinates and their `6 N` tangent columns pushed through the factorisation, the pattern
+///   of [`sens::solve_tangents`]; `SectionAnalysis::compliance_dual`) is the tests' oracle.
 ///
 /// Conditioning: the Rayleigh quotients of the load cases' solutions bound the smallest
 /// eigenvalue of the diagonally scaled matrix, Gershgorin's discs its largest; a section whose
@@ -426,9 +428,10 @@ impl SectionAnalysis {
         self.sensitivities_by::<N>(design, true)
     }
 
-    /// [`SectionAnalysis::sensitivities`], the compliance derivatives of a chunk of variables
-    /// that do not move nodes by the adjoints (`adjoint`) or, as a chunk with a variable that
-    /// does, by dual numbers through the solves.
+    /// [`SectionAnalysis::sensitivities`], the compliance derivatives by the adjoints
+    /// (`adjoint`: of all chunks whose variables leave the nodes in place at once, and with
+    /// dual geometry for a chunk with a variable that moves nodes) or by dual numbers through
+    /// the solves (the oracle of the tests).
     fn sensitivities_by<const N: usize>(
         &self,
         design: &DesignMap,
@@ -439,8 +442,8 @@ impl SectionAnalysis {
         let m = design.variables.len();
         let integrals = self.model.region_mass_integrals(&self.model.gps);
         // The compliance derivatives of the chunks whose variables all leave the nodes in
-        // place, all at once by the adjoints; a chunk with a variable that moves nodes is
-        // pushed through the solves as dual numbers, all its variables with it.
+        // place, all at once by the adjoints; a chunk with a variable that moves nodes takes
+        // the adjoints with dual geometry, all its variables with it.
         let moves_nodes = |v: usize| !design.variables[v].nodes.is_empty();
         let fixed_geometry: Vec<usize> = chunk_ranges(m, N)
             .filter(|range| adjoint && !range.clone().any(moves_nodes))
@@ -478,7 +481,7 @@ impl SectionAnalysis {
                 }
                 (MassProperties::scaled_sum(&integrals, &density), f)
             } else {
-                self.mass_and_compliance_dual(design, range.clone(), &density, &integrals)
+                self.mass_and_compliance_dual(design, range.clone(), &density, &integrals, adjoint)
             };
             let props =
                 Props::from_compliance(compliance).ok_or(SectionError::SingularCompliance)?;
@@ -493,16 +496,19 @@ impl SectionAnalysis {
         })
     }
 
-    /// The mass properties and the compliance of the variables `range` as dual numbers
-    /// through the solves ([`SectionAnalysis::compliance_dual`]), the geometry dual when a
-    /// variable moves nodes; `density` the regions' dual densities, `integrals` their
-    /// unit-density integrals in the nominal geometry.
+    /// The mass properties and the compliance of the variables `range` as dual numbers, the
+    /// geometry dual when a variable moves nodes: the compliance's tangents by the adjoints
+    /// with the dual geometry ([`SectionAnalysis::compliance_adjoint_dual`], `adjoint` and a
+    /// variable that moves nodes) or through the solves
+    /// ([`SectionAnalysis::compliance_dual`]); `density` the regions' dual densities,
+    /// `integrals` their unit-density integrals in the nominal geometry.
     fn mass_and_compliance_dual<const N: usize>(
         &self,
         design: &DesignMap,
         range: std::ops::Range<usize>,
         density: &[Dual<N>],
         integrals: &[MassProperties],
+        adjoint: bool,
     ) -> (MassProperties<Dual<N>>, Matrix6<Dual<N>>) {
         // Dual ply angles and material stiffnesses: tangent k of region r is dθ_r/db and
         // dC̄_r/db of variable start + k.
@@ -548,6 +554,12 @@ impl SectionAnalysis {
             }
             let (gps, _) = geometry(&self.model.mesh, &nodes);
             let integrals = self.model.region_mass_integrals(&gps);
+            if adjoint {
+                return (
+                    MassProperties::scaled_sum(&integrals, density),
+                    self.compliance_adjoint_dual(&angles, &c_bar, &gps, &nodes),
+                );
+            }
             let lift = |x: &[f64]| x.iter().map(|&v| Dual::constant(v)).collect::<Vec<_>>();
             let lift36 = |y: &[f64; 36]| y.map(Dual::constant);
             let hats = Hats {
@@ -572,6 +584,95 @@ impl SectionAnalysis {
                 self.compliance_dual(&angles, &c_bar, &self.model.gps, hats),
             )
         }
+    }
+
+    /// The compliance with dual ply angles, material stiffnesses and dual node coordinates by
+    /// the adjoints of [`SectionAnalysis::compliance_derivatives`]. Its derivation holds for
+    /// any dependence of the section's bilinear forms on the variables: with the `f64` fields
+    /// `u`, `u₁` and adjoints `λ`, `μ` held, the compliance's derivative is that of the
+    /// Lagrangian `Σ ∫ ε_cᵀ Q α_d + e₁_cᵀ Q β_d + (c ↔ d)` (`α = ε/2 − [BN Z] λ`,
+    /// `β = SN λ_X − [BN Z] μ`; the right-hand sides `[0; T]` and `[0; I]` do not depend on
+    /// the geometry). Moving nodes change the weights, the positions in `Z`, the gradients in
+    /// `B` and the wall frame in `Q`, all dual at the integration points `gps`, so one dual
+    /// pass over them gives every tangent: no dual fields through the solves.
+    fn compliance_adjoint_dual<const N: usize>(
+        &self,
+        angles: &[Dual<N>],
+        c_bar: &[Matrix6<Dual<N>>],
+        gps: &[GaussPoint<Dual<N>>],
+        nodes: &[[Dual<N>; 2]],
+    ) -> Matrix6<Dual<N>> {
+        let m = &self.model;
+        // an element whose nodes stay and whose material is held adds no tangent
+        let moves = |x: &Dual<N>| x.d.iter().any(|&t| t != 0.0);
+        let node_moves: Vec<bool> = nodes.iter().map(|p| p.iter().any(moves)).collect();
+        let q_ply: Vec<Matrix6<Dual<N>>> = angles
+            .iter()
+            .zip(c_bar)
+            .map(|(&a, c)| rotate_stiffness_of(c, &Region::ply_rotation(a)))
+            .collect();
+        let ComplianceAdjoints { lx, ly, mx, my } = self.compliance_adjoints();
+        let lift = |x: &[f64]| {
+            x.iter()
+                .map(|&v| Dual::<N>::constant(v))
+                .collect::<Vec<_>>()
+        };
+        let lift36 = |y: &[f64; 36]| y.map(Dual::<N>::constant);
+        let (x, x1, lx, mx) = (lift(&self.x), lift(&self.x1), lift(&lx), lift(&mx));
+        let (y, y1, ly, my) = (lift36(&self.y), lift36(&self.y1), lift36(&ly), lift36(&my));
+        let field = |u, u1, psi| Fields { u, u1, psi };
+        let of_eps = field(Some(&x[..]), Some(&x1[..]), Some(&y));
+        let of_e1 = field(Some(&x1[..]), None, Some(&y1));
+        let of_lambda = field(Some(&lx[..]), None, Some(&ly));
+        let of_s_lambda = field(None, Some(&lx[..]), None);
+        let of_mu = field(Some(&mx[..]), None, Some(&my));
+        let zero = Dual::<N>::constant(0.0);
+        let region_moves: Vec<bool> = q_ply.iter().map(|q| q.iter().any(moves)).collect();
+        let mut l = [[zero; 6]; 6];
+        for (e, el) in m.mesh.elements.iter().enumerate() {
+            let nodes = &el.nodes[..el.kind.node_count()];
+            if !region_moves[el.region] && !nodes.iter().any(|&n| node_moves[n]) {
+                continue;
+            }
+            for gp in &gps[m.gp_start[e]..m.gp_start[e + 1]] {
+                let q = m.stiffness_at(el.region, gp, &q_ply[el.region]);
+                let eps = strains(nodes, gp, of_eps);
+                let e1 = strains(nodes, gp, of_e1);
+                let el_ = strains(nodes, gp, of_lambda);
+                let sl = strains(nodes, gp, of_s_lambda);
+                let em = strains(nodes, gp, of_mu);
+                // w Q ε_c and w Q e₁_c
+                let weighted = |a: &[Dual<N>; 6]| -> [Dual<N>; 6] {
+                    std::array::from_fn(|i| {
+                        let mut acc = zero;
+                        for k in 0..6 {
+                            acc += q[(i, k)] * a[k];
+                        }
+                        acc * gp.w
+                    })
+                };
+                for c in 0..6 {
+                    let (q_eps, q_e1) = (weighted(&eps[c]), weighted(&e1[c]));
+                    for d in 0..6 {
+                        let mut acc = zero;
+                        for i in 0..6 {
+                            let alpha = eps[d][i] * 0.5 - el_[d][i];
+                            let beta = sl[d][i] - em[d][i];
+                            acc += q_eps[i] * alpha + q_e1[i] * beta;
+                        }
+                        l[c][d] += acc;
+                    }
+                }
+            }
+        }
+        let f = &self.properties.compliance;
+        Matrix6::from_fn(|c, d| {
+            let mut t = [0.0; N];
+            for (k, tk) in t.iter_mut().enumerate() {
+                *tk = l[c][d].d[k] + l[d][c].d[k];
+            }
+            Dual::new(f[(c, d)], t)
+        })
     }
 
     /// The compliance with dual ply angles, material stiffnesses and (with `G` dual) node
