@@ -96,6 +96,9 @@ pub struct SectionAnalysis {
     /// once: for the assembly, the analysis's kernel passes and the adjoint derivatives').
     q_points: Vec<Matrix6<f64>>,
     properties: SectionProperties,
+    /// The adjoints of the compliance derivatives, solved at the first derivative asked for
+    /// and shared by every chunk of variables after it.
+    adjoints: std::sync::OnceLock<ComplianceAdjoints>,
 }
 
 /// The discretised section: geometry at the integration points and the dof numbering.
@@ -382,6 +385,7 @@ impl SectionAnalysis {
             y,
             q_points,
             properties,
+            adjoints: std::sync::OnceLock::new(),
         })
     }
 
@@ -612,14 +616,15 @@ impl SectionAnalysis {
             .map(|(&a, c)| rotate_stiffness_of(c, &Region::ply_rotation(a)))
             .collect();
         let ComplianceAdjoints { lx, ly, mx, my } = self.compliance_adjoints();
+        let (lx, mx) = (&lx[..], &mx[..]);
         let lift = |x: &[f64]| {
             x.iter()
                 .map(|&v| Dual::<N>::constant(v))
                 .collect::<Vec<_>>()
         };
         let lift36 = |y: &[f64; 36]| y.map(Dual::<N>::constant);
-        let (x, x1, lx, mx) = (lift(&self.x), lift(&self.x1), lift(&lx), lift(&mx));
-        let (y, y1, ly, my) = (lift36(&self.y), lift36(&self.y1), lift36(&ly), lift36(&my));
+        let (x, x1, lx, mx) = (lift(&self.x), lift(&self.x1), lift(lx), lift(mx));
+        let (y, y1, ly, my) = (lift36(&self.y), lift36(&self.y1), lift36(ly), lift36(my));
         let field = |u, u1, psi| Fields { u, u1, psi };
         let of_eps = field(Some(&x[..]), Some(&x1[..]), Some(&y));
         let of_e1 = field(Some(&x1[..]), None, Some(&y1));
@@ -837,7 +842,7 @@ impl SectionAnalysis {
             if tangents.is_empty() {
                 continue;
             }
-            let moments = self.region_moments(r, &elements_of[r], &adjoints);
+            let moments = self.region_moments(r, &elements_of[r], adjoints);
             contract_moments(&moments, tangents, &mut out);
         }
         out
@@ -879,8 +884,13 @@ impl SectionAnalysis {
     }
 
     /// The adjoints `λ = K⁻¹ ∫[BN Z]ᵀ Q ε` and `μ = K⁻¹ (Cᵀ λ + p)` of
-    /// [`SectionAnalysis::compliance_derivatives`]: two six-column solves.
-    fn compliance_adjoints(&self) -> ComplianceAdjoints {
+    /// [`SectionAnalysis::compliance_derivatives`], solved once.
+    fn compliance_adjoints(&self) -> &ComplianceAdjoints {
+        self.adjoints.get_or_init(|| self.solve_adjoints())
+    }
+
+    /// [`SectionAnalysis::compliance_adjoints`]: two six-column solves.
+    fn solve_adjoints(&self) -> ComplianceAdjoints {
         let m = &self.model;
         let q = Materials::PerPoint(&self.q_points);
         let solve = |u: &[f64], psi: &[f64; 36]| {
@@ -1783,9 +1793,10 @@ mod tests {
     }
 
     /// The adjoint compliance derivatives are those of the direct method to round-off, for
-    /// ply angles (alone and combined), a material constant and a density, on an off-centre
-    /// tube (with a ply thickness in the same chunks, which takes the direct path) and on an
-    /// unsymmetric box; and a derivative is not zero (the comparison means something).
+    /// ply angles (alone and combined), a material constant, a density and a ply thickness
+    /// (the adjoints with dual geometry, with the other variables of its chunk) on an
+    /// off-centre tube and on an unsymmetric box; and a derivative is not zero (the
+    /// comparison means something).
     #[test]
     fn adjoint_compliance_derivatives_equal_the_direct_ones() {
         let ply = |n: &str, a: f64, t: f64| PlySpec::new(n, composite(), a * DEG, t, 1);
