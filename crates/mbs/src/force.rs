@@ -1,8 +1,10 @@
-//! Applied forces: point forces and torques (constant or tabulated in time) and linear
-//! spring–dampers. Gravity is a property of the [`crate::Model`].
+//! Applied forces: point forces and torques (constant or tabulated in time), linear
+//! spring–dampers and joint actuators (a torque about a joint's axis between its two bodies,
+//! tabulated or a PD law tracking a motion). Gravity is a property of the [`crate::Model`].
 
 use nalgebra::Vector3;
 
+use crate::joint::TimeFunction;
 use crate::marker::Marker;
 
 /// Handle of a force element in a [`crate::Model`].
@@ -73,11 +75,52 @@ pub enum Force {
         damping: f64,
         free_length: f64,
     },
+    /// An actuator: a torque `τ` (N·m) about the third axis `n` of marker `a`, `τ n` on `b`'s
+    /// body (its node's rotation for an FE node) and `−τ n` on `a`'s, by the law `law`.
+    JointTorque {
+        a: Marker,
+        b: Marker,
+        law: TorqueLaw,
+    },
+}
+
+/// The torque of a [`Force::JointTorque`].
+#[derive(Clone, Debug, PartialEq)]
+pub enum TorqueLaw {
+    /// Piecewise linear in time through `(times[i], values[i])` (s, N·m), held constant
+    /// outside; a single point is a constant torque.
+    Table { times: Vec<f64>, values: Vec<f64> },
+    /// A proportional–derivative law tracking the motion `f(t)` (rad) with the relative angle
+    /// `θ` of the two markers (`b`'s first axis from `a`'s first, about `a`'s third, as an
+    /// angle driver measures it): `τ = kp (f − θ) + kd (ḟ − θ̇)`, the angle error taken in
+    /// `(−π, π]` (N·m/rad, N·m·s/rad).
+    Pd {
+        kp: f64,
+        kd: f64,
+        motion: TimeFunction,
+    },
+}
+
+impl TorqueLaw {
+    /// The tabulated torque at `t`.
+    pub(crate) fn table_at(times: &[f64], values: &[f64], t: f64) -> f64 {
+        let n = times.len();
+        if t <= times[0] {
+            return values[0];
+        }
+        if t >= times[n - 1] {
+            return values[n - 1];
+        }
+        let i = times.partition_point(|&x| x <= t) - 1;
+        let s = (t - times[i]) / (times[i + 1] - times[i]);
+        values[i] * (1.0 - s) + values[i + 1] * s
+    }
 }
 
 impl Force {
-    /// Times where the force's history has a kink (a table's points).
-    pub fn breakpoints(&self) -> &[f64] {
+    /// Times where the force's history has a kink (a table's points, the ends of a tracked
+    /// motion's ramp).
+    pub fn breakpoints(&self) -> Vec<f64> {
         match self {
             Force::PointForce {
                 load: Load::Table { times, .. },
@@ -86,15 +129,23 @@ impl Force {
             | Force::PointTorque {
                 load: Load::Table { times, .. },
                 ..
-            } => times,
-            _ => &[],
+            }
+            | Force::JointTorque {
+                law: TorqueLaw::Table { times, .. },
+                ..
+            } => times.clone(),
+            Force::JointTorque {
+                law: TorqueLaw::Pd { motion, .. },
+                ..
+            } => motion.breakpoints(),
+            _ => Vec::new(),
         }
     }
 
     pub(crate) fn markers(&self) -> Vec<&Marker> {
         match self {
             Force::PointForce { marker, .. } | Force::PointTorque { marker, .. } => vec![marker],
-            Force::SpringDamper { a, b, .. } => vec![a, b],
+            Force::SpringDamper { a, b, .. } | Force::JointTorque { a, b, .. } => vec![a, b],
         }
     }
 }

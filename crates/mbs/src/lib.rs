@@ -112,7 +112,7 @@ pub use fd::{
     FdScheme, FiniteDifference, Perturbation, finite_difference_designs, finite_differences,
     finite_differences_from, simulate_response,
 };
-pub use force::{Force, ForceId, Load, LoadFrame};
+pub use force::{Force, ForceId, Load, LoadFrame, TorqueLaw};
 pub use joint::{JointId, JointKind, TimeFunction};
 pub use marker::{Marker, Site};
 pub use model::{Baumgarte, ConstraintValues, Energy, Equations, Joint, Model, State};

@@ -113,6 +113,11 @@ pub(crate) struct MarkerKin<S: Scalar> {
 }
 
 impl<S: Scalar> MarkerKin<S> {
+    /// Whether the marker is on the ground.
+    pub(crate) fn is_ground(&self) -> bool {
+        self.cols.is_empty()
+    }
+
     /// Axis `e_i` of the marker (global components) with its rate, quadratic term and
     /// Jacobian: `A e'` with `e' = e0 + θ × e0` (small nodal rotation).
     pub(crate) fn axis(&self, i: usize) -> Kin3<S> {

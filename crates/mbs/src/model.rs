@@ -13,7 +13,7 @@ use crate::body::{
 };
 use crate::eq12::BodyMass;
 use crate::error::ModelError;
-use crate::force::{Force, ForceId, LoadFrame};
+use crate::force::{Force, ForceId, LoadFrame, TorqueLaw};
 use crate::joint::{JointId, JointKind, TimeFunction, joint_equations};
 use crate::kin::{Kin, l_matrix, quat_from_matrix};
 use crate::marker::{Marker, MarkerKin, Site, marker_kin};
@@ -324,6 +324,9 @@ impl<P: Scalar> Model<P> {
                 reason: "stiffness, damping and free length must be finite and non-negative",
             });
         }
+        if let Force::JointTorque { a, b, law } = &force {
+            check_joint_torque(a, b, law)?;
+        }
         self.forces.push(force);
         Ok(ForceId(self.forces.len() - 1))
     }
@@ -334,7 +337,7 @@ impl<P: Scalar> Model<P> {
         let mut t: Vec<f64> = self
             .forces
             .iter()
-            .flat_map(|f| f.breakpoints().iter().copied())
+            .flat_map(|f| f.breakpoints())
             .chain(self.joints.iter().flat_map(|j| match &j.kind {
                 JointKind::AngleDriver(f) | JointKind::DistanceDriver(f) => f.breakpoints(),
                 _ => Vec::new(),
@@ -627,11 +630,18 @@ impl<P: Scalar> Model<P> {
                     LoadFrame::Global => k.a.transpose() * l,
                     LoadFrame::Body => l,
                 };
-                for i in 0..3 {
-                    f[k.v_off + 3 + i] += tb[i];
+                body_torque(&k, &tb, f);
+            }
+            Force::JointTorque { a, b, law } => {
+                let ka = self.marker(a, q, v);
+                let kb = self.marker(b, q, v);
+                let tau = joint_torque(&ka, &kb, law, t);
+                let n = ka.axis(2).val * tau;
+                if !kb.is_ground() {
+                    body_torque(&kb, &(kb.a.transpose() * n), f);
                 }
-                for (j, x) in k.node_rot_modes.iter().enumerate() {
-                    f[k.v_off + 6 + j] += x.dot(&tb);
+                if !ka.is_ground() {
+                    body_torque(&ka, &(ka.a.transpose() * -n), f);
                 }
             }
             Force::SpringDamper {
@@ -963,4 +973,68 @@ impl State {
             v: y[n_q..].to_vec(),
         }
     }
+}
+
+/// The torque `tb` (body components) on the body of marker `k`: its angular-velocity rows and,
+/// at an FE node, the node's rotation modes.
+fn body_torque<S: Scalar>(k: &MarkerKin<S>, tb: &Vector3<S>, f: &mut [S]) {
+    for i in 0..3 {
+        f[k.v_off + 3 + i] += tb[i];
+    }
+    for (j, x) in k.node_rot_modes.iter().enumerate() {
+        f[k.v_off + 6 + j] += x.dot(tb);
+    }
+}
+
+/// The torque of an actuator between the markers `ka`, `kb` at `t` ([`TorqueLaw`]).
+fn joint_torque<S: Scalar>(ka: &MarkerKin<S>, kb: &MarkerKin<S>, law: &TorqueLaw, t: f64) -> S {
+    match law {
+        TorqueLaw::Table { times, values } => S::from_f64(TorqueLaw::table_at(times, values, t)),
+        TorqueLaw::Pd { kp, kd, motion } => {
+            // ρ cos θ = e1A·e1B, ρ sin θ = e2A·e1B (the angle driver's measure)
+            let b1 = kb.axis(0);
+            let c = ka.axis(0).dot(&b1);
+            let s = ka.axis(1).dot(&b1);
+            let [fv, fd, _] = motion.eval(t);
+            let (sf, cf) = (S::from_f64(fv.sin()), S::from_f64(fv.cos()));
+            // f − θ in (−π, π], and θ̇ = (c ṡ − s ċ)/ρ²
+            let error = (c.val * sf - s.val * cf).atan2(c.val * cf + s.val * sf);
+            let rho2 = c.val * c.val + s.val * s.val;
+            let theta_dot = (c.val * s.rate - s.val * c.rate) / rho2;
+            error * S::from_f64(*kp) + (S::from_f64(fd) - theta_dot) * S::from_f64(*kd)
+        }
+    }
+}
+
+/// An actuator's markers and law, checked: two bodies, a finite table with increasing times,
+/// finite non-negative gains.
+fn check_joint_torque(a: &Marker, b: &Marker, law: &TorqueLaw) -> Result<(), ModelError> {
+    let bad = |reason| {
+        Err(ModelError::BadMarker {
+            owner: "joint torque".into(),
+            reason,
+        })
+    };
+    if a.body == b.body {
+        return bad("an actuator acts between two different bodies (or a body and the ground)");
+    }
+    match law {
+        TorqueLaw::Table { times, values } => {
+            if times.is_empty()
+                || times.len() != values.len()
+                || times.windows(2).any(|w| !(w[1] > w[0]))
+                || !times.iter().chain(values).all(|x| x.is_finite())
+            {
+                return bad(
+                    "torque table needs finite, strictly increasing times, one value per time",
+                );
+            }
+        }
+        TorqueLaw::Pd { kp, kd, .. } => {
+            if !(kp.is_finite() && kd.is_finite() && *kp >= 0.0 && *kd >= 0.0) {
+                return bad("the gains kp and kd must be finite and non-negative");
+            }
+        }
+    }
+    Ok(())
 }
