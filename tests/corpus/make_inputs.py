@@ -118,6 +118,11 @@ write("wrong_fixed_and_driver_removed.toml", edit(RIGID, "[joint.crank_drive]", 
 write("wrong_tiny_beam.toml", edit(edit(BEAM, "end = [0.456, 0.0, 0.0]\norientation", "end = [0.152, 1e-150, 0.0]\norientation"), "[analysis]", "[analysis]"))
 write("wrong_zero_length_spring.toml", PENDULUM + '\n[force.spring]\nkind = "spring-damper"\na = { body = "ground", point = [0.0, -0.5, 0.0] }\nb = { body = "bob", point = [0.0, -0.5, 0.0] }\nstiffness = 100.0\nfree_length = 0.0\n')
 write("wrong_spring_negative.toml", PENDULUM + '\n[force.spring]\nkind = "spring-damper"\na = { body = "ground", point = [0.0, -0.5, 0.0] }\nb = { body = "bob", point = [0.0, -0.5, 0.0] }\nstiffness = -100.0\n')
+ACTUATOR = '\n[force.motor]\nkind = "joint-torque"\na = { body = "ground", point = [0.0, 0.0, 0.0], axis = [0.0, 0.0, 1.0] }\nb = { body = "bob", point = [0.0, 0.0, 0.0], axis = [0.0, 0.0, 1.0] }\n'
+write("wrong_actuator_same_body.toml", PENDULUM + ACTUATOR.replace('body = "ground"', 'body = "bob"') + 'torque = 0.1\n')
+write("wrong_actuator_two_laws.toml", PENDULUM + ACTUATOR + 'torque = 0.1\ncontrol = { kind = "pd", kp = 1.0, kd = 0.1, motion = { kind = "constant-speed", initial = 0.0, rate = 10.0 } }\n')
+write("wrong_actuator_table_text.toml", PENDULUM + ACTUATOR + 'torque = { times = [0.0, 1.0], values = ["one", "two"] }\n')
+write("wrong_actuator_no_motion.toml", PENDULUM + ACTUATOR + 'control = { kind = "pd", kp = 1.0, kd = 0.1 }\n')
 
 # --- files that are not decks
 write("binary_garbage.toml", bytes(range(256)) * 4, binary=True)

@@ -91,7 +91,8 @@ choices! {
     MOTION_KIND: "[joint.NAME]", "joint.NAME.motion.kind",
         ["constant-speed", "polynomial", "ramp", "spin-up"];
     FORCE_KIND: "[force.NAME]", "force.NAME.kind",
-        ["gravity", "point-force", "point-torque", "spring-damper"];
+        ["gravity", "point-force", "point-torque", "spring-damper", "joint-torque"];
+    CONTROL_KIND: "[force.NAME]", "force.NAME.control.kind", ["pd"];
     FORCE_FRAME: "[force.NAME]", "force.NAME.frame", ["global", "body"];
     RESPONSE_KIND: "[response.NAME]", "response.NAME.kind", [
         "position",

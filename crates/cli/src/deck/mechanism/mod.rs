@@ -5,7 +5,7 @@
 use std::collections::BTreeMap;
 use std::ops::Range;
 
-use mbs::{BodyId, Force, Joint, JointKind, Load, LoadFrame, Marker, TimeFunction};
+use mbs::{BodyId, Force, Joint, JointKind, Load, LoadFrame, Marker, TimeFunction, TorqueLaw};
 use nalgebra::{Matrix3, Rotation3, Unit, Vector3};
 use toml::Spanned;
 
@@ -14,6 +14,7 @@ use super::check::{direction, finite, positive, required, span, vector};
 use super::raw::{RawDeck, RawForce, RawMarker, RawMotion, RawRotation};
 use super::{DeckError, Source};
 
+mod actuators;
 mod markers;
 mod values;
 
@@ -99,6 +100,12 @@ pub enum ForceDef {
         /// `None`: the markers' distance at the start.
         free_length: Option<f64>,
     },
+    /// An actuator: a torque about `a`'s axis between the bodies of `a` and `b`.
+    JointTorque {
+        a: MarkerDef,
+        b: MarkerDef,
+        law: TorqueLaw,
+    },
 }
 
 impl ForceDef {
@@ -148,6 +155,11 @@ impl ForceDef {
                     free_length,
                 }
             }
+            ForceDef::JointTorque { a, b, law } => Force::JointTorque {
+                a: a.resolve(bodies),
+                b: b.resolve(bodies),
+                law: law.clone(),
+            },
         }
     }
 }
@@ -372,7 +384,8 @@ pub fn forces(
             span(f),
             &k("kind"),
             &rf.kind,
-            "kind (\"gravity\", \"point-force\", \"point-torque\" or \"spring-damper\")",
+            "kind (\"gravity\", \"point-force\", \"point-torque\", \"spring-damper\" or \
+             \"joint-torque\")",
         )?;
         let force = match kind.get_ref().as_str() {
             "gravity" => {
@@ -393,6 +406,7 @@ pub fn forces(
                 point_load(src, name, f, bodies, kind.get_ref() == "point-force")?
             }
             "spring-damper" => spring_damper(src, name, f, bodies)?,
+            "joint-torque" => actuators::joint_torque(src, name, f, bodies)?,
             other => {
                 return Err(src.error(
                     span(kind),

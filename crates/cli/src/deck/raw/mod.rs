@@ -504,7 +504,7 @@ pub struct RawMotion {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawForce {
-    /// `"gravity"`, `"point-force"`, `"point-torque"` or `"spring-damper"`.
+    /// `"gravity"`, `"point-force"`, `"point-torque"`, `"spring-damper"` or `"joint-torque"`.
     pub kind: Option<Spanned<String>>,
     /// Gravity: acceleration (m/s²).
     pub acceleration: Option<Spanned<[f64; 3]>>,
@@ -516,7 +516,7 @@ pub struct RawForce {
     pub table: Option<Spanned<RawTable>>,
     /// Point force/torque: `"global"` (default) or `"body"` components.
     pub frame: Option<Spanned<String>>,
-    /// Spring–damper ends.
+    /// Spring–damper ends; a joint torque's markers (the torque about `a`'s axis).
     pub a: Option<Spanned<RawMarker>>,
     pub b: Option<Spanned<RawMarker>>,
     /// Spring–damper: stiffness (N/m), damping (N·s/m), free length (m, default: the initial
@@ -524,6 +524,22 @@ pub struct RawForce {
     pub stiffness: Option<Spanned<f64>>,
     pub damping: Option<Spanned<f64>>,
     pub free_length: Option<Spanned<f64>>,
+    /// Joint torque: a constant (N·m) or `{ times = [...], values = [...] }`.
+    pub torque: Option<Spanned<toml::Value>>,
+    /// Joint torque: a control law tracking a motion.
+    pub control: Option<Spanned<RawControl>>,
+}
+
+/// A joint torque's control law: `{ kind = "pd", kp, kd, motion }`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawControl {
+    pub kind: Option<Spanned<String>>,
+    /// Gains (N·m/rad, N·m·s/rad).
+    pub kp: Option<Spanned<f64>>,
+    pub kd: Option<Spanned<f64>>,
+    /// The tracked relative angle (as an angle driver's motion).
+    pub motion: Option<Spanned<RawMotion>>,
 }
 
 /// `{ times = [...], values = [[x, y, z], ...] }`.

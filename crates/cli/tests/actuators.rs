@@ -1,0 +1,156 @@
+//! Joint actuators in a deck (`kind = "joint-torque"`): a pinned arm driven by a PD law
+//! tracking a ramp against its closed-form response, by a tabulated torque against its
+//! double integral, and the errors of a malformed actuator naming its key.
+
+mod common;
+
+/// A slender arm (0.4 m, 1.5 kg) pinned to the ground at the origin about z, no gravity, with
+/// the actuator `law` (the keys after `kind`, `a`, `b`) between the ground and the arm at the
+/// pin; its centre's position as responses.
+fn arm_deck(law: &str, t_end: f64) -> String {
+    format!(
+        r#"title = "pinned arm with an actuator"
+
+[rigid.arm]
+mass = 1.5
+inertia = [1.0e-6, 0.02, 0.02]
+position = [0.2, 0.0, 0.0]
+
+[joint.pin]
+kind = "revolute"
+a = {{ body = "ground", point = [0.0, 0.0, 0.0], axis = [0.0, 0.0, 1.0] }}
+b = {{ body = "arm", point = [0.0, 0.0, 0.0], axis = [0.0, 0.0, 1.0] }}
+
+[force.motor]
+kind = "joint-torque"
+a = {{ body = "ground", point = [0.0, 0.0, 0.0], axis = [0.0, 0.0, 1.0], reference = [1.0, 0.0, 0.0] }}
+b = {{ body = "arm", point = [0.0, 0.0, 0.0], axis = [0.0, 0.0, 1.0], reference = [1.0, 0.0, 0.0] }}
+{law}
+
+[response.x]
+kind = "position"
+body = "arm"
+component = "x"
+
+[response.y]
+kind = "position"
+body = "arm"
+component = "y"
+
+[analysis]
+t_end = {t_end}
+output_step = 0.01
+rtol = 1.0e-9
+atol = 1.0e-12
+"#
+    )
+}
+
+/// The arm's angle at the end of a run of `deck`.
+fn final_angle(deck: &str) -> f64 {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("arm.toml");
+    std::fs::write(&path, deck).unwrap();
+    let out = dir.path().join("out");
+    let doc = common::json(&[
+        "run",
+        path.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--json",
+    ]);
+    let r = |n: &str| doc["responses"][n]["final"].as_f64().unwrap();
+    r("y").atan2(r("x"))
+}
+
+/// The arm's moment of inertia about the pin (kg·m²).
+const J: f64 = 0.02 + 1.5 * 0.2 * 0.2;
+
+#[test]
+fn a_pd_actuator_in_a_deck_tracks_a_ramp_as_the_closed_form() {
+    // J ë + kd ė + kp e = 0 for e = f − θ, e(0) = 0, ė(0) = ω: θ = ω t − e
+    let (kp, kd, rate_deg): (f64, f64, f64) = (5.0, 0.2, 60.0);
+    let law = format!(
+        "control = {{ kind = \"pd\", kp = {kp}, kd = {kd}, motion = {{ kind = \"constant-speed\", \
+         initial = 0.0, rate = {rate_deg} }} }}"
+    );
+    let omega = rate_deg.to_radians();
+    let (wn, zeta) = ((kp / J).sqrt(), kd / (2.0 * (kp * J).sqrt()));
+    let wd = wn * (1.0 - zeta * zeta).sqrt();
+    for t in [0.3, 0.7] {
+        let e = omega / wd * (-zeta * wn * t).exp() * (wd * t).sin();
+        let got = final_angle(&arm_deck(&law, t));
+        assert!(
+            (got - (omega * t - e)).abs() < 1e-6,
+            "t = {t}: θ {got} against {}",
+            omega * t - e
+        );
+        // the error is a visible part of the angle
+        assert!(e.abs() > 0.05 * omega * t, "{e}");
+    }
+}
+
+#[test]
+fn a_tabulated_actuator_torque_turns_the_arm_by_its_double_integral() {
+    // τ rises linearly from 0 to 0.4 N·m over 0.5 s: θ = τ' t³ / (6 J)
+    let law = "torque = { times = [0.0, 0.5], values = [0.0, 0.4] }";
+    let got = final_angle(&arm_deck(law, 0.5));
+    let exact = 0.8 * 0.5f64.powi(3) / (6.0 * J);
+    assert!((got - exact).abs() < 1e-7, "{got} against {exact}");
+    // a constant torque: θ = τ t² / (2 J)
+    let got = final_angle(&arm_deck("torque = 0.1", 0.5));
+    let exact = 0.1 * 0.25 / (2.0 * J);
+    assert!((got - exact).abs() < 1e-7, "{got} against {exact}");
+}
+
+#[test]
+fn a_malformed_actuator_names_its_key() {
+    let cases = [
+        (
+            "torque = 0.1\ncontrol = { kind = \"pd\", kp = 1.0, kd = 0.0, motion = { kind = \"constant-speed\", initial = 0.0, rate = 1.0 } }",
+            "force.motor.control",
+            "either torque or control",
+        ),
+        ("", "force.motor.torque", "missing torque"),
+        (
+            "torque = { times = [0.0, 0.0], values = [1.0, 2.0] }",
+            "force.motor.torque",
+            "strictly increasing",
+        ),
+        (
+            "torque = { times = [0.0, 1.0], values = [1.0] }",
+            "force.motor.torque",
+            "1 values for 2 times",
+        ),
+        (
+            "control = { kind = \"pid\", kp = 1.0, kd = 0.0, motion = { kind = \"constant-speed\", initial = 0.0, rate = 1.0 } }",
+            "force.motor.control.kind",
+            "pd",
+        ),
+        (
+            "control = { kind = \"pd\", kp = -1.0, kd = 0.0, motion = { kind = \"constant-speed\", initial = 0.0, rate = 1.0 } }",
+            "force.motor.control.kp",
+            "must not be negative",
+        ),
+        (
+            "control = { kind = \"pd\", kp = 1.0, motion = { kind = \"constant-speed\", initial = 0.0, rate = 1.0 } }",
+            "force.motor.control.kd",
+            "kd",
+        ),
+    ];
+    for (law, key, what) in cases {
+        let (_dir, err) =
+            common::bad_deck(&arm_deck(law, 0.1), |p| common::with_deck("run", p, &[]));
+        assert!(err.contains(key) && err.contains(what), "{law}:\n{err}");
+    }
+    // both markers on one body
+    let deck = arm_deck("torque = 0.1", 0.1).replace(
+        "a = { body = \"ground\", point = [0.0, 0.0, 0.0], axis = [0.0, 0.0, 1.0], reference",
+        "a = { body = \"arm\", point = [0.0, 0.0, 0.0], axis = [0.0, 0.0, 1.0], reference",
+    );
+    let (_dir, err) = common::bad_deck(&deck, |p| common::with_deck("run", p, &[]));
+    assert!(
+        err.contains("force.motor.b") && err.contains("both on `arm`"),
+        "{err}"
+    );
+}
