@@ -48,17 +48,7 @@ atol = 1.0e-12
 
 /// The arm's angle at the end of a run of `deck`.
 fn final_angle(deck: &str) -> f64 {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("arm.toml");
-    std::fs::write(&path, deck).unwrap();
-    let out = dir.path().join("out");
-    let doc = common::json(&[
-        "run",
-        path.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--json",
-    ]);
+    let doc = common::run_deck_json(deck);
     let r = |n: &str| doc["responses"][n]["final"].as_f64().unwrap();
     r("y").atan2(r("x"))
 }

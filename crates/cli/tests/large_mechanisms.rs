@@ -103,17 +103,7 @@ atol = 1.0e-12
 
 #[test]
 fn a_chain_of_eight_tubes_has_sensitivities_that_match_central_differences() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("chain.toml");
-    std::fs::write(&path, chain_deck(8)).unwrap();
-    let out = dir.path().join("out");
-    let doc = common::json(&[
-        "run",
-        path.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--json",
-    ]);
+    let doc = common::run_deck_json(&chain_deck(8));
     // the tip of a chain released from the horizontal falls freely at first: ½ g t²
     let tip = doc["responses"]["tip_y"]["final"].as_f64().unwrap();
     assert!((tip + 0.5 * 9.81 * 0.04).abs() < 1e-4, "tip {tip}");

@@ -28,6 +28,21 @@ pub fn json(args: &[&str]) -> serde_json::Value {
     serde_json::from_slice(&o.stdout).unwrap()
 }
 
+/// Write `deck` to a fresh directory, `run` it there and parse its JSON summary.
+pub fn run_deck_json(deck: &str) -> serde_json::Value {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("deck.toml");
+    std::fs::write(&path, deck).unwrap();
+    let out = dir.path().join("out");
+    json(&[
+        "run",
+        path.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--json",
+    ])
+}
+
 /// The 1-based line of the first occurrence of `needle`.
 pub fn line_of(text: &str, needle: &str) -> usize {
     text.lines()

@@ -9,8 +9,8 @@ use toml::Spanned;
 use super::super::check::{finite, required, span};
 use super::super::raw::RawForce;
 use super::super::{DeckError, Source};
-use super::markers::{marker, motion};
-use super::{BodyPlace, ForceDef};
+use super::markers::motion;
+use super::{BodyPlace, ForceDef, two_markers};
 
 /// A `joint-torque` element: its two markers (the torque about `a`'s axis, on `b`'s body and
 /// reversed on `a`'s) and its law, exactly one of `torque` and `control`.
@@ -22,17 +22,10 @@ pub(super) fn joint_torque(
 ) -> Result<ForceDef, DeckError> {
     let k = |s: &str| format!("force.{name}.{s}");
     let rf = f.get_ref();
-    let a = marker(
-        src,
-        &k("a"),
-        required(src, span(f), &k("a"), &rf.a, "a (a marker)")?,
-        bodies,
-    )?;
-    let b_raw = required(src, span(f), &k("b"), &rf.b, "b (a marker)")?;
-    let b = marker(src, &k("b"), b_raw, bodies)?;
+    let (a, b) = two_markers(src, name, f, bodies)?;
     if a.body == b.body {
         return Err(src.error(
-            span(b_raw),
+            rf.b.as_ref().map(|b| b.span()),
             Some(k("b")),
             format!(
                 "an actuator acts between two bodies: `a` and `b` are both on {}",

@@ -520,18 +520,7 @@ fn spring_damper(
 ) -> Result<ForceDef, DeckError> {
     let k = |s: &str| format!("force.{name}.{s}");
     let rf = f.get_ref();
-    let a = marker(
-        src,
-        &k("a"),
-        required(src, span(f), &k("a"), &rf.a, "a (a marker)")?,
-        bodies,
-    )?;
-    let b = marker(
-        src,
-        &k("b"),
-        required(src, span(f), &k("b"), &rf.b, "b (a marker)")?,
-        bodies,
-    )?;
+    let (a, b) = two_markers(src, name, f, bodies)?;
     let stiffness = rf
         .stiffness
         .as_ref()
@@ -556,4 +545,29 @@ fn spring_damper(
         damping,
         free_length,
     })
+}
+
+/// The markers `a` and `b` of a force element between two bodies (a spring–damper, an
+/// actuator).
+fn two_markers(
+    src: &Source,
+    name: &str,
+    f: &Spanned<RawForce>,
+    bodies: &BTreeMap<String, BodyPlace>,
+) -> Result<(MarkerDef, MarkerDef), DeckError> {
+    let k = |s: &str| format!("force.{name}.{s}");
+    let rf = f.get_ref();
+    let a = marker(
+        src,
+        &k("a"),
+        required(src, span(f), &k("a"), &rf.a, "a (a marker)")?,
+        bodies,
+    )?;
+    let b = marker(
+        src,
+        &k("b"),
+        required(src, span(f), &k("b"), &rf.b, "b (a marker)")?,
+        bodies,
+    )?;
+    Ok((a, b))
 }
