@@ -1,6 +1,7 @@
 //! Joint actuators in a deck (`kind = "joint-torque"`): a pinned arm driven by a PD law
-//! tracking a ramp against its closed-form response, by a tabulated torque against its
-//! double integral, and the errors of a malformed actuator naming its key.
+//! tracking a ramp against its closed-form response (angle, torque and power), by a tabulated
+//! torque against its double integral, the torque's sensitivity to the arm's mass against the
+//! run's replayed central differences, and the errors of a malformed actuator naming its key.
 
 mod common;
 
@@ -37,6 +38,14 @@ kind = "position"
 body = "arm"
 component = "y"
 
+[response.torque]
+kind = "actuator-torque"
+force = "motor"
+
+[response.power]
+kind = "actuator-power"
+force = "motor"
+
 [analysis]
 t_end = {t_end}
 output_step = 0.01
@@ -46,11 +55,16 @@ atol = 1.0e-12
     )
 }
 
-/// The arm's angle at the end of a run of `deck`.
-fn final_angle(deck: &str) -> f64 {
+/// The arm's angle at the end of a run of `deck`, the actuator's torque and power then.
+fn final_state(deck: &str) -> (f64, f64, f64) {
     let doc = common::run_deck_json(deck);
     let r = |n: &str| doc["responses"][n]["final"].as_f64().unwrap();
-    r("y").atan2(r("x"))
+    (r("y").atan2(r("x")), r("torque"), r("power"))
+}
+
+/// The arm's angle at the end of a run of `deck`.
+fn final_angle(deck: &str) -> f64 {
+    final_state(deck).0
 }
 
 /// The arm's moment of inertia about the pin (kg·m²).
@@ -68,15 +82,42 @@ fn a_pd_actuator_in_a_deck_tracks_a_ramp_as_the_closed_form() {
     let (wn, zeta) = ((kp / J).sqrt(), kd / (2.0 * (kp * J).sqrt()));
     let wd = wn * (1.0 - zeta * zeta).sqrt();
     for t in [0.3, 0.7] {
-        let e = omega / wd * (-zeta * wn * t).exp() * (wd * t).sin();
-        let got = final_angle(&arm_deck(&law, t));
+        let decay = (-zeta * wn * t).exp();
+        let e = omega / wd * decay * (wd * t).sin();
+        let e_dot = omega * decay * ((wd * t).cos() - zeta * wn / wd * (wd * t).sin());
+        let (got, torque, power) = final_state(&arm_deck(&law, t));
         assert!(
             (got - (omega * t - e)).abs() < 1e-6,
             "t = {t}: θ {got} against {}",
             omega * t - e
         );
+        let tau = kp * e + kd * e_dot;
+        assert!(
+            (torque - tau).abs() < 1e-6,
+            "t = {t}: τ {torque} against {tau}"
+        );
+        let p = tau * (omega - e_dot);
+        assert!(
+            (power - p).abs() < 1e-6,
+            "t = {t}: power {power} against {p}"
+        );
         // the error is a visible part of the angle
         assert!(e.abs() > 0.05 * omega * t, "{e}");
+    }
+}
+
+#[test]
+fn the_actuator_torques_sensitivity_to_the_arms_mass_matches_central_differences() {
+    let law = "control = { kind = \"pd\", kp = 5.0, kd = 0.2, motion = { kind = \"constant-speed\", \
+               initial = 0.0, rate = 60.0 } }";
+    let deck = arm_deck(law, 0.5)
+        + "\n[design.m]\nkind = \"rigid-mass\"\nbody = \"arm\"\n\n[finite_differences]\n\
+           scheme = \"central\"\nsizes = [0.0001]\nsteps = \"replay\"\n";
+    let doc = common::run_deck_json(&deck);
+    let fd = &doc["finite_differences"][0]["max_relative_difference"];
+    for r in ["torque", "power"] {
+        let d = fd[r].as_f64().unwrap();
+        assert!(d < 1e-5, "{r}: |FD − direct| / max |direct| = {d:e}");
     }
 }
 
@@ -96,6 +137,11 @@ fn a_tabulated_actuator_torque_turns_the_arm_by_its_double_integral() {
 #[test]
 fn a_malformed_actuator_names_its_key() {
     let cases = [
+        (
+            "torque = 0.1\n[response.bad]\nkind = \"actuator-torque\"\nforce = \"motr\"",
+            "response.bad.force",
+            "not an actuator",
+        ),
         (
             "torque = 0.1\ncontrol = { kind = \"pd\", kp = 1.0, kd = 0.0, motion = { kind = \"constant-speed\", initial = 0.0, rate = 1.0 } }",
             "force.motor.control",

@@ -11,6 +11,13 @@ use crate::marker::Marker;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct ForceId(pub(crate) usize);
 
+impl From<usize> for ForceId {
+    /// The force at position `i` in the order added.
+    fn from(i: usize) -> Self {
+        ForceId(i)
+    }
+}
+
 /// A vector load as a function of time.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Load {

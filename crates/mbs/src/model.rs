@@ -503,6 +503,23 @@ impl<P: Scalar> Model<P> {
         marker_kin(m, self.slot_of(m), pose.as_ref(), q, v)
     }
 
+    /// The torque (N·m) of the actuator `force` ([`Force::JointTorque`]) at `(t, q, v)` and
+    /// the rate (rad/s) of the relative angle it turns (the angle driver's measure): their
+    /// product is the actuator's power. `None` if `force` is not an actuator.
+    pub fn actuator<S: Scalar + From<P>>(
+        &self,
+        force: ForceId,
+        t: f64,
+        q: &[S],
+        v: &[S],
+    ) -> Option<(S, S)> {
+        let Some(Force::JointTorque { a, b, law }) = self.forces.get(force.0) else {
+            return None;
+        };
+        let (ka, kb) = (self.marker(a, q, v), self.marker(b, q, v));
+        Some((joint_torque(&ka, &kb, law, t), relative_angle(&ka, &kb).2))
+    }
+
     /// `q̇` from `(q, v)`: `ṙ`, `ṗ = ½ L(p)ᵀ ω'`, `ẇ`.
     pub fn kinematic_rates<S: Scalar + From<P>>(&self, q: &[S], v: &[S], qdot: &mut [S]) {
         for s in &self.bodies {
@@ -991,19 +1008,25 @@ fn joint_torque<S: Scalar>(ka: &MarkerKin<S>, kb: &MarkerKin<S>, law: &TorqueLaw
     match law {
         TorqueLaw::Table { times, values } => S::from_f64(TorqueLaw::table_at(times, values, t)),
         TorqueLaw::Pd { kp, kd, motion } => {
-            // ρ cos θ = e1A·e1B, ρ sin θ = e2A·e1B (the angle driver's measure)
-            let b1 = kb.axis(0);
-            let c = ka.axis(0).dot(&b1);
-            let s = ka.axis(1).dot(&b1);
+            let (c, s, theta_dot) = relative_angle(ka, kb);
             let [fv, fd, _] = motion.eval(t);
             let (sf, cf) = (S::from_f64(fv.sin()), S::from_f64(fv.cos()));
-            // f − θ in (−π, π], and θ̇ = (c ṡ − s ċ)/ρ²
-            let error = (c.val * sf - s.val * cf).atan2(c.val * cf + s.val * sf);
-            let rho2 = c.val * c.val + s.val * s.val;
-            let theta_dot = (c.val * s.rate - s.val * c.rate) / rho2;
+            // f − θ in (−π, π]
+            let error = (c * sf - s * cf).atan2(c * cf + s * sf);
             error * S::from_f64(*kp) + (S::from_f64(fd) - theta_dot) * S::from_f64(*kd)
         }
     }
+}
+
+/// The angle `θ` of `kb`'s first axis from `ka`'s first about `ka`'s third, the angle driver's
+/// measure: `(ρ cos θ, ρ sin θ, θ̇)` with `ρ cos θ = e1A·e1B`, `ρ sin θ = e2A·e1B` and
+/// `θ̇ = (c ṡ − s ċ)/ρ²`.
+fn relative_angle<S: Scalar>(ka: &MarkerKin<S>, kb: &MarkerKin<S>) -> (S, S, S) {
+    let b1 = kb.axis(0);
+    let c = ka.axis(0).dot(&b1);
+    let s = ka.axis(1).dot(&b1);
+    let rate = (c.val * s.rate - s.val * c.rate) / (c.val * c.val + s.val * s.val);
+    (c.val, s.val, rate)
 }
 
 /// An actuator's markers and law, checked: two bodies, a finite table with increasing times,

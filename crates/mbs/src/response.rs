@@ -14,6 +14,7 @@ use nalgebra::{DMatrix, Vector3};
 use sens::{Dual, Scalar};
 
 use crate::body::{BodyId, foreshortening, mode_vec, pose};
+use crate::force::ForceId;
 use crate::joint::JointId;
 use crate::model::Model;
 use crate::sensitivity::{DesignModel, SensitivityError, SensitivityRun, seeded};
@@ -54,6 +55,11 @@ pub enum Response {
     Energy,
     /// `max |Φ|` over all constraint rows (m). Values only: no sensitivities.
     ConstraintViolation,
+    /// The torque of an actuator ([`crate::Force::JointTorque`]) (N·m).
+    ActuatorTorque { force: ForceId },
+    /// The power of an actuator, its torque times the rate of the relative angle it turns
+    /// (W).
+    ActuatorPower { force: ForceId },
 }
 
 impl Response {
@@ -104,6 +110,9 @@ impl Response {
             }
             Response::Energy => o.energy.total(),
             Response::ConstraintViolation => o.position_violation,
+            Response::ActuatorTorque { .. } | Response::ActuatorPower { .. } => self
+                .evaluate::<f64, f64>(model, o.t, &o.q, &o.v, &[])
+                .unwrap_or(f64::NAN),
         }
     }
 
@@ -211,6 +220,15 @@ impl Response {
                 } else {
                     Err(bad("state index out of range"))
                 }
+            }
+            Response::ActuatorTorque { force } | Response::ActuatorPower { force } => {
+                let (tau, rate) = model
+                    .actuator(force, t, q, v)
+                    .ok_or_else(|| bad("the force is not an actuator"))?;
+                Ok(match self {
+                    Response::ActuatorPower { .. } => tau * rate,
+                    _ => tau,
+                })
             }
             Response::ReactionMoment { .. } | Response::Energy | Response::ConstraintViolation => {
                 Err(bad(

@@ -7,8 +7,8 @@ mod common;
 
 use common::assembled;
 use mbs::{
-    BdfOptions, Force, Joint, JointKind, Load, LoadFrame, Marker, Model, RigidBody, TimeFunction,
-    TorqueLaw, simulate,
+    BdfOptions, Force, Joint, JointKind, Load, LoadFrame, Marker, Model, Response, RigidBody,
+    TimeFunction, TorqueLaw, simulate,
 };
 use nalgebra::{Matrix3, Vector3};
 
@@ -365,17 +365,39 @@ fn a_pd_actuator_tracks_a_ramp_as_the_closed_form_linear_response() {
         },
     };
     let times: Vec<f64> = (0..=40).map(|i| 0.05 * i as f64).collect();
-    let th = pinned_arm(law, false, &times);
+    let (mut sys, state) = pinned_arm_system(law, false);
+    let out = simulate(&mut sys, &state, &times, BdfOptions::adaptive(1e-10, 1e-13))
+        .unwrap()
+        .outputs;
     let (wn, zeta) = ((kp / j).sqrt(), kd / (2.0 * (kp * j).sqrt()));
     let wd = wn * (1.0 - zeta * zeta).sqrt();
     assert!(zeta < 0.5, "underdamped: ζ = {zeta}");
+    let motor = mbs::ForceId::from(0);
+    let torque = Response::ActuatorTorque { force: motor };
+    let power = Response::ActuatorPower { force: motor };
     let mut largest_error = 0.0f64;
-    for (&t, &x) in times.iter().zip(&th) {
-        let e = omega / wd * (-zeta * wn * t).exp() * (wd * t).sin();
+    for (&t, o) in times.iter().zip(&out) {
+        let decay = (-zeta * wn * t).exp();
+        let e = omega / wd * decay * (wd * t).sin();
+        let e_dot = omega * decay * ((wd * t).cos() - zeta * wn / wd * (wd * t).sin());
         largest_error = largest_error.max(e.abs());
         // the angle wraps past π: compare on the circle
+        let x = o.orientations[0][(1, 0)].atan2(o.orientations[0][(0, 0)]);
         let d = (x - (omega * t - e)).sin();
         assert!(d.abs() < 1e-7, "t = {t}: θ {x} against {}", omega * t - e);
+        // the actuator's torque and power as responses
+        let tau = kp * e + kd * e_dot;
+        let got = torque.value(sys.model(), o);
+        assert!(
+            (got - tau).abs() < 1e-6 * kp,
+            "t = {t}: τ {got} against {tau}"
+        );
+        let p = tau * (omega - e_dot);
+        let got = power.value(sys.model(), o);
+        assert!(
+            (got - p).abs() < 1e-6 * kp,
+            "t = {t}: power {got} against {p}"
+        );
     }
     // the comparison means something: the error swings by a tenth of a radian
     assert!(largest_error > 0.1, "{largest_error}");

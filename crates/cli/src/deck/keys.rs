@@ -103,6 +103,8 @@ choices! {
         "modal",
         "energy",
         "constraint-violation",
+        "actuator-torque",
+        "actuator-power",
     ];
     INTEGRATOR: "[analysis]", "analysis.integrator", ["adaptive", "fixed"];
     REDUNDANT: "[analysis]", "analysis.redundant", ["remove", "reselect", "error"];

@@ -3,7 +3,7 @@
 use std::collections::BTreeMap;
 use std::ops::Range;
 
-use mbs::{JointId, Model, Response};
+use mbs::{ForceId, JointId, Model, Response};
 use nalgebra::Vector3;
 use toml::Spanned;
 
@@ -68,6 +68,11 @@ enum SpecKind {
     },
     Energy,
     ConstraintViolation,
+    /// An actuator's torque, or (`power`) its power.
+    Actuator {
+        force: String,
+        power: bool,
+    },
 }
 
 impl ResponseSpec {
@@ -79,6 +84,7 @@ impl ResponseSpec {
         model: &Model<f64>,
         bodies: &BTreeMap<String, BodyInfo>,
         joints: &[(String, JointId)],
+        actuators: &[(String, ForceId)],
     ) -> Result<ResponseDef, DeckError> {
         let id = |b: &String| bodies[b].id;
         let response = match &self.kind {
@@ -135,6 +141,18 @@ impl ResponseSpec {
             }
             SpecKind::Energy => Response::Energy,
             SpecKind::ConstraintViolation => Response::ConstraintViolation,
+            SpecKind::Actuator { force, power } => {
+                let force = actuators
+                    .iter()
+                    .find(|(n, _)| n == force)
+                    .map(|(_, f)| *f)
+                    .expect("validated actuator name");
+                if *power {
+                    Response::ActuatorPower { force }
+                } else {
+                    Response::ActuatorTorque { force }
+                }
+            }
         };
         Ok(ResponseDef {
             name: self.name.clone(),
@@ -178,12 +196,13 @@ fn component(
 
 /// Validate the responses: each with its name and unit, in the deck's terms
 /// ([`ResponseSpec::resolve`] makes them responses of the built mechanism). `joints`: the
-/// joints' names.
+/// joints' names; `actuators`: the names of the forces of kind `"joint-torque"`.
 pub fn validate(
     src: &Source,
     raw: &RawDeck,
     bodies: &BTreeMap<String, BodyPlace>,
     joints: &[String],
+    actuators: &[String],
 ) -> Result<Vec<ResponseSpec>, DeckError> {
     let mut out = Vec::new();
     for (name, r) in &raw.response {
@@ -204,6 +223,8 @@ pub fn validate(
             "modal" => t.modal()?,
             "energy" => (SpecKind::Energy, "J"),
             "constraint-violation" => (SpecKind::ConstraintViolation, "m"),
+            "actuator-torque" => (t.actuator(actuators, false)?, "N·m"),
+            "actuator-power" => (t.actuator(actuators, true)?, "W"),
             other => {
                 return Err(src.error(
                     span(kind),
@@ -369,6 +390,34 @@ impl Table<'_> {
             },
             "1",
         ))
+    }
+
+    /// `kind = "actuator-torque"` or (`power`) `"actuator-power"`: of the actuator `force`.
+    fn actuator(&self, actuators: &[String], power: bool) -> Result<SpecKind, DeckError> {
+        let (src, k) = (self.src, |s: &str| self.key(s));
+        let f = required(
+            src,
+            self.span.clone(),
+            &k("force"),
+            &self.raw.force,
+            "force (an actuator's [force.NAME])",
+        )?;
+        if !actuators.contains(f.get_ref()) {
+            let known: Vec<&str> = actuators.iter().map(String::as_str).collect();
+            return Err(src.error(
+                span(f),
+                Some(k("force")),
+                format!(
+                    "`{}` is not an actuator (a [force.NAME] of kind \"joint-torque\"){}",
+                    f.get_ref(),
+                    suggestion(f.get_ref(), &known)
+                ),
+            ));
+        }
+        Ok(SpecKind::Actuator {
+            force: f.get_ref().clone(),
+            power,
+        })
     }
 
     /// `kind = "reaction"`: a component of a joint's reaction force or moment.

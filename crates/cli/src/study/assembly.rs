@@ -2,6 +2,7 @@
 //! rigid bodies placed, joints and forces on their markers, the initial state.
 
 use super::*;
+use mbs::ForceId;
 
 /// The mechanism being built, body by body.
 #[derive(Default)]
@@ -115,14 +116,16 @@ impl Assembly {
     }
 
     /// The joints (named, in deck order) and the forces and gravity on the bodies' markers (a
-    /// spring's default free length: its markers' distance as placed).
+    /// spring's default free length: its markers' distance as placed); returns the joints and
+    /// the forces by name.
     pub(super) fn add_joints_and_forces(
         &mut self,
         src: &Source,
         joints: &[JointDef],
         forces: &ForceDefs,
-    ) -> Result<Vec<(String, JointId)>, CliError> {
+    ) -> Result<(Vec<(String, JointId)>, Vec<(String, ForceId)>), CliError> {
         let mut named_joints = Vec::new();
+        let mut named_forces = Vec::new();
         for joint in joints {
             let id = self
                 .model
@@ -139,11 +142,13 @@ impl Assembly {
             let force = force.resolve(&self.bodies, |a, b| {
                 (model.marker_position(a, &q0) - model.marker_position(b, &q0)).norm()
             });
-            self.model
+            let id = self
+                .model
                 .add_force(force)
                 .map_err(|e| at_table(src, span.clone(), format!("force.{name}"), e))?;
+            named_forces.push((name.clone(), id));
         }
-        Ok(named_joints)
+        Ok((named_joints, named_forces))
     }
 
     /// The initial state: the bodies as placed (the assembly moves only the rigid-body

@@ -351,7 +351,13 @@ impl Study {
         let joints = mechanism::joints(src, raw, &places)?;
         let forces = mechanism::forces(src, raw, &places)?;
         let joint_names: Vec<String> = joints.iter().map(|j| j.name.clone()).collect();
-        let response_specs = responses::validate(src, raw, &places, &joint_names)?;
+        let actuators: Vec<String> = forces
+            .forces
+            .iter()
+            .filter(|(_, f, _)| matches!(f, mechanism::ForceDef::JointTorque { .. }))
+            .map(|(n, _, _)| n.clone())
+            .collect();
+        let response_specs = responses::validate(src, raw, &places, &joint_names, &actuators)?;
         let spans = DesignSpans {
             variables: raw
                 .design
@@ -398,12 +404,13 @@ impl Study {
         a.add_flexible_bodies(src, &self.flexible_bodies, request)?;
         a.add_rigid_bodies(src, &self.rigid_bodies)?;
         a.model.baumgarte = self.baumgarte;
-        let named_joints = a.add_joints_and_forces(src, &self.joints, &self.forces)?;
+        let (named_joints, named_forces) =
+            a.add_joints_and_forces(src, &self.joints, &self.forces)?;
         let state = a.initial_state();
         let responses = self
             .response_specs
             .iter()
-            .map(|r| r.resolve(src, &a.model, &a.bodies, &named_joints))
+            .map(|r| r.resolve(src, &a.model, &a.bodies, &named_joints, &named_forces))
             .collect::<Result<Vec<_>, _>>()?;
         let mechanism = Mechanism {
             study: self,

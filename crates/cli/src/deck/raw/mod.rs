@@ -555,7 +555,8 @@ pub struct RawTable {
 #[serde(deny_unknown_fields)]
 pub struct RawResponse {
     /// `"position"`, `"velocity"`, `"nodal-displacement"`, `"mid-node-deflection"`,
-    /// `"reaction"`, `"modal"`, `"energy"` or `"constraint-violation"`.
+    /// `"reaction"`, `"modal"`, `"energy"`, `"constraint-violation"`, `"actuator-torque"` or
+    /// `"actuator-power"`.
     pub kind: Option<Spanned<String>>,
     pub body: Option<Spanned<String>>,
     pub joint: Option<Spanned<String>>,
@@ -569,6 +570,8 @@ pub struct RawResponse {
     pub normal: Option<Spanned<[f64; 3]>>,
     /// Modal coordinate: mode number from 1.
     pub mode: Option<Spanned<i64>>,
+    /// Actuator torque and power: the `[force.NAME]` of kind `"joint-torque"`.
+    pub force: Option<Spanned<String>>,
 }
 
 /// Settings of the time integration.
