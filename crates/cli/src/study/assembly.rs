@@ -4,6 +4,9 @@
 use super::*;
 use mbs::ForceId;
 
+/// The joints and the forces of a mechanism by their deck names.
+type Named = (Vec<(String, JointId)>, Vec<(String, ForceId)>);
+
 /// The mechanism being built, body by body.
 #[derive(Default)]
 pub(super) struct Assembly {
@@ -123,7 +126,7 @@ impl Assembly {
         src: &Source,
         joints: &[JointDef],
         forces: &ForceDefs,
-    ) -> Result<(Vec<(String, JointId)>, Vec<(String, ForceId)>), CliError> {
+    ) -> Result<Named, CliError> {
         let mut named_joints = Vec::new();
         let mut named_forces = Vec::new();
         for joint in joints {
