@@ -305,17 +305,14 @@ impl BodySchur {
             }
             row_ptr.push(cols.len());
         }
-        let mut s = Self {
-            n_v: mass.dim(),
-            blocks,
-            row_ptr,
-            cols,
-            vals,
-            schur: SchurFactor::Dense(Cholesky::new(DMatrix::zeros(0, 0))?),
+        let rows_j = RowsOfJ {
+            row_ptr: &row_ptr,
+            cols: &cols,
+            vals: &vals,
         };
-        let entries = s.schur_entries(mass, &touching);
+        let entries = schur_entries(&blocks, &rows_j, &touching);
         let m = rows.len();
-        s.schur = if m <= DENSE_SCHUR_LIMIT {
+        let schur = if m <= DENSE_SCHUR_LIMIT {
             let mut a = DMatrix::zeros(m, m);
             for &((i, j), x) in &entries {
                 a[(i, j)] += x;
@@ -327,38 +324,14 @@ impl BodySchur {
         } else {
             SchurFactor::Sparse(sparse_schur(m, &entries, pattern)?)
         };
-        Some(s)
-    }
-
-    /// The entries `((i, j), S_ij)`, `i ≤ j`, of `S` body by body (repeated pairs add up):
-    /// `J_b M_b⁻¹ J_bᵀ` over the rows that touch body `b`.
-    fn schur_entries(
-        &self,
-        mass: &BodyMass<f64>,
-        touching: &[Vec<usize>],
-    ) -> Vec<((usize, usize), f64)> {
-        let mut entries = Vec::new();
-        for ((o, chol), rs) in self.blocks.iter().zip(touching) {
-            let n = chol.l_dirty().nrows();
-            let mut jt = DMatrix::zeros(n, rs.len());
-            for (k, &r) in rs.iter().enumerate() {
-                for e in self.row_ptr[r]..self.row_ptr[r + 1] {
-                    let c = self.cols[e];
-                    if c >= *o && c < o + n {
-                        debug_assert_eq!(mass.block_of(c), mass.block_of(*o));
-                        jt[(c - o, k)] += self.vals[e];
-                    }
-                }
-            }
-            let w = chol.solve(&jt);
-            let sb = jt.transpose() * w;
-            for (a, &ra) in rs.iter().enumerate() {
-                for (b, &rb) in rs.iter().enumerate().skip(a) {
-                    entries.push(((ra, rb), sb[(a, b)]));
-                }
-            }
-        }
-        entries
+        Some(Self {
+            n_v: mass.dim(),
+            blocks,
+            row_ptr,
+            cols,
+            vals,
+            schur,
+        })
     }
 
     /// One right-hand side `[f; g]` → `[x; λ]`; `work` has length `n_v`.
@@ -400,6 +373,43 @@ impl BodySchur {
             c.solve_mut(&mut DVectorViewMut::from_slice(&mut x[*o..o + n], n));
         }
     }
+}
+
+/// The rows of `J`, compressed ([`BodySchur`]'s storage).
+struct RowsOfJ<'a> {
+    row_ptr: &'a [usize],
+    cols: &'a [usize],
+    vals: &'a [f64],
+}
+
+/// The entries `((i, j), S_ij)`, `i ≤ j`, of `S = J M⁻¹ Jᵀ` body by body (repeated pairs add
+/// up): `J_b M_b⁻¹ J_bᵀ` over the rows `touching[b]` that touch body `b`.
+fn schur_entries(
+    blocks: &[(usize, Cholesky<f64, Dyn>)],
+    rows: &RowsOfJ<'_>,
+    touching: &[Vec<usize>],
+) -> Vec<((usize, usize), f64)> {
+    let mut entries = Vec::new();
+    for ((o, chol), rs) in blocks.iter().zip(touching) {
+        let n = chol.l_dirty().nrows();
+        let mut jt = DMatrix::zeros(n, rs.len());
+        for (k, &r) in rs.iter().enumerate() {
+            for e in rows.row_ptr[r]..rows.row_ptr[r + 1] {
+                let c = rows.cols[e];
+                if c >= *o && c < o + n {
+                    jt[(c - o, k)] += rows.vals[e];
+                }
+            }
+        }
+        let w = chol.solve(&jt);
+        let sb = jt.transpose() * w;
+        for (a, &ra) in rs.iter().enumerate() {
+            for (b, &rb) in rs.iter().enumerate().skip(a) {
+                entries.push(((ra, rb), sb[(a, b)]));
+            }
+        }
+    }
+    entries
 }
 
 /// The sparse Cholesky factor of the `m × m` matrix with the upper-triangle `entries`,
