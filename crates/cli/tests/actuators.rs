@@ -114,6 +114,21 @@ fn the_actuator_torques_sensitivity_to_the_arms_mass_matches_central_differences
         + "\n[design.m]\nkind = \"rigid-mass\"\nbody = \"arm\"\n\n[finite_differences]\n\
            scheme = \"central\"\nsizes = [0.0001]\nsteps = \"replay\"\n";
     let doc = common::run_deck_json(&deck);
+    // a mechanism of rigid bodies has no modes to update
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("arm.toml");
+    std::fs::write(&path, &deck).unwrap();
+    let o = common::run(&[
+        "run",
+        path.to_str().unwrap(),
+        "-o",
+        dir.path().join("out").to_str().unwrap(),
+    ]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("sensitivities with respect to m = 1.5 kg\n"),
+        "{text}"
+    );
     let fd = &doc["finite_differences"][0]["max_relative_difference"];
     for r in ["torque", "power"] {
         let d = fd[r].as_f64().unwrap();

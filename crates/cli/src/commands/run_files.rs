@@ -606,15 +606,16 @@ pub(crate) fn summary_text(
                 }
             })
             .collect();
+        // how the modes follow the design, for a mechanism that has modes
+        let modes = match (mech.flexible.is_empty(), mech.design.fixed_modes) {
+            (true, _) => "",
+            (false, true) => " (fixed modes)",
+            (false, false) => " (updated modes)",
+        };
         let _ = writeln!(
             s,
-            "sensitivities with respect to {} ({})",
-            names.join(", "),
-            if mech.design.fixed_modes {
-                "fixed modes"
-            } else {
-                "updated modes"
-            }
+            "sensitivities with respect to {}{modes}",
+            names.join(", ")
         );
     }
     if !c.objectives.is_empty() {
