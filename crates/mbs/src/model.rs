@@ -584,8 +584,9 @@ impl<P: Scalar> Model<P> {
         }
     }
 
-    /// Mass matrix `M` (`n_v × n_v`, one block per body) and generalised forces `g + s − Λw − Dẇ` (applied forces,
-    /// gravity, quadratic-velocity terms, modal stiffness and damping).
+    /// Mass matrix `M` (`n_v × n_v`, one block per body) and generalised forces
+    /// `g + s − Λw − Dẇ` (applied forces, gravity, quadratic-velocity terms, modal stiffness
+    /// and damping).
     pub fn mass_and_forces<S: Scalar + From<P>>(
         &self,
         t: f64,

@@ -1,6 +1,7 @@
 //! The `f64` solver around a [`Model`]: redundant-constraint handling, consistent initial
-//! conditions, the LU solution of Eq. (12), the exact state Jacobian from the dual path, and
-//! the outputs per time.
+//! conditions, the solution of Eq. (12) (dense LU, or by body blocks and a Schur complement
+//! for large mechanisms, [`crate::eq12`]), the exact state Jacobian from the dual path (as a
+//! sparse Newton system for large mechanisms, [`crate::newton`]), and the outputs per time.
 
 use std::sync::{Arc, Mutex};
 
@@ -813,8 +814,8 @@ impl MultibodySystem {
     }
 }
 
-/// [`sens::solve_tangents`] through the rows of a [`DenseLu`]: the `N` tangents of each row
-/// side by side, as the dual numbers hold them.
+/// [`sens::solve_tangents`] through the factorisation of Eq. (12) ([`Eq12Factor`]): the `N`
+/// tangents of each row side by side, as the dual numbers hold them.
 pub(crate) fn lu_tangents<const N: usize>(
     lu: &Eq12Factor,
     x_hat: &[f64],
