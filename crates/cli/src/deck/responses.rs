@@ -394,60 +394,51 @@ impl Table<'_> {
 
     /// `kind = "actuator-torque"` or (`power`) `"actuator-power"`: of the actuator `force`.
     fn actuator(&self, actuators: &[String], power: bool) -> Result<SpecKind, DeckError> {
-        let (src, k) = (self.src, |s: &str| self.key(s));
-        let f = required(
-            src,
-            self.span.clone(),
-            &k("force"),
+        let force = self.one_of(
+            "force",
             &self.raw.force,
             "force (an actuator's [force.NAME])",
+            actuators,
+            |f| format!("`{f}` is not an actuator (a [force.NAME] of kind \"joint-torque\")"),
         )?;
-        if !actuators.contains(f.get_ref()) {
-            let known: Vec<&str> = actuators.iter().map(String::as_str).collect();
-            return Err(src.error(
-                span(f),
-                Some(k("force")),
+        Ok(SpecKind::Actuator { force, power })
+    }
+
+    /// The name at key `name` (`raw`, described by `what` when missing), one of `names`; an
+    /// error by `unknown` otherwise, with the nearest name suggested.
+    fn one_of(
+        &self,
+        name: &str,
+        raw: &Option<Spanned<String>>,
+        what: &str,
+        names: &[String],
+        unknown: impl Fn(&str) -> String,
+    ) -> Result<String, DeckError> {
+        let key = self.key(name);
+        let v = required(self.src, self.span.clone(), &key, raw, what)?;
+        if !names.contains(v.get_ref()) {
+            let known: Vec<&str> = names.iter().map(String::as_str).collect();
+            return Err(self.src.error(
+                span(v),
+                Some(key),
                 format!(
-                    "`{}` is not an actuator (a [force.NAME] of kind \"joint-torque\"){}",
-                    f.get_ref(),
-                    suggestion(f.get_ref(), &known)
+                    "{}{}",
+                    unknown(v.get_ref()),
+                    suggestion(v.get_ref(), &known)
                 ),
             ));
         }
-        Ok(SpecKind::Actuator {
-            force: f.get_ref().clone(),
-            power,
-        })
+        Ok(v.get_ref().clone())
     }
 
     /// `kind = "reaction"`: a component of a joint's reaction force or moment.
     fn reaction(&self, joints: &[String]) -> Result<(SpecKind, &'static str), DeckError> {
-        let (src, k) = (self.src, |s: &str| self.key(s));
-        let j = required(
-            src,
-            self.span.clone(),
-            &k("joint"),
-            &self.raw.joint,
-            "joint",
-        )?;
-        if !joints.contains(j.get_ref()) {
-            let known: Vec<&str> = joints.iter().map(String::as_str).collect();
-            return Err(src.error(
-                span(j),
-                Some(k("joint")),
-                format!(
-                    "undefined joint `{}`{}",
-                    j.get_ref(),
-                    suggestion(j.get_ref(), &known)
-                ),
-            ));
-        }
+        let joint = self.one_of("joint", &self.raw.joint, "joint", joints, |j| {
+            format!("undefined joint `{j}`")
+        })?;
         let c = self.component(&REACTION)?;
         Ok((
-            SpecKind::Reaction {
-                joint: j.get_ref().clone(),
-                c,
-            },
+            SpecKind::Reaction { joint, c },
             if c < 3 { "N" } else { "N*m" },
         ))
     }
