@@ -28,7 +28,7 @@
 //! through the body's joints is in them, that between the bodies' modes is not; on a chain of
 //! twelve beams the largest is within 2 % of the whole Jacobian's (tests/large_mechanisms.rs).
 
-use std::sync::{Arc, Mutex};
+use std::sync::Mutex;
 
 use faer::sparse::linalg::solvers::{Lu, SymbolicLu};
 use faer::sparse::{Argsort, Pair, SparseColMat, SymbolicSparseColMat};
@@ -179,13 +179,14 @@ impl Entries {
 }
 
 impl SparseNewton {
-    /// `∂f/∂y` at `(t, q, v)` with the solution `x_hat` of Eq. (12) on the rows `rows`, its mass
-    /// matrix and constraint rows' Jacobian taken from a fresh evaluation.
+    /// `∂f/∂y` at `(t, q, v)` with the mass matrix `mass` and the constraint kinematics `kin`
+    /// there, and the solution `x_hat` of Eq. (12) on the rows `rows`.
     pub(crate) fn new(
         model: &Model<f64>,
         colouring: &Colouring,
         t: f64,
         (q, v): (&[f64], &[f64]),
+        (mass, kin): (&BodyMass<f64>, &[Kin<f64>]),
         (rows, x_hat): (&[usize], &[f64]),
         cache: &Mutex<Option<NewtonPattern>>,
     ) -> Option<Self> {
@@ -257,7 +258,6 @@ impl SparseNewton {
             }
         }
         // A: the mass blocks and the kept rows of J, both sides
-        let (mass, _) = model.mass_and_forces(t, q, v);
         for (o, block) in mass.blocks() {
             for j in 0..block.ncols() {
                 for i in 0..block.nrows() {
@@ -265,7 +265,6 @@ impl SparseNewton {
                 }
             }
         }
-        let kin = model.constraint_kin(t, q, v);
         for (p, &r) in rows.iter().enumerate() {
             for (c, &x) in kin[r].jac.iter() {
                 e.push(n_y + nv + p, n_y + c, x);
@@ -284,8 +283,8 @@ impl SparseNewton {
             oscillatory: elastic.oscillatory(&Local {
                 model,
                 colouring,
-                mass: &mass,
-                kin: &kin,
+                mass,
+                kin,
                 rows,
                 position: &position,
             }),
@@ -511,7 +510,7 @@ impl ElasticColumns {
 /// matrices.
 #[derive(Debug, Default)]
 pub(crate) struct NewtonCache {
-    pub(crate) colouring: std::sync::OnceLock<Arc<Colouring>>,
+    pub(crate) colouring: std::sync::OnceLock<Colouring>,
     pub(crate) pattern: Mutex<Option<NewtonPattern>>,
 }
 

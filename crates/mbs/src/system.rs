@@ -3,7 +3,7 @@
 //! for large mechanisms, [`crate::eq12`]), the exact state Jacobian from the dual path (as a
 //! sparse Newton system for large mechanisms, [`crate::newton`]), and the outputs per time.
 
-use std::sync::{Arc, Mutex};
+use std::sync::Mutex;
 
 use nalgebra::{DMatrix, DVector, Dyn, LU, Matrix3, Vector3};
 use sens::{Dual, Scalar, chunk_ranges};
@@ -418,22 +418,23 @@ impl MultibodySystem {
     /// with [`RedundancyPolicy::Reselect`] those independent at this state, otherwise those of
     /// the assembly.
     pub fn solve(&self, t: f64, q: &[f64], v: &[f64]) -> Result<Solution, ConstraintError> {
-        self.solve_with(t, q, v, &self.model.constraint_kin(t, q, v))
+        let k = self.model.constraint_kin(t, q, v);
+        let (m, f) = self.model.mass_and_forces(t, q, v);
+        self.solve_with(t, (q, v), &k, (&m, &f))
     }
 
     /// [`MultibodySystem::solve`] with the constraint rows' kinematics at the state.
     fn solve_with(
         &self,
         t: f64,
-        q: &[f64],
-        v: &[f64],
+        (q, v): (&[f64], &[f64]),
         k: &[Kin<f64>],
+        (m, f): (&BodyMass<f64>, &[f64]),
     ) -> Result<Solution, ConstraintError> {
         let rows = self.select_rows(k);
-        let (m, f) = self.model.mass_and_forces(t, q, v);
-        let rhs = self.model.rhs_as(&f, k, &rows, |x| x);
+        let rhs = self.model.rhs_as(f, k, &rows, |x| x);
         let jac = rows.iter().map(|&r| &k[r].jac).collect();
-        self.factor_and_solve(t, &m, jac, rhs, rows)
+        self.factor_and_solve(t, m, jac, rhs, rows)
             .map_err(|e| match e {
                 ConstraintError::NonFinite { t, .. } => ConstraintError::NonFinite {
                     t,
@@ -769,7 +770,8 @@ impl MultibodySystem {
         let nq = self.model.n_q();
         let (q, v) = y.split_at(nq);
         let k = self.model.constraint_kin(t, q, v);
-        let sol = self.solve_with(t, q, v, &k)?;
+        let (m, f) = self.model.mass_and_forces(t, q, v);
+        let sol = self.solve_with(t, (q, v), &k, (&m, &f))?;
         let nv = self.model.n_v();
         let lambda = self.full_lambda(&sol);
         let c = self.model.constraint_values(&k);
@@ -950,19 +952,22 @@ impl OdeSystem for MultibodySystem {
             return None;
         }
         let (q, v) = y.split_at(self.model.n_q());
-        let sol = match self.solve(t, q, v) {
+        let k = self.model.constraint_kin(t, q, v);
+        let (m, f) = self.model.mass_and_forces(t, q, v);
+        let sol = match self.solve_with(t, (q, v), &k, (&m, &f)) {
             Ok(sol) => sol,
             Err(e) => return Some(Err(RhsError(e.to_string()))),
         };
         let colouring = self
             .newton
             .colouring
-            .get_or_init(|| Arc::new(Colouring::new(&self.model)));
+            .get_or_init(|| Colouring::new(&self.model));
         let j = SparseNewton::new(
             &self.model,
             colouring,
             t,
             (q, v),
+            (&m, &k),
             (&sol.rows, &sol.x),
             &self.newton.pattern,
         )?;
