@@ -146,6 +146,53 @@ struct Fields<'a, S> {
     psi: Option<&'a [S; 36]>,
 }
 
+/// The fields of the compliance's Lagrangian ([`SectionAnalysis::compliance_derivatives`]):
+/// the solutions `X, Y, X₁, Y₁` and the adjoints `λ`, `μ`, in the scalar `F`.
+#[derive(Clone, Copy)]
+struct LagrangeFields<'a, F> {
+    eps: Fields<'a, F>,
+    e1: Fields<'a, F>,
+    lambda: Fields<'a, F>,
+    s_lambda: Fields<'a, F>,
+    mu: Fields<'a, F>,
+}
+
+impl<'a, F: Scalar> LagrangeFields<'a, F> {
+    /// From `(X, X₁, Y, Y₁)` and the adjoints `(λ_X, λ_Y, μ_X, μ_Y)`.
+    fn new(
+        (x, x1, y, y1): (&'a [F], &'a [F], &'a [F; 36], &'a [F; 36]),
+        (lx, ly, mx, my): (&'a [F], &'a [F; 36], &'a [F], &'a [F; 36]),
+    ) -> Self {
+        let field = |u, u1, psi| Fields { u, u1, psi };
+        Self {
+            eps: field(Some(x), Some(x1), Some(y)),
+            e1: field(Some(x1), None, Some(y1)),
+            lambda: field(Some(lx), None, Some(ly)),
+            s_lambda: field(None, Some(lx), None),
+            mu: field(Some(mx), None, Some(my)),
+        }
+    }
+
+    /// `[ε, α, e₁, β]` of the six columns at `gp` (of an element with nodes `nodes`), with
+    /// `ε = [BN Z] u + SN X₁`, `α = ε/2 − [BN Z] λ`, `e₁ = [BN Z] u₁`, `β = SN λ_X − [BN Z] μ`.
+    #[inline(always)]
+    fn at<G>(&self, nodes: &[usize], gp: &GaussPoint<G>) -> [[[F; 6]; 6]; 4]
+    where
+        F: Mul<G, Output = F>,
+        G: Scalar,
+    {
+        let eps = strains(nodes, gp, self.eps);
+        let e1 = strains(nodes, gp, self.e1);
+        let l = strains(nodes, gp, self.lambda);
+        let sl = strains(nodes, gp, self.s_lambda);
+        let mu = strains(nodes, gp, self.mu);
+        let half = F::from_f64(0.5);
+        let alpha = std::array::from_fn(|c| std::array::from_fn(|i| half * eps[c][i] - l[c][i]));
+        let beta = std::array::from_fn(|c| std::array::from_fn(|i| sl[c][i] - mu[c][i]));
+        [eps, alpha, e1, beta]
+    }
+}
+
 /// The nominal solutions `X̂₁, Ŷ₁, X̂, Ŷ` in a fields' scalar.
 #[derive(Clone, Copy)]
 struct Hats<'a, F> {
@@ -625,12 +672,7 @@ impl SectionAnalysis {
         let lift36 = |y: &[f64; 36]| y.map(Dual::<N>::constant);
         let (x, x1, lx, mx) = (lift(&self.x), lift(&self.x1), lift(lx), lift(mx));
         let (y, y1, ly, my) = (lift36(&self.y), lift36(&self.y1), lift36(ly), lift36(my));
-        let field = |u, u1, psi| Fields { u, u1, psi };
-        let of_eps = field(Some(&x[..]), Some(&x1[..]), Some(&y));
-        let of_e1 = field(Some(&x1[..]), None, Some(&y1));
-        let of_lambda = field(Some(&lx[..]), None, Some(&ly));
-        let of_s_lambda = field(None, Some(&lx[..]), None);
-        let of_mu = field(Some(&mx[..]), None, Some(&my));
+        let fields = LagrangeFields::new((&x, &x1, &y, &y1), (&lx, &ly, &mx, &my));
         let zero = Dual::<N>::constant(0.0);
         let region_moves: Vec<bool> = q_ply.iter().map(|q| q.iter().any(moves)).collect();
         let mut l = [[zero; 6]; 6];
@@ -641,11 +683,7 @@ impl SectionAnalysis {
             }
             for gp in &gps[m.gp_start[e]..m.gp_start[e + 1]] {
                 let q = m.stiffness_at(el.region, gp, &q_ply[el.region]);
-                let eps = strains(nodes, gp, of_eps);
-                let e1 = strains(nodes, gp, of_e1);
-                let el_ = strains(nodes, gp, of_lambda);
-                let sl = strains(nodes, gp, of_s_lambda);
-                let em = strains(nodes, gp, of_mu);
+                let [eps, alpha, e1, beta] = fields.at(nodes, gp);
                 // w Q ε_c and w Q e₁_c
                 let weighted = |a: &[Dual<N>; 6]| -> [Dual<N>; 6] {
                     std::array::from_fn(|i| {
@@ -661,9 +699,7 @@ impl SectionAnalysis {
                     for d in 0..6 {
                         let mut acc = zero;
                         for i in 0..6 {
-                            let alpha = eps[d][i] * 0.5 - el_[d][i];
-                            let beta = sl[d][i] - em[d][i];
-                            acc += q_eps[i] * alpha + q_e1[i] * beta;
+                            acc += q_eps[i] * alpha[d][i] + q_e1[i] * beta[d][i];
                         }
                         l[c][d] += acc;
                     }
@@ -955,23 +991,14 @@ impl SectionAnalysis {
     ) -> [[[f64; 36]; 6]; 6] {
         let m = &self.model;
         let ComplianceAdjoints { lx, ly, mx, my } = adjoints;
-        let field = |u, u1, psi| Fields { u, u1, psi };
-        let of_eps = field(Some(&self.x[..]), Some(&self.x1[..]), Some(&self.y));
-        let of_e1 = field(Some(&self.x1[..]), None, Some(&self.y1));
-        let of_lambda = field(Some(&lx[..]), None, Some(ly));
-        let of_s_lambda = field(None, Some(&lx[..]), None);
-        let of_mu = field(Some(&mx[..]), None, Some(my));
+        let fields = LagrangeFields::new((&self.x, &self.x1, &self.y, &self.y1), (lx, ly, mx, my));
         let mut moments = [[[0.0; 36]; 6]; 6];
         for &e in elements {
             let el = &m.mesh.elements[e];
             let nodes = &el.nodes[..el.kind.node_count()];
             for gp in &m.gps[m.gp_start[e]..m.gp_start[e + 1]] {
                 let t = bond_stress_matrix(&m.mesh.regions[r].frame.rotation_at(gp.x, gp.dx_dxi));
-                let eps = strains(nodes, gp, of_eps);
-                let e1 = strains(nodes, gp, of_e1);
-                let el_ = strains(nodes, gp, of_lambda);
-                let sl = strains(nodes, gp, of_s_lambda);
-                let em = strains(nodes, gp, of_mu);
+                let [eps, alpha, e1, beta] = fields.at(nodes, gp);
                 // Tᵀ a, in the ply axes
                 let ply = |a: [f64; 6]| -> [f64; 6] {
                     std::array::from_fn(|j| (0..6).map(|i| t[(i, j)] * a[i]).sum())
@@ -982,9 +1009,9 @@ impl SectionAnalysis {
                 let mut p_beta = [[0.0; 6]; 6];
                 for c in 0..6 {
                     p_eps[c] = ply(eps[c]);
-                    p_alpha[c] = ply(std::array::from_fn(|i| 0.5 * eps[c][i] - el_[c][i]));
+                    p_alpha[c] = ply(alpha[c]);
                     p_e1[c] = ply(e1[c]);
-                    p_beta[c] = ply(std::array::from_fn(|i| sl[c][i] - em[c][i]));
+                    p_beta[c] = ply(beta[c]);
                 }
                 for c in 0..6 {
                     for d in 0..6 {
