@@ -64,7 +64,7 @@ fn rod_density_sensitivities_match_replayed_central_differences() {
         &SensitivityOptions::default(),
     )
     .unwrap();
-    let replay = run.replay_options(1e-6, 1e-9, 1e-7);
+    let replay = run.replay_options(1e-6, &[1e-9], 1e-7);
     let run = simulate_sensitivities(
         &mut sys,
         &dm,

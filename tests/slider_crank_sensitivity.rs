@@ -150,7 +150,7 @@ fn mid_node_deflection_sensitivity_matches_central_differences_on_the_replayed_s
     // remaining iteration error, divided by δ, is the central differences' noise (at 1e-6 it
     // was 6.6e-7 of the mid-node sensitivity after Richardson on one round-off variant of the
     // model and 3.4e-8 on another; at 1e-7 it is 7.8e-9)
-    let replay = run.replay_options(1e-6, 1e-9, 1e-7);
+    let replay = run.replay_options(1e-6, &[1e-9], 1e-7);
     let (h, _) = direct::<1>(&angles, Design::Common, &updated, replay.clone());
     let (hf, _) = direct::<1>(&angles, Design::Common, &fixed, replay.clone());
     let s = column(&h, 0);

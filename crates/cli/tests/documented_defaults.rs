@@ -222,6 +222,13 @@ const CASES: &[(&str, &str, &str, &str, Command)] = &[
     ),
     (
         "[analysis]",
+        "error_weights",
+        "slider_crank_beam.toml",
+        "analysis",
+        Command::RunOnly,
+    ),
+    (
+        "[analysis]",
         "order",
         "slider_crank_beam.toml",
         "analysis",

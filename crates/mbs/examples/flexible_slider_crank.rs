@@ -199,7 +199,7 @@ pub fn main() {
     .expect("the run with sensitivities");
     let history = response_history(&sys, &design, &run, &deflection).expect("the response");
     // central differences of two more runs on the nominal steps, Newton converged tightly
-    let replay = run.replay_options(1e-6, 1e-9, 1e-7);
+    let replay = run.replay_options(1e-6, &[1e-9], 1e-7);
     let step = 1e-3;
     let at = |t: f64| {
         let (body, _) = rod(t);

@@ -161,10 +161,11 @@ pub struct BdfOptions {
     pub max_newton_iterations: usize,
     /// Recompute the Jacobian after this many steps even if Newton converges.
     pub jacobian_age: usize,
-    /// Fixed steps only: the `(rtol, atol)` the run is meant to meet. Each step's local error
-    /// is estimated against them as the adaptive control would (the steps do not change), and
-    /// the largest ratio is reported in [`Statistics::max_error_ratio`].
-    pub accuracy: Option<(f64, f64)>,
+    /// Fixed steps only: the `(rtol, atol)` the run is meant to meet (`atol` as
+    /// [`BdfOptions::atol`]). Each step's local error is estimated against them as the
+    /// adaptive control would (the steps do not change), and the largest ratio is reported in
+    /// [`Statistics::max_error_ratio`].
+    pub accuracy: Option<(f64, Vec<f64>)>,
 }
 
 /// The order and step limits of a step control ([`Bdf::step_with`]).
@@ -211,12 +212,12 @@ impl BdfOptions {
         times: Vec<f64>,
         orders: Vec<usize>,
         rtol: f64,
-        atol: f64,
+        atol: Vec<f64>,
         newton_tol: f64,
     ) -> Self {
         Self {
             rtol,
-            atol: vec![atol],
+            atol,
             control: StepControl::Replay {
                 times,
                 orders,
@@ -710,11 +711,13 @@ impl Bdf {
         }
         // a zero absolute tolerance makes the weight of a vanishing component zero and the
         // error norm 0/0 (as in CVODE, every entry must be positive)
-        if o.atol.iter().any(|&a| !(a > 0.0 && a.is_finite())) {
-            return bad("every atol entry must be positive and finite");
-        }
-        if o.atol.len() != 1 && o.atol.len() != self.n {
-            return bad("atol must have one entry or one per component");
+        for atol in std::iter::once(&o.atol).chain(o.accuracy.as_ref().map(|(_, a)| a)) {
+            if atol.iter().any(|&a| !(a > 0.0 && a.is_finite())) {
+                return bad("every atol entry must be positive and finite");
+            }
+            if atol.len() != 1 && atol.len() != self.n {
+                return bad("atol must have one entry or one per component");
+            }
         }
         match o.control {
             StepControl::Adaptive {
@@ -1248,12 +1251,17 @@ impl Bdf {
     /// against those tolerances, the largest kept in the statistics.
     fn observe_accuracy(&mut self, k: usize, t_new: f64, y_new: &[f64], y_pred: &[f64]) {
         let (StepControl::Fixed { .. }, Some((rtol, atol))) =
-            (&self.opts.control, self.opts.accuracy)
+            (&self.opts.control, &self.opts.accuracy)
         else {
             return;
         };
         let e = self.error_estimate(k, t_new, y_new, y_pred);
-        let ratio = weighted_rms(&e, &self.hist[0].1, rtol, std::iter::repeat(atol));
+        let atol =
+            atol.iter()
+                .copied()
+                .cycle()
+                .take(if atol.len() == 1 { e.len() } else { atol.len() });
+        let ratio = weighted_rms(&e, &self.hist[0].1, *rtol, atol);
         if ratio.is_finite() {
             self.stats.max_error_ratio = self.stats.max_error_ratio.max(ratio);
         }

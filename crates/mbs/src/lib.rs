@@ -98,6 +98,7 @@ mod nodal;
 mod response;
 mod sensitivity;
 mod system;
+mod tolerance;
 
 pub use bdf::{
     AcceptedStep, Bdf, BdfOptions, IntegrationError, IntegrationFailure, JACOBIAN_AGE,
@@ -128,3 +129,4 @@ pub use system::{
     JointReaction, MultibodySystem, Output, Progress, RedundancyPolicy, Simulation,
     SimulationError, Solution, StepGuard, simulate,
 };
+pub use tolerance::{absolute_tolerances, mechanism_size};

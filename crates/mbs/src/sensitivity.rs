@@ -235,12 +235,12 @@ pub struct SensitivityRun {
 impl SensitivityRun {
     /// Options that replay this run's step sequence (orders and times), e.g. for finite
     /// differences of the discrete solution ([`StepControl::Replay`](crate::StepControl)).
-    pub fn replay_options(&self, rtol: f64, atol: f64, newton_tol: f64) -> BdfOptions {
+    pub fn replay_options(&self, rtol: f64, atol: &[f64], newton_tol: f64) -> BdfOptions {
         BdfOptions::replay(
             self.times[1..].to_vec(),
             self.orders[1..].to_vec(),
             rtol,
-            atol,
+            atol.to_vec(),
             newton_tol,
         )
     }

@@ -192,7 +192,7 @@ impl MultibodySystem {
                 equations: describe_rows(&model, &removed),
             });
         }
-        let guard = StepGuard::for_size(mechanism_size(&model, &state.q));
+        let guard = StepGuard::for_size(crate::mechanism_size(&model, &state.q));
         Ok(Self {
             model,
             rows,
@@ -1057,29 +1057,6 @@ pub fn simulate(
         outputs,
         statistics: bdf.statistics(),
     })
-}
-
-/// The diagonal of the box around the body origins, the flexible bodies' nodes and the joints'
-/// marker points at `q` (at least 1e-9 m).
-fn mechanism_size(model: &Model<f64>, q: &[f64]) -> f64 {
-    let mut points = Vec::new();
-    for id in model.body_ids() {
-        let r = model.q_range(id).start;
-        let origin = Vector3::new(q[r], q[r + 1], q[r + 2]);
-        points.push(origin);
-        if let Body::Flexible(b) = model.body(id) {
-            let a = model.rotation_of(id, q);
-            points.extend(b.modal.node_positions.iter().map(|p| origin + a * p));
-        }
-    }
-    for j in model.joints() {
-        points.push(model.marker_position(&j.a, q));
-        points.push(model.marker_position(&j.b, q));
-    }
-    points.retain(|p| p.iter().all(|x| x.is_finite()));
-    let (lo, hi) = fem::bounding_box(&points);
-    let d = (hi - lo).norm();
-    if d.is_finite() { d.max(1e-9) } else { 1.0 }
 }
 
 /// `max |x_i|`, NaN if any entry is NaN (`f64::max` would drop it and hide a broken state).

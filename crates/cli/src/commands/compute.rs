@@ -264,8 +264,8 @@ pub(crate) fn warn_redundant_with_stiffening(
 /// A warning when a fixed-step run's estimated local error exceeds the deck's tolerances
 /// (`mbs::Statistics::max_error_ratio`): its results are not converged to them.
 fn warn_fixed_step_accuracy(src: &deck::Source, mech: &Mechanism, st: &mbs::Statistics) {
-    let (mbs::StepControl::Fixed { step, .. }, Some((rtol, atol))) =
-        (&mech.options.control, mech.options.accuracy)
+    let (mbs::StepControl::Fixed { step, .. }, Some((rtol, _))) =
+        (&mech.options.control, &mech.options.accuracy)
     else {
         return;
     };
@@ -275,10 +275,10 @@ fn warn_fixed_step_accuracy(src: &deck::Source, mech: &Mechanism, st: &mbs::Stat
             Some("analysis.step".into()),
             format!(
                 "the fixed step of {step} s misses the deck's local error tolerances (rtol = \
-                 {rtol}, atol = {atol}) by up to {:.1} times, estimated as the adaptive \
+                 {rtol}, atol = {} m) by up to {:.1} times, estimated as the adaptive \
                  integrator estimates it: the results are not converged to those tolerances; \
                  take a smaller step, or integrator = \"adaptive\"",
-                st.max_error_ratio
+                mech.displacement_tolerance, st.max_error_ratio
             ),
         );
     }

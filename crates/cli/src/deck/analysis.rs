@@ -17,6 +17,13 @@ pub struct AnalysisDef {
     pub policy: RedundancyPolicy,
     /// `analysis.max_violation` (m), when given.
     pub max_violation: Option<f64>,
+    /// `analysis.atol`, when given. Until the mechanism is built, the `atol` of `options` is
+    /// NaN.
+    pub atol: Option<f64>,
+    /// `analysis.error_weights = "displacement"`: `atol` is a displacement (m), turned into a
+    /// tolerance per coordinate ([`mbs::absolute_tolerances`]); otherwise it applies to every
+    /// state component as it is.
+    pub displacement_weights: bool,
 }
 
 /// Validate `[analysis]`.
@@ -85,9 +92,22 @@ pub fn validate(src: &Source, raw: &RawDeck) -> Result<AnalysisDef, DeckError> {
     let atol = raw
         .atol
         .as_ref()
-        .map(|r| positive(src, &k("atol"), r, "state units"))
-        .transpose()?
-        .unwrap_or(1e-8);
+        .map(|r| positive(src, &k("atol"), r, "state units, or m"))
+        .transpose()?;
+    let displacement_weights = match raw.error_weights.as_ref() {
+        None => false,
+        Some(w) => match w.get_ref().as_str() {
+            "uniform" => false,
+            "displacement" => true,
+            other => {
+                return Err(src.error(
+                    span(w),
+                    Some(k("error_weights")),
+                    super::keys::ERROR_WEIGHTS.unknown("error_weights", other),
+                ));
+            }
+        },
+    };
     let order = raw
         .order
         .as_ref()
@@ -102,7 +122,7 @@ pub fn validate(src: &Source, raw: &RawDeck) -> Result<AnalysisDef, DeckError> {
             format!("{o}: BDF orders are 1 to 5"),
         ));
     }
-    let options = integrator(src, raw, span(a), (t0, t_end), rtol, atol, order)?;
+    let options = integrator(src, raw, span(a), (t0, t_end), rtol, f64::NAN, order)?;
     let baumgarte = baumgarte(src, raw)?;
     let policy = policy(src, raw)?;
     let max_violation = raw
@@ -116,6 +136,8 @@ pub fn validate(src: &Source, raw: &RawDeck) -> Result<AnalysisDef, DeckError> {
         baumgarte,
         policy,
         max_violation,
+        atol,
+        displacement_weights,
     })
 }
 
@@ -222,7 +244,7 @@ fn integrator(
                 let mut o = BdfOptions::fixed(h, order.unwrap_or(2));
                 o.rtol = rtol.min(1e-10);
                 // the deck's tolerances: each step's local error is estimated against them
-                o.accuracy = Some((rtol, atol));
+                o.accuracy = Some((rtol, vec![atol]));
                 o.max_steps = max_steps;
                 o
             }

@@ -107,6 +107,7 @@ choices! {
         "actuator-power",
     ];
     INTEGRATOR: "[analysis]", "analysis.integrator", ["adaptive", "fixed"];
+    ERROR_WEIGHTS: "[analysis]", "analysis.error_weights", ["uniform", "displacement"];
     REDUNDANT: "[analysis]", "analysis.redundant", ["remove", "reselect", "error"];
     DESIGN_KIND: "[design.NAME]", "design.NAME.kind",
         ["ply-angle", "ply-thickness", "material", "rigid-mass", "rigid-inertia"];

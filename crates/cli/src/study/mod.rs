@@ -14,6 +14,7 @@
 //! design variable through it.
 
 mod assembly;
+mod error_weights;
 pub mod flexible;
 
 use std::collections::BTreeMap;
@@ -107,7 +108,13 @@ pub(crate) struct Study {
     pub(crate) forces: ForceDefs,
     pub(crate) response_specs: Vec<ResponseSpec>,
     pub(crate) times: Vec<f64>,
+    /// The integrator's options; `atol` NaN until [`Study::build`] gives each state
+    /// component its own.
     pub(crate) options: BdfOptions,
+    /// `analysis.atol`, when the deck gives it.
+    pub(crate) atol: Option<f64>,
+    /// `analysis.error_weights = "displacement"` ([`AnalysisDef::displacement_weights`]).
+    pub(crate) displacement_weights: bool,
     pub(crate) baumgarte: Baumgarte,
     pub(crate) policy: RedundancyPolicy,
     /// `analysis.max_violation` (m): the step guard's limit, when the deck sets it.
@@ -126,6 +133,8 @@ pub(crate) struct Mechanism {
     /// The initial state: rigid-body coordinates as placed (not yet assembled), elastic state
     /// as given.
     pub(crate) state: State,
+    /// The integrator's tolerance on displacements (m): `analysis.atol` or its default.
+    pub(crate) displacement_tolerance: f64,
     pub(crate) bodies: BTreeMap<String, BodyInfo>,
     /// Body names in model order.
     pub(crate) body_order: Vec<String>,
@@ -347,6 +356,8 @@ impl Study {
             baumgarte,
             policy,
             max_violation,
+            atol,
+            displacement_weights,
         } = analysis::validate(src, raw)?;
         let joints = mechanism::joints(src, raw, &places)?;
         let forces = mechanism::forces(src, raw, &places)?;
@@ -379,6 +390,8 @@ impl Study {
             forces,
             response_specs,
             times,
+            atol,
+            displacement_weights,
             options,
             baumgarte,
             policy,
@@ -407,13 +420,17 @@ impl Study {
         let (named_joints, named_forces) =
             a.add_joints_and_forces(src, &self.joints, &self.forces)?;
         let state = a.initial_state();
-        let responses = self
+        let mut study = self;
+        let displacement_tolerance;
+        (study.options, displacement_tolerance) = study.error_weights(&a.model, &state);
+        let responses = study
             .response_specs
             .iter()
             .map(|r| r.resolve(src, &a.model, &a.bodies, &named_joints, &named_forces))
             .collect::<Result<Vec<_>, _>>()?;
         let mechanism = Mechanism {
-            study: self,
+            study,
+            displacement_tolerance,
             model: a.model,
             flexible: a.flexible,
             state,

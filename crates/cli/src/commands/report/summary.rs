@@ -268,7 +268,7 @@ fn peaks(md: &mut String, layups: &[Layup]) -> Vec<serde_json::Value> {
 fn settings(md: &mut String, st: &Settings) -> serde_json::Value {
     let mech = st.nominal;
     let opt = &mech.options;
-    let atol = opt.atol.first().copied().unwrap_or(f64::NAN);
+    let atol = mech.displacement_tolerance;
     let t0 = mech.times.first().copied().unwrap_or(0.0);
     let t1 = mech.times.last().copied().unwrap_or(0.0);
     let variable_step = matches!(opt.control, mbs::StepControl::Adaptive { .. });

@@ -85,6 +85,8 @@ pub struct BodyDef {
     pub auto_modes: bool,
     /// The largest missed share of the static compliance before a warning.
     pub basis_tolerance: f64,
+    /// `atol`: the integrator's displacement tolerance for the body's coordinates (m).
+    pub atol: Option<f64>,
     /// Initial modal coordinates and rates, one per retained mode (zero-padded).
     pub initial_modal: Vec<f64>,
     pub initial_modal_rates: Vec<f64>,
@@ -223,6 +225,11 @@ pub fn validate_one(
         check_auto_modes(src, name, raw)?;
     }
     let basis_tolerance = basis_tolerance(src, name, raw)?;
+    let atol = raw
+        .atol
+        .as_ref()
+        .map(|a| positive(src, &format!("body.{name}.atol"), a, "m"))
+        .transpose()?;
     let initial_modal = initial_modal_state(
         src,
         name,
@@ -256,6 +263,7 @@ pub fn validate_one(
         interfaces,
         auto_modes,
         basis_tolerance,
+        atol,
         initial_modal,
         initial_modal_rates,
         stiffening,

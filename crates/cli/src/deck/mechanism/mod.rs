@@ -207,6 +207,8 @@ pub struct RigidDef {
     pub orientation: Matrix3<f64>,
     pub velocity: Vector3<f64>,
     pub angular_velocity: Vector3<f64>,
+    /// `atol`: the integrator's displacement tolerance for the body's coordinates (m).
+    pub atol: Option<f64>,
     /// The body's table in the deck.
     pub span: Range<usize>,
 }
@@ -273,6 +275,11 @@ pub fn rigid_bodies(src: &Source, raw: &RawDeck) -> Result<Vec<RigidDef>, DeckEr
             orientation: a,
             velocity: v,
             angular_velocity: w,
+            atol: rr
+                .atol
+                .as_ref()
+                .map(|a| positive(src, &k("atol"), a, "m"))
+                .transpose()?,
             span: r.span(),
         });
     }
