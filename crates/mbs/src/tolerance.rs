@@ -15,7 +15,8 @@
 //!   (an error `Δẇ` in a vibration at `ω_k` is an amplitude error `Δẇ / ω_k`); the frame's
 //!   rates take the body's lowest retained frequency, the slowest vibration the joints pass
 //!   into the frame. Rigid bodies take the lowest over the flexible bodies, or `rate` (the
-//!   caller's, e.g. `2π` over the span) in a mechanism without them.
+//!   caller's, e.g. `2π` over the span) in a mechanism without them; no frequency is taken
+//!   below `rate` (a rigid-body mode a free body keeps).
 
 use crate::{Body, BodyId, Model};
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
@@ -33,7 +34,7 @@ pub fn absolute_tolerances(
     let size = mechanism_size(model, q);
     let scales: Vec<BodyScales> = model
         .body_ids()
-        .map(|id| BodyScales::of(model, id, size))
+        .map(|id| BodyScales::of(model, id, size, rate))
         .collect();
     let lowest = scales
         .iter()
@@ -72,12 +73,13 @@ struct BodyScales {
     mass: f64,
     /// Largest radius of gyration about the body frame (m), at least 1e-3 of the mechanism.
     gyration: f64,
-    /// `ω_k` of each retained mode (rad/s), at least `1e-6` (rigid-body modes of a free body).
+    /// `ω_k` of each retained mode (rad/s), at least `rate`: a mode slower than that (a
+    /// rigid-body mode kept by a free body) is weighed as a rigid body's coordinate.
     frequencies: Vec<f64>,
 }
 
 impl BodyScales {
-    fn of(model: &Model<f64>, id: BodyId, size: f64) -> Self {
+    fn of(model: &Model<f64>, id: BodyId, size: f64, rate: f64) -> Self {
         let (mass, inertia, frequencies) = match model.body(id) {
             Body::Rigid(b) => (b.mass, b.inertia, Vec::new()),
             Body::Flexible(b) => {
@@ -95,7 +97,7 @@ impl BodyScales {
                 let omega = m
                     .eigenvalues
                     .iter()
-                    .map(|l| l.max(0.0).sqrt().max(1e-6))
+                    .map(|l| l.max(0.0).sqrt().max(rate))
                     .collect();
                 (m.node_masses.iter().sum(), inertia, omega)
             }

@@ -176,3 +176,23 @@ fn the_error_of_a_run_falls_with_the_displacement_tolerance() {
     }
     assert!(errors[0].1 > 1e-5 && errors[2].1 < 1e-5, "{errors:?}");
 }
+
+/// A mode without stiffness (a rigid-body mode kept by a free body) is weighed at `rate`, not
+/// at its zero frequency, and so are its body's frame rates.
+#[test]
+fn a_mode_without_stiffness_takes_the_given_rate() {
+    let (mut model, state, _) = slider_crank(150.0, Some(4));
+    let rod = model
+        .body_ids()
+        .find(|&id| matches!(model.body(id), Body::Flexible(_)))
+        .unwrap();
+    if let Body::Flexible(b) = model.body_mut(rod) {
+        b.modal.eigenvalues[0] = 0.0;
+    }
+    let atol = absolute_tolerances(&model, &state.q, &vec![1e-9; model.n_bodies()], 7.0);
+    let (q, v) = (model.q_range(rod), model.v_range(rod));
+    let at = |i: usize| atol[model.n_q() + v.start + i];
+    assert!((at(6) / (atol[q.start + 7] * 7.0) - 1.0).abs() < 1e-14);
+    assert!((at(0) / (1e-9 * 7.0) - 1.0).abs() < 1e-14);
+    assert!(atol.iter().all(|a| a.is_finite() && *a > 0.0));
+}

@@ -283,7 +283,7 @@ fn settings(md: &mut String, st: &Settings) -> serde_json::Value {
     );
     let _ = writeln!(
         *md,
-        "- integrator of the deck: {} (rtol {:e}, atol {:e}); it is used by the main, \
+        "- integrator of the deck: {} (rtol {:e}, atol {:e}{}); it is used by the main, \
          fixed-modes and central runs",
         if variable_step {
             "variable step and order BDF"
@@ -291,7 +291,12 @@ fn settings(md: &mut String, st: &Settings) -> serde_json::Value {
             "fixed-step BDF (the \"variable-step\" panels then show fixed steps too)"
         },
         opt.rtol,
-        atol
+        atol,
+        if mech.displacement_weights {
+            " m, displacement error weights"
+        } else {
+            ""
+        }
     );
     let _ = writeln!(
         *md,
@@ -344,6 +349,7 @@ fn settings(md: &mut String, st: &Settings) -> serde_json::Value {
     json!({
         "t_start": t0, "t_end": t1, "output_step": st.output_step,
         "variable_step": variable_step, "rtol": opt.rtol, "atol": atol,
+        "error_weights": if mech.displacement_weights { "displacement" } else { "uniform" },
         "fixed_step": st.fixed_step,
         "forward_sizes": SIZES, "fig6_size": FIG6_SIZE, "central_size": CHECK_SIZE,
         "bodies": mesh_json, "overrides": st.overrides, "threads": st.jobs,
