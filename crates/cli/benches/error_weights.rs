@@ -29,13 +29,14 @@ fn run_once(sets: &[&str], out: &Path) -> u64 {
 }
 
 const DISPLACEMENT: &str = "analysis.error_weights=\"displacement\"";
+const UNIFORM: &str = "analysis.error_weights=\"uniform\"";
 
 fn error_weights(c: &mut Criterion) {
     let dir = tempfile::tempdir().expect("a temporary directory");
     let out = dir.path();
     for (name, sets) in [
-        ("uniform atol = 1e-6", vec!["analysis.atol=1e-6"]),
-        ("uniform atol = 1e-4", vec!["analysis.atol=1e-4"]),
+        ("uniform atol = 1e-6", vec![UNIFORM, "analysis.atol=1e-6"]),
+        ("uniform atol = 1e-4", vec![UNIFORM, "analysis.atol=1e-4"]),
         (
             "displacement, atol = 3.9e-9 m",
             vec![DISPLACEMENT, "analysis.atol=3.9e-9"],

@@ -215,13 +215,6 @@ const CASES: &[(&str, &str, &str, &str, Command)] = &[
     ),
     (
         "[analysis]",
-        "atol",
-        "slider_crank_beam.toml",
-        "analysis",
-        Command::RunOnly,
-    ),
-    (
-        "[analysis]",
         "error_weights",
         "slider_crank_beam.toml",
         "analysis",

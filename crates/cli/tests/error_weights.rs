@@ -72,15 +72,12 @@ fn displacement_weights_reach_the_deck_accuracy_in_fewer_steps() {
 #[test]
 fn the_default_displacement_tolerance_follows_rtol_and_the_size() {
     let deck = std::fs::read_to_string(common::deck("slider_crank_beam.toml")).unwrap();
-    let without: String = deck
+    // without the deck's uniform weights and its atol: the defaults
+    let text: String = deck
         .lines()
-        .filter(|l| !l.starts_with("atol"))
+        .filter(|l| !l.starts_with("atol") && !l.starts_with("error_weights"))
         .map(|l| format!("{l}\n"))
         .collect();
-    let text = without.replace(
-        "[analysis]\n",
-        "[analysis]\nerror_weights = \"displacement\"\n",
-    );
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("deck.toml");
     std::fs::write(&path, &text).unwrap();
@@ -94,8 +91,14 @@ fn the_default_displacement_tolerance_follows_rtol_and_the_size() {
         }
         common::json(&args)["steps"].as_u64().unwrap()
     };
-    // the size is 0.456 m (crank and rod along x): the default is 1e-4 · 1e-6 · 0.456 m
-    assert_eq!(steps(&[]), steps(&["analysis.atol=4.56e-11"]));
+    // the default weights are the displacement ones; the size is 0.456 m (crank and rod
+    // along x): the default atol is 1e-4 · 1e-6 · 0.456 m
+    let displacement = "analysis.error_weights=\"displacement\"";
+    assert_eq!(steps(&[]), steps(&[displacement, "analysis.atol=4.56e-11"]));
+    // with uniform weights the default atol is 1e-8
+    let uniform = "analysis.error_weights=\"uniform\"";
+    assert_eq!(steps(&[uniform]), steps(&[uniform, "analysis.atol=1e-8"]));
+    assert_ne!(steps(&[uniform]), steps(&[]));
     assert_eq!(
         steps(&["analysis.rtol=1e-5"]),
         steps(&["analysis.rtol=1e-5", "analysis.atol=4.56e-10"])
@@ -107,8 +110,8 @@ fn bad_error_weights_and_body_tolerances_are_located() {
     let deck = std::fs::read_to_string(common::deck("slider_crank_beam.toml")).unwrap();
     let cases = [
         (
-            "[analysis]\n",
-            "[analysis]\nerror_weights = \"displacment\"\n",
+            "error_weights = \"uniform\"",
+            "error_weights = \"displacment\"",
             "key `analysis.error_weights`",
             "did you mean `displacement`",
         ),

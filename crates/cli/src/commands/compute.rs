@@ -275,10 +275,12 @@ fn warn_fixed_step_accuracy(src: &deck::Source, mech: &Mechanism, st: &mbs::Stat
             Some("analysis.step".into()),
             format!(
                 "the fixed step of {step} s misses the deck's local error tolerances (rtol = \
-                 {rtol}, atol = {} m) by up to {:.1} times, estimated as the adaptive \
+                 {rtol}, atol = {}{}) by up to {:.1} times, estimated as the adaptive \
                  integrator estimates it: the results are not converged to those tolerances; \
                  take a smaller step, or integrator = \"adaptive\"",
-                mech.displacement_tolerance, st.max_error_ratio
+                mech.displacement_tolerance,
+                if mech.displacement_weights { " m" } else { "" },
+                st.max_error_ratio
             ),
         );
     }

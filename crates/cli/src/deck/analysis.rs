@@ -92,10 +92,10 @@ pub fn validate(src: &Source, raw: &RawDeck) -> Result<AnalysisDef, DeckError> {
     let atol = raw
         .atol
         .as_ref()
-        .map(|r| positive(src, &k("atol"), r, "state units, or m"))
+        .map(|r| positive(src, &k("atol"), r, "m, or state units"))
         .transpose()?;
     let displacement_weights = match raw.error_weights.as_ref() {
-        None => false,
+        None => true,
         Some(w) => match w.get_ref().as_str() {
             "uniform" => false,
             "displacement" => true,

@@ -133,7 +133,8 @@ pub(crate) struct Mechanism {
     /// The initial state: rigid-body coordinates as placed (not yet assembled), elastic state
     /// as given.
     pub(crate) state: State,
-    /// The integrator's tolerance on displacements (m): `analysis.atol` or its default.
+    /// `analysis.atol` or its default: a displacement (m) with displacement weights, the
+    /// tolerance of every state component with uniform ones.
     pub(crate) displacement_tolerance: f64,
     pub(crate) bodies: BTreeMap<String, BodyInfo>,
     /// Body names in model order.

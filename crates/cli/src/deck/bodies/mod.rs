@@ -85,7 +85,8 @@ pub struct BodyDef {
     pub auto_modes: bool,
     /// The largest missed share of the static compliance before a warning.
     pub basis_tolerance: f64,
-    /// `atol`: the integrator's displacement tolerance for the body's coordinates (m).
+    /// `atol`: the integrator's absolute tolerance for the body's coordinates, as
+    /// `analysis.atol`.
     pub atol: Option<f64>,
     /// Initial modal coordinates and rates, one per retained mode (zero-padded).
     pub initial_modal: Vec<f64>,
@@ -228,7 +229,7 @@ pub fn validate_one(
     let atol = raw
         .atol
         .as_ref()
-        .map(|a| positive(src, &format!("body.{name}.atol"), a, "m"))
+        .map(|a| positive(src, &format!("body.{name}.atol"), a, "m, or state units"))
         .transpose()?;
     let initial_modal = initial_modal_state(
         src,

@@ -207,7 +207,8 @@ pub struct RigidDef {
     pub orientation: Matrix3<f64>,
     pub velocity: Vector3<f64>,
     pub angular_velocity: Vector3<f64>,
-    /// `atol`: the integrator's displacement tolerance for the body's coordinates (m).
+    /// `atol`: the integrator's absolute tolerance for the body's coordinates, as
+    /// `analysis.atol`.
     pub atol: Option<f64>,
     /// The body's table in the deck.
     pub span: Range<usize>,
@@ -278,7 +279,7 @@ pub fn rigid_bodies(src: &Source, raw: &RawDeck) -> Result<Vec<RigidDef>, DeckEr
             atol: rr
                 .atol
                 .as_ref()
-                .map(|a| positive(src, &k("atol"), a, "m"))
+                .map(|a| positive(src, &k("atol"), a, "m, or state units"))
                 .transpose()?,
             span: r.span(),
         });

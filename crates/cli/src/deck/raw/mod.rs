@@ -200,8 +200,8 @@ pub struct RawBody {
     /// The largest share of the static compliance under the mechanism's loads that the basis
     /// may miss before a warning (and the target of `modes = "auto"`); default 0.02.
     pub basis_tolerance: Option<Spanned<f64>>,
-    /// The integrator's displacement tolerance for this body's coordinates (m); default
-    /// `analysis.atol`.
+    /// The integrator's absolute tolerance for this body's coordinates, as `analysis.atol` (m
+    /// with displacement weights); default `analysis.atol`.
     pub atol: Option<Spanned<f64>>,
     /// Distributing couplings by name: node sets that joints and forces attach to
     /// (`coupling = "name"` in a marker).
@@ -439,8 +439,8 @@ pub struct RawRigid {
     pub velocity: Option<Spanned<[f64; 3]>>,
     /// Initial angular velocity, global components (deg/s, or strings with units).
     pub angular_velocity: Option<Spanned<[toml::Value; 3]>>,
-    /// The integrator's displacement tolerance for this body's coordinates (m); default
-    /// `analysis.atol`.
+    /// The integrator's absolute tolerance for this body's coordinates, as `analysis.atol` (m
+    /// with displacement weights); default `analysis.atol`.
     pub atol: Option<Spanned<f64>>,
 }
 
@@ -592,12 +592,12 @@ pub struct RawAnalysis {
     pub output_step: Option<Spanned<f64>>,
     /// `"adaptive"` (default) or `"fixed"`.
     pub integrator: Option<Spanned<String>>,
-    /// Relative and absolute tolerances (defaults 1e-6; 1e-8, or with `error_weights =
-    /// "displacement"` 1e-4 · rtol · the mechanism's size).
+    /// Relative and absolute tolerances (defaults 1e-6; 1e-4 · rtol · the mechanism's size in
+    /// m, or 1e-8 with `error_weights = "uniform"`).
     pub rtol: Option<Spanned<f64>>,
     pub atol: Option<Spanned<f64>>,
-    /// `"uniform"` (default: `atol` on every state component) or `"displacement"` (`atol` a
-    /// displacement, each coordinate's tolerance what moves its body by it).
+    /// `"displacement"` (default: `atol` a displacement, each coordinate's tolerance what
+    /// moves its body by it) or `"uniform"` (`atol` on every state component).
     pub error_weights: Option<Spanned<String>>,
     /// Adaptive: highest BDF order (1–5, default 5); fixed: the order (default 2).
     pub order: Option<Spanned<i64>>,
