@@ -90,6 +90,8 @@ write("value_t_end_before_start.toml", edit(PENDULUM, "t_end = 0.5\n", "t_start 
 write("value_huge_time_span.toml", edit(PENDULUM, "t_end = 0.5\n", "t_start = -1.7e308\nt_end = 1.7e308\n"))
 write("value_tiny_output_step.toml", edit(PENDULUM, "t_end = 0.5\n", "t_end = 0.5\noutput_step = 1e-12\n"))
 write("value_unknown_integrator.toml", edit(PENDULUM, "t_end = 0.5\n", 't_end = 0.5\nintegrator = "rk4"\n'))
+write("value_unknown_error_weights.toml", edit(PENDULUM, "t_end = 0.5\n", 't_end = 0.5\nerror_weights = "metres"\n'))
+write("value_negative_rigid_atol.toml", edit(PENDULUM, "mass = 1.0", "mass = 1.0\natol = -1e-9"))
 write("value_baumgarte_negative.toml", edit(PENDULUM, "t_end = 0.5\n", "t_end = 0.5\nbaumgarte = { alpha = -5.0, beta = 5.0 }\n"))
 write("value_zero_mass.toml", edit(PENDULUM, "mass = 1.0", "mass = 0.0"))
 write("value_inertia_negative.toml", edit(PENDULUM, "inertia = [0.01, 0.01, 0.01]", "inertia = [0.01, -0.01, 0.01]"))
