@@ -39,6 +39,8 @@
 //! - [`Bdf`]: the integrator. After each accepted step [`Bdf::last_step`] gives the order, step,
 //!   coefficients `c_j` of `Σ c_j y_{n+1−j} = f(y_{n+1})`, the states of the formula and the
 //!   Newton matrix; [`Bdf::integrate_to`] calls an observer after every accepted step.
+//! - [`absolute_tolerances`]: the integrator's absolute tolerance per state component from a
+//!   displacement tolerance per body (what moves the body's mass by it; docs/design.md §3).
 //!
 //! # Sensitivities (paper §4, Eqs. 35–47)
 //! - [`DesignModel<N>`]: one `Model<Dual<N>>` per chunk of `N` design variables (e.g. flexible
