@@ -4,6 +4,8 @@
 
 mod common;
 
+use flexsens::results::{Attr, Group};
+
 /// The beam deck, analysis only, with `sets`: its mid-span deflection's largest and smallest
 /// values and the number of steps.
 fn beam(sets: &[&str]) -> (f64, f64, u64) {
@@ -103,6 +105,17 @@ fn the_default_displacement_tolerance_follows_rtol_and_the_size() {
         steps(&["analysis.rtol=1e-5"]),
         steps(&["analysis.rtol=1e-5", "analysis.atol=4.56e-10"])
     );
+    // results.h5 records the tolerances of the last run, the default atol resolved
+    steps(&["analysis.rtol=1e-5"]);
+    let g = Group::read_hdf5(&dir.path().join("out/results.h5")).unwrap();
+    let attrs = &g.groups["statistics"].attrs;
+    let f = |k: &str| match &attrs[k] {
+        Attr::F64(x) => *x,
+        other => panic!("{k}: {other:?}"),
+    };
+    assert_eq!(f("rtol"), 1e-5);
+    assert!((f("atol") / 4.56e-10 - 1.0).abs() < 1e-9, "{}", f("atol"));
+    assert!(matches!(&attrs["error_weights"], Attr::Text(t) if t == "displacement"));
 }
 
 #[test]

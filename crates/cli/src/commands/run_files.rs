@@ -239,7 +239,8 @@ fn put_bodies(g: &mut Group, mech: &Mechanism, outputs: &[mbs::Output]) {
     }
 }
 
-/// The integrator's counters as attributes of `/statistics` (and, for a fixed-step run,
+/// The integrator's counters and tolerances (`rtol`, `atol` with its default resolved,
+/// `error_weights`) as attributes of `/statistics` (and, for a fixed-step run,
 /// `max_error_ratio`: its largest estimated local error relative to the deck's tolerances; for
 /// a loose adaptive run, `history_error_NAME`: each response's estimated history error
 /// relative to its largest value).
@@ -277,6 +278,24 @@ fn put_statistics(g: &mut Group, mech: &Mechanism, c: &Computed) {
             }
         }
     }
+    // the tolerances the run was made with, the default atol resolved
+    let stats = g.group("statistics");
+    let rtol = mech
+        .options
+        .accuracy
+        .as_ref()
+        .map_or(mech.options.rtol, |(r, _)| *r);
+    stats.attrs.insert("rtol".into(), Attr::F64(rtol));
+    let atol = mech.displacement_tolerance;
+    stats.attrs.insert("atol".into(), Attr::F64(atol));
+    let weights = if mech.displacement_weights {
+        "displacement"
+    } else {
+        "uniform"
+    };
+    stats
+        .attrs
+        .insert("error_weights".into(), Attr::Text(weights.into()));
     // a fixed-step run: its largest estimated local error against the deck's tolerances
     if mech.options.accuracy.is_some() {
         g.group("statistics")
