@@ -38,8 +38,21 @@ pub fn positive(src: &Source, key: &str, v: &Spanned<f64>, unit: &str) -> Result
         Err(src.error(
             span(v),
             Some(key.to_string()),
-            format!("{x} must be a positive, finite number ({unit})"),
+            format!(
+                "{} must be a positive, finite number ({unit})",
+                as_written(x)
+            ),
         ))
+    }
+}
+
+/// `x` as a deck would write it: plainly between 1e-4 and 1e9 in magnitude (and 0), in
+/// exponent form outside (`-1e-9`, not `-0.000000001`).
+fn as_written(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() || (1e-4..1e9).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
     }
 }
 
