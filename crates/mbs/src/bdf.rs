@@ -787,11 +787,7 @@ impl Bdf {
         for (t, y) in times.iter().zip(states).rev().take(HISTORY) {
             self.hist.push_back((*t, y.clone()));
         }
-        self.atol = if self.opts.atol.len() == 1 {
-            vec![self.opts.atol[0]; self.n]
-        } else {
-            self.opts.atol.clone()
-        };
+        self.atol = per_component(&self.opts.atol, self.n).collect();
         let (t0, y0) = self.hist[0].clone();
         let mut f0 = vec![0.0; self.n];
         sys.rhs(t0, &y0, &mut f0).map_err(|e| self.fail(e.into()))?;
@@ -1256,12 +1252,7 @@ impl Bdf {
             return;
         };
         let e = self.error_estimate(k, t_new, y_new, y_pred);
-        let atol =
-            atol.iter()
-                .copied()
-                .cycle()
-                .take(if atol.len() == 1 { e.len() } else { atol.len() });
-        let ratio = weighted_rms(&e, &self.hist[0].1, *rtol, atol);
+        let ratio = weighted_rms(&e, &self.hist[0].1, *rtol, per_component(atol, e.len()));
         if ratio.is_finite() {
             self.stats.max_error_ratio = self.stats.max_error_ratio.max(ratio);
         }
@@ -1626,6 +1617,13 @@ impl Bdf {
 
 /// The weighted root mean square of the error `e` of the state `y`: each component over
 /// `rtol |y_i| + atol_i`.
+/// An absolute tolerance of [`BdfOptions`] for each of `n` components: one entry broadcast, or
+/// one per component as given.
+fn per_component(atol: &[f64], n: usize) -> impl Iterator<Item = f64> + '_ {
+    let n = if atol.len() == 1 { n } else { atol.len() };
+    atol.iter().copied().cycle().take(n)
+}
+
 fn weighted_rms(e: &[f64], y: &[f64], rtol: f64, atol: impl Iterator<Item = f64>) -> f64 {
     let s: f64 = e
         .iter()

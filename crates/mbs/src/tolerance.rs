@@ -38,7 +38,7 @@ pub fn absolute_tolerances(
         .collect();
     let lowest = scales
         .iter()
-        .filter_map(|s| s.frequencies.iter().copied().reduce(f64::min))
+        .filter_map(|s| s.lowest)
         .reduce(f64::min)
         .unwrap_or(rate);
     let n_q = model.n_q();
@@ -46,12 +46,7 @@ pub fn absolute_tolerances(
     let (atol_q, atol_v) = atol.split_at_mut(n_q);
     for (id, s) in model.body_ids().zip(&scales) {
         let d = displacement[id.index()];
-        let frame_rate = s
-            .frequencies
-            .iter()
-            .copied()
-            .reduce(f64::min)
-            .unwrap_or(lowest);
+        let frame_rate = s.lowest.unwrap_or(lowest);
         let (qr, vr) = (model.q_range(id), model.v_range(id));
         let (q, v) = (&mut atol_q[qr], &mut atol_v[vr]);
         q[..3].fill(d);
@@ -76,6 +71,8 @@ struct BodyScales {
     /// `ω_k` of each retained mode (rad/s), at least `rate`: a mode slower than that (a
     /// rigid-body mode kept by a free body) is weighed as a rigid body's coordinate.
     frequencies: Vec<f64>,
+    /// The lowest of `frequencies` (`None` for a rigid body).
+    lowest: Option<f64>,
 }
 
 impl BodyScales {
@@ -102,6 +99,7 @@ impl BodyScales {
                 (m.node_masses.iter().sum(), inertia, omega)
             }
         };
+        let lowest = frequencies.iter().copied().reduce(f64::min);
         let largest = SymmetricEigen::new(inertia).eigenvalues.max();
         let gyration = (largest / mass).sqrt();
         let floor = 1e-3 * size;
@@ -113,6 +111,7 @@ impl BodyScales {
                 size
             },
             frequencies,
+            lowest,
         }
     }
 }

@@ -288,14 +288,10 @@ fn put_statistics(g: &mut Group, mech: &Mechanism, c: &Computed) {
     stats.attrs.insert("rtol".into(), Attr::F64(rtol));
     let atol = mech.displacement_tolerance;
     stats.attrs.insert("atol".into(), Attr::F64(atol));
-    let weights = if mech.displacement_weights {
-        "displacement"
-    } else {
-        "uniform"
-    };
-    stats
-        .attrs
-        .insert("error_weights".into(), Attr::Text(weights.into()));
+    stats.attrs.insert(
+        "error_weights".into(),
+        Attr::Text(mech.error_weights_name().into()),
+    );
     // a fixed-step run: its largest estimated local error against the deck's tolerances
     if mech.options.accuracy.is_some() {
         g.group("statistics")

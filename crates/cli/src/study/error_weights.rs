@@ -12,9 +12,18 @@ use super::Study;
 /// near 1e-4: on the beam deck its mid-span deflection is within 1.5e-4 of its range of a run
 /// at `rtol = 1e-10` (3.3e-3 at 1e-9 m; 1.0e-4 with a uniform `atol = 1e-9`, in 33 % more
 /// steps; docs/design.md §3).
-pub(crate) const ATOL_PER_RTOL: f64 = 1e-4;
+const ATOL_PER_RTOL: f64 = 1e-4;
 
 impl Study {
+    /// `analysis.error_weights` as the deck writes it.
+    pub(crate) fn error_weights_name(&self) -> &'static str {
+        if self.displacement_weights {
+            "displacement"
+        } else {
+            "uniform"
+        }
+    }
+
     /// The integrator's options with one absolute tolerance per state component, and the
     /// mechanism's `atol`. With `error_weights = "displacement"` each body's `atol` (its own,
     /// or `analysis.atol`, by default [`ATOL_PER_RTOL`] · `rtol` · the mechanism's size) is a

@@ -349,7 +349,7 @@ fn settings(md: &mut String, st: &Settings) -> serde_json::Value {
     json!({
         "t_start": t0, "t_end": t1, "output_step": st.output_step,
         "variable_step": variable_step, "rtol": opt.rtol, "atol": atol,
-        "error_weights": if mech.displacement_weights { "displacement" } else { "uniform" },
+        "error_weights": mech.error_weights_name(),
         "fixed_step": st.fixed_step,
         "forward_sizes": SIZES, "fig6_size": FIG6_SIZE, "central_size": CHECK_SIZE,
         "bodies": mesh_json, "overrides": st.overrides, "threads": st.jobs,
