@@ -58,10 +58,10 @@ pub use assembly::{
 };
 pub use beam::BeamSection;
 pub use body::{
-    Damping, ModalAnalysis, ModalOptions, ModeUpdate, RayleighDamping, ReferenceCondition, Support,
-    add_planar_constraints, analysis_constraints, analysis_derivatives,
-    analysis_eigenvalue_derivatives, design_matrices, modal_analysis, modal_body, modal_body_dual,
-    planar_axis, reference_constraints, second_derivative_terms,
+    CorrectionDamping, Damping, ModalAnalysis, ModalOptions, ModeUpdate, RayleighDamping,
+    ReferenceCondition, Support, add_planar_constraints, analysis_constraints,
+    analysis_derivatives, analysis_eigenvalue_derivatives, design_matrices, modal_analysis,
+    modal_body, modal_body_dual, planar_axis, reference_constraints, second_derivative_terms,
 };
 pub use completeness::{Completeness, InterfaceLoads, LoadCase, static_completeness};
 pub use correction::{Coupling, Distribution, StaticCorrection, distribution};
