@@ -93,6 +93,8 @@ write("value_unknown_integrator.toml", edit(PENDULUM, "t_end = 0.5\n", 't_end = 
 write("value_unknown_error_weights.toml", edit(PENDULUM, "t_end = 0.5\n", 't_end = 0.5\nerror_weights = "metres"\n'))
 write("value_negative_rigid_atol.toml", edit(PENDULUM, "mass = 1.0", "mass = 1.0\natol = -1e-9"))
 write("value_baumgarte_negative.toml", edit(PENDULUM, "t_end = 0.5\n", "t_end = 0.5\nbaumgarte = { alpha = -5.0, beta = 5.0 }\n"))
+write("value_correction_damping_negative.toml", edit(BEAM, 'correction_damping = "proportional"', "correction_damping = -0.1"))
+write("value_correction_damping_word.toml", edit(BEAM, 'correction_damping = "proportional"', 'correction_damping = "critical"'))
 write("value_zero_mass.toml", edit(PENDULUM, "mass = 1.0", "mass = 0.0"))
 write("value_inertia_negative.toml", edit(PENDULUM, "inertia = [0.01, 0.01, 0.01]", "inertia = [0.01, -0.01, 0.01]"))
 write("value_inertia_triangle.toml", edit(PENDULUM, "inertia = [0.01, 0.01, 0.01]", "inertia = [0.01, 0.01, 0.05]"))

@@ -173,6 +173,13 @@ const CASES: &[(&str, &str, &str, &str, Command)] = &[
     ),
     (
         "[body.NAME]",
+        "correction_damping",
+        "slider_crank_beam.toml",
+        "body.rod",
+        Command::Modes,
+    ),
+    (
+        "[body.NAME]",
         "mass",
         "modes_beam_rod.toml",
         "body.rod",

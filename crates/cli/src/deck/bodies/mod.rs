@@ -16,7 +16,8 @@ mod reduction;
 mod sets;
 mod shape;
 
-use reduction::{damping, modes, reference};
+pub use reduction::CORRECTION_DAMPING_DEFAULT;
+use reduction::{correction_damping, damping, modes, reference};
 pub use sets::{InterfaceDef, InterfaceSite, interface_loads};
 use sets::{couplings, interface_nodes, supports};
 use shape::{element_count, shape};
@@ -69,6 +70,8 @@ pub struct BodyDef {
     /// Normal of the plane the modes are restricted to.
     pub planar: Option<Vector3<f64>>,
     pub damping: Option<fem::Damping>,
+    /// Damping of the correction modes (`correction_damping`).
+    pub correction_damping: fem::CorrectionDamping,
     pub lumped: bool,
     /// Static correction nodes (mesh nodes).
     pub correction: Vec<usize>,
@@ -202,6 +205,7 @@ pub fn validate_one(
     let supports = supports(src, name, raw.supports.as_deref().unwrap_or(&[]))?;
     check_supports(src, name, raw, table.clone(), &reference, &supports)?;
     let damping = damping(src, name, raw, auto_modes, &mut computed)?;
+    let correction_damping = correction_damping(src, name, raw)?;
     let lumped = lumped(src, name, raw)?;
     let planar = planar(src, name, raw)?;
     let couplings = couplings(src, name, raw.couplings.as_ref())?;
@@ -257,6 +261,7 @@ pub fn validate_one(
         reference,
         planar,
         damping,
+        correction_damping,
         lumped,
         correction,
         interface,

@@ -207,3 +207,40 @@ pub(super) fn damping(
         }
     })
 }
+
+/// The correction modes' least damping ratio when the deck does not say: enough that they stop
+/// ringing at their Ritz frequencies within a few periods, which an undamped body otherwise
+/// resolves at great cost, small enough that their quasi-static response barely lags
+/// ([`fem::CorrectionDamping`]; docs/design.md, "Damping of the correction modes").
+pub const CORRECTION_DAMPING_DEFAULT: f64 = 0.1;
+
+/// A body's `correction_damping`: the least damping ratio of its correction modes (≥ 0), or
+/// `"proportional"` (the body's damping alone, as its eigenmodes').
+pub(super) fn correction_damping(
+    src: &Source,
+    name: &str,
+    raw: &RawBody,
+) -> Result<fem::CorrectionDamping, DeckError> {
+    let Some(value) = &raw.correction_damping else {
+        return Ok(fem::CorrectionDamping::AtLeast(CORRECTION_DAMPING_DEFAULT));
+    };
+    let ratio = match value.get_ref() {
+        toml::Value::String(s) if s == "proportional" => {
+            return Ok(fem::CorrectionDamping::Proportional);
+        }
+        toml::Value::Float(x) => Some(*x),
+        toml::Value::Integer(i) => Some(*i as f64),
+        _ => None,
+    };
+    match ratio {
+        Some(z) if z.is_finite() && z >= 0.0 => Ok(fem::CorrectionDamping::AtLeast(z)),
+        _ => Err(src.error(
+            span(value),
+            Some(format!("body.{name}.correction_damping")),
+            format!(
+                "{} is not a damping ratio ≥ 0 (e.g. 0.1, the default; 1 is critical) or \"proportional\"",
+                value.get_ref()
+            ),
+        )),
+    }
+}

@@ -194,9 +194,12 @@ pub struct RawBody {
     /// typically the nodes the body's joints act at; replaces the interface basis's choice.
     pub correction: Option<Spanned<Vec<i64>>>,
     /// `"interface"` (static correction modes at every coupling and every node a joint or
-    /// force acts at; the default for shells) or `"modes"` (eigenmodes only; the default for
-    /// beams).
+    /// force acts at; the default, but for free and partly free bodies) or `"modes"`
+    /// (eigenmodes only).
     pub basis: Option<Spanned<String>>,
+    /// The correction modes' least damping ratio (default 0.1), or `"proportional"` (the
+    /// body's `damping` alone, as its eigenmodes').
+    pub correction_damping: Option<Spanned<toml::Value>>,
     /// The largest share of the static compliance under the mechanism's loads that the basis
     /// may miss before a warning (and the target of `modes = "auto"`); default 0.02.
     pub basis_tolerance: Option<Spanned<f64>>,

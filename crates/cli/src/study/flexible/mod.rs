@@ -285,6 +285,7 @@ pub fn build(
     options.reference = reference;
     options.planar = def.planar;
     options.damping = def.damping;
+    options.correction_damping = def.correction_damping;
     options.mass = if def.lumped {
         fem::MassKind::Lumped
     } else {
