@@ -4,11 +4,10 @@
 mod common;
 use common::*;
 
-#[test]
-fn every_shipped_deck_passes_check() {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../decks");
+/// The decks in `dir` (`.toml` files) that pass `check`, asserting that each does.
+fn check_every_deck_in(dir: &std::path::Path) -> usize {
     let mut n = 0;
-    for entry in std::fs::read_dir(&dir).unwrap() {
+    for entry in std::fs::read_dir(dir).unwrap() {
         let p = entry.unwrap().path();
         if p.extension().is_some_and(|e| e == "toml") {
             let o = run(&["check", p.to_str().unwrap()]);
@@ -22,7 +21,18 @@ fn every_shipped_deck_passes_check() {
             n += 1;
         }
     }
+    n
+}
+
+/// The shipped decks, and those of the examples and benchmarks.
+#[test]
+fn every_shipped_deck_passes_check() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let n = check_every_deck_in(&root.join("decks"));
     assert!(n >= 7, "the shipped decks were found ({n})");
+    for dir in ["examples/time_to_accuracy", "crates/cli/benches"] {
+        assert!(check_every_deck_in(&root.join(dir)) >= 1, "{dir}");
+    }
 }
 
 /// A limit beyond every count a deck can write is no limit (it used to wrap to a negative
