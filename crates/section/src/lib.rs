@@ -81,4 +81,6 @@ pub use generate::{
 };
 pub use mesh::{Element, ElementDirection, Region, SectionMesh, WallFrame};
 pub use parse::{RegionSpec, parse_gmsh, parse_simple, write_simple};
-pub use properties::{Entry, ReferencePoint, SectionProperties, SectionSensitivities};
+pub use properties::{
+    Entry, ReferencePoint, SectionProperties, SectionSensitivities, stiffness_from_centres,
+};

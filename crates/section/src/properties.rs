@@ -4,6 +4,8 @@ use nalgebra::{Matrix4, Matrix6, SMatrix};
 use sens::Scalar;
 use std::ops::Mul;
 
+use crate::error::SectionError;
+
 /// Everything the analysis gives about a section (SI units).
 ///
 /// Ordering of generalised strains `[ε, γ₂, γ₃, κ₁, κ₂, κ₃]` and section forces
@@ -130,7 +132,97 @@ fn force_shift(p: [f64; 2]) -> Matrix6<f64> {
     h
 }
 
+/// The 6×6 stiffness about the origin of a section whose axial and bending stiffnesses
+/// `EA`, `EI₂`, `EI₃` act about its tension centre `t` and its shear and torsion stiffnesses
+/// `GA₂`, `GA₃`, `GJ` about its shear centre `s`, without couplings there (`diagonal` in the
+/// order of the strains: `[EA, GA₂, GA₃, GJ, EI₂, EI₃]`): the strain energy
+/// `½ (EA ε_t² + GA₂ γ₂ₛ² + GA₃ γ₃ₛ² + GJ κ₁² + EI₂ κ₂² + EI₃ κ₃²)` with the axial strain at
+/// `t`, `ε_t = ε + t₃ κ₂ − t₂ κ₃`, and the shear strains at `s`, `γ₂ₛ = γ₂ − s₃ κ₁`,
+/// `γ₃ₛ = γ₃ + s₂ κ₁` (the strains of [`SectionProperties::stiffness_at`] at those points).
+pub fn stiffness_from_centres(
+    diagonal: [f64; 6],
+    tension_centre: [f64; 2],
+    shear_centre: [f64; 2],
+) -> Matrix6<f64> {
+    let [t2, t3] = tension_centre;
+    let [s2, s3] = shear_centre;
+    // rows: the strains at the centres as functions of the strains at the origin
+    let mut g = Matrix6::identity();
+    g[(0, 4)] = t3;
+    g[(0, 5)] = -t2;
+    g[(1, 3)] = -s3;
+    g[(2, 3)] = s2;
+    g.transpose() * Matrix6::from_diagonal(&nalgebra::Vector6::from(diagonal)) * g
+}
+
 impl SectionProperties {
+    /// A section given by its properties instead of analysed: the 6×6 `stiffness` about the
+    /// origin (symmetric and positive definite, to 1e-9 of its largest entry), the mass per
+    /// length, the mass centre and the mass inertias `[I₂₂, I₃₃, I₂₃]` about it (positive
+    /// definite). The compliance, the classical stiffness and the centres follow from the
+    /// stiffness as for an analysed section; the area is unknown (NaN).
+    pub fn given(
+        stiffness: Matrix6<f64>,
+        mass_per_length: f64,
+        mass_centre: [f64; 2],
+        mass_inertia: [f64; 3],
+    ) -> Result<Self, SectionError> {
+        let bad = |what: String| Err(SectionError::InvalidInput(what));
+        let finite = stiffness.iter().all(|x| x.is_finite())
+            && mass_per_length.is_finite()
+            && mass_centre
+                .iter()
+                .chain(&mass_inertia)
+                .all(|x| x.is_finite());
+        if !finite {
+            return bad("the section's properties must be finite numbers".into());
+        }
+        let asymmetry = (stiffness - stiffness.transpose()).amax();
+        if asymmetry > 1e-9 * stiffness.amax() {
+            return bad(format!(
+                "the stiffness matrix is not symmetric (entries differ by {asymmetry:e} from \
+                 their transposes)"
+            ));
+        }
+        let stiffness = (stiffness + stiffness.transpose()) / 2.0;
+        if stiffness.cholesky().is_none() {
+            return bad(
+                "the stiffness matrix is not positive definite (a section stores energy under \
+                 every strain)"
+                    .into(),
+            );
+        }
+        let [i22, i33, i23] = mass_inertia;
+        if mass_per_length <= 0.0 {
+            return bad(format!(
+                "mass per length {mass_per_length} must be positive (kg/m)"
+            ));
+        }
+        if !(i22 > 0.0 && i33 > 0.0 && i22 * i33 > i23 * i23) {
+            return bad(format!(
+                "the mass inertias [{i22}, {i33}, {i23}] must be positive definite (I22 > 0, \
+                 I33 > 0, I22 I33 > I23²; kg·m)"
+            ));
+        }
+        let Some(compliance) = stiffness.try_inverse() else {
+            return bad("the stiffness matrix cannot be inverted".into());
+        };
+        let Some(p) = Props::from_compliance(compliance) else {
+            return bad("the stiffness matrix cannot be inverted".into());
+        };
+        Ok(SectionProperties {
+            stiffness,
+            compliance,
+            classical_stiffness: p.classical,
+            area: f64::NAN,
+            mass_per_length,
+            mass_centre,
+            mass_inertia,
+            tension_centre: p.tension_centre,
+            shear_centre: p.shear_centre,
+        })
+    }
+
     /// The 6×6 stiffness referred to the point `p` (generalised strains and forces of a beam
     /// whose reference axis passes through `p`): `K_P = H K Hᵀ`.
     pub fn stiffness_at(&self, p: [f64; 2]) -> Matrix6<f64> {
