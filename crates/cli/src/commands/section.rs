@@ -27,20 +27,23 @@ fn stiffness_unit(split: usize) -> impl Fn(usize, usize) -> String {
 }
 
 fn quantities(p: &SectionProperties) -> Vec<Quantity> {
-    vec![
-        Quantity::scalar("area", "m^2", p.area),
-        Quantity::scalar("mass_per_length", "kg/m", p.mass_per_length),
-        Quantity::vector("mass_centre", "m", &p.mass_centre),
-        Quantity::vector("mass_inertia", "kg*m", &p.mass_inertia),
-        Quantity::vector("tension_centre", "m", &p.tension_centre),
-        Quantity::vector("shear_centre", "m", &p.shear_centre),
-        Quantity::matrix("stiffness", "", 6, 6, |r, c| p.stiffness[(r, c)])
-            .with_units(stiffness_unit(3)),
-        Quantity::matrix("classical_stiffness", "", 4, 4, |r, c| {
-            p.classical_stiffness[(r, c)]
-        })
-        .with_units(stiffness_unit(1)),
-    ]
+    // a section given by its properties has no area
+    let area = (!p.area.is_nan()).then(|| Quantity::scalar("area", "m^2", p.area));
+    area.into_iter()
+        .chain([
+            Quantity::scalar("mass_per_length", "kg/m", p.mass_per_length),
+            Quantity::vector("mass_centre", "m", &p.mass_centre),
+            Quantity::vector("mass_inertia", "kg*m", &p.mass_inertia),
+            Quantity::vector("tension_centre", "m", &p.tension_centre),
+            Quantity::vector("shear_centre", "m", &p.shear_centre),
+            Quantity::matrix("stiffness", "", 6, 6, |r, c| p.stiffness[(r, c)])
+                .with_units(stiffness_unit(3)),
+            Quantity::matrix("classical_stiffness", "", 4, 4, |r, c| {
+                p.classical_stiffness[(r, c)]
+            })
+            .with_units(stiffness_unit(1)),
+        ])
+        .collect()
 }
 
 fn report(
@@ -50,6 +53,9 @@ fn report(
     vars: &[DesignVariable],
 ) -> Result<Report, String> {
     let mesh = &def.mesh;
+    if let Some(given) = &def.given {
+        return Ok(given_report(name, given));
+    }
     let (values, derivs) = if derivatives {
         // per region's ply angle, or per [design.*] variable that moves the section
         let design = if vars.is_empty() {
@@ -111,6 +117,25 @@ fn report(
         values: quantities(&values),
         derivatives: derivs,
     })
+}
+
+/// The report of a section given by its properties: what the deck gave and what follows from
+/// it (compliance-derived centres and classical stiffness); no design variable moves it.
+fn given_report(name: &str, p: &SectionProperties) -> Report {
+    let mut info = serde_json::Map::new();
+    info.insert("shape".into(), json!("properties"));
+    Report {
+        kind: "section",
+        name: name.into(),
+        preamble: vec![
+            "shape properties (given, not analysed)".to_string(),
+            "strains [eps, gamma2, gamma3, kappa1, kappa2, kappa3], forces [F1, F2, F3, M1, M2, M3], about the origin"
+                .to_string(),
+        ],
+        info,
+        values: quantities(p),
+        derivatives: Vec::new(),
+    }
 }
 
 /// Run the command; the returned text goes to stdout.

@@ -61,7 +61,7 @@ choices! {
     LAMINATE_REFERENCE: "[laminate.NAME]", "laminate.NAME.reference",
         ["mid-plane", "bottom", "top", "offset"];
     SECTION_SHAPE: "[section.NAME]", "section.NAME.shape",
-        ["rectangle", "circle", "tube", "box", "channel", "i-beam", "mesh"];
+        ["rectangle", "circle", "tube", "box", "channel", "i-beam", "mesh", "properties"];
     MESH_FORMAT: "[section.NAME]", "section.NAME.format", ["gmsh", "simple"];
     WALL_FRAME: "[section.NAME]", "section.NAME.regions.frame",
         ["tangent", "radial", "xi", "eta"];

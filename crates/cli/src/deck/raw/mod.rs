@@ -273,7 +273,8 @@ pub struct RawDamping {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawSection {
-    /// `"rectangle"`, `"circle"`, `"tube"`, `"box"` or `"mesh"`.
+    /// `"rectangle"`, `"circle"`, `"tube"`, `"box"`, `"channel"`, `"i-beam"`, `"mesh"` or
+    /// `"properties"`.
     pub shape: Option<Spanned<String>>,
     /// Circle: radius (m).
     pub radius: Option<Spanned<f64>>,
@@ -307,6 +308,37 @@ pub struct RawSection {
     pub format: Option<Spanned<String>>,
     /// Mesh (Gmsh): the properties of each physical surface group, by name.
     pub regions: Option<Spanned<BTreeMap<String, Spanned<RawRegion>>>>,
+    /// Properties: the 6×6 stiffness about the origin, row by row (N, N·m, N·m²).
+    pub stiffness: Option<Spanned<Vec<Vec<f64>>>>,
+    /// Properties: axial stiffness about the tension centre (N).
+    #[serde(rename = "EA")]
+    pub ea: Option<Spanned<f64>>,
+    /// Properties: shear stiffness along x₂ at the shear centre (N).
+    #[serde(rename = "GA2")]
+    pub ga2: Option<Spanned<f64>>,
+    /// Properties: shear stiffness along x₃ at the shear centre (N).
+    #[serde(rename = "GA3")]
+    pub ga3: Option<Spanned<f64>>,
+    /// Properties: torsion stiffness about the shear centre (N·m²).
+    #[serde(rename = "GJ")]
+    pub gj: Option<Spanned<f64>>,
+    /// Properties: bending stiffness about x₂ through the tension centre (N·m²).
+    #[serde(rename = "EI2")]
+    pub ei2: Option<Spanned<f64>>,
+    /// Properties: bending stiffness about x₃ through the tension centre (N·m²).
+    #[serde(rename = "EI3")]
+    pub ei3: Option<Spanned<f64>>,
+    /// Properties: tension centre `[x₂, x₃]` (m, default the origin).
+    pub tension_centre: Option<Spanned<[f64; 2]>>,
+    /// Properties: shear centre `[x₂, x₃]` (m, default the origin).
+    pub shear_centre: Option<Spanned<[f64; 2]>>,
+    /// Properties: mass per unit length (kg/m).
+    pub mass_per_length: Option<Spanned<f64>>,
+    /// Properties: mass centre `[x₂, x₃]` (m, default the origin).
+    pub mass_centre: Option<Spanned<[f64; 2]>>,
+    /// Properties: mass moments of inertia per unit length about the mass centre,
+    /// `[I₂₂, I₃₃]` or `[I₂₂, I₃₃, I₂₃]` (kg·m).
+    pub inertia: Option<Spanned<Vec<f64>>>,
 }
 
 /// A ply of a tube wall.

@@ -13,6 +13,7 @@ use super::laminates::LaminateModel;
 use super::raw::{RawRegion, RawSection};
 use super::{DeckError, Source};
 
+mod given;
 mod mesh_file;
 mod shapes;
 
@@ -80,6 +81,9 @@ pub struct SectionDef {
     pub generated: Option<Box<section::GeneratedSection>>,
     /// The laminate ply each of the generator's plies is, by the ply's name.
     pub generator_plies: BTreeMap<String, PlyRef>,
+    /// A section given by its properties (`shape = "properties"`), not analysed: its mesh is
+    /// empty and no design variable moves it.
+    pub given: Option<Box<section::SectionProperties>>,
 }
 
 impl SectionDef {
@@ -297,6 +301,17 @@ pub fn validate_one(
     let mut materials: HashMap<String, String> = HashMap::new();
     let solid_material = raw.material.as_ref().map(|m| m.get_ref().clone());
     let mut generated = None;
+    if shape_name == "properties" {
+        return Ok(SectionDef {
+            shape: shape_name.to_string(),
+            mesh: SectionMesh::default(),
+            plies: Vec::new(),
+            materials: Vec::new(),
+            generated: None,
+            generator_plies: BTreeMap::new(),
+            given: Some(Box::new(shape_ctx.given()?)),
+        });
+    }
     let mesh = match shape_name {
         "circle" => shape_ctx.circle()?,
         "rectangle" => shape_ctx.rectangle()?,
@@ -363,6 +378,7 @@ pub fn validate_one(
         materials,
         generated,
         generator_plies,
+        given: None,
     })
 }
 

@@ -61,6 +61,24 @@ impl Shape<'_> {
             ("file", raw.file.as_ref().map(|x| x.span())),
             ("format", raw.format.as_ref().map(|x| x.span())),
             ("regions", raw.regions.as_ref().map(|x| x.span())),
+            ("stiffness", raw.stiffness.as_ref().map(|x| x.span())),
+            ("EA", raw.ea.as_ref().map(|x| x.span())),
+            ("GA2", raw.ga2.as_ref().map(|x| x.span())),
+            ("GA3", raw.ga3.as_ref().map(|x| x.span())),
+            ("GJ", raw.gj.as_ref().map(|x| x.span())),
+            ("EI2", raw.ei2.as_ref().map(|x| x.span())),
+            ("EI3", raw.ei3.as_ref().map(|x| x.span())),
+            (
+                "tension_centre",
+                raw.tension_centre.as_ref().map(|x| x.span()),
+            ),
+            ("shear_centre", raw.shear_centre.as_ref().map(|x| x.span())),
+            (
+                "mass_per_length",
+                raw.mass_per_length.as_ref().map(|x| x.span()),
+            ),
+            ("mass_centre", raw.mass_centre.as_ref().map(|x| x.span())),
+            ("inertia", raw.inertia.as_ref().map(|x| x.span())),
         ];
         let allowed: &[&str] = match shape_name {
             "rectangle" => &["width", "height", "material", "angle", "elements"],
@@ -81,6 +99,20 @@ impl Shape<'_> {
                 "elements_per_ply",
             ],
             "mesh" => &["file", "format", "regions"],
+            "properties" => &[
+                "stiffness",
+                "EA",
+                "GA2",
+                "GA3",
+                "GJ",
+                "EI2",
+                "EI3",
+                "tension_centre",
+                "shear_centre",
+                "mass_per_length",
+                "mass_centre",
+                "inertia",
+            ],
             _ => &[],
         };
         if !allowed.is_empty() {

@@ -115,7 +115,9 @@ impl Design {
                 ..
             } => {
                 let steps: Vec<f64> = b.iter().zip(values).map(|(bj, b0)| bj.v - b0).collect();
-                let section = if steps.iter().any(|&s| s != 0.0) {
+                // a section given by its properties has no mesh, and nothing moves it
+                let analysed = !mesh.elements.is_empty();
+                let section = if analysed && steps.iter().any(|&s| s != 0.0) {
                     let mut at = (**mesh).clone();
                     for (j, &step) in steps.iter().enumerate() {
                         at = map.step(&at, j, step);

@@ -320,9 +320,19 @@ fn beam(
             (Some(map), materials)
         }
     };
-    let s = match &map {
-        Some(map) => section_derivatives(&section.mesh, map),
-        None => section::analyse(&section.mesh).map(|p| SectionSensitivities {
+    let s = match (&section.given, &map) {
+        // given by its properties: no variable moves it
+        (Some(given), _) => Ok(SectionSensitivities {
+            properties: (**given).clone(),
+            variables: map
+                .iter()
+                .flat_map(|m| &m.variables)
+                .map(|v| v.name.clone())
+                .collect(),
+            derivatives: vec![Default::default(); map.as_ref().map_or(0, |m| m.variables.len())],
+        }),
+        (None, Some(map)) => section_derivatives(&section.mesh, map),
+        (None, None) => section::analyse(&section.mesh).map(|p| SectionSensitivities {
             properties: p,
             ..Default::default()
         }),

@@ -1,0 +1,203 @@
+//! `shape = "properties"`: a beam section given by its stiffness and mass properties instead of
+//! analysed. Given the paper's tube's own analysed properties, it is that tube: the same
+//! modes and the same run. Given by its stiffnesses about centres off the axis, it couples as
+//! the strain energy says; bad properties are located.
+
+mod common;
+use common::*;
+
+/// The beam deck with its tube section replaced by `table` (the body of a `[section.tube]`).
+fn beam_deck_with_section(table: &str) -> String {
+    let text = std::fs::read_to_string(deck("slider_crank_beam.toml")).unwrap();
+    let start = text.find("[section.tube]").unwrap();
+    let end = start + text[start..].find("\n\n").unwrap();
+    format!("{}[section.tube]\n{table}{}", &text[..start], &text[end..])
+}
+
+/// The tube's analysed properties as a `shape = "properties"` table (full precision).
+fn tube_as_properties() -> String {
+    let j = json(&[
+        "section",
+        deck("slider_crank_beam.toml").to_str().unwrap(),
+        "--format",
+        "json",
+    ]);
+    let v = &j["sections"]["tube"]["values"];
+    let rows: Vec<String> = matrix(&v["stiffness"])
+        .iter()
+        .map(|r| {
+            let r: Vec<String> = r.iter().map(|x| format!("{x:e}")).collect();
+            format!("[{}]", r.join(", "))
+        })
+        .collect();
+    let pair = |k: &str| {
+        let x: Vec<String> = v[k]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| format!("{:e}", x.as_f64().unwrap()))
+            .collect();
+        format!("[{}]", x.join(", "))
+    };
+    format!(
+        "shape = \"properties\"\nstiffness = [{}]\nmass_per_length = {:e}\nmass_centre = {}\n\
+         inertia = {}\n",
+        rows.join(", "),
+        v["mass_per_length"].as_f64().unwrap(),
+        pair("mass_centre"),
+        pair("mass_inertia")
+    )
+}
+
+fn write(dir: &tempfile::TempDir, name: &str, text: &str) -> String {
+    let path = dir.path().join(name);
+    std::fs::write(&path, text).unwrap();
+    path.display().to_string()
+}
+
+/// The modes' frequencies (Hz) of `deck`.
+fn frequencies(deck: &str) -> Vec<f64> {
+    let j = json(&["modes", deck, "--format", "json"]);
+    j["bodies"]["rod"]["values"]["frequencies"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect()
+}
+
+/// The run's mid-span deflection history (no sensitivities).
+fn deflection(dir: &tempfile::TempDir, deck: &str, out: &str) -> Vec<f64> {
+    let out = dir.path().join(out);
+    json(&[
+        "run",
+        deck,
+        "-o",
+        out.to_str().unwrap(),
+        "--json",
+        "--set",
+        "analysis.t_end=0.01",
+        "--set",
+        "sensitivity.enabled=false",
+        "--set",
+        "finite_differences.enabled=false",
+    ]);
+    let g = flexsens::results::Group::read_hdf5(&out.join("results.h5")).unwrap();
+    f64s(&g, "responses/mid_deflection")
+}
+
+#[test]
+fn a_section_given_by_the_tubes_properties_is_the_tube() {
+    let dir = tempfile::tempdir().unwrap();
+    let analysed = deck("slider_crank_beam.toml").display().to_string();
+    let given = write(
+        &dir,
+        "given.toml",
+        &beam_deck_with_section(&tube_as_properties()),
+    );
+    let (fa, fg) = (frequencies(&analysed), frequencies(&given));
+    assert_eq!(fa.len(), fg.len());
+    for (a, g) in fa.iter().zip(&fg) {
+        assert!((a - g).abs() <= 1e-12 * a, "{a} Hz against {g} Hz");
+    }
+    let (a, g) = (
+        deflection(&dir, &analysed, "a"),
+        deflection(&dir, &given, "g"),
+    );
+    assert_eq!(a.len(), g.len());
+    let peak = a.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    assert!(peak > 1e-4);
+    // the same model to round-off (the modes to 1e-12): the adaptive runs agree to well within
+    // their tolerance (measured 7e-8 of the peak, from a step sequence that round-off moved)
+    let d = worst_difference(&a, &g);
+    assert!(d <= 1e-6 * peak, "{d:e} of {peak:e}");
+}
+
+/// The stiffness `flexsens section` reports about the origin for a section given by `EA … EI3`
+/// about centres off the axis, against the closed form of the strain energy with the axial
+/// strain at the tension centre `t` (`ε + t₃κ₂ − t₂κ₃`) and the shear strains at the shear
+/// centre `s` (`γ₂ − s₃κ₁`, `γ₃ + s₂κ₁`): `K₁₆ = −t₂ EA`, `K₁₅ = t₃ EA`, `K₆₆ = EI₃ + t₂² EA`,
+/// `K₃₄ = s₂ GA₃`, `K₂₄ = −s₃ GA₂`, `K₄₄ = GJ + s₂² GA₃ + s₃² GA₂`; at the origin the values
+/// are the diagonal, each key in its place.
+#[test]
+fn stiffnesses_about_offset_centres_couple_as_the_strain_energy_says() {
+    let dir = tempfile::tempdir().unwrap();
+    let (ea, ga2, ga3, gj, ei2, ei3) = (2.1e7, 7.0e6, 6.0e6, 150.0, 110.0, 2600.0);
+    let stiffness = |t: [f64; 2], s: [f64; 2]| {
+        let deck = format!(
+            "[section.bar]\nshape = \"properties\"\nEA = {ea:e}\nGA2 = {ga2:e}\nGA3 = {ga3:e}\n\
+             GJ = {gj:e}\nEI2 = {ei2:e}\nEI3 = {ei3:e}\ntension_centre = [{:e}, {:e}]\n\
+             shear_centre = [{:e}, {:e}]\nmass_per_length = 0.54\ninertia = [2.5e-6, 7.2e-5]\n",
+            t[0], t[1], s[0], s[1]
+        );
+        let path = write(&dir, "bar.toml", &deck);
+        let j = json(&["section", &path, "--format", "json"]);
+        matrix(&j["sections"]["bar"]["values"]["stiffness"])
+    };
+    let k = stiffness([0.0, 0.0], [0.0, 0.0]);
+    for (i, v) in [ea, ga2, ga3, gj, ei2, ei3].iter().enumerate() {
+        for j in 0..6 {
+            let expected = if i == j { *v } else { 0.0 };
+            assert_eq!(k[i][j], expected, "K{}{}", i + 1, j + 1);
+        }
+    }
+    let (t, s) = ([0.005, -0.002], [-0.008, 0.003]);
+    let k = stiffness(t, s);
+    let close = |got: f64, expected: f64| (got - expected).abs() <= 1e-12 * expected.abs();
+    for (got, expected, what) in [
+        (k[0][5], -t[0] * ea, "K16"),
+        (k[0][4], t[1] * ea, "K15"),
+        (k[5][5], ei3 + t[0] * t[0] * ea, "K66"),
+        (k[4][4], ei2 + t[1] * t[1] * ea, "K55"),
+        (k[4][5], -t[0] * t[1] * ea, "K56"),
+        (k[2][3], s[0] * ga3, "K34"),
+        (k[1][3], -s[1] * ga2, "K24"),
+        (k[3][3], gj + s[0] * s[0] * ga3 + s[1] * s[1] * ga2, "K44"),
+        (k[0][0], ea, "K11"),
+        (k[1][1], ga2, "K22"),
+    ] {
+        assert!(close(got, expected), "{what}: {got:e} against {expected:e}");
+    }
+}
+
+#[test]
+fn properties_that_are_no_section_are_located() {
+    let good = tube_as_properties();
+    for (edit, key, says) in [
+        (
+            good.replace("mass_per_length = ", "mass_per_length = -"),
+            "section.tube.mass_per_length",
+            "must be a positive",
+        ),
+        (
+            good.replacen("stiffness = [[", "stiffness = [[-", 1),
+            "section.tube",
+            "not positive definite",
+        ),
+        (format!("{good}EA = 1e7\n"), "section.tube.EA", "not both"),
+        (
+            good.replace("inertia = [", "inertia = [1.0, "),
+            "section.tube.inertia",
+            "[I22, I33, I23]",
+        ),
+        (
+            "shape = \"properties\"\nEA = 1e7\nmass_per_length = 1.0\ninertia = [1e-6, 1e-6]\n"
+                .to_string(),
+            "section.tube.GA2",
+            "GA2",
+        ),
+        (
+            format!("{good}width = 0.01\n"),
+            "section.tube.width",
+            "does not apply",
+        ),
+    ] {
+        let (_dir, err) = bad_deck(&beam_deck_with_section(&edit), |p| {
+            vec!["check".into(), p.display().to_string()]
+        });
+        assert!(
+            err.contains(&format!("key `{key}`")) && err.contains(says),
+            "{key}: {err}"
+        );
+    }
+}
