@@ -201,3 +201,160 @@ fn properties_that_are_no_section_are_located() {
         );
     }
 }
+
+/// The steel slider-crank of `examples/time_to_accuracy` with its 6 mm rod given by the closed
+/// forms of a solid circle (`EA = EπR²`, `EI = EπR⁴/4`, `GJ = GπR⁴/2`, `GA = κGπR²` with
+/// Timoshenko's `κ = 6(1 + ν)/(7 + 6ν)`), the rod's `EI3` and mass per length as design
+/// variables, 20 ms.
+fn steel_rod_by_closed_forms() -> String {
+    let text = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../examples/time_to_accuracy/steel_slider_crank.toml"),
+    )
+    .unwrap();
+    let (r, e, nu, rho) = (3e-3, 2.0e11, 0.3, 7850.0);
+    let g = e / (2.0 * (1.0 + nu));
+    let pi = std::f64::consts::PI;
+    let (a, i) = (pi * r * r, pi * r.powi(4) / 4.0);
+    let kappa = 6.0 * (1.0 + nu) / (7.0 + 6.0 * nu);
+    let table = format!(
+        "[section.rod]\nshape = \"properties\"\nEA = {:e}\nGA2 = {:e}\nGA3 = {:e}\nGJ = {:e}\n\
+         EI2 = {:e}\nEI3 = {:e}\nmass_per_length = {:e}\ninertia = [{:e}, {:e}]",
+        e * a,
+        kappa * g * a,
+        kappa * g * a,
+        g * 2.0 * i,
+        e * i,
+        e * i,
+        rho * a,
+        rho * i,
+        rho * i
+    );
+    let start = text.find("[section.rod]").unwrap();
+    let end = start + text[start..].find("\n\n").unwrap();
+    let design = "[design.ei]\nkind = \"section-property\"\nsection = \"rod\"\nentry = \"EI3\"\n\n\
+         [design.mass]\nkind = \"section-property\"\nsection = \"rod\"\n\
+         entry = \"mass_per_length\"\n\n[objective.peak]\nresponse = \"mid_deflection\"\n\
+         kind = \"max\"\n\n[sensitivity]\nmethod = \"direct\"\n\n[finite_differences]\n\
+         scheme = \"central\"\nsizes = [0.0001]\nsteps = \"replay\"\n\n[analysis]";
+    format!("{}{table}{}", &text[..start], &text[end..]).replace("[analysis]", design)
+}
+
+/// The rod given by closed forms is the analysed 6 mm circle (first frequency within 1e-4);
+/// the derivatives with respect to its `EI3` and mass per length equal replayed central
+/// differences of whole runs (measured 3.3e-6 of the largest) and have the physics' signs
+/// and sizes: the peak deflection, an inertial load over a bending stiffness, falls as `EI3`
+/// rises and grows with the mass, each at about the power one (−1.11 and +1.23 here, the
+/// rest the dynamics of the sudden start).
+#[test]
+fn section_property_derivatives_equal_replayed_differences() {
+    let dir = tempfile::tempdir().unwrap();
+    let given = write(&dir, "steel.toml", &steel_rod_by_closed_forms());
+    let analysed = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../examples/time_to_accuracy/steel_slider_crank.toml");
+    let (fg, fa) = (frequencies(&given), frequencies(analysed.to_str().unwrap()));
+    assert!(
+        (fg[0] / fa[0] - 1.0).abs() < 1e-4,
+        "{} against {} Hz",
+        fg[0],
+        fa[0]
+    );
+    let out = dir.path().join("out");
+    let j = json(&[
+        "run",
+        &given,
+        "-o",
+        out.to_str().unwrap(),
+        "--json",
+        "--set",
+        "analysis.t_end=0.02",
+    ]);
+    let g = flexsens::results::Group::read_hdf5(&out.join("results.h5")).unwrap();
+    let direct = f64s(&g, "sensitivities/mid_deflection");
+    let fd = f64s(
+        &g,
+        "finite_differences/central_relative_0.0001_replay/mid_deflection",
+    );
+    for v in 0..2 {
+        let col = |x: &[f64]| -> Vec<f64> { x.iter().skip(v).step_by(2).copied().collect() };
+        let (d, f) = (col(&direct), col(&fd));
+        // relative to the largest derivative
+        let err = worst_difference(&d, &f);
+        assert!(err < 1e-4, "variable {v}: {err:e}");
+    }
+    let peak = &j["objectives"][0];
+    let value = peak["value"].as_f64().unwrap();
+    let gradient: Vec<f64> = peak["gradient"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    let nominal: Vec<f64> = j["design"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|d| d["value"].as_f64().unwrap())
+        .collect();
+    let elasticity = |k: usize| gradient[k] * nominal[k] / value;
+    assert!(
+        (-1.3..-0.9).contains(&elasticity(0)),
+        "EI3: {}",
+        elasticity(0)
+    );
+    assert!(
+        (0.9..1.4).contains(&elasticity(1)),
+        "mass: {}",
+        elasticity(1)
+    );
+}
+
+#[test]
+fn section_property_variables_are_checked() {
+    let deck = steel_rod_by_closed_forms();
+    let variable =
+        "\n[design.k]\nkind = \"section-property\"\nsection = \"tube\"\nentry = \"EI3\"\n";
+    for (edit, key, says) in [
+        (
+            deck.replacen("entry = \"EI3\"", "entry = \"EI4\"", 1),
+            "design.ei.entry",
+            "unknown entry `EI4`",
+        ),
+        (
+            deck.replacen(
+                "section = \"rod\"\nentry = \"EI3\"",
+                "section = \"tube\"\nentry = \"EI3\"",
+                1,
+            ),
+            "design.ei.section",
+            "undefined section",
+        ),
+        (
+            deck.replacen("entry = \"EI3\"", "entry = \"EI3\"\nlaminate = \"x\"", 1),
+            "design.ei.laminate",
+            "does not apply",
+        ),
+        (
+            format!(
+                "{}{variable}",
+                beam_deck_with_section(&tube_as_properties())
+            ),
+            "design.k.entry",
+            "given by its 6×6 stiffness",
+        ),
+        (
+            format!(
+                "{}{variable}",
+                std::fs::read_to_string(common::deck("slider_crank_beam.toml")).unwrap()
+            ),
+            "design.k.section",
+            "is analysed",
+        ),
+    ] {
+        let (_dir, err) = bad_deck(&edit, |p| vec!["check".into(), p.display().to_string()]);
+        assert!(
+            err.contains(&format!("key `{key}`")) && err.contains(says),
+            "{key}: {err}"
+        );
+    }
+}

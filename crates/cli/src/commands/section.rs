@@ -54,7 +54,10 @@ fn report(
 ) -> Result<Report, String> {
     let mesh = &def.mesh;
     if let Some(given) = &def.given {
-        return Ok(given_report(name, given));
+        return Ok(given_report(
+            name,
+            &given.properties().map_err(|e| e.to_string())?,
+        ));
     }
     let (values, derivs) = if derivatives {
         // per region's ply angle, or per [design.*] variable that moves the section

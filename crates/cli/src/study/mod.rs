@@ -477,6 +477,9 @@ impl Study {
                 )
             })?;
         }
+        for f in &mut study.flexible_bodies {
+            move_given_section(&mut f.def, &self.design.variables, b);
+        }
         for (v, &bj) in self.design.variables.iter().zip(b) {
             let Some((body, axis)) = v.target.rigid() else {
                 continue;
@@ -620,6 +623,7 @@ impl Mechanism {
                 format!("its section: {e}"),
             )
         })?;
+        move_given_section(&mut def, &self.design.variables, b);
         fix_auto_modes(&mut def, part);
         Ok(def)
     }
@@ -660,6 +664,37 @@ impl Mechanism {
             set_rigid(&mut model, &self.bodies, &v.target, bj);
         }
         Ok(model)
+    }
+}
+
+/// A beam body's section given by its properties with the `section-property` variables among
+/// `variables` at their values `b` (the rest of the body moves with the laminates,
+/// [`BodyDef::at`]).
+fn move_given_section(
+    def: &mut BodyDef,
+    variables: &[crate::deck::design::DesignVariable],
+    b: &[f64],
+) {
+    let crate::deck::bodies::BodyShape::Beam {
+        section_name,
+        section,
+        ..
+    } = &mut def.shape
+    else {
+        return;
+    };
+    let Some(given) = &mut section.given else {
+        return;
+    };
+    for (v, &bj) in variables.iter().zip(b) {
+        if let Target::SectionProperty {
+            section: name,
+            entry,
+        } = &v.target
+            && name == &*section_name
+        {
+            **given = given.with(*entry, bj);
+        }
     }
 }
 

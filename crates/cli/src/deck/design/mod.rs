@@ -19,12 +19,14 @@ use super::{DeckError, RawDeck, Source};
 
 mod material;
 mod objectives;
+mod section;
 mod target;
 
 use material::material_variable;
 pub use material::{MaterialLaw, elastic, material_constants, with_material_constants};
 pub use objectives::{FdDef, FdSteps, ObjectiveDef, SensitivityScheme, objective_label};
 use objectives::{finite_differences, objective};
+use section::section_variable;
 pub use target::Target;
 
 /// A validated design variable.
@@ -93,6 +95,9 @@ impl DesignVariable {
                     ["x", "y", "z"][*axis]
                 )
             }
+            Target::SectionProperty { section, entry } => {
+                format!("{} of section `{section}`", entry.name())
+            }
         }
     }
 
@@ -115,6 +120,9 @@ impl DesignVariable {
                 material, constant, ..
             } => return vec![format!("material.{material}.{constant}={b:?}")],
             Target::RigidInertia { key, .. } => return vec![format!("{key}={b:?}")],
+            Target::SectionProperty { section, entry } => {
+                return vec![format!("section.{section}.{}={b:?}", entry.key())];
+            }
         };
         deck_plies
             .iter()
@@ -334,6 +342,16 @@ fn variable(
         ("axis", rd.axis.as_ref().and_then(span), "rigid-inertia"),
         ("material", rd.material.as_ref().and_then(span), "material"),
         ("constant", rd.constant.as_ref().and_then(span), "material"),
+        (
+            "section",
+            rd.section.as_ref().and_then(span),
+            "section-property",
+        ),
+        (
+            "entry",
+            rd.entry.as_ref().and_then(span),
+            "section-property",
+        ),
     ];
     for (key, at, kinds) in keys {
         if at.is_some() && !kinds.split(' ').any(|x| x == kind) {
@@ -346,6 +364,9 @@ fn variable(
     }
     if kind == "material" {
         return material_variable(src, raw, name, d, model);
+    }
+    if kind == "section-property" {
+        return section_variable(src, raw, name, d, model);
     }
     if kind != "ply-angle" && kind != "ply-thickness" {
         return rigid_variable(src, raw, name, d, kind);

@@ -1,6 +1,7 @@
 //! What a design variable moves.
 
 use super::MaterialLaw;
+use crate::deck::sections::SectionEntry;
 
 /// What a design variable moves.
 #[derive(Debug, Clone, PartialEq)]
@@ -44,6 +45,12 @@ pub enum Target {
         axis: usize,
         key: String,
     },
+    /// An entry of a section given by its properties (`shape = "properties"`): `EA` … `EI3`,
+    /// the mass per length or a mass inertia. Every beam body of the section follows.
+    SectionProperty {
+        section: String,
+        entry: SectionEntry,
+    },
 }
 
 impl Target {
@@ -53,7 +60,10 @@ impl Target {
         match self {
             Target::RigidMass { body } => Some((body, None)),
             Target::RigidInertia { body, axis, .. } => Some((body, Some(*axis))),
-            Target::PlyAngle { .. } | Target::PlyThickness { .. } | Target::Material { .. } => None,
+            Target::PlyAngle { .. }
+            | Target::PlyThickness { .. }
+            | Target::Material { .. }
+            | Target::SectionProperty { .. } => None,
         }
     }
 }

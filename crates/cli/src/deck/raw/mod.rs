@@ -390,8 +390,8 @@ pub struct RawRegion {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawDesign {
-    /// `"ply-angle"` (the default), `"ply-thickness"`, `"material"`, `"rigid-mass"` or
-    /// `"rigid-inertia"`.
+    /// `"ply-angle"` (the default), `"ply-thickness"`, `"material"`, `"rigid-mass"`,
+    /// `"rigid-inertia"` or `"section-property"`.
     pub kind: Option<Spanned<String>>,
     /// The laminate whose plies move.
     pub laminate: Option<Spanned<String>>,
@@ -407,6 +407,11 @@ pub struct RawDesign {
     pub material: Option<Spanned<String>>,
     /// `"material"`: the constant (`"E1"` … `"nu23"`, `"E"` of an isotropic one, `"density"`).
     pub constant: Option<Spanned<String>>,
+    /// `"section-property"`: the section (given by its properties).
+    pub section: Option<Spanned<String>>,
+    /// `"section-property"`: the entry (`"EA"` … `"EI3"`, `"mass_per_length"`, `"I22"`,
+    /// `"I33"`).
+    pub entry: Option<Spanned<String>>,
     /// `flexsens optimize`: the variable's lower bound (its unit).
     pub lower: Option<Spanned<f64>>,
     /// `flexsens optimize`: the variable's upper bound (its unit).

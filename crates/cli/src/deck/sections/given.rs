@@ -4,10 +4,171 @@
 use super::shapes::Shape;
 use super::*;
 
+/// The stiffness of a section given by its properties.
+#[derive(Debug, Clone, PartialEq)]
+pub enum GivenStiffness {
+    /// The 6×6 stiffness about the origin.
+    Matrix(Box<nalgebra::Matrix6<f64>>),
+    /// `[EA, GA2, GA3, GJ, EI2, EI3]` about the tension centre (axial, bending) and the shear
+    /// centre (shear, torsion), without couplings there.
+    Centres {
+        diagonal: [f64; 6],
+        tension_centre: [f64; 2],
+        shear_centre: [f64; 2],
+    },
+}
+
+/// A number of a section given by its properties that a design variable can move.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SectionEntry {
+    /// `EA`, `GA2`, `GA3`, `GJ`, `EI2`, `EI3` (index in that order) of a section given by
+    /// them.
+    Stiffness(usize),
+    MassPerLength,
+    /// `I22` (0) or `I33` (1).
+    Inertia(usize),
+}
+
+/// The deck's names of the entries a variable can move, in [`SectionEntry`] order.
+pub const SECTION_ENTRIES: [&str; 9] = [
+    "EA",
+    "GA2",
+    "GA3",
+    "GJ",
+    "EI2",
+    "EI3",
+    "mass_per_length",
+    "I22",
+    "I33",
+];
+
+impl SectionEntry {
+    /// The entry of a deck name of [`SECTION_ENTRIES`].
+    pub fn named(name: &str) -> Option<SectionEntry> {
+        let i = SECTION_ENTRIES.iter().position(|n| *n == name)?;
+        Some(match i {
+            0..6 => SectionEntry::Stiffness(i),
+            6 => SectionEntry::MassPerLength,
+            _ => SectionEntry::Inertia(i - 7),
+        })
+    }
+
+    /// The deck's name of the entry.
+    pub fn name(self) -> &'static str {
+        match self {
+            SectionEntry::Stiffness(i) => SECTION_ENTRIES[i],
+            SectionEntry::MassPerLength => SECTION_ENTRIES[6],
+            SectionEntry::Inertia(i) => SECTION_ENTRIES[7 + i],
+        }
+    }
+
+    /// The path of the entry's value in the section's table (a `--set` key below it).
+    pub fn key(self) -> String {
+        match self {
+            SectionEntry::Inertia(i) => format!("inertia.{i}"),
+            e => e.name().to_string(),
+        }
+    }
+
+    /// Its SI unit.
+    pub fn unit(self) -> &'static str {
+        match self {
+            SectionEntry::Stiffness(0..3) => "N",
+            SectionEntry::Stiffness(_) => "N*m^2",
+            SectionEntry::MassPerLength => "kg/m",
+            SectionEntry::Inertia(_) => "kg*m",
+        }
+    }
+}
+
+/// A section given by its properties (`shape = "properties"`): what the deck gives, so that a
+/// design variable can move an entry.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GivenSection {
+    pub stiffness: GivenStiffness,
+    pub mass_per_length: f64,
+    pub mass_centre: [f64; 2],
+    /// `[I22, I33, I23]` about the mass centre.
+    pub inertia: [f64; 3],
+}
+
+impl GivenSection {
+    /// The section's properties (checked: [`section::SectionProperties::given`]).
+    pub fn properties(&self) -> Result<section::SectionProperties, section::SectionError> {
+        let stiffness = match &self.stiffness {
+            GivenStiffness::Matrix(k) => **k,
+            GivenStiffness::Centres {
+                diagonal,
+                tension_centre,
+                shear_centre,
+            } => section::stiffness_from_centres(*diagonal, *tension_centre, *shear_centre),
+        };
+        section::SectionProperties::given(
+            stiffness,
+            self.mass_per_length,
+            self.mass_centre,
+            self.inertia,
+        )
+    }
+
+    /// The value of `entry`, `None` for a stiffness entry of a section given by its 6×6
+    /// stiffness.
+    pub fn value(&self, entry: SectionEntry) -> Option<f64> {
+        match (entry, &self.stiffness) {
+            (SectionEntry::Stiffness(i), GivenStiffness::Centres { diagonal, .. }) => {
+                Some(diagonal[i])
+            }
+            (SectionEntry::Stiffness(_), GivenStiffness::Matrix(_)) => None,
+            (SectionEntry::MassPerLength, _) => Some(self.mass_per_length),
+            (SectionEntry::Inertia(i), _) => Some(self.inertia[i]),
+        }
+    }
+
+    /// The section with `entry` at `value`.
+    pub fn with(&self, entry: SectionEntry, value: f64) -> GivenSection {
+        let mut out = self.clone();
+        match (entry, &mut out.stiffness) {
+            (SectionEntry::Stiffness(i), GivenStiffness::Centres { diagonal, .. }) => {
+                diagonal[i] = value
+            }
+            (SectionEntry::Stiffness(_), GivenStiffness::Matrix(_)) => {}
+            (SectionEntry::MassPerLength, _) => out.mass_per_length = value,
+            (SectionEntry::Inertia(i), _) => out.inertia[i] = value,
+        }
+        out
+    }
+
+    /// The derivative of the section's stiffness and mass properties with respect to `entry`
+    /// (per its unit; the fields a beam reads: stiffness, mass per length, mass centre,
+    /// inertias). The stiffness is linear in `EA` … `EI3`, the mass properties in their
+    /// entries.
+    pub fn derivative(&self, entry: SectionEntry) -> section::SectionProperties {
+        let mut d = section::SectionProperties::default();
+        match (entry, &self.stiffness) {
+            (
+                SectionEntry::Stiffness(i),
+                GivenStiffness::Centres {
+                    tension_centre,
+                    shear_centre,
+                    ..
+                },
+            ) => {
+                let mut unit = [0.0; 6];
+                unit[i] = 1.0;
+                d.stiffness = section::stiffness_from_centres(unit, *tension_centre, *shear_centre);
+            }
+            (SectionEntry::Stiffness(_), GivenStiffness::Matrix(_)) => {}
+            (SectionEntry::MassPerLength, _) => d.mass_per_length = 1.0,
+            (SectionEntry::Inertia(i), _) => d.mass_inertia[i] = 1.0,
+        }
+        d
+    }
+}
+
 impl Shape<'_> {
     /// The section's properties: `stiffness` (6×6 about the origin) or `EA`, `GA2`, `GA3`, `GJ`,
     /// `EI2`, `EI3` about the centres, with `mass_per_length`, `mass_centre` and `inertia`.
-    pub(super) fn given(&self) -> Result<section::SectionProperties, DeckError> {
+    pub(super) fn given(&self) -> Result<GivenSection, DeckError> {
         let Shape { src, raw, .. } = *self;
         let k = |key: &str| self.k(key);
         let named = [
@@ -44,7 +205,7 @@ impl Shape<'_> {
                          strains [ε, γ2, γ3, κ1, κ2, κ3]",
                     ));
                 }
-                nalgebra::Matrix6::from_fn(|i, j| rows[i][j])
+                GivenStiffness::Matrix(Box::new(nalgebra::Matrix6::from_fn(|i, j| rows[i][j])))
             }
             None => {
                 let mut diagonal = [0.0; 6];
@@ -67,11 +228,11 @@ impl Shape<'_> {
                     v.as_ref()
                         .map_or(Ok([0.0; 2]), |c| finite_pair(src, &k(key), c))
                 };
-                section::stiffness_from_centres(
+                GivenStiffness::Centres {
                     diagonal,
-                    centre("tension_centre", &raw.tension_centre)?,
-                    centre("shear_centre", &raw.shear_centre)?,
-                )
+                    tension_centre: centre("tension_centre", &raw.tension_centre)?,
+                    shear_centre: centre("shear_centre", &raw.shear_centre)?,
+                }
             }
         };
         let mass = required(
@@ -104,8 +265,14 @@ impl Shape<'_> {
                 ));
             }
         };
-        section::SectionProperties::given(stiffness, mass_per_length, mass_centre, mass_inertia)
-            .map_err(|e| self.bad(e))
+        let given = GivenSection {
+            stiffness,
+            mass_per_length,
+            mass_centre,
+            inertia: mass_inertia,
+        };
+        given.properties().map_err(|e| self.bad(e))?;
+        Ok(given)
     }
 }
 

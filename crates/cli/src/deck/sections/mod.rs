@@ -15,6 +15,8 @@ use super::{DeckError, Source};
 
 mod given;
 mod mesh_file;
+
+pub use given::{GivenSection, GivenStiffness, SECTION_ENTRIES, SectionEntry};
 mod shapes;
 
 use shapes::Shape;
@@ -82,8 +84,8 @@ pub struct SectionDef {
     /// The laminate ply each of the generator's plies is, by the ply's name.
     pub generator_plies: BTreeMap<String, PlyRef>,
     /// A section given by its properties (`shape = "properties"`), not analysed: its mesh is
-    /// empty and no design variable moves it.
-    pub given: Option<Box<section::SectionProperties>>,
+    /// empty, and only `section-property` design variables move it.
+    pub given: Option<Box<GivenSection>>,
 }
 
 impl SectionDef {

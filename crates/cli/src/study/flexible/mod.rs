@@ -321,15 +321,31 @@ fn beam(
         }
     };
     let s = match (&section.given, &map) {
-        // given by its properties: no variable moves it
-        (Some(given), _) => Ok(SectionSensitivities {
-            properties: (**given).clone(),
-            variables: map
-                .iter()
-                .flat_map(|m| &m.variables)
-                .map(|v| v.name.clone())
-                .collect(),
-            derivatives: vec![Default::default(); map.as_ref().map_or(0, |m| m.variables.len())],
+        // given by its properties: only its own entries move it, linearly
+        (Some(given), _) => given.properties().map(|properties| {
+            let derivatives = match request {
+                DesignRequest::Variables(vars) => vars
+                    .iter()
+                    .map(|v| match &v.target {
+                        crate::deck::design::Target::SectionProperty { section, entry }
+                            if section == section_name =>
+                        {
+                            given.derivative(*entry)
+                        }
+                        _ => Default::default(),
+                    })
+                    .collect(),
+                DesignRequest::None | DesignRequest::EachPly => Vec::new(),
+            };
+            SectionSensitivities {
+                properties,
+                variables: map
+                    .iter()
+                    .flat_map(|m| &m.variables)
+                    .map(|v| v.name.clone())
+                    .collect(),
+                derivatives,
+            }
         }),
         (None, Some(map)) => section_derivatives(&section.mesh, map),
         (None, None) => section::analyse(&section.mesh).map(|p| SectionSensitivities {

@@ -1,0 +1,87 @@
+//! An entry of a section given by its properties as a design variable
+//! (`kind = "section-property"`).
+
+use super::*;
+use crate::deck::sections::{SECTION_ENTRIES, SectionEntry, validate_one};
+
+/// A `section-property` variable: `section` (a `shape = "properties"` section) and `entry`
+/// (`EA` … `EI3` of a section given by them, `mass_per_length`, `I22` or `I33`), its nominal
+/// value the section's.
+pub(super) fn section_variable(
+    src: &Source,
+    raw: &RawDeck,
+    name: &str,
+    d: &Spanned<RawDesign>,
+    model: &LaminateModel,
+) -> Result<DesignVariable, DeckError> {
+    let k = |s: &str| format!("design.{name}.{s}");
+    let rd = d.get_ref();
+    let section = required(
+        src,
+        span(d),
+        &k("section"),
+        &rd.section,
+        "section (a [section.*] given by its properties)",
+    )?;
+    let sname = section.get_ref();
+    let Some(raw_section) = raw.section.get(sname) else {
+        let known: Vec<&str> = raw.section.keys().map(String::as_str).collect();
+        return Err(src.error(
+            span(section),
+            Some(k("section")),
+            format!("undefined section `{sname}`{}", suggestion(sname, &known)),
+        ));
+    };
+    let def = validate_one(src, sname, raw_section, model)?;
+    let Some(given) = def.given else {
+        return Err(src.error(
+            span(section),
+            Some(k("section")),
+            format!(
+                "section `{sname}` is analysed (shape = \"{}\"): its ply angles, ply \
+                 thicknesses and materials are the design variables that move it; \
+                 section-property variables move sections given by their properties",
+                def.shape
+            ),
+        ));
+    };
+    let e = required(
+        src,
+        span(d),
+        &k("entry"),
+        &rd.entry,
+        &format!("entry ({})", SECTION_ENTRIES.join(", ")),
+    )?;
+    let Some(entry) = SectionEntry::named(e.get_ref()) else {
+        return Err(src.error(
+            span(e),
+            Some(k("entry")),
+            format!(
+                "unknown entry `{}`: expected one of {}{}",
+                e.get_ref(),
+                SECTION_ENTRIES.join(", "),
+                suggestion(e.get_ref(), &SECTION_ENTRIES)
+            ),
+        ));
+    };
+    let Some(value) = given.value(entry) else {
+        return Err(src.error(
+            span(e),
+            Some(k("entry")),
+            format!(
+                "section `{sname}` is given by its 6×6 stiffness: give it by EA, GA2, GA3, GJ, \
+                 EI2 and EI3 to vary {}",
+                entry.name()
+            ),
+        ));
+    };
+    Ok(DesignVariable {
+        name: name.to_string(),
+        target: Target::SectionProperty {
+            section: sname.clone(),
+            entry,
+        },
+        value,
+        unit: entry.unit(),
+    })
+}
