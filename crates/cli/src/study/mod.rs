@@ -462,7 +462,8 @@ impl Study {
     /// The study at the design `b` (one value per design variable), in memory: the laminates
     /// moved ([`DesignDef::laminates_at`]), each variable at its value there
     /// ([`DesignDef::at`]), every flexible body's sections and shells moved to those laminates
-    /// ([`BodyDef::at`]), the rigid bodies' mass and inertia variables set. What validating
+    /// ([`BodyDef::at`]), the sections given by their properties and the rigid bodies' mass
+    /// and inertia variables set. What validating
     /// the deck with the variables written at `b` gives.
     pub(crate) fn at(&self, src: &Source, b: &[f64]) -> Result<Study, CliError> {
         let laminates = self.laminates_at(src, b)?;
