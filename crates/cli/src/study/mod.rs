@@ -463,8 +463,8 @@ impl Study {
     /// moved ([`DesignDef::laminates_at`]), each variable at its value there
     /// ([`DesignDef::at`]), every flexible body's sections and shells moved to those laminates
     /// ([`BodyDef::at`]), the sections given by their properties and the rigid bodies' mass
-    /// and inertia variables set. What validating
-    /// the deck with the variables written at `b` gives.
+    /// and inertia variables set. What validating the deck with the variables written at `b`
+    /// gives.
     pub(crate) fn at(&self, src: &Source, b: &[f64]) -> Result<Study, CliError> {
         let laminates = self.laminates_at(src, b)?;
         let mut study = self.clone();
@@ -479,7 +479,7 @@ impl Study {
             })?;
         }
         for f in &mut study.flexible_bodies {
-            move_given_section(&mut f.def, &self.design.variables, b);
+            flexible::move_given_section(&mut f.def, &self.design.variables, b);
         }
         for (v, &bj) in self.design.variables.iter().zip(b) {
             let Some((body, axis)) = v.target.rigid() else {
@@ -624,7 +624,7 @@ impl Mechanism {
                 format!("its section: {e}"),
             )
         })?;
-        move_given_section(&mut def, &self.design.variables, b);
+        flexible::move_given_section(&mut def, &self.design.variables, b);
         fix_auto_modes(&mut def, part);
         Ok(def)
     }
@@ -665,37 +665,6 @@ impl Mechanism {
             set_rigid(&mut model, &self.bodies, &v.target, bj);
         }
         Ok(model)
-    }
-}
-
-/// A beam body's section given by its properties with the `section-property` variables among
-/// `variables` at their values `b` (the rest of the body moves with the laminates,
-/// [`BodyDef::at`]).
-fn move_given_section(
-    def: &mut BodyDef,
-    variables: &[crate::deck::design::DesignVariable],
-    b: &[f64],
-) {
-    let crate::deck::bodies::BodyShape::Beam {
-        section_name,
-        section,
-        ..
-    } = &mut def.shape
-    else {
-        return;
-    };
-    let Some(given) = &mut section.given else {
-        return;
-    };
-    for (v, &bj) in variables.iter().zip(b) {
-        if let Target::SectionProperty {
-            section: name,
-            entry,
-        } = &v.target
-            && name == &*section_name
-        {
-            **given = given.with(*entry, bj);
-        }
     }
 }
 

@@ -406,3 +406,34 @@ pub fn shell_design(
         thicknesses,
     }
 }
+
+/// A beam body's section given by its properties with the `section-property` variables among
+/// `variables` at their values `b` (the rest of the body moves with the laminates,
+/// [`BodyDef::at`]).
+pub(crate) fn move_given_section(
+    def: &mut BodyDef,
+    variables: &[crate::deck::design::DesignVariable],
+    b: &[f64],
+) {
+    let crate::deck::bodies::BodyShape::Beam {
+        section_name,
+        section,
+        ..
+    } = &mut def.shape
+    else {
+        return;
+    };
+    let Some(given) = &mut section.given else {
+        return;
+    };
+    for (v, &bj) in variables.iter().zip(b) {
+        if let crate::deck::design::Target::SectionProperty {
+            section: name,
+            entry,
+        } = &v.target
+            && name == &*section_name
+        {
+            **given = given.with(*entry, bj);
+        }
+    }
+}

@@ -18,6 +18,7 @@ use crate::error::CliError;
 /// Width of the dual-number chunks (results do not depend on it).
 mod design;
 
+pub(crate) use design::move_given_section;
 pub use design::{Design, DesignRequest, section_derivatives, section_design, shell_design};
 
 pub const CHUNK: usize = 8;
