@@ -625,12 +625,19 @@ fn node_sums<P: Scalar, S: Scalar + From<P>>(
         columns: vec![Vector3::zeros(); nf],
         rates: Vector3::zeros(),
     };
+    let mut field_cc = vec![S::zero(); nf * nf];
     for k in 0..modal.n_nodes() {
         let mk: S = lift(modal.node_masses[k]);
         if mk == S::zero() {
             continue;
         }
         second_order_node_into(field, k, w, wd, &mut second);
+        for j in 0..nf {
+            let cj = second.columns[j] * mk;
+            for l in j..nf {
+                field_cc[j * nf + l] += cj.dot(&second.columns[l]);
+            }
+        }
         let mut u: Vector3<S> = vec3f(&modal.node_positions[k]);
         u += second.half;
         let mut ud = Vector3::<S>::zeros();
@@ -664,6 +671,7 @@ fn node_sums<P: Scalar, S: Scalar + From<P>>(
         qc,
         s_o,
         s_w,
+        field_cc: Some(field_cc),
     }
 }
 
@@ -695,6 +703,7 @@ fn second_order_dynamics<P: Scalar, S: Scalar + From<P>>(
         qc,
         s_o,
         s_w,
+        field_cc,
     } = match &inv.gram {
         Some(gram) => gram.sums(&inv.mode_spin, w, wd, &om, &g_body),
         None => node_sums(modal, field, inv, w, wd, &om, &g_body),
@@ -727,14 +736,22 @@ fn second_order_dynamics<P: Scalar, S: Scalar + From<P>>(
     }
     for j in 0..nf {
         for l in j..nf {
-            let mut x = S::zero();
-            for p in 0..nf {
-                let mut y = S::zero();
-                for qq in 0..nf {
-                    y += lift::<P, S>(fi.t[((j * nf + p) * nf + l) * nf + qq]) * w[qq];
+            // Σ m C_j · C_l = Σ_pq T[j, p, l, q] w_p w_q: summed with the nodes when they were
+            // (a third of the contraction's work), else contracted
+            let x = match &field_cc {
+                Some(cc) => cc[j * nf + l],
+                None => {
+                    let mut x = S::zero();
+                    for p in 0..nf {
+                        let mut y = S::zero();
+                        for qq in 0..nf {
+                            y += lift::<P, S>(fi.t[((j * nf + p) * nf + l) * nf + qq]) * w[qq];
+                        }
+                        x += y * w[p];
+                    }
+                    x
                 }
-                x += y * w[p];
-            }
+            };
             m_ww[(j, l)] += x;
             if l != j {
                 m_ww[(l, j)] += x;

@@ -37,6 +37,10 @@ pub(crate) struct FrameSums<S: Scalar> {
     pub qc: Vector3<S>,
     pub s_o: Vector3<S>,
     pub s_w: Vec<S>,
+    /// `Σ m C_j · C_l` of the field's columns `C_kj = Q_k(w)_j`, for `j ≤ l` at `j · nf + l`,
+    /// when the sums are taken node by node (`None` from the Gram table: the modal mass then
+    /// contracts the field invariants' fourth-order table with `w` twice).
+    pub field_cc: Option<Vec<S>>,
 }
 
 /// The Gram table of a body with a second-order field (see the module documentation).
@@ -259,6 +263,7 @@ impl<P: Scalar> FieldGram<P> {
             qc,
             s_o,
             s_w,
+            field_cc: None,
         }
     }
 }
