@@ -358,3 +358,71 @@ fn section_property_variables_are_checked() {
         );
     }
 }
+
+/// The tube given with its mass as a 6×6 mass matrix (the one the section's own mass
+/// properties make, `section::SectionProperties::mass_matrix`) is the tube: the same modes to
+/// 1e-12; a mass matrix of no rigid section is refused at its key.
+#[test]
+fn a_mass_matrix_gives_the_sections_mass() {
+    let dir = tempfile::tempdir().unwrap();
+    let j = json(&[
+        "section",
+        deck("slider_crank_beam.toml").to_str().unwrap(),
+        "--format",
+        "json",
+    ]);
+    let v = &j["sections"]["tube"]["values"];
+    let numbers = |key: &str| -> Vec<f64> {
+        v[key]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect()
+    };
+    let (c, i) = (numbers("mass_centre"), numbers("mass_inertia"));
+    let p = section::SectionProperties {
+        mass_per_length: v["mass_per_length"].as_f64().unwrap(),
+        mass_centre: [c[0], c[1]],
+        mass_inertia: [i[0], i[1], i[2]],
+        ..Default::default()
+    };
+    let rows = |mm: &nalgebra::Matrix6<f64>| -> String {
+        let rows: Vec<String> = (0..6)
+            .map(|r| {
+                let row: Vec<String> = (0..6).map(|c| format!("{:e}", mm[(r, c)])).collect();
+                format!("[{}]", row.join(", "))
+            })
+            .collect();
+        rows.join(", ")
+    };
+    let mm = p.mass_matrix();
+    let with_matrix = |matrix: &str| {
+        let table = tube_as_properties();
+        let stiffness = table
+            .lines()
+            .find(|l| l.starts_with("stiffness"))
+            .unwrap()
+            .to_string();
+        format!("shape = \"properties\"\n{stiffness}\nmass_matrix = [{matrix}]\n")
+    };
+    let given = write(
+        &dir,
+        "mass_matrix.toml",
+        &beam_deck_with_section(&with_matrix(&rows(&mm))),
+    );
+    let analysed = deck("slider_crank_beam.toml").display().to_string();
+    for (a, g) in frequencies(&analysed).iter().zip(frequencies(&given)) {
+        assert!((a - g).abs() <= 1e-12 * a, "{a} Hz against {g} Hz");
+    }
+    // a polar inertia that is not the sum of the other two
+    let mut polar = mm;
+    polar[(3, 3)] *= 1.1;
+    let (_dir, err) = bad_deck(&beam_deck_with_section(&with_matrix(&rows(&polar))), |p| {
+        vec!["check".into(), p.display().to_string()]
+    });
+    assert!(
+        err.contains("key `section.tube.mass_matrix`") && err.contains("not a rigid section's"),
+        "{err}"
+    );
+}

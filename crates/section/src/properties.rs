@@ -223,6 +223,59 @@ impl SectionProperties {
         })
     }
 
+    /// The mass per length, mass centre and inertias `[I₂₂, I₃₃, I₂₃]` about it of a rigid
+    /// section's 6×6 mass matrix about the origin (as [`Self::mass_matrix`] writes it): its
+    /// translation block `m I`, its coupling block `m [c]ₓ`, its rotation block the inertias
+    /// about the origin with the polar one their sum. An error says which part of that
+    /// structure the matrix lacks (to 1e-9 of its largest entry).
+    pub fn mass_of_matrix(mm: &Matrix6<f64>) -> Result<(f64, [f64; 2], [f64; 3]), SectionError> {
+        let bad = |what: &str| {
+            Err(SectionError::InvalidInput(format!(
+                "the mass matrix is not a rigid section's: {what}"
+            )))
+        };
+        if !mm.iter().all(|x| x.is_finite()) {
+            return bad("its entries must be finite numbers");
+        }
+        let tol = 1e-9 * mm.amax();
+        let m = mm[(0, 0)];
+        if m <= 0.0 {
+            return bad("its mass per length (entry 1,1) must be positive");
+        }
+        let (c2, c3) = (-mm[(5, 0)] / m, mm[(4, 0)] / m);
+        let (j22, j33, j23) = (mm[(4, 4)], mm[(5, 5)], -mm[(4, 5)]);
+        let mut rigid = Matrix6::zeros();
+        for i in 0..3 {
+            rigid[(i, i)] = m;
+        }
+        let s = nalgebra::Matrix3::new(0.0, -c3, c2, c3, 0.0, 0.0, -c2, 0.0, 0.0) * m;
+        rigid.fixed_view_mut::<3, 3>(0, 3).copy_from(&s.transpose());
+        rigid.fixed_view_mut::<3, 3>(3, 0).copy_from(&s);
+        rigid[(3, 3)] = j22 + j33;
+        rigid[(4, 4)] = j22;
+        rigid[(5, 5)] = j33;
+        rigid[(4, 5)] = -j23;
+        rigid[(5, 4)] = -j23;
+        if let Some(k) = (0..36).find(|&k| (mm[(k / 6, k % 6)] - rigid[(k / 6, k % 6)]).abs() > tol)
+        {
+            return bad(&format!(
+                "entry ({}, {}) is {:e} where the mass per length {m:e}, the mass centre \
+                 ({c2:e}, {c3:e}) m and the inertias of entries (5, 5), (6, 6) and (5, 6) make \
+                 it {:e} (the translation block m I, the coupling m [c]x, the polar inertia \
+                 (4, 4) the sum of (5, 5) and (6, 6))",
+                k / 6 + 1,
+                k % 6 + 1,
+                mm[(k / 6, k % 6)],
+                rigid[(k / 6, k % 6)]
+            ));
+        }
+        Ok((
+            m,
+            [c2, c3],
+            [j22 - m * c3 * c3, j33 - m * c2 * c2, j23 - m * c2 * c3],
+        ))
+    }
+
     /// The 6×6 stiffness referred to the point `p` (generalised strains and forces of a beam
     /// whose reference axis passes through `p`): `K_P = H K Hᵀ`.
     pub fn stiffness_at(&self, p: [f64; 2]) -> Matrix6<f64> {

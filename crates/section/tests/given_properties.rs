@@ -116,3 +116,29 @@ fn given_properties_that_are_no_section_are_refused() {
     assert!(given(p.stiffness, 1.0, [1.0, 1.0, 2.0]).contains("inertias"));
     assert!(given(p.stiffness * f64::NAN, 1.0, [1.0, 1.0, 0.0]).contains("finite"));
 }
+
+/// The mass properties read back from the 6×6 mass matrix the section writes, for a section
+/// whose mass centre is off the origin; a matrix of no rigid section is refused.
+#[test]
+fn the_mass_of_a_mass_matrix_is_the_sections() {
+    let mut p = channel_properties();
+    p.mass_centre = [0.004, -0.003];
+    p.mass_inertia = [2.0e-6, 3.0e-6, 0.4e-6];
+    let (m, c, i) = SectionProperties::mass_of_matrix(&p.mass_matrix()).unwrap();
+    assert!((m - p.mass_per_length).abs() < 1e-14 * m);
+    for k in 0..2 {
+        assert!((c[k] - p.mass_centre[k]).abs() < 1e-15, "{c:?}");
+    }
+    for k in 0..3 {
+        assert!(
+            (i[k] - p.mass_inertia[k]).abs() < 1e-12 * p.mass_inertia[0],
+            "{i:?}"
+        );
+    }
+    let mut polar = p.mass_matrix();
+    polar[(3, 3)] *= 1.1;
+    let e = SectionProperties::mass_of_matrix(&polar)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("entry (4, 4)"), "{e}");
+}

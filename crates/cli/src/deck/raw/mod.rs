@@ -332,6 +332,9 @@ pub struct RawSection {
     pub tension_centre: Option<Spanned<[f64; 2]>>,
     /// Properties: shear centre `[x₂, x₃]` (m, default the origin).
     pub shear_centre: Option<Spanned<[f64; 2]>>,
+    /// Properties: the 6×6 mass matrix about the origin, row by row (instead of the mass per
+    /// length, mass centre and inertias).
+    pub mass_matrix: Option<Spanned<Vec<Vec<f64>>>>,
     /// Properties: mass per unit length (kg/m).
     pub mass_per_length: Option<Spanned<f64>>,
     /// Properties: mass centre `[x₂, x₃]` (m, default the origin).

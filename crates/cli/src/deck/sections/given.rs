@@ -235,12 +235,58 @@ impl Shape<'_> {
                 }
             }
         };
+        let (mass_per_length, mass_centre, mass_inertia) = self.given_mass()?;
+        let given = GivenSection {
+            stiffness,
+            mass_per_length,
+            mass_centre,
+            inertia: mass_inertia,
+        };
+        given.properties().map_err(|e| self.bad(e))?;
+        Ok(given)
+    }
+
+    /// The mass per length, mass centre and inertias of a section given by its properties:
+    /// `mass_matrix` (6×6 about the origin) or `mass_per_length`, `mass_centre`, `inertia`.
+    fn given_mass(&self) -> Result<(f64, [f64; 2], [f64; 3]), DeckError> {
+        let Shape { src, raw, .. } = *self;
+        let k = |key: &str| self.k(key);
+        if let Some(mm) = &raw.mass_matrix {
+            let parts = [
+                (
+                    "mass_per_length",
+                    raw.mass_per_length.as_ref().map(|x| x.span()),
+                ),
+                ("mass_centre", raw.mass_centre.as_ref().map(|x| x.span())),
+                ("inertia", raw.inertia.as_ref().map(|x| x.span())),
+            ];
+            if let Some((key, at)) = parts.into_iter().find(|(_, at)| at.is_some()) {
+                return Err(src.error(
+                    at,
+                    Some(k(key)),
+                    "give either the 6×6 mass_matrix or mass_per_length, mass_centre and \
+                     inertia, not both",
+                ));
+            }
+            let rows = mm.get_ref();
+            if rows.len() != 6 || rows.iter().any(|r| r.len() != 6) {
+                return Err(src.error(
+                    span(mm),
+                    Some(k("mass_matrix")),
+                    "expected six rows of six numbers (kg/m, kg, kg·m), conjugate to the \
+                     velocities [u1, u2, u3, φ1, φ2, φ3]",
+                ));
+            }
+            let matrix = nalgebra::Matrix6::from_fn(|i, j| rows[i][j]);
+            return section::SectionProperties::mass_of_matrix(&matrix)
+                .map_err(|e| src.error(span(mm), Some(k("mass_matrix")), e.to_string()));
+        }
         let mass = required(
             src,
             self.table.clone(),
             &k("mass_per_length"),
             &raw.mass_per_length,
-            "mass_per_length (kg/m)",
+            "mass_per_length (kg/m), or the 6×6 mass_matrix",
         )?;
         let mass_per_length = positive(src, &k("mass_per_length"), mass, "kg/m")?;
         let mass_centre = raw
@@ -265,14 +311,7 @@ impl Shape<'_> {
                 ));
             }
         };
-        let given = GivenSection {
-            stiffness,
-            mass_per_length,
-            mass_centre,
-            inertia: mass_inertia,
-        };
-        given.properties().map_err(|e| self.bad(e))?;
-        Ok(given)
+        Ok((mass_per_length, mass_centre, mass_inertia))
     }
 }
 

@@ -73,6 +73,7 @@ impl Shape<'_> {
                 raw.tension_centre.as_ref().map(|x| x.span()),
             ),
             ("shear_centre", raw.shear_centre.as_ref().map(|x| x.span())),
+            ("mass_matrix", raw.mass_matrix.as_ref().map(|x| x.span())),
             (
                 "mass_per_length",
                 raw.mass_per_length.as_ref().map(|x| x.span()),
@@ -109,6 +110,7 @@ impl Shape<'_> {
                 "EI3",
                 "tension_centre",
                 "shear_centre",
+                "mass_matrix",
                 "mass_per_length",
                 "mass_centre",
                 "inertia",
