@@ -415,6 +415,20 @@ fn a_mass_matrix_gives_the_sections_mass() {
     for (a, g) in frequencies(&analysed).iter().zip(frequencies(&given)) {
         assert!((a - g).abs() <= 1e-12 * a, "{a} Hz against {g} Hz");
     }
+    // its mass entries are not design variables (a sweep would write them beside it)
+    let variable = "\n[design.m]\nkind = \"section-property\"\nsection = \"tube\"\n\
+                    entry = \"mass_per_length\"\n";
+    let (_dir, err) = bad_deck(
+        &format!(
+            "{}{variable}",
+            beam_deck_with_section(&with_matrix(&rows(&mm)))
+        ),
+        |p| vec!["check".into(), p.display().to_string()],
+    );
+    assert!(
+        err.contains("key `design.m.entry`") && err.contains("mass matrix"),
+        "{err}"
+    );
     // a polar inertia that is not the sum of the other two
     let mut polar = mm;
     polar[(3, 3)] *= 1.1;

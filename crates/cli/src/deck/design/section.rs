@@ -64,6 +64,17 @@ pub(super) fn section_variable(
             ),
         ));
     };
+    if raw_section.get_ref().mass_matrix.is_some() && !matches!(entry, SectionEntry::Stiffness(_)) {
+        return Err(src.error(
+            span(e),
+            Some(k("entry")),
+            format!(
+                "section `{sname}` is given by its 6×6 mass matrix: give it by mass_per_length, \
+                 mass_centre and inertia to vary {}",
+                entry.name()
+            ),
+        ));
+    }
     let Some(value) = given.value(entry) else {
         return Err(src.error(
             span(e),
