@@ -9,9 +9,11 @@
 //! tension and shear centres ([`SectionProperties`]), and their exact derivatives with respect
 //! to design variables ([`DesignMap`], [`SectionSensitivities`]): ply angles, material
 //! constants and densities, and node positions — a generated section ([`GeneratedSection`])
-//! gives the node velocities of a ply thickness from the same code that places its nodes. It
-//! knows nothing about beam elements, multibody systems, decks or files: text comes in as
-//! `&str`.
+//! gives the node velocities of a ply thickness from the same code that places its nodes. A
+//! section can also be given by its published properties instead of analysed
+//! ([`SectionProperties::given`], [`stiffness_from_centres`],
+//! [`SectionProperties::mass_of_matrix`]). It knows nothing about beam elements, multibody
+//! systems, decks or files: text comes in as `&str`.
 //!
 //! # Conventions
 //! - Beam axis `x₁`; section plane `(x₂, x₃)`; right-handed. SI units, radians.
