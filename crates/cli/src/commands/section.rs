@@ -64,7 +64,7 @@ fn report(
         let design = if vars.is_empty() {
             DesignMap::each_region(mesh)
         } else {
-            let (mut map, _) = section_design(def, vars)?;
+            let (mut map, _) = section_design(name, def, vars)?;
             map.variables.retain(|v| !v.is_empty());
             map
         };

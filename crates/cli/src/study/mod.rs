@@ -479,7 +479,7 @@ impl Study {
             })?;
         }
         for f in &mut study.flexible_bodies {
-            flexible::move_given_section(&mut f.def, &self.design.variables, b);
+            flexible::move_own_section(&mut f.def, &self.design.variables, b);
         }
         for (v, &bj) in self.design.variables.iter().zip(b) {
             let Some((body, axis)) = v.target.rigid() else {
@@ -624,7 +624,7 @@ impl Mechanism {
                 format!("its section: {e}"),
             )
         })?;
-        flexible::move_given_section(&mut def, &self.design.variables, b);
+        flexible::move_own_section(&mut def, &self.design.variables, b);
         fix_auto_modes(&mut def, part);
         Ok(def)
     }

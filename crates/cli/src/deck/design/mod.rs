@@ -98,6 +98,7 @@ impl DesignVariable {
             Target::SectionProperty { section, entry } => {
                 format!("{} of section `{section}`", entry.name())
             }
+            Target::SectionAngle { section } => format!("material angle of section `{section}`"),
         }
     }
 
@@ -122,6 +123,9 @@ impl DesignVariable {
             Target::RigidInertia { key, .. } => return vec![format!("{key}={b:?}")],
             Target::SectionProperty { section, entry } => {
                 return vec![format!("section.{section}.{}={b:?}", entry.key())];
+            }
+            Target::SectionAngle { section } => {
+                return vec![format!("section.{section}.angle={b:?}")];
             }
         };
         deck_plies
@@ -345,7 +349,7 @@ fn variable(
         (
             "section",
             rd.section.as_ref().and_then(span),
-            "section-property",
+            "section-property section-angle",
         ),
         (
             "entry",
@@ -365,8 +369,8 @@ fn variable(
     if kind == "material" {
         return material_variable(src, raw, name, d, model);
     }
-    if kind == "section-property" {
-        return section_variable(src, raw, name, d, model);
+    if kind == "section-property" || kind == "section-angle" {
+        return section_variable(src, raw, name, d, model, kind == "section-angle");
     }
     if kind != "ply-angle" && kind != "ply-thickness" {
         return rigid_variable(src, raw, name, d, kind);

@@ -1,18 +1,21 @@
-//! An entry of a section given by its properties as a design variable
-//! (`kind = "section-property"`).
+//! A section's own numbers as design variables: an entry of a section given by its properties
+//! (`kind = "section-property"`), the material angle of a solid section
+//! (`kind = "section-angle"`).
 
 use super::*;
 use crate::deck::sections::{SECTION_ENTRIES, SectionEntry, validate_one};
 
 /// A `section-property` variable: `section` (a `shape = "properties"` section) and `entry`
 /// (`EA` … `EI3` of a section given by them, `mass_per_length`, `I22` or `I33`), its nominal
-/// value the section's.
+/// value the section's; with `angle`, a `section-angle` variable: the material angle of a
+/// solid section (`shape = "rectangle"` or `"circle"`), in degrees.
 pub(super) fn section_variable(
     src: &Source,
     raw: &RawDeck,
     name: &str,
     d: &Spanned<RawDesign>,
     model: &LaminateModel,
+    angle: bool,
 ) -> Result<DesignVariable, DeckError> {
     let k = |s: &str| format!("design.{name}.{s}");
     let rd = d.get_ref();
@@ -33,6 +36,40 @@ pub(super) fn section_variable(
         ));
     };
     let def = validate_one(src, sname, raw_section, model)?;
+    if angle {
+        if !matches!(def.shape.as_str(), "rectangle" | "circle") {
+            return Err(src.error(
+                span(section),
+                Some(k("section")),
+                format!(
+                    "section `{sname}` has shape = \"{}\": a section-angle variable turns the \
+                     material of a solid rectangle or circle (a laminate's plies turn with \
+                     ply-angle variables)",
+                    def.shape
+                ),
+            ));
+        }
+        if rd.entry.is_some() {
+            return Err(src.error(
+                rd.entry.as_ref().and_then(span),
+                Some(k("entry")),
+                "this key does not apply to kind = \"section-angle\"",
+            ));
+        }
+        let value = raw_section
+            .get_ref()
+            .angle
+            .as_ref()
+            .map_or(0.0, |a| *a.get_ref());
+        return Ok(DesignVariable {
+            name: name.to_string(),
+            target: Target::SectionAngle {
+                section: sname.clone(),
+            },
+            value,
+            unit: "deg",
+        });
+    }
     let Some(given) = def.given else {
         return Err(src.error(
             span(section),

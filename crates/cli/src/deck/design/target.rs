@@ -51,6 +51,9 @@ pub enum Target {
         section: String,
         entry: SectionEntry,
     },
+    /// The fibre angle of a solid section's material (`shape = "rectangle"` or `"circle"`),
+    /// in degrees. Every beam body of the section follows.
+    SectionAngle { section: String },
 }
 
 impl Target {
@@ -63,7 +66,8 @@ impl Target {
             Target::PlyAngle { .. }
             | Target::PlyThickness { .. }
             | Target::Material { .. }
-            | Target::SectionProperty { .. } => None,
+            | Target::SectionProperty { .. }
+            | Target::SectionAngle { .. } => None,
         }
     }
 }

@@ -2,6 +2,7 @@
 //! shell design maps, material links, and the properties at a (dual) design.
 
 use super::*;
+use crate::deck::design::Target;
 
 /// [`section::analyse_with_derivatives`] in chunks no wider than the map's variables: the work
 /// of a dual number grows with its width, and the results do not depend on it. (A deck with one
@@ -281,13 +282,15 @@ fn with_materials(
     out
 }
 
-/// The section design map of the deck's variables: region `r` turns with variable `j` when it
-/// is a ply of `j` ([`SectionDef::plies`]), its material moves with `j` when `j` is a
+/// The section design map of the deck's variables for the section `section_name`: region `r`
+/// turns with variable `j` when it is a ply of `j` ([`SectionDef::plies`]) or `j` is the
+/// section's material angle, its material moves with `j` when `j` is a
 /// constant of its material ([`SectionDef::materials`]), and the nodes of a generated section
 /// move with `j` when `j` is the thickness of one of its plies
 /// ([`SectionDef::generator_plies`]); with, per variable, the `(region, dc/db)` of those
 /// materials.
 pub fn section_design(
+    section_name: &str,
     section: &SectionDef,
     vars: &[DesignVariable],
 ) -> Result<(DesignMap, MaterialLinks), String> {
@@ -333,6 +336,11 @@ pub fn section_design(
                     links.push((r, f));
                 }
             }
+        }
+        // a solid section's material angle turns all its regions
+        if matches!(&v.target, Target::SectionAngle { section: s } if s == section_name) {
+            let rad = std::f64::consts::PI / 180.0;
+            links.extend((0..section.mesh.regions.len()).map(|r| (r, rad)));
         }
         map = map.with_variable(v.name.clone(), links);
         if let Some(last) = map.variables.last_mut() {
@@ -407,15 +415,16 @@ pub fn shell_design(
     }
 }
 
-/// A beam body's section given by its properties with the `section-property` variables among
-/// `variables` at their values `b` (the rest of the body moves with the laminates,
-/// [`BodyDef::at`]).
-pub(crate) fn move_given_section(
+/// A beam body's section moved by the variables of its own among `variables` at their values
+/// `b`: the entries of a section given by its properties (`section-property`), the material
+/// angle of a solid section (`section-angle`); the rest of the body moves with the laminates
+/// ([`BodyDef::at`]).
+pub(crate) fn move_own_section(
     def: &mut BodyDef,
     variables: &[crate::deck::design::DesignVariable],
     b: &[f64],
 ) {
-    let crate::deck::bodies::BodyShape::Beam {
+    let BodyShape::Beam {
         section_name,
         section,
         ..
@@ -423,17 +432,22 @@ pub(crate) fn move_given_section(
     else {
         return;
     };
-    let Some(given) = &mut section.given else {
-        return;
-    };
     for (v, &bj) in variables.iter().zip(b) {
-        if let crate::deck::design::Target::SectionProperty {
-            section: name,
-            entry,
-        } = &v.target
-            && name == &*section_name
-        {
-            **given = given.with(*entry, bj);
+        match &v.target {
+            Target::SectionProperty {
+                section: name,
+                entry,
+            } if name == &*section_name => {
+                if let Some(given) = &mut section.given {
+                    **given = given.with(*entry, bj);
+                }
+            }
+            Target::SectionAngle { section: name } if name == &*section_name => {
+                for region in &mut section.mesh.regions {
+                    region.ply_angle = bj.to_radians();
+                }
+            }
+            _ => {}
         }
     }
 }

@@ -18,7 +18,7 @@ use crate::error::CliError;
 /// Width of the dual-number chunks (results do not depend on it).
 mod design;
 
-pub(crate) use design::move_given_section;
+pub(crate) use design::move_own_section;
 pub use design::{Design, DesignRequest, section_derivatives, section_design, shell_design};
 
 pub const CHUNK: usize = 8;
@@ -316,7 +316,7 @@ fn beam(
             (Some(map), none)
         }
         DesignRequest::Variables(vars) => {
-            let (map, materials) = section_design(section, vars)
+            let (map, materials) = section_design(section_name, section, vars)
                 .map_err(|e| (".section", format!("section `{section_name}`: {e}")))?;
             (Some(map), materials)
         }
