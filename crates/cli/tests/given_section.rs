@@ -9,20 +9,23 @@ use common::*;
 /// The beam deck with its tube section replaced by `table` (the body of a `[section.tube]`).
 fn beam_deck_with_section(table: &str) -> String {
     let text = std::fs::read_to_string(deck("slider_crank_beam.toml")).unwrap();
-    let start = text.find("[section.tube]").unwrap();
-    let end = start + text[start..].find("\n\n").unwrap();
-    format!("{}[section.tube]\n{table}{}", &text[..start], &text[end..])
+    with_table(&text, "[section.tube]", table)
 }
 
-/// The tube's analysed properties as a `shape = "properties"` table (full precision).
-fn tube_as_properties() -> String {
+/// The values `flexsens section` reports for the beam deck's tube.
+fn tube_values() -> serde_json::Value {
     let j = json(&[
         "section",
         deck("slider_crank_beam.toml").to_str().unwrap(),
         "--format",
         "json",
     ]);
-    let v = &j["sections"]["tube"]["values"];
+    j["sections"]["tube"]["values"].clone()
+}
+
+/// The tube's analysed properties as a `shape = "properties"` table (full precision).
+fn tube_as_properties() -> String {
+    let v = &tube_values();
     let rows: Vec<String> = matrix(&v["stiffness"])
         .iter()
         .map(|r| {
@@ -218,7 +221,7 @@ fn steel_rod_by_closed_forms() -> String {
     let (a, i) = (pi * r * r, pi * r.powi(4) / 4.0);
     let kappa = 6.0 * (1.0 + nu) / (7.0 + 6.0 * nu);
     let table = format!(
-        "[section.rod]\nshape = \"properties\"\nEA = {:e}\nGA2 = {:e}\nGA3 = {:e}\nGJ = {:e}\n\
+        "shape = \"properties\"\nEA = {:e}\nGA2 = {:e}\nGA3 = {:e}\nGJ = {:e}\n\
          EI2 = {:e}\nEI3 = {:e}\nmass_per_length = {:e}\ninertia = [{:e}, {:e}]",
         e * a,
         kappa * g * a,
@@ -230,14 +233,12 @@ fn steel_rod_by_closed_forms() -> String {
         rho * i,
         rho * i
     );
-    let start = text.find("[section.rod]").unwrap();
-    let end = start + text[start..].find("\n\n").unwrap();
     let design = "[design.ei]\nkind = \"section-property\"\nsection = \"rod\"\nentry = \"EI3\"\n\n\
          [design.mass]\nkind = \"section-property\"\nsection = \"rod\"\n\
          entry = \"mass_per_length\"\n\n[objective.peak]\nresponse = \"mid_deflection\"\n\
          kind = \"max\"\n\n[sensitivity]\nmethod = \"direct\"\n\n[finite_differences]\n\
          scheme = \"central\"\nsizes = [0.0001]\nsteps = \"replay\"\n\n[analysis]";
-    format!("{}{table}{}", &text[..start], &text[end..]).replace("[analysis]", design)
+    with_table(&text, "[section.rod]", &table).replace("[analysis]", design)
 }
 
 /// The rod given by closed forms is the analysed 6 mm circle (first frequency within 1e-4);
@@ -365,13 +366,7 @@ fn section_property_variables_are_checked() {
 #[test]
 fn a_mass_matrix_gives_the_sections_mass() {
     let dir = tempfile::tempdir().unwrap();
-    let j = json(&[
-        "section",
-        deck("slider_crank_beam.toml").to_str().unwrap(),
-        "--format",
-        "json",
-    ]);
-    let v = &j["sections"]["tube"]["values"];
+    let v = &tube_values();
     let numbers = |key: &str| -> Vec<f64> {
         v[key]
             .as_array()

@@ -160,6 +160,16 @@ pub fn with_extra(name: &str, extra: &str) -> (tempfile::TempDir, std::path::Pat
     (dir, path)
 }
 
+/// `text` with the table headed `header` (up to the next blank line) replaced by `table`
+/// (written without its header).
+pub fn with_table(text: &str, header: &str, table: &str) -> String {
+    let start = text
+        .find(header)
+        .unwrap_or_else(|| panic!("{header} in the deck"));
+    let end = start + text[start..].find("\n\n").unwrap_or(text.len() - start);
+    format!("{}{header}\n{table}{}", &text[..start], &text[end..])
+}
+
 /// `flexsens COMMAND PATH --format json EXTRA…`, expecting success.
 pub fn report(command: &str, path: &Path, extra: &[String]) -> serde_json::Value {
     let mut args = vec![command.to_string(), path.display().to_string()];
