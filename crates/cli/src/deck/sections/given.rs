@@ -171,14 +171,9 @@ impl Shape<'_> {
     pub(super) fn given(&self) -> Result<GivenSection, DeckError> {
         let Shape { src, raw, .. } = *self;
         let k = |key: &str| self.k(key);
-        let named = [
-            ("EA", &raw.ea),
-            ("GA2", &raw.ga2),
-            ("GA3", &raw.ga3),
-            ("GJ", &raw.gj),
-            ("EI2", &raw.ei2),
-            ("EI3", &raw.ei3),
-        ];
+        // EA … EI3, the first six entries a variable can move
+        let fields = [&raw.ea, &raw.ga2, &raw.ga3, &raw.gj, &raw.ei2, &raw.ei3];
+        let named: Vec<(&str, _)> = SECTION_ENTRIES.iter().copied().zip(fields).collect();
         let stiffness = match &raw.stiffness {
             Some(m) => {
                 if let Some((key, v)) = named.iter().find_map(|(n, v)| v.as_ref().map(|v| (n, v))) {
