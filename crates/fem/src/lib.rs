@@ -70,7 +70,9 @@ pub use eigen::{EigenMethod, EigenOptions, Eigenpairs, lowest_modes, lowest_mode
 pub use error::FemError;
 pub use geometric::{GeometricStiffness, geometric_stiffness, second_order_field};
 pub use geometric_shell::shell_geometric_stiffness;
-pub use mesh::{Element, GmshTriangles, Mesh, MeshError, NodeId, bounding_box, parse_gmsh_v4};
+pub use mesh::{
+    BeamSegment, Element, GmshTriangles, Mesh, MeshError, NodeId, bounding_box, parse_gmsh_v4,
+};
 pub use modal::{ModalBody, ModalBodyError, NODE_DOFS};
 pub use rigid::{RigidMotion, free_rigid_motions};
 pub use sensitivity::{

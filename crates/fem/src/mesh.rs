@@ -36,6 +36,16 @@ impl Element {
     }
 }
 
+/// A stretch of a [`Mesh::segmented_beam`]: its length (in any unit: the segments divide the
+/// beam in the proportions of their lengths), its number of equal elements and their section
+/// (an index of [`crate::Properties::sections`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BeamSegment {
+    pub length: f64,
+    pub elements: usize,
+    pub property: usize,
+}
+
 /// Nodes and elements of one flexible body.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Mesh {
@@ -92,21 +102,58 @@ impl Mesh {
         property: usize,
         orientation: Vector3<f64>,
     ) -> Result<Self, MeshError> {
-        if n == 0 {
+        let whole = BeamSegment {
+            length: 1.0,
+            elements: n,
+            property,
+        };
+        Self::segmented_beam(start, end, &[whole], orientation)
+    }
+
+    /// A straight beam from `start` to `end` made of `segments` in order, each split into its
+    /// number of equal elements of its section (nodes numbered from `start`, one node shared
+    /// where two segments meet). The segments divide `start`–`end` in the proportions of their
+    /// lengths; the last node is `end` exactly.
+    pub fn segmented_beam(
+        start: Vector3<f64>,
+        end: Vector3<f64>,
+        segments: &[BeamSegment],
+        orientation: Vector3<f64>,
+    ) -> Result<Self, MeshError> {
+        if segments.iter().all(|s| s.elements == 0) {
             return Err(MeshError::TooSmall {
                 what: "one beam element",
             });
         }
-        let nodes = (0..=n)
-            .map(|i| start + (end - start) * (i as f64 / n as f64))
-            .collect();
-        let elements = (0..n)
-            .map(|i| Element::Beam {
-                nodes: [i, i + 1],
-                property,
-                orientation,
-            })
-            .collect();
+        let total: f64 = segments.iter().map(|s| s.length).sum();
+        if segments
+            .iter()
+            .any(|s| s.elements == 0 || !(s.length > 0.0))
+            || !total.is_finite()
+        {
+            return Err(MeshError::TooSmall {
+                what: "one element and a positive, finite length in each beam segment",
+            });
+        }
+        let mut nodes = vec![start];
+        let mut elements = Vec::new();
+        let mut covered = 0.0;
+        for s in segments {
+            for i in 1..=s.elements {
+                let along = covered + s.length * (i as f64 / s.elements as f64);
+                let k = nodes.len();
+                nodes.push(start + (end - start) * (along / total));
+                elements.push(Element::Beam {
+                    nodes: [k - 1, k],
+                    property: s.property,
+                    orientation,
+                });
+            }
+            covered += s.length;
+        }
+        if let Some(last) = nodes.last_mut() {
+            *last = end;
+        }
         Ok(Self { nodes, elements })
     }
 

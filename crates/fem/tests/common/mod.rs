@@ -78,34 +78,73 @@ pub fn timoshenko_cantilever(
     l: f64,
     count: usize,
 ) -> Vec<f64> {
+    let whole = Stretch {
+        ei,
+        kga,
+        rho_a,
+        rho_i,
+        l,
+    };
+    timoshenko_stepped_cantilever(&[whole], count)
+}
+
+/// A uniform stretch of a stepped Timoshenko beam: bending and shear stiffness, mass and
+/// rotary inertia per length, length.
+#[derive(Clone, Copy)]
+pub struct Stretch {
+    pub ei: f64,
+    pub kga: f64,
+    pub rho_a: f64,
+    pub rho_i: f64,
+    pub l: f64,
+}
+
+/// The transfer matrix `exp(A l)` of the state `[w, φ, M, Q]` over a uniform stretch at the
+/// circular frequency `omega`, by scaling and squaring of a Taylor series.
+fn stretch_transfer(s: &Stretch, omega: f64) -> Matrix4<f64> {
+    let w2 = omega * omega;
+    #[rustfmt::skip]
+    let a = Matrix4::new(
+        0.0, 1.0, 0.0, 1.0 / s.kga,
+        0.0, 0.0, 1.0 / s.ei, 0.0,
+        0.0, -w2 * s.rho_i, 0.0, -1.0,
+        -w2 * s.rho_a, 0.0, 0.0, 0.0,
+    );
+    let steps = 24;
+    let h = a * (s.l / f64::powi(2.0, steps));
+    let mut e = Matrix4::<f64>::identity();
+    let mut term = Matrix4::<f64>::identity();
+    for k in 1..30 {
+        term = term * h / k as f64;
+        e += term;
+    }
+    for _ in 0..steps {
+        e = e * e;
+    }
+    e
+}
+
+/// Clamped–free eigenvalues ω² (lowest `count`) of a beam of uniform `stretches` in order from
+/// the clamp: the product of their exact transfer matrices (state and section forces continuous
+/// where two stretches meet), bisection on `det` of the free-end block.
+pub fn timoshenko_stepped_cantilever(stretches: &[Stretch], count: usize) -> Vec<f64> {
     let det = |omega: f64| -> f64 {
-        let w2 = omega * omega;
-        #[rustfmt::skip]
-        let a = Matrix4::new(
-            0.0, 1.0, 0.0, 1.0 / kga,
-            0.0, 0.0, 1.0 / ei, 0.0,
-            0.0, -w2 * rho_i, 0.0, -1.0,
-            -w2 * rho_a, 0.0, 0.0, 0.0,
-        );
-        // exp(A L) by scaling and squaring of a Taylor series
-        let steps = 24;
-        let h = a * (l / f64::powi(2.0, steps));
-        let mut e = Matrix4::<f64>::identity();
-        let mut term = Matrix4::<f64>::identity();
-        for k in 1..30 {
-            term = term * h / k as f64;
-            e += term;
-        }
-        for _ in 0..steps {
-            e = e * e;
-        }
+        let e = stretches.iter().fold(Matrix4::<f64>::identity(), |e, s| {
+            stretch_transfer(s, omega) * e
+        });
         // s(0) = [0, 0, M0, Q0]; free end: M(L) = Q(L) = 0
         let d = e[(2, 2)] * e[(3, 3)] - e[(2, 3)] * e[(3, 2)];
         // scale-free sign function
         d / (e[(2, 2)].abs() + e[(3, 3)].abs() + e[(2, 3)].abs() + e[(3, 2)].abs()).powi(2)
     };
+    let l: f64 = stretches.iter().map(|s| s.l).sum();
+    // the lowest root is above 3.5 of the softest stretch's scale: start below it
+    let soft = stretches
+        .iter()
+        .map(|s| s.ei / s.rho_a)
+        .fold(f64::INFINITY, f64::min);
     let mut out = Vec::new();
-    let w0 = (ei / (rho_a * l.powi(4))).sqrt();
+    let w0 = (soft / l.powi(4)).sqrt();
     let mut lo = 0.1 * w0;
     let step = 0.05 * w0;
     let mut flo = det(lo);
