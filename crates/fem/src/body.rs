@@ -861,7 +861,19 @@ pub fn modal_body_dual<const N: usize>(
     let kept = &analysis.kept;
     let nvar = derivs.eigenvalues.len();
     let vars: Vec<usize> = (chunk_start..(chunk_start + N).min(nvar)).collect();
-    no_split(analysis, derivs, &vars)?;
+    let split = split_clusters(analysis, derivs, &vars)?;
+    if let Some(&v) = vars
+        .iter()
+        .find(|&&v| !split.is_empty() && v >= matrices.len())
+    {
+        return Err(FemError::Derivatives(format!(
+            "a variable splits repeated eigenvalues: the body's modal stiffness needs the design \
+             matrices of every variable ({} given, variable {} asked for)",
+            matrices.len(),
+            v + 1
+        )));
+    }
+    let x = analysis.pairs.vectors.select_columns(kept);
     // every computed mode (a damping fit refers to their numbers), then the retained ones
     let computed: Vec<Dual<N>> = (0..p)
         .map(|i| {
@@ -889,7 +901,7 @@ pub fn modal_body_dual<const N: usize>(
                 Some(g) if g.nrows() == xb[v].ncols() => &xb[v] * g.transpose(),
                 _ => xb[v].clone(),
             };
-            let free = back.select_columns(kept);
+            let free = without_cluster_rotation(back.select_columns(kept), &x, &analysis.m, &split);
             let full = analysis.expand(&free);
             for i in 0..full.nrows() {
                 for j in 0..kept.len() {
@@ -904,10 +916,9 @@ pub fn modal_body_dual<const N: usize>(
         .damping
         .map(|d| d.coefficients(&computed))
         .transpose()?;
-    let damping = match fit {
-        Some((a, b)) => lam.iter().map(|&l| a + b * l).collect(),
-        None => vec![Dual::constant(0.0); kept.len()],
-    };
+    let (eigen_k, eigen_c) = eigen_blocks(&x, &lam, &split, matrices, &vars, fit);
+    let lam: Vec<Dual<N>> = (0..lam.len()).map(|i| eigen_k[(i, i)]).collect();
+    let damping: Vec<Dual<N>> = (0..lam.len()).map(|i| eigen_c[(i, i)]).collect();
     let mut body = ModalBody {
         node_positions: base.node_positions,
         // constant masses ([`crate::design_bodies`] gives them their derivatives)
@@ -928,7 +939,13 @@ pub fn modal_body_dual<const N: usize>(
         damping_matrix: None,
     };
     if let Some(correction) = &analysis.correction {
-        correction_dual(analysis, correction, matrices, &vars, &x_b, fit, &mut body)?;
+        let eigen = (&eigen_k, &eigen_c);
+        correction_dual(
+            analysis, correction, matrices, &vars, &x_b, fit, eigen, &mut body,
+        )?;
+    } else if !split.is_empty() {
+        body.stiffness_matrix = Some(Box::new(eigen_k));
+        body.damping_matrix = fit.map(|_| Box::new(eigen_c));
     }
     add_coupling_nodes(analysis, &mut body);
     Ok(body)
@@ -936,7 +953,8 @@ pub fn modal_body_dual<const N: usize>(
 
 /// The correction modes' part of a dual body ([`modal_body_dual`]): their shapes' tangents,
 /// the eigenvalue and damping entries of their Ritz values, and the full modal stiffness and
-/// damping. `x_b` are the retained eigenvectors' derivatives (empty for fixed modes).
+/// damping. `x_b` are the retained eigenvectors' derivatives (empty for fixed modes), `eigen`
+/// the eigenmodes' blocks of the modal stiffness and damping ([`eigen_blocks`]).
 fn correction_dual<const N: usize>(
     analysis: &ModalAnalysis,
     correction: &StaticCorrection,
@@ -944,6 +962,7 @@ fn correction_dual<const N: usize>(
     vars: &[usize],
     x_b: &[DMatrix<f64>],
     fit: Option<(Dual<N>, Dual<N>)>,
+    eigen: (&DMatrix<Dual<N>>, &DMatrix<Dual<N>>),
     body: &mut ModalBody<Dual<N>>,
 ) -> Result<(), FemError> {
     if let Some(&v) = vars.iter().find(|&&v| v >= matrices.len()) {
@@ -1004,29 +1023,15 @@ fn correction_dual<const N: usize>(
             }
         }
     }
-    // the eigenmodes' block is diag(λ) (by Nelson's derivatives), its damping α + βλ
-    for i in 0..pe {
-        for j in 0..pe {
-            kr[(i, j)] = if i == j {
-                body.eigenvalues[i]
-            } else {
-                Dual::constant(0.0)
-            };
-        }
-    }
+    // the eigenmodes' block is theirs ([`eigen_blocks`]: diag(λ) by Nelson's derivatives, but
+    // where a variable splits repeated eigenvalues), its damping α + βλ
+    let (eigen_k, eigen_c) = eigen;
+    kr.view_mut((0, 0), (pe, pe)).copy_from(eigen_k);
     let cr = match analysis.options.correction_damping.floor()? {
-        Some(z) => Some(floored_damping(&kr, &mr, &body.modal_damping, fit, z)),
+        Some(z) => Some(floored_damping(&kr, &mr, eigen_c, fit, z)),
         None => fit.map(|(a, beta)| {
             let mut c = DMatrix::from_fn(r, r, |i, j| mr[(i, j)] * a + kr[(i, j)] * beta);
-            for i in 0..pe {
-                for j in 0..pe {
-                    c[(i, j)] = if i == j {
-                        body.modal_damping[i]
-                    } else {
-                        Dual::constant(0.0)
-                    };
-                }
-            }
+            c.view_mut((0, 0), (pe, pe)).copy_from(eigen_c);
             c
         }),
     };
@@ -1060,7 +1065,7 @@ fn correction_dual<const N: usize>(
 /// The modal damping of a body whose correction modes are damped at least at the ratio `z`
 /// ([`CorrectionDamping::AtLeast`]): `M # f(K)` over the dual modal stiffness `kr` and mass
 /// `mr` of the whole basis, whose values are `I` and `diag(λ, μ)` at the analysed design; the
-/// eigenmodes' block is `diag(eigen)`, their proportional damping (zero without one), as in the
+/// eigenmodes' block is `eigen`, their proportional damping (zero without one), as in the
 /// proportional case. `f` is `α + βλ` at the eigenmodes and `max(α + βμ, 2zμ^½)` at the
 /// correction modes (`α`, `β` from `fit`, zero without one). To first order about the design
 /// (`M = I + M'`, `K = diag(λ) + K'`) the entries are
@@ -1070,11 +1075,11 @@ fn correction_dual<const N: usize>(
 fn floored_damping<const N: usize>(
     kr: &DMatrix<Dual<N>>,
     mr: &DMatrix<Dual<N>>,
-    eigen: &[Dual<N>],
+    eigen: &DMatrix<Dual<N>>,
     fit: Option<(Dual<N>, Dual<N>)>,
     z: f64,
 ) -> DMatrix<Dual<N>> {
-    let (r, pe) = (kr.nrows(), eigen.len());
+    let (r, pe) = (kr.nrows(), eigen.nrows());
     let lambda: Vec<f64> = (0..r).map(|i| kr[(i, i)].value()).collect();
     let (alpha, beta) = fit.unwrap_or((Dual::constant(0.0), Dual::constant(0.0)));
     // each mode's law: its value f, slope f′ and design tangent (of α, β), if proportional
@@ -1092,11 +1097,7 @@ fn floored_damping<const N: usize>(
         .collect();
     DMatrix::from_fn(r, r, |i, j| {
         if i < pe && j < pe {
-            return if i == j {
-                eigen[i]
-            } else {
-                Dual::constant(0.0)
-            };
+            return eigen[(i, j)];
         }
         let ((fi, si, gi), (fj, _, _)) = (law[i], law[j]);
         let gap = lambda[i] - lambda[j];
@@ -1118,21 +1119,28 @@ fn floored_damping<const N: usize>(
     })
 }
 
-/// A body keeps a diagonal modal stiffness: where a variable splits a cluster of repeated
-/// eigenvalues among the retained modes, the derivative of the modal stiffness in the basis
-/// of the values is `Γ diag(λ_b) Γᵀ`, not diagonal, and the dual body would be wrong at first
-/// order. Refused until bodies carry a full modal stiffness.
-fn no_split(
+/// The clusters of repeated eigenvalues among the retained modes that a variable of `vars`
+/// splits (its derivatives of their eigenvalues differ), as positions in `analysis.kept`.
+/// Within such a cluster the modes are not differentiable one by one, only their subspace: the
+/// body then carries the cluster's block of its modal stiffness ([`eigen_blocks`]). A cluster
+/// retained in part is refused (its subspace would mix with the modes left out).
+fn split_clusters(
     analysis: &ModalAnalysis,
     derivs: &ModeDerivatives,
     vars: &[usize],
-) -> Result<(), FemError> {
+) -> Result<Vec<Vec<usize>>, FemError> {
+    let mut out = Vec::new();
+    let fitted = match analysis.options.damping {
+        Some(Damping::Ratios(d)) => d.modes.to_vec(),
+        _ => Vec::new(),
+    };
     for c in derivs.clusters.iter().filter(|c| c.len() > 1) {
-        if !c.iter().any(|i| analysis.kept.contains(i)) {
-            continue;
-        }
+        let at: Vec<usize> = c
+            .iter()
+            .filter_map(|i| analysis.kept.iter().position(|k| k == i))
+            .collect();
         let lambda = analysis.pairs.values[c[0]].abs();
-        for &v in vars {
+        let splitter = vars.iter().find(|&&v| {
             let d: Vec<f64> = c.iter().map(|&i| derivs.eigenvalues[v][i]).collect();
             let spread = d.iter().fold(f64::MIN, |a, &x| a.max(x))
                 - d.iter().fold(f64::MAX, |a, &x| a.min(x));
@@ -1141,21 +1149,104 @@ fn no_split(
                 .fold(0.0f64, |a, x| a.max(x.abs()));
             // a split against the variable's derivatives of the body, above the round-off of
             // derivatives that vanish by symmetry (1e-9 λ per unit of the variable)
-            if spread > (1e-6 * size).max(1e-9 * lambda) {
-                let modes: Vec<String> = c.iter().map(|i| (i + 1).to_string()).collect();
-                return Err(FemError::Derivatives(format!(
-                    "design variable {} (in the order given) splits the repeated frequencies of \
-                     modes {}: the \
-                     sensitivities of a body whose repeated modes split are not available yet \
-                     (its modal stiffness would need off-diagonal terms); break the symmetry \
-                     of the nominal design or retain modes outside the pair",
-                    v + 1,
-                    modes.join(", ")
-                )));
+            spread > (1e-6 * size).max(1e-9 * lambda)
+        });
+        let Some(&v) = splitter else { continue };
+        let modes: Vec<String> = c.iter().map(|i| (i + 1).to_string()).collect();
+        let splits = format!(
+            "design variable {} (in the order given) splits the repeated frequencies of modes {}",
+            v + 1,
+            modes.join(", ")
+        );
+        if let Some(i) = fitted.iter().find(|i| c.contains(i)) {
+            return Err(FemError::Derivatives(format!(
+                "{splits}: the damping is fitted to mode {}, whose frequency has no derivative \
+                 there (the lower of the pair follows one branch on one side and the other on \
+                 the other); give the damping as `alpha` and `beta`, or fit it to modes outside \
+                 the pair",
+                i + 1
+            )));
+        }
+        if at.is_empty() {
+            continue;
+        }
+        if at.len() < c.len() {
+            return Err(FemError::Derivatives(format!(
+                "{splits}, of which only some are retained: retain all of them, or none"
+            )));
+        }
+        out.push(at);
+    }
+    Ok(out)
+}
+
+/// `free` (derivatives of the retained eigenvectors `x` on the free dof) without the
+/// antisymmetric part of their component within each `split` cluster (positions of `x`'s
+/// columns): that part, Dailey's rotation of the cluster's eigenvectors, is the derivative of
+/// an eigenbasis that does not exist where a variable splits the cluster. What is left,
+/// `Y − ½ X (XᵀM_bX)` with `Y` out of the cluster, differentiates a mass-orthonormal basis of
+/// the cluster's subspace, in which the modal stiffness is not diagonal ([`eigen_blocks`]).
+fn without_cluster_rotation(
+    mut free: DMatrix<f64>,
+    x: &DMatrix<f64>,
+    m: &faer::sparse::SparseColMat<usize, f64>,
+    split: &[Vec<usize>],
+) -> DMatrix<f64> {
+    for cluster in split {
+        let xc = x.select_columns(cluster);
+        let fc = free.select_columns(cluster);
+        let within = crate::eigen::project(m, &xc, &fc);
+        let rotation = (&within - within.transpose()) / 2.0;
+        let fixed = fc - &xc * rotation;
+        for (k, &j) in cluster.iter().enumerate() {
+            free.set_column(j, &fixed.column(k));
+        }
+    }
+    free
+}
+
+/// The eigenmodes' blocks of a dual body's modal stiffness and damping: `diag(lam)` and its
+/// proportional damping `α + βλ` (zero without a `fit`), but in each `split` cluster, whose
+/// modes are a mass-orthonormal basis `X` of their subspace, the full block
+/// `λI + Xᵀ(K_b − λM_b)X` (the subspace's derivative; its eigenvalues are the cluster's
+/// eigenvalue derivatives) and `αI + β` of it.
+fn eigen_blocks<const N: usize>(
+    x: &DMatrix<f64>,
+    lam: &[Dual<N>],
+    split: &[Vec<usize>],
+    matrices: &[DesignMatrices],
+    vars: &[usize],
+    fit: Option<(Dual<N>, Dual<N>)>,
+) -> (DMatrix<Dual<N>>, DMatrix<Dual<N>>) {
+    let pe = lam.len();
+    let mut k = DMatrix::from_fn(
+        pe,
+        pe,
+        |i, j| {
+            if i == j { lam[i] } else { Dual::constant(0.0) }
+        },
+    );
+    for cluster in split {
+        let xc = x.select_columns(cluster);
+        let lambda = lam[cluster[0]].value();
+        for (t, &v) in vars.iter().enumerate() {
+            let dk = crate::eigen::project(&matrices[v].k, &xc, &xc)
+                - crate::eigen::project(&matrices[v].m, &xc, &xc) * lambda;
+            for (a, &i) in cluster.iter().enumerate() {
+                for (b, &j) in cluster.iter().enumerate() {
+                    k[(i, j)].d[t] = (dk[(a, b)] + dk[(b, a)]) / 2.0;
+                }
             }
         }
     }
-    Ok(())
+    let c = match fit {
+        Some((a, beta)) => DMatrix::from_fn(pe, pe, |i, j| {
+            let diagonal = if i == j { a } else { Dual::constant(0.0) };
+            diagonal + beta * k[(i, j)]
+        }),
+        None => DMatrix::from_element(pe, pe, Dual::constant(0.0)),
+    };
+    (k, c)
 }
 
 /// Derivatives of the retained (and guard) modes of an analysis for all design variables.
@@ -1340,7 +1431,13 @@ mod tests {
             Dual::<2>::new(alpha[0], [alpha[1], 0.0]),
             Dual::new(beta[0], [0.0, beta[1]]),
         );
-        let eigen: Vec<Dual<2>> = (0..pe).map(|i| a + b * kr[(i, i)]).collect();
+        let eigen = DMatrix::from_fn(pe, pe, |i, j| {
+            if i == j {
+                a + b * kr[(i, i)]
+            } else {
+                Dual::constant(0.0)
+            }
+        });
         let c = floored_damping(&kr, &mr, &eigen, Some((a, b)), z);
         let h = 1e-6;
         for t in 0..2 {

@@ -170,9 +170,9 @@ impl ModalBody<f64> {
     /// coordinates of two analyses (e.g. a nominal and a perturbed design) mean the same only
     /// after this. The tracked basis of a perturbed design differs from the reference by
     /// `O(δ)` and its derivative has no rotation within the clusters, the convention of the
-    /// updated-mode derivatives (Nelson's method with the in-cluster rotation removed). Exact
-    /// for clusters that stay repeated; where a cluster splits, the rotated modes are no
-    /// longer eigenvectors (their modal stiffness stays diagonal only to `O(split)`).
+    /// updated-mode derivatives (Nelson's method with the in-cluster rotation removed). Where a
+    /// cluster splits, the rotated modes are no longer eigenvectors: the body then carries its
+    /// full modal stiffness and damping in the rotated basis (the same reduced model).
     pub fn align_to(
         &mut self,
         reference: &ModalBody<f64>,
@@ -221,10 +221,49 @@ impl ModalBody<f64> {
             let svd = block.svd(true, true);
             let (u, vt) = (svd.u.expect("u"), svd.v_t.expect("v_t"));
             let rot = u * vt;
-            let cols = self.modes.columns(start, r) * rot;
+            let cols = self.modes.columns(start, r) * &rot;
             self.modes.columns_mut(start, r).copy_from(&cols);
+            self.rotate_modal_matrices(start, &rot);
             start = end;
         }
         Ok(())
+    }
+
+    /// The modal stiffness and damping in the basis whose columns `start..start + r` are turned
+    /// by `rot` (`r × r`): `Rᵀ A R` on that block, `A R` and `Rᵀ A` beside it. Where the turned
+    /// block is not a multiple of the identity to 1e-10 (a cluster of the reference that is
+    /// split here), the body then carries full matrices; otherwise they are left as they are.
+    fn rotate_modal_matrices(&mut self, start: usize, rot: &DMatrix<f64>) {
+        let r = rot.nrows();
+        let p = self.eigenvalues.len();
+        // equal to round-off (a symmetric body's pairs): the turn leaves them as they are
+        let uniform = |v: &[f64]| {
+            let size = v.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+            v.iter().all(|&x| (x - v[0]).abs() <= 1e-10 * size)
+        };
+        let block = start..start + r;
+        if self.stiffness_matrix.is_none()
+            && self.damping_matrix.is_none()
+            && uniform(&self.eigenvalues[block.clone()])
+            && uniform(&self.modal_damping[block])
+        {
+            return;
+        }
+        let turn = |a: &DMatrix<f64>| {
+            let mut t = DMatrix::<f64>::identity(p, p);
+            t.view_mut((start, start), (r, r)).copy_from(rot);
+            t.transpose() * a * t
+        };
+        let full = |given: &Option<Box<DMatrix<f64>>>, diagonal: &[f64]| {
+            given.as_deref().cloned().unwrap_or_else(|| {
+                DMatrix::from_diagonal(&nalgebra::DVector::from_row_slice(diagonal))
+            })
+        };
+        let k = turn(&full(&self.stiffness_matrix, &self.eigenvalues));
+        let c = turn(&full(&self.damping_matrix, &self.modal_damping));
+        self.eigenvalues = k.diagonal().iter().copied().collect();
+        self.modal_damping = c.diagonal().iter().copied().collect();
+        self.stiffness_matrix = Some(Box::new(k));
+        self.damping_matrix = Some(Box::new(c));
     }
 }

@@ -116,6 +116,91 @@ fn tracked_modes_of_perturbed_designs_differentiate_to_the_updated_mode_tangents
     assert!(max_abs(&(&same.modes - &nominal.modes)) < 1e-12 * max_abs(&nominal.modes));
 }
 
+/// The rod with its outer half's plies turned by `delta` degrees from its inner half's 15°:
+/// its clusters of four (two halves × two bending planes) split into the halves' pairs.
+fn split_body(delta: f64) -> ModalBody<f64> {
+    let section = |angle: f64| {
+        let s = SectionSensitivities {
+            properties: section::analyse(&tube(angle)).unwrap(),
+            ..Default::default()
+        };
+        BeamSection::from_section(&s.properties)
+    };
+    let half = |property| fem::BeamSegment {
+        length: 0.152,
+        elements: 4,
+        property,
+    };
+    let mesh = Mesh::segmented_beam(
+        Vector3::zeros(),
+        Vector3::new(0.304, 0.0, 0.0),
+        &[half(0), half(1)],
+        Vector3::y(),
+    )
+    .unwrap();
+    let p = Properties {
+        sections: vec![section(15.0), section(15.0 + delta)],
+        laminates: vec![],
+    };
+    let a = modal_analysis(&mesh, &p, &ModalOptions::new(MODES)).unwrap();
+    modal_body(&mesh, &p, &a).unwrap()
+}
+
+/// Tracking a design whose halves differ to the uniform rod turns each split cluster's modes
+/// into a basis that is no longer an eigenbasis: the tracked body carries the full modal
+/// stiffness and damping in it, so that it is the same reduced model (the same modal
+/// flexibility `X K⁻¹ Xᵀ`, the same frequencies), which a diagonal would not be.
+#[test]
+fn tracking_a_split_cluster_keeps_the_reduced_model() {
+    let mut nominal = split_body(0.0);
+    assert!(nominal.stiffness_matrix.is_none());
+    // any basis of the uniform rod's cluster of four is its eigenbasis: mix the halves'
+    for (i, j) in [(0, 2), (1, 3)] {
+        let (a, b) = (nominal.modes.column(i), nominal.modes.column(j));
+        let (sum, difference) = ((a + b) / 2f64.sqrt(), (a - b) / 2f64.sqrt());
+        nominal.modes.set_column(i, &sum);
+        nominal.modes.set_column(j, &difference);
+    }
+    let mut same = nominal.clone();
+    same.align_to(&nominal, 1e-6).unwrap();
+    assert!(
+        same.stiffness_matrix.is_none(),
+        "nothing split, nothing full"
+    );
+    let split = split_body(0.5);
+    let lam = &split.eigenvalues;
+    // the cluster of four (two halves × two planes) splits into the halves' pairs
+    assert!((lam[2] - lam[0]).abs() > 1e-2 * lam[0], "{lam:?}");
+    let mut tracked = split.clone();
+    tracked.modal_damping = lam.iter().map(|l| 2e-5 * l).collect();
+    let damped = tracked.clone();
+    tracked.align_to(&nominal, 1e-6).unwrap();
+    let k = tracked
+        .stiffness_matrix
+        .as_deref()
+        .expect("a full stiffness")
+        .clone();
+    let off = k.iter().enumerate().filter(|(i, _)| i % (MODES + 1) != 0);
+    let largest_off = off.fold(0.0f64, |a, (_, x)| a.max(x.abs()));
+    assert!(largest_off > 1e-3 * lam[0], "{largest_off:e}");
+    let flexibility = |modes: &DMatrix<f64>, k: &DMatrix<f64>| {
+        modes * k.clone().try_inverse().unwrap() * modes.transpose()
+    };
+    let diagonal = DMatrix::from_diagonal(&nalgebra::DVector::from_row_slice(lam));
+    let reference = flexibility(&split.modes, &diagonal);
+    let err = max_abs(&(flexibility(&tracked.modes, &k) - &reference)) / max_abs(&reference);
+    assert!(err < 1e-10, "{err:e}");
+    let mut values = k.symmetric_eigenvalues().as_slice().to_vec();
+    values.sort_by(f64::total_cmp);
+    for (a, b) in values.iter().zip(lam) {
+        assert!((a - b).abs() < 1e-10 * b, "{a} against {b}");
+    }
+    // the damping turns with it: still 2e-5 K
+    let c = tracked.damping_matrix.as_deref().expect("a full damping");
+    assert!(max_abs(&(c - &k * 2e-5)) < 1e-12 * max_abs(c));
+    assert!(damped.damping_matrix.is_none());
+}
+
 #[test]
 fn tracking_rejects_a_different_layout() {
     let a = body(15.0);
