@@ -232,3 +232,25 @@ walls = { top = "flange", bottom = "flange", web = "web" }
 elements_per_ply = 2
 """
 write("i_beam_no_web_height.toml", I_BEAM)
+
+# --- tailored beams: segments of their own sections
+ROD = '[body.rod]\nkind = "beam"\nsection = "tube"\n'
+ROD_ELEMENTS = "elements = 8                # node 4 at mid-length carries the body frame (centre of mass)\n"
+
+
+def segmented(segments, keep_section=False):
+    text = BEAM if keep_section else edit(BEAM, ROD, '[body.rod]\nkind = "beam"\n')
+    text = edit(text, ROD_ELEMENTS, "")
+    return edit(text, 'orientation = [0.0, 1.0, 0.0]\n', 'orientation = [0.0, 1.0, 0.0]\nsegments = %s\n' % segments, 1)
+
+
+HALVES = '[{ section = "tube", length = 0.152, elements = 4 }, { section = "tube", elements = 4 }]'
+write("segments_with_section.toml", segmented(HALVES, keep_section=True))
+write("segments_too_long.toml", segmented('[{ section = "tube", length = 0.2 }, { section = "tube", length = 0.2 }]'))
+write("segments_too_short.toml", segmented('[{ section = "tube", length = 0.1 }, { section = "tube", length = 0.1 }]'))
+write("segments_missing_length.toml", segmented('[{ section = "tube" }, { section = "tube", length = 0.1 }]'))
+write("segments_unknown_section.toml", segmented('[{ section = "tub", length = 0.152 }, { section = "tube" }]'))
+write("segments_empty.toml", segmented("[]"))
+write("segments_zero_elements.toml", segmented('[{ section = "tube", length = 0.152, elements = 0 }, { section = "tube" }]'))
+write("segments_unknown_key.toml", segmented('[{ section = "tube", lenght = 0.152 }, { section = "tube" }]'))
+write("segments_nothing_left.toml", segmented('[{ section = "tube", length = 0.304 }, { section = "tube" }]'))

@@ -12,10 +12,12 @@ use super::raw::{RawBody, RawCoupling, RawDeck, RawMarker, RawPlane, RawSupport}
 use super::sections::{self, SectionDef};
 use super::{DeckError, Source};
 
+mod beam;
 mod reduction;
 mod sets;
 mod shape;
 
+pub use beam::DEFAULT_BEAM_ELEMENTS;
 pub use reduction::CORRECTION_DAMPING_DEFAULT;
 use reduction::{correction_damping, damping, modes, reference};
 pub use sets::{InterfaceDef, InterfaceSite, interface_loads};
@@ -25,13 +27,15 @@ use shape::{element_count, shape};
 /// How a body is meshed.
 #[derive(Debug, Clone)]
 pub enum BodyShape {
+    /// A straight beam from `start` to `end` of `segments` in order (one over the whole length
+    /// unless the deck gives `segments`), each of a section of `sections` (its `property`; the
+    /// sections by name, each once, in the order the segments first use them).
     Beam {
-        section_name: String,
-        section: SectionDef,
+        sections: Vec<(String, SectionDef)>,
+        segments: Vec<fem::BeamSegment>,
         start: Vector3<f64>,
         end: Vector3<f64>,
         orientation: Vector3<f64>,
-        elements: usize,
     },
     ShellRectangle {
         laminate: String,
@@ -52,6 +56,16 @@ pub enum BodyShape {
         file: String,
         axis: Vector3<f64>,
     },
+}
+
+impl BodyShape {
+    /// The number of elements of a beam (`None` for a shell).
+    pub fn beam_elements(&self) -> Option<usize> {
+        match self {
+            BodyShape::Beam { segments, .. } => Some(segments.iter().map(|s| s.elements).sum()),
+            _ => None,
+        }
+    }
 }
 
 /// A validated flexible body.
@@ -106,7 +120,11 @@ impl BodyDef {
     pub fn at(&self, model: &LaminateModel) -> Result<BodyDef, section::SectionError> {
         let mut out = self.clone();
         match &mut out.shape {
-            BodyShape::Beam { section, .. } => *section = section.at(model)?,
+            BodyShape::Beam { sections, .. } => {
+                for (_, section) in sections {
+                    *section = section.at(model)?;
+                }
+            }
             BodyShape::ShellRectangle {
                 laminate,
                 stack,

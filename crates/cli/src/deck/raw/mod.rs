@@ -168,6 +168,9 @@ pub struct RawBody {
     pub material_axis: Option<Spanned<[f64; 3]>>,
     /// Beam: number of elements; shell rectangle: `[along x, along y]`.
     pub elements: Option<Spanned<toml::Value>>,
+    /// Beam: the segments from `start` to `end`, each with its own section (instead of
+    /// `section` and `elements`).
+    pub segments: Option<Spanned<Vec<Spanned<RawSegment>>>>,
     /// Number of elastic modes retained (the lowest), the mode numbers retained, e.g.
     /// `[1, 2, 5]` (counted from 1, ascending), or `"auto"`.
     pub modes: Option<Spanned<toml::Value>>,
@@ -229,6 +232,18 @@ pub struct RawCoupling {
     pub inside: Option<Spanned<[[f64; 3]; 2]>>,
     pub point: Option<Spanned<[f64; 3]>>,
     pub kind: Option<Spanned<String>>,
+}
+
+/// A segment of a beam body: its section, length and number of elements.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawSegment {
+    /// A `[section.*]` name.
+    pub section: Option<Spanned<String>>,
+    /// Length along the beam (m); the last segment's defaults to the rest.
+    pub length: Option<Spanned<f64>>,
+    /// Number of equal elements.
+    pub elements: Option<Spanned<i64>>,
 }
 
 /// A support: a set of nodes (`nodes`, `plane` or `box`) and the dof fixed there (`fix`).

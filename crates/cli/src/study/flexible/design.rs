@@ -38,17 +38,12 @@ pub type MaterialLinks = Vec<Vec<(usize, MaterialLaw)>>;
 
 /// The design of a body: how its stiffness depends on the design variables.
 pub enum Design {
-    /// A beam: the section's values and derivatives with respect to each variable at the
-    /// nominal design `values`, and what the section at another design needs (its mesh and
-    /// design map).
+    /// A beam: each of its sections' designs (in the order of its element properties) with
+    /// respect to the variables at the nominal design `values`.
     Beam {
-        sens: Box<SectionSensitivities>,
+        sections: Vec<SectionDesign>,
         names: Vec<String>,
         values: Vec<f64>,
-        mesh: Box<section::SectionMesh>,
-        map: DesignMap,
-        /// Per variable, `(region, law)` of the regions whose material it moves.
-        materials: MaterialLinks,
     },
     /// A shell: the laminate's ply angles move with the variables, `θ_p = θ_p0 + Σ_j f (b_j −
     /// b_j0)` for each `(p, f)` of `links[j]` (θ in radians).
@@ -62,6 +57,88 @@ pub enum Design {
         /// Per variable, `(ply, dt/db)` of the plies whose thickness it moves.
         thicknesses: Vec<Vec<(usize, f64)>>,
     },
+}
+
+/// One section of a beam body: its values and derivatives with respect to each variable at the
+/// nominal design, and what the section at another design needs (its mesh and design map).
+pub struct SectionDesign {
+    pub sens: Box<SectionSensitivities>,
+    pub mesh: Box<section::SectionMesh>,
+    pub map: DesignMap,
+    /// Per variable, `(region, law)` of the regions whose material it moves.
+    pub materials: MaterialLinks,
+}
+
+impl SectionDesign {
+    /// Whether variable `j` changes the section.
+    fn depends_on(&self, j: usize) -> bool {
+        self.sens.derivatives.get(j).is_some_and(|d| {
+            d.stiffness.iter().any(|x| *x != 0.0)
+                || d.mass_per_length != 0.0
+                || d.mass_inertia.iter().any(|x| *x != 0.0)
+        })
+    }
+
+    /// Whether the section's own map moves anything with variable `j` (its regions' angles or
+    /// materials, its nodes).
+    fn moved_by(&self, j: usize) -> bool {
+        self.map.variables.get(j).is_some_and(|v| {
+            !(v.links.is_empty()
+                && v.materials.is_empty()
+                && v.densities.is_empty()
+                && v.nodes.is_empty())
+        }) || self.materials.get(j).is_some_and(|m| !m.is_empty())
+    }
+
+    /// The section's stiffness and mass at the design `b` (values and tangents): from the
+    /// stored derivatives when `b` is the nominal design `values` or differs from it only in
+    /// variables that do not move the section; otherwise (Dailey's second-derivative terms
+    /// perturb the design) analysed again at `b`.
+    fn at<const N: usize>(
+        &self,
+        b: &[Dual<N>],
+        values: &[f64],
+    ) -> Result<BeamSection<Dual<N>>, section::SectionError> {
+        let SectionDesign {
+            sens,
+            mesh,
+            map,
+            materials,
+        } = self;
+        let steps: Vec<f64> = b.iter().zip(values).map(|(bj, b0)| bj.v - b0).collect();
+        // a section given by its properties has no mesh, and nothing moves it
+        let analysed = !mesh.elements.is_empty();
+        let moved = (0..steps.len()).any(|j| steps[j] != 0.0 && self.moved_by(j));
+        if !(analysed && moved) {
+            return Ok(BeamSection::from_sensitivities(sens, b));
+        }
+        let mut at = (**mesh).clone();
+        for (j, &step) in steps.iter().enumerate() {
+            at = map.step(&at, j, step);
+        }
+        for (r, c) in moved_constants(mesh.regions.len(), materials, &steps, |r| {
+            material_constants(&mesh.regions[r].material)
+        }) {
+            at.regions[r].material = with_material_constants(&at.regions[r].material, &c)
+                .map_err(|e| section::SectionError::InvalidInput(e.to_string()))?;
+        }
+        // derivatives only along the variables whose tangents `b` carries (a chunk's, or one of
+        // them): the others' would be multiplied by zero, and each one that moves nodes costs
+        // dual passes of the section's kernel, so that all of them at each of Dailey's
+        // perturbed designs made the set-up quadratic in the number of thickness variables
+        let active: Vec<usize> = (0..b.len())
+            .filter(|&j| b[j].d.iter().any(|&x| x != 0.0))
+            .collect();
+        let all = with_materials(map, &at, materials);
+        let map_at = DesignMap {
+            variables: active.iter().map(|&j| all.variables[j].clone()).collect(),
+        };
+        let b_active: Vec<Dual<N>> = active.iter().map(|&j| b[j]).collect();
+        Ok(BeamSection::from_sensitivities(
+            &section_derivatives(&at, &map_at)?,
+            &b_active,
+        ))
+    }
 }
 
 impl Design {
@@ -81,11 +158,7 @@ impl Design {
     /// Whether variable `j` changes this body's stiffness.
     pub fn depends_on(&self, j: usize) -> bool {
         match self {
-            Design::Beam { sens, .. } => sens.derivatives.get(j).is_some_and(|d| {
-                d.stiffness.iter().any(|x| *x != 0.0)
-                    || d.mass_per_length != 0.0
-                    || d.mass_inertia.iter().any(|x| *x != 0.0)
-            }),
+            Design::Beam { sections, .. } => sections.iter().any(|s| s.depends_on(j)),
             Design::Shell {
                 links,
                 materials,
@@ -108,50 +181,14 @@ impl Design {
     ) -> Result<Properties<Dual<N>>, section::SectionError> {
         Ok(match self {
             Design::Beam {
-                sens,
-                values,
-                mesh,
-                map,
-                materials,
-                ..
-            } => {
-                let steps: Vec<f64> = b.iter().zip(values).map(|(bj, b0)| bj.v - b0).collect();
-                // a section given by its properties has no mesh, and nothing moves it
-                let analysed = !mesh.elements.is_empty();
-                let section = if analysed && steps.iter().any(|&s| s != 0.0) {
-                    let mut at = (**mesh).clone();
-                    for (j, &step) in steps.iter().enumerate() {
-                        at = map.step(&at, j, step);
-                    }
-                    for (r, c) in moved_constants(mesh.regions.len(), materials, &steps, |r| {
-                        material_constants(&mesh.regions[r].material)
-                    }) {
-                        at.regions[r].material =
-                            with_material_constants(&at.regions[r].material, &c)
-                                .map_err(|e| section::SectionError::InvalidInput(e.to_string()))?;
-                    }
-                    // derivatives only along the variables whose tangents `b` carries (a
-                    // chunk's, or one of them): the others' would be multiplied by zero, and
-                    // each one that moves nodes costs dual passes of the section's kernel, so
-                    // that all of them at each of Dailey's perturbed designs made the set-up
-                    // quadratic in the number of thickness variables
-                    let active: Vec<usize> = (0..b.len())
-                        .filter(|&j| b[j].d.iter().any(|&x| x != 0.0))
-                        .collect();
-                    let all = with_materials(map, &at, materials);
-                    let map_at = DesignMap {
-                        variables: active.iter().map(|&j| all.variables[j].clone()).collect(),
-                    };
-                    let b_active: Vec<Dual<N>> = active.iter().map(|&j| b[j]).collect();
-                    BeamSection::from_sensitivities(&section_derivatives(&at, &map_at)?, &b_active)
-                } else {
-                    BeamSection::from_sensitivities(sens, b)
-                };
-                Properties {
-                    sections: vec![section],
-                    laminates: Vec::new(),
-                }
-            }
+                sections, values, ..
+            } => Properties {
+                sections: sections
+                    .iter()
+                    .map(|s| s.at(b, values))
+                    .collect::<Result<_, _>>()?,
+                laminates: Vec::new(),
+            },
             Design::Shell {
                 stack,
                 links,
@@ -424,30 +461,27 @@ pub(crate) fn move_own_section(
     variables: &[crate::deck::design::DesignVariable],
     b: &[f64],
 ) {
-    let BodyShape::Beam {
-        section_name,
-        section,
-        ..
-    } = &mut def.shape
-    else {
+    let BodyShape::Beam { sections, .. } = &mut def.shape else {
         return;
     };
-    for (v, &bj) in variables.iter().zip(b) {
-        match &v.target {
-            Target::SectionProperty {
-                section: name,
-                entry,
-            } if name == &*section_name => {
-                if let Some(given) = &mut section.given {
-                    **given = given.with(*entry, bj);
+    for (section_name, section) in sections {
+        for (v, &bj) in variables.iter().zip(b) {
+            match &v.target {
+                Target::SectionProperty {
+                    section: name,
+                    entry,
+                } if name == &*section_name => {
+                    if let Some(given) = &mut section.given {
+                        **given = given.with(*entry, bj);
+                    }
                 }
-            }
-            Target::SectionAngle { section: name } if name == &*section_name => {
-                for region in &mut section.mesh.regions {
-                    region.ply_angle = bj.to_radians();
+                Target::SectionAngle { section: name } if name == &*section_name => {
+                    for region in &mut section.mesh.regions {
+                        region.ply_angle = bj.to_radians();
+                    }
                 }
+                _ => {}
             }
-            _ => {}
         }
     }
 }

@@ -19,7 +19,9 @@ use crate::error::CliError;
 mod design;
 
 pub(crate) use design::move_own_section;
-pub use design::{Design, DesignRequest, section_derivatives, section_design, shell_design};
+pub use design::{
+    Design, DesignRequest, SectionDesign, section_derivatives, section_design, shell_design,
+};
 
 pub const CHUNK: usize = 8;
 
@@ -158,9 +160,9 @@ pub fn mesh(src: &Source, name: &str, def: &BodyDef) -> Result<fem::Mesh, CliErr
             start,
             end,
             orientation,
-            elements,
+            segments,
             ..
-        } => fem::Mesh::straight_beam(*start, *end, *elements, 0, *orientation)
+        } => fem::Mesh::segmented_beam(*start, *end, segments, *orientation)
             .map_err(|e| input(".elements", e.to_string()))?,
         BodyShape::ShellRectangle {
             length,
@@ -240,13 +242,8 @@ pub fn build(
     };
     let mesh = mesh(src, name, def)?;
     let (mesh, props, design, kind) = match &def.shape {
-        BodyShape::Beam {
-            section_name,
-            section,
-            ..
-        } => {
-            let (props, design) =
-                beam(section_name, section, request).map_err(|(key, m)| input(key, m))?;
+        BodyShape::Beam { sections, .. } => {
+            let (props, design) = beam(sections, request).map_err(|(key, m)| input(key, m))?;
             (mesh, props, design, "beam")
         }
         BodyShape::ShellRectangle {
@@ -301,17 +298,82 @@ pub fn build(
     })
 }
 
-/// A beam body's properties from its section, and its design (the section's derivatives with
-/// respect to the variables `request` asks for); an error names the key at fault.
+/// A beam body's properties from its sections (one per section, in order), and its design (the
+/// sections' derivatives with respect to the variables `request` asks for); an error names the
+/// key at fault.
 fn beam(
+    sections: &[(String, SectionDef)],
+    request: DesignRequest,
+) -> Result<(Properties<f64>, Design), (&'static str, String)> {
+    // one ply-angle variable per region of every section, each moving its own section
+    let each_ply: Vec<(usize, String, usize)> = match request {
+        DesignRequest::EachPly => sections
+            .iter()
+            .enumerate()
+            .flat_map(|(s, (name, def))| {
+                let prefix = if sections.len() > 1 {
+                    format!("{name}.")
+                } else {
+                    String::new()
+                };
+                def.mesh
+                    .regions
+                    .iter()
+                    .enumerate()
+                    .map(move |(r, region)| (s, format!("{prefix}{}.angle", region.name), r))
+            })
+            .collect(),
+        _ => Vec::new(),
+    };
+    let mut designs = Vec::with_capacity(sections.len());
+    let mut props = Properties {
+        sections: Vec::with_capacity(sections.len()),
+        laminates: Vec::new(),
+    };
+    for (s, (name, section)) in sections.iter().enumerate() {
+        let design = section_of_beam(name, section, request, |map| {
+            for (owner, variable, r) in &each_ply {
+                let links = if *owner == s { vec![(*r, 1.0)] } else { vec![] };
+                *map = std::mem::take(map).with_variable(variable.clone(), links);
+            }
+        })?;
+        props
+            .sections
+            .push(BeamSection::from_section(&design.sens.properties));
+        designs.push(design);
+    }
+    let (names, values) = match request {
+        DesignRequest::None => (Vec::new(), Vec::new()),
+        DesignRequest::EachPly => (
+            each_ply.iter().map(|(_, n, _)| n.clone()).collect(),
+            vec![0.0; each_ply.len()],
+        ),
+        DesignRequest::Variables(vars) => (
+            vars.iter().map(|v| v.name.clone()).collect(),
+            vars.iter().map(|v| v.value).collect(),
+        ),
+    };
+    let design = Design::Beam {
+        sections: designs,
+        names,
+        values,
+    };
+    Ok((props, design))
+}
+
+/// The design of one section of a beam body: its values and derivatives with respect to the
+/// variables `request` asks for (`each_ply` builds the design map of [`DesignRequest::EachPly`]).
+fn section_of_beam(
     section_name: &str,
     section: &SectionDef,
     request: DesignRequest,
-) -> Result<(Properties<f64>, Design), (&'static str, String)> {
+    each_ply: impl FnOnce(&mut DesignMap),
+) -> Result<SectionDesign, (&'static str, String)> {
     let (map, materials) = match request {
         DesignRequest::None => (None, Vec::new()),
         DesignRequest::EachPly => {
-            let map = DesignMap::each_region(&section.mesh);
+            let mut map = DesignMap::new();
+            each_ply(&mut map);
             let none = vec![Vec::new(); map.variables.len()];
             (Some(map), none)
         }
@@ -336,7 +398,12 @@ fn beam(
                         _ => Default::default(),
                     })
                     .collect(),
-                DesignRequest::None | DesignRequest::EachPly => Vec::new(),
+                DesignRequest::EachPly => map
+                    .iter()
+                    .flat_map(|m| &m.variables)
+                    .map(|_| Default::default())
+                    .collect(),
+                DesignRequest::None => Vec::new(),
             };
             SectionSensitivities {
                 properties,
@@ -355,30 +422,12 @@ fn beam(
         }),
     }
     .map_err(|e| ("", format!("section `{section_name}`: {e}")))?;
-    let props = Properties {
-        sections: vec![BeamSection::from_section(&s.properties)],
-        laminates: Vec::new(),
-    };
-    let (names, values) = match request {
-        DesignRequest::None => (Vec::new(), Vec::new()),
-        DesignRequest::EachPly => (
-            s.variables.iter().map(|n| format!("{n}.angle")).collect(),
-            vec![0.0; s.variables.len()],
-        ),
-        DesignRequest::Variables(vars) => (
-            vars.iter().map(|v| v.name.clone()).collect(),
-            vars.iter().map(|v| v.value).collect(),
-        ),
-    };
-    let design = Design::Beam {
+    Ok(SectionDesign {
         sens: Box::new(s),
-        names,
-        values,
         mesh: Box::new(section.mesh.clone()),
         map: map.unwrap_or_default(),
         materials,
-    };
-    Ok((props, design))
+    })
 }
 
 /// The reference condition of `def` on a mesh of `n_nodes` nodes; an error names the key at
@@ -419,9 +468,10 @@ fn reference_condition(
             ReferenceCondition::PinnedEnds { a, b }
         }
         Reference::PinnedEnds(None) => match &def.shape {
-            BodyShape::Beam { elements, .. } => {
-                ReferenceCondition::PinnedEnds { a: 0, b: *elements }
-            }
+            shape @ BodyShape::Beam { .. } => ReferenceCondition::PinnedEnds {
+                a: 0,
+                b: shape.beam_elements().unwrap_or(0),
+            },
             _ => {
                 return Err((
                     ".pinned",

@@ -1,0 +1,261 @@
+//! Tailored beams: a beam body made of `segments` with their own sections. A stepped cantilever
+//! against the closed-form frequencies of Euler–Bernoulli stretches; the paper's tube split in
+//! two segments of two laminates is the uniform tube, and its two angles' sensitivities add up
+//! to the common angle's and equal replayed central differences of whole runs.
+
+mod common;
+use common::*;
+
+/// A given section `name`: bending stiffness `ei` (N·m², both planes) and mass per length `m`
+/// (kg/m); stiff in shear and tension, negligible rotary inertia (an Euler–Bernoulli beam).
+fn slender(name: &str, ei: f64, m: f64) -> String {
+    format!(
+        "[section.{name}]\nshape = \"properties\"\nEA = 1.0e9\nGA2 = 1.0e10\nGA3 = 1.0e10\n\
+         GJ = {ei:e}\nEI2 = {ei:e}\nEI3 = {ei:e}\nmass_per_length = {m:e}\n\
+         inertia = [1.0e-9, 1.0e-9]\n\n"
+    )
+}
+
+/// Clamped–free ω² (lowest `count`) of Euler–Bernoulli stretches `(EI, m, length)` in order
+/// from the clamp: the product of each stretch's transfer matrix of `[w, w', M, Q]` in Krylov's
+/// functions (closed form; moment and shear continuous at the steps), bisection on the
+/// free-end determinant.
+fn stepped_cantilever(stretches: &[(f64, f64, f64)], count: usize) -> Vec<f64> {
+    let det = |omega: f64| -> f64 {
+        let mut t = nalgebra::Matrix4::<f64>::identity();
+        for &(ei, m, l) in stretches {
+            let beta = (omega * omega * m / ei).powf(0.25);
+            let z = beta * l;
+            let s = 0.5 * (z.cosh() + z.cos());
+            let tt = 0.5 * (z.sinh() + z.sin());
+            let u = 0.5 * (z.cosh() - z.cos());
+            let v = 0.5 * (z.sinh() - z.sin());
+            let (b, b2, b3) = (beta, beta * beta, beta.powi(3));
+            #[rustfmt::skip]
+            let stretch = nalgebra::Matrix4::new(
+                s, tt / b, u / (ei * b2), v / (ei * b3),
+                b * v, s, tt / (ei * b), u / (ei * b2),
+                ei * b2 * u, ei * b * v, s, tt / b,
+                ei * b3 * tt, ei * b2 * u, b * v, s,
+            );
+            t = stretch * t;
+        }
+        // clamped start: w = w' = 0; free end: M = Q = 0
+        let d = t[(2, 2)] * t[(3, 3)] - t[(2, 3)] * t[(3, 2)];
+        d / (t[(2, 2)].abs() + t[(3, 3)].abs() + t[(2, 3)].abs() + t[(3, 2)].abs()).powi(2)
+    };
+    let mut out = Vec::new();
+    let (mut lo, step) = (0.1, 0.05);
+    let mut flo = det(lo);
+    while out.len() < count {
+        let hi = lo + step;
+        let fhi = det(hi);
+        if flo.signum() != fhi.signum() {
+            let (mut a, mut b, mut fa) = (lo, hi, flo);
+            for _ in 0..100 {
+                let c = 0.5 * (a + b);
+                let fc = det(c);
+                if fc.signum() == fa.signum() {
+                    (a, fa) = (c, fc);
+                } else {
+                    b = c;
+                }
+            }
+            out.push(0.5 * (a + b));
+        }
+        (lo, flo) = (hi, fhi);
+    }
+    out.into_iter().map(|w| w * w).collect()
+}
+
+/// The in-plane bending frequencies (Hz) of the body `arm` of `deck`.
+fn frequencies(dir: &tempfile::TempDir, deck: &str) -> Vec<f64> {
+    let path = dir.path().join("arm.toml");
+    std::fs::write(&path, deck).unwrap();
+    let j = json(&["modes", path.to_str().unwrap(), "--format", "json"]);
+    j["bodies"]["arm"]["values"]["frequencies"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f.as_f64().unwrap())
+        .collect()
+}
+
+/// A 1 m cantilever whose stiff, heavy root (EI 400 N·m², 2 kg/m) covers 0.4 m, a lighter
+/// stretch (100 N·m², 1 kg/m) the rest: its first four in-plane frequencies within 0.2 % of the
+/// closed form (either uniform beam is 17 % or more off in the first); segments given by
+/// their element counts' default share of ten elements and by explicit counts agree with it.
+#[test]
+fn a_stepped_cantilever_has_the_closed_form_frequencies() {
+    let dir = tempfile::tempdir().unwrap();
+    let body = |segments: &str| {
+        format!(
+            "{}{}[body.arm]\nkind = \"beam\"\nstart = [0.0, 0.0, 0.0]\nend = [1.0, 0.0, 0.0]\n\
+             segments = {segments}\nreference = \"clamped-node\"\nplanar = [0.0, 0.0, 1.0]\n\
+             modes = 4\nmass = \"consistent\"\n",
+            slender("root", 400.0, 2.0),
+            slender("tip", 100.0, 1.0),
+        )
+    };
+    let fine = frequencies(
+        &dir,
+        &body(
+            "[{ section = \"root\", length = 0.4, elements = 24 }, \
+             { section = \"tip\", elements = 36 }]",
+        ),
+    );
+    let exact = stepped_cantilever(&[(400.0, 2.0, 0.4), (100.0, 1.0, 0.6)], 4);
+    let hz = |w2: f64| w2.sqrt() / (2.0 * std::f64::consts::PI);
+    for (n, (f, w2)) in fine.iter().zip(&exact).enumerate() {
+        let err = f / hz(*w2) - 1.0;
+        assert!(
+            err.abs() < 2e-3,
+            "mode {}: {f} Hz against {} Hz ({err:.1e})",
+            n + 1,
+            hz(*w2)
+        );
+    }
+    for (ei, m) in [(400.0, 2.0), (100.0, 1.0)] {
+        let uniform = stepped_cantilever(&[(ei, m, 1.0)], 1);
+        let off = hz(uniform[0]) / fine[0] - 1.0;
+        assert!(off.abs() > 0.15, "a uniform beam is within {off:.2}");
+    }
+    // ten elements shared 4 + 6 by default: the first frequency within 0.2 % still
+    let coarse = frequencies(
+        &dir,
+        &body("[{ section = \"root\", length = 0.4 }, { section = \"tip\" }]"),
+    );
+    assert!((coarse[0] / hz(exact[0]) - 1.0).abs() < 2e-3, "{coarse:?}");
+}
+
+/// The paper's beam deck with its rod split at mid-length into two segments: `segments` and
+/// `laminates` are the rod's (the tube's section at lay-up 15°, its laminate copied as
+/// `tip_wall` for the outer half).
+fn split_rod(segments: &str, design: &str) -> String {
+    let text = std::fs::read_to_string(deck("slider_crank_beam.toml")).unwrap();
+    let tip = "[laminate.tip_wall]\nplies = [\n  { material = \"paper_composite\", thickness = \
+               0.25e-3, angle = 15.0 },\n  { material = \"paper_composite\", thickness = \
+               0.25e-3, angle = 15.0 },\n  { material = \"paper_composite\", thickness = \
+               0.25e-3, angle = 15.0 },\n  { material = \"paper_composite\", thickness = \
+               0.25e-3, angle = 15.0 },\n]\n\n[section.tip_tube]\nshape = \"tube\"\n\
+               inner_radius = 4.529e-3\nlaminate = \"tip_wall\"\nelements_per_ply = 1\n\
+               elements_around = 32\n\n[body.rod]";
+    let text = text
+        .replace("[body.rod]", tip)
+        .replace(
+            "section = \"tube\"\nstart",
+            &format!("segments = {segments}\nstart"),
+        )
+        .replace(
+            "elements = 8                # node 4 at mid-length carries the body frame (centre of mass)\n",
+            "",
+        )
+        .replace(
+            "[design.theta]\n# the common angle of all plies of the tube (the paper's design variable), degrees\nlaminate = \"tube_wall\"",
+            design,
+        );
+    assert!(text.contains("segments =") && !text.contains("elements = 8 "));
+    text
+}
+
+/// The rod's halves: the tube's section and its copy of the tip laminate.
+const HALVES: &str = "[{ section = \"tube\", length = 0.152, elements = 4 }, \
+                      { section = \"tip_tube\", elements = 4 }]";
+
+/// An angle for each half.
+const DESIGN: &str = "[design.theta_root]\nlaminate = \"tube_wall\"\n\n\
+                      [design.theta_tip]\nlaminate = \"tip_wall\"";
+
+/// The paper deck's damping, fitted to its first and fourth modes.
+const FITTED: &str = "damping = { modes = [1, 4], ratios = [0.01, 0.03] }";
+
+/// A stiffness-proportional damping given by its coefficient (1.4 % at the first mode).
+const GIVEN: &str = "damping = { beta = 1.0e-5 }";
+
+/// Per-segment angles of the split rod: the deck with its two halves at the tube's own lay-up
+/// is the uniform deck (the same mid-span history to round-off); each half's angle has a
+/// sensitivity of its own (the root's and the tip's differ), both equal replayed central
+/// differences of whole runs, and together they are the common angle's derivative. The rod is
+/// clamped at its middle node, so its halves' modes are repeated pairs at the nominal design,
+/// which each half's angle splits: the run carries the pairs' block of the modal stiffness.
+#[test]
+fn per_segment_angles_add_up_to_the_common_angle_and_equal_differences() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |name: &str, text: &str| {
+        let path = dir.path().join(format!("{name}.toml"));
+        std::fs::write(&path, text).unwrap();
+        let out = dir.path().join(name);
+        json(&[
+            "run",
+            path.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--json",
+            "--set",
+            "analysis.t_end=0.01",
+            "--set",
+            "sensitivity.method=\"direct\"",
+        ]);
+        flexsens::results::Group::read_hdf5(&out.join("results.h5")).unwrap()
+    };
+    let uniform = run(
+        "uniform",
+        &std::fs::read_to_string(deck("slider_crank_beam.toml"))
+            .unwrap()
+            .replace(FITTED, GIVEN),
+    );
+    let split = run("split", &split_rod(HALVES, DESIGN).replace(FITTED, GIVEN));
+    let (u, s) = (
+        f64s(&uniform, "responses/mid_deflection"),
+        f64s(&split, "responses/mid_deflection"),
+    );
+    assert!(
+        worst_difference(&u, &s) < 1e-9,
+        "{}",
+        worst_difference(&u, &s)
+    );
+    let common = f64s(&uniform, "sensitivities/mid_deflection");
+    let both = f64s(&split, "sensitivities/mid_deflection");
+    let fd = f64s(
+        &split,
+        "finite_differences/central_relative_0.0001_replay/mid_deflection",
+    );
+    let column =
+        |x: &[f64], v: usize| -> Vec<f64> { x.iter().skip(v).step_by(2).copied().collect() };
+    let (root, tip) = (column(&both, 0), column(&both, 1));
+    for v in 0..2 {
+        let err = worst_difference(&column(&both, v), &column(&fd, v));
+        assert!(
+            err < 1e-4,
+            "segment {v}: direct against differences {err:e}"
+        );
+    }
+    // the halves are not alike: the root's and the tip's derivatives differ
+    assert!(worst_difference(&root, &tip) > 0.05);
+    let sum: Vec<f64> = root.iter().zip(&tip).map(|(a, b)| a + b).collect();
+    let err = worst_difference(&common, &sum);
+    assert!(err < 1e-6, "root + tip against the common angle: {err:e}");
+}
+
+/// A damping fitted to a mode whose repeated frequency a variable splits has no derivative
+/// there: `run` and `check` say so and what to do instead.
+#[test]
+fn a_fit_to_a_split_pair_is_refused() {
+    for command in ["check", "run"] {
+        let (_dir, err) = bad_deck(&split_rod(HALVES, DESIGN), |p| {
+            let mut args = with_deck(command, p, &[]);
+            if command == "run" {
+                let out = p.with_extension("out");
+                args.extend(["-o".into(), out.display().to_string()]);
+            }
+            args
+        });
+        assert!(
+            err.contains("key `body.rod`")
+                && err.contains("splits the repeated frequencies of modes 1, 2")
+                && err.contains("the damping is fitted to mode 1")
+                && err.contains("`alpha` and `beta`"),
+            "{command}: {err}"
+        );
+    }
+}
