@@ -254,3 +254,20 @@ write("segments_empty.toml", segmented("[]"))
 write("segments_zero_elements.toml", segmented('[{ section = "tube", length = 0.152, elements = 0 }, { section = "tube" }]'))
 write("segments_unknown_key.toml", segmented('[{ section = "tube", lenght = 0.152 }, { section = "tube" }]'))
 write("segments_nothing_left.toml", segmented('[{ section = "tube", length = 0.304 }, { section = "tube" }]'))
+
+# --- tailored shells: regions of their own laminates
+PATCH = edit(PLATE, "[body.rod]", '[laminate.patch]\nplies = [{ material = "paper_composite", thickness = 2.5e-3, angle = 45.0 }]\n\n[body.rod]')
+
+
+def regioned(regions):
+    return edit(PATCH, '\nreference = "supports"\n', '\nregions = %s\nreference = "supports"\n' % regions)
+
+
+write("regions_empty_box.toml", regioned('[{ laminate = "patch", box = [[1.0, 1.0, 1.0], [2.0, 2.0, 2.0]] }]'))
+write("regions_no_whole_element.toml", regioned('[{ laminate = "patch", plane = { x = 0.0 } }]'))
+write("regions_element_out_of_range.toml", regioned('[{ laminate = "patch", elements = [0, 1, 5000] }]'))
+write("regions_two_ways.toml", regioned('[{ laminate = "patch", elements = [0], box = [[0.0, 0.0, -1.0], [0.1, 0.04, 1.0]] }]'))
+write("regions_unknown_laminate.toml", regioned('[{ laminate = "pach", elements = [0] }]'))
+write("regions_element_twice.toml", regioned('[{ laminate = "patch", elements = [3, 3] }]'))
+write("regions_on_a_beam.toml", edit(BEAM, 'section = "tube"\nstart', 'section = "tube"\nregions = [{ laminate = "tube_wall", elements = [0] }]\nstart'))
+write("segments_on_a_shell.toml", regioned('[{ laminate = "patch", elements = [0] }]').replace('regions = [{ laminate = "patch", elements = [0] }]', 'segments = [{ section = "tube" }]'))

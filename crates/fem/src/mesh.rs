@@ -113,7 +113,7 @@ impl Mesh {
     /// A straight beam from `start` to `end` made of `segments` in order, each split into its
     /// number of equal elements of its section (nodes numbered from `start`, one node shared
     /// where two segments meet). The segments divide `start`–`end` in the proportions of their
-    /// lengths; the last node is `end` exactly.
+    /// lengths (node `i` of a single segment of `n` elements at `start + (end − start) i/n`).
     pub fn segmented_beam(
         start: Vector3<f64>,
         end: Vector3<f64>,
@@ -140,9 +140,10 @@ impl Mesh {
         let mut covered = 0.0;
         for s in segments {
             for i in 1..=s.elements {
-                let along = covered + s.length * (i as f64 / s.elements as f64);
+                // as a fraction of the whole: i / n exactly for a single segment
+                let along = covered / total + (s.length / total) * (i as f64 / s.elements as f64);
                 let k = nodes.len();
-                nodes.push(start + (end - start) * (along / total));
+                nodes.push(start + (end - start) * along);
                 elements.push(Element::Beam {
                     nodes: [k - 1, k],
                     property: s.property,
@@ -150,9 +151,6 @@ impl Mesh {
                 });
             }
             covered += s.length;
-        }
-        if let Some(last) = nodes.last_mut() {
-            *last = end;
         }
         Ok(Self { nodes, elements })
     }

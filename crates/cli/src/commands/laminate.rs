@@ -8,10 +8,11 @@ use serde_json::json;
 
 use super::Format;
 use super::output::{self, Derivative, Quantity, Report};
+use crate::deck::bodies::ShellLaminate;
 use crate::deck::design::{DesignVariable, validate as validate_design};
 use crate::deck::laminates::{LaminateDef, validate};
 use crate::deck::{self, DeckError};
-use crate::study::flexible::{Design, DesignRequest, shell_design};
+use crate::study::flexible::{Design, DesignRequest, LaminateDesign, shell_design};
 
 /// Width of the dual-number chunks (results do not depend on it).
 const CHUNK: usize = 8;
@@ -40,12 +41,14 @@ pub fn angle_derivatives(
 ) -> Vec<LaminateStiffness<f64>> {
     let n = links.len();
     derivatives(&Design::Shell {
-        stack: stack.clone(),
+        laminates: vec![LaminateDesign {
+            stack: stack.clone(),
+            links: links.to_vec(),
+            materials: vec![Vec::new(); n],
+            thicknesses: vec![Vec::new(); n],
+        }],
         names: vec![String::new(); n],
         values: vec![0.0; n],
-        links: links.to_vec(),
-        materials: vec![Vec::new(); n],
-        thicknesses: vec![Vec::new(); n],
     })
 }
 
@@ -69,8 +72,9 @@ pub(crate) fn derivatives(design: &Design) -> Vec<LaminateStiffness<f64>> {
 /// The derivative blocks of a laminate: per ply angle (per radian), or with `[design.*]`
 /// variables per variable that moves this laminate (per its unit).
 fn derivative_blocks(name: &str, def: &LaminateDef, vars: &[DesignVariable]) -> Vec<Derivative> {
+    let laminate = [ShellLaminate::of(name, def)];
     if vars.is_empty() {
-        let design = shell_design(&def.stack, name, &def.ply_materials, DesignRequest::EachPly);
+        let design = shell_design(&laminate, DesignRequest::EachPly);
         return derivatives(&design)
             .iter()
             .enumerate()
@@ -81,12 +85,7 @@ fn derivative_blocks(name: &str, def: &LaminateDef, vars: &[DesignVariable]) -> 
             })
             .collect();
     }
-    let design = shell_design(
-        &def.stack,
-        name,
-        &def.ply_materials,
-        DesignRequest::Variables(vars),
-    );
+    let design = shell_design(&laminate, DesignRequest::Variables(vars));
     vars.iter()
         .zip(derivatives(&design))
         .enumerate()

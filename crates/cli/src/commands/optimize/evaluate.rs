@@ -81,9 +81,7 @@ impl Problem<'_> {
                 Quantity::ArealMass { laminate } => {
                     let def = &lam.laminates[laminate];
                     let d = crate::study::flexible::shell_design(
-                        &def.stack,
-                        laminate,
-                        &def.ply_materials,
+                        &[crate::deck::bodies::ShellLaminate::of(laminate, def)],
                         DesignRequest::Variables(&design.variables),
                     );
                     let grad = crate::commands::laminate::derivatives(&d)

@@ -14,6 +14,7 @@ use super::{DeckError, Source};
 
 mod beam;
 mod reduction;
+mod regions;
 mod sets;
 mod shape;
 
@@ -22,7 +23,7 @@ pub use reduction::CORRECTION_DAMPING_DEFAULT;
 use reduction::{correction_damping, damping, modes, reference};
 pub use sets::{InterfaceDef, InterfaceSite, interface_loads};
 use sets::{couplings, interface_nodes, supports};
-use shape::{element_count, shape};
+use shape::{element_count, shell_shape};
 
 /// How a body is meshed.
 #[derive(Debug, Clone)]
@@ -38,24 +39,64 @@ pub enum BodyShape {
         orientation: Vector3<f64>,
     },
     ShellRectangle {
-        laminate: String,
-        stack: PlyStack<f64>,
-        /// The material name of each ply of the stack.
-        ply_materials: Vec<String>,
+        laminates: ShellLaminates,
         length: f64,
         width: f64,
         elements: [usize; 2],
         axis: Vector3<f64>,
     },
     ShellMesh {
-        laminate: String,
-        stack: PlyStack<f64>,
-        /// The material name of each ply of the stack.
-        ply_materials: Vec<String>,
+        laminates: ShellLaminates,
         mesh_text: String,
         file: String,
         axis: Vector3<f64>,
     },
+}
+
+/// A laminate of a shell body: its name, its stack and the material name of each ply.
+#[derive(Debug, Clone)]
+pub struct ShellLaminate {
+    pub name: String,
+    pub stack: PlyStack<f64>,
+    pub ply_materials: Vec<String>,
+}
+
+impl ShellLaminate {
+    /// The laminate `name` as the deck defines it.
+    pub fn of(name: &str, def: &crate::deck::laminates::LaminateDef) -> Self {
+        ShellLaminate {
+            name: name.to_string(),
+            stack: def.stack.clone(),
+            ply_materials: def.ply_materials.clone(),
+        }
+    }
+}
+
+/// The laminates of a shell body: its own (`laminate`, the first), then those of its
+/// `regions` (each once, in the order the regions first name them), and the regions in order
+/// (a later region wins where two overlap).
+#[derive(Debug, Clone)]
+pub struct ShellLaminates {
+    pub laminates: Vec<ShellLaminate>,
+    pub regions: Vec<RegionDef>,
+}
+
+/// A region of a shell body: the elements it holds, laminated with `laminate` (an index of
+/// [`ShellLaminates::laminates`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RegionDef {
+    pub laminate: usize,
+    pub elements: ElementSet,
+    pub key: String,
+    pub span: std::ops::Range<usize>,
+}
+
+/// The elements of a region: listed, or those whose nodes all lie in a node set (a plane or a
+/// box).
+#[derive(Debug, Clone, PartialEq)]
+pub enum ElementSet {
+    Elements(Vec<usize>),
+    Within(NodeSet),
 }
 
 impl BodyShape {
@@ -125,20 +166,12 @@ impl BodyDef {
                     *section = section.at(model)?;
                 }
             }
-            BodyShape::ShellRectangle {
-                laminate,
-                stack,
-                ply_materials,
-                ..
-            }
-            | BodyShape::ShellMesh {
-                laminate,
-                stack,
-                ply_materials,
-                ..
-            } => {
-                let def = &model.laminates[laminate.as_str()];
-                (*stack, *ply_materials) = (def.stack.clone(), def.ply_materials.clone());
+            BodyShape::ShellRectangle { laminates, .. }
+            | BodyShape::ShellMesh { laminates, .. } => {
+                for l in &mut laminates.laminates {
+                    let def = &model.laminates[l.name.as_str()];
+                    (l.stack, l.ply_materials) = (def.stack.clone(), def.ply_materials.clone());
+                }
             }
         }
         Ok(out)
@@ -295,6 +328,23 @@ pub fn validate_one(
     })
 }
 
+/// A body's mesh: a beam along its section, or a shell of a laminate (a rectangle, or a mesh
+/// file).
+fn shape(
+    src: &Source,
+    deck: &RawDeck,
+    name: &str,
+    raw: &RawBody,
+    table: Option<std::ops::Range<usize>>,
+    kind: &Spanned<String>,
+    model: &LaminateModel,
+) -> Result<BodyShape, DeckError> {
+    Ok(match kind.get_ref().as_str() {
+        "beam" => beam::beam_shape(src, deck, name, raw, table, model)?,
+        _ => shell_shape(src, name, raw, table, model)?,
+    })
+}
+
 /// The body's `kind` (`"beam"` or `"shell"`), with the keys of the other kind refused.
 fn kind<'a>(
     src: &Source,
@@ -323,10 +373,19 @@ fn kind<'a>(
             "material_axis",
             raw.material_axis.as_ref().map(|x| x.span()),
         ),
+        ("segments", raw.segments.as_ref().map(|x| x.span())),
+        ("regions", raw.regions.as_ref().map(|x| x.span())),
     ];
     let allowed: &[&str] = match kind.get_ref().as_str() {
-        "beam" => &["section", "start", "end", "orientation"],
-        "shell" => &["laminate", "length", "width", "file", "material_axis"],
+        "beam" => &["section", "start", "end", "orientation", "segments"],
+        "shell" => &[
+            "laminate",
+            "length",
+            "width",
+            "file",
+            "material_axis",
+            "regions",
+        ],
         other => {
             return Err(src.error(
                 span(kind),

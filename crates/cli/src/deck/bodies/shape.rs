@@ -1,24 +1,7 @@
-//! A body's mesh: a beam along its section, or a shell of a laminate (a rectangle or a mesh
-//! file).
+//! A shell body's mesh (a rectangle or a mesh file), and the element counts of beams and
+//! shells.
 
 use super::*;
-
-/// A body's mesh: a beam along its section, or a shell of a laminate (a rectangle, or a mesh
-/// file).
-pub(super) fn shape(
-    src: &Source,
-    deck: &RawDeck,
-    name: &str,
-    raw: &RawBody,
-    table: Option<std::ops::Range<usize>>,
-    kind: &Spanned<String>,
-    model: &LaminateModel,
-) -> Result<BodyShape, DeckError> {
-    Ok(match kind.get_ref().as_str() {
-        "beam" => super::beam::beam_shape(src, deck, name, raw, table, model)?,
-        _ => shell_shape(src, name, raw, table, model)?,
-    })
-}
 
 /// A shell body's mesh: a rectangle or a mesh file, of a laminate.
 pub(super) fn shell_shape(
@@ -37,8 +20,7 @@ pub(super) fn shell_shape(
         &raw.laminate,
         "laminate (a [laminate.*] name)",
     )?;
-    let def = shell_laminate(src, name, lname, model)?;
-    let (stack, ply_materials) = (def.stack.clone(), def.ply_materials.clone());
+    let laminates = super::regions::shell_laminates(src, name, raw, lname, model)?;
     let axis = raw
         .material_axis
         .as_ref()
@@ -76,9 +58,7 @@ pub(super) fn shell_shape(
                 )
             })?;
             BodyShape::ShellMesh {
-                laminate: lname.get_ref().clone(),
-                stack,
-                ply_materials: ply_materials.clone(),
+                laminates,
                 mesh_text,
                 file: path.display().to_string(),
                 axis,
@@ -111,9 +91,7 @@ pub(super) fn shell_shape(
             )?;
             let elements = rectangle_elements(src, name, raw, length, width)?;
             BodyShape::ShellRectangle {
-                laminate: lname.get_ref().clone(),
-                stack,
-                ply_materials: ply_materials.clone(),
+                laminates,
                 length,
                 width,
                 elements,
@@ -183,27 +161,6 @@ fn rectangle_elements(
         "modal analysis",
     )?;
     Ok(elements)
-}
-
-/// The laminate a shell body names.
-pub(super) fn shell_laminate<'m>(
-    src: &Source,
-    name: &str,
-    lname: &Spanned<String>,
-    model: &'m LaminateModel,
-) -> Result<&'m crate::deck::laminates::LaminateDef, DeckError> {
-    model.laminates.get(lname.get_ref()).ok_or_else(|| {
-        let known: Vec<&str> = model.laminates.keys().map(String::as_str).collect();
-        src.error(
-            span(lname),
-            Some(format!("body.{name}.laminate")),
-            format!(
-                "undefined laminate `{}`{}",
-                lname.get_ref(),
-                suggestion(lname.get_ref(), &known)
-            ),
-        )
-    })
 }
 
 /// A count of elements or modes: a whole number from `min` up to the element limit.

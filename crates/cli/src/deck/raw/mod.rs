@@ -171,6 +171,8 @@ pub struct RawBody {
     /// Beam: the segments from `start` to `end`, each with its own section (instead of
     /// `section` and `elements`).
     pub segments: Option<Spanned<Vec<Spanned<RawSegment>>>>,
+    /// Shell: regions of elements with their own laminates.
+    pub regions: Option<Spanned<Vec<Spanned<RawShellRegion>>>>,
     /// Number of elastic modes retained (the lowest), the mode numbers retained, e.g.
     /// `[1, 2, 5]` (counted from 1, ascending), or `"auto"`.
     pub modes: Option<Spanned<toml::Value>>,
@@ -244,6 +246,22 @@ pub struct RawSegment {
     pub length: Option<Spanned<f64>>,
     /// Number of equal elements.
     pub elements: Option<Spanned<i64>>,
+}
+
+/// A region of a shell body: its laminate and its elements (a list, or those on a plane or in
+/// a box).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawShellRegion {
+    /// A `[laminate.*]` name.
+    pub laminate: Option<Spanned<String>>,
+    /// Element indices (from 0).
+    pub elements: Option<Spanned<Vec<i64>>>,
+    /// The elements whose nodes all lie on a plane normal to a global axis.
+    pub plane: Option<Spanned<RawPlane>>,
+    /// The elements whose nodes all lie in the box `[[x0, y0, z0], [x1, y1, z1]]` (m).
+    #[serde(rename = "box")]
+    pub inside: Option<Spanned<[[f64; 3]; 2]>>,
 }
 
 /// A support: a set of nodes (`nodes`, `plane` or `box`) and the dof fixed there (`fix`).

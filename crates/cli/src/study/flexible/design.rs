@@ -45,18 +45,34 @@ pub enum Design {
         names: Vec<String>,
         values: Vec<f64>,
     },
-    /// A shell: the laminate's ply angles move with the variables, `θ_p = θ_p0 + Σ_j f (b_j −
-    /// b_j0)` for each `(p, f)` of `links[j]` (θ in radians).
+    /// A shell: each of its laminates' designs (in the order of its element properties) with
+    /// respect to the variables at the nominal design `values`.
     Shell {
-        stack: PlyStack<f64>,
+        laminates: Vec<LaminateDesign>,
         names: Vec<String>,
         values: Vec<f64>,
-        links: Vec<Vec<(usize, f64)>>,
-        /// Per variable, `(ply, law)` of the plies whose material it moves.
-        materials: MaterialLinks,
-        /// Per variable, `(ply, dt/db)` of the plies whose thickness it moves.
-        thicknesses: Vec<Vec<(usize, f64)>>,
     },
+}
+
+/// One laminate of a shell body: its ply angles move with the variables, `θ_p = θ_p0 + Σ_j f
+/// (b_j − b_j0)` for each `(p, f)` of `links[j]` (θ in radians), and so do its plies'
+/// thicknesses and materials.
+pub struct LaminateDesign {
+    pub stack: PlyStack<f64>,
+    pub links: Vec<Vec<(usize, f64)>>,
+    /// Per variable, `(ply, law)` of the plies whose material it moves.
+    pub materials: MaterialLinks,
+    /// Per variable, `(ply, dt/db)` of the plies whose thickness it moves.
+    pub thicknesses: Vec<Vec<(usize, f64)>>,
+}
+
+impl LaminateDesign {
+    /// Whether variable `j` changes the laminate.
+    fn depends_on(&self, j: usize) -> bool {
+        self.links.get(j).is_some_and(|l| !l.is_empty())
+            || self.materials.get(j).is_some_and(|m| !m.is_empty())
+            || self.thicknesses.get(j).is_some_and(|t| !t.is_empty())
+    }
 }
 
 /// One section of a beam body: its values and derivatives with respect to each variable at the
@@ -159,16 +175,7 @@ impl Design {
     pub fn depends_on(&self, j: usize) -> bool {
         match self {
             Design::Beam { sections, .. } => sections.iter().any(|s| s.depends_on(j)),
-            Design::Shell {
-                links,
-                materials,
-                thicknesses,
-                ..
-            } => {
-                links.get(j).is_some_and(|l| !l.is_empty())
-                    || materials.get(j).is_some_and(|m| !m.is_empty())
-                    || thicknesses.get(j).is_some_and(|t| !t.is_empty())
-            }
+            Design::Shell { laminates, .. } => laminates.iter().any(|l| l.depends_on(j)),
         }
     }
 
@@ -190,71 +197,82 @@ impl Design {
                 laminates: Vec::new(),
             },
             Design::Shell {
-                stack,
-                links,
-                values,
-                materials,
-                thicknesses,
-                ..
-            } => {
-                let mut thickness: Vec<Dual<N>> = stack
-                    .plies()
+                laminates, values, ..
+            } => Properties {
+                sections: Vec::new(),
+                laminates: laminates
                     .iter()
-                    .map(|p| Dual::constant(p.thickness))
-                    .collect();
-                for ((bj, l), b0) in b.iter().zip(thicknesses).zip(values) {
-                    let step = *bj - Dual::constant(*b0);
-                    for &(p, f) in l {
-                        thickness[p] += step * Dual::constant(f);
-                    }
-                }
-                let mut angles: Vec<Dual<N>> = stack
-                    .plies()
-                    .iter()
-                    .map(|p| Dual::constant(p.angle))
-                    .collect();
-                for ((bj, l), b0) in b.iter().zip(links).zip(values) {
-                    let step = *bj - Dual::constant(*b0);
-                    for &(p, f) in l {
-                        angles[p] += step * Dual::constant(f);
-                    }
-                }
-                let bad =
-                    |e: laminate::LaminateError| section::SectionError::InvalidInput(e.to_string());
-                // each ply's material at b, with its tangents dC̄/db · db
-                let steps: Vec<f64> = b.iter().zip(values).map(|(bj, b0)| bj.v - b0).collect();
-                let plies = stack.plies();
-                let mut at: Vec<laminate::OrthotropicMaterial> =
-                    plies.iter().map(|p| p.material).collect();
-                for (p, c) in moved_constants(plies.len(), materials, &steps, |p| {
-                    material_constants(&plies[p].material)
-                }) {
-                    at[p] = with_material_constants(&at[p], &c).map_err(bad)?;
-                }
-                let mut c_bar: Vec<nalgebra::Matrix6<Dual<N>>> = at
-                    .iter()
-                    .map(|m| m.stiffness().map(Dual::constant))
-                    .collect();
-                let mut density: Vec<Dual<N>> =
-                    at.iter().map(|m| Dual::constant(m.density())).collect();
-                for (bj, m) in b.iter().zip(materials) {
-                    let db = *bj - Dual::constant(bj.v);
-                    for (p, law) in m {
-                        let dc = law.tangent(&material_constants(&at[*p]));
-                        let d = at[*p].stiffness_derivative(&elastic(&dc));
-                        for (x, y) in c_bar[*p].iter_mut().zip(d.iter()) {
-                            *x += db * Dual::constant(*y);
-                        }
-                        density[*p] += db * Dual::constant(dc[9]);
-                    }
-                }
-                let dual = stack.with_plies(&angles, &thickness).map_err(bad)?;
-                Properties {
-                    sections: Vec::new(),
-                    laminates: vec![dual.stiffness_with_materials(&c_bar, &density)],
-                }
-            }
+                    .map(|l| l.at(b, values))
+                    .collect::<Result<_, _>>()?,
+            },
         })
+    }
+}
+
+impl LaminateDesign {
+    /// The laminate's stiffness at the design `b` (values and tangents) from the nominal
+    /// `values`: its plies turned, thickened and of moved materials.
+    fn at<const N: usize>(
+        &self,
+        b: &[Dual<N>],
+        values: &[f64],
+    ) -> Result<laminate::LaminateStiffness<Dual<N>>, section::SectionError> {
+        let LaminateDesign {
+            stack,
+            links,
+            materials,
+            thicknesses,
+        } = self;
+        let mut thickness: Vec<Dual<N>> = stack
+            .plies()
+            .iter()
+            .map(|p| Dual::constant(p.thickness))
+            .collect();
+        for ((bj, l), b0) in b.iter().zip(thicknesses).zip(values) {
+            let step = *bj - Dual::constant(*b0);
+            for &(p, f) in l {
+                thickness[p] += step * Dual::constant(f);
+            }
+        }
+        let mut angles: Vec<Dual<N>> = stack
+            .plies()
+            .iter()
+            .map(|p| Dual::constant(p.angle))
+            .collect();
+        for ((bj, l), b0) in b.iter().zip(links).zip(values) {
+            let step = *bj - Dual::constant(*b0);
+            for &(p, f) in l {
+                angles[p] += step * Dual::constant(f);
+            }
+        }
+        let bad = |e: laminate::LaminateError| section::SectionError::InvalidInput(e.to_string());
+        // each ply's material at b, with its tangents dC̄/db · db
+        let steps: Vec<f64> = b.iter().zip(values).map(|(bj, b0)| bj.v - b0).collect();
+        let plies = stack.plies();
+        let mut at: Vec<laminate::OrthotropicMaterial> = plies.iter().map(|p| p.material).collect();
+        for (p, c) in moved_constants(plies.len(), materials, &steps, |p| {
+            material_constants(&plies[p].material)
+        }) {
+            at[p] = with_material_constants(&at[p], &c).map_err(bad)?;
+        }
+        let mut c_bar: Vec<nalgebra::Matrix6<Dual<N>>> = at
+            .iter()
+            .map(|m| m.stiffness().map(Dual::constant))
+            .collect();
+        let mut density: Vec<Dual<N>> = at.iter().map(|m| Dual::constant(m.density())).collect();
+        for (bj, m) in b.iter().zip(materials) {
+            let db = *bj - Dual::constant(bj.v);
+            for (p, law) in m {
+                let dc = law.tangent(&material_constants(&at[*p]));
+                let d = at[*p].stiffness_derivative(&elastic(&dc));
+                for (x, y) in c_bar[*p].iter_mut().zip(d.iter()) {
+                    *x += db * Dual::constant(*y);
+                }
+                density[*p] += db * Dual::constant(dc[9]);
+            }
+        }
+        let dual = stack.with_plies(&angles, &thickness).map_err(bad)?;
+        Ok(dual.stiffness_with_materials(&c_bar, &density))
     }
 }
 
@@ -396,59 +414,74 @@ pub fn section_design(
     Ok((map, materials))
 }
 
-/// The design of a laminate `laminate` (a shell body's, or the `laminate` command's): how its
-/// plies turn, thicken and change material with the requested variables.
-pub fn shell_design(
-    stack: &PlyStack<f64>,
-    laminate: &str,
-    ply_materials: &[String],
-    request: DesignRequest,
-) -> Design {
-    let plies = stack.plies();
-    let (names, values, links) = match request {
-        DesignRequest::None => (Vec::new(), Vec::new(), Vec::new()),
-        DesignRequest::EachPly => (
-            (0..plies.len())
-                .map(|i| format!("{laminate}.plies.{i}.angle"))
-                .collect(),
-            plies.iter().map(|p| p.angle).collect(),
-            (0..plies.len()).map(|i| vec![(i, 1.0)]).collect(),
-        ),
-        DesignRequest::Variables(vars) => (
-            vars.iter().map(|v| v.name.clone()).collect(),
-            vars.iter().map(|v| v.value).collect(),
-            vars.iter()
-                .map(|v| v.ply_links(laminate).to_vec())
-                .collect(),
-        ),
-    };
-    let materials = match request {
-        DesignRequest::Variables(vars) => vars
+/// The design of the laminates of a shell body (or the one of the `laminate` command): how
+/// each one's plies turn, thicken and change material with the requested variables (with
+/// [`DesignRequest::EachPly`], one variable per ply of each laminate, turning it alone).
+pub fn shell_design(laminates: &[ShellLaminate], request: DesignRequest) -> Design {
+    // each ply of each laminate: (laminate, ply)
+    let each_ply: Vec<(usize, usize)> = laminates
+        .iter()
+        .enumerate()
+        .flat_map(|(l, lam)| (0..lam.stack.plies().len()).map(move |i| (l, i)))
+        .collect();
+    let (names, values) = match request {
+        DesignRequest::None => (Vec::new(), Vec::new()),
+        DesignRequest::EachPly => each_ply
             .iter()
-            .map(|v| {
-                ply_materials
-                    .iter()
-                    .enumerate()
-                    .filter_map(|(p, m)| Some((p, *v.material_links(m)?)))
-                    .collect()
+            .map(|&(l, i)| {
+                let lam = &laminates[l];
+                (
+                    format!("{}.plies.{i}.angle", lam.name),
+                    lam.stack.plies()[i].angle,
+                )
             })
-            .collect(),
-        _ => vec![Vec::new(); links.len()],
+            .unzip(),
+        DesignRequest::Variables(vars) => vars.iter().map(|v| (v.name.clone(), v.value)).unzip(),
     };
-    let thicknesses = match request {
-        DesignRequest::Variables(vars) => vars
-            .iter()
-            .map(|v| v.thickness_links(laminate).to_vec())
-            .collect(),
-        _ => vec![Vec::new(); links.len()],
-    };
+    let n = names.len();
+    let designs = laminates
+        .iter()
+        .enumerate()
+        .map(|(l, lam)| {
+            let (links, materials, thicknesses) = match request {
+                DesignRequest::Variables(vars) => (
+                    vars.iter()
+                        .map(|v| v.ply_links(&lam.name).to_vec())
+                        .collect(),
+                    vars.iter()
+                        .map(|v| {
+                            lam.ply_materials
+                                .iter()
+                                .enumerate()
+                                .filter_map(|(p, m)| Some((p, *v.material_links(m)?)))
+                                .collect()
+                        })
+                        .collect(),
+                    vars.iter()
+                        .map(|v| v.thickness_links(&lam.name).to_vec())
+                        .collect(),
+                ),
+                DesignRequest::EachPly | DesignRequest::None => (
+                    each_ply
+                        .iter()
+                        .map(|&(owner, i)| if owner == l { vec![(i, 1.0)] } else { vec![] })
+                        .collect(),
+                    vec![Vec::new(); n],
+                    vec![Vec::new(); n],
+                ),
+            };
+            LaminateDesign {
+                stack: lam.stack.clone(),
+                links,
+                materials,
+                thicknesses,
+            }
+        })
+        .collect();
     Design::Shell {
-        stack: stack.clone(),
+        laminates: designs,
         names,
         values,
-        links,
-        materials,
-        thicknesses,
     }
 }
 

@@ -8,7 +8,9 @@ use section::{DesignMap, SectionSensitivities};
 use sens::Dual;
 
 use crate::deck::Source;
-use crate::deck::bodies::{BodyDef, BodyShape, Reference};
+use crate::deck::bodies::{
+    BodyDef, BodyShape, ElementSet, Reference, ShellLaminate, ShellLaminates,
+};
 use crate::deck::design::{
     DesignVariable, MaterialLaw, elastic, material_constants, with_material_constants,
 };
@@ -17,11 +19,14 @@ use crate::error::CliError;
 
 /// Width of the dual-number chunks (results do not depend on it).
 mod design;
+mod properties;
 
 pub(crate) use design::move_own_section;
 pub use design::{
-    Design, DesignRequest, SectionDesign, section_derivatives, section_design, shell_design,
+    Design, DesignRequest, LaminateDesign, SectionDesign, section_derivatives, section_design,
+    shell_design,
 };
+use properties::{beam, laminate_regions, shell};
 
 pub const CHUNK: usize = 8;
 
@@ -134,22 +139,6 @@ pub struct Built {
     pub kind: &'static str,
 }
 
-/// A shell body's mesh, properties and design from its laminate.
-fn shell(
-    mesh: fem::Mesh,
-    stack: &PlyStack<f64>,
-    laminate: &str,
-    ply_materials: &[String],
-    request: DesignRequest,
-) -> (fem::Mesh, Properties<f64>, Design, &'static str) {
-    let props = Properties {
-        sections: Vec::new(),
-        laminates: vec![stack.stiffness()],
-    };
-    let design = shell_design(stack, laminate, ply_materials, request);
-    (mesh, props, design, "shell")
-}
-
 /// The mesh of body `name` as its definition gives it (global coordinates at t = 0).
 pub fn mesh(src: &Source, name: &str, def: &BodyDef) -> Result<fem::Mesh, CliError> {
     let input = |key: &str, m: String| {
@@ -169,7 +158,7 @@ pub fn mesh(src: &Source, name: &str, def: &BodyDef) -> Result<fem::Mesh, CliErr
             width,
             elements,
             axis,
-            ..
+            laminates,
         } => {
             let mut mesh = fem::Mesh::rectangle(*length, *width, elements[0], elements[1], 0)
                 .map_err(|e| input(".elements", e.to_string()))?;
@@ -178,15 +167,16 @@ pub fn mesh(src: &Source, name: &str, def: &BodyDef) -> Result<fem::Mesh, CliErr
                     *material_axis = *axis;
                 }
             }
+            laminate_regions(src, laminates, &mut mesh)?;
             mesh
         }
         BodyShape::ShellMesh {
             mesh_text,
             file,
             axis,
-            ..
+            laminates,
         } => {
-            let mesh = fem::parse_gmsh_v4(mesh_text)
+            let mut mesh = fem::parse_gmsh_v4(mesh_text)
                 .map_err(|e| input(".file", format!("in the mesh {file}: {e}")))?
                 .to_mesh(0, *axis);
             crate::deck::check::memory_need(
@@ -198,6 +188,7 @@ pub fn mesh(src: &Source, name: &str, def: &BodyDef) -> Result<fem::Mesh, CliErr
                 "modal analysis",
             )
             .map_err(CliError::Input)?;
+            laminate_regions(src, laminates, &mut mesh)?;
             mesh
         }
     })
@@ -246,18 +237,10 @@ pub fn build(
             let (props, design) = beam(sections, request).map_err(|(key, m)| input(key, m))?;
             (mesh, props, design, "beam")
         }
-        BodyShape::ShellRectangle {
-            laminate,
-            stack,
-            ply_materials,
-            ..
+        BodyShape::ShellRectangle { laminates, .. } | BodyShape::ShellMesh { laminates, .. } => {
+            let (props, design) = shell(&laminates.laminates, request);
+            (mesh, props, design, "shell")
         }
-        | BodyShape::ShellMesh {
-            laminate,
-            stack,
-            ply_materials,
-            ..
-        } => shell(mesh, stack, laminate, ply_materials, request),
     };
     let reference = reference_condition(def, mesh.nodes.len()).map_err(|(key, m)| input(key, m))?;
     let supports = def
@@ -295,138 +278,6 @@ pub fn build(
         options,
         design,
         kind,
-    })
-}
-
-/// A beam body's properties from its sections (one per section, in order), and its design (the
-/// sections' derivatives with respect to the variables `request` asks for); an error names the
-/// key at fault.
-fn beam(
-    sections: &[(String, SectionDef)],
-    request: DesignRequest,
-) -> Result<(Properties<f64>, Design), (&'static str, String)> {
-    // one ply-angle variable per region of every section, each moving its own section
-    let each_ply: Vec<(usize, String, usize)> = match request {
-        DesignRequest::EachPly => sections
-            .iter()
-            .enumerate()
-            .flat_map(|(s, (name, def))| {
-                let prefix = if sections.len() > 1 {
-                    format!("{name}.")
-                } else {
-                    String::new()
-                };
-                def.mesh
-                    .regions
-                    .iter()
-                    .enumerate()
-                    .map(move |(r, region)| (s, format!("{prefix}{}.angle", region.name), r))
-            })
-            .collect(),
-        _ => Vec::new(),
-    };
-    let mut designs = Vec::with_capacity(sections.len());
-    let mut props = Properties {
-        sections: Vec::with_capacity(sections.len()),
-        laminates: Vec::new(),
-    };
-    for (s, (name, section)) in sections.iter().enumerate() {
-        let design = section_of_beam(name, section, request, |map| {
-            for (owner, variable, r) in &each_ply {
-                let links = if *owner == s { vec![(*r, 1.0)] } else { vec![] };
-                *map = std::mem::take(map).with_variable(variable.clone(), links);
-            }
-        })?;
-        props
-            .sections
-            .push(BeamSection::from_section(&design.sens.properties));
-        designs.push(design);
-    }
-    let (names, values) = match request {
-        DesignRequest::None => (Vec::new(), Vec::new()),
-        DesignRequest::EachPly => (
-            each_ply.iter().map(|(_, n, _)| n.clone()).collect(),
-            vec![0.0; each_ply.len()],
-        ),
-        DesignRequest::Variables(vars) => (
-            vars.iter().map(|v| v.name.clone()).collect(),
-            vars.iter().map(|v| v.value).collect(),
-        ),
-    };
-    let design = Design::Beam {
-        sections: designs,
-        names,
-        values,
-    };
-    Ok((props, design))
-}
-
-/// The design of one section of a beam body: its values and derivatives with respect to the
-/// variables `request` asks for (`each_ply` builds the design map of [`DesignRequest::EachPly`]).
-fn section_of_beam(
-    section_name: &str,
-    section: &SectionDef,
-    request: DesignRequest,
-    each_ply: impl FnOnce(&mut DesignMap),
-) -> Result<SectionDesign, (&'static str, String)> {
-    let (map, materials) = match request {
-        DesignRequest::None => (None, Vec::new()),
-        DesignRequest::EachPly => {
-            let mut map = DesignMap::new();
-            each_ply(&mut map);
-            let none = vec![Vec::new(); map.variables.len()];
-            (Some(map), none)
-        }
-        DesignRequest::Variables(vars) => {
-            let (map, materials) = section_design(section_name, section, vars)
-                .map_err(|e| (".section", format!("section `{section_name}`: {e}")))?;
-            (Some(map), materials)
-        }
-    };
-    let s = match (&section.given, &map) {
-        // given by its properties: only its own entries move it, linearly
-        (Some(given), _) => given.properties().map(|properties| {
-            let derivatives = match request {
-                DesignRequest::Variables(vars) => vars
-                    .iter()
-                    .map(|v| match &v.target {
-                        crate::deck::design::Target::SectionProperty { section, entry }
-                            if section == section_name =>
-                        {
-                            given.derivative(*entry)
-                        }
-                        _ => Default::default(),
-                    })
-                    .collect(),
-                DesignRequest::EachPly => map
-                    .iter()
-                    .flat_map(|m| &m.variables)
-                    .map(|_| Default::default())
-                    .collect(),
-                DesignRequest::None => Vec::new(),
-            };
-            SectionSensitivities {
-                properties,
-                variables: map
-                    .iter()
-                    .flat_map(|m| &m.variables)
-                    .map(|v| v.name.clone())
-                    .collect(),
-                derivatives,
-            }
-        }),
-        (None, Some(map)) => section_derivatives(&section.mesh, map),
-        (None, None) => section::analyse(&section.mesh).map(|p| SectionSensitivities {
-            properties: p,
-            ..Default::default()
-        }),
-    }
-    .map_err(|e| ("", format!("section `{section_name}`: {e}")))?;
-    Ok(SectionDesign {
-        sens: Box::new(s),
-        mesh: Box::new(section.mesh.clone()),
-        map: map.unwrap_or_default(),
-        materials,
     })
 }
 
