@@ -1,46 +1,11 @@
 //! `decks/four_bar_spatial.toml`, a spatial four-bar of three flexible bars, against the
-//! loop-closure kinematics of the same mechanism with rigid bars, solved here: the crank's tip
-//! on its circle, the rocker's tip on the cone its tilted axis sweeps, the coupler's length
-//! kept. The coupler's frame sits at its middle node, so its origin follows the mid-point of
-//! the two tips, moved by the bars' elastic deflection (about 3e-5 m of sag under gravity).
-
-use nalgebra::Vector3;
+//! loop-closure kinematics of the same mechanism with rigid bars
+//! (`common::four_bar_midpoints`): the crank's tip on its circle, the rocker's tip on the cone
+//! its tilted axis sweeps, the coupler's length kept. The coupler's frame sits at its middle
+//! node, so its origin follows the mid-point of the two tips, moved by the bars' elastic
+//! deflection (about 3e-5 m of sag under gravity).
 
 mod common;
-
-/// The rigid coupler's mid-point at each time, from the deck's geometry.
-fn rigid_midpoints(times: &[f64]) -> Vec<Vector3<f64>> {
-    let a0 = Vector3::new(0.1, 0.0, 0.0);
-    let b0 = Vector3::new(0.26875, 0.2480391854, 0.0);
-    let pivot = Vector3::new(0.3, 0.0, 0.0);
-    let tilt = 10f64.to_radians();
-    let n = Vector3::new(0.0, -tilt.sin(), tilt.cos());
-    let coupler = (b0 - a0).norm();
-    let d = b0 - pivot;
-    let centre = n * d.dot(&n);
-    let radial = d - centre;
-    let r = radial.norm();
-    let (e1, e2) = (radial / r, n.cross(&(radial / r)));
-    let mut psi = 0.0f64;
-    times
-        .iter()
-        .map(|&t| {
-            let phi = 2.0 * std::f64::consts::PI * t;
-            let a = Vector3::new(0.1 * phi.cos(), 0.1 * phi.sin(), 0.0);
-            let tip = |psi: f64| pivot + centre + (e1 * psi.cos() + e2 * psi.sin()) * r;
-            for _ in 0..50 {
-                let b = tip(psi);
-                let f = (b - a).norm_squared() - coupler * coupler;
-                let db = (e2 * psi.cos() - e1 * psi.sin()) * r;
-                psi -= f / (2.0 * (b - a).dot(&db));
-                if f.abs() < 1e-18 {
-                    break;
-                }
-            }
-            (a + tip(psi)) / 2.0
-        })
-        .collect()
-}
 
 #[test]
 fn the_spatial_four_bar_follows_its_rigid_kinematics_within_the_bars_deflection() {
@@ -73,7 +38,7 @@ fn the_spatial_four_bar_follows_its_rigid_kinematics_within_the_bars_deflection(
         })
         .collect();
     let times: Vec<f64> = rows.iter().map(|r| r[0]).collect();
-    let rigid = rigid_midpoints(&times);
+    let rigid = common::four_bar_midpoints(&times, 10.0);
     let (mut dx, mut dz, mut sag, mut n) = (0.0f64, 0.0f64, 0.0, 0);
     for (r, m) in rows.iter().zip(&rigid) {
         dx = dx.max((r[2] - m.x).abs());

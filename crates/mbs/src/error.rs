@@ -50,6 +50,30 @@ pub enum ConstraintError {
         quantity: &'static str,
         residual: f64,
     },
+    /// An angle driver's equation holds half a turn from its angle too: the assembly reached
+    /// that solution.
+    #[error(
+        "angle driver `{joint}` would hold its body half a turn from its angle at t = {t} s: \
+         assembling from the mechanism as drawn reached the other solution of its equation \
+         (ρ sin(f − θ) = 0 holds at θ = f + 180° too); draw the mechanism nearer the driver's \
+         angle at the start, or start its motion at the drawn angle"
+    )]
+    ReversedDriver { joint: String, t: f64 },
+    /// Neither the rigid-body coordinates nor, after them, the flexible bodies' elastic
+    /// coordinates at the least strain energy can satisfy a constraint.
+    #[error(
+        "the constraints cannot be met even with the flexible bodies deformed: joint `{joint}` \
+         equation {equation} ({bodies}) keeps |Φ| = {residual:.3e} after the rigid-body and the \
+         elastic coordinates were adjusted (at the least strain energy); {also}the misfit may be \
+         more than the bodies' modes can take up: check the joint's points and axes"
+    )]
+    InconsistentElastically {
+        joint: String,
+        equation: usize,
+        bodies: String,
+        also: String,
+        residual: f64,
+    },
     #[error(
         "the initial state cannot be projected onto the joints at t = {t} s: the mass matrix of \
          the rigid-body coordinates is singular on the motion the joints leave free (a body with \

@@ -86,6 +86,7 @@
 
 mod bdf;
 mod body;
+mod elastic_start;
 mod eq12;
 mod error;
 mod fd;
@@ -128,7 +129,7 @@ pub use sensitivity::{
     simulate_sensitivities_from, simulate_steps, tangent_rhs,
 };
 pub use system::{
-    JointReaction, MultibodySystem, Output, Progress, RedundancyPolicy, Simulation,
+    ElasticStart, JointReaction, MultibodySystem, Output, Progress, RedundancyPolicy, Simulation,
     SimulationError, Solution, StepGuard, simulate,
 };
 pub use tolerance::{absolute_tolerances, mechanism_size};

@@ -906,6 +906,24 @@ impl Model<f64> {
             .collect()
     }
 
+    /// The angle drivers that hold their bodies half a turn from their angle at `t`, `q`:
+    /// `ρ cos(f − θ) < 0` (their equation `ρ sin(f − θ) = 0` holds at `θ = f + π` too).
+    pub(crate) fn reversed_drivers(&self, t: f64, q: &[f64]) -> Vec<JointId> {
+        let v = vec![0.0; self.n_v];
+        (self.joints.iter().enumerate())
+            .filter_map(|(i, j)| {
+                let JointKind::AngleDriver(f) = &j.kind else {
+                    return None;
+                };
+                let (a, b) = (self.marker(&j.a, q, &v), self.marker(&j.b, q, &v));
+                let b1 = b.axis(0).val;
+                let (c, s) = (a.axis(0).val.dot(&b1), a.axis(1).val.dot(&b1));
+                let (sf, cf) = f.eval(t)[0].sin_cos();
+                (c * cf + s * sf < 0.0).then_some(JointId(i))
+            })
+            .collect()
+    }
+
     /// Global position of a marker point (m).
     pub fn marker_position(&self, m: &Marker, q: &[f64]) -> Vector3<f64> {
         let v = vec![0.0; self.n_v];

@@ -204,6 +204,11 @@ pub enum SensitivityError {
     Layout(String),
     #[error("response: {0}")]
     Response(String),
+    #[error(
+        "the start was assembled with the flexible bodies deformed or moving elastically (a \
+         mechanism locked when its bodies are rigid): its sensitivities are not available yet"
+    )]
+    ElasticStart,
 }
 
 /// Work counters of the sensitivity integration.
@@ -406,6 +411,9 @@ pub fn initial_sensitivities<const N: usize>(
     t0: f64,
     state: &State,
 ) -> Result<DMatrix<f64>, SensitivityError> {
+    if sys.elastic_rates() {
+        return Err(SensitivityError::ElasticStart);
+    }
     let model = sys.model();
     let (nq, nv) = (model.n_q(), model.n_v());
     let m = design.n_variables();

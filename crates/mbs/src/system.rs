@@ -53,6 +53,23 @@ pub struct JointReaction {
     pub moment_on_a: Vector3<f64>,
 }
 
+/// The prestress of a start assembled elastically ([`MultibodySystem::assemble`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ElasticStart {
+    /// The strain energy of each flexible body that takes some (J), by name.
+    pub bodies: Vec<(String, f64)>,
+    /// The joint with the largest reaction force, and that force's magnitude (N).
+    pub joint: String,
+    pub force: f64,
+}
+
+impl ElasticStart {
+    /// The bodies' total strain energy (J).
+    pub fn energy(&self) -> f64 {
+        self.bodies.iter().map(|(_, e)| e).sum()
+    }
+}
+
 /// Results at one output time.
 #[derive(Clone, Debug)]
 pub struct Output {
@@ -105,6 +122,11 @@ pub struct MultibodySystem {
     progress: Option<Progress>,
     /// What the last [`MultibodySystem::assemble`] started from.
     start: Option<StartGuess>,
+    /// The prestress of the last [`MultibodySystem::assemble`], when it had to deform the
+    /// flexible bodies.
+    elastic: Option<ElasticStart>,
+    /// Whether it gave the flexible bodies elastic rates ([`MultibodySystem::elastic_rates`]).
+    elastic_rates: bool,
     guard: StepGuard,
     /// The symbolic analysis of Eq. (12)'s Schur complement, kept while its pattern stays.
     schur: Mutex<Option<SchurPattern>>,
@@ -146,7 +168,7 @@ pub type Progress = std::sync::Arc<dyn Fn(f64) + Send + Sync>;
 const CHUNK: usize = 8;
 
 /// Relative tolerance of the redundancy check at assembly (reported rows, policy `Error`).
-const ASSEMBLY_DEPENDENCE_TOL: f64 = 1e-8;
+pub(crate) const ASSEMBLY_DEPENDENCE_TOL: f64 = 1e-8;
 
 /// Relative tolerance of the row selection at every state. Near a configuration where rows
 /// lose rank (a flexible slider-crank whose rod passes through the line of the slide) the kept
@@ -200,6 +222,8 @@ impl MultibodySystem {
             policy,
             progress: None,
             start: None,
+            elastic: None,
+            elastic_rates: false,
             guard,
             schur: Mutex::new(None),
             newton: NewtonCache::default(),
@@ -251,6 +275,8 @@ impl MultibodySystem {
             policy: self.policy,
             progress: self.progress.clone(),
             start: self.start.clone(),
+            elastic: self.elastic.clone(),
+            elastic_rates: self.elastic_rates,
             guard: self.guard,
             schur: Mutex::new(None),
             newton: NewtonCache::default(),
@@ -501,11 +527,103 @@ impl MultibodySystem {
     /// hold too, else the error names the joint ([`ConstraintError::Inconsistent`]), as it does
     /// when a constraint cannot be met with the stated elastic state.
     ///
+    /// Where the rigid-body coordinates cannot meet the positions' constraints and the model
+    /// has flexible bodies (a misaligned joint locks the frame), the positions are assembled
+    /// with their elastic coordinates too, at the least strain energy
+    /// ([`MultibodySystem::elastic_start`] reports the prestress), and the velocities with every
+    /// coordinate's rate at the least kinetic energy of the change; so are the velocities alone
+    /// where the rigid rates cannot meet the drivers' speeds (a mechanism locked when rigid:
+    /// [`MultibodySystem::elastic_rates`]).
+    ///
     /// Redundancy is then re-checked at the assembled state (with the policy given at
     /// construction), since rows dependent there may differ from those at an inconsistent
     /// starting guess. The velocities before the projection are kept, so that
     /// [`crate::initial_sensitivities`] differentiates the same projection.
     pub fn assemble(&mut self, t: f64, state: &mut State, tol: f64) -> Result<(), ConstraintError> {
+        self.elastic = None;
+        self.elastic_rates = false;
+        // the elastic coordinates and rates take part only where the deck leaves them at
+        // zero: a stated elastic state that the joints forbid stays an error
+        let elastic = self.elastic_columns().0;
+        let undeformed = elastic.iter().all(|&c| self.elastic_value(state, c) == 0.0);
+        let at_rest = elastic.iter().all(|&c| state.v[c] == 0.0);
+        match self.assemble_rigidly(t, state, tol) {
+            Ok(()) => {}
+            Err(rigid @ ConstraintError::Inconsistent { .. }) => {
+                if elastic.is_empty() || !undeformed {
+                    return Err(rigid);
+                }
+                self.elastic = Some(self.assemble_elastic(t, state, tol)?);
+            }
+            Err(e) => return Err(e),
+        }
+        if let Some(j) = self.model.reversed_drivers(t, &state.q).first() {
+            return Err(ConstraintError::ReversedDriver {
+                joint: self.model.joint(*j).name.clone(),
+                t,
+            });
+        }
+        let cols = self.rigid_columns();
+        let c = self.model.constraints(t, &state.q, &state.v);
+        let (rows, removed) = independent_rows(&c.jacobian);
+        if !removed.is_empty() && self.policy == RedundancyPolicy::Error {
+            return Err(ConstraintError::Redundant {
+                equations: describe_rows(&self.model, &removed),
+            });
+        }
+        self.rows = rows;
+        self.removed = removed;
+        let guess = state.v.clone();
+        if self.elastic.is_some() {
+            self.project_velocities_elastically(t, state)?;
+        } else {
+            let kkt = self.start_projection(t, &state.q, &c.jacobian, &cols)?;
+            let b: Vec<f64> = kkt.rows.iter().map(|&r| -c.phi_dot[r]).collect();
+            let (dv, _) = kkt.solve(&vec![0.0; cols.len()], &b);
+            for (&col, x) in cols.iter().zip(dv) {
+                state.v[col] += x;
+            }
+        }
+        let met = |sys: &Self, state: &State| {
+            let c = sys.model.constraints(t, &state.q, &state.v);
+            let scale = state.v.iter().fold(1.0f64, |m, x| m.max(x.abs()));
+            (max_abs(&c.phi_dot) <= tol.max(1e-9 * scale), c.phi_dot)
+        };
+        let (mut ok, mut phi_dot) = met(self, state);
+        if !ok && self.elastic.is_none() && !elastic.is_empty() && at_rest {
+            // a mechanism locked when its bodies are rigid: they move by deforming
+            state.v.clone_from(&guess);
+            self.project_velocities_elastically(t, state)?;
+            self.elastic_rates = true;
+            (ok, phi_dot) = met(self, state);
+        }
+        if !ok {
+            return Err(self.inconsistent(&phi_dot, "Φ̇"));
+        }
+        self.start = Some(StartGuess {
+            t,
+            q: state.q.clone(),
+            v: guess,
+        });
+        Ok(())
+    }
+
+    /// The prestress of the last [`MultibodySystem::assemble`] when the rigid-body coordinates
+    /// alone could not meet the joints and it deformed the flexible bodies
+    /// ([`ElasticStart`]); `None` after a rigid assembly.
+    pub fn elastic_start(&self) -> Option<&ElasticStart> {
+        self.elastic.as_ref()
+    }
+
+    /// Whether the last [`MultibodySystem::assemble`] gave the flexible bodies elastic rates:
+    /// the drivers' speeds could not be met by the bodies moving rigidly (a mechanism locked
+    /// when its bodies are rigid), or the positions needed them deformed.
+    pub fn elastic_rates(&self) -> bool {
+        self.elastic_rates || self.elastic.is_some()
+    }
+
+    /// The positions of [`MultibodySystem::assemble`] by the rigid-body coordinates alone.
+    fn assemble_rigidly(&self, t: f64, state: &mut State, tol: f64) -> Result<(), ConstraintError> {
         let max_it = 50;
         let cols = self.rigid_columns();
         let mut stalled = 0;
@@ -538,32 +656,6 @@ impl MultibodySystem {
             }
             self.apply_increment(&mut state.q, &d);
         }
-        let c = self.model.constraints(t, &state.q, &state.v);
-        let (rows, removed) = independent_rows(&c.jacobian);
-        if !removed.is_empty() && self.policy == RedundancyPolicy::Error {
-            return Err(ConstraintError::Redundant {
-                equations: describe_rows(&self.model, &removed),
-            });
-        }
-        self.rows = rows;
-        self.removed = removed;
-        let guess = state.v.clone();
-        let kkt = self.start_projection(t, &state.q, &c.jacobian, &cols)?;
-        let b: Vec<f64> = kkt.rows.iter().map(|&r| -c.phi_dot[r]).collect();
-        let (dv, _) = kkt.solve(&vec![0.0; cols.len()], &b);
-        for (&col, x) in cols.iter().zip(dv) {
-            state.v[col] += x;
-        }
-        let c = self.model.constraints(t, &state.q, &state.v);
-        let scale = cols.iter().fold(1.0f64, |m, &i| m.max(state.v[i].abs()));
-        if !(max_abs(&c.phi_dot) <= tol.max(1e-9 * scale)) {
-            return Err(self.inconsistent(&c.phi_dot, "Φ̇"));
-        }
-        self.start = Some(StartGuess {
-            t,
-            q: state.q.clone(),
-            v: guess,
-        });
         Ok(())
     }
 
@@ -616,7 +708,7 @@ impl MultibodySystem {
     }
 
     /// The error for the constraint row with the largest `|values|`.
-    fn inconsistent(&self, values: &[f64], quantity: &'static str) -> ConstraintError {
+    pub(crate) fn inconsistent(&self, values: &[f64], quantity: &'static str) -> ConstraintError {
         let (row, residual) = values
             .iter()
             .enumerate()
@@ -713,7 +805,7 @@ impl MultibodySystem {
     }
 
     /// [`MultibodySystem::reactions`] with the constraints at the state already evaluated.
-    fn reactions_from(
+    pub(crate) fn reactions_from(
         &self,
         c: &crate::model::ConstraintValues<f64>,
         q: &[f64],
@@ -880,7 +972,7 @@ fn independent_rows(jac: &DMatrix<f64>) -> (Vec<usize>, Vec<usize>) {
 /// Greedy modified Gram–Schmidt on rows of length `n`: `(independent, dependent)` indices. A
 /// row is dependent when its component orthogonal to the independent rows before it is below
 /// `tol` times its norm (or it is zero).
-fn independent_rows_of<'a>(
+pub(crate) fn independent_rows_of<'a>(
     rows: impl Iterator<Item = &'a [f64]>,
     n: usize,
     tol: f64,
@@ -1060,7 +1152,7 @@ pub fn simulate(
 }
 
 /// `max |x_i|`, NaN if any entry is NaN (`f64::max` would drop it and hide a broken state).
-fn max_abs(x: &[f64]) -> f64 {
+pub(crate) fn max_abs(x: &[f64]) -> f64 {
     x.iter().fold(0.0, |m: f64, v| {
         if v.is_nan() || m.is_nan() {
             f64::NAN

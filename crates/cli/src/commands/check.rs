@@ -103,6 +103,20 @@ pub fn run(path: &Path, overrides: &[String]) -> Result<String, CliError> {
                 let _ = writeln!(s, "basis of body {name}: {}", b.describe());
             }
         }
+        if system.elastic_rates() && system.elastic_start().is_none() {
+            let _ = writeln!(
+                s,
+                "start: the flexible bodies take elastic rates to meet the drivers' speeds (the \
+                 mechanism is locked when its bodies are rigid)"
+            );
+        }
+        if let Some(p) = system.elastic_start() {
+            let _ = writeln!(
+                s,
+                "start: assembled with the flexible bodies deformed ({})",
+                super::compute::describe_prestress(p)
+            );
+        }
         let removed = system.removed_equations();
         if removed.is_empty() {
             let _ = writeln!(s, "mechanism: assembled; no redundant joint equations");

@@ -117,7 +117,67 @@ pub(crate) fn assembled(
                 "the initial configuration cannot be assembled: {e}"
             ))
         })?;
+    if system.elastic_rates() && system.elastic_start().is_none() {
+        if mech.design.enabled {
+            return Err(fail(
+                "the drivers' speeds cannot be met by the bodies moving rigidly (the mechanism \
+                 is locked when its bodies are rigid: a misaligned joint?), and the start gives \
+                 the flexible bodies elastic rates to meet them: the sensitivities of such a \
+                 start are not available yet; run without [design.*] variables, or align the \
+                 joints"
+                    .to_string(),
+            ));
+        }
+        src.warn(
+            None,
+            None,
+            "the drivers' speeds cannot be met by the bodies moving rigidly (the mechanism is \
+             locked when its bodies are rigid: a misaligned joint?): the start gives the \
+             flexible bodies elastic rates, the least kinetic energy that meets them, and the \
+             mechanism moves by deforming"
+                .to_string(),
+        );
+    }
+    if let Some(prestress) = system.elastic_start() {
+        if mech.design.enabled {
+            return Err(fail(format!(
+                "the joints cannot be met by moving the bodies rigidly, and the start deforms \
+                 the flexible bodies to meet them ({}): the sensitivities of such a prestressed \
+                 start are not available yet; run without [design.*] variables, or align the \
+                 joints",
+                describe_prestress(prestress)
+            )));
+        }
+        src.warn(
+            None,
+            None,
+            format!(
+                "the joints cannot be met by moving the bodies rigidly (a misaligned joint?): \
+                 the start deforms the flexible bodies to meet them at the least strain energy, \
+                 the static equilibrium of the locked frame ({}), and the run starts from that \
+                 prestressed state",
+                describe_prestress(prestress)
+            ),
+        );
+    }
     Ok((system, state))
+}
+
+/// An elastic start's prestress in words: the strain energy by body and the largest joint
+/// force.
+pub(crate) fn describe_prestress(p: &mbs::ElasticStart) -> String {
+    let bodies: Vec<String> = p
+        .bodies
+        .iter()
+        .map(|(name, e)| format!("`{name}` {e:.3e} J"))
+        .collect();
+    format!(
+        "strain energy {:.3e} J: {}; the largest joint force {:.3e} N, at `{}`",
+        p.energy(),
+        bodies.join(", "),
+        p.force,
+        p.joint
+    )
 }
 
 /// The error of a loose adaptive run's histories (`rtol` at least [`LOOSE_RTOL`]): a step's

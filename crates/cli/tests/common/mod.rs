@@ -299,3 +299,41 @@ end = [1.0, 0, 0]
 orientation = [0, 1, 0]
 elements = 40
 "#;
+
+/// The coupler's mid-point at each time of the four-bar of `decks/four_bar_spatial.toml` with
+/// rigid bars, its rocker axis tilted `tilt_deg` about x (0: the planar four-bar): the crank's
+/// tip on its circle at one revolution a second, the rocker's tip on the cone its axis sweeps,
+/// the coupler's length kept.
+pub fn four_bar_midpoints(times: &[f64], tilt_deg: f64) -> Vec<nalgebra::Vector3<f64>> {
+    use nalgebra::Vector3;
+    let a0 = Vector3::new(0.1, 0.0, 0.0);
+    let b0 = Vector3::new(0.26875, 0.2480391854, 0.0);
+    let pivot = Vector3::new(0.3, 0.0, 0.0);
+    let tilt = tilt_deg.to_radians();
+    let n = Vector3::new(0.0, -tilt.sin(), tilt.cos());
+    let coupler = (b0 - a0).norm();
+    let d = b0 - pivot;
+    let centre = n * d.dot(&n);
+    let radial = d - centre;
+    let r = radial.norm();
+    let (e1, e2) = (radial / r, n.cross(&(radial / r)));
+    let mut psi = 0.0f64;
+    times
+        .iter()
+        .map(|&t| {
+            let phi = 2.0 * std::f64::consts::PI * t;
+            let a = Vector3::new(0.1 * phi.cos(), 0.1 * phi.sin(), 0.0);
+            let tip = |psi: f64| pivot + centre + (e1 * psi.cos() + e2 * psi.sin()) * r;
+            for _ in 0..50 {
+                let b = tip(psi);
+                let f = (b - a).norm_squared() - coupler * coupler;
+                let db = (e2 * psi.cos() - e1 * psi.sin()) * r;
+                psi -= f / (2.0 * (b - a).dot(&db));
+                if f.abs() < 1e-18 {
+                    break;
+                }
+            }
+            (a + tip(psi)) / 2.0
+        })
+        .collect()
+}

@@ -1,0 +1,243 @@
+//! Elastic assembly: a start whose joints the rigid-body coordinates alone cannot meet (a
+//! misaligned joint that locks a mechanism of rigid bars) is assembled with the flexible
+//! bodies' elastic coordinates too, at the least strain energy the joints allow — the static
+//! equilibrium of the locked frame, its joint forces the prestress it needs.
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::body::Body;
+use crate::error::ConstraintError;
+use crate::model::State;
+use crate::system::{
+    ASSEMBLY_DEPENDENCE_TOL, ElasticStart, MultibodySystem, independent_rows_of, max_abs,
+};
+
+/// Iterations of the elastic assembly's sequential quadratic steps.
+const MAX_ITERATIONS: usize = 50;
+
+impl MultibodySystem {
+    /// The elastic coordinate at velocity column `col` of `state` (a body's modal coordinates
+    /// follow its 7 position coordinates, its velocity columns its 6 rigid rates).
+    pub(crate) fn elastic_value(&self, state: &State, col: usize) -> f64 {
+        let model = self.model();
+        let id = model
+            .body_ids()
+            .find(|&id| model.v_range(id).contains(&col))
+            .expect("a column of a body");
+        state.q[model.q_range(id).start + 1 + (col - model.v_range(id).start)]
+    }
+
+    /// The velocity columns of the flexible bodies' elastic coordinates, and their modal
+    /// stiffness over them (block diagonal by body).
+    pub(crate) fn elastic_columns(&self) -> (Vec<usize>, DMatrix<f64>) {
+        let model = self.model();
+        let mut cols = Vec::new();
+        let mut blocks = Vec::new();
+        for id in model.body_ids() {
+            if let Body::Flexible(f) = model.body(id) {
+                let r = model.v_range(id);
+                let n = r.len() - 6;
+                cols.extend(r.start + 6..r.end);
+                let k = modal_stiffness(f);
+                debug_assert_eq!(k.nrows(), n);
+                blocks.push(k);
+            }
+        }
+        let mut k = DMatrix::zeros(cols.len(), cols.len());
+        let mut at = 0;
+        for b in blocks {
+            let n = b.nrows();
+            k.view_mut((at, at), (n, n)).copy_from(&b);
+            at += n;
+        }
+        (cols, k)
+    }
+
+    /// Positions that meet the constraints at `t` with the rigid and the elastic coordinates
+    /// together, at the least strain energy `½ wᵀK̄w` of the flexible bodies: sequential
+    /// quadratic steps `d` minimising `½ d_rᵀ W d_r + ½ (w + d_w)ᵀ K̄ (w + d_w)` (`W` the
+    /// rigid-coordinate block of the mass matrix, which only makes the rigid steps definite)
+    /// subject to the linearised constraints, until `max |Φ| ≤ tol` and the elastic step is
+    /// round-off. At the solution the multipliers are the joint forces that hold the frame
+    /// deformed (`K̄w + J_wᵀλ = 0`) and put no net load on any body (`J_rᵀλ = 0`).
+    pub(crate) fn assemble_elastic(
+        &self,
+        t: f64,
+        state: &mut State,
+        tol: f64,
+    ) -> Result<ElasticStart, ConstraintError> {
+        let model = self.model();
+        let rigid = self.rigid_columns();
+        let (elastic, k) = self.elastic_columns();
+        let cols: Vec<usize> = rigid.iter().chain(&elastic).copied().collect();
+        let (nr, n) = (rigid.len(), cols.len());
+        let mut lambda = Vec::new();
+        let mut rows = Vec::new();
+        for it in 0..=MAX_ITERATIONS {
+            let c = model.constraints(t, &state.q, &state.v);
+            let w = DVector::from_iterator(
+                elastic.len(),
+                elastic.iter().map(|&i| self.elastic_value(state, i)),
+            );
+            let v0 = vec![0.0; model.n_v()];
+            let (mass, _) = model.mass_and_forces(t, &state.q, &v0);
+            let mut h = DMatrix::zeros(n, n);
+            for i in 0..nr {
+                for j in 0..nr {
+                    h[(i, j)] = mass[(rigid[i], rigid[j])];
+                }
+            }
+            h.view_mut((nr, nr), (k.nrows(), k.ncols())).copy_from(&k);
+            let mut g = DVector::zeros(n);
+            g.rows_mut(nr, k.nrows()).copy_from(&(-(&k * &w)));
+            let x;
+            (x, rows) = saddle_point(&h, &c.jacobian.select_columns(&cols), &g, &c.phi)
+                .ok_or(ConstraintError::SingularStart { t })?;
+            let mut d = vec![0.0; model.n_v()];
+            for (&col, &x) in cols.iter().zip(x.iter()) {
+                d[col] = x;
+            }
+            lambda = x.as_slice()[n..].to_vec();
+            let step = elastic.iter().fold(0.0f64, |s, &i| s.max(d[i].abs()));
+            let size = w.amax().max(f64::MIN_POSITIVE);
+            if max_abs(&c.phi) <= tol && step <= 1e-9 * size {
+                break;
+            }
+            if it == MAX_ITERATIONS || !x.iter().all(|v| v.is_finite()) {
+                return Err(self.inconsistent_elastically(&c.phi));
+            }
+            self.apply_increment(&mut state.q, &d);
+        }
+        let c = model.constraints(t, &state.q, &state.v);
+        if !(max_abs(&c.phi) <= tol) {
+            return Err(self.inconsistent_elastically(&c.phi));
+        }
+        let mut full = vec![0.0; model.n_constraints()];
+        for (&r, &l) in rows.iter().zip(&lambda) {
+            full[r] = l;
+        }
+        Ok(self.prestress(state, &c, &full))
+    }
+
+    /// The strain energies and the largest joint force of an elastically assembled state.
+    fn prestress(
+        &self,
+        state: &State,
+        c: &crate::model::ConstraintValues<f64>,
+        lambda: &[f64],
+    ) -> ElasticStart {
+        let model = self.model();
+        let mut bodies = Vec::new();
+        for id in model.body_ids() {
+            if let Body::Flexible(f) = model.body(id) {
+                let r = model.v_range(id);
+                let w = DVector::from_iterator(
+                    r.len() - 6,
+                    (r.start + 6..r.end).map(|i| self.elastic_value(state, i)),
+                );
+                let energy = 0.5 * w.dot(&(modal_stiffness(f) * &w));
+                if energy > 0.0 {
+                    bodies.push((f.name.clone(), energy));
+                }
+            }
+        }
+        let reactions = self.reactions_from(c, &state.q, lambda);
+        let (joint, force) = reactions
+            .iter()
+            .enumerate()
+            .map(|(j, r)| (j, r.force_on_a.norm().max(r.force_on_b.norm())))
+            .fold(
+                (0, 0.0),
+                |(bj, bf), (j, f)| if f > bf { (j, f) } else { (bj, bf) },
+            );
+        ElasticStart {
+            bodies,
+            joint: model.joints()[joint].name.clone(),
+            force,
+        }
+    }
+
+    /// Velocities that meet `Φ̇ = 0` with every coordinate's rate: the change `Δv` of the
+    /// smallest kinetic energy `½ ΔvᵀMΔv` (the impulse of the constraint forces), for a start
+    /// assembled elastically, whose locked frame the rigid rates alone may not move.
+    pub(crate) fn project_velocities_elastically(
+        &self,
+        t: f64,
+        state: &mut State,
+    ) -> Result<(), ConstraintError> {
+        let model = self.model();
+        let n = model.n_v();
+        let c = model.constraints(t, &state.q, &state.v);
+        let (mass, _) = model.mass_and_forces(t, &state.q, &vec![0.0; n]);
+        let (x, _) = saddle_point(
+            &mass.to_dense(),
+            &c.jacobian,
+            &DVector::zeros(n),
+            &c.phi_dot,
+        )
+        .ok_or(ConstraintError::SingularStart { t })?;
+        for (v, dv) in state.v.iter_mut().zip(x.iter()) {
+            *v += dv;
+        }
+        Ok(())
+    }
+
+    /// The error for a constraint that even the elastic coordinates cannot meet: the joint
+    /// of the largest residual.
+    fn inconsistent_elastically(&self, phi: &[f64]) -> ConstraintError {
+        match self.inconsistent(phi, "Φ") {
+            ConstraintError::Inconsistent {
+                joint,
+                equation,
+                bodies,
+                also,
+                residual,
+                ..
+            } => ConstraintError::InconsistentElastically {
+                joint,
+                equation,
+                bodies,
+                also,
+                residual,
+            },
+            other => other,
+        }
+    }
+}
+
+/// The solution `(x, μ)` (as one vector) of `H x + J_Iᵀ μ = g`, `J_I x = −r_I` with `J_I` the
+/// independent rows `I` of `jac` (returned beside it), or `None` where the matrix is singular.
+fn saddle_point(
+    h: &DMatrix<f64>,
+    jac: &DMatrix<f64>,
+    g: &DVector<f64>,
+    r: &[f64],
+) -> Option<(DVector<f64>, Vec<usize>)> {
+    let n = h.nrows();
+    let dense: Vec<Vec<f64>> = (0..jac.nrows())
+        .map(|i| jac.row(i).iter().copied().collect())
+        .collect();
+    let (rows, _) =
+        independent_rows_of(dense.iter().map(Vec::as_slice), n, ASSEMBLY_DEPENDENCE_TOL);
+    let m = rows.len();
+    let mut a = DMatrix::zeros(n + m, n + m);
+    a.view_mut((0, 0), (n, n)).copy_from(h);
+    let mut rhs = DVector::zeros(n + m);
+    rhs.rows_mut(0, n).copy_from(g);
+    for (i, &row) in rows.iter().enumerate() {
+        for j in 0..n {
+            a[(n + i, j)] = jac[(row, j)];
+            a[(j, n + i)] = jac[(row, j)];
+        }
+        rhs[n + i] = -r[row];
+    }
+    a.lu().solve(&rhs).map(|x| (x, rows))
+}
+
+/// A flexible body's modal stiffness: its full matrix, or the diagonal of its eigenvalues.
+fn modal_stiffness(f: &crate::body::FlexibleBody<f64>) -> DMatrix<f64> {
+    match &f.modal.stiffness_matrix {
+        Some(k) => (**k).clone(),
+        None => DMatrix::from_diagonal(&DVector::from_row_slice(&f.modal.eigenvalues)),
+    }
+}
