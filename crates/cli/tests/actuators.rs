@@ -1,7 +1,9 @@
-//! Joint actuators in a deck (`kind = "joint-torque"`): a pinned arm driven by a PD law
+//! Joint actuators in a deck: a pinned arm driven by a PD torque (`kind = "joint-torque"`)
 //! tracking a ramp against its closed-form response (angle, torque and power), by a tabulated
 //! torque against its double integral, the torque's sensitivity to the arm's mass against the
-//! run's replayed central differences, and the errors of a malformed actuator naming its key.
+//! run's replayed central differences; a block on a guide driven by a PD force
+//! (`"joint-force"`) and by a tabulated one against the closed forms, with the position's
+//! sensitivity to the mass; and the errors of malformed actuators naming their keys.
 
 mod common;
 
@@ -204,4 +206,143 @@ fn a_malformed_actuator_names_its_key() {
         err.contains("force.motor.b") && err.contains("both on `arm`"),
         "{err}"
     );
+}
+
+/// A 2 kg block on a frictionless guide along x from the origin, no gravity, with the linear
+/// actuator `law` (the keys after `kind`, `a`, `b`) between the ground and the block along the
+/// guide; its position, the actuator's force and power as responses.
+fn slider_deck(law: &str, t_end: f64) -> String {
+    format!(
+        r#"title = "a block driven along a guide"
+
+[rigid.block]
+mass = 2.0
+inertia = [0.01, 0.01, 0.01]
+position = [0.0, 0.0, 0.0]
+
+[joint.guide]
+kind = "translational"
+a = {{ body = "ground", point = [0.0, 0.0, 0.0], axis = [1.0, 0.0, 0.0] }}
+b = {{ body = "block", point = [0.0, 0.0, 0.0], axis = [1.0, 0.0, 0.0] }}
+
+[force.ram]
+kind = "joint-force"
+a = {{ body = "ground", point = [0.0, 0.0, 0.0], axis = [1.0, 0.0, 0.0] }}
+b = {{ body = "block", point = [0.0, 0.0, 0.0], axis = [1.0, 0.0, 0.0] }}
+{law}
+
+[response.x]
+kind = "position"
+body = "block"
+component = "x"
+
+[response.force]
+kind = "actuator-force"
+force = "ram"
+
+[response.power]
+kind = "actuator-power"
+force = "ram"
+
+[analysis]
+t_end = {t_end}
+output_step = 0.01
+rtol = 1.0e-9
+atol = 1.0e-12
+"#
+    )
+}
+
+/// The block's mass (kg).
+const M: f64 = 2.0;
+
+/// A PD ram tracking a constant speed: `m ë + kd ė + kp e = 0` for the error `e = f − x`,
+/// `e(0) = 0`, `ė(0) = v`; the block's position, the force and the power as the closed form.
+#[test]
+fn a_pd_linear_actuator_tracks_a_constant_speed_as_the_closed_form() {
+    let (kp, kd, v): (f64, f64, f64) = (800.0, 8.0, 0.3);
+    let law = format!(
+        "control = {{ kind = \"pd\", kp = {kp}, kd = {kd}, motion = {{ kind = \"constant-speed\", \
+         initial = 0.0, rate = {v} }} }}"
+    );
+    let (wn, zeta) = ((kp / M).sqrt(), kd / (2.0 * (kp * M).sqrt()));
+    let wd = wn * (1.0 - zeta * zeta).sqrt();
+    for t in [0.05, 0.2] {
+        let decay = (-zeta * wn * t).exp();
+        let e = v / wd * decay * (wd * t).sin();
+        let e_dot = v * decay * ((wd * t).cos() - zeta * wn / wd * (wd * t).sin());
+        let doc = common::run_deck_json(&slider_deck(&law, t));
+        let r = |n: &str| doc["responses"][n]["final"].as_f64().unwrap();
+        assert!(
+            (r("x") - (v * t - e)).abs() < 1e-8,
+            "t = {t}: x {} against {}",
+            r("x"),
+            v * t - e
+        );
+        let force = kp * e + kd * e_dot;
+        assert!(
+            (r("force") - force).abs() < 1e-6,
+            "t = {t}: F {} against {force}",
+            r("force")
+        );
+        let power = force * (v - e_dot);
+        assert!(
+            (r("power") - power).abs() < 1e-6,
+            "t = {t}: P {} against {power}",
+            r("power")
+        );
+        assert!(
+            e.abs() > 0.05 * v * t,
+            "the error is a visible part of the motion: {e}"
+        );
+    }
+}
+
+/// A tabulated force rising from 0 to 4 N over 0.5 s moves the block by `F' t³ / 6m`; its
+/// sensitivity to the block's mass (`−x / m`) equals replayed central differences.
+#[test]
+fn a_tabulated_linear_actuator_moves_the_block_by_its_double_integral() {
+    let law = "force = { times = [0.0, 0.5], values = [0.0, 4.0] }";
+    let deck = slider_deck(law, 0.5)
+        + "\n[design.m]\nkind = \"rigid-mass\"\nbody = \"block\"\n\n[objective.x_end]\n\
+           response = \"x\"\nkind = \"at\"\ntime = 0.5\n\n[finite_differences]\n\
+           scheme = \"central\"\nsizes = [0.0001]\nsteps = \"replay\"\n";
+    let doc = common::run_deck_json(&deck);
+    let x = doc["responses"]["x"]["final"].as_f64().unwrap();
+    let exact = 8.0 * 0.5f64.powi(3) / (6.0 * M);
+    assert!((x - exact).abs() < 1e-8, "{x} against {exact}");
+    let gradient = doc["objectives"][0]["gradient"][0].as_f64().unwrap();
+    assert!(
+        (gradient / (-exact / M) - 1.0).abs() < 1e-6,
+        "{gradient} against {}",
+        -exact / M
+    );
+    let d = doc["finite_differences"][0]["max_relative_difference"]["x"]
+        .as_f64()
+        .unwrap();
+    assert!(d < 1e-5, "|FD − direct| / max |direct| = {d:e}");
+}
+
+/// A linear actuator's keys are checked as a torque's: the other kind's key, a torque
+/// response of a force.
+#[test]
+fn a_malformed_linear_actuator_names_its_key() {
+    let cases = [
+        (
+            "torque = 1.0",
+            "force.ram.torque",
+            "takes `force`, not `torque`",
+        ),
+        ("", "force.ram.force", "missing force"),
+        (
+            "force = 1.0\n[response.bad]\nkind = \"actuator-torque\"\nforce = \"ram\"",
+            "response.bad.force",
+            "not an actuator of its kind",
+        ),
+    ];
+    for (law, key, what) in cases {
+        let (_dir, err) =
+            common::bad_deck(&slider_deck(law, 0.1), |p| common::with_deck("run", p, &[]));
+        assert!(err.contains(key) && err.contains(what), "{law}:\n{err}");
+    }
 }

@@ -89,9 +89,19 @@ pub enum Force {
         b: Marker,
         law: TorqueLaw,
     },
+    /// An actuator: a force `F` (N) along the third axis `n` of marker `a`, `F n` at `b`'s
+    /// point and `−F n` at `a`'s, by the law `law` (a table of forces, or a PD law tracking the
+    /// displacement `n · (x_B − x_A)` in m, as a distance driver measures it, with `kp` in N/m
+    /// and `kd` in N·s/m).
+    JointForce {
+        a: Marker,
+        b: Marker,
+        law: TorqueLaw,
+    },
 }
 
-/// The torque of a [`Force::JointTorque`].
+/// The torque of a [`Force::JointTorque`] (or the force of a [`Force::JointForce`], N, its PD
+/// law tracking a displacement in m).
 #[derive(Clone, Debug, PartialEq)]
 pub enum TorqueLaw {
     /// Piecewise linear in time through `(times[i], values[i])` (s, N·m), held constant
@@ -140,8 +150,16 @@ impl Force {
             | Force::JointTorque {
                 law: TorqueLaw::Table { times, .. },
                 ..
+            }
+            | Force::JointForce {
+                law: TorqueLaw::Table { times, .. },
+                ..
             } => times.clone(),
             Force::JointTorque {
+                law: TorqueLaw::Pd { motion, .. },
+                ..
+            }
+            | Force::JointForce {
                 law: TorqueLaw::Pd { motion, .. },
                 ..
             } => motion.breakpoints(),
@@ -152,7 +170,9 @@ impl Force {
     pub(crate) fn markers(&self) -> Vec<&Marker> {
         match self {
             Force::PointForce { marker, .. } | Force::PointTorque { marker, .. } => vec![marker],
-            Force::SpringDamper { a, b, .. } | Force::JointTorque { a, b, .. } => vec![a, b],
+            Force::SpringDamper { a, b, .. }
+            | Force::JointTorque { a, b, .. }
+            | Force::JointForce { a, b, .. } => vec![a, b],
         }
     }
 }

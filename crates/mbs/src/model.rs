@@ -324,7 +324,7 @@ impl<P: Scalar> Model<P> {
                 reason: "stiffness, damping and free length must be finite and non-negative",
             });
         }
-        if let Force::JointTorque { a, b, law } = &force {
+        if let Force::JointTorque { a, b, law } | Force::JointForce { a, b, law } = &force {
             check_joint_torque(a, b, law)?;
         }
         self.forces.push(force);
@@ -504,8 +504,9 @@ impl<P: Scalar> Model<P> {
     }
 
     /// The torque (N·m) of the actuator `force` ([`Force::JointTorque`]) at `(t, q, v)` and
-    /// the rate (rad/s) of the relative angle it turns (the angle driver's measure): their
-    /// product is the actuator's power. `None` if `force` is not an actuator.
+    /// the rate (rad/s) of the relative angle it turns (the angle driver's measure), or the
+    /// force (N) of a [`Force::JointForce`] and the rate (m/s) of the displacement it drives:
+    /// their product is the actuator's power. `None` if `force` is not an actuator.
     pub fn actuator<S: Scalar + From<P>>(
         &self,
         force: ForceId,
@@ -513,11 +514,18 @@ impl<P: Scalar> Model<P> {
         q: &[S],
         v: &[S],
     ) -> Option<(S, S)> {
-        let Some(Force::JointTorque { a, b, law }) = self.forces.get(force.0) else {
-            return None;
-        };
-        let (ka, kb) = (self.marker(a, q, v), self.marker(b, q, v));
-        Some((joint_torque(&ka, &kb, law, t), relative_angle(&ka, &kb).2))
+        match self.forces.get(force.0)? {
+            Force::JointTorque { a, b, law } => {
+                let (ka, kb) = (self.marker(a, q, v), self.marker(b, q, v));
+                Some((joint_torque(&ka, &kb, law, t), relative_angle(&ka, &kb).2))
+            }
+            Force::JointForce { a, b, law } => {
+                let (ka, kb) = (self.marker(a, q, v), self.marker(b, q, v));
+                let (force, _, rate) = joint_force(&ka, &kb, law, t);
+                Some((force, rate))
+            }
+            _ => None,
+        }
     }
 
     /// `q̇` from `(q, v)`: `ṙ`, `ṗ = ½ L(p)ᵀ ω'`, `ẇ`.
@@ -660,6 +668,18 @@ impl<P: Scalar> Model<P> {
                 }
                 if !ka.is_ground() {
                     body_torque(&ka, &(ka.a.transpose() * -n), f);
+                }
+            }
+            Force::JointForce { a, b, law } => {
+                let ka = self.marker(a, q, v);
+                let kb = self.marker(b, q, v);
+                let (force, n, _) = joint_force(&ka, &kb, law, t);
+                let fn_ = n * force;
+                for (i, j) in kb.point.jac.iter() {
+                    f[i] += j.dot(&fn_);
+                }
+                for (i, j) in ka.point.jac.iter() {
+                    f[i] -= j.dot(&fn_);
                 }
             }
             Force::SpringDamper {
@@ -1037,6 +1057,28 @@ fn joint_torque<S: Scalar>(ka: &MarkerKin<S>, kb: &MarkerKin<S>, law: &TorqueLaw
     }
 }
 
+/// A joint force actuator's force `F` (N), its direction `n` (`ka`'s third axis) and the rate
+/// of the displacement `x = n · (x_B − x_A)` it drives (the distance driver's measure):
+/// tabulated, or `kp (f − x) + kd (ḟ − ẋ)`.
+fn joint_force<S: Scalar>(
+    ka: &MarkerKin<S>,
+    kb: &MarkerKin<S>,
+    law: &TorqueLaw,
+    t: f64,
+) -> (S, Vector3<S>, S) {
+    let n = ka.axis(2);
+    let x = n.dot(&kb.point.sub(&ka.point));
+    let force = match law {
+        TorqueLaw::Table { times, values } => S::from_f64(TorqueLaw::table_at(times, values, t)),
+        TorqueLaw::Pd { kp, kd, motion } => {
+            let [fv, fd, _] = motion.eval(t);
+            (S::from_f64(fv) - x.val) * S::from_f64(*kp)
+                + (S::from_f64(fd) - x.rate) * S::from_f64(*kd)
+        }
+    };
+    (force, n.val, x.rate)
+}
+
 /// The angle `θ` of `kb`'s first axis from `ka`'s first about `ka`'s third, the angle driver's
 /// measure: `(ρ cos θ, ρ sin θ, θ̇)` with `ρ cos θ = e1A·e1B`, `ρ sin θ = e2A·e1B` and
 /// `θ̇ = (c ṡ − s ċ)/ρ²`.
@@ -1053,7 +1095,7 @@ fn relative_angle<S: Scalar>(ka: &MarkerKin<S>, kb: &MarkerKin<S>) -> (S, S, S) 
 fn check_joint_torque(a: &Marker, b: &Marker, law: &TorqueLaw) -> Result<(), ModelError> {
     let bad = |reason| {
         Err(ModelError::BadMarker {
-            owner: "joint torque".into(),
+            owner: "joint actuator".into(),
             reason,
         })
     };
@@ -1068,7 +1110,7 @@ fn check_joint_torque(a: &Marker, b: &Marker, law: &TorqueLaw) -> Result<(), Mod
                 || !times.iter().chain(values).all(|x| x.is_finite())
             {
                 return bad(
-                    "torque table needs finite, strictly increasing times, one value per time",
+                    "an actuator's table needs finite, strictly increasing times, one value per time",
                 );
             }
         }

@@ -91,7 +91,7 @@ choices! {
     MOTION_KIND: "[joint.NAME]", "joint.NAME.motion.kind",
         ["constant-speed", "polynomial", "ramp", "spin-up"];
     FORCE_KIND: "[force.NAME]", "force.NAME.kind",
-        ["gravity", "point-force", "point-torque", "spring-damper", "joint-torque"];
+        ["gravity", "point-force", "point-torque", "spring-damper", "joint-torque", "joint-force"];
     CONTROL_KIND: "[force.NAME]", "force.NAME.control.kind", ["pd"];
     FORCE_FRAME: "[force.NAME]", "force.NAME.frame", ["global", "body"];
     RESPONSE_KIND: "[response.NAME]", "response.NAME.kind", [
@@ -104,6 +104,7 @@ choices! {
         "energy",
         "constraint-violation",
         "actuator-torque",
+        "actuator-force",
         "actuator-power",
     ];
     INTEGRATOR: "[analysis]", "analysis.integrator", ["adaptive", "fixed"];

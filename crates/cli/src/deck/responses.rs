@@ -68,7 +68,7 @@ enum SpecKind {
     },
     Energy,
     ConstraintViolation,
-    /// An actuator's torque, or (`power`) its power.
+    /// An actuator's torque or force, or (`power`) its power.
     Actuator {
         force: String,
         power: bool,
@@ -196,13 +196,14 @@ fn component(
 
 /// Validate the responses: each with its name and unit, in the deck's terms
 /// ([`ResponseSpec::resolve`] makes them responses of the built mechanism). `joints`: the
-/// joints' names; `actuators`: the names of the forces of kind `"joint-torque"`.
+/// joints' names; `actuators`: the names of the forces of kind `"joint-torque"` (`false`) or
+/// `"joint-force"` (`true`).
 pub fn validate(
     src: &Source,
     raw: &RawDeck,
     bodies: &BTreeMap<String, BodyPlace>,
     joints: &[String],
-    actuators: &[String],
+    actuators: &[(String, bool)],
 ) -> Result<Vec<ResponseSpec>, DeckError> {
     let mut out = Vec::new();
     for (name, r) in &raw.response {
@@ -223,8 +224,9 @@ pub fn validate(
             "modal" => t.modal()?,
             "energy" => (SpecKind::Energy, "J"),
             "constraint-violation" => (SpecKind::ConstraintViolation, "m"),
-            "actuator-torque" => (t.actuator(actuators, false)?, "N·m"),
-            "actuator-power" => (t.actuator(actuators, true)?, "W"),
+            "actuator-torque" => (t.actuator(actuators, Some(false), false)?, "N·m"),
+            "actuator-force" => (t.actuator(actuators, Some(true), false)?, "N"),
+            "actuator-power" => (t.actuator(actuators, None, true)?, "W"),
             other => {
                 return Err(src.error(
                     span(kind),
@@ -392,14 +394,29 @@ impl Table<'_> {
         ))
     }
 
-    /// `kind = "actuator-torque"` or (`power`) `"actuator-power"`: of the actuator `force`.
-    fn actuator(&self, actuators: &[String], power: bool) -> Result<SpecKind, DeckError> {
+    /// `kind = "actuator-torque"` (`linear` false), `"actuator-force"` (true) or (`power`)
+    /// `"actuator-power"` (either): of the actuator `force`.
+    fn actuator(
+        &self,
+        actuators: &[(String, bool)],
+        linear: Option<bool>,
+        power: bool,
+    ) -> Result<SpecKind, DeckError> {
+        let names: Vec<String> = (actuators.iter())
+            .filter(|(_, l)| linear.is_none_or(|want| *l == want))
+            .map(|(n, _)| n.clone())
+            .collect();
+        let kinds = match linear {
+            Some(false) => "\"joint-torque\"",
+            Some(true) => "\"joint-force\"",
+            None => "\"joint-torque\" or \"joint-force\"",
+        };
         let force = self.one_of(
             "force",
             &self.raw.force,
             "force (an actuator's [force.NAME])",
-            actuators,
-            |f| format!("`{f}` is not an actuator (a [force.NAME] of kind \"joint-torque\")"),
+            &names,
+            |f| format!("`{f}` is not an actuator of its kind (a [force.NAME] of kind {kinds})"),
         )?;
         Ok(SpecKind::Actuator { force, power })
     }

@@ -363,11 +363,12 @@ impl Study {
         let joints = mechanism::joints(src, raw, &places)?;
         let forces = mechanism::forces(src, raw, &places)?;
         let joint_names: Vec<String> = joints.iter().map(|j| j.name.clone()).collect();
-        let actuators: Vec<String> = forces
-            .forces
-            .iter()
-            .filter(|(_, f, _)| matches!(f, mechanism::ForceDef::JointTorque { .. }))
-            .map(|(n, _, _)| n.clone())
+        let actuators: Vec<(String, bool)> = (forces.forces.iter())
+            .filter_map(|(n, f, _)| match f {
+                mechanism::ForceDef::JointTorque { .. } => Some((n.clone(), false)),
+                mechanism::ForceDef::JointForce { .. } => Some((n.clone(), true)),
+                _ => None,
+            })
             .collect();
         let response_specs = responses::validate(src, raw, &places, &joint_names, &actuators)?;
         let spans = DesignSpans {

@@ -106,6 +106,12 @@ pub enum ForceDef {
         b: MarkerDef,
         law: TorqueLaw,
     },
+    /// An actuator: a force along `a`'s axis between the bodies of `a` and `b`.
+    JointForce {
+        a: MarkerDef,
+        b: MarkerDef,
+        law: TorqueLaw,
+    },
 }
 
 impl ForceDef {
@@ -156,6 +162,11 @@ impl ForceDef {
                 }
             }
             ForceDef::JointTorque { a, b, law } => Force::JointTorque {
+                a: a.resolve(bodies),
+                b: b.resolve(bodies),
+                law: law.clone(),
+            },
+            ForceDef::JointForce { a, b, law } => Force::JointForce {
                 a: a.resolve(bodies),
                 b: b.resolve(bodies),
                 law: law.clone(),
@@ -414,7 +425,8 @@ pub fn forces(
                 point_load(src, name, f, bodies, kind.get_ref() == "point-force")?
             }
             "spring-damper" => spring_damper(src, name, f, bodies)?,
-            "joint-torque" => actuators::joint_torque(src, name, f, bodies)?,
+            "joint-torque" => actuators::joint_actuator(src, name, f, bodies, false)?,
+            "joint-force" => actuators::joint_actuator(src, name, f, bodies, true)?,
             other => {
                 return Err(src.error(
                     span(kind),

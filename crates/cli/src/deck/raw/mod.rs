@@ -586,7 +586,8 @@ pub struct RawMotion {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawForce {
-    /// `"gravity"`, `"point-force"`, `"point-torque"`, `"spring-damper"` or `"joint-torque"`.
+    /// `"gravity"`, `"point-force"`, `"point-torque"`, `"spring-damper"`, `"joint-torque"` or
+    /// `"joint-force"`.
     pub kind: Option<Spanned<String>>,
     /// Gravity: acceleration (m/s²).
     pub acceleration: Option<Spanned<[f64; 3]>>,
@@ -608,19 +609,21 @@ pub struct RawForce {
     pub free_length: Option<Spanned<f64>>,
     /// Joint torque: a constant (N·m) or `{ times = [...], values = [...] }`.
     pub torque: Option<Spanned<toml::Value>>,
-    /// Joint torque: a control law tracking a motion.
+    /// Joint force: a constant (N) or `{ times = [...], values = [...] }`.
+    pub force: Option<Spanned<toml::Value>>,
+    /// Joint torque or force: a control law tracking a motion.
     pub control: Option<Spanned<RawControl>>,
 }
 
-/// A joint torque's control law: `{ kind = "pd", kp, kd, motion }`.
+/// A joint actuator's control law: `{ kind = "pd", kp, kd, motion }`.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawControl {
     pub kind: Option<Spanned<String>>,
-    /// Gains (N·m/rad, N·m·s/rad).
+    /// Gains (N·m/rad, N·m·s/rad for a torque; N/m, N·s/m for a force).
     pub kp: Option<Spanned<f64>>,
     pub kd: Option<Spanned<f64>>,
-    /// The tracked relative angle (as an angle driver's motion).
+    /// The tracked relative angle or displacement (as an angle or distance driver's motion).
     pub motion: Option<Spanned<RawMotion>>,
 }
 
@@ -637,8 +640,8 @@ pub struct RawTable {
 #[serde(deny_unknown_fields)]
 pub struct RawResponse {
     /// `"position"`, `"velocity"`, `"nodal-displacement"`, `"mid-node-deflection"`,
-    /// `"reaction"`, `"modal"`, `"energy"`, `"constraint-violation"`, `"actuator-torque"` or
-    /// `"actuator-power"`.
+    /// `"reaction"`, `"modal"`, `"energy"`, `"constraint-violation"`, `"actuator-torque"`,
+    /// `"actuator-force"` or `"actuator-power"`.
     pub kind: Option<Spanned<String>>,
     pub body: Option<Spanned<String>>,
     pub joint: Option<Spanned<String>>,
@@ -652,7 +655,8 @@ pub struct RawResponse {
     pub normal: Option<Spanned<[f64; 3]>>,
     /// Modal coordinate: mode number from 1.
     pub mode: Option<Spanned<i64>>,
-    /// Actuator torque and power: the `[force.NAME]` of kind `"joint-torque"`.
+    /// Actuator torque, force and power: the `[force.NAME]` of kind `"joint-torque"` or
+    /// `"joint-force"`.
     pub force: Option<Spanned<String>>,
 }
 
