@@ -346,3 +346,87 @@ fn a_malformed_linear_actuator_names_its_key() {
         assert!(err.contains(key) && err.contains(what), "{law}:\n{err}");
     }
 }
+
+/// The arm's angle at `t` under the PD law (closed form, as in
+/// `a_pd_actuator_in_a_deck_tracks_a_ramp_as_the_closed_form`).
+fn pd_angle(kp: f64, kd: f64, omega: f64, t: f64) -> f64 {
+    let (wn, zeta) = ((kp / J).sqrt(), kd / (2.0 * (kp * J).sqrt()));
+    let wd = wn * (1.0 - zeta * zeta).sqrt();
+    omega * t - omega / wd * (-zeta * wn * t).exp() * (wd * t).sin()
+}
+
+/// The PD gains as design variables: the arm's height at 0.5 s has the derivatives of the
+/// closed form (differentiated here by central differences of that formula), and the run's
+/// sensitivities equal replayed central differences of whole runs.
+#[test]
+fn the_pd_gains_sensitivities_are_the_closed_forms() {
+    let (kp, kd, rate_deg, t) = (5.0, 0.2, 60.0f64, 0.5);
+    let law = format!(
+        "control = {{ kind = \"pd\", kp = {kp}, kd = {kd}, motion = {{ kind = \"constant-speed\", \
+         initial = 0.0, rate = {rate_deg} }} }}"
+    );
+    let deck = arm_deck(&law, t)
+        + "\n[design.kp]\nkind = \"actuator-gain\"\nforce = \"motor\"\ngain = \"kp\"\n\n\
+           [design.kd]\nkind = \"actuator-gain\"\nforce = \"motor\"\ngain = \"kd\"\n\n\
+           [objective.height]\nresponse = \"y\"\nkind = \"at\"\ntime = 0.5\n\n\
+           [finite_differences]\nscheme = \"central\"\nsizes = [0.0001]\nsteps = \"replay\"\n";
+    let doc = common::run_deck_json(&deck);
+    let omega = rate_deg.to_radians();
+    let height = |kp: f64, kd: f64| 0.2 * pd_angle(kp, kd, omega, t).sin();
+    let h = 1e-6;
+    let exact = [
+        ("kp", (height(kp + h, kd) - height(kp - h, kd)) / (2.0 * h)),
+        ("kd", (height(kp, kd + h) - height(kp, kd - h)) / (2.0 * h)),
+    ];
+    let design = doc["design"].as_array().unwrap();
+    let index = |name: &str| design.iter().position(|d| d["name"] == name).unwrap();
+    let gradient = &doc["objectives"][0]["gradient"];
+    for (name, e) in exact {
+        let got = gradient[index(name)].as_f64().unwrap();
+        assert!(
+            (got / e - 1.0).abs() < 1e-5,
+            "{name}: {got:e} against {e:e}"
+        );
+    }
+    let fd = &doc["finite_differences"][0]["max_relative_difference"];
+    for r in ["y", "torque", "power"] {
+        let d = fd[r].as_f64().unwrap();
+        assert!(d < 1e-5, "{r}: |FD − direct| / max |direct| = {d:e}");
+    }
+    // the variables are the deck's gains, with their units
+    assert_eq!(design[index("kp")]["value"].as_f64(), Some(kp));
+    assert_eq!(design[index("kd")]["unit"].as_str(), Some("N*m*s/rad"));
+}
+
+/// A gain variable names an actuator with a PD law, and its gain.
+#[test]
+fn a_gain_variable_is_checked() {
+    let law = "control = { kind = \"pd\", kp = 5.0, kd = 0.2, motion = { kind = \"constant-speed\", \
+               initial = 0.0, rate = 60.0 } }";
+    let cases = [
+        (
+            law,
+            "force = \"motr\"\ngain = \"kp\"",
+            "design.g.force",
+            "undefined force",
+        ),
+        (
+            law,
+            "force = \"motor\"\ngain = \"ki\"",
+            "design.g.gain",
+            "unknown gain",
+        ),
+        (
+            "torque = 0.1",
+            "force = \"motor\"\ngain = \"kp\"",
+            "design.g.force",
+            "has no kp",
+        ),
+    ];
+    for (law, keys, key, what) in cases {
+        let deck =
+            arm_deck(law, 0.1) + &format!("\n[design.g]\nkind = \"actuator-gain\"\n{keys}\n");
+        let (_dir, err) = common::bad_deck(&deck, |p| common::with_deck("check", p, &[]));
+        assert!(err.contains(key) && err.contains(what), "{keys}:\n{err}");
+    }
+}

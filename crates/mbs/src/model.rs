@@ -87,6 +87,9 @@ pub struct Model<P: Scalar> {
     joints: Vec<Joint>,
     joint_rows: Vec<Range<usize>>,
     forces: Vec<Force>,
+    /// Per force, the gains `[kp, kd]` of its PD law (zero for the other forces): model
+    /// parameters, so that design variables can carry them ([`Model::set_gain`]).
+    gains: Vec<[P; 2]>,
     /// Gravitational acceleration, global (m/s²).
     pub gravity: Vector3<f64>,
     pub baumgarte: Baumgarte,
@@ -145,6 +148,7 @@ impl<P: Scalar> Model<P> {
             joints: Vec::new(),
             joint_rows: Vec::new(),
             forces: Vec::new(),
+            gains: Vec::new(),
             gravity: Vector3::zeros(),
             baumgarte: Baumgarte::default(),
             n_q: 0,
@@ -327,8 +331,41 @@ impl<P: Scalar> Model<P> {
         if let Force::JointTorque { a, b, law } | Force::JointForce { a, b, law } = &force {
             check_joint_torque(a, b, law)?;
         }
+        let gains = match &force {
+            Force::JointTorque {
+                law: TorqueLaw::Pd { kp, kd, .. },
+                ..
+            }
+            | Force::JointForce {
+                law: TorqueLaw::Pd { kp, kd, .. },
+                ..
+            } => [P::from_f64(*kp), P::from_f64(*kd)],
+            _ => [P::zero(), P::zero()],
+        };
         self.forces.push(force);
+        self.gains.push(gains);
         Ok(ForceId(self.forces.len() - 1))
+    }
+
+    /// Set gain `which` (0: `kp`, 1: `kd`) of the PD law of actuator `force` (a design
+    /// variable's value, or its dual); `false` if `force` is no PD actuator.
+    pub fn set_gain(&mut self, force: ForceId, which: usize, value: P) -> bool {
+        let pd = matches!(
+            self.forces.get(force.0),
+            Some(
+                Force::JointTorque {
+                    law: TorqueLaw::Pd { .. },
+                    ..
+                } | Force::JointForce {
+                    law: TorqueLaw::Pd { .. },
+                    ..
+                }
+            )
+        );
+        if pd && which < 2 {
+            self.gains[force.0][which] = value;
+        }
+        pd && which < 2
     }
 
     /// Times where a force table or a driver's motion has a kink, sorted and unique: the
@@ -438,6 +475,7 @@ impl<P: Scalar> Model<P> {
             joints: self.joints.clone(),
             joint_rows: self.joint_rows.clone(),
             forces: self.forces.clone(),
+            gains: self.gains.iter().map(|g| g.map(&f)).collect(),
             gravity: self.gravity,
             baumgarte: self.baumgarte,
             n_q: self.n_q,
@@ -514,14 +552,16 @@ impl<P: Scalar> Model<P> {
         q: &[S],
         v: &[S],
     ) -> Option<(S, S)> {
+        let gains = lift_gains(self.gains.get(force.0)?);
         match self.forces.get(force.0)? {
             Force::JointTorque { a, b, law } => {
                 let (ka, kb) = (self.marker(a, q, v), self.marker(b, q, v));
-                Some((joint_torque(&ka, &kb, law, t), relative_angle(&ka, &kb).2))
+                let tau = joint_torque(&ka, &kb, law, gains, t);
+                Some((tau, relative_angle(&ka, &kb).2))
             }
             Force::JointForce { a, b, law } => {
                 let (ka, kb) = (self.marker(a, q, v), self.marker(b, q, v));
-                let (force, _, rate) = joint_force(&ka, &kb, law, t);
+                let (force, _, rate) = joint_force(&ka, &kb, law, gains, t);
                 Some((force, rate))
             }
             _ => None,
@@ -615,8 +655,8 @@ impl<P: Scalar> Model<P> {
                 &mut f[s.v_off..],
             );
         }
-        for force in &self.forces {
-            self.apply_force(force, t, q, v, &mut f);
+        for (force, gains) in self.forces.iter().zip(&self.gains) {
+            self.apply_force(force, gains, t, q, v, &mut f);
         }
         (m, f)
     }
@@ -624,6 +664,7 @@ impl<P: Scalar> Model<P> {
     fn apply_force<S: Scalar + From<P>>(
         &self,
         force: &Force,
+        gains: &[P; 2],
         t: f64,
         q: &[S],
         v: &[S],
@@ -661,7 +702,7 @@ impl<P: Scalar> Model<P> {
             Force::JointTorque { a, b, law } => {
                 let ka = self.marker(a, q, v);
                 let kb = self.marker(b, q, v);
-                let tau = joint_torque(&ka, &kb, law, t);
+                let tau = joint_torque(&ka, &kb, law, lift_gains(gains), t);
                 let n = ka.axis(2).val * tau;
                 if !kb.is_ground() {
                     body_torque(&kb, &(kb.a.transpose() * n), f);
@@ -673,7 +714,7 @@ impl<P: Scalar> Model<P> {
             Force::JointForce { a, b, law } => {
                 let ka = self.marker(a, q, v);
                 let kb = self.marker(b, q, v);
-                let (force, n, _) = joint_force(&ka, &kb, law, t);
+                let (force, n, _) = joint_force(&ka, &kb, law, lift_gains(gains), t);
                 let fn_ = n * force;
                 for (i, j) in kb.point.jac.iter() {
                     f[i] += j.dot(&fn_);
@@ -1043,37 +1084,48 @@ fn body_torque<S: Scalar>(k: &MarkerKin<S>, tb: &Vector3<S>, f: &mut [S]) {
 }
 
 /// The torque of an actuator between the markers `ka`, `kb` at `t` ([`TorqueLaw`]).
-fn joint_torque<S: Scalar>(ka: &MarkerKin<S>, kb: &MarkerKin<S>, law: &TorqueLaw, t: f64) -> S {
+/// The gains `[kp, kd]` of a model with parameters `P` in the scalar `S` of an evaluation.
+fn lift_gains<P: Scalar, S: Scalar + From<P>>(g: &[P; 2]) -> [S; 2] {
+    [S::from(g[0]), S::from(g[1])]
+}
+
+fn joint_torque<S: Scalar>(
+    ka: &MarkerKin<S>,
+    kb: &MarkerKin<S>,
+    law: &TorqueLaw,
+    [kp, kd]: [S; 2],
+    t: f64,
+) -> S {
     match law {
         TorqueLaw::Table { times, values } => S::from_f64(TorqueLaw::table_at(times, values, t)),
-        TorqueLaw::Pd { kp, kd, motion } => {
+        TorqueLaw::Pd { motion, .. } => {
             let (c, s, theta_dot) = relative_angle(ka, kb);
             let [fv, fd, _] = motion.eval(t);
             let (sf, cf) = (S::from_f64(fv.sin()), S::from_f64(fv.cos()));
             // f − θ in (−π, π]
             let error = (c * sf - s * cf).atan2(c * cf + s * sf);
-            error * S::from_f64(*kp) + (S::from_f64(fd) - theta_dot) * S::from_f64(*kd)
+            error * kp + (S::from_f64(fd) - theta_dot) * kd
         }
     }
 }
 
 /// A joint force actuator's force `F` (N), its direction `n` (`ka`'s third axis) and the rate
 /// of the displacement `x = n · (x_B − x_A)` it drives (the distance driver's measure):
-/// tabulated, or `kp (f − x) + kd (ḟ − ẋ)`.
+/// tabulated, or `kp (f − x) + kd (ḟ − ẋ)` with the model's `gains`.
 fn joint_force<S: Scalar>(
     ka: &MarkerKin<S>,
     kb: &MarkerKin<S>,
     law: &TorqueLaw,
+    [kp, kd]: [S; 2],
     t: f64,
 ) -> (S, Vector3<S>, S) {
     let n = ka.axis(2);
     let x = n.dot(&kb.point.sub(&ka.point));
     let force = match law {
         TorqueLaw::Table { times, values } => S::from_f64(TorqueLaw::table_at(times, values, t)),
-        TorqueLaw::Pd { kp, kd, motion } => {
+        TorqueLaw::Pd { motion, .. } => {
             let [fv, fd, _] = motion.eval(t);
-            (S::from_f64(fv) - x.val) * S::from_f64(*kp)
-                + (S::from_f64(fd) - x.rate) * S::from_f64(*kd)
+            (S::from_f64(fv) - x.val) * kp + (S::from_f64(fd) - x.rate) * kd
         }
     };
     (force, n.val, x.rate)

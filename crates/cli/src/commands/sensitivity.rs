@@ -103,13 +103,14 @@ fn dual_models<const N: usize>(
             *model.body_mut(part.id) = Body::Flexible(body);
         }
     }
-    // rigid bodies' masses and inertias, seeded in the chunk of their variable
+    // rigid bodies' masses and inertias and actuators' gains, seeded in the chunk of their
+    // variable
     for (model, range) in chunks.iter_mut().zip(&ranges) {
         for (k, j) in range.clone().enumerate() {
             let v = &mech.design.variables[j];
             let mut d = [0.0; N];
             d[k] = 1.0;
-            crate::study::set_rigid(model, &mech.bodies, &v.target, Dual::new(v.value, d));
+            crate::study::set_parameter(model, mech, &v.target, Dual::new(v.value, d));
         }
     }
     let design = DesignModel::new(chunks, m).map_err(|e| runtime(src, e))?;

@@ -111,7 +111,8 @@ choices! {
     ERROR_WEIGHTS: "[analysis]", "analysis.error_weights", ["uniform", "displacement"];
     REDUNDANT: "[analysis]", "analysis.redundant", ["remove", "reselect", "error"];
     DESIGN_KIND: "[design.NAME]", "design.NAME.kind",
-        ["ply-angle", "ply-thickness", "material", "rigid-mass", "rigid-inertia", "section-property", "section-angle"];
+        ["ply-angle", "ply-thickness", "material", "rigid-mass", "rigid-inertia", "section-property", "section-angle", "actuator-gain"];
+    ACTUATOR_GAIN: "[design.NAME]", "design.NAME.gain", ["kp", "kd"];
     INERTIA_AXIS: "[design.NAME]", "design.NAME.axis", ["x", "y", "z"];
     OBJECTIVE_KIND: "[objective.NAME]", "objective.NAME.kind",
         ["integral", "mean", "rms", "max", "min", "at"];

@@ -16,13 +16,14 @@
 mod assembly;
 mod error_weights;
 pub mod flexible;
+mod parameters;
 
 use std::collections::BTreeMap;
 use std::ops::{Deref, DerefMut, Range};
 
 use mbs::{
-    Baumgarte, BdfOptions, Body, BodyId, FlexibleBody, JointId, Model, MultibodySystem, Output,
-    RedundancyPolicy, RigidBody, State,
+    Baumgarte, BdfOptions, Body, BodyId, FlexibleBody, ForceId, JointId, Model, MultibodySystem,
+    Output, RedundancyPolicy, RigidBody, State,
 };
 use nalgebra::{Matrix3, Vector3};
 
@@ -37,6 +38,7 @@ use crate::deck::{DeckError, RawDeck, Source};
 use crate::error::CliError;
 use assembly::Assembly;
 use flexible::{Built, DesignRequest, fem_error};
+pub(crate) use parameters::set_parameter;
 
 /// A flexible body of the mechanism with what its design derivatives need.
 pub(crate) struct FlexiblePart {
@@ -140,6 +142,8 @@ pub(crate) struct Mechanism {
     /// Body names in model order.
     pub(crate) body_order: Vec<String>,
     pub(crate) joint_names: Vec<String>,
+    /// The forces of the model by name (`[force.NAME]` but gravity).
+    pub(crate) forces: Vec<(String, ForceId)>,
     pub(crate) responses: Vec<ResponseDef>,
     /// The flexible bodies carry their design derivatives (section derivatives): a mechanism
     /// for a run with sensitivities.
@@ -285,25 +289,6 @@ fn basis_report(
     report
 }
 
-/// Put a rigid body's mass or principal inertia (a design variable's `target`) at `value`, in
-/// any scalar (a seeded dual for the sensitivities); other targets leave the model.
-pub(crate) fn set_rigid<P: sens::Scalar>(
-    model: &mut Model<P>,
-    bodies: &BTreeMap<String, BodyInfo>,
-    target: &Target,
-    value: P,
-) {
-    let Some((body, axis)) = target.rigid() else {
-        return;
-    };
-    if let Body::Rigid(r) = model.body_mut(bodies[body].id) {
-        match axis {
-            None => r.mass = value,
-            Some(a) => r.inertia[(a, a)] = value,
-        }
-    }
-}
-
 /// Relative gap below which eigenvalues count as repeated when perturbed modes are tracked.
 const CLUSTER_TOL: f64 = 1e-6;
 
@@ -439,6 +424,7 @@ impl Study {
             bodies: a.bodies,
             body_order: a.body_order,
             joint_names: named_joints.into_iter().map(|(n, _)| n).collect(),
+            forces: named_forces,
             responses,
             derivatives,
         };
@@ -483,18 +469,7 @@ impl Study {
             flexible::move_own_section(&mut f.def, &self.design.variables, b);
         }
         for (v, &bj) in self.design.variables.iter().zip(b) {
-            let Some((body, axis)) = v.target.rigid() else {
-                continue;
-            };
-            let r = study
-                .rigid_bodies
-                .iter_mut()
-                .find(|r| r.name == body)
-                .expect("a validated variable names a rigid body");
-            match axis {
-                None => r.mass = bj,
-                Some(a) => r.inertia[(a, a)] = bj,
-            }
+            parameters::move_definition(&mut study, &v.target, bj);
         }
         study.laminates = laminates;
         study.design = self.design.at(b);
@@ -560,8 +535,8 @@ impl Mechanism {
     /// need responses that have them.
     fn check_design(&self, src: &Source) -> Result<(), DeckError> {
         for (j, v) in self.design.variables.iter().enumerate() {
-            let rigid = v.target.rigid().is_some();
-            if !rigid && !self.flexible.iter().any(|p| p.built.design.depends_on(j)) {
+            let direct = v.target.rigid().is_some() || v.target.gain().is_some();
+            if !direct && !self.flexible.iter().any(|p| p.built.design.depends_on(j)) {
                 return Err(src.error(
                     self.spans.variables.get(&v.name).cloned(),
                     Some(format!("design.{}", v.name)),
@@ -663,7 +638,7 @@ impl Mechanism {
             *model.body_mut(part.id) = Body::Flexible(body);
         }
         for (v, &bj) in self.design.variables.iter().zip(b) {
-            set_rigid(&mut model, &self.bodies, &v.target, bj);
+            set_parameter(&mut model, self, &v.target, bj);
         }
         Ok(model)
     }

@@ -17,11 +17,13 @@ use super::laminates::LaminateModel;
 use super::raw::{RawDesign, RawFiniteDifferences, RawObjective};
 use super::{DeckError, RawDeck, Source};
 
+mod actuator;
 mod material;
 mod objectives;
 mod section;
 mod target;
 
+use actuator::actuator_variable;
 use material::material_variable;
 pub use material::{MaterialLaw, elastic, material_constants, with_material_constants};
 pub use objectives::{FdDef, FdSteps, ObjectiveDef, SensitivityScheme, objective_label};
@@ -99,6 +101,9 @@ impl DesignVariable {
                 format!("{} of section `{section}`", entry.name())
             }
             Target::SectionAngle { section } => format!("material angle of section `{section}`"),
+            Target::ActuatorGain { force, gain } => {
+                format!("{} of actuator `{force}`", ["kp", "kd"][*gain])
+            }
         }
     }
 
@@ -126,6 +131,12 @@ impl DesignVariable {
             }
             Target::SectionAngle { section } => {
                 return vec![format!("section.{section}.angle={b:?}")];
+            }
+            Target::ActuatorGain { force, gain } => {
+                return vec![format!(
+                    "force.{force}.control.{}={b:?}",
+                    ["kp", "kd"][*gain]
+                )];
             }
         };
         deck_plies
@@ -356,6 +367,8 @@ fn variable(
             rd.entry.as_ref().and_then(span),
             "section-property",
         ),
+        ("force", rd.force.as_ref().and_then(span), "actuator-gain"),
+        ("gain", rd.gain.as_ref().and_then(span), "actuator-gain"),
     ];
     for (key, at, kinds) in keys {
         if at.is_some() && !kinds.split(' ').any(|x| x == kind) {
@@ -371,6 +384,9 @@ fn variable(
     }
     if kind == "section-property" || kind == "section-angle" {
         return section_variable(src, raw, name, d, model, kind == "section-angle");
+    }
+    if kind == "actuator-gain" {
+        return actuator_variable(src, raw, name, d);
     }
     if kind != "ply-angle" && kind != "ply-thickness" {
         return rigid_variable(src, raw, name, d, kind);

@@ -54,9 +54,19 @@ pub enum Target {
     /// The fibre angle of a solid section's material (`shape = "rectangle"` or `"circle"`),
     /// in degrees. Every beam body of the section follows.
     SectionAngle { section: String },
+    /// A gain of an actuator's PD law: `gain` 0 for `kp`, 1 for `kd`.
+    ActuatorGain { force: String, gain: usize },
 }
 
 impl Target {
+    /// The actuator and gain (0: `kp`, 1: `kd`) this target sets; `None` for the others.
+    pub fn gain(&self) -> Option<(&str, usize)> {
+        match self {
+            Target::ActuatorGain { force, gain } => Some((force, *gain)),
+            _ => None,
+        }
+    }
+
     /// The rigid body's entry this target sets: the body, and `None` for its mass or the
     /// axis of a principal inertia; `None` for a laminate or material target.
     pub fn rigid(&self) -> Option<(&str, Option<usize>)> {
@@ -67,7 +77,8 @@ impl Target {
             | Target::PlyThickness { .. }
             | Target::Material { .. }
             | Target::SectionProperty { .. }
-            | Target::SectionAngle { .. } => None,
+            | Target::SectionAngle { .. }
+            | Target::ActuatorGain { .. } => None,
         }
     }
 }

@@ -427,7 +427,7 @@ pub struct RawRegion {
 #[serde(deny_unknown_fields)]
 pub struct RawDesign {
     /// `"ply-angle"` (the default), `"ply-thickness"`, `"material"`, `"rigid-mass"`,
-    /// `"rigid-inertia"` or `"section-property"`.
+    /// `"rigid-inertia"`, `"section-property"`, `"section-angle"` or `"actuator-gain"`.
     pub kind: Option<Spanned<String>>,
     /// The laminate whose plies move.
     pub laminate: Option<Spanned<String>>,
@@ -448,6 +448,10 @@ pub struct RawDesign {
     /// `"section-property"`: the entry (`"EA"` … `"EI3"`, `"mass_per_length"`, `"I22"`,
     /// `"I33"`).
     pub entry: Option<Spanned<String>>,
+    /// `"actuator-gain"`: the actuator (a `[force.NAME]` with a PD law).
+    pub force: Option<Spanned<String>>,
+    /// `"actuator-gain"`: `"kp"` or `"kd"`.
+    pub gain: Option<Spanned<String>>,
     /// `flexsens optimize`: the variable's lower bound (its unit).
     pub lower: Option<Spanned<f64>>,
     /// `flexsens optimize`: the variable's upper bound (its unit).
