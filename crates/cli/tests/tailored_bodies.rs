@@ -182,6 +182,19 @@ const GIVEN: &str = "damping = { beta = 1.0e-5 }";
 /// which each half's angle splits: the run carries the pairs' block of the modal stiffness.
 #[test]
 fn per_segment_angles_add_up_to_the_common_angle_and_equal_differences() {
+    let uniform = std::fs::read_to_string(deck("slider_crank_beam.toml"))
+        .unwrap()
+        .replace(FITTED, GIVEN);
+    let split = split_rod(HALVES, DESIGN).replace(FITTED, GIVEN);
+    parts_add_up_to_the_whole(&uniform, &split, "0.01");
+}
+
+/// Runs of the deck `whole` (one design variable: an angle over the whole body) and of `parts`
+/// (the same body in two parts, each of its own copy of the laminate, an angle each), over
+/// `t_end` s with direct sensitivities: the same mid-span history to round-off; each part's
+/// sensitivity equal to replayed central differences, the two different from each other and
+/// adding up to the whole's.
+fn parts_add_up_to_the_whole(whole: &str, parts: &str, t_end: &str) {
     let dir = tempfile::tempdir().unwrap();
     let run = |name: &str, text: &str| {
         let path = dir.path().join(format!("{name}.toml"));
@@ -194,49 +207,40 @@ fn per_segment_angles_add_up_to_the_common_angle_and_equal_differences() {
             out.to_str().unwrap(),
             "--json",
             "--set",
-            "analysis.t_end=0.01",
+            &format!("analysis.t_end={t_end}"),
             "--set",
             "sensitivity.method=\"direct\"",
         ]);
         flexsens::results::Group::read_hdf5(&out.join("results.h5")).unwrap()
     };
-    let uniform = run(
-        "uniform",
-        &std::fs::read_to_string(deck("slider_crank_beam.toml"))
-            .unwrap()
-            .replace(FITTED, GIVEN),
+    let (whole, parts) = (run("whole", whole), run("parts", parts));
+    let (w, p) = (
+        f64s(&whole, "responses/mid_deflection"),
+        f64s(&parts, "responses/mid_deflection"),
     );
-    let split = run("split", &split_rod(HALVES, DESIGN).replace(FITTED, GIVEN));
-    let (u, s) = (
-        f64s(&uniform, "responses/mid_deflection"),
-        f64s(&split, "responses/mid_deflection"),
-    );
-    assert!(
-        worst_difference(&u, &s) < 1e-9,
-        "{}",
-        worst_difference(&u, &s)
-    );
-    let common = f64s(&uniform, "sensitivities/mid_deflection");
-    let both = f64s(&split, "sensitivities/mid_deflection");
+    let err = worst_difference(&w, &p);
+    assert!(err < 1e-9, "the parts against the whole: {err:e}");
+    let common = f64s(&whole, "sensitivities/mid_deflection");
+    let both = f64s(&parts, "sensitivities/mid_deflection");
     let fd = f64s(
-        &split,
+        &parts,
         "finite_differences/central_relative_0.0001_replay/mid_deflection",
     );
     let column =
         |x: &[f64], v: usize| -> Vec<f64> { x.iter().skip(v).step_by(2).copied().collect() };
-    let (root, tip) = (column(&both, 0), column(&both, 1));
+    let (first, second) = (column(&both, 0), column(&both, 1));
     for v in 0..2 {
         let err = worst_difference(&column(&both, v), &column(&fd, v));
-        assert!(
-            err < 1e-4,
-            "segment {v}: direct against differences {err:e}"
-        );
+        assert!(err < 1e-4, "part {v}: direct against differences {err:e}");
     }
-    // the halves are not alike: the root's and the tip's derivatives differ
-    assert!(worst_difference(&root, &tip) > 0.05);
-    let sum: Vec<f64> = root.iter().zip(&tip).map(|(a, b)| a + b).collect();
+    // the parts are not alike: their derivatives differ
+    assert!(worst_difference(&first, &second) > 0.05);
+    let sum: Vec<f64> = first.iter().zip(&second).map(|(a, b)| a + b).collect();
     let err = worst_difference(&common, &sum);
-    assert!(err < 1e-6, "root + tip against the common angle: {err:e}");
+    assert!(
+        err < 1e-6,
+        "the parts' sum against the whole's angle: {err:e}"
+    );
 }
 
 /// A damping fitted to a mode whose repeated frequency a variable splits has no derivative
@@ -353,56 +357,6 @@ fn patched_plate() -> String {
 /// together they are the common angle's derivative.
 #[test]
 fn per_region_angles_add_up_to_the_common_angle_and_equal_differences() {
-    let dir = tempfile::tempdir().unwrap();
-    let run = |name: &str, text: &str| {
-        let path = dir.path().join(format!("{name}.toml"));
-        std::fs::write(&path, text).unwrap();
-        let out = dir.path().join(name);
-        json(&[
-            "run",
-            path.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-            "--json",
-            "--set",
-            "analysis.t_end=0.005",
-            "--set",
-            "sensitivity.method=\"direct\"",
-        ]);
-        flexsens::results::Group::read_hdf5(&out.join("results.h5")).unwrap()
-    };
-    let uniform = run(
-        "uniform",
-        &std::fs::read_to_string(deck("slider_crank_plate.toml")).unwrap(),
-    );
-    let patched = run("patched", &patched_plate());
-    let (u, p) = (
-        f64s(&uniform, "responses/mid_deflection"),
-        f64s(&patched, "responses/mid_deflection"),
-    );
-    assert!(
-        worst_difference(&u, &p) < 1e-9,
-        "{}",
-        worst_difference(&u, &p)
-    );
-    let common = f64s(&uniform, "sensitivities/mid_deflection");
-    let both = f64s(&patched, "sensitivities/mid_deflection");
-    let fd = f64s(
-        &patched,
-        "finite_differences/central_relative_0.0001_replay/mid_deflection",
-    );
-    let column =
-        |x: &[f64], v: usize| -> Vec<f64> { x.iter().skip(v).step_by(2).copied().collect() };
-    let (plate, patch) = (column(&both, 0), column(&both, 1));
-    for v in 0..2 {
-        let err = worst_difference(&column(&both, v), &column(&fd, v));
-        assert!(err < 1e-4, "region {v}: direct against differences {err:e}");
-    }
-    assert!(worst_difference(&plate, &patch) > 0.05);
-    let sum: Vec<f64> = plate.iter().zip(&patch).map(|(a, b)| a + b).collect();
-    let err = worst_difference(&common, &sum);
-    assert!(
-        err < 1e-6,
-        "plate + patch against the common angle: {err:e}"
-    );
+    let uniform = std::fs::read_to_string(deck("slider_crank_plate.toml")).unwrap();
+    parts_add_up_to_the_whole(&uniform, &patched_plate(), "0.005");
 }
