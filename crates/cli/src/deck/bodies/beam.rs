@@ -7,7 +7,7 @@ use crate::deck::raw::RawSegment;
 
 /// Elements of a beam body when the deck does not say: over its whole length, or shared by its
 /// segments in proportion to their lengths (at least one each).
-pub const DEFAULT_BEAM_ELEMENTS: usize = 10;
+pub(super) const DEFAULT_BEAM_ELEMENTS: usize = 10;
 
 /// A beam body: its end points, the orientation of its sections, and its sections along it.
 pub(super) fn beam_shape(

@@ -18,7 +18,6 @@ mod regions;
 mod sets;
 mod shape;
 
-pub use beam::DEFAULT_BEAM_ELEMENTS;
 pub use reduction::CORRECTION_DAMPING_DEFAULT;
 use reduction::{correction_damping, damping, modes, reference};
 pub use sets::{InterfaceDef, InterfaceSite, interface_loads};
