@@ -30,7 +30,9 @@
 //!   (`rhs − matrix · x̂` with `x̂ = [v̇; λ]` fixed: on `Dual<N>` its tangents are the right-hand
 //!   side of Eq. 40).
 //! - [`MultibodySystem`]: the `f64` side — redundant rows ([`RedundancyPolicy`]), consistent
-//!   initial conditions ([`MultibodySystem::assemble`]), the solve of Eq. (12)
+//!   initial conditions ([`MultibodySystem::assemble`]; where the rigid-body coordinates
+//!   cannot meet the joints, with the flexible bodies deformed at the least strain energy:
+//!   [`ElasticStart`]), the solve of Eq. (12)
 //!   ([`MultibodySystem::solve`] returns `x̂` and the factorisation, an [`Eq12Factor`]: the dense
 //!   LU, or for large mechanisms the body blocks of the [`BodyMass`] and a sparse Schur
 //!   complement on the constraints), outputs, and the [`OdeSystem`] `y' = f(t, y)`,
