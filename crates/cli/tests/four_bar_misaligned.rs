@@ -140,3 +140,38 @@ fn a_start_half_a_turn_from_its_driver_is_refused() {
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
+
+/// The start's elastic rates move with the design (the least kinetic energy that meets the
+/// joints depends on the masses): the sensitivities to the bars' density, through that start
+/// and 20 ms of the run, equal replayed central differences of whole runs.
+#[test]
+fn sensitivities_through_the_elastic_rates_of_the_start_equal_differences() {
+    let text = std::fs::read_to_string(deck("four_bar_misaligned.toml")).unwrap()
+        + "\n[design.rho]\nkind = \"material\"\nmaterial = \"al\"\nconstant = \"density\"\n\n\
+           [sensitivity]\nmethod = \"direct\"\n\n[finite_differences]\nscheme = \"central\"\n\
+           sizes = [0.0001]\nsteps = \"replay\"\n";
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("rho.toml");
+    std::fs::write(&path, text).unwrap();
+    let out = dir.path().join("out");
+    let o = run(&[
+        "run",
+        path.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "-q",
+        "--set",
+        "analysis.t_end=0.02",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let g = flexsens::results::Group::read_hdf5(&out.join("results.h5")).unwrap();
+    for r in ["coupler_x", "coupler_z", "pivot_force"] {
+        let direct = f64s(&g, &format!("sensitivities/{r}"));
+        assert!(direct.iter().any(|x| x.abs() > 0.0), "{r}");
+        let err = replayed_difference(&g, r, "0.0001");
+        assert!(
+            err < 1e-4,
+            "{r}: direct against replayed differences {err:e}"
+        );
+    }
+}

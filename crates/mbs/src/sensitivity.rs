@@ -205,8 +205,8 @@ pub enum SensitivityError {
     #[error("response: {0}")]
     Response(String),
     #[error(
-        "the start was assembled with the flexible bodies deformed or moving elastically (a \
-         mechanism locked when its bodies are rigid): its sensitivities are not available yet"
+        "the start was assembled with the flexible bodies deformed (a misaligned joint locks \
+         the frame): the sensitivities of its prestress are not available yet"
     )]
     ElasticStart,
 }
@@ -403,6 +403,11 @@ fn fused_rhs<const N: usize>(
 ///   Φ̇_I(q(b), v̂)]`, the tangents evaluated by one dual evaluation per chunk (paper §4, the
 ///   pattern of Eq. 40). Exact for designs that change masses and joint geometry too.
 ///
+/// Where the assembly gave the flexible bodies elastic rates (a mechanism locked when rigid,
+/// [`MultibodySystem::elastic_rates`]), the velocities' rule runs over every rate with `W` the
+/// whole mass matrix, as that projection did. A start with the bodies deformed
+/// ([`MultibodySystem::elastic_start`]) is refused ([`SensitivityError::ElasticStart`]).
+///
 /// `state` must be the state assembled by `sys` (if `sys` assembled another state, or none,
 /// the velocities are taken as given: `Δ̂ = 0`). Returns `n × m`.
 pub fn initial_sensitivities<const N: usize>(
@@ -411,7 +416,7 @@ pub fn initial_sensitivities<const N: usize>(
     t0: f64,
     state: &State,
 ) -> Result<DMatrix<f64>, SensitivityError> {
-    if sys.elastic_rates() {
+    if sys.elastic_start().is_some() {
         return Err(SensitivityError::ElasticStart);
     }
     let model = sys.model();
@@ -442,7 +447,17 @@ pub fn initial_sensitivities<const N: usize>(
             }
         }
     }
-    // velocities: the projection's increment and multipliers from the guess
+    // velocities: the projection's increment and multipliers from the guess, over the rigid
+    // rates, or every rate where the start gave the flexible bodies elastic rates (`W` is then
+    // the whole mass matrix)
+    let (cols, kkt) = if sys.elastic_rates() {
+        let all: Vec<usize> = (0..nv).collect();
+        let kkt = sys.start_projection(t0, &state.q, &c.jacobian, &all)?;
+        (all, kkt)
+    } else {
+        (cols, kkt)
+    };
+    let nr = cols.len();
     let guess = match sys.start_guess() {
         Some(g) if g.t == t0 && g.q == state.q => g.v.clone(),
         _ => state.v.clone(),

@@ -118,16 +118,6 @@ pub(crate) fn assembled(
             ))
         })?;
     if system.elastic_rates() && system.elastic_start().is_none() {
-        if mech.design.enabled {
-            return Err(fail(
-                "the drivers' speeds cannot be met by the bodies moving rigidly (the mechanism \
-                 is locked when its bodies are rigid: a misaligned joint?), and the start gives \
-                 the flexible bodies elastic rates to meet them: the sensitivities of such a \
-                 start are not available yet; run without [design.*] variables, or align the \
-                 joints"
-                    .to_string(),
-            ));
-        }
         src.warn(
             None,
             None,

@@ -294,6 +294,12 @@ fn perturbed_outputs(
     }
     let mut sys = nominal.with_model(model);
     let mut st = state.clone();
+    if nominal.elastic_rates() {
+        // elastic rates that the nominal start gave a mechanism locked when rigid are the
+        // assembly's: it makes them again for this design, from the velocities the deck gives
+        // (the projection the sensitivities differentiate starts there)
+        st.v.clone_from(&mech.state.v);
+    }
     let t0 = mech.times[0];
     sys.assemble(t0, &mut st, assembly_tol)
         .map_err(|e| runtime(src, format!("perturbed design {b:?}: {e}")))?;
