@@ -241,3 +241,142 @@ fn modal_stiffness(f: &crate::body::FlexibleBody<f64>) -> DMatrix<f64> {
         None => DMatrix::from_diagonal(&DVector::from_row_slice(&f.modal.eigenvalues)),
     }
 }
+
+impl MultibodySystem {
+    /// The positions' sensitivities (`n_q × m`) of a start assembled elastically
+    /// ([`MultibodySystem::assemble_elastic`]): its optimality conditions `J_rᵀλ = 0`,
+    /// `K̄w + J_wᵀλ = 0`, `Φ_I = 0` differentiated, `[H J_Iᵀ; J_I 0] [d_b; λ_b] =
+    /// −[∂_b(J_Iᵀλ) + (0, K̄_b w); Φ_I,b]` with `H = ∂_d(J_Iᵀλ) + (0, K̄)` (the constraints'
+    /// curvature under the prestress, by dual numbers along each velocity direction, and the
+    /// modal stiffness); `q_b` from the increments `d_b`.
+    pub(crate) fn prestress_sensitivities<const N: usize>(
+        &self,
+        design: &crate::sensitivity::DesignModel<N>,
+        t: f64,
+        state: &State,
+    ) -> Result<DMatrix<f64>, ConstraintError> {
+        let model = self.model();
+        let (nq, nv) = (model.n_q(), model.n_v());
+        let rigid = self.rigid_columns();
+        let (elastic, k) = self.elastic_columns();
+        let c = model.constraints(t, &state.q, &state.v);
+        // the multipliers at the assembled state: one more step of the assembly's
+        let w = DVector::from_iterator(
+            elastic.len(),
+            elastic.iter().map(|&i| self.elastic_value(state, i)),
+        );
+        let (mass, _) = model.mass_and_forces(t, &state.q, &vec![0.0; nv]);
+        let mut h0 = DMatrix::zeros(nv, nv);
+        for &i in &rigid {
+            for &j in &rigid {
+                h0[(i, j)] = mass[(i, j)];
+            }
+        }
+        for (a, &i) in elastic.iter().enumerate() {
+            for (b, &j) in elastic.iter().enumerate() {
+                h0[(i, j)] = k[(a, b)];
+            }
+        }
+        let mut g = DVector::zeros(nv);
+        let kw = &k * &w;
+        for (a, &i) in elastic.iter().enumerate() {
+            g[i] = -kw[a];
+        }
+        let (x, rows) = saddle_point(&h0, &c.jacobian, &g, &c.phi)
+            .ok_or(ConstraintError::SingularStart { t })?;
+        let lambda = &x.as_slice()[nv..];
+        // H: the curvature of λᵀΦ along each velocity direction, and K̄ on the elastic block
+        let mut h = DMatrix::zeros(nv, nv);
+        let mut dq = vec![0.0; nq];
+        for start in (0..nv).step_by(N) {
+            let dirs: Vec<usize> = (start..(start + N).min(nv)).collect();
+            let mut qd: Vec<sens::Dual<N>> =
+                state.q.iter().map(|&x| sens::Dual::constant(x)).collect();
+            for (tn, &kd) in dirs.iter().enumerate() {
+                let mut e = vec![0.0; nv];
+                e[kd] = 1.0;
+                model.kinematic_rates(&state.q, &e, &mut dq);
+                for (qi, dqi) in qd.iter_mut().zip(&dq) {
+                    qi.d[tn] = *dqi;
+                }
+            }
+            let vd: Vec<sens::Dual<N>> = state.v.iter().map(|&x| sens::Dual::constant(x)).collect();
+            let cd = model.constraints(t, &qd, &vd);
+            for col in 0..nv {
+                for (tn, &kd) in dirs.iter().enumerate() {
+                    h[(col, kd)] = rows
+                        .iter()
+                        .zip(lambda)
+                        .map(|(&r, l)| cd.jacobian[(r, col)].d[tn] * l)
+                        .sum();
+                }
+            }
+        }
+        for (a, &i) in elastic.iter().enumerate() {
+            for (b, &j) in elastic.iter().enumerate() {
+                h[(i, j)] += k[(a, b)];
+            }
+        }
+        // the right-hand sides, one dual evaluation per chunk of variables at the state held
+        let mut s = DMatrix::zeros(nq, design.n_variables());
+        for (dm, range) in design.chunk_ranges() {
+            let qd: Vec<sens::Dual<N>> = state.q.iter().map(|&x| sens::Dual::constant(x)).collect();
+            let vd: Vec<sens::Dual<N>> = state.v.iter().map(|&x| sens::Dual::constant(x)).collect();
+            let cd = dm.constraints(t, &qd, &vd);
+            let kb = elastic_stiffness_tangents(dm, &elastic, self);
+            for (tn, j) in range.enumerate() {
+                let mut rhs_g = DVector::zeros(nv);
+                for col in 0..nv {
+                    rhs_g[col] = -rows
+                        .iter()
+                        .zip(lambda)
+                        .map(|(&r, l)| cd.jacobian[(r, col)].d[tn] * l)
+                        .sum::<f64>();
+                }
+                let kbw = &kb[tn] * &w;
+                for (a, &i) in elastic.iter().enumerate() {
+                    rhs_g[i] -= kbw[a];
+                }
+                let phi_b: Vec<f64> = (0..c.phi.len()).map(|r| cd.phi[r].d[tn]).collect();
+                let (x, _) = saddle_point(&h, &c.jacobian, &rhs_g, &phi_b)
+                    .ok_or(ConstraintError::SingularStart { t })?;
+                let db: Vec<f64> = x.as_slice()[..nv].to_vec();
+                model.kinematic_rates(&state.q, &db, &mut dq);
+                for i in 0..nq {
+                    s[(i, j)] = dq[i];
+                }
+            }
+        }
+        Ok(s)
+    }
+}
+
+/// Per variable of the chunk model `dm`, the tangent of the modal stiffness over the elastic
+/// columns `elastic` (block diagonal by body, as [`MultibodySystem::elastic_columns`]).
+fn elastic_stiffness_tangents<const N: usize>(
+    dm: &crate::model::Model<sens::Dual<N>>,
+    elastic: &[usize],
+    sys: &MultibodySystem,
+) -> Vec<DMatrix<f64>> {
+    let n = elastic.len();
+    let mut out = vec![DMatrix::zeros(n, n); N];
+    let mut at = 0;
+    for id in sys.model().body_ids() {
+        if let Body::Flexible(f) = dm.body(id) {
+            let p = f.modal.eigenvalues.len();
+            for (tn, m) in out.iter_mut().enumerate() {
+                for a in 0..p {
+                    for b in 0..p {
+                        m[(at + a, at + b)] = match &f.modal.stiffness_matrix {
+                            Some(k) => k[(a, b)].d[tn],
+                            None if a == b => f.modal.eigenvalues[a].d[tn],
+                            None => 0.0,
+                        };
+                    }
+                }
+            }
+            at += p;
+        }
+    }
+    out
+}

@@ -204,11 +204,6 @@ pub enum SensitivityError {
     Layout(String),
     #[error("response: {0}")]
     Response(String),
-    #[error(
-        "the start was assembled with the flexible bodies deformed (a misaligned joint locks \
-         the frame): the sensitivities of its prestress are not available yet"
-    )]
-    ElasticStart,
 }
 
 /// Work counters of the sensitivity integration.
@@ -405,8 +400,9 @@ fn fused_rhs<const N: usize>(
 ///
 /// Where the assembly gave the flexible bodies elastic rates (a mechanism locked when rigid,
 /// [`MultibodySystem::elastic_rates`]), the velocities' rule runs over every rate with `W` the
-/// whole mass matrix, as that projection did. A start with the bodies deformed
-/// ([`MultibodySystem::elastic_start`]) is refused ([`SensitivityError::ElasticStart`]).
+/// whole mass matrix, as that projection did; the positions of a start with the bodies
+/// deformed ([`MultibodySystem::elastic_start`]) by its optimality conditions differentiated
+/// (the curvature of the joints under the prestress included).
 ///
 /// `state` must be the state assembled by `sys` (if `sys` assembled another state, or none,
 /// the velocities are taken as given: `Δ̂ = 0`). Returns `n × m`.
@@ -416,9 +412,6 @@ pub fn initial_sensitivities<const N: usize>(
     t0: f64,
     state: &State,
 ) -> Result<DMatrix<f64>, SensitivityError> {
-    if sys.elastic_start().is_some() {
-        return Err(SensitivityError::ElasticStart);
-    }
     let model = sys.model();
     let (nq, nv) = (model.n_q(), model.n_v());
     let m = design.n_variables();
@@ -428,9 +421,17 @@ pub fn initial_sensitivities<const N: usize>(
     let kkt = sys.start_projection(t0, &state.q, &c.jacobian, &cols)?;
     let y = state.to_vec();
     let mut s = DMatrix::zeros(nq + nv, m);
-    // positions: Φ_b with the state held, then the W-smallest rigid q_b
+    // positions: Φ_b with the state held, then the W-smallest rigid q_b; of a prestressed
+    // start, its optimality conditions differentiated
     let mut col = vec![0.0; nq];
-    for (dm, range) in design.chunk_ranges() {
+    if sys.elastic_start().is_some() {
+        let sq = sys.prestress_sensitivities(design, t0, state)?;
+        s.view_mut((0, 0), (nq, m)).copy_from(&sq);
+    }
+    for (dm, range) in design
+        .chunk_ranges()
+        .filter(|_| sys.elastic_start().is_none())
+    {
         let yd = seeded::<N>(&y, &s, &range);
         let (qd, vd) = yd.split_at(nq);
         let phi = dm.constraints(t0, qd, vd).phi;

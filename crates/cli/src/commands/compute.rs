@@ -129,15 +129,6 @@ pub(crate) fn assembled(
         );
     }
     if let Some(prestress) = system.elastic_start() {
-        if mech.design.enabled {
-            return Err(fail(format!(
-                "the joints cannot be met by moving the bodies rigidly, and the start deforms \
-                 the flexible bodies to meet them ({}): the sensitivities of such a prestressed \
-                 start are not available yet; run without [design.*] variables, or align the \
-                 joints",
-                describe_prestress(prestress)
-            )));
-        }
         src.warn(
             None,
             None,

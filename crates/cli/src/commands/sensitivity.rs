@@ -295,10 +295,15 @@ fn perturbed_outputs(
     let mut sys = nominal.with_model(model);
     let mut st = state.clone();
     if nominal.elastic_rates() {
-        // elastic rates that the nominal start gave a mechanism locked when rigid are the
-        // assembly's: it makes them again for this design, from the velocities the deck gives
-        // (the projection the sensitivities differentiate starts there)
+        // elastic rates (and a prestress) that the nominal start gave a mechanism locked when
+        // rigid are the assembly's: it makes them again for this design, from the velocities
+        // and the elastic state the deck gives (the projection the sensitivities
+        // differentiate starts there)
         st.v.clone_from(&mech.state.v);
+        for id in sys.model().body_ids() {
+            let qr = sys.model().q_range(id);
+            st.q[qr.start + 7..qr.end].copy_from_slice(&mech.state.q[qr.start + 7..qr.end]);
+        }
     }
     let t0 = mech.times[0];
     sys.assemble(t0, &mut st, assembly_tol)
