@@ -67,37 +67,16 @@ impl MultibodySystem {
         tol: f64,
     ) -> Result<ElasticStart, ConstraintError> {
         let model = self.model();
-        let rigid = self.rigid_columns();
-        let (elastic, k) = self.elastic_columns();
-        let cols: Vec<usize> = rigid.iter().chain(&elastic).copied().collect();
-        let (nr, n) = (rigid.len(), cols.len());
+        let (elastic, _) = self.elastic_columns();
+        let nv = model.n_v();
         let mut lambda = Vec::new();
         let mut rows = Vec::new();
         for it in 0..=MAX_ITERATIONS {
             let c = model.constraints(t, &state.q, &state.v);
-            let w = DVector::from_iterator(
-                elastic.len(),
-                elastic.iter().map(|&i| self.elastic_value(state, i)),
-            );
-            let v0 = vec![0.0; model.n_v()];
-            let (mass, _) = model.mass_and_forces(t, &state.q, &v0);
-            let mut h = DMatrix::zeros(n, n);
-            for i in 0..nr {
-                for j in 0..nr {
-                    h[(i, j)] = mass[(rigid[i], rigid[j])];
-                }
-            }
-            h.view_mut((nr, nr), (k.nrows(), k.ncols())).copy_from(&k);
-            let mut g = DVector::zeros(n);
-            g.rows_mut(nr, k.nrows()).copy_from(&(-(&k * &w)));
-            let x;
-            (x, rows) = saddle_point(&h, &c.jacobian.select_columns(&cols), &g, &c.phi)
-                .ok_or(ConstraintError::SingularStart { t })?;
-            let mut d = vec![0.0; model.n_v()];
-            for (&col, &x) in cols.iter().zip(x.iter()) {
-                d[col] = x;
-            }
-            lambda = x.as_slice()[n..].to_vec();
+            let (x, w);
+            (x, rows, w) = self.elastic_step(t, state, &c)?;
+            let d = &x.as_slice()[..nv];
+            lambda = x.as_slice()[nv..].to_vec();
             let step = elastic.iter().fold(0.0f64, |s, &i| s.max(d[i].abs()));
             let size = w.amax().max(f64::MIN_POSITIVE);
             if max_abs(&c.phi) <= tol && step <= 1e-9 * size {
@@ -106,7 +85,7 @@ impl MultibodySystem {
             if it == MAX_ITERATIONS || !x.iter().all(|v| v.is_finite()) {
                 return Err(self.inconsistent_elastically(&c.phi));
             }
-            self.apply_increment(&mut state.q, &d);
+            self.apply_increment(&mut state.q, d);
         }
         let c = model.constraints(t, &state.q, &state.v);
         if !(max_abs(&c.phi) <= tol) {
@@ -117,6 +96,44 @@ impl MultibodySystem {
             full[r] = l;
         }
         Ok(self.prestress(state, &c, &full))
+    }
+
+    /// One step of the elastic assembly at `state` (constraints `c` there): `(d, λ)` over every
+    /// velocity column with `H = (W, K̄)` (the mass matrix's rigid block, the modal stiffness)
+    /// and `g = (0, −K̄w)`, the independent rows `I` it kept, and the elastic coordinates `w`.
+    #[allow(clippy::type_complexity)]
+    fn elastic_step(
+        &self,
+        t: f64,
+        state: &State,
+        c: &crate::model::ConstraintValues<f64>,
+    ) -> Result<(DVector<f64>, Vec<usize>, DVector<f64>), ConstraintError> {
+        let model = self.model();
+        let nv = model.n_v();
+        let rigid = self.rigid_columns();
+        let (elastic, k) = self.elastic_columns();
+        let w = DVector::from_iterator(
+            elastic.len(),
+            elastic.iter().map(|&i| self.elastic_value(state, i)),
+        );
+        let (mass, _) = model.mass_and_forces(t, &state.q, &vec![0.0; nv]);
+        let mut h = DMatrix::zeros(nv, nv);
+        for &i in &rigid {
+            for &j in &rigid {
+                h[(i, j)] = mass[(i, j)];
+            }
+        }
+        let kw = &k * &w;
+        let mut g = DVector::zeros(nv);
+        for (a, &i) in elastic.iter().enumerate() {
+            g[i] = -kw[a];
+            for (b, &j) in elastic.iter().enumerate() {
+                h[(i, j)] = k[(a, b)];
+            }
+        }
+        let (x, rows) = saddle_point(&h, &c.jacobian, &g, &c.phi)
+            .ok_or(ConstraintError::SingularStart { t })?;
+        Ok((x, rows, w))
     }
 
     /// The strain energies and the largest joint force of an elastically assembled state.
@@ -257,33 +274,10 @@ impl MultibodySystem {
     ) -> Result<DMatrix<f64>, ConstraintError> {
         let model = self.model();
         let (nq, nv) = (model.n_q(), model.n_v());
-        let rigid = self.rigid_columns();
         let (elastic, k) = self.elastic_columns();
         let c = model.constraints(t, &state.q, &state.v);
         // the multipliers at the assembled state: one more step of the assembly's
-        let w = DVector::from_iterator(
-            elastic.len(),
-            elastic.iter().map(|&i| self.elastic_value(state, i)),
-        );
-        let (mass, _) = model.mass_and_forces(t, &state.q, &vec![0.0; nv]);
-        let mut h0 = DMatrix::zeros(nv, nv);
-        for &i in &rigid {
-            for &j in &rigid {
-                h0[(i, j)] = mass[(i, j)];
-            }
-        }
-        for (a, &i) in elastic.iter().enumerate() {
-            for (b, &j) in elastic.iter().enumerate() {
-                h0[(i, j)] = k[(a, b)];
-            }
-        }
-        let mut g = DVector::zeros(nv);
-        let kw = &k * &w;
-        for (a, &i) in elastic.iter().enumerate() {
-            g[i] = -kw[a];
-        }
-        let (x, rows) = saddle_point(&h0, &c.jacobian, &g, &c.phi)
-            .ok_or(ConstraintError::SingularStart { t })?;
+        let (x, rows, w) = self.elastic_step(t, state, &c)?;
         let lambda = &x.as_slice()[nv..];
         // H: the curvature of λᵀΦ along each velocity direction, and K̄ on the elastic block
         let mut h = DMatrix::zeros(nv, nv);
