@@ -4,10 +4,11 @@
 //! equilibrium of the locked frame, its joint forces the prestress it needs.
 
 use nalgebra::{DMatrix, DVector};
+use sens::Scalar;
 
 use crate::body::Body;
 use crate::error::ConstraintError;
-use crate::model::State;
+use crate::model::{Model, State};
 use crate::system::{
     ASSEMBLY_DEPENDENCE_TOL, ElasticStart, MultibodySystem, independent_rows_of, max_abs,
 };
@@ -27,30 +28,16 @@ impl MultibodySystem {
         state.q[model.q_range(id).start + 1 + (col - model.v_range(id).start)]
     }
 
-    /// The velocity columns of the flexible bodies' elastic coordinates, and their modal
-    /// stiffness over them (block diagonal by body).
-    pub(crate) fn elastic_columns(&self) -> (Vec<usize>, DMatrix<f64>) {
+    /// The velocity columns of the flexible bodies' elastic coordinates, in order.
+    pub(crate) fn elastic_columns(&self) -> Vec<usize> {
         let model = self.model();
-        let mut cols = Vec::new();
-        let mut blocks = Vec::new();
-        for id in model.body_ids() {
-            if let Body::Flexible(f) = model.body(id) {
+        (model.body_ids())
+            .filter(|&id| matches!(model.body(id), Body::Flexible(_)))
+            .flat_map(|id| {
                 let r = model.v_range(id);
-                let n = r.len() - 6;
-                cols.extend(r.start + 6..r.end);
-                let k = modal_stiffness(f);
-                debug_assert_eq!(k.nrows(), n);
-                blocks.push(k);
-            }
-        }
-        let mut k = DMatrix::zeros(cols.len(), cols.len());
-        let mut at = 0;
-        for b in blocks {
-            let n = b.nrows();
-            k.view_mut((at, at), (n, n)).copy_from(&b);
-            at += n;
-        }
-        (cols, k)
+                r.start + 6..r.end
+            })
+            .collect()
     }
 
     /// Positions that meet the constraints at `t` with the rigid and the elastic coordinates
@@ -67,14 +54,14 @@ impl MultibodySystem {
         tol: f64,
     ) -> Result<ElasticStart, ConstraintError> {
         let model = self.model();
-        let (elastic, _) = self.elastic_columns();
+        let (elastic, k) = (self.elastic_columns(), stiffness_of(model));
         let nv = model.n_v();
         let mut lambda = Vec::new();
         let mut rows = Vec::new();
         for it in 0..=MAX_ITERATIONS {
             let c = model.constraints(t, &state.q, &state.v);
             let (x, w);
-            (x, rows, w) = self.elastic_step(t, state, &c)?;
+            (x, rows, w) = self.elastic_step(t, state, &c, &elastic, &k)?;
             let d = &x.as_slice()[..nv];
             lambda = x.as_slice()[nv..].to_vec();
             let step = elastic.iter().fold(0.0f64, |s, &i| s.max(d[i].abs()));
@@ -99,19 +86,21 @@ impl MultibodySystem {
     }
 
     /// One step of the elastic assembly at `state` (constraints `c` there): `(d, λ)` over every
-    /// velocity column with `H = (W, K̄)` (the mass matrix's rigid block, the modal stiffness)
-    /// and `g = (0, −K̄w)`, the independent rows `I` it kept, and the elastic coordinates `w`.
+    /// velocity column with `H = (W, K̄)` (the mass matrix's rigid block, the modal stiffness
+    /// `k` over the `elastic` columns) and `g = (0, −K̄w)`, the independent rows `I` it kept,
+    /// and the elastic coordinates `w`.
     #[allow(clippy::type_complexity)]
     fn elastic_step(
         &self,
         t: f64,
         state: &State,
         c: &crate::model::ConstraintValues<f64>,
+        elastic: &[usize],
+        k: &DMatrix<f64>,
     ) -> Result<(DVector<f64>, Vec<usize>, DVector<f64>), ConstraintError> {
         let model = self.model();
         let nv = model.n_v();
         let rigid = self.rigid_columns();
-        let (elastic, k) = self.elastic_columns();
         let w = DVector::from_iterator(
             elastic.len(),
             elastic.iter().map(|&i| self.elastic_value(state, i)),
@@ -123,7 +112,7 @@ impl MultibodySystem {
                 h[(i, j)] = mass[(i, j)];
             }
         }
-        let kw = &k * &w;
+        let kw = k * &w;
         let mut g = DVector::zeros(nv);
         for (a, &i) in elastic.iter().enumerate() {
             g[i] = -kw[a];
@@ -252,11 +241,40 @@ fn saddle_point(
 }
 
 /// A flexible body's modal stiffness: its full matrix, or the diagonal of its eigenvalues.
-fn modal_stiffness(f: &crate::body::FlexibleBody<f64>) -> DMatrix<f64> {
+fn modal_stiffness<P: Scalar>(f: &crate::body::FlexibleBody<P>) -> DMatrix<P> {
     match &f.modal.stiffness_matrix {
         Some(k) => (**k).clone(),
-        None => DMatrix::from_diagonal(&DVector::from_row_slice(&f.modal.eigenvalues)),
+        None => {
+            let p = f.modal.eigenvalues.len();
+            DMatrix::from_fn(p, p, |i, j| {
+                if i == j {
+                    f.modal.eigenvalues[i]
+                } else {
+                    P::zero()
+                }
+            })
+        }
     }
+}
+
+/// The modal stiffness of `model`'s flexible bodies over their elastic columns, block diagonal
+/// by body ([`MultibodySystem::elastic_columns`]), in its parameters' scalar.
+fn stiffness_of<P: Scalar>(model: &Model<P>) -> DMatrix<P> {
+    let blocks: Vec<DMatrix<P>> = (model.body_ids())
+        .filter_map(|id| match model.body(id) {
+            Body::Flexible(f) => Some(modal_stiffness(f)),
+            _ => None,
+        })
+        .collect();
+    let n = blocks.iter().map(|b| b.nrows()).sum();
+    let mut k = DMatrix::from_element(n, n, P::zero());
+    let mut at = 0;
+    for b in blocks {
+        let m = b.nrows();
+        k.view_mut((at, at), (m, m)).copy_from(&b);
+        at += m;
+    }
+    k
 }
 
 impl MultibodySystem {
@@ -274,18 +292,19 @@ impl MultibodySystem {
     ) -> Result<DMatrix<f64>, ConstraintError> {
         let model = self.model();
         let (nq, nv) = (model.n_q(), model.n_v());
-        let (elastic, k) = self.elastic_columns();
+        let (elastic, k) = (self.elastic_columns(), stiffness_of(model));
         let c = model.constraints(t, &state.q, &state.v);
         // the multipliers at the assembled state: one more step of the assembly's
-        let (x, rows, w) = self.elastic_step(t, state, &c)?;
+        let (x, rows, w) = self.elastic_step(t, state, &c, &elastic, &k)?;
         let lambda = &x.as_slice()[nv..];
         // H: the curvature of λᵀΦ along each velocity direction, and K̄ on the elastic block
         let mut h = DMatrix::zeros(nv, nv);
         let mut dq = vec![0.0; nq];
+        let qd0: Vec<sens::Dual<N>> = state.q.iter().map(|&x| sens::Dual::constant(x)).collect();
+        let vd0: Vec<sens::Dual<N>> = state.v.iter().map(|&x| sens::Dual::constant(x)).collect();
         for start in (0..nv).step_by(N) {
             let dirs: Vec<usize> = (start..(start + N).min(nv)).collect();
-            let mut qd: Vec<sens::Dual<N>> =
-                state.q.iter().map(|&x| sens::Dual::constant(x)).collect();
+            let mut qd = qd0.clone();
             for (tn, &kd) in dirs.iter().enumerate() {
                 let mut e = vec![0.0; nv];
                 e[kd] = 1.0;
@@ -294,8 +313,7 @@ impl MultibodySystem {
                     qi.d[tn] = *dqi;
                 }
             }
-            let vd: Vec<sens::Dual<N>> = state.v.iter().map(|&x| sens::Dual::constant(x)).collect();
-            let cd = model.constraints(t, &qd, &vd);
+            let cd = model.constraints(t, &qd, &vd0);
             for col in 0..nv {
                 for (tn, &kd) in dirs.iter().enumerate() {
                     h[(col, kd)] = rows
@@ -314,10 +332,8 @@ impl MultibodySystem {
         // the right-hand sides, one dual evaluation per chunk of variables at the state held
         let mut s = DMatrix::zeros(nq, design.n_variables());
         for (dm, range) in design.chunk_ranges() {
-            let qd: Vec<sens::Dual<N>> = state.q.iter().map(|&x| sens::Dual::constant(x)).collect();
-            let vd: Vec<sens::Dual<N>> = state.v.iter().map(|&x| sens::Dual::constant(x)).collect();
-            let cd = dm.constraints(t, &qd, &vd);
-            let kb = elastic_stiffness_tangents(dm, &elastic, self);
+            let cd = dm.constraints(t, &qd0, &vd0);
+            let kd = stiffness_of(dm);
             for (tn, j) in range.enumerate() {
                 let mut rhs_g = DVector::zeros(nv);
                 for col in 0..nv {
@@ -327,7 +343,7 @@ impl MultibodySystem {
                         .map(|(&r, l)| cd.jacobian[(r, col)].d[tn] * l)
                         .sum::<f64>();
                 }
-                let kbw = &kb[tn] * &w;
+                let kbw = kd.map(|x| x.d[tn]) * &w;
                 for (a, &i) in elastic.iter().enumerate() {
                     rhs_g[i] -= kbw[a];
                 }
@@ -343,34 +359,4 @@ impl MultibodySystem {
         }
         Ok(s)
     }
-}
-
-/// Per variable of the chunk model `dm`, the tangent of the modal stiffness over the elastic
-/// columns `elastic` (block diagonal by body, as [`MultibodySystem::elastic_columns`]).
-fn elastic_stiffness_tangents<const N: usize>(
-    dm: &crate::model::Model<sens::Dual<N>>,
-    elastic: &[usize],
-    sys: &MultibodySystem,
-) -> Vec<DMatrix<f64>> {
-    let n = elastic.len();
-    let mut out = vec![DMatrix::zeros(n, n); N];
-    let mut at = 0;
-    for id in sys.model().body_ids() {
-        if let Body::Flexible(f) = dm.body(id) {
-            let p = f.modal.eigenvalues.len();
-            for (tn, m) in out.iter_mut().enumerate() {
-                for a in 0..p {
-                    for b in 0..p {
-                        m[(at + a, at + b)] = match &f.modal.stiffness_matrix {
-                            Some(k) => k[(a, b)].d[tn],
-                            None if a == b => f.modal.eigenvalues[a].d[tn],
-                            None => 0.0,
-                        };
-                    }
-                }
-            }
-            at += p;
-        }
-    }
-    out
 }

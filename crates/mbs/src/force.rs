@@ -135,6 +135,21 @@ impl TorqueLaw {
 }
 
 impl Force {
+    /// The gains `[kp, kd]` of an actuator's PD law; `None` for the other forces.
+    pub fn pd_gains(&self) -> Option<[f64; 2]> {
+        match self {
+            Force::JointTorque {
+                law: TorqueLaw::Pd { kp, kd, .. },
+                ..
+            }
+            | Force::JointForce {
+                law: TorqueLaw::Pd { kp, kd, .. },
+                ..
+            } => Some([*kp, *kd]),
+            _ => None,
+        }
+    }
+
     /// Times where the force's history has a kink (a table's points, the ends of a tracked
     /// motion's ramp).
     pub fn breakpoints(&self) -> Vec<f64> {

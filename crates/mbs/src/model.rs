@@ -331,17 +331,7 @@ impl<P: Scalar> Model<P> {
         if let Force::JointTorque { a, b, law } | Force::JointForce { a, b, law } = &force {
             check_joint_torque(a, b, law)?;
         }
-        let gains = match &force {
-            Force::JointTorque {
-                law: TorqueLaw::Pd { kp, kd, .. },
-                ..
-            }
-            | Force::JointForce {
-                law: TorqueLaw::Pd { kp, kd, .. },
-                ..
-            } => [P::from_f64(*kp), P::from_f64(*kd)],
-            _ => [P::zero(), P::zero()],
-        };
+        let gains = force.pd_gains().unwrap_or([0.0; 2]).map(P::from_f64);
         self.forces.push(force);
         self.gains.push(gains);
         Ok(ForceId(self.forces.len() - 1))
@@ -350,18 +340,7 @@ impl<P: Scalar> Model<P> {
     /// Set gain `which` (0: `kp`, 1: `kd`) of the PD law of actuator `force` (a design
     /// variable's value, or its dual); `false` if `force` is no PD actuator.
     pub fn set_gain(&mut self, force: ForceId, which: usize, value: P) -> bool {
-        let pd = matches!(
-            self.forces.get(force.0),
-            Some(
-                Force::JointTorque {
-                    law: TorqueLaw::Pd { .. },
-                    ..
-                } | Force::JointForce {
-                    law: TorqueLaw::Pd { .. },
-                    ..
-                }
-            )
-        );
+        let pd = self.forces.get(force.0).and_then(Force::pd_gains).is_some();
         if pd && which < 2 {
             self.gains[force.0][which] = value;
         }

@@ -544,7 +544,7 @@ impl MultibodySystem {
         self.elastic_rates = false;
         // the elastic coordinates and rates take part only where the deck leaves them at
         // zero: a stated elastic state that the joints forbid stays an error
-        let elastic = self.elastic_columns().0;
+        let elastic = self.elastic_columns();
         let undeformed = elastic.iter().all(|&c| self.elastic_value(state, c) == 0.0);
         let at_rest = elastic.iter().all(|&c| state.v[c] == 0.0);
         match self.assemble_rigidly(t, state, tol) {

@@ -66,15 +66,6 @@ pub struct LaminateDesign {
     pub thicknesses: Vec<Vec<(usize, f64)>>,
 }
 
-impl LaminateDesign {
-    /// Whether variable `j` changes the laminate.
-    fn depends_on(&self, j: usize) -> bool {
-        self.links.get(j).is_some_and(|l| !l.is_empty())
-            || self.materials.get(j).is_some_and(|m| !m.is_empty())
-            || self.thicknesses.get(j).is_some_and(|t| !t.is_empty())
-    }
-}
-
 /// One section of a beam body: its values and derivatives with respect to each variable at the
 /// nominal design, and what the section at another design needs (its mesh and design map).
 pub struct SectionDesign {
@@ -210,6 +201,13 @@ impl Design {
 }
 
 impl LaminateDesign {
+    /// Whether variable `j` changes the laminate.
+    fn depends_on(&self, j: usize) -> bool {
+        self.links.get(j).is_some_and(|l| !l.is_empty())
+            || self.materials.get(j).is_some_and(|m| !m.is_empty())
+            || self.thicknesses.get(j).is_some_and(|t| !t.is_empty())
+    }
+
     /// The laminate's stiffness at the design `b` (values and tangents) from the nominal
     /// `values`: its plies turned, thickened and of moved materials.
     fn at<const N: usize>(
