@@ -10,23 +10,14 @@
 mod common;
 use common::*;
 
-/// The responses of a run of the deck with `sets`.
+/// The results of a run of the deck with `sets`.
 fn responses(dir: &tempfile::TempDir, name: &str, sets: &[&str]) -> flexsens::results::Group {
-    let out = dir.path().join(name);
-    let deck = deck("four_bar_misaligned.toml");
-    let mut args = vec![
-        "run",
-        deck.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "-q",
-    ];
-    for s in sets {
-        args.extend(["--set", s]);
-    }
-    let o = run(&args);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    flexsens::results::Group::read_hdf5(&out.join("results.h5")).unwrap()
+    run_results(
+        &deck("four_bar_misaligned.toml"),
+        &dir.path().join(name),
+        sets,
+    )
+    .1
 }
 
 #[test]
@@ -151,20 +142,7 @@ fn sensitivities_through_the_elastic_rates_of_the_start_equal_differences() {
            [sensitivity]\nmethod = \"direct\"\n\n[finite_differences]\nscheme = \"central\"\n\
            sizes = [0.0001]\nsteps = \"replay\"\n";
     let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("rho.toml");
-    std::fs::write(&path, text).unwrap();
-    let out = dir.path().join("out");
-    let o = run(&[
-        "run",
-        path.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "-q",
-        "--set",
-        "analysis.t_end=0.02",
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let g = flexsens::results::Group::read_hdf5(&out.join("results.h5")).unwrap();
+    let (_, g) = run_text(dir.path(), "rho", &text, &["analysis.t_end=0.02"]);
     for r in ["coupler_x", "coupler_z", "pivot_force"] {
         let direct = f64s(&g, &format!("sensitivities/{r}"));
         assert!(direct.iter().any(|x| x.abs() > 0.0), "{r}");

@@ -115,16 +115,11 @@ fn the_arm_at_rest_deflects_as_its_cantilevers_and_so_do_its_sensitivities() {
     let all = links();
     let (upper, fore) = (all[0].0, all[1].0);
     let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("out");
-    let path = deck("robot_arm_composite.toml");
-    let j = json(&[
-        "run",
-        path.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--json",
-    ]);
-    let g = flexsens::results::Group::read_hdf5(&out.join("results.h5")).unwrap();
+    let (j, g) = run_results(
+        &deck("robot_arm_composite.toml"),
+        &dir.path().join("out"),
+        &[],
+    );
     let last = |r: &str| *f64s(&g, &format!("responses/{r}")).last().unwrap();
     let exact = height(upper, fore);
     let z = last("payload_z");

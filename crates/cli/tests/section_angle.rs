@@ -70,21 +70,8 @@ fn a_section_angle_derivative_equals_replayed_differences() {
     );
     assert!(text.contains("kind = \"section-angle\""));
     let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("rect.toml");
-    std::fs::write(&path, text).unwrap();
-    let out = dir.path().join("out");
-    json(&[
-        "run",
-        path.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--json",
-        "--set",
-        "analysis.t_end=0.01",
-        "--set",
-        "sensitivity.method=\"direct\"",
-    ]);
-    let g = flexsens::results::Group::read_hdf5(&out.join("results.h5")).unwrap();
+    let sets = ["analysis.t_end=0.01", "sensitivity.method=\"direct\""];
+    let (_, g) = run_text(dir.path(), "rect", &text, &sets);
     let direct = f64s(&g, "sensitivities/mid_deflection");
     assert!(direct.iter().any(|x| x.abs() > 0.0));
     let err = replayed_difference(&g, "mid_deflection", "0.0001");

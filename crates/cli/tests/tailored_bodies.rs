@@ -196,23 +196,9 @@ fn per_segment_angles_add_up_to_the_common_angle_and_equal_differences() {
 /// adding up to the whole's.
 fn parts_add_up_to_the_whole(whole: &str, parts: &str, t_end: &str) {
     let dir = tempfile::tempdir().unwrap();
-    let run = |name: &str, text: &str| {
-        let path = dir.path().join(format!("{name}.toml"));
-        std::fs::write(&path, text).unwrap();
-        let out = dir.path().join(name);
-        json(&[
-            "run",
-            path.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-            "--json",
-            "--set",
-            &format!("analysis.t_end={t_end}"),
-            "--set",
-            "sensitivity.method=\"direct\"",
-        ]);
-        flexsens::results::Group::read_hdf5(&out.join("results.h5")).unwrap()
-    };
+    let t_end = format!("analysis.t_end={t_end}");
+    let sets = [t_end.as_str(), "sensitivity.method=\"direct\""];
+    let run = |name: &str, text: &str| run_text(dir.path(), name, text, &sets).1;
     let (whole, parts) = (run("whole", whole), run("parts", parts));
     let (w, p) = (
         f64s(&whole, "responses/mid_deflection"),

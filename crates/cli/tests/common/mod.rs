@@ -102,9 +102,28 @@ pub fn h5py_available() -> bool {
 /// `flexsens run DECK -o OUT --json --set …` (the shipped deck `deck_name`), expecting success;
 /// the JSON summary.
 pub fn run_json(deck_name: &str, out: &Path, sets: &[&str]) -> serde_json::Value {
+    run_path_json(&deck(deck_name), out, sets)
+}
+
+/// `flexsens run PATH -o OUT --json --set …`, expecting success; the JSON summary and the
+/// results file.
+pub fn run_results(path: &Path, out: &Path, sets: &[&str]) -> (serde_json::Value, Group) {
+    let j = run_path_json(path, out, sets);
+    (j, Group::read_hdf5(&out.join("results.h5")).unwrap())
+}
+
+/// The deck `text` written as `NAME.toml` in `dir` and run into `dir/NAME` ([`run_results`]).
+pub fn run_text(dir: &Path, name: &str, text: &str, sets: &[&str]) -> (serde_json::Value, Group) {
+    let path = dir.join(format!("{name}.toml"));
+    std::fs::write(&path, text).unwrap();
+    run_results(&path, &dir.join(name), sets)
+}
+
+/// `flexsens run PATH -o OUT --json --set …`, expecting success; the JSON summary.
+fn run_path_json(path: &Path, out: &Path, sets: &[&str]) -> serde_json::Value {
     let mut args = vec![
         "run".to_string(),
-        deck(deck_name).display().to_string(),
+        path.display().to_string(),
         "-o".into(),
         out.display().to_string(),
         "--json".into(),
