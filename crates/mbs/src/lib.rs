@@ -100,6 +100,7 @@ mod marker;
 mod model;
 mod newton;
 mod nodal;
+mod operating;
 mod response;
 mod sensitivity;
 mod system;
@@ -122,6 +123,10 @@ pub use force::{Force, ForceId, Load, LoadFrame, TorqueLaw};
 pub use joint::{JointId, JointKind, TimeFunction};
 pub use marker::{Marker, Site};
 pub use model::{Baumgarte, ConstraintValues, Energy, Equations, Joint, Model, State};
+pub use operating::{
+    EquilibriumOptions, LinearMode, Linearisation, OperatingError, OperatingPoint,
+    OperatingSensitivities, Spin, equilibrium,
+};
 pub use response::{
     Objective, ObjectiveValue, Response, ResponseHistory, response_history, response_values,
 };

@@ -347,6 +347,18 @@ impl<P: Scalar> Model<P> {
         pd && which < 2
     }
 
+    /// Replace the motion of driver `joint` (an angle or distance driver); `false`, with
+    /// nothing changed, for any other joint.
+    pub fn set_motion(&mut self, joint: JointId, motion: TimeFunction) -> bool {
+        match &mut self.joints[joint.0].kind {
+            JointKind::AngleDriver(f) | JointKind::DistanceDriver(f) => {
+                *f = motion;
+                true
+            }
+            _ => false,
+        }
+    }
+
     /// Times where a force table or a driver's motion has a kink, sorted and unique: the
     /// integrator lands on them ([`crate::OdeSystem::breakpoints`]).
     pub fn breakpoints(&self) -> Vec<f64> {

@@ -764,29 +764,7 @@ impl MultibodySystem {
 
     /// `q ← q ⊕ Δ` for an increment `Δ` in the velocity variables (rotations exact).
     pub fn apply_increment(&self, q: &mut [f64], d: &[f64]) {
-        for id in self.model.body_ids() {
-            let qr = self.model.q_range(id);
-            let vr = self.model.v_range(id);
-            for i in 0..3 {
-                q[qr.start + i] += d[vr.start + i];
-            }
-            let p = Vector4::new(
-                q[qr.start + 3],
-                q[qr.start + 4],
-                q[qr.start + 5],
-                q[qr.start + 6],
-            );
-            let dq = quat_from_rotation_vector(&Vector3::new(
-                d[vr.start + 3],
-                d[vr.start + 4],
-                d[vr.start + 5],
-            ));
-            let pn = quat_mul(&p, &dq).normalize();
-            q[qr.start + 3..qr.start + 7].copy_from_slice(pn.as_slice());
-            for j in 6..vr.len() {
-                q[qr.start + 1 + j] += d[vr.start + j];
-            }
-        }
+        apply_increment(&self.model, q, d);
     }
 
     /// Full-length multipliers of a solution (zero for the rows it dropped).
@@ -905,6 +883,33 @@ impl MultibodySystem {
             velocity_violation: max_abs(&c.phi_dot),
             energy: self.model.energy(t, q, v),
         })
+    }
+}
+
+/// `q ← q ⊕ Δ` for an increment `Δ` in the velocity variables of `model` (rotations exact).
+pub(crate) fn apply_increment(model: &Model<f64>, q: &mut [f64], d: &[f64]) {
+    for id in model.body_ids() {
+        let qr = model.q_range(id);
+        let vr = model.v_range(id);
+        for i in 0..3 {
+            q[qr.start + i] += d[vr.start + i];
+        }
+        let p = Vector4::new(
+            q[qr.start + 3],
+            q[qr.start + 4],
+            q[qr.start + 5],
+            q[qr.start + 6],
+        );
+        let dq = quat_from_rotation_vector(&Vector3::new(
+            d[vr.start + 3],
+            d[vr.start + 4],
+            d[vr.start + 5],
+        ));
+        let pn = quat_mul(&p, &dq).normalize();
+        q[qr.start + 3..qr.start + 7].copy_from_slice(pn.as_slice());
+        for j in 6..vr.len() {
+            q[qr.start + 1 + j] += d[vr.start + j];
+        }
     }
 }
 

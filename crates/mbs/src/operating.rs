@@ -1,0 +1,706 @@
+//! Operating points: the static equilibrium of a mechanism under its loads and the drivers'
+//! positions, the steady spin of a mechanism turning rigidly about a fixed axis (a relative
+//! equilibrium: constant in the rotating frame), the linearised equations of the constrained
+//! system about them and their eigenvalues, and the equilibrium's design sensitivities
+//! (docs/operating-points.md).
+//!
+//! The equilibrium solves `E(q, λ) = M(q) v̇ₛ(q) − f(q, vₛ(q)) + Φ_vᵀ λ = 0` with `Φ(q) = 0`,
+//! where `vₛ`, `v̇ₛ` are the velocities and accelerations of the rigid spin at `q` (zero for a
+//! static equilibrium), by Newton's method on the increments of the velocity variables
+//! (rotations exact) and the multipliers, the Jacobian by dual numbers; the load (gravity and
+//! the spin speed) is stepped when a full step fails. Perturbations `d` of the velocity
+//! variables about it, taken in the rotating frame, obey
+//! `M d̈ + (M G − f_v) ḋ + (∂E/∂d) d + Φ_vᵀ δλ = 0`, `Φ_v d = 0`, with `G` the frame's
+//! Coriolis operator (`2 Ω×` on the translations, `ω'ₛ×` on the body-frame rotations); reduced
+//! to independent coordinates by a basis `N` of the null space of `Φ_v`, their eigenvalues are
+//! the operating point's modes.
+
+use nalgebra::{Complex, DMatrix, DVector, Vector3, Vector4};
+use sens::{Dual, Scalar, chunk_ranges};
+
+use crate::kin::{mtv, rotation, skew};
+use crate::system::apply_increment;
+use crate::{DesignModel, JointId, JointKind, Model, State};
+
+/// Width of the dual numbers of the Jacobians.
+const WIDTH: usize = 8;
+
+/// A rigid spin of the whole mechanism at `speed` (rad/s) about the global line through
+/// `centre` along the unit vector `axis`: every body frame turns about it, the elastic
+/// coordinates stay constant.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Spin {
+    pub axis: Vector3<f64>,
+    pub centre: Vector3<f64>,
+    pub speed: f64,
+}
+
+/// Why an operating point could not be found or linearised.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum OperatingError {
+    #[error("{0}")]
+    Spin(String),
+    #[error(
+        "the equilibrium's Jacobian is singular{at}: the mechanism can move without resistance \
+         (a free rigid-body motion or a mechanism with no load holding it), or its constraints \
+         are redundant at this state"
+    )]
+    Singular { at: String },
+    #[error(
+        "the equilibrium did not converge: Newton's method failed at {load:.4} of the load \
+         (gravity and spin speed) after {steps} load steps; the mechanism may buckle or have no \
+         equilibrium near the start"
+    )]
+    NotConverged { load: f64, steps: usize },
+    #[error(
+        "joint `{joint}` is not steady under the spin: its equation {equation} changes as the \
+         mechanism turns (|Φ̇| = {residual:.3e}); a steady spin needs every joint to the ground \
+         on the spin axis or turning with it"
+    )]
+    NotSteady {
+        joint: String,
+        equation: usize,
+        residual: f64,
+    },
+}
+
+/// Options of [`equilibrium`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EquilibriumOptions {
+    /// Convergence: the largest Newton increment, in metres (rotations times the mechanism's
+    /// size, modal coordinates as they are), below `tol · size`.
+    pub tol: f64,
+    /// Newton iterations per load step.
+    pub max_iterations: usize,
+    /// Most load steps before giving up.
+    pub max_load_steps: usize,
+}
+
+impl Default for EquilibriumOptions {
+    fn default() -> Self {
+        Self {
+            tol: 1e-11,
+            max_iterations: 25,
+            max_load_steps: 64,
+        }
+    }
+}
+
+/// A static equilibrium or steady spin ([`equilibrium`]).
+#[derive(Clone, Debug)]
+pub struct OperatingPoint {
+    /// The drivers' time of the equilibrium.
+    pub t: f64,
+    pub spin: Option<Spin>,
+    /// Positions, and the velocities of the spin (zero when static).
+    pub state: State,
+    /// The constraint rows solved for (independent), and their multipliers.
+    pub rows: Vec<usize>,
+    pub lambda: Vec<f64>,
+    /// Newton iterations in all, and load steps.
+    pub iterations: usize,
+    pub load_steps: usize,
+    /// `∂[E; Φ]/∂[d; λ]` at the solution.
+    jacobian: DMatrix<f64>,
+}
+
+impl Spin {
+    /// The spin of angle driver `joint` at `speed`: the axis and centre of its ground marker
+    /// (the driver turns its body about the ground; a driver between two bodies is refused).
+    pub fn of_driver<P: Scalar>(
+        model: &Model<P>,
+        joint: JointId,
+        speed: f64,
+    ) -> Result<Spin, OperatingError> {
+        let j = model.joint(joint);
+        if !matches!(j.kind, JointKind::AngleDriver(_)) {
+            return Err(OperatingError::Spin(format!(
+                "joint `{}` is not an angle driver: the spin is about an angle driver's axis",
+                j.name
+            )));
+        }
+        let (ground, sign) = match (j.a.body, j.b.body) {
+            (None, Some(_)) => (&j.a, 1.0),
+            (Some(_), None) => (&j.b, -1.0),
+            _ => {
+                return Err(OperatingError::Spin(format!(
+                    "angle driver `{}` does not turn a body relative to the ground: a steady \
+                     spin is about a driver with one marker on the ground",
+                    j.name
+                )));
+            }
+        };
+        let centre = match &ground.site {
+            crate::Site::Point(p) => *p,
+            crate::Site::Node(_) => unreachable!("ground markers are points"),
+        };
+        Ok(Spin {
+            axis: ground.axes.column(2).into_owned(),
+            centre,
+            speed: sign * speed,
+        })
+    }
+
+    /// The velocities `vₛ` and accelerations `v̇ₛ` of the rigid spin at `q` (per body
+    /// `ṙ = Ω × (r − c)`, `ω' = AᵀΩ`, `ẇ = 0`; `r̈ = Ω × (Ω × (r − c))`, `ω̇' = 0`, `ẅ = 0`).
+    fn motion<P: Scalar, S: Scalar>(&self, model: &Model<P>, q: &[S]) -> (Vec<S>, Vec<S>) {
+        let mut v = vec![S::zero(); model.n_v()];
+        let mut a = vec![S::zero(); model.n_v()];
+        let omega: Vector3<S> = (self.axis * self.speed).map(S::from_f64);
+        for id in model.body_ids() {
+            let (qo, vo) = (model.q_range(id).start, model.v_range(id).start);
+            let r = Vector3::new(q[qo], q[qo + 1], q[qo + 2]) - self.centre.map(S::from_f64);
+            let rd = omega.cross(&r);
+            let rdd = omega.cross(&rd);
+            let am = rotation(&Vector4::new(q[qo + 3], q[qo + 4], q[qo + 5], q[qo + 6]));
+            let w = mtv(&am, &omega);
+            for i in 0..3 {
+                v[vo + i] = rd[i];
+                a[vo + i] = rdd[i];
+                v[vo + 3 + i] = w[i];
+            }
+        }
+        (v, a)
+    }
+
+    /// The rotating frame's Coriolis operator `G` on the velocity variables at `q`:
+    /// `2 Ω×` on the translations, `ω'ₛ×` on the body-frame rotations.
+    fn coriolis<P: Scalar>(&self, model: &Model<P>, q: &[f64]) -> DMatrix<f64> {
+        let n = model.n_v();
+        let mut g = DMatrix::zeros(n, n);
+        let omega = self.axis * self.speed;
+        let (v, _) = self.motion::<P, f64>(model, q);
+        for id in model.body_ids() {
+            let o = model.v_range(id).start;
+            let w = Vector3::new(v[o + 3], v[o + 4], v[o + 5]);
+            g.view_mut((o, o), (3, 3)).copy_from(&(skew(&omega) * 2.0));
+            g.view_mut((o + 3, o + 3), (3, 3)).copy_from(&skew(&w));
+        }
+        g
+    }
+}
+
+/// The equilibrium equations `[E; Φ_rows]` at `q` with multipliers `lambda` (of `rows`).
+fn residual<P: Scalar, S: Scalar + From<P>>(
+    model: &Model<P>,
+    t: f64,
+    spin: Option<&Spin>,
+    rows: &[usize],
+    q: &[S],
+    lambda: &[S],
+) -> Vec<S> {
+    let (v, a) = match spin {
+        Some(s) => s.motion(model, q),
+        None => (vec![S::zero(); model.n_v()], vec![S::zero(); model.n_v()]),
+    };
+    let (m, f) = model.mass_and_forces(t, q, &v);
+    let k = model.constraint_kin(t, q, &v);
+    let mut out: Vec<S> = m.mul(&a).into_iter().zip(f).map(|(x, y)| x - y).collect();
+    for (&row, &l) in rows.iter().zip(lambda) {
+        for (col, &x) in k[row].jac.iter() {
+            out[col] += x * l;
+        }
+    }
+    out.extend(rows.iter().map(|&r| k[r].val));
+    out
+}
+
+/// `∂q/∂d`: column `j` the change of `q` along velocity variable `j` (the kinematic rates of
+/// a unit velocity).
+fn increment_map(model: &Model<f64>, q: &[f64]) -> DMatrix<f64> {
+    let (nq, nv) = (model.n_q(), model.n_v());
+    let mut t = DMatrix::zeros(nq, nv);
+    let mut e = vec![0.0; nv];
+    let mut qd = vec![0.0; nq];
+    for j in 0..nv {
+        e[j] = 1.0;
+        model.kinematic_rates(q, &e, &mut qd);
+        t.column_mut(j).copy_from_slice(&qd);
+        e[j] = 0.0;
+    }
+    t
+}
+
+/// `q` as duals whose tangents are the velocity variables `cols` (through `map` = ∂q/∂d).
+fn seeded_q<const N: usize>(
+    q: &[f64],
+    map: &DMatrix<f64>,
+    cols: std::ops::Range<usize>,
+) -> Vec<Dual<N>> {
+    (0..q.len())
+        .map(|i| {
+            let mut d = [0.0; N];
+            for (k, j) in cols.clone().enumerate() {
+                d[k] = map[(i, j)];
+            }
+            Dual::new(q[i], d)
+        })
+        .collect()
+}
+
+/// The residual and its Jacobian `∂[E; Φ]/∂[d; λ]` at `(q, λ)`.
+fn residual_and_jacobian(
+    model: &Model<f64>,
+    t: f64,
+    spin: Option<&Spin>,
+    rows: &[usize],
+    q: &[f64],
+    lambda: &[f64],
+) -> (Vec<f64>, DMatrix<f64>) {
+    let nv = model.n_v();
+    let n = nv + rows.len();
+    let map = increment_map(model, q);
+    let mut jac = DMatrix::zeros(n, n);
+    let lam: Vec<Dual<WIDTH>> = lambda.iter().map(|&l| Dual::constant(l)).collect();
+    let mut value = Vec::new();
+    for cols in chunk_ranges(nv, WIDTH) {
+        let qd = seeded_q::<WIDTH>(q, &map, cols.clone());
+        let r = residual(model, t, spin, rows, &qd, &lam);
+        for (k, j) in cols.enumerate() {
+            for (i, x) in r.iter().enumerate() {
+                jac[(i, j)] = x.d[k];
+            }
+        }
+        value = r.iter().map(|x| x.v).collect();
+    }
+    let v = match spin {
+        Some(s) => s.motion::<f64, f64>(model, q).0,
+        None => vec![0.0; nv],
+    };
+    let k = model.constraint_kin(t, q, &v);
+    for (a, &row) in rows.iter().enumerate() {
+        for (col, &x) in k[row].jac.iter() {
+            jac[(col, nv + a)] = x;
+        }
+    }
+    (value, jac)
+}
+
+/// The static equilibrium (`spin` none) or steady spin of `model` at the drivers' time `t`,
+/// from `start` (assembled), solving the constraint rows `rows` (independent).
+///
+/// The spin's driver must turn at the spin's speed: its motion a constant speed at `t`
+/// (see [`Model::set_motion`]). Every joint must be steady under the spin, else
+/// [`OperatingError::NotSteady`] names it. Gravity must lie along the spin axis (or vanish).
+pub fn equilibrium(
+    model: &Model<f64>,
+    rows: &[usize],
+    t: f64,
+    start: &State,
+    spin: Option<Spin>,
+    options: &EquilibriumOptions,
+) -> Result<OperatingPoint, OperatingError> {
+    if let Some(s) = &spin
+        && s.speed != 0.0
+        && model.gravity.cross(&s.axis).norm() > 1e-12 * model.gravity.norm()
+    {
+        return Err(OperatingError::Spin(
+            "gravity across the spin axis turns with the rotating frame: a steady spin needs \
+             gravity along the axis or none"
+                .into(),
+        ));
+    }
+    let size = crate::mechanism_size(model, &start.q);
+    let mut q = start.q.clone();
+    let mut lambda = vec![0.0; rows.len()];
+    let (mut load, mut step) = (0.0f64, 1.0f64);
+    // the multipliers that balance the start's loads best: the constraint forces' stiffness
+    // holds a mechanism whose loads alone do not (a pendulum under gravity)
+    let mut scaled = model.clone();
+    if let Some(l) = start_multipliers(model, t, spin.as_ref(), rows, &q) {
+        lambda = l;
+    }
+    let (mut iterations, mut load_steps) = (0, 0);
+    loop {
+        let target = (load + step).min(1.0);
+        scaled.gravity = model.gravity * target;
+        let spin_at = spin.map(|s| Spin {
+            speed: s.speed * target,
+            ..s
+        });
+        load_steps += 1;
+        match newton(
+            &scaled,
+            t,
+            spin_at.as_ref(),
+            rows,
+            &q,
+            &lambda,
+            size,
+            options,
+        ) {
+            Ok((qn, ln, it)) => {
+                iterations += it;
+                (q, lambda) = (qn, ln);
+                load = target;
+                if load >= 1.0 {
+                    break;
+                }
+                step *= 2.0;
+            }
+            Err(NewtonFailure::Singular) if load_steps == 1 => {
+                return Err(OperatingError::Singular { at: String::new() });
+            }
+            Err(_) => step /= 4.0,
+        }
+        if load_steps >= options.max_load_steps || step < 1e-6 {
+            return Err(OperatingError::NotConverged {
+                load,
+                steps: load_steps,
+            });
+        }
+    }
+    let (_, jacobian) = residual_and_jacobian(model, t, spin.as_ref(), rows, &q, &lambda);
+    if jacobian.clone().lu().determinant() == 0.0 || !jacobian.iter().all(|x| x.is_finite()) {
+        return Err(OperatingError::Singular {
+            at: " at the solution".into(),
+        });
+    }
+    let v = match &spin {
+        Some(s) => s.motion::<f64, f64>(model, &q).0,
+        None => vec![0.0; model.n_v()],
+    };
+    if spin.is_some() {
+        check_steady(model, t, &q, &v)?;
+    }
+    Ok(OperatingPoint {
+        t,
+        spin,
+        state: State { q, v },
+        rows: rows.to_vec(),
+        lambda,
+        iterations,
+        load_steps,
+        jacobian,
+    })
+}
+
+/// The least-squares multipliers of `E(q, λ) = 0` at `q`: `Φ_v Φ_vᵀ λ = Φ_v (f − M v̇ₛ)`.
+fn start_multipliers(
+    model: &Model<f64>,
+    t: f64,
+    spin: Option<&Spin>,
+    rows: &[usize],
+    q: &[f64],
+) -> Option<Vec<f64>> {
+    let zero = vec![0.0; rows.len()];
+    let r = residual(model, t, spin, rows, q, &zero);
+    let nv = model.n_v();
+    let c = model.constraints(t, q, &vec![0.0; nv]);
+    let jac = c.jacobian.select_rows(rows);
+    let rhs = &jac * DVector::from_iterator(nv, r[..nv].iter().map(|x| -x));
+    (&jac * jac.transpose())
+        .lu()
+        .solve(&rhs)
+        .map(|l| l.iter().copied().collect())
+}
+
+/// Every constraint keeps `Φ̇ = 0` under the spin's velocities.
+fn check_steady(model: &Model<f64>, t: f64, q: &[f64], v: &[f64]) -> Result<(), OperatingError> {
+    let c = model.constraints(t, q, v);
+    let scale = v.iter().fold(1e-300f64, |m, x| m.max(x.abs()));
+    if let Some((row, &r)) = (c.phi_dot.iter().enumerate())
+        .filter(|(_, x)| x.abs() > 1e-8 * scale)
+        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+    {
+        let j = model.joint_of_row(row);
+        return Err(OperatingError::NotSteady {
+            joint: model.joint(j).name.clone(),
+            equation: row - model.joint_rows(j).start,
+            residual: r.abs(),
+        });
+    }
+    Ok(())
+}
+
+enum NewtonFailure {
+    Singular,
+    Diverged,
+}
+
+/// Newton's method from `(q, λ)` at one load; the solution and the iterations taken.
+#[allow(clippy::too_many_arguments)]
+fn newton(
+    model: &Model<f64>,
+    t: f64,
+    spin: Option<&Spin>,
+    rows: &[usize],
+    q0: &[f64],
+    lambda0: &[f64],
+    size: f64,
+    options: &EquilibriumOptions,
+) -> Result<(Vec<f64>, Vec<f64>, usize), NewtonFailure> {
+    let nv = model.n_v();
+    let (mut q, mut lambda) = (q0.to_vec(), lambda0.to_vec());
+    let mut last = f64::INFINITY;
+    let increment_size = |model: &Model<f64>, d: &[f64]| {
+        let mut m = 0.0f64;
+        for id in model.body_ids() {
+            let r = model.v_range(id);
+            for (i, x) in d[r.clone()].iter().enumerate() {
+                let s = if (3..6).contains(&i) { size } else { 1.0 };
+                m = m.max((x * s).abs());
+            }
+        }
+        m
+    };
+    for it in 1..=options.max_iterations {
+        let (r, jac) = residual_and_jacobian(model, t, spin, rows, &q, &lambda);
+        if !r.iter().all(|x| x.is_finite()) {
+            return Err(NewtonFailure::Diverged);
+        }
+        let lu = jac.lu();
+        let Some(dx) = lu.solve(&DVector::from_iterator(r.len(), r.iter().map(|x| -x))) else {
+            return Err(NewtonFailure::Singular);
+        };
+        if !dx.iter().all(|x| x.is_finite()) {
+            return Err(NewtonFailure::Singular);
+        }
+        let d = &dx.as_slice()[..nv];
+        let step = increment_size(model, d);
+        // a step that grows is a divergence (only the first may be large)
+        if it > 2 && step > last {
+            if step < 1e3 * options.tol * size {
+                return Ok((q, lambda, it));
+            }
+            return Err(NewtonFailure::Diverged);
+        }
+        apply_increment(model, &mut q, d);
+        for (l, x) in lambda.iter_mut().zip(&dx.as_slice()[nv..]) {
+            *l += x;
+        }
+        if step <= options.tol * size {
+            return Ok((q, lambda, it));
+        }
+        last = step;
+    }
+    Err(NewtonFailure::Diverged)
+}
+
+/// One eigenvalue of a linearised operating point and its mode.
+#[derive(Clone, Debug)]
+pub struct LinearMode {
+    /// `s`, with `e^{st}` the mode's time dependence (rad/s).
+    pub eigenvalue: Complex<f64>,
+    /// The mode in the velocity variables (`d`, `n_v` complex components), unit largest
+    /// component.
+    pub shape: DVector<Complex<f64>>,
+}
+
+impl LinearMode {
+    /// `|s| / 2π` (Hz): the undamped natural frequency.
+    pub fn frequency_hz(&self) -> f64 {
+        self.eigenvalue.norm() / (2.0 * std::f64::consts::PI)
+    }
+
+    /// `Im s / 2π` (Hz): the damped frequency (zero for a real eigenvalue).
+    pub fn damped_frequency_hz(&self) -> f64 {
+        self.eigenvalue.im.abs() / (2.0 * std::f64::consts::PI)
+    }
+
+    /// `−Re s / |s|` (zero for a zero eigenvalue); negative when the mode grows.
+    pub fn damping_ratio(&self) -> f64 {
+        let n = self.eigenvalue.norm();
+        if n > 0.0 {
+            -self.eigenvalue.re / n
+        } else {
+            0.0
+        }
+    }
+}
+
+/// The linearised equations about an operating point, reduced to independent coordinates
+/// `d = N z`: `M̄ z̈ + C̄ ż + K̄ z = 0`.
+#[derive(Clone, Debug)]
+pub struct Linearisation {
+    /// `N`, `n_v × f`, orthonormal columns spanning the null space of `Φ_v`.
+    pub basis: DMatrix<f64>,
+    pub mass: DMatrix<f64>,
+    /// Damping and gyroscopic terms.
+    pub damping: DMatrix<f64>,
+    /// Elastic, geometric, centrifugal and constraint-force stiffness.
+    pub stiffness: DMatrix<f64>,
+}
+
+impl OperatingPoint {
+    /// The linearised equations about this operating point of `model` (the model it was
+    /// found for).
+    pub fn linearise(&self, model: &Model<f64>) -> Linearisation {
+        let nv = model.n_v();
+        let q = &self.state.q;
+        let k = self.jacobian.view((0, 0), (nv, nv)).into_owned();
+        let (m, _) = model.mass_and_forces(self.t, q, &self.state.v);
+        let m = m.to_dense();
+        // −f_v by dual numbers on the velocities
+        let mut c = DMatrix::zeros(nv, nv);
+        let qd: Vec<Dual<WIDTH>> = q.iter().map(|&x| Dual::constant(x)).collect();
+        for cols in chunk_ranges(nv, WIDTH) {
+            let vd: Vec<Dual<WIDTH>> = (self.state.v.iter().enumerate())
+                .map(|(i, &x)| match cols.clone().position(|j| j == i) {
+                    Some(k) => Dual::variable(x, k),
+                    None => Dual::constant(x),
+                })
+                .collect();
+            let (_, f) = model.mass_and_forces(self.t, &qd, &vd);
+            for (k, j) in cols.enumerate() {
+                for i in 0..nv {
+                    c[(i, j)] = -f[i].d[k];
+                }
+            }
+        }
+        if let Some(s) = &self.spin {
+            c += &m * s.coriolis(model, q);
+        }
+        let kin = model.constraints(self.t, q, &self.state.v);
+        let jac = kin.jacobian.select_rows(&self.rows);
+        let basis = null_space(&jac);
+        let project = |a: &DMatrix<f64>| basis.transpose() * a * &basis;
+        Linearisation {
+            mass: project(&m),
+            damping: project(&c),
+            stiffness: project(&k),
+            basis,
+        }
+    }
+}
+
+/// Orthonormal columns spanning the null space of `a` (`m × n`).
+fn null_space(a: &DMatrix<f64>) -> DMatrix<f64> {
+    let n = a.ncols();
+    let eig = (a.transpose() * a).symmetric_eigen();
+    let scale = eig.eigenvalues.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let cols: Vec<usize> = (0..n)
+        .filter(|&i| eig.eigenvalues[i].abs() <= 1e-10 * scale.max(1e-300))
+        .collect();
+    let mut basis = eig.eigenvectors.select_columns(&cols);
+    if a.nrows() == 0 {
+        basis = DMatrix::identity(n, n);
+    }
+    basis
+}
+
+impl Linearisation {
+    /// The number of independent coordinates.
+    pub fn dim(&self) -> usize {
+        self.basis.ncols()
+    }
+
+    /// The eigenvalues of `M̄ s² + C̄ s + K̄` with their modes: one of each complex-conjugate
+    /// pair (`Im s > 0`) and every real one, by increasing `|s|`.
+    pub fn modes(&self) -> Result<Vec<LinearMode>, OperatingError> {
+        let f = self.dim();
+        if f == 0 {
+            return Ok(Vec::new());
+        }
+        let Some(minv) = self.mass.clone().try_inverse() else {
+            return Err(OperatingError::Singular {
+                at: " (the reduced mass matrix)".into(),
+            });
+        };
+        let mut a = DMatrix::zeros(2 * f, 2 * f);
+        a.view_mut((0, f), (f, f)).fill_with_identity();
+        a.view_mut((f, 0), (f, f))
+            .copy_from(&(-&minv * &self.stiffness));
+        a.view_mut((f, f), (f, f))
+            .copy_from(&(-&minv * &self.damping));
+        let values = a.clone().complex_eigenvalues();
+        let scale = values.iter().fold(1.0f64, |m, s| m.max(s.norm()));
+        let mut modes: Vec<LinearMode> = values
+            .iter()
+            .filter(|s| s.im >= 0.0)
+            .map(|&s| {
+                let z = inverse_iteration(&a, s, scale);
+                let shape = self.basis.map(|x| Complex::new(x, 0.0)) * z.rows(0, f);
+                let big = shape.iter().fold(Complex::new(0.0, 0.0), |m, x| {
+                    if x.norm() > m.norm() { *x } else { m }
+                });
+                let shape = if big.norm() > 0.0 { shape / big } else { shape };
+                LinearMode {
+                    eigenvalue: s,
+                    shape,
+                }
+            })
+            .collect();
+        modes.sort_by(|a, b| a.eigenvalue.norm().total_cmp(&b.eigenvalue.norm()));
+        Ok(modes)
+    }
+}
+
+/// An eigenvector of `a` for the eigenvalue `s` by two steps of inverse iteration.
+fn inverse_iteration(a: &DMatrix<f64>, s: Complex<f64>, scale: f64) -> DVector<Complex<f64>> {
+    let n = a.nrows();
+    let shift = s + Complex::new(1e-10 * scale, 1e-10 * scale);
+    let mut b = a.map(|x| Complex::new(x, 0.0));
+    for i in 0..n {
+        b[(i, i)] -= shift;
+    }
+    let lu = b.lu();
+    let mut x = DVector::from_fn(n, |i, _| Complex::new(1.0 + 0.1 * (i as f64).sin(), 0.0));
+    for _ in 0..3 {
+        if let Some(y) = lu.solve(&x) {
+            let norm = y.norm();
+            if norm > 0.0 && norm.is_finite() {
+                x = y / Complex::new(norm, 0.0);
+            }
+        }
+    }
+    x
+}
+
+/// Design sensitivities of an operating point: `∂q/∂b`, `∂v/∂b` (the spin's velocities at the
+/// moved positions) and `∂λ/∂b`, one column per design variable.
+#[derive(Clone, Debug)]
+pub struct OperatingSensitivities {
+    pub q: DMatrix<f64>,
+    pub v: DMatrix<f64>,
+    pub lambda: DMatrix<f64>,
+}
+
+impl OperatingPoint {
+    /// The equilibrium's derivatives with respect to the design variables of `design` (whose
+    /// values are the model of this operating point): `J [∂d; ∂λ] = −∂[E; Φ]/∂b`, with the
+    /// factorisation of the equilibrium's Jacobian.
+    pub fn sensitivities<const N: usize>(
+        &self,
+        design: &DesignModel<N>,
+    ) -> Result<OperatingSensitivities, OperatingError> {
+        let values = design.values();
+        let (nq, nv) = (values.n_q(), values.n_v());
+        let m = design.n_variables();
+        let lu = self.jacobian.clone().lu();
+        let map = increment_map(&values, &self.state.q);
+        let qd: Vec<Dual<N>> = self.state.q.iter().map(|&x| Dual::constant(x)).collect();
+        let ld: Vec<Dual<N>> = self.lambda.iter().map(|&x| Dual::constant(x)).collect();
+        let mut out = OperatingSensitivities {
+            q: DMatrix::zeros(nq, m),
+            v: DMatrix::zeros(nv, m),
+            lambda: DMatrix::zeros(self.rows.len(), m),
+        };
+        for (model, range) in design.chunk_ranges() {
+            let r = residual(model, self.t, self.spin.as_ref(), &self.rows, &qd, &ld);
+            for (k, j) in range.enumerate() {
+                let rhs = DVector::from_iterator(r.len(), r.iter().map(|x| -x.d[k]));
+                let Some(dx) = lu.solve(&rhs) else {
+                    return Err(OperatingError::Singular {
+                        at: " at the solution".into(),
+                    });
+                };
+                let dq = &map * dx.rows(0, nv);
+                out.q.column_mut(j).copy_from(&dq);
+                out.lambda
+                    .column_mut(j)
+                    .copy_from(&dx.rows(nv, self.rows.len()));
+                if let Some(s) = &self.spin {
+                    let q1: Vec<Dual<1>> = (self.state.q.iter().zip(dq.iter()))
+                        .map(|(&x, &dx)| Dual::new(x, [dx]))
+                        .collect();
+                    let (v, _) = s.motion::<f64, Dual<1>>(&values, &q1);
+                    for (i, x) in v.iter().enumerate() {
+                        out.v[(i, j)] = x.d[0];
+                    }
+                }
+            }
+        }
+        Ok(out)
+    }
+}
