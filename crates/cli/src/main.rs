@@ -123,6 +123,21 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// The static equilibrium of the deck's mechanism, or its steady spins at the [operating]
+    /// speeds: the modes linearised about each (frequencies, damping ratios), the responses
+    /// and their design derivatives there, a Campbell diagram of a speed sweep; written to
+    /// `operating.csv`, `frequencies.csv`, `sensitivities.csv` and `campbell.svg`.
+    #[command(allow_negative_numbers = true)]
+    Static {
+        /// The deck (TOML).
+        deck: PathBuf,
+        /// Output directory (default: `<deck name>.static` beside the deck).
+        #[arg(short = 'o', long = "output", value_name = "DIR")]
+        output: Option<PathBuf>,
+        /// Print a JSON summary (for scripts) instead of the table.
+        #[arg(long)]
+        json: bool,
+    },
     /// Run a deck for every combination of varied values (in parallel) and write one row per
     /// case, with its objectives and gradients, to `DIR/summary.csv`.
     #[command(allow_negative_numbers = true)]
@@ -289,6 +304,13 @@ fn main() -> ExitCode {
                 progress: !cli.quiet && std::io::stderr().is_terminal(),
             };
             commands::run::run(deck, &cli.set, &req).map(|t| (t, 0))
+        }
+        Command::Static { deck, output, json } => {
+            let req = commands::operating::StaticRequest {
+                out: output.as_deref(),
+                json: *json,
+            };
+            commands::operating::run(deck, &cli.set, &req).map(|t| (t, 0))
         }
         Command::Sweep {
             deck,

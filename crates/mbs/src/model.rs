@@ -396,6 +396,11 @@ impl<P: Scalar> Model<P> {
     pub fn joints(&self) -> &[Joint] {
         &self.joints
     }
+    /// The joint named `name`.
+    pub fn joint_id(&self, name: &str) -> Option<JointId> {
+        self.joints.iter().position(|j| j.name == name).map(JointId)
+    }
+
     pub fn joint(&self, id: JointId) -> &Joint {
         &self.joints[id.0]
     }

@@ -6,6 +6,7 @@ mod compute;
 pub mod laminate;
 pub mod merge;
 pub mod modes;
+pub mod operating;
 pub mod optimize;
 pub mod output;
 pub mod report;

@@ -64,7 +64,7 @@ pub(crate) fn analyse(
 /// derivatives) and each flexible body's frequency derivatives. `flexsens check` builds them
 /// too, so that it refuses what `run` would.
 #[allow(clippy::type_complexity)]
-fn dual_models<const N: usize>(
+pub(crate) fn dual_models<const N: usize>(
     src: &Source,
     mech: &Mechanism,
 ) -> Result<(DesignModel<N>, Vec<(String, DMatrix<f64>)>), CliError> {

@@ -14,6 +14,7 @@ pub mod design;
 pub mod keys;
 pub mod laminates;
 pub mod mechanism;
+pub mod operating;
 pub mod optimize;
 pub mod overrides;
 pub mod raw;

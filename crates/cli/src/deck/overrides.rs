@@ -92,7 +92,13 @@ fn set(root: &mut Table, o: &Override) -> Result<(), OverrideError> {
 
 /// The deck's single tables, every key of which has a default or is named by the error that
 /// asks for it: `--set` creates them when the deck leaves them out.
-pub const CREATABLE: [&str; 4] = ["analysis", "sensitivity", "finite_differences", "optimize"];
+pub const CREATABLE: [&str; 5] = [
+    "analysis",
+    "sensitivity",
+    "finite_differences",
+    "optimize",
+    "operating",
+];
 
 /// `o.path[depth]` is a key of table `t`.
 fn in_table(t: &mut Table, o: &Override, depth: usize) -> Result<(), OverrideError> {

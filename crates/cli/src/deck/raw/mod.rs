@@ -57,6 +57,25 @@ pub struct RawDeck {
     pub finite_differences: Option<Spanned<RawFiniteDifferences>>,
     /// The problem of `flexsens optimize`.
     pub optimize: Option<Spanned<RawOptimize>>,
+    /// The operating points of `flexsens static`.
+    pub operating: Option<Spanned<RawOperating>>,
+}
+
+/// `[operating]`: the static equilibrium, or the steady spins about an angle driver's axis,
+/// of `flexsens static`, and the modes linearised about them.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawOperating {
+    /// The angle driver (one marker on the ground) whose axis the mechanism spins about.
+    pub driver: Option<Spanned<String>>,
+    /// The spin speeds (numbers in deg/s, or strings with a unit: `"750 rpm"`); default 0.
+    pub speeds: Option<Spanned<Vec<Spanned<toml::Value>>>>,
+    /// The drivers' time of the operating points (s; default the analysis's start).
+    pub time: Option<Spanned<f64>>,
+    /// How many linearised modes are reported (default 10).
+    pub modes: Option<Spanned<i64>>,
+    /// The rotor orders drawn on the Campbell diagram (default 1 to 4).
+    pub orders: Option<Spanned<Vec<Spanned<i64>>>>,
 }
 
 /// `[optimize]`: minimise or maximise one quantity over the `[design.*]` variables (within

@@ -112,6 +112,7 @@ fn every_deck_key_is_documented_in_the_section_of_its_table() {
         ("[finite_differences]", fields::<RawFiniteDifferences>()),
         ("[optimize]", fields::<RawOptimize>()),
         ("[optimize]", fields::<RawConstraint>()),
+        ("[operating]", fields::<RawOperating>()),
     ];
     let mut missing = Vec::new();
     for (heading, keys) in &tables {

@@ -1,0 +1,371 @@
+//! `flexsens static`: operating points through the command.
+//!
+//! - A rotating uniform cantilever (an aluminium strip on a driven hub): its flap frequencies
+//!   against the published values of Wright et al. (1982, "Vibration modes of centrifugally
+//!   stiffened beams", J. Appl. Mech. 49:197–202; the values also of Hodges & Rutkowski 1981)
+//!   at speeds up to λ = Ω/√(EI/ρAL⁴) = 12, which an Euler–Bernoulli finite-element model of
+//!   the rotating beam written here reproduces first; its lag frequency softened by the spin,
+//!   ω² = ω_F(Ω)² − Ω² with ω_F the flap law of the lag stiffness.
+//! - A pendulum of the mechanism tables under a side load: its equilibrium angle and
+//!   frequency against the closed forms, and the angle's derivative with respect to the
+//!   bob's mass against central differences of the command.
+
+mod common;
+
+use common::{json, run};
+use nalgebra::{DMatrix, SymmetricEigen};
+
+/// Wright et al. (1982), Table 1: the first two flap frequencies of a uniform cantilever
+/// without hub radius, ω/√(EI/ρAL⁴), at λ = 0 … 12.
+const WRIGHT: [(f64, f64, f64); 9] = [
+    (0.0, 3.5160, 22.0345),
+    (1.0, 3.6816, 22.1810),
+    (2.0, 4.1373, 22.6149),
+    (3.0, 4.7973, 23.3203),
+    (4.0, 5.5850, 24.2733),
+    (6.0, 7.3604, 26.8091),
+    (8.0, 9.2568, 29.9954),
+    (10.0, 11.2023, 33.6404),
+    (12.0, 13.1702, 37.6031),
+];
+
+/// The first frequencies (ω/√(EI/ρAL⁴)) of a rotating uniform Euler–Bernoulli cantilever
+/// at speed λ: Hermite elements with the centrifugal tension ρAΩ²(L² − x²)/2 as geometric
+/// stiffness (unit length, EI and ρA).
+fn rotating_cantilever(lambda: f64, elements: usize) -> Vec<f64> {
+    let n = 2 * elements;
+    let h = 1.0 / elements as f64;
+    let mut k = DMatrix::<f64>::zeros(n + 2, n + 2);
+    let mut m = DMatrix::<f64>::zeros(n + 2, n + 2);
+    let gauss = [
+        (-0.906_179_845_938_664, 0.236_926_885_056_189),
+        (-0.538_469_310_105_683, 0.478_628_670_499_366),
+        (0.0, 0.568_888_888_888_889),
+        (0.538_469_310_105_683, 0.478_628_670_499_366),
+        (0.906_179_845_938_664, 0.236_926_885_056_189),
+    ];
+    for e in 0..elements {
+        let x0 = e as f64 * h;
+        for &(g, w) in &gauss {
+            let s = (g + 1.0) / 2.0;
+            let x = x0 + s * h;
+            let shape = [
+                1.0 - 3.0 * s * s + 2.0 * s.powi(3),
+                h * (s - 2.0 * s * s + s.powi(3)),
+                3.0 * s * s - 2.0 * s.powi(3),
+                h * (s.powi(3) - s * s),
+            ];
+            let slope = [
+                (6.0 * s * s - 6.0 * s) / h,
+                1.0 - 4.0 * s + 3.0 * s * s,
+                (6.0 * s - 6.0 * s * s) / h,
+                3.0 * s * s - 2.0 * s,
+            ];
+            let curvature = [
+                (12.0 * s - 6.0) / (h * h),
+                (6.0 * s - 4.0) / h,
+                (6.0 - 12.0 * s) / (h * h),
+                (6.0 * s - 2.0) / h,
+            ];
+            let tension = lambda * lambda * (1.0 - x * x) / 2.0;
+            for a in 0..4 {
+                for b in 0..4 {
+                    let (i, j) = (2 * e + a, 2 * e + b);
+                    let wh = w * h / 2.0;
+                    k[(i, j)] += wh * (curvature[a] * curvature[b] + tension * slope[a] * slope[b]);
+                    m[(i, j)] += wh * shape[a] * shape[b];
+                }
+            }
+        }
+    }
+    // clamped at x = 0
+    let k = k.view((2, 2), (n, n)).into_owned();
+    let m = m.view((2, 2), (n, n)).into_owned();
+    let l = m.cholesky().unwrap().l();
+    let li = l.clone().try_inverse().unwrap();
+    let a: DMatrix<f64> = &li * k * li.transpose();
+    let mut w: Vec<f64> = SymmetricEigen::new(a)
+        .eigenvalues
+        .iter()
+        .map(|x| x.sqrt())
+        .collect();
+    w.sort_by(f64::total_cmp);
+    w
+}
+
+#[test]
+fn the_rotating_beam_model_of_the_test_reproduces_the_published_table() {
+    for &(lambda, w1, w2) in &WRIGHT {
+        let w = rotating_cantilever(lambda, 40);
+        assert!(
+            (w[0] / w1 - 1.0).abs() < 1e-4,
+            "λ = {lambda}: {} vs {w1}",
+            w[0]
+        );
+        assert!(
+            (w[1] / w2 - 1.0).abs() < 1e-4,
+            "λ = {lambda}: {} vs {w2}",
+            w[1]
+        );
+    }
+}
+
+/// An aluminium strip 1 m long, 12 mm wide in the plane of the spin and 2 mm thick along the
+/// spin axis, clamped to a hub driven about z.
+const BLADE: &str = r#"
+title = "Rotating uniform strip"
+
+[material.aluminium]
+E = 70.0e9
+nu = 0.3
+density = 2700.0
+
+[section.strip]
+shape = "rectangle"
+width = 0.012     # along x2: global y, in the plane of the spin (lag)
+height = 0.002    # along x3: global z, the spin axis (flap)
+material = "aluminium"
+elements = [24, 4]
+
+[body.blade]
+kind = "beam"
+section = "strip"
+start = [0.0, 0.0, 0.0]
+end = [1.0, 0.0, 0.0]
+orientation = [0.0, 1.0, 0.0]
+elements = 30
+modes = 12
+reference = "clamped-node"
+
+[joint.hub]
+kind = "revolute"
+a = { body = "ground", point = [0.0, 0.0, 0.0], axis = [0.0, 0.0, 1.0] }
+b = { body = "blade", node = 0, axis = [0.0, 0.0, 1.0] }
+
+[joint.motor]
+kind = "angle-driver"
+a = { body = "ground", point = [0.0, 0.0, 0.0], axis = [0.0, 0.0, 1.0], reference = [1.0, 0.0, 0.0] }
+b = { body = "blade", node = 0, axis = [0.0, 0.0, 1.0], reference = [1.0, 0.0, 0.0] }
+motion = { kind = "constant-speed", rate = 0.0 }
+
+[response.tip_flap]
+kind = "nodal-displacement"
+body = "blade"
+node = 30
+component = "uz"
+
+[analysis]
+t_end = 0.01
+"#;
+
+#[test]
+fn rotating_cantilever_flap_and_lag_frequencies_match_the_published_values() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("blade.toml");
+    std::fs::write(&path, BLADE).unwrap();
+    let (e, rho, b, h) = (70.0e9, 2700.0, 0.012, 0.002);
+    let rho_a = rho * b * h;
+    let scale = |ei: f64| (ei / rho_a).sqrt();
+    let (flap, lag) = (
+        scale(e * b * h.powi(3) / 12.0),
+        scale(e * h * b.powi(3) / 12.0),
+    );
+    let speeds: Vec<String> = WRIGHT
+        .iter()
+        .map(|(l, _, _)| format!("\"{} rad/s\"", l * flap))
+        .collect();
+    let j = json(&[
+        "static",
+        path.to_str().unwrap(),
+        "-o",
+        dir.path().join("out").to_str().unwrap(),
+        "--json",
+        "--set",
+        "operating.driver=motor",
+        "--set",
+        &format!("operating.speeds=[{}]", speeds.join(",")),
+    ]);
+    let points = j["points"].as_array().unwrap();
+    assert_eq!(points.len(), WRIGHT.len());
+    let two_pi = 2.0 * std::f64::consts::PI;
+    for (p, &(lambda, w1, w2)) in points.iter().zip(&WRIGHT) {
+        let omega = lambda * flap;
+        let f: Vec<f64> = (p["modes"].as_array().unwrap().iter())
+            .map(|m| m["frequency_hz"].as_f64().unwrap() * two_pi)
+            .collect();
+        let nearest = |w: f64| {
+            f.iter()
+                .copied()
+                .min_by(|a, b| (a - w).abs().total_cmp(&(b - w).abs()))
+                .unwrap()
+        };
+        for (name, expected) in [("flap 1", w1 * flap), ("flap 2", w2 * flap)] {
+            let got = nearest(expected);
+            assert!(
+                (got / expected - 1.0).abs() < 5e-3,
+                "λ = {lambda}: {name} {got} rad/s, published {expected}"
+            );
+        }
+        // lag: the flap law of the lag stiffness, softened by Ω²
+        let lag_rotating = rotating_cantilever(omega / lag, 40)[0] * lag;
+        let expected = (lag_rotating * lag_rotating - omega * omega).sqrt();
+        let got = nearest(expected);
+        assert!(
+            (got / expected - 1.0).abs() < 5e-3,
+            "λ = {lambda}: lag {got} rad/s, expected {expected} (unsoftened {lag_rotating})"
+        );
+    }
+    for f in ["operating.csv", "frequencies.csv", "campbell.svg"] {
+        assert!(dir.path().join("out").join(f).exists(), "{f}");
+    }
+}
+
+#[test]
+fn static_refuses_a_speed_without_a_driver() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("blade.toml");
+    std::fs::write(&path, BLADE).unwrap();
+    let o = run(&[
+        "static",
+        path.to_str().unwrap(),
+        "--set",
+        "operating.speeds=[0, 100]",
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("operating.speeds.1") && err.contains("needs `operating.driver`"),
+        "{err}"
+    );
+    let o = run(&[
+        "static",
+        path.to_str().unwrap(),
+        "--set",
+        "operating.driver=hub",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("not an angle driver"),
+        "{err}"
+    );
+}
+
+/// A cantilever of the paper's composite tube (0.3 m), clamped to the ground, under gravity.
+const CANTILEVER: &str = r#"
+title = "Composite tube cantilever under gravity"
+
+[material.paper_composite]
+E1 = 128.0e9
+E2 = 10.1e9
+E3 = 10.1e9
+G12 = 5.36e9
+G13 = 5.36e9
+G23 = 5.36e9
+nu12 = 0.23
+nu13 = 0.23
+nu23 = 0.23
+density = 1586.0
+
+[laminate.tube_wall]
+plies = [
+  { material = "paper_composite", thickness = 0.25e-3, angle = 15.0 },
+  { material = "paper_composite", thickness = 0.25e-3, angle = 15.0 },
+  { material = "paper_composite", thickness = 0.25e-3, angle = 15.0 },
+  { material = "paper_composite", thickness = 0.25e-3, angle = 15.0 },
+]
+
+[section.tube]
+shape = "tube"
+inner_radius = 4.529e-3
+laminate = "tube_wall"
+elements_per_ply = 1
+elements_around = 32
+
+[body.rod]
+kind = "beam"
+section = "tube"
+start = [0.0, 0.0, 0.0]
+end = [0.3, 0.0, 0.0]
+orientation = [0.0, 1.0, 0.0]
+elements = 48
+modes = 20
+reference = "clamped-node"
+
+[joint.root]
+kind = "fixed"
+a = { body = "ground", point = [0.0, 0.0, 0.0] }
+b = { body = "rod", node = 0 }
+
+[force.gravity]
+kind = "gravity"
+acceleration = [0.0, 0.0, -9.81]
+
+[response.tip]
+kind = "nodal-displacement"
+body = "rod"
+node = 48
+component = "uz"
+
+[design.theta]
+laminate = "tube_wall"
+
+[analysis]
+t_end = 0.01
+"#;
+
+/// The tip's static deflection of the cantilever deck with its plies at `angle` (deg), and
+/// its derivative with respect to `theta` (per degree).
+fn cantilever_tip(dir: &std::path::Path, angle: f64) -> (f64, f64) {
+    let path = dir.join("cantilever.toml");
+    std::fs::write(
+        &path,
+        CANTILEVER.replace("angle = 15.0", &format!("angle = {angle}")),
+    )
+    .unwrap();
+    let j = json(&[
+        "static",
+        path.to_str().unwrap(),
+        "-o",
+        dir.join("out").to_str().unwrap(),
+        "--json",
+    ]);
+    let p = &j["points"][0];
+    (
+        p["responses"]["tip"].as_f64().unwrap(),
+        p["gradients"]["tip"]["theta"].as_f64().unwrap(),
+    )
+}
+
+#[test]
+fn cantilever_sags_as_timoshenko_beam_theory_and_its_derivative_equals_differences() {
+    let dir = tempfile::tempdir().unwrap();
+    let (tip, derivative) = cantilever_tip(dir.path(), 15.0);
+    // δ = F_MM q L⁴ / 8 + F_VV q L² / 2 with the section's compliance F = S⁻¹ (the tube's
+    // plies all at 15° couple bending about x2 with shear along x2, which halves its
+    // flexural stiffness when that shear is free: F_MM = 1/EI2 of the classical stiffness)
+    let path = dir.path().join("cantilever.toml");
+    let s = json(&["section", path.to_str().unwrap(), "--format", "json"]);
+    let v = &s["sections"]["tube"]["values"];
+    let stiffness = DMatrix::from_fn(6, 6, |i, j| v["stiffness"][i][j].as_f64().unwrap());
+    let f = stiffness.try_inverse().unwrap();
+    let q = v["mass_per_length"].as_f64().unwrap() * 9.81;
+    let l: f64 = 0.3;
+    let expected = -(f[(4, 4)] * q * l.powi(4) / 8.0 + f[(2, 2)] * q * l * l / 2.0);
+    let classical = v["classical_stiffness"][2][2].as_f64().unwrap();
+    assert!((f[(4, 4)] * classical - 1.0).abs() < 1e-9);
+    assert!(
+        (tip / expected - 1.0).abs() < 2e-4,
+        "tip {tip} m, beam theory {expected} m"
+    );
+    // the derivative against central differences of the command (per degree)
+    let h = 0.01;
+    let (up, _) = cantilever_tip(dir.path(), 15.0 + h);
+    let (down, _) = cantilever_tip(dir.path(), 15.0 - h);
+    let fd = (up - down) / (2.0 * h);
+    assert!(
+        (derivative / fd - 1.0).abs() < 1e-5,
+        "d tip/d theta {derivative}, central differences {fd}"
+    );
+    // plies turned from the axis soften the tube: it sags further (δ < 0 grows in size)
+    assert!(derivative < 0.0, "{derivative}");
+}
