@@ -16,9 +16,9 @@
 //! the operating point's modes.
 
 use nalgebra::{Complex, DMatrix, DVector, Vector3, Vector4};
-use sens::{Dual, Scalar, chunk_ranges};
+use sens::{Dual, HyperDual, Scalar, chunk_ranges};
 
-use crate::kin::{mtv, rotation, skew};
+use crate::kin::{mtv, rotation};
 use crate::system::apply_increment;
 use crate::{DesignModel, JointId, JointKind, Model, State};
 
@@ -163,18 +163,37 @@ impl Spin {
         (v, a)
     }
 
-    /// The rotating frame's Coriolis operator `G` on the velocity variables at `q`:
-    /// `2 Ω×` on the translations, `ω'ₛ×` on the body-frame rotations.
-    fn coriolis<P: Scalar>(&self, model: &Model<P>, q: &[f64]) -> DMatrix<f64> {
-        let n = model.n_v();
-        let mut g = DMatrix::zeros(n, n);
-        let omega = self.axis * self.speed;
-        let (v, _) = self.motion::<P, f64>(model, q);
+    /// `G u`: the rotating frame's Coriolis operator on the velocity variables at `q` applied
+    /// to `u` (`2 Ω × u` on the translations, `ω'ₛ × u` on the body-frame rotations, with
+    /// `ω'ₛ = AᵀΩ`, zero on the modal coordinates).
+    fn coriolis_times<P: Scalar, S: Scalar>(&self, model: &Model<P>, q: &[S], u: &[f64]) -> Vec<S> {
+        let mut out = vec![S::zero(); model.n_v()];
+        let omega: Vector3<S> = (self.axis * self.speed).map(S::from_f64);
+        let (v, _) = self.motion::<P, S>(model, q);
         for id in model.body_ids() {
             let o = model.v_range(id).start;
             let w = Vector3::new(v[o + 3], v[o + 4], v[o + 5]);
-            g.view_mut((o, o), (3, 3)).copy_from(&(skew(&omega) * 2.0));
-            g.view_mut((o + 3, o + 3), (3, 3)).copy_from(&skew(&w));
+            let ut = Vector3::new(u[o], u[o + 1], u[o + 2]).map(S::from_f64);
+            let ur = Vector3::new(u[o + 3], u[o + 4], u[o + 5]).map(S::from_f64);
+            let (gt, gr) = (omega.cross(&ut), w.cross(&ur));
+            for i in 0..3 {
+                out[o + i] = gt[i] * 2.0;
+                out[o + 3 + i] = gr[i];
+            }
+        }
+        out
+    }
+
+    /// `G` as a matrix at `q`.
+    fn coriolis<P: Scalar>(&self, model: &Model<P>, q: &[f64]) -> DMatrix<f64> {
+        let n = model.n_v();
+        let mut g = DMatrix::zeros(n, n);
+        let mut e = vec![0.0; n];
+        for j in 0..n {
+            e[j] = 1.0;
+            g.column_mut(j)
+                .copy_from_slice(&self.coriolis_times::<P, f64>(model, q, &e));
+            e[j] = 0.0;
         }
         g
     }
@@ -189,13 +208,33 @@ fn residual<P: Scalar, S: Scalar + From<P>>(
     q: &[S],
     lambda: &[S],
 ) -> Vec<S> {
-    let (v, a) = match spin {
+    let (v, a) = steady_motion(model, spin, q);
+    equations(model, t, rows, (q, &v, &a), lambda)
+}
+
+/// The spin's velocities and accelerations at `q` (zero without a spin).
+fn steady_motion<P: Scalar, S: Scalar>(
+    model: &Model<P>,
+    spin: Option<&Spin>,
+    q: &[S],
+) -> (Vec<S>, Vec<S>) {
+    match spin {
         Some(s) => s.motion(model, q),
         None => (vec![S::zero(); model.n_v()], vec![S::zero(); model.n_v()]),
-    };
-    let (m, f) = model.mass_and_forces(t, q, &v);
-    let k = model.constraint_kin(t, q, &v);
-    let mut out: Vec<S> = m.mul(&a).into_iter().zip(f).map(|(x, y)| x - y).collect();
+    }
+}
+
+/// `[M(q) a − f(q, v) + Φ_vᵀ λ; Φ_rows(q)]`.
+fn equations<P: Scalar, S: Scalar + From<P>>(
+    model: &Model<P>,
+    t: f64,
+    rows: &[usize],
+    (q, v, a): (&[S], &[S], &[S]),
+    lambda: &[S],
+) -> Vec<S> {
+    let (m, f) = model.mass_and_forces(t, q, v);
+    let k = model.constraint_kin(t, q, v);
+    let mut out: Vec<S> = m.mul(a).into_iter().zip(f).map(|(x, y)| x - y).collect();
     for (&row, &l) in rows.iter().zip(lambda) {
         for (col, &x) in k[row].jac.iter() {
             out[col] += x * l;
@@ -485,6 +524,9 @@ pub struct LinearMode {
     /// The mode in the velocity variables (`d`, `n_v` complex components), unit largest
     /// component.
     pub shape: DVector<Complex<f64>>,
+    /// The right and left eigenvectors of the reduced problem.
+    right: DVector<Complex<f64>>,
+    left: DVector<Complex<f64>>,
 }
 
 impl LinearMode {
@@ -507,6 +549,16 @@ impl LinearMode {
             0.0
         }
     }
+
+    /// The derivative of [`LinearMode::frequency_hz`] from the eigenvalue's derivative `ds`.
+    pub fn frequency_derivative(&self, ds: Complex<f64>) -> f64 {
+        let n = self.eigenvalue.norm();
+        if n > 0.0 {
+            (self.eigenvalue.conj() * ds).re / n / (2.0 * std::f64::consts::PI)
+        } else {
+            0.0
+        }
+    }
 }
 
 /// The linearised equations about an operating point, reduced to independent coordinates
@@ -520,6 +572,9 @@ pub struct Linearisation {
     pub damping: DMatrix<f64>,
     /// Elastic, geometric, centrifugal and constraint-force stiffness.
     pub stiffness: DMatrix<f64>,
+    /// The unreduced `M`, `C`, `K` (`n_v × n_v`) and the rows' `Φ_v`.
+    full: [DMatrix<f64>; 3],
+    jacobian: DMatrix<f64>,
 }
 
 impl OperatingPoint {
@@ -552,14 +607,16 @@ impl OperatingPoint {
             c += &m * s.coriolis(model, q);
         }
         let kin = model.constraints(self.t, q, &self.state.v);
-        let jac = kin.jacobian.select_rows(&self.rows);
-        let basis = null_space(&jac);
+        let jacobian = kin.jacobian.select_rows(&self.rows);
+        let basis = null_space(&jacobian);
         let project = |a: &DMatrix<f64>| basis.transpose() * a * &basis;
         Linearisation {
             mass: project(&m),
             damping: project(&c),
             stiffness: project(&k),
             basis,
+            full: [m, c, k],
+            jacobian,
         }
     }
 }
@@ -567,22 +624,33 @@ impl OperatingPoint {
 /// Orthonormal columns spanning the null space of `a` (`m × n`).
 fn null_space(a: &DMatrix<f64>) -> DMatrix<f64> {
     let n = a.ncols();
+    if a.nrows() == 0 {
+        return DMatrix::identity(n, n);
+    }
     let eig = (a.transpose() * a).symmetric_eigen();
     let scale = eig.eigenvalues.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     let cols: Vec<usize> = (0..n)
         .filter(|&i| eig.eigenvalues[i].abs() <= 1e-10 * scale.max(1e-300))
         .collect();
-    let mut basis = eig.eigenvectors.select_columns(&cols);
-    if a.nrows() == 0 {
-        basis = DMatrix::identity(n, n);
-    }
-    basis
+    eig.eigenvectors.select_columns(&cols)
+}
+
+type CMatrix = DMatrix<Complex<f64>>;
+type CVector = DVector<Complex<f64>>;
+
+fn complex(a: &DMatrix<f64>) -> CMatrix {
+    a.map(|x| Complex::new(x, 0.0))
 }
 
 impl Linearisation {
     /// The number of independent coordinates.
     pub fn dim(&self) -> usize {
         self.basis.ncols()
+    }
+
+    /// `M̄ s² + C̄ s + K̄`.
+    fn reduced_operator(&self, s: Complex<f64>) -> CMatrix {
+        complex(&self.mass) * (s * s) + complex(&self.damping) * s + complex(&self.stiffness)
     }
 
     /// The eigenvalues of `M̄ s² + C̄ s + K̄` with their modes: one of each complex-conjugate
@@ -603,14 +671,15 @@ impl Linearisation {
             .copy_from(&(-&minv * &self.stiffness));
         a.view_mut((f, f), (f, f))
             .copy_from(&(-&minv * &self.damping));
-        let values = a.clone().complex_eigenvalues();
-        let scale = values.iter().fold(1.0f64, |m, s| m.max(s.norm()));
+        let values = a.complex_eigenvalues();
         let mut modes: Vec<LinearMode> = values
             .iter()
             .filter(|s| s.im >= 0.0)
             .map(|&s| {
-                let z = inverse_iteration(&a, s, scale);
-                let shape = self.basis.map(|x| Complex::new(x, 0.0)) * z.rows(0, f);
+                let q = self.reduced_operator(s);
+                let right = null_vector(&q);
+                let left = null_vector(&q.adjoint());
+                let shape = complex(&self.basis) * &right;
                 let big = shape.iter().fold(Complex::new(0.0, 0.0), |m, x| {
                     if x.norm() > m.norm() { *x } else { m }
                 });
@@ -618,6 +687,8 @@ impl Linearisation {
                 LinearMode {
                     eigenvalue: s,
                     shape,
+                    right,
+                    left,
                 }
             })
             .collect();
@@ -626,16 +697,17 @@ impl Linearisation {
     }
 }
 
-/// An eigenvector of `a` for the eigenvalue `s` by two steps of inverse iteration.
-fn inverse_iteration(a: &DMatrix<f64>, s: Complex<f64>, scale: f64) -> DVector<Complex<f64>> {
-    let n = a.nrows();
-    let shift = s + Complex::new(1e-10 * scale, 1e-10 * scale);
-    let mut b = a.map(|x| Complex::new(x, 0.0));
+/// A unit vector spanning the (numerical) null space of the square `q`, by inverse
+/// iteration.
+fn null_vector(q: &CMatrix) -> CVector {
+    let n = q.nrows();
+    let scale = q.iter().fold(0.0f64, |m, x| m.max(x.norm())).max(1e-300);
+    let mut b = q.clone();
     for i in 0..n {
-        b[(i, i)] -= shift;
+        b[(i, i)] += Complex::new(1e-13 * scale, 1e-13 * scale);
     }
     let lu = b.lu();
-    let mut x = DVector::from_fn(n, |i, _| Complex::new(1.0 + 0.1 * (i as f64).sin(), 0.0));
+    let mut x = CVector::from_fn(n, |i, _| Complex::new(1.0 + 0.1 * (i as f64).sin(), 0.0));
     for _ in 0..3 {
         if let Some(y) = lu.solve(&x) {
             let norm = y.norm();
@@ -702,5 +774,129 @@ impl OperatingPoint {
             }
         }
         Ok(out)
+    }
+}
+
+/// What the eigenvalue derivative of one mode needs: the unreduced right mode `x` with the
+/// multipliers' amplitude `μ` (`L(s) x + Φ_vᵀ μ = 0`), the left vector `[y; ν]` of the
+/// constrained problem and `yᴴ (2 s M + C) x`.
+struct ModeVectors {
+    s: Complex<f64>,
+    x: CVector,
+    mu: CVector,
+    left: CVector,
+    scale: Complex<f64>,
+}
+
+impl Linearisation {
+    fn mode_vectors(&self, mode: &LinearMode) -> ModeVectors {
+        let s = mode.eigenvalue;
+        let [m, c, k] = &self.full;
+        let basis = complex(&self.basis);
+        let (x, y) = (&basis * &mode.right, &basis * &mode.left);
+        let l = complex(k) + complex(c) * s + complex(m) * (s * s);
+        // (J Jᵀ)⁻¹ J v, the multipliers that balance v in the least-squares sense
+        let jac = &self.jacobian;
+        let jjt = (jac * jac.transpose()).lu();
+        let balance = |v: &CVector| -> CVector {
+            let part = |f: fn(&Complex<f64>) -> f64| {
+                let r = jac * v.map(|z| f(&z));
+                jjt.solve(&r).unwrap_or_else(|| DVector::zeros(r.len()))
+            };
+            let (re, im) = (part(|z| z.re), part(|z| z.im));
+            CVector::from_fn(re.len(), |i, _| Complex::new(re[i], im[i]))
+        };
+        let mu = -balance(&(&l * &x));
+        let nu = -balance(&(l.adjoint() * &y));
+        let scale = y.dotc(&((complex(m) * (s * 2.0) + complex(c)) * &x));
+        let mut left = CVector::zeros(y.len() + nu.len());
+        left.rows_mut(0, y.len()).copy_from(&y);
+        left.rows_mut(y.len(), nu.len()).copy_from(&nu);
+        ModeVectors {
+            s,
+            x,
+            mu,
+            left,
+            scale,
+        }
+    }
+}
+
+impl OperatingPoint {
+    /// The design derivatives `ds/db_j` of the eigenvalues of `modes` (from `lin`, this
+    /// point's linearisation of the values of `design`), through the equilibrium's own
+    /// derivatives `sens` ([`OperatingPoint::sensitivities`]); rows: modes.
+    ///
+    /// For the constrained eigenproblem `T(s) [x; μ] = [L(s) x + Φ_vᵀ μ; Φ_v x] = 0`,
+    /// `ds/db = −[y; ν]ᴴ (∂T/∂b) [x; μ] / yᴴ (2 s M + C) x`; `(∂T/∂b) [x; μ]` is the design
+    /// derivative of the equations' derivative along the mode (`d = x`, `ḋ = s x`,
+    /// `d̈ = s² x`, `δλ = μ`), both exact at once as the mixed part of hyper-dual numbers
+    /// (`ε₁` along the mode, `ε₂` along the design variable and the equilibrium's
+    /// derivative), for the real and imaginary parts of the mode.
+    pub fn eigenvalue_derivatives<const N: usize>(
+        &self,
+        lin: &Linearisation,
+        modes: &[LinearMode],
+        design: &DesignModel<N>,
+        sens: &OperatingSensitivities,
+    ) -> DMatrix<Complex<f64>> {
+        let vectors: Vec<ModeVectors> = modes.iter().map(|m| lin.mode_vectors(m)).collect();
+        let mut out =
+            DMatrix::from_element(modes.len(), design.n_variables(), Complex::new(0.0, 0.0));
+        for (chunk, range) in design.chunk_ranges() {
+            for (k, j) in range.enumerate() {
+                let model = chunk.map(|p: Dual<N>| HyperDual::new(p.v, 0.0, p.d[k]));
+                let q: Vec<HyperDual> = (self.state.q.iter().enumerate())
+                    .map(|(i, &x)| HyperDual::new(x, 0.0, sens.q[(i, j)]))
+                    .collect();
+                let lambda: Vec<HyperDual> = (self.lambda.iter().enumerate())
+                    .map(|(a, &x)| HyperDual::new(x, 0.0, sens.lambda[(a, j)]))
+                    .collect();
+                for (i, v) in vectors.iter().enumerate() {
+                    let re = self.mixed_along(&model, &q, &lambda, v, |z| z.re);
+                    let im = self.mixed_along(&model, &q, &lambda, v, |z| z.im);
+                    let g = CVector::from_fn(re.len(), |r, _| Complex::new(re[r], im[r]));
+                    out[(i, j)] = -v.left.dotc(&g) / v.scale;
+                }
+            }
+        }
+        out
+    }
+
+    /// The mixed parts of the equations at the hyper-dual state `(q, λ)` moved by `ε₁` along
+    /// the part `part` (real or imaginary) of the mode `v`.
+    fn mixed_along(
+        &self,
+        model: &Model<HyperDual>,
+        q: &[HyperDual],
+        lambda: &[HyperDual],
+        v: &ModeVectors,
+        part: fn(&Complex<f64>) -> f64,
+    ) -> Vec<f64> {
+        let nv = model.n_v();
+        let dir = |z: &CVector| -> Vec<f64> { z.iter().map(part).collect() };
+        let (x, sx, ssx) = (dir(&v.x), dir(&(&v.x * v.s)), dir(&(&v.x * (v.s * v.s))));
+        let eps = |u: f64| HyperDual::new(0.0, u, 0.0);
+        // q ⊕ ε₁ x, exact to the mixed order (the increment map moves with the equilibrium)
+        let inc: Vec<HyperDual> = x.iter().map(|&u| eps(u)).collect();
+        let mut qdot = vec![HyperDual::from(0.0); q.len()];
+        model.kinematic_rates(q, &inc, &mut qdot);
+        let qh: Vec<HyperDual> = q.iter().zip(&qdot).map(|(a, b)| *a + *b).collect();
+        let (mut vh, mut ah) = steady_motion(model, self.spin.as_ref(), &qh);
+        let gsx = match &self.spin {
+            Some(s) => s.coriolis_times(model, q, &sx),
+            None => vec![HyperDual::from(0.0); nv],
+        };
+        for i in 0..nv {
+            vh[i] += eps(sx[i]);
+            ah[i] += eps(1.0) * gsx[i] + eps(ssx[i]);
+        }
+        let lh: Vec<HyperDual> = (lambda.iter().zip(dir(&v.mu)))
+            .map(|(l, m)| *l + eps(m))
+            .collect();
+        equations(model, self.t, &self.rows, (&qh, &vh, &ah), &lh)
+            .iter()
+            .map(|r| r.mixed())
+            .collect()
     }
 }

@@ -314,3 +314,71 @@ fn a_free_mechanism_has_no_equilibrium() {
     let err = equilibrium(&model, sys.active_rows(), 0.0, &state, None, &options).unwrap_err();
     assert!(matches!(err, OperatingError::Singular { .. }), "{err}");
 }
+
+/// The first frequency (rad/s) of an operating point and its derivative with respect to the
+/// one design variable of `design`.
+fn frequency_and_derivative(
+    model: &Model<f64>,
+    design: &DesignModel<1>,
+    op: &mbs::OperatingPoint,
+) -> (f64, f64) {
+    let lin = op.linearise(model);
+    let modes = lin.modes().unwrap();
+    let s = op.sensitivities(design).unwrap();
+    let ds = op.eigenvalue_derivatives(&lin, &modes[..1], design, &s);
+    let two_pi = 2.0 * std::f64::consts::PI;
+    (
+        modes[0].frequency_hz() * two_pi,
+        modes[0].frequency_derivative(ds[(0, 0)]) * two_pi,
+    )
+}
+
+#[test]
+fn spinning_slider_frequency_derivative_equals_the_closed_form() {
+    let (m, k, l0, speed) = (0.5, 200.0, 0.2, 12.0);
+    let (model, mut state, motor) = spinning_slider(m, k, l0, speed);
+    let sys = system(&model, &mut state);
+    let spin = Spin::of_driver(&model, motor, speed).unwrap();
+    let op = equilibrium(
+        &model,
+        sys.active_rows(),
+        0.0,
+        &state,
+        Some(spin),
+        &Default::default(),
+    )
+    .unwrap();
+    let (dual, _, _) = spinning_slider(Dual::<1>::variable(m, 0), k, l0, speed);
+    let design = DesignModel::new(vec![dual], 1).unwrap();
+    let (omega, d_omega) = frequency_and_derivative(&model, &design, &op);
+    // ω = √(k/m − Ω²): dω/dm = −k / (2 m² ω)
+    let exact = -k / (2.0 * m * m * omega);
+    assert!((d_omega / exact - 1.0).abs() < 1e-8, "{d_omega} vs {exact}");
+}
+
+#[test]
+fn pendulum_frequency_derivative_through_its_equilibrium_equals_the_closed_form() {
+    let (m, side) = (2.0, 5.0);
+    let (model, mut state) = pendulum(m, side, 0.3);
+    let sys = system(&model, &mut state);
+    let op = equilibrium(
+        &model,
+        sys.active_rows(),
+        0.0,
+        &state,
+        None,
+        &Default::default(),
+    )
+    .unwrap();
+    let (dual, _) = pendulum(Dual::<1>::variable(m, 0), side, 0.3);
+    let design = DesignModel::new(vec![dual], 1).unwrap();
+    let (omega, d_omega) = frequency_and_derivative(&model, &design, &op);
+    // ω² = ½ √((mg)² + F²) / (m/3): the mass moves the angle (the pin force) and the inertia
+    let w2 = |m: f64| 1.5 * ((m * G).powi(2) + side * side).sqrt() / m;
+    let dw2 = 1.5
+        * (m * G * G / ((m * G).powi(2) + side * side).sqrt() / m
+            - ((m * G).powi(2) + side * side).sqrt() / (m * m));
+    assert!((omega * omega / w2(m) - 1.0).abs() < 1e-9);
+    let exact = dw2 / (2.0 * omega);
+    assert!((d_omega / exact - 1.0).abs() < 1e-8, "{d_omega} vs {exact}");
+}

@@ -1,9 +1,11 @@
-//! `sens` — the bottom layer of flexsens: exact first-order derivatives.
+//! `sens` — the bottom layer of flexsens: exact first-order derivatives (and the mixed
+//! second-order ones the eigenvalues of a linearisation need).
 //!
 //! It owns
 //! - the [`Scalar`] trait, the one numeric generic of the project, implemented for `f64`
 //!   (plain analysis) and for [`Dual<N>`] (a value plus `N` tangent components, hand-written
-//!   forward-mode automatic differentiation);
+//!   forward-mode automatic differentiation), and for [`HyperDual`] (two tangents and their
+//!   mixed second-order part: the design derivative of a directional derivative);
 //! - seeding of design variables and the evaluation of a function of many design variables in
 //!   chunks of a compile-time width `N` ([`seed`], [`jacobian`]);
 //! - pushing tangents through a linear solve whose matrix was factorised once in `f64`
@@ -15,6 +17,7 @@
 //! It knows nothing about laminates, finite elements, multibody systems or decks.
 
 mod dual;
+mod hyper;
 mod lu;
 mod scalar;
 pub mod seed;
@@ -22,6 +25,7 @@ pub mod solve;
 pub mod sparse;
 
 pub use dual::Dual;
+pub use hyper::HyperDual;
 pub use lu::DenseLu;
 pub use scalar::Scalar;
 pub use seed::{Jacobian, chunk_ranges, gradient, jacobian, seed_chunk};
