@@ -369,3 +369,87 @@ fn cantilever_sags_as_timoshenko_beam_theory_and_its_derivative_equals_differenc
     // plies turned from the axis soften the tube: it sags further (δ < 0 grows in size)
     assert!(derivative < 0.0, "{derivative}");
 }
+
+/// The cantilever deck turned into a rotor: the tube on a hub driven about z, no gravity.
+fn rotor(angle: f64) -> String {
+    CANTILEVER
+        .replace("angle = 15.0", &format!("angle = {angle}"))
+        .replace(
+            r#"[joint.root]
+kind = "fixed"
+a = { body = "ground", point = [0.0, 0.0, 0.0] }
+b = { body = "rod", node = 0 }
+
+[force.gravity]
+kind = "gravity"
+acceleration = [0.0, 0.0, -9.81]
+"#,
+            r#"[joint.hub]
+kind = "revolute"
+a = { body = "ground", point = [0.0, 0.0, 0.0], axis = [0.0, 0.0, 1.0] }
+b = { body = "rod", node = 0, axis = [0.0, 0.0, 1.0] }
+
+[joint.motor]
+kind = "angle-driver"
+a = { body = "ground", point = [0.0, 0.0, 0.0], axis = [0.0, 0.0, 1.0], reference = [1.0, 0.0, 0.0] }
+b = { body = "rod", node = 0, axis = [0.0, 0.0, 1.0], reference = [1.0, 0.0, 0.0] }
+motion = { kind = "constant-speed", rate = 0.0 }
+
+[operating]
+driver = "motor"
+speeds = ["0 rpm", "3000 rpm", "6000 rpm"]
+modes = 6
+"#,
+        )
+        .replace("elements = 48\nmodes = 20", "elements = 24\nmodes = 10")
+        .replace("node = 48", "node = 24")
+}
+
+/// Per speed, the rotor's first frequencies (Hz) and their derivatives with respect to
+/// `theta` (Hz/deg), with the plies at `angle`.
+fn rotor_frequencies(dir: &std::path::Path, angle: f64) -> Vec<Vec<(f64, f64)>> {
+    let path = dir.join("rotor.toml");
+    std::fs::write(&path, rotor(angle)).unwrap();
+    let j = json(&[
+        "static",
+        path.to_str().unwrap(),
+        "-o",
+        dir.join("rotor").to_str().unwrap(),
+        "--json",
+    ]);
+    (j["points"].as_array().unwrap().iter())
+        .map(|p| {
+            (p["modes"].as_array().unwrap().iter())
+                .map(|m| {
+                    (
+                        m["frequency_hz"].as_f64().unwrap(),
+                        m["frequency_derivatives"]["theta"].as_f64().unwrap(),
+                    )
+                })
+                .collect()
+        })
+        .collect()
+}
+
+#[test]
+fn rotating_frequencies_derivatives_equal_central_differences_of_the_command() {
+    let dir = tempfile::tempdir().unwrap();
+    let nominal = rotor_frequencies(dir.path(), 15.0);
+    // the model's frequencies carry noise of about 1e-8 of their value (the section and modal
+    // solutions' tolerances), so the step is not smaller
+    let h = 0.05;
+    let up = rotor_frequencies(dir.path(), 15.0 + h);
+    let down = rotor_frequencies(dir.path(), 15.0 - h);
+    for (speed, ((n, u), d)) in nominal.iter().zip(&up).zip(&down).enumerate() {
+        for (k, &(f, df)) in n.iter().enumerate() {
+            let fd = (u[k].0 - d[k].0) / (2.0 * h);
+            assert!(
+                (df - fd).abs() <= 1e-4 * fd.abs().max(1e-3 * f),
+                "speed {speed}, mode {}: df/dθ {df} Hz/deg, central differences {fd} ({f} Hz)",
+                k + 1
+            );
+        }
+    }
+    // the spin stiffens the flap modes and splits the tube's pairs (lag softens by Ω²)
+    assert!(nominal[2][0].0 != nominal[2][1].0);
+}

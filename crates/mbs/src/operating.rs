@@ -524,10 +524,17 @@ pub struct LinearMode {
     /// The mode in the velocity variables (`d`, `n_v` complex components), unit largest
     /// component.
     pub shape: DVector<Complex<f64>>,
-    /// The right and left eigenvectors of the reduced problem.
+    /// The modes of equal eigenvalues (within [`REPEATED`]) share a group number; zero for
+    /// a single one, else the group's number from 1.
+    pub group: usize,
+    /// The right and left eigenvectors of the reduced problem (of a group: one of the pair of
+    /// bases of its left and right null spaces).
     right: DVector<Complex<f64>>,
     left: DVector<Complex<f64>>,
 }
+
+/// Relative distance below which eigenvalues count as repeated.
+pub const REPEATED: f64 = 1e-6;
 
 impl LinearMode {
     /// `|s| / 2π` (Hz): the undamped natural frequency.
@@ -671,52 +678,57 @@ impl Linearisation {
             .copy_from(&(-&minv * &self.stiffness));
         a.view_mut((f, f), (f, f))
             .copy_from(&(-&minv * &self.damping));
-        let values = a.complex_eigenvalues();
-        let mut modes: Vec<LinearMode> = values
+        let mut values: Vec<Complex<f64>> = a
+            .complex_eigenvalues()
             .iter()
+            .copied()
             .filter(|s| s.im >= 0.0)
-            .map(|&s| {
-                let q = self.reduced_operator(s);
-                let right = null_vector(&q);
-                let left = null_vector(&q.adjoint());
-                let shape = complex(&self.basis) * &right;
+            .collect();
+        values.sort_by(|a, b| a.norm().total_cmp(&b.norm()));
+        let mut modes = Vec::with_capacity(values.len());
+        let mut group = 0;
+        let mut i = 0;
+        while i < values.len() {
+            let s0 = values[i];
+            let mut j = i + 1;
+            while j < values.len() && (values[j] - s0).norm() <= REPEATED * s0.norm().max(1e-300) {
+                j += 1;
+            }
+            let r = j - i;
+            let mean = values[i..j].iter().sum::<Complex<f64>>() / r as f64;
+            let (right, left) = null_spaces(&self.reduced_operator(mean), r);
+            if r > 1 {
+                group += 1;
+            }
+            for (k, &s) in values[i..j].iter().enumerate() {
+                let shape = complex(&self.basis) * right.column(k);
                 let big = shape.iter().fold(Complex::new(0.0, 0.0), |m, x| {
                     if x.norm() > m.norm() { *x } else { m }
                 });
-                let shape = if big.norm() > 0.0 { shape / big } else { shape };
-                LinearMode {
+                modes.push(LinearMode {
                     eigenvalue: s,
-                    shape,
-                    right,
-                    left,
-                }
-            })
-            .collect();
-        modes.sort_by(|a, b| a.eigenvalue.norm().total_cmp(&b.eigenvalue.norm()));
+                    shape: if big.norm() > 0.0 { shape / big } else { shape },
+                    group: if r > 1 { group } else { 0 },
+                    right: right.column(k).into_owned(),
+                    left: left.column(k).into_owned(),
+                });
+            }
+            i = j;
+        }
         Ok(modes)
     }
 }
 
-/// A unit vector spanning the (numerical) null space of the square `q`, by inverse
-/// iteration.
-fn null_vector(q: &CMatrix) -> CVector {
-    let n = q.nrows();
-    let scale = q.iter().fold(0.0f64, |m, x| m.max(x.norm())).max(1e-300);
-    let mut b = q.clone();
-    for i in 0..n {
-        b[(i, i)] += Complex::new(1e-13 * scale, 1e-13 * scale);
-    }
-    let lu = b.lu();
-    let mut x = CVector::from_fn(n, |i, _| Complex::new(1.0 + 0.1 * (i as f64).sin(), 0.0));
-    for _ in 0..3 {
-        if let Some(y) = lu.solve(&x) {
-            let norm = y.norm();
-            if norm > 0.0 && norm.is_finite() {
-                x = y / Complex::new(norm, 0.0);
-            }
-        }
-    }
-    x
+/// Orthonormal bases of the right and left null spaces of dimension `r` of the square `q`:
+/// its singular vectors of the `r` smallest singular values.
+fn null_spaces(q: &CMatrix, r: usize) -> (CMatrix, CMatrix) {
+    let svd = q.clone().svd(true, true);
+    let (u, v_t) = (svd.u.expect("asked for U"), svd.v_t.expect("asked for Vᵀ"));
+    let mut order: Vec<usize> = (0..svd.singular_values.len()).collect();
+    order.sort_by(|&a, &b| svd.singular_values[a].total_cmp(&svd.singular_values[b]));
+    let right = CMatrix::from_fn(q.ncols(), r, |i, k| v_t[(order[k], i)].conj());
+    let left = CMatrix::from_fn(q.nrows(), r, |i, k| u[(i, order[k])]);
+    (right, left)
 }
 
 /// Design sensitivities of an operating point: `∂q/∂b`, `∂v/∂b` (the spin's velocities at the
@@ -785,7 +797,41 @@ struct ModeVectors {
     x: CVector,
     mu: CVector,
     left: CVector,
-    scale: Complex<f64>,
+    /// `(2 s M + C) x`.
+    slope: CVector,
+}
+
+/// The eigenvalue derivatives of the modes `group` (one, or a group of repeated ones) from
+/// their vectors and `g` = `(∂T/∂b) [x; μ]` of each mode: for a group of `r`, the
+/// eigenvalues of `−(Yᴴ T_s X)⁻¹ (Ŷᴴ G)` — the derivatives along the design variable, in
+/// the basis of the group that it diagonalises — by increasing real part.
+fn group_derivatives(
+    vectors: &[ModeVectors],
+    g: &[CVector],
+    group: &[usize],
+) -> Vec<(usize, Complex<f64>)> {
+    let nv = vectors[group[0]].x.len();
+    let y = |a: usize| vectors[group[a]].left.rows(0, nv).into_owned();
+    let r = group.len();
+    let slopes = CMatrix::from_fn(r, r, |a, b| y(a).dotc(&vectors[group[b]].slope));
+    let numerator = CMatrix::from_fn(r, r, |a, b| vectors[group[a]].left.dotc(&g[group[b]]));
+    let zero = Complex::new(0.0, 0.0);
+    let Some(d) = slopes.lu().solve(&numerator) else {
+        return group
+            .iter()
+            .map(|&i| (i, Complex::new(f64::NAN, f64::NAN)))
+            .collect();
+    };
+    let mut values: Vec<Complex<f64>> = match r {
+        1 => vec![-d[(0, 0)]],
+        _ => (-d)
+            .schur()
+            .eigenvalues()
+            .map(|e| e.iter().copied().collect())
+            .unwrap_or_else(|| vec![zero; r]),
+    };
+    values.sort_by(|a, b| a.re.total_cmp(&b.re));
+    group.iter().copied().zip(values).collect()
 }
 
 impl Linearisation {
@@ -808,7 +854,7 @@ impl Linearisation {
         };
         let mu = -balance(&(&l * &x));
         let nu = -balance(&(l.adjoint() * &y));
-        let scale = y.dotc(&((complex(m) * (s * 2.0) + complex(c)) * &x));
+        let slope = (complex(m) * (s * 2.0) + complex(c)) * &x;
         let mut left = CVector::zeros(y.len() + nu.len());
         left.rows_mut(0, y.len()).copy_from(&y);
         left.rows_mut(y.len(), nu.len()).copy_from(&nu);
@@ -817,7 +863,7 @@ impl Linearisation {
             x,
             mu,
             left,
-            scale,
+            slope,
         }
     }
 }
@@ -841,8 +887,16 @@ impl OperatingPoint {
         sens: &OperatingSensitivities,
     ) -> DMatrix<Complex<f64>> {
         let vectors: Vec<ModeVectors> = modes.iter().map(|m| lin.mode_vectors(m)).collect();
-        let mut out =
-            DMatrix::from_element(modes.len(), design.n_variables(), Complex::new(0.0, 0.0));
+        // the modes of a group of repeated eigenvalues together, the others one by one
+        let mut groups: Vec<Vec<usize>> = Vec::new();
+        for (i, m) in modes.iter().enumerate() {
+            match groups.last_mut() {
+                Some(g) if m.group > 0 && modes[g[0]].group == m.group => g.push(i),
+                _ => groups.push(vec![i]),
+            }
+        }
+        let zero = Complex::new(0.0, 0.0);
+        let mut out = DMatrix::from_element(modes.len(), design.n_variables(), zero);
         for (chunk, range) in design.chunk_ranges() {
             for (k, j) in range.enumerate() {
                 let model = chunk.map(|p: Dual<N>| HyperDual::new(p.v, 0.0, p.d[k]));
@@ -852,11 +906,17 @@ impl OperatingPoint {
                 let lambda: Vec<HyperDual> = (self.lambda.iter().enumerate())
                     .map(|(a, &x)| HyperDual::new(x, 0.0, sens.lambda[(a, j)]))
                     .collect();
-                for (i, v) in vectors.iter().enumerate() {
-                    let re = self.mixed_along(&model, &q, &lambda, v, |z| z.re);
-                    let im = self.mixed_along(&model, &q, &lambda, v, |z| z.im);
-                    let g = CVector::from_fn(re.len(), |r, _| Complex::new(re[r], im[r]));
-                    out[(i, j)] = -v.left.dotc(&g) / v.scale;
+                let g: Vec<CVector> = (vectors.iter())
+                    .map(|v| {
+                        let re = self.mixed_along(&model, &q, &lambda, v, |z| z.re);
+                        let im = self.mixed_along(&model, &q, &lambda, v, |z| z.im);
+                        CVector::from_fn(re.len(), |r, _| Complex::new(re[r], im[r]))
+                    })
+                    .collect();
+                for group in &groups {
+                    for (i, ds) in group_derivatives(&vectors, &g, group) {
+                        out[(i, j)] = ds;
+                    }
                 }
             }
         }

@@ -55,6 +55,8 @@ struct Point {
     values: Vec<f64>,
     /// `dψ_i/db_j` (rows: responses; `NaN` for a response without derivatives).
     gradients: Option<DMatrix<f64>>,
+    /// `df_k/db_j` of the modes' frequencies (Hz per unit of the variable; rows: modes).
+    frequency_gradients: Option<DMatrix<f64>>,
 }
 
 /// Rotor-order crossings of the Campbell diagram: (mode, order, speed rad/s, frequency Hz).
@@ -164,13 +166,21 @@ fn operating_points(
             &EquilibriumOptions::default(),
         )
         .map_err(at)?;
-        let mut modes = op.linearise(&model).modes().map_err(at)?;
+        let lin = op.linearise(&model);
+        let mut modes = lin.modes().map_err(at)?;
         modes.truncate(def.modes);
         let system = system.with_model(model.clone());
         let values = response_values(src, mech, &system, &op)?;
-        let gradients = match &design {
-            Some(d) => Some(response_gradients(src, mech, d, &op)?),
-            None => None,
+        let (gradients, frequency_gradients) = match &design {
+            Some(d) => {
+                let s = op.sensitivities(d).map_err(at)?;
+                let ds = op.eigenvalue_derivatives(&lin, &modes, d, &s);
+                let df = DMatrix::from_fn(ds.nrows(), ds.ncols(), |k, j| {
+                    modes[k].frequency_derivative(ds[(k, j)])
+                });
+                (Some(response_gradients(src, mech, d, &op, &s)?), Some(df))
+            }
+            None => (None, None),
         };
         start = op.state.clone();
         points.push(Point {
@@ -179,6 +189,7 @@ fn operating_points(
             modes,
             values,
             gradients,
+            frequency_gradients,
         });
     }
     Ok(points)
@@ -205,8 +216,8 @@ fn response_gradients(
     mech: &Mechanism,
     design: &DesignModel<CHUNK>,
     op: &OperatingPoint,
+    s: &OperatingSensitivities,
 ) -> Result<DMatrix<f64>, CliError> {
-    let s: OperatingSensitivities = op.sensitivities(design).map_err(|e| computation(src, e))?;
     let nc = mech.model.n_constraints();
     let mut g = DMatrix::from_element(mech.responses.len(), design.n_variables(), f64::NAN);
     for (model, range) in design.chunk_ranges() {
@@ -276,7 +287,7 @@ fn write_files(
 ) -> Result<Vec<PathBuf>, CliError> {
     let mut files = vec![
         (out.join("operating.csv"), operating_csv(mech, points)),
-        (out.join("frequencies.csv"), frequencies_csv(points)),
+        (out.join("frequencies.csv"), frequencies_csv(mech, points)),
     ];
     if let Some(csv) = sensitivities_csv(mech, points) {
         files.push((out.join("sensitivities.csv"), csv));
@@ -321,30 +332,45 @@ fn operating_csv(mech: &Mechanism, points: &[Point]) -> String {
     t.finish()
 }
 
-fn frequencies_csv(points: &[Point]) -> String {
+fn frequencies_csv(mech: &Mechanism, points: &[Point]) -> String {
     let mut t = CsvTable::new();
-    t.row([
+    let mut head: Vec<String> = [
         "speed [rad/s]",
         "speed [rpm]",
         "mode",
+        "repeated group",
         "frequency [Hz]",
         "damped frequency [Hz]",
         "damping ratio",
         "Re s [1/s]",
         "Im s [rad/s]",
-    ]);
+    ]
+    .map(String::from)
+    .into();
+    let derivatives = points.iter().all(|p| p.frequency_gradients.is_some());
+    if derivatives {
+        for v in &mech.design.variables {
+            head.push(format!("d frequency/d {} [{}]", v.name, per("Hz", v.unit)));
+        }
+    }
+    t.row(head);
     for p in points {
         for (k, m) in p.modes.iter().enumerate() {
-            t.row([
+            let mut row = vec![
                 number(p.speed),
                 number(rpm(p.speed)),
                 (k + 1).to_string(),
+                m.group.to_string(),
                 number(m.frequency_hz()),
                 number(m.damped_frequency_hz()),
                 number(m.damping_ratio()),
                 number(m.eigenvalue.re),
                 number(m.eigenvalue.im),
-            ]);
+            ];
+            if let (true, Some(g)) = (derivatives, &p.frequency_gradients) {
+                row.extend(g.row(k).iter().map(|&x| number(x)));
+            }
+            t.row(row);
         }
     }
     t.finish()
@@ -423,12 +449,19 @@ fn summary(mech: &Mechanism, points: &[Point], crossings: &[Crossing]) -> serde_
                 .zip(&p.values)
                 .map(|(r, &v)| (r.name.clone(), json!(v)))
                 .collect();
-            let modes: Vec<serde_json::Value> = (p.modes.iter())
-                .map(|m| {
+            let modes: Vec<serde_json::Value> = (p.modes.iter().enumerate())
+                .map(|(k, m)| {
+                    let derivatives = p.frequency_gradients.as_ref().map(|g| {
+                        (mech.design.variables.iter().enumerate())
+                            .map(|(j, v)| (v.name.clone(), json!(g[(k, j)])))
+                            .collect::<serde_json::Map<_, _>>()
+                    });
                     json!({
                         "frequency_hz": m.frequency_hz(),
                         "damped_frequency_hz": m.damped_frequency_hz(),
                         "damping_ratio": m.damping_ratio(),
+                        "repeated_group": m.group,
+                        "frequency_derivatives": derivatives,
                     })
                 })
                 .collect();
@@ -495,6 +528,7 @@ fn text(
         for (k, m) in p.modes.iter().enumerate() {
             let note = match m.damping_ratio() {
                 z if z < -1e-9 => "  unstable",
+                _ if m.group > 0 => "  repeated",
                 _ if m.eigenvalue.im == 0.0 && m.eigenvalue.re != 0.0 => "  not oscillating",
                 _ => "",
             };
