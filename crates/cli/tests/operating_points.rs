@@ -453,3 +453,103 @@ fn rotating_frequencies_derivatives_equal_central_differences_of_the_command() {
     // the spin stiffens the flap modes and splits the tube's pairs (lag softens by Ω²)
     assert!(nominal[2][0].0 != nominal[2][1].0);
 }
+
+/// The rotor with the plies' angle free in [0°, 60°]: the softest lay-up at rest (least first
+/// frequency) whose flap frequency at 3000 rpm stays `margin` above twice the rotor speed.
+fn rotor_optimization(dir: &std::path::Path, margin: f64) -> (f64, f64, f64, f64) {
+    let text = rotor(15.0)
+        .replace(
+            "[design.theta]\nlaminate = \"tube_wall\"\n",
+            "[design.theta]\nlaminate = \"tube_wall\"\nlower = 0.0\nupper = 60.0\n",
+        )
+        .replace(
+            r#"speeds = ["0 rpm", "3000 rpm", "6000 rpm"]"#,
+            r#"speeds = ["0 rpm", "3000 rpm"]"#,
+        )
+        + &format!(
+            "\n[optimize]\nminimize = \"frequency.rod.1\"\n\n[[optimize.constraint]]\n\
+             quantity = \"order_margin.2.2.2\"\nmin = {margin}\n"
+        );
+    let path = dir.join(format!("rotor_{margin}.toml"));
+    std::fs::write(&path, text).unwrap();
+    let out = dir.join(format!("rotor_{margin}"));
+    let o = run(&[
+        "optimize",
+        path.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    let text = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{text}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let value = |name: &str| -> f64 {
+        let line = text
+            .lines()
+            .find(|l| l.contains(&format!("{name} = ")))
+            .unwrap_or_else(|| panic!("no {name} in\n{text}"));
+        let after = line.rsplit(&format!("{name} = ")).next().unwrap();
+        after.split_whitespace().next().unwrap().parse().unwrap()
+    };
+    let kkt: f64 = (text.lines())
+        .find_map(|l| l.trim().strip_prefix("KKT stationarity "))
+        .and_then(|rest| rest.split_whitespace().next())
+        .unwrap_or_else(|| panic!("no KKT stationarity in\n{text}"))
+        .parse()
+        .unwrap();
+    (
+        value("theta"),
+        value("order_margin.2.2.2"),
+        value("multiplier dF*/d(bound)"),
+        kkt,
+    )
+}
+
+#[test]
+fn the_softest_rotor_keeps_its_flap_frequency_clear_of_2p_with_the_bound_active() {
+    let dir = tempfile::tempdir().unwrap();
+    let (theta, margin, multiplier, kkt) = rotor_optimization(dir.path(), 0.1);
+    assert!(
+        (margin - 0.1).abs() < 1e-6,
+        "the margin constraint is active: {margin}"
+    );
+    assert!(kkt < 1e-6, "KKT stationarity {kkt}");
+    assert!((15.0..45.0).contains(&theta), "θ* = {theta}");
+    // a sweep about the optimum: turning the plies further violates the margin, turning them
+    // back stiffens the blade at rest (a worse objective)
+    let sweep = |angle: f64| {
+        let path = dir.path().join("sweep.toml");
+        std::fs::write(&path, rotor(angle)).unwrap();
+        let j = json(&[
+            "static",
+            path.to_str().unwrap(),
+            "-o",
+            dir.path().join("sweep").to_str().unwrap(),
+            "--json",
+        ]);
+        let f = |p: usize, k: usize| j["points"][p]["modes"][k]["frequency_hz"].as_f64().unwrap();
+        (f(0, 0), f(1, 1) / (2.0 * 50.0) - 1.0)
+    };
+    let (f0, m0) = sweep(theta);
+    assert!((m0 - 0.1).abs() < 1e-6, "the sweep's margin at θ* {m0}");
+    let (f_up, m_up) = sweep(theta + 0.5);
+    let (f_down, m_down) = sweep(theta - 0.5);
+    assert!(m_up < 0.1 && m_down > 0.1, "margins {m_down}, {m_up}");
+    assert!(f_down > f0 && f_up < f0, "objective {f_down}, {f0}, {f_up}");
+    // the multiplier is the optimum's sensitivity to the bound: central differences of two
+    // more optimisations
+    let h = 0.005;
+    let optimum_at = |bound: f64| {
+        let (t, ..) = rotor_optimization(dir.path(), bound);
+        sweep(t).0
+    };
+    let central = (optimum_at(0.1 + h) - optimum_at(0.1 - h)) / (2.0 * h);
+    assert!(
+        (multiplier - central).abs() < 1e-3 * central.abs(),
+        "multiplier {multiplier}, central differences {central}"
+    );
+}

@@ -46,17 +46,17 @@ const OUTPUT_FILES: [&str; 4] = [
 const CHUNK: usize = 8;
 
 /// One operating point and what was computed there.
-struct Point {
+pub(crate) struct Point {
     /// Spin speed (rad/s).
-    speed: f64,
+    pub(crate) speed: f64,
     op: OperatingPoint,
-    modes: Vec<LinearMode>,
+    pub(crate) modes: Vec<LinearMode>,
     /// Per response, its value.
     values: Vec<f64>,
     /// `dψ_i/db_j` (rows: responses; `NaN` for a response without derivatives).
     gradients: Option<DMatrix<f64>>,
     /// `df_k/db_j` of the modes' frequencies (Hz per unit of the variable; rows: modes).
-    frequency_gradients: Option<DMatrix<f64>>,
+    pub(crate) frequency_gradients: Option<DMatrix<f64>>,
 }
 
 /// Rotor-order crossings of the Campbell diagram: (mode, order, speed rad/s, frequency Hz).
@@ -103,7 +103,7 @@ fn rpm(w: f64) -> f64 {
 
 /// Every operating point of the deck, each speed's equilibrium starting from the previous
 /// one's.
-fn operating_points(
+pub(crate) fn operating_points(
     src: &Source,
     mech: &Mechanism,
     def: &OperatingDef,

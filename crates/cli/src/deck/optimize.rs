@@ -4,8 +4,10 @@
 //!
 //! A quantity is named by a string: `"objective.NAME"` (an `[objective.*]` of the run),
 //! `"frequency.BODY.K"` (the K-th retained mode of a flexible body, Hz), `"mass.BODY"` (a
-//! flexible or rigid body's mass, kg) or `"areal_mass.LAMINATE"` (a laminate's mass per unit
-//! area, kg/m²).
+//! flexible or rigid body's mass, kg), `"areal_mass.LAMINATE"` (a laminate's mass per unit
+//! area, kg/m²), `"operating_frequency.I.K"` (the K-th linearised mode's frequency at the I-th
+//! speed of `[operating]`, Hz) or `"order_margin.I.K.N"` (that frequency over the N-th rotor
+//! order there, minus one).
 
 use toml::Spanned;
 
@@ -27,6 +29,15 @@ pub enum Quantity {
     Mass { body: String },
     /// The mass per unit area of a laminate (kg/m²).
     ArealMass { laminate: String },
+    /// The frequency of the `mode`-th (from 0) linearised mode at the `point`-th (from 0)
+    /// operating point of `[operating]` (Hz).
+    OperatingFrequency { point: usize, mode: usize },
+    /// `f / (N Ω / 2π) − 1` of that mode against the rotor order `N` at that point's speed `Ω`.
+    OrderMargin {
+        point: usize,
+        mode: usize,
+        order: u32,
+    },
 }
 
 impl Quantity {
@@ -37,7 +48,21 @@ impl Quantity {
             Quantity::Frequency { body, mode } => format!("frequency.{body}.{}", mode + 1),
             Quantity::Mass { body } => format!("mass.{body}"),
             Quantity::ArealMass { laminate } => format!("areal_mass.{laminate}"),
+            Quantity::OperatingFrequency { point, mode } => {
+                format!("operating_frequency.{}.{}", point + 1, mode + 1)
+            }
+            Quantity::OrderMargin { point, mode, order } => {
+                format!("order_margin.{}.{}.{order}", point + 1, mode + 1)
+            }
         }
+    }
+
+    /// Whether it is read at the `[operating]` points.
+    pub fn operating(&self) -> bool {
+        matches!(
+            self,
+            Quantity::OperatingFrequency { .. } | Quantity::OrderMargin { .. }
+        )
     }
 }
 
@@ -140,11 +165,64 @@ fn quantity(
                 laminate: laminate.to_string(),
             })
         }
+        ["operating_frequency", i, k] => {
+            let (point, mode) = operating_point(src, raw, &bad, i, k)?;
+            Ok(Quantity::OperatingFrequency { point, mode })
+        }
+        ["order_margin", i, k, n] => {
+            let (point, mode) = operating_point(src, raw, &bad, i, k)?;
+            let order = n
+                .parse::<u32>()
+                .ok()
+                .filter(|&o| o >= 1)
+                .ok_or_else(|| bad(format!("`{n}` is not a rotor order (from 1)")))?;
+            let speeds = super::operating::validate(src, raw)?.speeds;
+            if speeds[point] == 0.0 {
+                return Err(bad(format!(
+                    "operating point {i} is at rest: a margin to a rotor order needs a speed"
+                )));
+            }
+            Ok(Quantity::OrderMargin { point, mode, order })
+        }
         _ => Err(bad(format!(
-            "`{text}`: expected \"objective.NAME\", \"frequency.BODY.K\", \"mass.BODY\" or \
-             \"areal_mass.LAMINATE\""
+            "`{text}`: expected \"objective.NAME\", \"frequency.BODY.K\", \"mass.BODY\", \
+             \"areal_mass.LAMINATE\", \"operating_frequency.I.K\" or \"order_margin.I.K.N\""
         ))),
     }
+}
+
+/// The operating point `i` (from 1, of `[operating]`'s speeds) and mode `k` (from 1) of an
+/// operating quantity, from 0.
+fn operating_point(
+    src: &Source,
+    raw: &RawDeck,
+    bad: &dyn Fn(String) -> DeckError,
+    i: &str,
+    k: &str,
+) -> Result<(usize, usize), DeckError> {
+    let def = super::operating::validate(src, raw)?;
+    let n = def.speeds.len();
+    let point = i
+        .parse::<usize>()
+        .ok()
+        .filter(|&p| (1..=n).contains(&p))
+        .ok_or_else(|| {
+            bad(format!(
+                "`{i}` is not an operating point: [operating] has {n} speed{} (from 1)",
+                if n == 1 { "" } else { "s" }
+            ))
+        })?;
+    let mode = k
+        .parse::<usize>()
+        .ok()
+        .filter(|&m| (1..=def.modes).contains(&m))
+        .ok_or_else(|| {
+            bad(format!(
+                "`{k}` is not a reported mode: [operating] reports modes 1 to {} (modes)",
+                def.modes
+            ))
+        })?;
+    Ok((point - 1, mode - 1))
 }
 
 fn constraint(

@@ -33,6 +33,31 @@ impl Problem<'_> {
             }
             None => BTreeMap::new(),
         };
+        // the operating points, once, when a quantity of theirs is asked for
+        let operating = match &self.operating {
+            Some((mech, def)) => Some(crate::commands::operating::operating_points(
+                src,
+                &mech.at(src, x)?,
+                def,
+            )?),
+            None => None,
+        };
+        let mode_at = |point: usize, mode: usize| -> Result<(f64, f64, Vec<f64>), CliError> {
+            let p = &operating.as_ref().expect("operating points computed")[point];
+            let m = p.modes.get(mode).ok_or_else(|| {
+                self.at_optimize(format!(
+                    "operating point {} has {} modes, not {}",
+                    point + 1,
+                    p.modes.len(),
+                    mode + 1
+                ))
+            })?;
+            let grad = match &p.frequency_gradients {
+                Some(g) => g.row(mode).iter().copied().collect(),
+                None => Vec::new(),
+            };
+            Ok((p.speed, m.frequency_hz(), grad))
+        };
         let lam = self
             .design
             .laminates_at(&self.laminates, x)
@@ -89,6 +114,15 @@ impl Problem<'_> {
                         .map(|k| k.mass_per_area)
                         .collect();
                     (def.stack.stiffness().mass_per_area, grad, "kg/m^2")
+                }
+                Quantity::OperatingFrequency { point, mode } => {
+                    let (_, f, grad) = mode_at(*point, *mode)?;
+                    (f, grad, "Hz")
+                }
+                Quantity::OrderMargin { point, mode, order } => {
+                    let (speed, f, grad) = mode_at(*point, *mode)?;
+                    let line = *order as f64 * speed / (2.0 * std::f64::consts::PI);
+                    (f / line - 1.0, grad.iter().map(|d| d / line).collect(), "1")
                 }
                 Quantity::Mass { body } => {
                     // a rigid body: its mass variable's value, or its mass in the deck

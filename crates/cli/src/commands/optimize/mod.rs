@@ -28,6 +28,7 @@ use sens::Dual;
 use crate::deck::bodies::BodyDef;
 use crate::deck::design::{DesignDef, DesignVariable, validate as validate_design};
 use crate::deck::laminates::{LaminateModel, validate as validate_laminates};
+use crate::deck::operating::OperatingDef;
 use crate::deck::optimize::{Bound, OptimizeDef, Quantity, validate as validate_optimize};
 use crate::deck::{self, Source, bodies, mechanism};
 use crate::error::CliError;
@@ -116,6 +117,8 @@ pub(super) struct Problem<'a> {
     rigid_masses: BTreeMap<String, f64>,
     /// The deck's study (without finite differences), when an objective is read.
     study: Option<Mechanism>,
+    /// The deck's study and `[operating]`, when a quantity at its operating points is read.
+    operating: Option<(Mechanism, OperatingDef)>,
     def: OptimizeDef,
     /// Per constraint: its bound resolved and its scale (for the optimiser and the violation).
     limits: Vec<(Bound, f64)>,
@@ -179,6 +182,13 @@ fn setup<'a>(path: &'a Path, overrides: &'a [String]) -> Result<(Problem<'a>, bo
     } else {
         None
     };
+    let operating = if quantities.iter().any(|q| q.operating()) {
+        let mut study = Mechanism::validate(&src, &raw, true)?;
+        study.design.finite_differences = None;
+        Some((study, deck::operating::validate(&src, &raw)?))
+    } else {
+        None
+    };
     let mut problem = Problem {
         path,
         overrides,
@@ -189,6 +199,7 @@ fn setup<'a>(path: &'a Path, overrides: &'a [String]) -> Result<(Problem<'a>, bo
         bodies,
         rigid_masses,
         study,
+        operating,
         def,
         limits: Vec::new(),
     };
