@@ -88,6 +88,29 @@ pub fn run(path: &Path, overrides: &[String]) -> Result<String, CliError> {
             o.starts.len()
         );
     }
+    let operating = match &raw.operating {
+        Some(_) => Some(crate::deck::operating::validate(&src, &raw)?),
+        None => None,
+    };
+    if let Some(o) = &operating {
+        let rpm = |w: f64| w * 30.0 / std::f64::consts::PI;
+        let _ = match &o.driver {
+            Some((name, _)) => writeln!(
+                s,
+                "operating: steady spins of `{name}` at {} speeds from {} to {} rpm, {} modes \
+                 reported",
+                o.speeds.len(),
+                rpm(o.speeds[0]),
+                rpm(o.speeds[o.speeds.len() - 1]),
+                o.modes
+            ),
+            None => writeln!(
+                s,
+                "operating: static equilibrium, {} modes reported",
+                o.modes
+            ),
+        };
+    }
     let mechanism = raw.analysis.is_some() || !raw.joint.is_empty() || !raw.rigid.is_empty();
     if mechanism {
         let mech = crate::study::Mechanism::validate(&src, &raw, true)?;
@@ -95,6 +118,16 @@ pub fn run(path: &Path, overrides: &[String]) -> Result<String, CliError> {
         // what they refuse (a variable that splits repeated frequencies, …) is refused here too
         if mech.design.enabled {
             super::sensitivity::prepare(&src, &mech)?;
+        }
+        if let Some((name, span)) = operating.as_ref().and_then(|o| o.driver.as_ref()) {
+            let id = mech.model.joint_id(name).expect("validated driver");
+            mbs::Spin::of_driver(&mech.model, id, 1.0).map_err(|e| {
+                src.error(
+                    span.clone(),
+                    Some("operating.driver".into()),
+                    format!("`{name}`: {e}"),
+                )
+            })?;
         }
         let (system, state) = super::compute::assembled(&src, &mech)?;
         super::compute::warn_redundant_with_stiffening(&src, &mech, &system, &state);

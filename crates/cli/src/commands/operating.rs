@@ -255,25 +255,51 @@ fn response_gradients(
 }
 
 /// Where the modes' frequencies cross the rotor orders `n Ω / 2π` between two speeds of the
-/// sweep (the modes numbered by frequency at each speed), by linear interpolation.
+/// sweep, by linear interpolation: each oscillating mode at one speed paired with the nearest
+/// oscillating mode at the next (the mode numbers are those at the lower speed).
 fn crossings(points: &[Point], orders: &[u32]) -> Vec<Crossing> {
+    let oscillating = |p: &Point| -> Vec<usize> {
+        (0..p.modes.len())
+            .filter(|&k| p.modes[k].eigenvalue.im > 0.0)
+            .collect()
+    };
     let mut out = Vec::new();
     for pair in points.windows(2) {
         let (a, b) = (&pair[0], &pair[1]);
-        let n = a.modes.len().min(b.modes.len());
-        for k in 0..n {
+        let (ka, kb) = (oscillating(a), oscillating(b));
+        // nearest pairs first, each mode used once
+        let mut candidates: Vec<(f64, usize, usize)> = ka
+            .iter()
+            .flat_map(|&i| kb.iter().map(move |&j| (i, j)))
+            .map(|(i, j)| {
+                let (fa, fb) = (a.modes[i].frequency_hz(), b.modes[j].frequency_hz());
+                ((fa - fb).abs() / fa.max(fb), i, j)
+            })
+            .collect();
+        candidates.sort_by(|x, y| x.0.total_cmp(&y.0));
+        let (mut used_a, mut used_b) = (vec![false; a.modes.len()], vec![false; b.modes.len()]);
+        let mut pairs = Vec::new();
+        for (_, i, j) in candidates {
+            if !used_a[i] && !used_b[j] {
+                (used_a[i], used_b[j]) = (true, true);
+                pairs.push((i, j));
+            }
+        }
+        pairs.sort();
+        for (i, j) in pairs {
             for &order in orders {
                 let line = |p: &Point| order as f64 * p.speed / (2.0 * std::f64::consts::PI);
-                let (fa, fb) = (a.modes[k].frequency_hz(), b.modes[k].frequency_hz());
+                let (fa, fb) = (a.modes[i].frequency_hz(), b.modes[j].frequency_hz());
                 let (ga, gb) = (fa - line(a), fb - line(b));
                 if ga * gb < 0.0 || (gb == 0.0 && ga != 0.0) {
                     let s = ga / (ga - gb);
                     let speed = a.speed + s * (b.speed - a.speed);
-                    out.push((k, order, speed, fa + s * (fb - fa)));
+                    out.push((i, order, speed, fa + s * (fb - fa)));
                 }
             }
         }
     }
+    out.sort_by(|a, b| a.2.total_cmp(&b.2));
     out
 }
 
@@ -506,6 +532,10 @@ fn text(
 ) -> String {
     let mut s = String::new();
     for p in points {
+        let zeta = |m: &LinearMode| match m.damping_ratio() {
+            z if z.abs() < 1e-10 => 0.0,
+            z => z,
+        };
         match &def.driver {
             Some((name, _)) => writeln!(
                 s,
@@ -537,12 +567,15 @@ fn text(
                 "  {:>4}  {:>14}  {:>13}{note}",
                 k + 1,
                 fmt(m.frequency_hz()),
-                fmt(m.damping_ratio())
+                fmt(zeta(m))
             );
         }
     }
     if !crossings.is_empty() {
-        let _ = writeln!(s, "rotor-order crossings (modes numbered by frequency):");
+        let _ = writeln!(
+            s,
+            "rotor-order crossings (modes numbered by frequency at the lower speed):"
+        );
         for &(k, order, speed, f) in crossings {
             let _ = writeln!(
                 s,

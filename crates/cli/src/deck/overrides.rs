@@ -6,8 +6,8 @@
 //! (`30`, `1.5e9`, `true`, `"text"`, `[1, 2]`); a bare word that is not one is taken as a string.
 //!
 //! A path into one of the deck's single tables ([`CREATABLE`]: `[analysis]`, `[sensitivity]`,
-//! `[finite_differences]`, `[optimize]`) creates the table, or a table inside it, when the deck
-//! leaves it out (its keys then take their defaults). Any other missing path is an error, so a
+//! `[finite_differences]`, `[optimize]`, `[operating]`) creates the table, or a table inside
+//! it, when the deck leaves it out (its keys then take their defaults). Any other missing path is an error, so a
 //! misspelt name (`body.rdo.modes`) is not taken for a new body.
 
 use toml_edit::{DocumentMut, Item, Table, Value};
