@@ -271,3 +271,16 @@ write("regions_unknown_laminate.toml", regioned('[{ laminate = "pach", elements 
 write("regions_element_twice.toml", regioned('[{ laminate = "patch", elements = [3, 3] }]'))
 write("regions_on_a_beam.toml", edit(BEAM, 'section = "tube"\nstart', 'section = "tube"\nregions = [{ laminate = "tube_wall", elements = [0] }]\nstart'))
 write("segments_on_a_shell.toml", regioned('[{ laminate = "patch", elements = [0] }]').replace('regions = [{ laminate = "patch", elements = [0] }]', 'segments = [{ section = "tube" }]'))
+
+# --- operating points (flexsens static)
+ROTOR = deck("rotor_blade_composite.toml")
+SPEEDS = 'speeds = ["0 rpm", "125 rpm", "250 rpm", "375 rpm", "500 rpm", "625 rpm", "750 rpm"]'
+write("operating_unknown_driver.toml", edit(ROTOR, 'driver = "motor"', 'driver = "motr"'))
+write("operating_driver_not_angle.toml", edit(ROTOR, 'driver = "motor"', 'driver = "hub"'))
+write("operating_speeds_decreasing.toml", edit(ROTOR, SPEEDS, 'speeds = ["750 rpm", "0 rpm"]'))
+write("operating_speed_without_driver.toml", edit(ROTOR, 'driver = "motor"\n', ''))
+write("operating_speed_bad_unit.toml", edit(ROTOR, SPEEDS, 'speeds = ["750 rpmm"]'))
+write("operating_zero_modes.toml", edit(ROTOR, "modes = 8\norders", "modes = 0\norders"))
+write("operating_unknown_key.toml", edit(ROTOR, "modes = 8\norders", "mode = 8\norders"))
+write("operating_not_steady.toml", edit(BEAM, "[analysis]", '[operating]\ndriver = "crank_drive"\nspeeds = ["100 rpm"]\n\n[analysis]'))
+write("operating_margin_at_rest.toml", edit(ROTOR, 'section = "strip"\n\n[operating]', 'section = "strip"\nlower = 0.0\nupper = 45.0\n\n[operating]') + '\n[optimize]\nminimize = "order_margin.1.1.2"\n')

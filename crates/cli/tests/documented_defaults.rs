@@ -85,6 +85,8 @@ enum Command {
     Run,
     /// A short run without the deck's finite-difference check (where it is not the subject).
     RunOnly,
+    /// `flexsens static`.
+    Static,
 }
 
 impl Command {
@@ -94,6 +96,7 @@ impl Command {
             Command::Section => &["section", "--format", "json"],
             Command::Modes => &["modes", "--format", "json"],
             Command::Run => &["run", "--json", "--set", "analysis.t_end=0.001"],
+            Command::Static => &["static", "--json"],
             Command::RunOnly => &[
                 "run",
                 "--json",
@@ -318,6 +321,27 @@ const CASES: &[(&str, &str, &str, &str, Command)] = &[
         "design.theta",
         Command::RunOnly,
     ),
+    (
+        "[operating]",
+        "modes",
+        "rotor_blade_composite.toml",
+        "operating",
+        Command::Static,
+    ),
+    (
+        "[operating]",
+        "orders",
+        "rotor_blade_composite.toml",
+        "operating",
+        Command::Static,
+    ),
+    (
+        "[operating]",
+        "speeds",
+        "rotor_blade_composite.toml",
+        "operating",
+        Command::Static,
+    ),
 ];
 
 #[test]
@@ -332,7 +356,7 @@ fn documented_defaults_are_the_codes() {
         let args = |set: Option<String>, out: &str| -> Vec<String> {
             let mut a: Vec<String> = vec![command[0].into(), path.display().to_string()];
             a.extend(command[1..].iter().map(|s| s.to_string()));
-            if command[0] == "run" {
+            if command[0] == "run" || command[0] == "static" {
                 a.extend(["-o".into(), dir.path().join(out).display().to_string()]);
             }
             if let Some(s) = set {

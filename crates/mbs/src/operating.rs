@@ -339,6 +339,11 @@ pub fn equilibrium(
                 .into(),
         ));
     }
+    if let Some(s) = &spin {
+        // every joint must turn with the spin (checked at the start: the joints' kinematics
+        // do not change their steadiness as the bodies deform)
+        check_steady(model, t, &start.q, &s.motion::<f64, f64>(model, &start.q).0)?;
+    }
     let size = crate::mechanism_size(model, &start.q);
     let mut q = start.q.clone();
     let mut lambda = vec![0.0; rows.len()];

@@ -154,7 +154,7 @@ pub(crate) fn operating_points(
             None => None,
         };
         let at = |e: mbs::OperatingError| match &driver {
-            Some(_) => computation(src, format!("at {:.6} rpm: {e}", rpm(speed))),
+            Some(_) => computation(src, format!("at {} rpm: {e}", short(rpm(speed)))),
             None => computation(src, e),
         };
         let op = mbs::equilibrium(
@@ -540,8 +540,8 @@ fn text(
             Some((name, _)) => writeln!(
                 s,
                 "steady spin of `{name}` at {} rpm ({} rad/s)",
-                fmt(rpm(p.speed)),
-                fmt(p.speed)
+                short(rpm(p.speed)),
+                short(p.speed)
             ),
             None => writeln!(s, "static equilibrium"),
         }
@@ -590,6 +590,12 @@ fn text(
         let _ = writeln!(s, "wrote {}", w.display());
     }
     s
+}
+
+/// A speed for a sentence: at most six decimals, trailing zeros dropped.
+fn short(x: f64) -> String {
+    let s = format!("{x:.6}");
+    s.trim_end_matches('0').trim_end_matches('.').to_string()
 }
 
 /// A value for the table: six significant digits.

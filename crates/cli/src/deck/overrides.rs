@@ -7,8 +7,8 @@
 //!
 //! A path into one of the deck's single tables ([`CREATABLE`]: `[analysis]`, `[sensitivity]`,
 //! `[finite_differences]`, `[optimize]`, `[operating]`) creates the table, or a table inside
-//! it, when the deck leaves it out (its keys then take their defaults). Any other missing path is an error, so a
-//! misspelt name (`body.rdo.modes`) is not taken for a new body.
+//! it, when the deck leaves it out (its keys then take their defaults). Any other missing path
+//! is an error, so a misspelt name (`body.rdo.modes`) is not taken for a new body.
 
 use toml_edit::{DocumentMut, Item, Table, Value};
 
