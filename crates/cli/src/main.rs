@@ -137,6 +137,10 @@ enum Command {
         /// Print a JSON summary (for scripts) instead of the table.
         #[arg(long)]
         json: bool,
+        /// Also write each flexible body's mesh and mode shapes at each operating point as
+        /// legacy VTK files, `modes_I_BODY.vtk` (ParaView).
+        #[arg(long)]
+        vtk: bool,
     },
     /// Run a deck for every combination of varied values (in parallel) and write one row per
     /// case, with its objectives and gradients, to `DIR/summary.csv`.
@@ -305,10 +309,16 @@ fn main() -> ExitCode {
             };
             commands::run::run(deck, &cli.set, &req).map(|t| (t, 0))
         }
-        Command::Static { deck, output, json } => {
+        Command::Static {
+            deck,
+            output,
+            json,
+            vtk,
+        } => {
             let req = commands::operating::StaticRequest {
                 out: output.as_deref(),
                 json: *json,
+                vtk: *vtk,
             };
             commands::operating::run(deck, &cli.set, &req).map(|t| (t, 0))
         }

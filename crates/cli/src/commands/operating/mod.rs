@@ -5,8 +5,7 @@
 //! variables, their exact derivatives; a Campbell diagram of a speed sweep with the rotor
 //! orders' crossings (docs/operating-points.md).
 
-use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use mbs::{
     DesignModel, EquilibriumOptions, LinearMode, MultibodySystem, OperatingPoint,
@@ -14,17 +13,14 @@ use mbs::{
 };
 use nalgebra::DMatrix;
 use sens::Dual;
-use serde_json::json;
 
-use super::run_files::per;
 use super::shard::remove_old;
 use crate::deck::operating::OperatingDef;
 use crate::deck::{self, Source};
 use crate::error::CliError;
-use crate::files::{DirLock, Staged, remove_stale_partials};
-use crate::plot::{Figure, Panel, Series};
+use crate::files::{DirLock, remove_stale_partials};
 use crate::study::Mechanism;
-use crate::table::{CsvTable, number};
+use output::{summary, text, write_files};
 
 /// What `flexsens static` was asked for.
 pub struct StaticRequest<'a> {
@@ -32,6 +28,8 @@ pub struct StaticRequest<'a> {
     pub out: Option<&'a Path>,
     /// A JSON summary on stdout instead of the table.
     pub json: bool,
+    /// Also write each flexible body's mesh and mode shapes at each operating point as VTK.
+    pub vtk: bool,
 }
 
 /// The files the command may write (those it does not write are removed).
@@ -81,9 +79,18 @@ pub fn run(path: &Path, overrides: &[String], req: &StaticRequest) -> Result<Str
     for f in OUTPUT_FILES {
         remove_old(&out.join(f))?;
     }
+    // the mode shapes of an earlier command
+    if let Ok(entries) = std::fs::read_dir(&out) {
+        for e in entries.flatten() {
+            let name = e.file_name().to_string_lossy().into_owned();
+            if name.starts_with("modes_") && name.ends_with(".vtk") {
+                remove_old(&e.path())?;
+            }
+        }
+    }
     let points = operating_points(&src, &mech, &def)?;
     let crossings = crossings(&points, &def.orders);
-    let written = write_files(&src, &mech, &def, &points, &out)?;
+    let written = write_files(&src, &mech, &def, &points, (&out, req.vtk))?;
     if req.json {
         return Ok(summary(&mech, &points, &crossings).to_string() + "\n");
     }
@@ -303,309 +310,10 @@ fn crossings(points: &[Point], orders: &[u32]) -> Vec<Crossing> {
     out
 }
 
-/// The files of the command, written under temporary names and committed together.
-fn write_files(
-    src: &Source,
-    mech: &Mechanism,
-    def: &OperatingDef,
-    points: &[Point],
-    out: &Path,
-) -> Result<Vec<PathBuf>, CliError> {
-    let mut files = vec![
-        (out.join("operating.csv"), operating_csv(mech, points)),
-        (out.join("frequencies.csv"), frequencies_csv(mech, points)),
-    ];
-    if let Some(csv) = sensitivities_csv(mech, points) {
-        files.push((out.join("sensitivities.csv"), csv));
-    }
-    if points.len() > 1 {
-        let svg = campbell(src, def, points)
-            .svg()
-            .map_err(|e| computation(src, format!("cannot draw the Campbell diagram: {e}")))?;
-        files.push((out.join("campbell.svg"), svg));
-    }
-    let staged = files
-        .iter()
-        .map(|(p, text)| Staged::new(p, text.as_bytes()))
-        .collect::<Result<Vec<_>, _>>()?;
-    for s in staged {
-        s.commit()?;
-    }
-    Ok(files.into_iter().map(|(p, _)| p).collect())
-}
-
-fn operating_csv(mech: &Mechanism, points: &[Point]) -> String {
-    let mut t = CsvTable::new();
-    let mut head: Vec<String> = ["speed [rad/s]", "speed [rpm]", "iterations", "load steps"]
-        .map(String::from)
-        .into();
-    head.extend(
-        mech.responses
-            .iter()
-            .map(|r| format!("{} [{}]", r.name, r.unit)),
-    );
-    t.row(head);
-    for p in points {
-        let mut row = vec![
-            number(p.speed),
-            number(rpm(p.speed)),
-            p.op.iterations.to_string(),
-            p.op.load_steps.to_string(),
-        ];
-        row.extend(p.values.iter().map(|&x| number(x)));
-        t.row(row);
-    }
-    t.finish()
-}
-
-fn frequencies_csv(mech: &Mechanism, points: &[Point]) -> String {
-    let mut t = CsvTable::new();
-    let mut head: Vec<String> = [
-        "speed [rad/s]",
-        "speed [rpm]",
-        "mode",
-        "repeated group",
-        "frequency [Hz]",
-        "damped frequency [Hz]",
-        "damping ratio",
-        "Re s [1/s]",
-        "Im s [rad/s]",
-    ]
-    .map(String::from)
-    .into();
-    let derivatives = points.iter().all(|p| p.frequency_gradients.is_some());
-    if derivatives {
-        for v in &mech.design.variables {
-            head.push(format!("d frequency/d {} [{}]", v.name, per("Hz", v.unit)));
-        }
-    }
-    t.row(head);
-    for p in points {
-        for (k, m) in p.modes.iter().enumerate() {
-            let mut row = vec![
-                number(p.speed),
-                number(rpm(p.speed)),
-                (k + 1).to_string(),
-                m.group.to_string(),
-                number(m.frequency_hz()),
-                number(m.damped_frequency_hz()),
-                number(m.damping_ratio()),
-                number(m.eigenvalue.re),
-                number(m.eigenvalue.im),
-            ];
-            if let (true, Some(g)) = (derivatives, &p.frequency_gradients) {
-                row.extend(g.row(k).iter().map(|&x| number(x)));
-            }
-            t.row(row);
-        }
-    }
-    t.finish()
-}
-
-fn sensitivities_csv(mech: &Mechanism, points: &[Point]) -> Option<String> {
-    points.first()?.gradients.as_ref()?;
-    let vars = &mech.design.variables;
-    let mut head = vec!["speed [rad/s]".to_string(), "speed [rpm]".to_string()];
-    let mut columns = Vec::new();
-    for (i, r) in mech.responses.iter().enumerate() {
-        if r.response.differentiable() {
-            for (j, v) in vars.iter().enumerate() {
-                head.push(format!(
-                    "d {}/d {} [{}]",
-                    r.name,
-                    v.name,
-                    per(r.unit, v.unit)
-                ));
-                columns.push((i, j));
-            }
-        }
-    }
-    let mut t = CsvTable::new();
-    t.row(head);
-    for p in points {
-        let g = p.gradients.as_ref()?;
-        let mut row = vec![number(p.speed), number(rpm(p.speed))];
-        row.extend(columns.iter().map(|&(i, j)| number(g[(i, j)])));
-        t.row(row);
-    }
-    Some(t.finish())
-}
-
-/// The Campbell diagram: each mode's frequency against the speed (rpm), the rotor orders
-/// dashed.
-fn campbell(src: &Source, def: &OperatingDef, points: &[Point]) -> Figure {
-    let x: Vec<f64> = points.iter().map(|p| rpm(p.speed)).collect();
-    let n = points.iter().map(|p| p.modes.len()).min().unwrap_or(0);
-    let mut series: Vec<Series> = (0..n)
-        .map(|k| {
-            let y: Vec<f64> = points.iter().map(|p| p.modes[k].frequency_hz()).collect();
-            Series::solid(format!("mode {}", k + 1), &x, &y, k + 1)
-        })
-        .collect();
-    for &order in &def.orders {
-        let y: Vec<f64> = points
-            .iter()
-            .map(|p| order as f64 * p.speed / (2.0 * std::f64::consts::PI))
-            .collect();
-        series.push(Series::dashed(format!("{order}P"), &x, &y, 0));
-    }
-    let name = def.driver.as_ref().map_or("", |(n, _)| n.as_str());
-    Figure {
-        title: format!(
-            "Campbell diagram of {}",
-            src.file.file_name().map_or_else(
-                || "the deck".to_string(),
-                |f| f.to_string_lossy().into_owned()
-            )
-        ),
-        panels: vec![Panel {
-            title: format!("modes about the steady spin of `{name}`"),
-            x_label: "speed [rpm]".into(),
-            y_label: "frequency [Hz]".into(),
-            series,
-        }],
-    }
-}
-
-fn summary(mech: &Mechanism, points: &[Point], crossings: &[Crossing]) -> serde_json::Value {
-    let points: Vec<serde_json::Value> = points
-        .iter()
-        .map(|p| {
-            let responses: serde_json::Map<String, serde_json::Value> = (mech.responses.iter())
-                .zip(&p.values)
-                .map(|(r, &v)| (r.name.clone(), json!(v)))
-                .collect();
-            let modes: Vec<serde_json::Value> = (p.modes.iter().enumerate())
-                .map(|(k, m)| {
-                    let derivatives = p.frequency_gradients.as_ref().map(|g| {
-                        (mech.design.variables.iter().enumerate())
-                            .map(|(j, v)| (v.name.clone(), json!(g[(k, j)])))
-                            .collect::<serde_json::Map<_, _>>()
-                    });
-                    json!({
-                        "frequency_hz": m.frequency_hz(),
-                        "damped_frequency_hz": m.damped_frequency_hz(),
-                        "damping_ratio": m.damping_ratio(),
-                        "repeated_group": m.group,
-                        "frequency_derivatives": derivatives,
-                    })
-                })
-                .collect();
-            let gradients = p.gradients.as_ref().map(|g| {
-                (mech.responses.iter().enumerate())
-                    .filter(|(_, r)| r.response.differentiable())
-                    .map(|(i, r)| {
-                        let row: serde_json::Map<String, serde_json::Value> =
-                            (mech.design.variables.iter().enumerate())
-                                .map(|(j, v)| (v.name.clone(), json!(g[(i, j)])))
-                                .collect();
-                        (r.name.clone(), serde_json::Value::Object(row))
-                    })
-                    .collect::<serde_json::Map<_, _>>()
-            });
-            json!({
-                "speed_rad_s": p.speed,
-                "speed_rpm": rpm(p.speed),
-                "iterations": p.op.iterations,
-                "load_steps": p.op.load_steps,
-                "responses": responses,
-                "gradients": gradients,
-                "modes": modes,
-            })
-        })
-        .collect();
-    let crossings: Vec<serde_json::Value> = crossings
-        .iter()
-        .map(|&(k, order, speed, f)| {
-            json!({"mode": k + 1, "order": order, "speed_rpm": rpm(speed), "frequency_hz": f})
-        })
-        .collect();
-    json!({"points": points, "crossings": crossings})
-}
-
-fn text(
-    mech: &Mechanism,
-    def: &OperatingDef,
-    points: &[Point],
-    crossings: &[Crossing],
-    written: &[PathBuf],
-) -> String {
-    let mut s = String::new();
-    for p in points {
-        let zeta = |m: &LinearMode| match m.damping_ratio() {
-            z if z.abs() < 1e-10 => 0.0,
-            z => z,
-        };
-        match &def.driver {
-            Some((name, _)) => writeln!(
-                s,
-                "steady spin of `{name}` at {} rpm ({} rad/s)",
-                short(rpm(p.speed)),
-                short(p.speed)
-            ),
-            None => writeln!(s, "static equilibrium"),
-        }
-        .expect("writing to a String");
-        let _ = writeln!(
-            s,
-            "  {} Newton iterations, {} load steps",
-            p.op.iterations, p.op.load_steps
-        );
-        for (r, v) in mech.responses.iter().zip(&p.values) {
-            let _ = writeln!(s, "  {:<24} {:>14} {}", r.name, fmt(*v), r.unit);
-        }
-        let _ = writeln!(s, "  mode  frequency [Hz]  damping ratio");
-        for (k, m) in p.modes.iter().enumerate() {
-            let note = match m.damping_ratio() {
-                z if z < -1e-9 => "  unstable",
-                _ if m.group > 0 => "  repeated",
-                _ if m.eigenvalue.im == 0.0 && m.eigenvalue.re != 0.0 => "  not oscillating",
-                _ => "",
-            };
-            let _ = writeln!(
-                s,
-                "  {:>4}  {:>14}  {:>13}{note}",
-                k + 1,
-                fmt(m.frequency_hz()),
-                fmt(zeta(m))
-            );
-        }
-    }
-    if !crossings.is_empty() {
-        let _ = writeln!(
-            s,
-            "rotor-order crossings (modes numbered by frequency at the lower speed):"
-        );
-        for &(k, order, speed, f) in crossings {
-            let _ = writeln!(
-                s,
-                "  mode {} crosses {order}P at {} rpm, {} Hz",
-                k + 1,
-                fmt(rpm(speed)),
-                fmt(f)
-            );
-        }
-    }
-    for w in written {
-        let _ = writeln!(s, "wrote {}", w.display());
-    }
-    s
-}
-
 /// A speed for a sentence: at most six decimals, trailing zeros dropped.
 fn short(x: f64) -> String {
     let s = format!("{x:.6}");
     s.trim_end_matches('0').trim_end_matches('.').to_string()
 }
 
-/// A value for the table: six significant digits.
-fn fmt(x: f64) -> String {
-    if x == 0.0 {
-        "0".into()
-    } else if (1e-3..1e6).contains(&x.abs()) {
-        let decimals = (5 - x.abs().log10().floor() as i32).max(0) as usize;
-        format!("{x:.decimals$}")
-    } else {
-        format!("{x:.5e}")
-    }
-}
+mod output;
