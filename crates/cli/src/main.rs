@@ -244,12 +244,11 @@ enum Command {
     },
 }
 
-fn main() -> ExitCode {
-    let cli = Cli::parse();
-    // faer's worker threads (its sparse factorisations) cost more than they give on small
-    // machines (measured on 2 cores: a 20 000-element section 17 % slower in wall time, a
-    // 98 000-dof shell 5 %) and oversubscribe the cores that `-j` gives to parallel cases, so
-    // they are off unless FLEXSENS_SOLVER_THREADS asks for them (docs/performance.md)
+/// faer's worker threads (its sparse factorisations) cost more than they give on small
+/// machines (measured on 2 cores: a 20 000-element section 17 % slower in wall time, a
+/// 98 000-dof shell 5 %) and oversubscribe the cores that `-j` gives to parallel cases, so
+/// they are off unless FLEXSENS_SOLVER_THREADS asks for them (docs/performance.md).
+fn set_solver_threads() {
     let threads = std::env::var("FLEXSENS_SOLVER_THREADS")
         .ok()
         .and_then(|v| v.parse::<usize>().ok())
@@ -259,6 +258,11 @@ fn main() -> ExitCode {
     } else {
         faer::Par::Seq
     });
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    set_solver_threads();
     limits::set(Limits {
         elements: cli.max_elements,
         steps: cli.max_steps,

@@ -772,18 +772,34 @@ fn vtk_files_hold_the_equilibrium_mesh_and_the_modes_directions() {
     assert!(text.contains("POINTS 31 double") && text.contains("CELLS 30 90"));
     // the tip's translation in a mode (node 30, the last of each vector block)
     let tip = |mode: usize| -> [f64; 3] {
-        let start = text.find(&format!("VECTORS mode_{mode}_real double")).unwrap();
+        let start = text
+            .find(&format!("VECTORS mode_{mode}_real double"))
+            .unwrap();
         let line = text[start..].lines().nth(31).unwrap();
-        let v: Vec<f64> = line.split_whitespace().map(|x| x.parse().unwrap()).collect();
+        let v: Vec<f64> = line
+            .split_whitespace()
+            .map(|x| x.parse().unwrap())
+            .collect();
         [v[0], v[1], v[2]]
     };
     // at rest the strip's first mode flaps (along z, the thin direction), its second lags
     // (along y)
     let (flap, lag) = (tip(1), tip(2));
-    assert!(flap[2].abs() > 1e3 * flap[1].abs().max(flap[0].abs()), "{flap:?}");
-    assert!(lag[1].abs() > 1e3 * lag[2].abs().max(lag[0].abs()), "{lag:?}");
+    assert!(
+        flap[2].abs() > 1e3 * flap[1].abs().max(flap[0].abs()),
+        "{flap:?}"
+    );
+    assert!(
+        lag[1].abs() > 1e3 * lag[2].abs().max(lag[0].abs()),
+        "{lag:?}"
+    );
     // a second command without --vtk leaves no mode shapes of the first
-    let o = run(&["static", path.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    let o = run(&[
+        "static",
+        path.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
     assert!(o.status.success());
     assert!(!out.join("modes_1_blade.vtk").exists());
 }

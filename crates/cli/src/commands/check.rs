@@ -93,23 +93,7 @@ pub fn run(path: &Path, overrides: &[String]) -> Result<String, CliError> {
         None => None,
     };
     if let Some(o) = &operating {
-        let rpm = |w: f64| w * 30.0 / std::f64::consts::PI;
-        let _ = match &o.driver {
-            Some((name, _)) => writeln!(
-                s,
-                "operating: steady spins of `{name}` at {} speeds from {} to {} rpm, {} modes \
-                 reported",
-                o.speeds.len(),
-                rpm(o.speeds[0]),
-                rpm(o.speeds[o.speeds.len() - 1]),
-                o.modes
-            ),
-            None => writeln!(
-                s,
-                "operating: static equilibrium, {} modes reported",
-                o.modes
-            ),
-        };
+        let _ = writeln!(s, "{}", describe_operating(o));
     }
     let mechanism = raw.analysis.is_some() || !raw.joint.is_empty() || !raw.rigid.is_empty();
     if mechanism {
@@ -179,4 +163,20 @@ pub fn run(path: &Path, overrides: &[String]) -> Result<String, CliError> {
     }
     let _ = writeln!(s, "deck OK");
     Ok(s)
+}
+
+/// What `flexsens static` will compute for `[operating]`, in one line.
+fn describe_operating(o: &crate::deck::operating::OperatingDef) -> String {
+    let rpm = |w: f64| w * 30.0 / std::f64::consts::PI;
+    match &o.driver {
+        Some((name, _)) => format!(
+            "operating: steady spins of `{name}` at {} speeds from {} to {} rpm, {} modes \
+             reported",
+            o.speeds.len(),
+            rpm(o.speeds[0]),
+            rpm(o.speeds[o.speeds.len() - 1]),
+            o.modes
+        ),
+        None => format!("operating: static equilibrium, {} modes reported", o.modes),
+    }
 }

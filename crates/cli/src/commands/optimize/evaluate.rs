@@ -18,6 +18,30 @@ impl Problem<'_> {
         CliError::Input(self.src.error(None, Some("optimize".into()), message))
     }
 
+    /// The speed, the frequency and its gradient of linearised mode `mode` at operating point
+    /// `point` (from 0) of `points`.
+    fn operating_mode(
+        &self,
+        points: &[crate::commands::operating::Point],
+        point: usize,
+        mode: usize,
+    ) -> Result<(f64, f64, Vec<f64>), CliError> {
+        let p = &points[point];
+        let m = p.modes.get(mode).ok_or_else(|| {
+            self.at_optimize(format!(
+                "operating point {} has {} modes, not {}",
+                point + 1,
+                p.modes.len(),
+                mode + 1
+            ))
+        })?;
+        let grad = match &p.frequency_gradients {
+            Some(g) => g.row(mode).iter().copied().collect(),
+            None => Vec::new(),
+        };
+        Ok((p.speed, m.frequency_hz(), grad))
+    }
+
     /// Every quantity the problem reads, with its gradient, at the design `x`: the validated
     /// model moved there in memory.
     pub(super) fn evaluate(&self, x: &[f64]) -> Result<Eval, CliError> {
@@ -42,21 +66,8 @@ impl Problem<'_> {
             )?),
             None => None,
         };
-        let mode_at = |point: usize, mode: usize| -> Result<(f64, f64, Vec<f64>), CliError> {
-            let p = &operating.as_ref().expect("operating points computed")[point];
-            let m = p.modes.get(mode).ok_or_else(|| {
-                self.at_optimize(format!(
-                    "operating point {} has {} modes, not {}",
-                    point + 1,
-                    p.modes.len(),
-                    mode + 1
-                ))
-            })?;
-            let grad = match &p.frequency_gradients {
-                Some(g) => g.row(mode).iter().copied().collect(),
-                None => Vec::new(),
-            };
-            Ok((p.speed, m.frequency_hz(), grad))
+        let mode_at = |point: usize, mode: usize| {
+            self.operating_mode(operating.as_deref().expect("computed"), point, mode)
         };
         let lam = self
             .design
