@@ -734,12 +734,10 @@ fn a_coupled_composite_blade_spins_as_an_independent_bending_torsion_model() {
             .collect();
         let expected =
             coupled_rotating_cantilever((ei, gj, k), (rho_a, i_chord, i_thickness), 0.5, omega, 80);
-        // the first four flap–twist modes (the lag modes are not in the independent model):
-        // within 3e-4 for the flap-dominated ones, with the beam's lumped masses; the fourth,
-        // twist-dominated (1987 rad/s), falls behind the independent model as Ω²/2ω, 7.8e-4
-        // at 750 rpm: the beam's nodes turn their rotary inertia with the body but not with
-        // their own elastic rotation, so the modal model lacks the propeller moment
-        // Ω²(I_chord − I_thickness) φ (docs/operating-points.md, limits)
+        // the first four flap–twist modes (the lag modes are not in the independent model),
+        // within the beam's discretisation (96 elements, lumped masses: 4e-5 to 6.3e-4, the
+        // same at every speed); the twist-dominated fourth (1987 rad/s) rises by Ω²/2ω with
+        // the speed through the propeller moment, 7.8e-4 at 750 rpm
         for &e in &expected[..4] {
             let nearest = got
                 .iter()
@@ -747,7 +745,7 @@ fn a_coupled_composite_blade_spins_as_an_independent_bending_torsion_model() {
                 .min_by(|a, b| (a - e).abs().total_cmp(&(b - e).abs()))
                 .unwrap();
             assert!(
-                (nearest / e - 1.0).abs() < 1e-3,
+                (nearest / e - 1.0).abs() < 7e-4,
                 "Ω = {omega} rad/s: {nearest} rad/s, independent model {e} (all: {got:?})"
             );
         }

@@ -311,6 +311,8 @@ pub(crate) struct ModalInvariants<P: Scalar> {
     modal_mass: Vec<P>,
     /// The sums of the second-order field, when the body has one.
     field: Option<FieldInvariants<P>>,
+    /// The second-order rotation of the nodes' rotary inertia, with the field.
+    rotary: Option<RotaryInvariants<P>>,
     /// The Gram table of the second-order field, when the body has one with enough nodes that
     /// it is cheaper than the loop over them ([`FieldGram::pays`]).
     gram: Option<FieldGram<P>>,
@@ -329,6 +331,65 @@ pub(crate) struct FieldInvariants<P: Scalar> {
     r: Vec<P>,
     /// `T[j, p, l, q] = Σ_k m_k Q_k,jp · Q_k,lq` at `((j · nf + p) · nf + l) · nf + q`.
     t: Vec<P>,
+}
+
+/// The rotary inertia of the nodes turned by their own rotations `θ_k = Σ_j T_kj w_j` to
+/// the second order: with `Θ_kj = [T_kj]×` and `R_k = I + Θ_k + ½ Θ_k²`,
+/// `Σ_k R_k μ_k R_kᵀ = Σ μ + Σ_j w_j L_j + Σ_jl w_j w_l S_jl + O(w³)`. It enters the kinetic
+/// energy as `½ ωᵀ (Σ R μ Rᵀ) ω`: the restoring moment of a spinning blade's chordwise mass
+/// against twist (the propeller moment, docs/operating-points.md).
+#[derive(Clone, Debug)]
+pub(crate) struct RotaryInvariants<P: Scalar> {
+    /// `L_j = Σ_k Θ_kj μ_k + μ_k Θ_kjᵀ`.
+    l: Vec<Matrix3<P>>,
+    /// `S_jl = Σ_k Θ_kj μ_k Θ_klᵀ + ½ (Θ_kj Θ_kl μ_k + μ_k Θ_klᵀ Θ_kjᵀ)` at `j · n_modes + l`.
+    s: Vec<Matrix3<P>>,
+}
+
+impl<P: Scalar> RotaryInvariants<P> {
+    fn new(modal: &ModalBody<P>) -> Self {
+        let nm = modal.n_modes();
+        let mut r = Self {
+            l: vec![Matrix3::zeros(); nm],
+            s: vec![Matrix3::zeros(); nm * nm],
+        };
+        let half = P::from_f64(0.5);
+        for k in 0..modal.n_nodes() {
+            let mu = Matrix3::from_diagonal(&modal.node_inertias[k]);
+            if mu == Matrix3::zeros() {
+                continue;
+            }
+            let theta: Vec<Matrix3<P>> = (0..nm)
+                .map(|j| crate::kin::skew(&mode_vec::<P, P>(modal, k, j, true)))
+                .collect();
+            for j in 0..nm {
+                let tm = theta[j] * mu;
+                r.l[j] += tm + tm.transpose();
+                for l in 0..nm {
+                    let b = theta[j] * theta[l] * mu * half;
+                    r.s[j * nm + l] += tm * theta[l].transpose() + b + b.transpose();
+                }
+            }
+        }
+        r
+    }
+
+    /// `ΔJ(w) = Σ_j w_j L_j + Σ_jl w_j w_l S_jl` and its derivatives `∂ΔJ/∂w_j`.
+    fn at<S: Scalar + From<P>>(&self, w: &[S]) -> (Matrix3<S>, Vec<Matrix3<S>>) {
+        let nm = self.l.len();
+        let mut dj = Matrix3::<S>::zeros();
+        let mut d: Vec<Matrix3<S>> = self.l.iter().map(|x| x.map(lift)).collect();
+        for j in 0..nm {
+            dj += self.l[j].map(lift::<P, S>) * w[j];
+            for l in 0..nm {
+                let sjl: Matrix3<S> = self.s[j * nm + l].map(lift);
+                dj += sjl * (w[j] * w[l]);
+                d[j] += sjl * w[l];
+                d[l] += sjl * w[j];
+            }
+        }
+        (dj, d)
+    }
 }
 
 impl<P: Scalar> FieldInvariants<P> {
@@ -383,6 +444,7 @@ impl<P: Scalar> ModalInvariants<P> {
             mode_spin: vec![Vector3::zeros(); nm],
             modal_mass: vec![P::zero(); nm * nm],
             field: field.map(|g| FieldInvariants::new(modal, g)),
+            rotary: field.map(|_| RotaryInvariants::new(modal)),
             gram: field
                 .filter(|g| FieldGram::pays(modal, g.field_modes))
                 .map(|g| FieldGram::new(modal, g)),
@@ -712,10 +774,25 @@ fn second_order_dynamics<P: Scalar, S: Scalar + From<P>>(
     for i in 0..3 {
         m_oo[(i, i)] += inertia[i];
     }
-    // Σ μ ∘ (ω + θ̇): the rotations are linear
+    // Σ μ ∘ (ω + θ̇): the rotary inertia follows the rotations' rates linearly
     let mut hj = om.component_mul(&inertia);
     for j in 0..nm {
         hj += inv.mode_spin[j].map(lift) * wd[j];
+    }
+    // and is turned by them to the second order in the frame's rotation, `½ ωᵀ ΔJ(w) ω`:
+    // `ΔJ` in the mass matrix, `(dΔJ/dt) ω + ω × ΔJ ω` on the frame, `½ ωᵀ ∂ΔJ/∂w_j ω` on
+    // the modes
+    let mut rotary = Vector3::<S>::zeros();
+    let mut rotary_w = vec![S::zero(); nm];
+    if let Some(r) = &inv.rotary {
+        let (dj, d) = r.at(w);
+        m_oo += dj;
+        hj += mv(&dj, &om);
+        for j in 0..nm {
+            let dom = mv(&d[j], &om);
+            rotary += dom * wd[j];
+            rotary_w[j] = dom.dot(&om) * S::from_f64(0.5);
+        }
     }
     frame_blocks(mass, off, a, total, &first, &m_oo, &m_rw, &m_ow);
     // Σ m X̃_jᵀ X̃_l = modal mass + Σ m (X_j · C_l + C_j · X_l + C_j · C_l)
@@ -764,14 +841,14 @@ fn second_order_dynamics<P: Scalar, S: Scalar + From<P>>(
         }
     }
     let s_r = mv(a, &qc);
-    let s_om = s_o + om.cross(&hj);
+    let s_om = s_o + om.cross(&hj) + rotary;
     let gu = first.cross(&g_body);
     for i in 0..3 {
         force[off + i] += g[i] * total - s_r[i];
         force[off + 3 + i] += gu[i] - s_om[i];
     }
     for j in 0..nm {
-        force[off + 6 + j] += s_w[j];
+        force[off + 6 + j] += s_w[j] + rotary_w[j];
     }
     elastic_forces(modal, w, wd, &mut force[off + 6..off + 6 + nm]);
 }
@@ -848,6 +925,8 @@ mod tests {
         let mut s_w = vec![S::zero(); nm]; // Σ m X̃_j · (g' − c)
         let mut x = vec![Vector3::<S>::zeros(); nm];
         let mut t = vec![Vector3::<S>::zeros(); nm];
+        let mut rotary = Vector3::<S>::zeros(); // Σ (dΔJ_k/dt) ω
+        let mut rotary_w = vec![S::zero(); nm]; // Σ ½ ωᵀ ∂ΔJ_k/∂w_j ω
         for k in 0..modal.n_nodes() {
             let mk: S = lift(modal.node_masses[k]);
             let jk: Vector3<S> = modal.node_inertias[k].map(lift);
@@ -876,6 +955,14 @@ mod tests {
             qc += c * mk;
             s_o += u.cross(&c) * mk;
             hj += (om + th_d).component_mul(&jk);
+            // the rotary inertia turned by the node's rotation to the second order
+            let (dj, d) = node_rotary(modal, k, w);
+            m_oo += dj;
+            hj += dj * om;
+            for j in 0..nm {
+                rotary += d[j] * om * wd[j];
+                rotary_w[j] += (d[j] * om).dot(&om) * S::from_f64(0.5);
+            }
             let gc = (g_body - c) * mk;
             for j in 0..nm {
                 m_rw[j] += x[j] * mk;
@@ -894,16 +981,48 @@ mod tests {
             }
         }
         let s_r = mv(a, &qc);
-        let s_om = s_o + om.cross(&hj);
+        let s_om = s_o + om.cross(&hj) + rotary;
         let gu = first.cross(&g_body);
         for i in 0..3 {
             force[off + i] += g[i] * total - s_r[i];
             force[off + 3 + i] += gu[i] - s_om[i];
         }
         for j in 0..nm {
-            force[off + 6 + j] += s_w[j];
+            force[off + 6 + j] += s_w[j] + rotary_w[j];
         }
         elastic_forces(modal, w, wd, &mut force[off + 6..off + 6 + nm]);
+    }
+
+    /// Node `k`'s rotary inertia turned by its rotation `θ = Σ_j T_j w_j` to the second
+    /// order, less the unturned one: `ΔJ = Θμ + μΘᵀ + ΘμΘᵀ + ½ Θ²μ + ½ μ(Θ²)ᵀ` with
+    /// `Θ = [θ]×`, and `∂ΔJ/∂w_j` (`Θ → Θ_j = [T_j]×` in each factor in turn): the reference
+    /// of [`RotaryInvariants`], written out node by node.
+    fn node_rotary<P: Scalar, S: Scalar + From<P>>(
+        modal: &ModalBody<P>,
+        k: usize,
+        w: &[S],
+    ) -> (Matrix3<S>, Vec<Matrix3<S>>) {
+        let nm = modal.n_modes();
+        let mu = Matrix3::from_diagonal(&modal.node_inertias[k].map(lift::<P, S>));
+        let tj: Vec<Matrix3<S>> = (0..nm)
+            .map(|j| skew(&mode_vec::<P, S>(modal, k, j, true)))
+            .collect();
+        let mut th = Matrix3::<S>::zeros();
+        for j in 0..nm {
+            th += tj[j] * w[j];
+        }
+        let half = S::from_f64(0.5);
+        let turned = |a: &Matrix3<S>, b: &Matrix3<S>| {
+            // the bilinear form whose diagonal is ΔJ's second-order part
+            a * mu * b.transpose() + (a * b * mu + mu * (a * b).transpose()) * half
+        };
+        let dj = th * mu + mu * th.transpose() + turned(&th, &th);
+        let d = (0..nm)
+            .map(|j| {
+                tj[j] * mu + mu * tj[j].transpose() + turned(&tj[j], &th) + turned(&th, &tj[j])
+            })
+            .collect();
+        (dj, d)
     }
 
     /// The nodal sums of Eq. (2), node by node (the reference for the invariants).
@@ -1133,15 +1252,35 @@ mod tests {
         (m, f)
     }
 
-    /// A zero second-order field takes the node-by-node path: it gives what the invariants give.
+    /// A zero second-order field takes the node-by-node path: it gives what the invariants
+    /// give, with the nodes' rotary inertia turned by their rotations to the second order
+    /// (summed node by node here: [`node_rotary`]).
     #[test]
     fn a_zero_field_gives_the_linear_dynamics() {
         let modal = body();
+        let nm = modal.n_modes();
         let mut zero = field(&modal);
         zero.nodal.iter_mut().for_each(|k| k.fill(0.0));
-        let (q, v) = state(modal.n_modes());
+        let (q, v) = state(nm);
         let gravity = Vector3::new(0.0, -9.81, 1.0);
-        let ((m1, f1), _) = both(&modal, &q, &v);
+        let ((mut m1, mut f1), _) = both(&modal, &q, &v);
+        let (w, wd, om) = (&q[7..], &v[6..], vec3::<f64>(&v[3..6]));
+        for k in 0..modal.n_nodes() {
+            let (dj, d) = node_rotary::<f64, f64>(&modal, k, w);
+            for i in 0..3 {
+                for l in 0..3 {
+                    m1[(3 + i, 3 + l)] += dj[(i, l)];
+                }
+            }
+            let mut h = om.cross(&(dj * om));
+            for j in 0..nm {
+                h += d[j] * om * wd[j];
+                f1[6 + j] += 0.5 * (d[j] * om).dot(&om);
+            }
+            for i in 0..3 {
+                f1[3 + i] -= h[i];
+            }
+        }
         let (m2, f2) = with_field(&modal, &zero, &q, &v, &gravity);
         assert!((&m1 - &m2).amax() <= 1e-14 * m1.amax());
         let scale = f1.iter().fold(0.0f64, |a, x| a.max(x.abs()));
@@ -1185,8 +1324,11 @@ mod tests {
             }
             let vel = vec3(&v[0..3]) + a * (om.cross(&u) + ud);
             let spin = om + thd;
+            // the rotary inertia turned to the second order acts on the frame's rotation
+            let (dj, _) = node_rotary::<f64, f64>(&modal, k, w);
             expected += 0.5 * modal.node_masses[k] * vel.norm_squared()
-                + 0.5 * spin.dot(&spin.component_mul(&modal.node_inertias[k]));
+                + 0.5 * spin.dot(&spin.component_mul(&modal.node_inertias[k]))
+                + 0.5 * om.dot(&(dj * om));
         }
         assert!(
             (t - expected).abs() <= 1e-13 * expected,
