@@ -126,7 +126,7 @@ enum Command {
     /// The static equilibrium of the deck's mechanism, or its steady spins at the [operating]
     /// speeds: the modes linearised about each (frequencies, damping ratios), the responses
     /// and their design derivatives there, a Campbell diagram of a speed sweep; written to
-    /// `operating.csv`, `frequencies.csv`, `sensitivities.csv` and `campbell.svg`.
+    /// `operating.csv`, `frequencies.csv`, `sensitivities.csv` and `campbell.svg`/`.png`.
     #[command(allow_negative_numbers = true)]
     Static {
         /// The deck (TOML).

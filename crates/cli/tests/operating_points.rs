@@ -29,6 +29,31 @@ const WRIGHT: [(f64, f64, f64); 9] = [
     (12.0, 13.1702, 37.6031),
 ];
 
+/// The cubic Hermite shape functions of an element of length `h` at `s ∈ [0, 1]` (dofs
+/// `w0, w0', w1, w1'`), with their first and second derivatives along the beam.
+fn hermite(s: f64, h: f64) -> [[f64; 4]; 3] {
+    [
+        [
+            1.0 - 3.0 * s * s + 2.0 * s.powi(3),
+            h * (s - 2.0 * s * s + s.powi(3)),
+            3.0 * s * s - 2.0 * s.powi(3),
+            h * (s.powi(3) - s * s),
+        ],
+        [
+            (6.0 * s * s - 6.0 * s) / h,
+            1.0 - 4.0 * s + 3.0 * s * s,
+            (6.0 * s - 6.0 * s * s) / h,
+            3.0 * s * s - 2.0 * s,
+        ],
+        [
+            (12.0 * s - 6.0) / (h * h),
+            (6.0 * s - 4.0) / h,
+            (6.0 - 12.0 * s) / (h * h),
+            (6.0 * s - 2.0) / h,
+        ],
+    ]
+}
+
 /// The first frequencies (ω/√(EI/ρAL⁴)) of a rotating uniform Euler–Bernoulli cantilever
 /// at speed λ: Hermite elements with the centrifugal tension ρAΩ²(L² − x²)/2 as geometric
 /// stiffness (unit length, EI and ρA).
@@ -49,24 +74,7 @@ fn rotating_cantilever(lambda: f64, elements: usize) -> Vec<f64> {
         for &(g, w) in &gauss {
             let s = (g + 1.0) / 2.0;
             let x = x0 + s * h;
-            let shape = [
-                1.0 - 3.0 * s * s + 2.0 * s.powi(3),
-                h * (s - 2.0 * s * s + s.powi(3)),
-                3.0 * s * s - 2.0 * s.powi(3),
-                h * (s.powi(3) - s * s),
-            ];
-            let slope = [
-                (6.0 * s * s - 6.0 * s) / h,
-                1.0 - 4.0 * s + 3.0 * s * s,
-                (6.0 * s - 6.0 * s * s) / h,
-                3.0 * s * s - 2.0 * s,
-            ];
-            let curvature = [
-                (12.0 * s - 6.0) / (h * h),
-                (6.0 * s - 4.0) / h,
-                (6.0 - 12.0 * s) / (h * h),
-                (6.0 * s - 2.0) / h,
-            ];
+            let [shape, slope, curvature] = hermite(s, h);
             let tension = lambda * lambda * (1.0 - x * x) / 2.0;
             for a in 0..4 {
                 for b in 0..4 {
@@ -215,7 +223,12 @@ fn rotating_cantilever_flap_and_lag_frequencies_match_the_published_values() {
             "λ = {lambda}: lag {got} rad/s, expected {expected} (unsoftened {lag_rotating})"
         );
     }
-    for f in ["operating.csv", "frequencies.csv", "campbell.svg"] {
+    for f in [
+        "operating.csv",
+        "frequencies.csv",
+        "campbell.svg",
+        "campbell.png",
+    ] {
         assert!(dir.path().join("out").join(f).exists(), "{f}");
     }
 }
@@ -593,30 +606,9 @@ fn coupled_rotating_cantilever(
             let s = (gi + 1.0) / 2.0;
             let x = x0 + s * h;
             let wh = wi * h / 2.0;
-            let shape = [
-                1.0 - 3.0 * s * s + 2.0 * s.powi(3),
-                h * (s - 2.0 * s * s + s.powi(3)),
-                0.0,
-                3.0 * s * s - 2.0 * s.powi(3),
-                h * (s.powi(3) - s * s),
-                0.0,
-            ];
-            let slope = [
-                (6.0 * s * s - 6.0 * s) / h,
-                1.0 - 4.0 * s + 3.0 * s * s,
-                0.0,
-                (6.0 * s - 6.0 * s * s) / h,
-                3.0 * s * s - 2.0 * s,
-                0.0,
-            ];
-            let curvature = [
-                (12.0 * s - 6.0) / (h * h),
-                (6.0 * s - 4.0) / h,
-                0.0,
-                (6.0 - 12.0 * s) / (h * h),
-                (6.0 * s - 2.0) / h,
-                0.0,
-            ];
+            // element dofs (w0, w0', φ0, w1, w1', φ1): Hermite for w, nothing for φ
+            let with_twist = |x: [f64; 4]| [x[0], x[1], 0.0, x[2], x[3], 0.0];
+            let [shape, slope, curvature] = hermite(s, h).map(with_twist);
             let twist = [0.0, 0.0, 1.0 - s, 0.0, 0.0, s];
             let twist_rate = [0.0, 0.0, -1.0 / h, 0.0, 0.0, 1.0 / h];
             let tension = rho_a * omega * omega * (length * length - x * x) / 2.0;

@@ -529,7 +529,7 @@ pub struct LinearMode {
     /// The mode in the velocity variables (`d`, `n_v` complex components), unit largest
     /// component.
     pub shape: DVector<Complex<f64>>,
-    /// The modes of equal eigenvalues (within [`REPEATED`]) share a group number; zero for
+    /// The modes of equal eigenvalues (within a relative 1e-6) share a group number; zero for
     /// a single one, else the group's number from 1.
     pub group: usize,
     /// The right and left eigenvectors of the reduced problem (of a group: one of the pair of

@@ -49,26 +49,23 @@ fn pendulum<P: Scalar>(m: P, side: f64, tilt: f64) -> (Model<P>, mbs::State) {
     (model, state)
 }
 
-fn system(model: &Model<f64>, state: &mut mbs::State) -> MultibodySystem {
-    let mut sys = MultibodySystem::new(model.clone(), state, RedundancyPolicy::Remove).unwrap();
-    sys.assemble(0.0, state, 1e-12).unwrap();
-    sys
+/// The operating point of `model` from `state` (assembled first), static or at `spin`.
+fn solve(
+    model: &Model<f64>,
+    mut state: mbs::State,
+    spin: Option<Spin>,
+) -> Result<mbs::OperatingPoint, OperatingError> {
+    let mut sys = MultibodySystem::new(model.clone(), &state, RedundancyPolicy::Remove).unwrap();
+    sys.assemble(0.0, &mut state, 1e-12).unwrap();
+    let options = EquilibriumOptions::default();
+    equilibrium(model, sys.active_rows(), 0.0, &state, spin, &options)
 }
 
 #[test]
 fn pendulum_hangs_at_the_closed_form_angle_and_swings_at_its_frequency() {
     let (m, side) = (2.0, 5.0);
-    let (model, mut state) = pendulum(m, side, 0.6);
-    let sys = system(&model, &mut state);
-    let op = equilibrium(
-        &model,
-        sys.active_rows(),
-        0.0,
-        &state,
-        None,
-        &Default::default(),
-    )
-    .unwrap();
+    let (model, state) = pendulum(m, side, 0.6);
+    let op = solve(&model, state, None).unwrap();
     // tan φ = F / (m g): the centre at (½ sin φ, −½ cos φ)
     let phi = (side / (m * G)).atan();
     let (x, y) = (op.state.q[0], op.state.q[1]);
@@ -92,17 +89,8 @@ fn pendulum_hangs_at_the_closed_form_angle_and_swings_at_its_frequency() {
 #[test]
 fn pendulum_equilibrium_derivative_equals_the_closed_form_and_differences() {
     let (m, side) = (2.0, 5.0);
-    let (model, mut state) = pendulum(m, side, 0.3);
-    let sys = system(&model, &mut state);
-    let op = equilibrium(
-        &model,
-        sys.active_rows(),
-        0.0,
-        &state,
-        None,
-        &Default::default(),
-    )
-    .unwrap();
+    let (model, state) = pendulum(m, side, 0.3);
+    let op = solve(&model, state, None).unwrap();
     let (dual, _) = pendulum(Dual::<1>::variable(m, 0), side, 0.3);
     let design = DesignModel::new(vec![dual], 1).unwrap();
     let s = op.sensitivities(&design).unwrap();
@@ -116,19 +104,8 @@ fn pendulum_equilibrium_derivative_equals_the_closed_form_and_differences() {
         s.q[(0, 0)]
     );
     let at = |mm: f64| {
-        let (model, mut state) = pendulum(mm, side, 0.3);
-        let sys = system(&model, &mut state);
-        equilibrium(
-            &model,
-            sys.active_rows(),
-            0.0,
-            &state,
-            None,
-            &Default::default(),
-        )
-        .unwrap()
-        .state
-        .q
+        let (model, state) = pendulum(mm, side, 0.3);
+        solve(&model, state, None).unwrap().state.q
     };
     let h = 1e-5;
     let (qp, qm) = (at(m + h), at(m - h));
@@ -218,18 +195,9 @@ fn spinning_slider<P: Scalar>(
 fn spinning_slider_settles_at_the_closed_form_radius_and_softens_by_the_spin() {
     let (m, k, l0) = (0.5, 200.0, 0.2);
     for speed in [0.0, 5.0, 12.0, 18.0] {
-        let (model, mut state, motor) = spinning_slider(m, k, l0, speed);
-        let sys = system(&model, &mut state);
+        let (model, state, motor) = spinning_slider(m, k, l0, speed);
         let spin = Spin::of_driver(&model, motor, speed).unwrap();
-        let op = equilibrium(
-            &model,
-            sys.active_rows(),
-            0.0,
-            &state,
-            Some(spin),
-            &Default::default(),
-        )
-        .unwrap();
+        let op = solve(&model, state, Some(spin)).unwrap();
         // k (r − l0) = m Ω² r
         let r = k * l0 / (k - m * speed * speed);
         let slider = 7;
@@ -255,18 +223,9 @@ fn spinning_slider_settles_at_the_closed_form_radius_and_softens_by_the_spin() {
 #[test]
 fn spinning_slider_radius_derivative_equals_the_closed_form() {
     let (m, k, l0, speed) = (0.5, 200.0, 0.2, 12.0);
-    let (model, mut state, motor) = spinning_slider(m, k, l0, speed);
-    let sys = system(&model, &mut state);
+    let (model, state, motor) = spinning_slider(m, k, l0, speed);
     let spin = Spin::of_driver(&model, motor, speed).unwrap();
-    let op = equilibrium(
-        &model,
-        sys.active_rows(),
-        0.0,
-        &state,
-        Some(spin),
-        &Default::default(),
-    )
-    .unwrap();
+    let op = solve(&model, state, Some(spin)).unwrap();
     let (dual, _, _) = spinning_slider(Dual::<1>::variable(m, 0), k, l0, speed);
     let s = op
         .sensitivities(&DesignModel::new(vec![dual], 1).unwrap())
@@ -284,19 +243,10 @@ fn spinning_slider_radius_derivative_equals_the_closed_form() {
 
 #[test]
 fn a_spin_with_gravity_across_its_axis_is_refused() {
-    let (mut model, mut state, motor) = spinning_slider(0.5, 200.0, 0.2, 5.0);
+    let (mut model, state, motor) = spinning_slider(0.5, 200.0, 0.2, 5.0);
     model.gravity = Vector3::new(0.0, -G, 0.0);
-    let sys = system(&model, &mut state);
     let spin = Spin::of_driver(&model, motor, 5.0).unwrap();
-    let err = equilibrium(
-        &model,
-        sys.active_rows(),
-        0.0,
-        &state,
-        Some(spin),
-        &Default::default(),
-    )
-    .unwrap_err();
+    let err = solve(&model, state, Some(spin)).unwrap_err();
     assert!(matches!(err, OperatingError::Spin(_)), "{err}");
     // and a spin about a joint that is not an angle driver
     let bearing = model.joint_of_row(0);
@@ -307,11 +257,9 @@ fn a_spin_with_gravity_across_its_axis_is_refused() {
 #[test]
 fn a_free_mechanism_has_no_equilibrium() {
     // the pendulum without gravity nor load: any angle is an equilibrium
-    let (mut model, mut state) = pendulum(1.0, 0.0, 0.3);
+    let (mut model, state) = pendulum(1.0, 0.0, 0.3);
     model.gravity = Vector3::zeros();
-    let sys = system(&model, &mut state);
-    let options = EquilibriumOptions::default();
-    let err = equilibrium(&model, sys.active_rows(), 0.0, &state, None, &options).unwrap_err();
+    let err = solve(&model, state, None).unwrap_err();
     assert!(matches!(err, OperatingError::Singular { .. }), "{err}");
 }
 
@@ -336,18 +284,9 @@ fn frequency_and_derivative(
 #[test]
 fn spinning_slider_frequency_derivative_equals_the_closed_form() {
     let (m, k, l0, speed) = (0.5, 200.0, 0.2, 12.0);
-    let (model, mut state, motor) = spinning_slider(m, k, l0, speed);
-    let sys = system(&model, &mut state);
+    let (model, state, motor) = spinning_slider(m, k, l0, speed);
     let spin = Spin::of_driver(&model, motor, speed).unwrap();
-    let op = equilibrium(
-        &model,
-        sys.active_rows(),
-        0.0,
-        &state,
-        Some(spin),
-        &Default::default(),
-    )
-    .unwrap();
+    let op = solve(&model, state, Some(spin)).unwrap();
     let (dual, _, _) = spinning_slider(Dual::<1>::variable(m, 0), k, l0, speed);
     let design = DesignModel::new(vec![dual], 1).unwrap();
     let (omega, d_omega) = frequency_and_derivative(&model, &design, &op);
@@ -359,17 +298,8 @@ fn spinning_slider_frequency_derivative_equals_the_closed_form() {
 #[test]
 fn pendulum_frequency_derivative_through_its_equilibrium_equals_the_closed_form() {
     let (m, side) = (2.0, 5.0);
-    let (model, mut state) = pendulum(m, side, 0.3);
-    let sys = system(&model, &mut state);
-    let op = equilibrium(
-        &model,
-        sys.active_rows(),
-        0.0,
-        &state,
-        None,
-        &Default::default(),
-    )
-    .unwrap();
+    let (model, state) = pendulum(m, side, 0.3);
+    let op = solve(&model, state, None).unwrap();
     let (dual, _) = pendulum(Dual::<1>::variable(m, 0), side, 0.3);
     let design = DesignModel::new(vec![dual], 1).unwrap();
     let (omega, d_omega) = frequency_and_derivative(&model, &design, &op);

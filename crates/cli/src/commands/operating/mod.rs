@@ -33,11 +33,12 @@ pub struct StaticRequest<'a> {
 }
 
 /// The files the command may write (those it does not write are removed).
-const OUTPUT_FILES: [&str; 4] = [
+const OUTPUT_FILES: [&str; 5] = [
     "operating.csv",
     "frequencies.csv",
     "sensitivities.csv",
     "campbell.svg",
+    "campbell.png",
 ];
 
 /// Width of the dual numbers of the design derivatives.

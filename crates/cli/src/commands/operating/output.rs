@@ -33,11 +33,12 @@ pub(super) fn write_files(
     if let Some(csv) = sensitivities_csv(mech, points) {
         files.push((out.join("sensitivities.csv"), csv));
     }
+    let mut png = None;
     if points.len() > 1 {
-        let svg = campbell(src, def, points)
-            .svg()
-            .map_err(|e| computation(src, format!("cannot draw the Campbell diagram: {e}")))?;
-        files.push((out.join("campbell.svg"), svg));
+        let figure = campbell(src, def, points);
+        let draw = |e: String| computation(src, format!("cannot draw the Campbell diagram: {e}"));
+        files.push((out.join("campbell.svg"), figure.svg().map_err(draw)?));
+        png = Some(figure.png().map_err(draw)?);
     }
     if vtk {
         for (i, p) in points.iter().enumerate() {
@@ -47,14 +48,20 @@ pub(super) fn write_files(
             }
         }
     }
-    let staged = files
+    let mut staged = files
         .iter()
         .map(|(p, text)| Staged::new(p, text.as_bytes()))
         .collect::<Result<Vec<_>, _>>()?;
+    let mut written: Vec<PathBuf> = files.into_iter().map(|(p, _)| p).collect();
+    if let Some(bytes) = &png {
+        let path = out.join("campbell.png");
+        staged.push(Staged::new(&path, bytes)?);
+        written.push(path);
+    }
     for s in staged {
         s.commit()?;
     }
-    Ok(files.into_iter().map(|(p, _)| p).collect())
+    Ok(written)
 }
 
 fn operating_csv(mech: &Mechanism, points: &[Point]) -> String {
@@ -165,12 +172,13 @@ fn campbell(src: &Source, def: &OperatingDef, points: &[Point]) -> Figure {
             Series::solid(format!("mode {}", k + 1), &x, &y, k + 1)
         })
         .collect();
-    for &order in &def.orders {
+    // the orders dashed, each in a colour of its own (the palette from its far end)
+    for (i, &order) in def.orders.iter().enumerate() {
         let y: Vec<f64> = points
             .iter()
             .map(|p| order as f64 * p.speed / (2.0 * std::f64::consts::PI))
             .collect();
-        series.push(Series::dashed(format!("{order}P"), &x, &y, 0));
+        series.push(Series::dashed(format!("{order}P"), &x, &y, 7 - i % 8));
     }
     let name = def.driver.as_ref().map_or("", |(n, _)| n.as_str());
     Figure {
