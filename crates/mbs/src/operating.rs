@@ -347,14 +347,14 @@ pub fn equilibrium(
     let size = crate::mechanism_size(model, &start.q);
     let mut q = start.q.clone();
     let mut lambda = vec![0.0; rows.len()];
-    let (mut load, mut step) = (0.0f64, 1.0f64);
     // the multipliers that balance the start's loads best: the constraint forces' stiffness
     // holds a mechanism whose loads alone do not (a pendulum under gravity)
-    let mut scaled = model.clone();
     if let Some(l) = start_multipliers(model, t, spin.as_ref(), rows, &q) {
         lambda = l;
     }
+    let (mut load, mut step) = (0.0f64, 1.0f64);
     let (mut iterations, mut load_steps) = (0, 0);
+    let mut scaled = model.clone();
     loop {
         let target = (load + step).min(1.0);
         scaled.gravity = model.gravity * target;

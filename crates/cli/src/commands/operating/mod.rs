@@ -176,7 +176,16 @@ pub(crate) fn operating_points(
         .map_err(at)?;
         let lin = op.linearise(&model);
         let mut modes = lin.modes().map_err(at)?;
-        modes.truncate(def.modes);
+        // the modes asked for, and the rest of a repeated group the last of them is in (its
+        // derivatives are the group's)
+        let mut keep = def.modes.min(modes.len());
+        while keep > 0 && keep < modes.len() && modes[keep].group > 0 {
+            if modes[keep].group != modes[keep - 1].group {
+                break;
+            }
+            keep += 1;
+        }
+        modes.truncate(keep);
         let system = system.with_model(model.clone());
         let values = response_values(src, mech, &system, &op)?;
         let (gradients, frequency_gradients) = match &design {
