@@ -89,8 +89,12 @@ fn rotating_cantilever(lambda: f64, elements: usize) -> Vec<f64> {
     // clamped at x = 0
     let k = k.view((2, 2), (n, n)).into_owned();
     let m = m.view((2, 2), (n, n)).into_owned();
-    let l = m.cholesky().unwrap().l();
-    let li = l.clone().try_inverse().unwrap();
+    frequencies(k, m)
+}
+
+/// The square roots of the eigenvalues of `k x = ω² m x` (`m` positive definite), increasing.
+fn frequencies(k: DMatrix<f64>, m: DMatrix<f64>) -> Vec<f64> {
+    let li = m.cholesky().unwrap().l().try_inverse().unwrap();
     let a: DMatrix<f64> = &li * k * li.transpose();
     let mut w: Vec<f64> = SymmetricEigen::new(a)
         .eigenvalues
@@ -632,16 +636,7 @@ fn coupled_rotating_cantilever(
         kk.view((3, 3), (n - 3, n - 3)).into_owned(),
         mm.view((3, 3), (n - 3, n - 3)).into_owned(),
     );
-    let l = mm.cholesky().unwrap().l();
-    let li = l.try_inverse().unwrap();
-    let a: DMatrix<f64> = &li * kk * li.transpose();
-    let mut f: Vec<f64> = SymmetricEigen::new(a)
-        .eigenvalues
-        .iter()
-        .map(|x| x.sqrt())
-        .collect();
-    f.sort_by(f64::total_cmp);
-    f
+    frequencies(kk, mm)
 }
 
 #[test]
