@@ -37,6 +37,12 @@ impl CsvTable {
     }
 }
 
+/// A number printed as short as it reads (`1e-4`, `0.0001`), 6 significant digits.
+pub(crate) fn short(x: f64) -> String {
+    let r: f64 = format!("{x:.5e}").parse().unwrap_or(x);
+    format!("{r}")
+}
+
 /// `x` in the tables' number format (shortest round-trip exponent form, e.g. `1.5e-3`).
 pub(crate) fn number(x: f64) -> String {
     format!("{x:e}")

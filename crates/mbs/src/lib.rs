@@ -132,7 +132,7 @@ pub use response::{
 };
 pub use sensitivity::{
     DesignModel, SIMULTANEOUS_TOLERANCE, SensitivityError, SensitivityMethod, SensitivityOptions,
-    SensitivityRun, SensitivityStatistics, initial_sensitivities, simulate_sensitivities,
+    SensitivityRun, SensitivityStatistics, initial_sensitivities, seeded, simulate_sensitivities,
     simulate_sensitivities_from, simulate_steps, tangent_rhs,
 };
 pub use system::{

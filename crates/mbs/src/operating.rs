@@ -19,6 +19,7 @@ use nalgebra::{Complex, DMatrix, DVector, Vector3, Vector4};
 use sens::{Dual, HyperDual, Scalar, chunk_ranges};
 
 use crate::kin::{mtv, rotation};
+use crate::sensitivity::seeded;
 use crate::system::apply_increment;
 use crate::{DesignModel, JointId, JointKind, Model, State};
 
@@ -100,8 +101,9 @@ pub struct OperatingPoint {
     /// Newton iterations in all, and load steps.
     pub iterations: usize,
     pub load_steps: usize,
-    /// `∂[E; Φ]/∂[d; λ]` at the solution.
+    /// `∂[E; Φ]/∂[d; λ]` at the solution, and its LU (the sensitivities' solves).
     jacobian: DMatrix<f64>,
+    factor: nalgebra::LU<f64, nalgebra::Dyn, nalgebra::Dyn>,
 }
 
 impl Spin {
@@ -260,23 +262,6 @@ fn increment_map(model: &Model<f64>, q: &[f64]) -> DMatrix<f64> {
     t
 }
 
-/// `q` as duals whose tangents are the velocity variables `cols` (through `map` = ∂q/∂d).
-fn seeded_q<const N: usize>(
-    q: &[f64],
-    map: &DMatrix<f64>,
-    cols: std::ops::Range<usize>,
-) -> Vec<Dual<N>> {
-    (0..q.len())
-        .map(|i| {
-            let mut d = [0.0; N];
-            for (k, j) in cols.clone().enumerate() {
-                d[k] = map[(i, j)];
-            }
-            Dual::new(q[i], d)
-        })
-        .collect()
-}
-
 /// The residual and its Jacobian `∂[E; Φ]/∂[d; λ]` at `(q, λ)`.
 fn residual_and_jacobian(
     model: &Model<f64>,
@@ -293,7 +278,7 @@ fn residual_and_jacobian(
     let lam: Vec<Dual<WIDTH>> = lambda.iter().map(|&l| Dual::constant(l)).collect();
     let mut value = Vec::new();
     for cols in chunk_ranges(nv, WIDTH) {
-        let qd = seeded_q::<WIDTH>(q, &map, cols.clone());
+        let qd = seeded::<WIDTH>(q, &map, &cols);
         let r = residual(model, t, spin, rows, &qd, &lam);
         for (k, j) in cols.enumerate() {
             for (i, x) in r.iter().enumerate() {
@@ -395,7 +380,8 @@ pub fn equilibrium(
         }
     }
     let (_, jacobian) = residual_and_jacobian(model, t, spin.as_ref(), rows, &q, &lambda);
-    if jacobian.clone().lu().determinant() == 0.0 || !jacobian.iter().all(|x| x.is_finite()) {
+    let factor = jacobian.clone().lu();
+    if !factor.is_invertible() || !jacobian.iter().all(|x| x.is_finite()) {
         return Err(OperatingError::Singular {
             at: " at the solution".into(),
         });
@@ -416,6 +402,7 @@ pub fn equilibrium(
         iterations,
         load_steps,
         jacobian,
+        factor,
     })
 }
 
@@ -756,7 +743,6 @@ impl OperatingPoint {
         let values = design.values();
         let (nq, nv) = (values.n_q(), values.n_v());
         let m = design.n_variables();
-        let lu = self.jacobian.clone().lu();
         let map = increment_map(&values, &self.state.q);
         let qd: Vec<Dual<N>> = self.state.q.iter().map(|&x| Dual::constant(x)).collect();
         let ld: Vec<Dual<N>> = self.lambda.iter().map(|&x| Dual::constant(x)).collect();
@@ -769,7 +755,7 @@ impl OperatingPoint {
             let r = residual(model, self.t, self.spin.as_ref(), &self.rows, &qd, &ld);
             for (k, j) in range.enumerate() {
                 let rhs = DVector::from_iterator(r.len(), r.iter().map(|x| -x.d[k]));
-                let Some(dx) = lu.solve(&rhs) else {
+                let Some(dx) = self.factor.solve(&rhs) else {
                     return Err(OperatingError::Singular {
                         at: " at the solution".into(),
                     });

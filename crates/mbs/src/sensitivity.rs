@@ -296,8 +296,9 @@ fn rhs_failure(e: impl std::fmt::Display) -> IntegrationFailure {
     IntegrationFailure::Rhs(RhsError(e.to_string()))
 }
 
-/// `(q, v)` of a chunk as duals: value `y_i`, tangent `k` = `s[(i, range.start + k)]`.
-pub(crate) fn seeded<const N: usize>(
+/// A state (or any vector `y`) of a chunk as duals: value `y_i`, tangent `k` =
+/// `s[(i, range.start + k)]` (`s` one column per design variable).
+pub fn seeded<const N: usize>(
     y: &[f64],
     s: &DMatrix<f64>,
     range: &std::ops::Range<usize>,

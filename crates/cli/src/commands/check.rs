@@ -167,7 +167,7 @@ pub fn run(path: &Path, overrides: &[String]) -> Result<String, CliError> {
 
 /// What `flexsens static` will compute for `[operating]`, in one line.
 fn describe_operating(o: &crate::deck::operating::OperatingDef) -> String {
-    let rpm = |w: f64| w * 30.0 / std::f64::consts::PI;
+    use super::operating::rpm;
     match &o.driver {
         Some((name, _)) => format!(
             "operating: steady spins of `{name}` at {} speeds from {} to {} rpm, {} modes \

@@ -166,18 +166,17 @@ fn quantity(
             })
         }
         ["operating_frequency", i, k] => {
-            let (point, mode) = operating_point(src, raw, &bad, i, k)?;
+            let (point, mode, _) = operating_point(src, raw, &bad, i, k)?;
             Ok(Quantity::OperatingFrequency { point, mode })
         }
         ["order_margin", i, k, n] => {
-            let (point, mode) = operating_point(src, raw, &bad, i, k)?;
+            let (point, mode, speed) = operating_point(src, raw, &bad, i, k)?;
             let order = n
                 .parse::<u32>()
                 .ok()
                 .filter(|&o| o >= 1)
                 .ok_or_else(|| bad(format!("`{n}` is not a rotor order (from 1)")))?;
-            let speeds = super::operating::validate(src, raw)?.speeds;
-            if speeds[point] == 0.0 {
+            if speed == 0.0 {
                 return Err(bad(format!(
                     "operating point {i} is at rest: a margin to a rotor order needs a speed"
                 )));
@@ -192,14 +191,14 @@ fn quantity(
 }
 
 /// The operating point `i` (from 1, of `[operating]`'s speeds) and mode `k` (from 1) of an
-/// operating quantity, from 0.
+/// operating quantity, from 0, and the point's speed (rad/s).
 fn operating_point(
     src: &Source,
     raw: &RawDeck,
     bad: &dyn Fn(String) -> DeckError,
     i: &str,
     k: &str,
-) -> Result<(usize, usize), DeckError> {
+) -> Result<(usize, usize, f64), DeckError> {
     let def = super::operating::validate(src, raw)?;
     let n = def.speeds.len();
     let point = i
@@ -222,7 +221,7 @@ fn operating_point(
                 def.modes
             ))
         })?;
-    Ok((point - 1, mode - 1))
+    Ok((point - 1, mode - 1, def.speeds[point - 1]))
 }
 
 fn constraint(

@@ -20,6 +20,7 @@ use crate::deck::{self, Source};
 use crate::error::CliError;
 use crate::files::{DirLock, remove_stale_partials};
 use crate::study::Mechanism;
+use crate::table::short;
 use output::{summary, text, write_files};
 
 /// What `flexsens static` was asked for.
@@ -105,7 +106,8 @@ fn computation(src: &Source, reason: impl std::fmt::Display) -> CliError {
     }
 }
 
-fn rpm(w: f64) -> f64 {
+/// rad/s → rpm.
+pub(crate) fn rpm(w: f64) -> f64 {
     w * 30.0 / std::f64::consts::PI
 }
 
@@ -238,22 +240,15 @@ fn response_gradients(
     let nc = mech.model.n_constraints();
     let mut g = DMatrix::from_element(mech.responses.len(), design.n_variables(), f64::NAN);
     for (model, range) in design.chunk_ranges() {
-        let seed = |x: &[f64], d: &DMatrix<f64>, i: usize| {
-            let mut t = [0.0; CHUNK];
-            for (k, j) in range.clone().enumerate() {
-                t[k] = d[(i, j)];
-            }
-            Dual::new(x[i], t)
-        };
-        let q: Vec<Dual<CHUNK>> = (0..op.state.q.len())
-            .map(|i| seed(&op.state.q, &s.q, i))
-            .collect();
-        let v: Vec<Dual<CHUNK>> = (0..op.state.v.len())
-            .map(|i| seed(&op.state.v, &s.v, i))
-            .collect();
+        let q: Vec<Dual<CHUNK>> = mbs::seeded(&op.state.q, &s.q, &range);
+        let v: Vec<Dual<CHUNK>> = mbs::seeded(&op.state.v, &s.v, &range);
         let mut lambda = vec![Dual::constant(0.0); nc];
-        for (a, &r) in op.rows.iter().enumerate() {
-            lambda[r] = seed(&op.lambda, &s.lambda, a);
+        for (&r, l) in op
+            .rows
+            .iter()
+            .zip(mbs::seeded(&op.lambda, &s.lambda, &range))
+        {
+            lambda[r] = l;
         }
         for (i, r) in mech.responses.iter().enumerate() {
             if !r.response.differentiable() {
@@ -318,12 +313,6 @@ fn crossings(points: &[Point], orders: &[u32]) -> Vec<Crossing> {
     }
     out.sort_by(|a, b| a.2.total_cmp(&b.2));
     out
-}
-
-/// A speed for a sentence: at most six decimals, trailing zeros dropped.
-fn short(x: f64) -> String {
-    let s = format!("{x:.6}");
-    s.trim_end_matches('0').trim_end_matches('.').to_string()
 }
 
 mod output;

@@ -8,7 +8,7 @@ use serde_json::json;
 
 use mbs::LinearMode;
 
-use super::{Crossing, Point, computation, rpm, short};
+use super::{Crossing, Point, computation, rpm};
 use crate::commands::run_files::per;
 use crate::deck::Source;
 use crate::deck::operating::OperatingDef;
@@ -16,7 +16,7 @@ use crate::error::CliError;
 use crate::files::Staged;
 use crate::plot::{Figure, Panel, Series};
 use crate::study::Mechanism;
-use crate::table::{CsvTable, number};
+use crate::table::{CsvTable, number, short};
 
 /// The files of the command, written under temporary names and committed together.
 pub(super) fn write_files(
@@ -287,7 +287,7 @@ pub(super) fn text(
             p.op.iterations, p.op.load_steps
         );
         for (r, v) in mech.responses.iter().zip(&p.values) {
-            let _ = writeln!(s, "  {:<24} {:>14} {}", r.name, fmt(*v), r.unit);
+            let _ = writeln!(s, "  {:<24} {:>14} {}", r.name, short(*v), r.unit);
         }
         let _ = writeln!(s, "  mode  frequency [Hz]  damping ratio");
         for (k, m) in p.modes.iter().enumerate() {
@@ -301,8 +301,8 @@ pub(super) fn text(
                 s,
                 "  {:>4}  {:>14}  {:>13}{note}",
                 k + 1,
-                fmt(m.frequency_hz()),
-                fmt(zeta(m))
+                short(m.frequency_hz()),
+                short(zeta(m))
             );
         }
     }
@@ -316,8 +316,8 @@ pub(super) fn text(
                 s,
                 "  mode {} crosses {order}P at {} rpm, {} Hz",
                 k + 1,
-                fmt(rpm(speed)),
-                fmt(f)
+                short(rpm(speed)),
+                short(f)
             );
         }
     }
@@ -325,18 +325,6 @@ pub(super) fn text(
         let _ = writeln!(s, "wrote {}", w.display());
     }
     s
-}
-
-/// A value for the table: six significant digits.
-fn fmt(x: f64) -> String {
-    if x == 0.0 {
-        "0".into()
-    } else if (1e-3..1e6).contains(&x.abs()) {
-        let decimals = (5 - x.abs().log10().floor() as i32).max(0) as usize;
-        format!("{x:.decimals$}")
-    } else {
-        format!("{x:.5e}")
-    }
 }
 
 /// Legacy ASCII VTK of a flexible body at an operating point: its mesh at the equilibrium

@@ -408,11 +408,7 @@ pub(super) fn vanishes(l: &Layup) -> bool {
     amax(&l.main.sensitivity) <= 1e-9 * amax(&l.main.deflection)
 }
 
-/// A number printed as short as it reads (`1e-4`, `0.0001`), 6 significant digits.
-pub(super) fn short(x: f64) -> String {
-    let r: f64 = format!("{x:.5e}").parse().unwrap_or(x);
-    format!("{r}")
-}
+pub(super) use crate::table::short;
 
 /// Run the command; the returned text goes to stdout.
 pub fn run(path: &Path, overrides: &[String], req: &ReportRequest) -> Result<String, CliError> {
