@@ -94,6 +94,7 @@ mod error;
 mod fd;
 mod field_gram;
 mod force;
+mod frozen;
 mod joint;
 pub mod kin;
 mod marker;
@@ -120,6 +121,7 @@ pub use fd::{
     finite_differences_from, simulate_response,
 };
 pub use force::{Force, ForceId, Load, LoadFrame, TorqueLaw};
+pub use frozen::{StateLinearisation, linearise_state};
 pub use joint::{JointId, JointKind, TimeFunction};
 pub use marker::{Marker, Site};
 pub use model::{Baumgarte, ConstraintValues, Energy, Equations, Joint, Model, State};

@@ -63,6 +63,10 @@ pub enum OperatingError {
         equation: usize,
         residual: f64,
     },
+    #[error("the eigenvalues of the linearised equations did not converge")]
+    Eigen,
+    #[error("the state at t = {t} s cannot be linearised: {reason}")]
+    State { t: f64, reason: String },
 }
 
 /// Options of [`equilibrium`].
@@ -248,7 +252,7 @@ fn equations<P: Scalar, S: Scalar + From<P>>(
 
 /// `∂q/∂d`: column `j` the change of `q` along velocity variable `j` (the kinematic rates of
 /// a unit velocity).
-fn increment_map(model: &Model<f64>, q: &[f64]) -> DMatrix<f64> {
+pub(crate) fn increment_map(model: &Model<f64>, q: &[f64]) -> DMatrix<f64> {
     let (nq, nv) = (model.n_q(), model.n_v());
     let mut t = DMatrix::zeros(nq, nv);
     let mut e = vec![0.0; nv];
@@ -571,9 +575,9 @@ pub struct Linearisation {
     pub damping: DMatrix<f64>,
     /// Elastic, geometric, centrifugal and constraint-force stiffness.
     pub stiffness: DMatrix<f64>,
-    /// The unreduced `M`, `C`, `K` (`n_v × n_v`) and the rows' `Φ_v`.
-    full: [DMatrix<f64>; 3],
-    jacobian: DMatrix<f64>,
+    /// Of an operating point: the unreduced `M`, `C`, `K` (`n_v × n_v`) and the rows' `Φ_v`
+    /// (for the eigenvalue derivatives).
+    unreduced: Option<([DMatrix<f64>; 3], DMatrix<f64>)>,
 }
 
 impl OperatingPoint {
@@ -614,8 +618,7 @@ impl OperatingPoint {
             damping: project(&c),
             stiffness: project(&k),
             basis,
-            full: [m, c, k],
-            jacobian,
+            unreduced: Some(([m, c, k], jacobian)),
         }
     }
 }
@@ -642,6 +645,21 @@ fn complex(a: &DMatrix<f64>) -> CMatrix {
 }
 
 impl Linearisation {
+    /// The minimal-coordinate form `I z̈ + C z' + K z = 0` with `d = basis · z`.
+    pub(crate) fn minimal(
+        basis: DMatrix<f64>,
+        stiffness: DMatrix<f64>,
+        damping: DMatrix<f64>,
+    ) -> Self {
+        Self {
+            mass: DMatrix::identity(basis.ncols(), basis.ncols()),
+            damping,
+            stiffness,
+            basis,
+            unreduced: None,
+        }
+    }
+
     /// The number of independent coordinates.
     pub fn dim(&self) -> usize {
         self.basis.ncols()
@@ -670,10 +688,12 @@ impl Linearisation {
             .copy_from(&(-&minv * &self.stiffness));
         a.view_mut((f, f), (f, f))
             .copy_from(&(-&minv * &self.damping));
-        let mut values: Vec<Complex<f64>> = a
-            .complex_eigenvalues()
-            .iter()
-            .copied()
+        // faer's QR iteration (nalgebra's can stall for many minutes on defective pairs)
+        let values = faer::Mat::from_fn(2 * f, 2 * f, |i, j| a[(i, j)])
+            .eigenvalues()
+            .map_err(|_| OperatingError::Eigen)?;
+        let mut values: Vec<Complex<f64>> = (values.iter())
+            .map(|s| Complex::new(s.re, s.im))
             .filter(|s| s.im >= 0.0)
             .collect();
         values.sort_by(|a, b| a.norm().total_cmp(&b.norm()));
@@ -828,12 +848,12 @@ fn group_derivatives(
 impl Linearisation {
     fn mode_vectors(&self, mode: &LinearMode) -> ModeVectors {
         let s = mode.eigenvalue;
-        let [m, c, k] = &self.full;
+        let ([m, c, k], jac) = (self.unreduced.as_ref())
+            .expect("eigenvalue derivatives need an operating point's linearisation");
         let basis = complex(&self.basis);
         let (x, y) = (&basis * &mode.right, &basis * &mode.left);
         let l = complex(k) + complex(c) * s + complex(m) * (s * s);
         // (J Jᵀ)⁻¹ J v, the multipliers that balance v in the least-squares sense
-        let jac = &self.jacobian;
         let jjt = (jac * jac.transpose()).lu();
         let balance = |v: &CVector| -> CVector {
             let part = |f: fn(&Complex<f64>) -> f64| {

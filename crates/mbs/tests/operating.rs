@@ -1,12 +1,15 @@
 //! Operating points against closed forms: a pendulum's static equilibrium under a side load
 //! and its small-oscillation frequency, a spring-held slider on a spinning arm (the steady
 //! radius, the radial frequency softened by the spin, ω² = k/m − Ω²), and the equilibria's
-//! design derivatives against the closed forms' and central differences.
+//! design derivatives against the closed forms' and central differences. The linearisation
+//! about states of a run: a swinging pendulum against its angle equation, a steadily spinning
+//! slider and a driven flexible beam against their steady spins, a free spinning top against
+//! its nutation frequency in the body frame.
 
 use mbs::{
-    DesignModel, EquilibriumOptions, Force, Joint, JointId, JointKind, Load, LoadFrame, Marker,
-    Model, MultibodySystem, OperatingError, RedundancyPolicy, RigidBody, Spin, TimeFunction,
-    equilibrium,
+    BdfOptions, DesignModel, EquilibriumOptions, Force, Joint, JointId, JointKind, Load, LoadFrame,
+    Marker, Model, MultibodySystem, OperatingError, RedundancyPolicy, RigidBody, Spin,
+    TimeFunction, equilibrium, linearise_state, simulate,
 };
 use nalgebra::{Matrix3, Vector3};
 use sens::{Dual, Scalar};
@@ -311,4 +314,193 @@ fn pendulum_frequency_derivative_through_its_equilibrium_equals_the_closed_form(
     assert!((omega * omega / w2(m) - 1.0).abs() < 1e-9);
     let exact = dw2 / (2.0 * omega);
     assert!((d_omega / exact - 1.0).abs() < 1e-8, "{d_omega} vs {exact}");
+}
+
+/// The linearisation about states of a run, each the state of `sys` at an output time.
+fn run_and_linearise(
+    sys: &mut MultibodySystem,
+    state: &mbs::State,
+    times: &[f64],
+) -> Vec<mbs::StateLinearisation> {
+    let sim = simulate(sys, state, times, BdfOptions::adaptive(1e-10, 1e-12)).unwrap();
+    (sim.outputs.iter())
+        .map(|o| {
+            let s = mbs::State {
+                q: o.q.clone(),
+                v: o.v.clone(),
+            };
+            linearise_state(sys, o.t, &s).unwrap()
+        })
+        .collect()
+}
+
+#[test]
+fn a_swinging_pendulum_linearises_to_its_angle_equation_whatever_its_speed() {
+    let (m, side) = (2.0, 5.0);
+    let (model, mut state) = pendulum(m, side, 0.3);
+    let rod = model.body_ids().next().unwrap();
+    // swinging hard: through 3 rad/s at the start, past the horizontal
+    let w = 6.0;
+    let a = model.rotation_of(rod, &state.q);
+    let centre = Vector3::new(state.q[0], state.q[1], 0.0);
+    model.set_velocity(
+        &mut state,
+        rod,
+        Vector3::z().cross(&centre) * w,
+        Vector3::z() * w,
+    );
+    let mut sys = MultibodySystem::new(model.clone(), &state, RedundancyPolicy::Remove).unwrap();
+    sys.assemble(0.0, &mut state, 1e-12).unwrap();
+    assert!((a - model.rotation_of(rod, &state.q)).amax() < 1e-12);
+    let times: Vec<f64> = (0..=12).map(|i| 0.1 * i as f64).collect();
+    let i_pin = m / 12.0 + m * 0.25;
+    let mut fastest: f64 = 0.0;
+    let mut beyond_horizontal = false;
+    for lin in run_and_linearise(&mut sys, &state, &times) {
+        assert_eq!(
+            lin.independent,
+            vec![5],
+            "the angle about the pin is the coordinate"
+        );
+        let (x, y) = (lin.state.q[0], lin.state.q[1]);
+        let theta = x.atan2(-y);
+        fastest = fastest.max(lin.state.v[5].abs());
+        beyond_horizontal |= theta.cos() < 0.0;
+        // I θ̈ = −½ m g sin θ + ½ F cos θ
+        let exact = -0.5 * (m * G * theta.cos() + side * theta.sin()) / i_pin;
+        let s = lin.linearisation.modes().unwrap()[0].eigenvalue;
+        let s2 = (s * s).re;
+        assert!(
+            (s2 - exact).abs() < 1e-9 * exact.abs().max(1.0),
+            "θ = {theta}: s² = {s2}, closed form {exact}"
+        );
+    }
+    assert!(fastest > 5.0 && beyond_horizontal, "ω up to {fastest}");
+}
+
+#[test]
+fn a_steadily_spinning_slider_linearises_as_its_steady_spin_at_any_time_of_its_run() {
+    let (m, k, l0, speed) = (0.5, 200.0, 0.2, 12.0);
+    let (model, state, motor) = spinning_slider(m, k, l0, speed);
+    let spin = Spin::of_driver(&model, motor, speed).unwrap();
+    let op = solve(&model, state, Some(spin)).unwrap();
+    let steady = op.linearise(&model).modes().unwrap();
+    // ω² = k/m − Ω² along the slot
+    let omega = (k / m - speed * speed).sqrt();
+    assert!((steady[0].eigenvalue.im / omega - 1.0).abs() < 1e-9);
+    let mut sys = MultibodySystem::new(model.clone(), &op.state, RedundancyPolicy::Remove).unwrap();
+    let mut start = op.state.clone();
+    sys.assemble(0.0, &mut start, 1e-12).unwrap();
+    // the run stays on the steady spin: every time point linearises to it
+    for lin in run_and_linearise(&mut sys, &start, &[0.0, 0.13, 0.4]) {
+        let modes = lin.linearisation.modes().unwrap();
+        assert_eq!(modes.len(), 1, "one coordinate: the slider along its slot");
+        let s = modes[0].eigenvalue;
+        assert!(
+            (s.im / omega - 1.0).abs() < 1e-7 && s.re.abs() < 1e-7 * omega,
+            "s = {s}, steady spin {omega}"
+        );
+    }
+}
+
+/// A uniform beam along x (`EI = m = L = 1` flapwise, chordwise 4× stiffer), clamped to a hub
+/// turned about z at `speed` by an angle driver; the modes of both planes, stiffened.
+fn driven_beam(speed: f64) -> (Model<f64>, mbs::State, JointId) {
+    use fem::{BeamSection, Mesh, ModalOptions, Properties, ReferenceCondition};
+    let mesh = Mesh::straight_beam(Vector3::zeros(), Vector3::x(), 16, 0, Vector3::y()).unwrap();
+    let stiff = 1e7;
+    let props = Properties {
+        sections: vec![BeamSection::diagonal(
+            [stiff, stiff, stiff, stiff, 1.0, 4.0],
+            1.0,
+            1e-9,
+            1e-9,
+        )],
+        laminates: vec![],
+    };
+    let mut options = ModalOptions::new(6);
+    options.reference = ReferenceCondition::ClampedNode(0);
+    let analysis = fem::modal_analysis(&mesh, &props, &options).unwrap();
+    let modal = fem::modal_body(&mesh, &props, &analysis).unwrap();
+    let body = mbs::FlexibleBody::new("beam", modal.clone())
+        .with_geometric_stiffness(fem::geometric_stiffness(&mesh, &modal, 0).unwrap());
+    let mut model = Model::new();
+    let beam = model.add_flexible_body(body).unwrap();
+    let z = Vector3::z();
+    model
+        .add_joint(Joint::new(
+            "bearing",
+            JointKind::Revolute,
+            Marker::ground(Vector3::zeros()).with_axis(z),
+            Marker::on(beam, Vector3::zeros()).with_axis(z),
+        ))
+        .unwrap();
+    let motor = model
+        .add_joint(Joint::new(
+            "motor",
+            JointKind::AngleDriver(TimeFunction::ConstantSpeed {
+                initial: 0.0,
+                rate: speed,
+            }),
+            Marker::ground(Vector3::zeros()).with_axes(Vector3::x(), Vector3::y()),
+            Marker::on(beam, Vector3::zeros()).with_axes(Vector3::x(), Vector3::y()),
+        ))
+        .unwrap();
+    let state = model.rest_state();
+    (model, state, motor)
+}
+
+#[test]
+fn a_driven_flexible_beam_linearises_at_a_time_of_its_run_as_its_steady_spin() {
+    let speed = 3.0;
+    let (model, state, motor) = driven_beam(speed);
+    let spin = Spin::of_driver(&model, motor, speed).unwrap();
+    let op = solve(&model, state, Some(spin)).unwrap();
+    let steady = op.linearise(&model).modes().unwrap();
+    // the published first flapwise frequency at Ω̄ = 3 (Wright et al. 1982)
+    assert!((steady[0].frequency_hz() * 2.0 * std::f64::consts::PI / 4.7973 - 1.0).abs() < 1e-3);
+    let mut sys = MultibodySystem::new(model.clone(), &op.state, RedundancyPolicy::Remove).unwrap();
+    let mut start = op.state.clone();
+    sys.assemble(0.0, &mut start, 1e-12).unwrap();
+    for lin in run_and_linearise(&mut sys, &start, &[0.0, 0.7]) {
+        assert_eq!(lin.independent.len(), 6, "the modal coordinates");
+        let modes = lin.linearisation.modes().unwrap();
+        assert_eq!(modes.len(), steady.len());
+        for (a, b) in modes.iter().zip(&steady) {
+            let rel = (a.eigenvalue - b.eigenvalue).norm() / b.eigenvalue.norm();
+            assert!(rel < 1e-7, "{} vs steady {}", a.eigenvalue, b.eigenvalue);
+        }
+    }
+}
+
+#[test]
+fn a_free_spinning_top_shows_its_nutation_and_the_turning_of_space_in_its_frame() {
+    // axisymmetric, C = 1.8 A, spinning about its axis at Ω, no gravity
+    let (a, c, spin) = (2.0, 3.6, 7.0);
+    let mut model = Model::new();
+    let top = model
+        .add_rigid_body(RigidBody::new(
+            "top",
+            1.0,
+            Matrix3::from_diagonal(&Vector3::new(a, a, c)),
+        ))
+        .unwrap();
+    let mut state = model.rest_state();
+    model.set_velocity(&mut state, top, Vector3::zeros(), Vector3::z() * spin);
+    let mut sys = MultibodySystem::new(model.clone(), &state, RedundancyPolicy::Remove).unwrap();
+    for lin in run_and_linearise(&mut sys, &state, &[0.0, 0.3]) {
+        assert_eq!(lin.independent.len(), 6);
+        let mut f: Vec<f64> = (lin.linearisation.modes().unwrap().iter())
+            .map(|m| m.eigenvalue.norm())
+            .filter(|&s| s > 1e-6 * spin)
+            .collect();
+        f.sort_by(f64::total_cmp);
+        // the nutation (C − A)/A Ω in the body frame; a fixed tilt and the translations seen
+        // from the body turning at Ω (the translations' pair defective)
+        let expected = [(c - a) / a * spin, spin, spin, spin];
+        assert_eq!(f.len(), 4, "{f:?}");
+        for (x, e) in f.iter().zip(expected) {
+            assert!((x / e - 1.0).abs() < 1e-6, "{f:?} against {expected:?}");
+        }
+    }
 }
