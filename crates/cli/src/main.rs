@@ -127,6 +127,8 @@ enum Command {
     /// speeds: the modes linearised about each (frequencies, damping ratios), the responses
     /// and their design derivatives there, a Campbell diagram of a speed sweep; written to
     /// `operating.csv`, `frequencies.csv`, `sensitivities.csv` and `campbell.svg`/`.png`.
+    /// With `[operating] at = [t, …]`, the run's states at those times instead (frozen-time
+    /// modes in the bodies' moving frames).
     #[command(allow_negative_numbers = true)]
     Static {
         /// The deck (TOML).

@@ -6,9 +6,13 @@
 //!   at speeds up to λ = Ω/√(EI/ρAL⁴) = 12, which an Euler–Bernoulli finite-element model of
 //!   the rotating beam written here reproduces first; its lag frequency softened by the spin,
 //!   ω² = ω_F(Ω)² − Ω² with ω_F the flap law of the lag stiffness.
-//! - A pendulum of the mechanism tables under a side load: its equilibrium angle and
-//!   frequency against the closed forms, and the angle's derivative with respect to the
-//!   bob's mass against central differences of the command.
+//! - A pendulum under a side load: its equilibrium angle and frequency against the closed
+//!   forms, and its frozen-time frequencies about the states of a wide swing (`[operating]
+//!   at`) against the closed-form linearisation of its angle equation.
+//! - A composite cantilever's sag against Timoshenko beam theory on its section stiffness, its
+//!   derivative against central differences of the command; rotating frequencies' derivatives
+//!   against central differences; an optimisation with a 2P margin active; a bending–torsion
+//!   coupled blade against an independent rotating beam model; the VTK mode shapes.
 
 mod common;
 
@@ -787,4 +791,135 @@ fn vtk_files_hold_the_equilibrium_mesh_and_the_modes_directions() {
     ]);
     assert!(o.status.success());
     assert!(!out.join("modes_1_blade.vtk").exists());
+}
+
+/// A bob (mass 2 kg, 0.01 kg·m² about its centre) on a massless arm of 0.5 m from a pin about
+/// z, under gravity along −y and a side load of 5 N along x, drawn at angle `theta0` (rad)
+/// from hanging, swinging at `omega0` (deg/s).
+fn pendulum(theta0: f64, omega0: f64) -> String {
+    let (s, c) = theta0.sin_cos();
+    format!(
+        r#"
+title = "pendulum under a side load"
+[rigid.bob]
+mass = 2.0
+inertia = [0.01, 0.01, 0.01]
+position = [{x:?}, {y:?}, 0.0]
+angular_velocity = [0.0, 0.0, {omega0:?}]
+velocity = [{vx:?}, {vy:?}, 0.0]
+
+[joint.pin]
+kind = "revolute"
+a = {{ body = "ground", point = [0.0, 0.0, 0.0], axis = [0.0, 0.0, 1.0] }}
+b = {{ body = "bob", point = [0.0, 0.0, 0.0], axis = [0.0, 0.0, 1.0] }}
+
+[force.gravity]
+kind = "gravity"
+acceleration = [0.0, -9.81, 0.0]
+
+[force.side]
+kind = "point-force"
+at = {{ body = "bob", point = [{x:?}, {y:?}, 0.0] }}
+value = [5.0, 0.0, 0.0]
+
+[response.x]
+kind = "position"
+body = "bob"
+component = "x"
+
+[response.y]
+kind = "position"
+body = "bob"
+component = "y"
+
+[analysis]
+t_end = 1.0
+rtol = 1e-10
+atol = 1e-12
+"#,
+        x = 0.5 * s,
+        y = -0.5 * c,
+        vx = 0.5 * c * omega0.to_radians(),
+        vy = 0.5 * s * omega0.to_radians(),
+    )
+}
+
+#[test]
+fn a_pendulum_linearises_about_its_equilibrium_and_along_its_swing_as_its_angle_equation() {
+    let (m, d, ic, g, f): (f64, f64, f64, f64, f64) = (2.0, 0.5, 0.01, 9.81, 5.0);
+    let i_pin = ic + m * d * d;
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("pendulum.toml");
+    std::fs::write(&path, pendulum(0.2, 0.0)).unwrap();
+    let deck = path.to_str().unwrap();
+    let out = dir.path().join("out");
+    let o = out.to_str().unwrap();
+    // the equilibrium: tan θ = F / (m g), I ω² = d √((m g)² + F²)
+    let s = json(&["static", deck, "-o", o, "--json"]);
+    let p = &s["points"][0];
+    let theta = (f / (m * g)).atan();
+    let x = p["responses"]["x"].as_f64().unwrap();
+    assert!((x - d * theta.sin()).abs() < 1e-10, "x = {x}");
+    let omega = (d * ((m * g).powi(2) + f * f).sqrt() / i_pin).sqrt();
+    let hz = p["modes"][0]["frequency_hz"].as_f64().unwrap();
+    assert!((hz * 2.0 * std::f64::consts::PI / omega - 1.0).abs() < 1e-9);
+    // a wide swing, past the horizontal: about its state at each time the frozen equation
+    // I δθ̈ = −d (m g cos θ + F sin θ) δθ, whatever the speed
+    std::fs::write(&path, pendulum(0.2, 400.0)).unwrap();
+    let at: Vec<f64> = (1..=9).map(|i| 0.1 * i as f64).collect();
+    let list = at.iter().map(|t| format!("{t:?}")).collect::<Vec<_>>();
+    let set = format!("operating.at=[{}]", list.join(", "));
+    let s = json(&["static", deck, "-o", o, "--json", "--set", &set]);
+    let points = s["points"].as_array().unwrap();
+    assert_eq!(points.len(), at.len());
+    let mut beyond_horizontal = false;
+    for (p, t) in points.iter().zip(&at) {
+        assert_eq!(p["time_s"].as_f64(), Some(*t));
+        let (x, y) = (
+            p["responses"]["x"].as_f64().unwrap(),
+            p["responses"]["y"].as_f64().unwrap(),
+        );
+        let theta = x.atan2(-y);
+        beyond_horizontal |= theta.cos() < 0.0;
+        let k = d * (m * g * theta.cos() + f * theta.sin());
+        let mode = &p["modes"][0];
+        let s = mode["frequency_hz"].as_f64().unwrap() * 2.0 * std::f64::consts::PI;
+        // (relative to the stiffness's scale: it passes through zero)
+        let scale = d * (m * g).hypot(f) / i_pin;
+        assert!(
+            (s * s - k.abs() / i_pin).abs() < 1e-9 * scale,
+            "t = {t}: |s| = {s}, closed form {}",
+            (k.abs() / i_pin).sqrt()
+        );
+        // a restoring stiffness oscillates, a negative one diverges (a real eigenvalue)
+        let damped = mode["damped_frequency_hz"].as_f64().unwrap();
+        assert_eq!(damped > 0.0, k > 0.0, "t = {t}, k = {k}");
+    }
+    assert!(beyond_horizontal, "the swing stays below the horizontal");
+    let csv = std::fs::read_to_string(out.join("frequencies.csv")).unwrap();
+    assert!(csv.starts_with("time [s],mode,"), "{csv}");
+    assert!(out.join("frequencies.svg").exists() && !out.join("campbell.svg").exists());
+    // the times within the run, and alone of the keys that choose the operating points
+    for (set, key, says) in [
+        (
+            "operating.at=[0.5, 2.0]",
+            "operating.at.1",
+            "outside the analysis's span",
+        ),
+        ("operating.at=[0.5, 0.4]", "operating.at.1", "must increase"),
+        (
+            "operating.time=0.1",
+            "operating.at",
+            "cannot be given with it",
+        ),
+    ] {
+        let mut args = vec!["static", deck, "-o", o, "--set", "operating.at=[0.5]"];
+        args.extend(["--set", set]);
+        let r = run(&args);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(
+            !r.status.success() && err.contains(key) && err.contains(says),
+            "{set}: {err}"
+        );
+    }
 }

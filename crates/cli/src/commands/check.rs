@@ -103,6 +103,9 @@ pub fn run(path: &Path, overrides: &[String]) -> Result<String, CliError> {
         if mech.design.enabled {
             super::sensitivity::prepare(&src, &mech)?;
         }
+        if let Some(o) = &operating {
+            crate::deck::operating::check_times(&src, o, &mech.times)?;
+        }
         if let Some((name, span)) = operating.as_ref().and_then(|o| o.driver.as_ref()) {
             let id = mech.model.joint_id(name).expect("validated driver");
             mbs::Spin::of_driver(&mech.model, id, 1.0).map_err(|e| {
@@ -168,6 +171,13 @@ pub fn run(path: &Path, overrides: &[String]) -> Result<String, CliError> {
 /// What `flexsens static` will compute for `[operating]`, in one line.
 fn describe_operating(o: &crate::deck::operating::OperatingDef) -> String {
     use super::operating::rpm;
+    if let (Some((first, _)), Some((last, _))) = (o.at.first(), o.at.last()) {
+        return format!(
+            "operating: the run's states at {} times from {first} to {last} s, {} modes reported",
+            o.at.len(),
+            o.modes
+        );
+    }
     match &o.driver {
         Some((name, _)) => format!(
             "operating: steady spins of `{name}` at {} speeds from {} to {} rpm, {} modes \

@@ -15,6 +15,9 @@ pub struct OperatingDef {
     pub speeds: Vec<f64>,
     /// The drivers' time (s); `None`: the analysis's start.
     pub time: Option<f64>,
+    /// Times of the run (s), increasing, with their spans: the operating points are the run's
+    /// states there instead of equilibria (then `speeds` is `[0]` and `driver`, `time` none).
+    pub at: Vec<RunTime>,
     /// Linearised modes reported.
     pub modes: usize,
     /// Rotor orders of the Campbell diagram.
@@ -33,6 +36,7 @@ pub fn validate(src: &Source, raw: &RawDeck) -> Result<OperatingDef, DeckError> 
             driver: None,
             speeds: vec![0.0],
             time: None,
+            at: Vec::new(),
             modes: DEFAULT_MODES,
             orders: DEFAULT_ORDERS.to_vec(),
         });
@@ -106,6 +110,7 @@ pub fn validate(src: &Source, raw: &RawDeck) -> Result<OperatingDef, DeckError> 
         Some(t) => Some(finite(src, "operating.time", t, "s")?),
         None => None,
     };
+    let at = run_times(src, o)?;
     let modes = match &o.modes {
         Some(m) => count(src, "operating.modes", m, 1)?,
         None => DEFAULT_MODES,
@@ -128,7 +133,70 @@ pub fn validate(src: &Source, raw: &RawDeck) -> Result<OperatingDef, DeckError> 
         driver,
         speeds,
         time,
+        at,
         modes,
         orders,
     })
+}
+
+/// A time of `operating.at` with its span in the deck.
+pub type RunTime = (f64, Option<std::ops::Range<usize>>);
+
+/// `operating.at`: finite, increasing times, alone of the keys that choose the operating
+/// points.
+fn run_times(src: &Source, o: &super::raw::RawOperating) -> Result<Vec<RunTime>, DeckError> {
+    let Some(list) = &o.at else {
+        return Ok(Vec::new());
+    };
+    if list.get_ref().is_empty() {
+        return Err(src.error(
+            span(list),
+            Some("operating.at".into()),
+            "the list of times is empty",
+        ));
+    }
+    let others = [
+        ("driver", o.driver.is_some()),
+        ("speeds", o.speeds.is_some()),
+        ("time", o.time.is_some()),
+    ];
+    if let Some((key, _)) = others.iter().find(|(_, given)| *given) {
+        return Err(src.error(
+            span(list),
+            Some("operating.at".into()),
+            format!(
+                "`at` linearises about the run's states at these times, so `{key}` (of an \
+                 equilibrium or a steady spin) cannot be given with it"
+            ),
+        ));
+    }
+    let mut at: Vec<RunTime> = Vec::new();
+    for (i, t) in list.get_ref().iter().enumerate() {
+        let key = format!("operating.at.{i}");
+        let x = finite(src, &key, t, "s")?;
+        if at.last().is_some_and(|&(last, _)| x <= last) {
+            return Err(src.error(
+                span(t),
+                Some(key),
+                "the times must increase from one to the next",
+            ));
+        }
+        at.push((x, span(t)));
+    }
+    Ok(at)
+}
+
+/// `operating.at` within the analysis's span `times` (its output times).
+pub fn check_times(src: &Source, def: &OperatingDef, times: &[f64]) -> Result<(), DeckError> {
+    let (t0, t1) = (times[0], times[times.len() - 1]);
+    for (i, (t, span)) in def.at.iter().enumerate() {
+        if *t < t0 || *t > t1 {
+            return Err(src.error(
+                span.clone(),
+                Some(format!("operating.at.{i}")),
+                format!("{t} s is outside the analysis's span, {t0} to {t1} s"),
+            ));
+        }
+    }
+    Ok(())
 }

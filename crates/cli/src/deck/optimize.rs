@@ -200,6 +200,13 @@ fn operating_point(
     k: &str,
 ) -> Result<(usize, usize, f64), DeckError> {
     let def = super::operating::validate(src, raw)?;
+    if !def.at.is_empty() {
+        return Err(bad(
+            "operating quantities are of equilibria and steady spins: `[operating] at` \
+             linearises about states of the run, which have no design derivatives"
+                .into(),
+        ));
+    }
     let n = def.speeds.len();
     let point = i
         .parse::<usize>()

@@ -3,7 +3,8 @@
 //! speeds; at each operating point the modes of the linearised constrained system
 //! (frequencies, damping ratios), the deck's responses and, when the deck declares design
 //! variables, their exact derivatives; a Campbell diagram of a speed sweep with the rotor
-//! orders' crossings (docs/operating-points.md).
+//! orders' crossings. With `[operating] at`, the states of the run at those times instead,
+//! linearised in the bodies' moving frames (docs/operating-points.md).
 
 use std::path::Path;
 
@@ -34,12 +35,14 @@ pub struct StaticRequest<'a> {
 }
 
 /// The files the command may write (those it does not write are removed).
-const OUTPUT_FILES: [&str; 5] = [
+const OUTPUT_FILES: [&str; 7] = [
     "operating.csv",
     "frequencies.csv",
     "sensitivities.csv",
     "campbell.svg",
     "campbell.png",
+    "frequencies.svg",
+    "frequencies.png",
 ];
 
 /// Width of the dual numbers of the design derivatives.
@@ -47,9 +50,14 @@ const CHUNK: usize = 8;
 
 /// One operating point and what was computed there.
 pub(crate) struct Point {
-    /// Spin speed (rad/s).
+    /// Spin speed (rad/s; zero for a static equilibrium or a state of the run).
     pub(crate) speed: f64,
-    op: OperatingPoint,
+    /// The time of a state of the run (`[operating] at`); none for an equilibrium.
+    pub(crate) time: Option<f64>,
+    /// The state linearised about.
+    state: mbs::State,
+    /// Newton iterations and load steps of an equilibrium (zero for a state of the run).
+    solve: (usize, usize),
     pub(crate) modes: Vec<LinearMode>,
     /// Per response, its value.
     values: Vec<f64>,
@@ -90,8 +98,14 @@ pub fn run(path: &Path, overrides: &[String], req: &StaticRequest) -> Result<Str
             }
         }
     }
-    let points = operating_points(&src, &mech, &def)?;
-    let crossings = crossings(&points, &def.orders);
+    let points = match def.at.is_empty() {
+        true => operating_points(&src, &mech, &def)?,
+        false => run_points(&src, &mech, &def)?,
+    };
+    let crossings = match def.at.is_empty() {
+        true => crossings(&points, &def.orders),
+        false => Vec::new(),
+    };
     let written = write_files(&src, &mech, &def, &points, (&out, req.vtk))?;
     if req.json {
         return Ok(summary(&mech, &points, &crossings).to_string() + "\n");
@@ -177,17 +191,7 @@ pub(crate) fn operating_points(
         )
         .map_err(at)?;
         let lin = op.linearise(&model);
-        let mut modes = lin.modes().map_err(at)?;
-        // the modes asked for, and the rest of a repeated group the last of them is in (its
-        // derivatives are the group's)
-        let mut keep = def.modes.min(modes.len());
-        while keep > 0 && keep < modes.len() && modes[keep].group > 0 {
-            if modes[keep].group != modes[keep - 1].group {
-                break;
-            }
-            keep += 1;
-        }
-        modes.truncate(keep);
+        let modes = reported(lin.modes().map_err(at)?, def.modes);
         let system = system.with_model(model.clone());
         let values = response_values(src, mech, &system, &op)?;
         let (gradients, frequency_gradients) = match &design {
@@ -204,11 +208,64 @@ pub(crate) fn operating_points(
         start = op.state.clone();
         points.push(Point {
             speed,
-            op,
+            time: None,
+            state: op.state,
+            solve: (op.iterations, op.load_steps),
             modes,
             values,
             gradients,
             frequency_gradients,
+        });
+    }
+    Ok(points)
+}
+
+/// The modes asked for, and the rest of a repeated group the last of them is in (its
+/// derivatives are the group's).
+fn reported(mut modes: Vec<LinearMode>, asked: usize) -> Vec<LinearMode> {
+    let mut keep = asked.min(modes.len());
+    while keep > 0 && keep < modes.len() && modes[keep].group > 0 {
+        if modes[keep].group != modes[keep - 1].group {
+            break;
+        }
+        keep += 1;
+    }
+    modes.truncate(keep);
+    modes
+}
+
+/// The states of the run at `[operating] at`, each linearised in the bodies' moving frames
+/// ([`mbs::linearise_state`]).
+fn run_points(src: &Source, mech: &Mechanism, def: &OperatingDef) -> Result<Vec<Point>, CliError> {
+    deck::operating::check_times(src, def, &mech.times)?;
+    let t0 = mech.times[0];
+    let (mut system, state) = super::compute::assembled(src, mech)?;
+    let mut times = vec![t0];
+    times.extend(def.at.iter().map(|(t, _)| *t).filter(|&t| t > t0));
+    let sim = mbs::simulate(&mut system, &state, &times, mech.options.clone())
+        .map_err(|e| computation(src, e))?;
+    let mut points = Vec::new();
+    for o in &sim.outputs {
+        if !def.at.iter().any(|(t, _)| *t == o.t) {
+            continue;
+        }
+        let here = |e: mbs::OperatingError| computation(src, format!("at t = {} s: {e}", o.t));
+        let state = mbs::State {
+            q: o.q.clone(),
+            v: o.v.clone(),
+        };
+        let lin = mbs::linearise_state(&system, o.t, &state).map_err(here)?;
+        points.push(Point {
+            speed: 0.0,
+            time: Some(o.t),
+            state: lin.state,
+            solve: (0, 0),
+            modes: reported(lin.linearisation.modes().map_err(here)?, def.modes),
+            values: (0..mech.responses.len())
+                .map(|i| mech.value(i, o))
+                .collect(),
+            gradients: None,
+            frequency_gradients: None,
         });
     }
     Ok(points)

@@ -1,5 +1,6 @@
 //! The files and the report of `flexsens static`: `operating.csv`, `frequencies.csv`,
-//! `sensitivities.csv`, the Campbell diagram, the JSON summary and the table.
+//! `sensitivities.csv`, the Campbell diagram (or, for states of the run, the frequencies
+//! against time), the JSON summary and the table.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -35,10 +36,13 @@ pub(super) fn write_files(
     }
     let mut png = None;
     if points.len() > 1 {
-        let figure = campbell(src, def, points);
-        let draw = |e: String| computation(src, format!("cannot draw the Campbell diagram: {e}"));
-        files.push((out.join("campbell.svg"), figure.svg().map_err(draw)?));
-        png = Some(figure.png().map_err(draw)?);
+        let (figure, name) = match def.at.is_empty() {
+            true => (campbell(src, def, points), "campbell"),
+            false => (along_the_run(src, points), "frequencies"),
+        };
+        let draw = |e: String| computation(src, format!("cannot draw {name}.svg: {e}"));
+        files.push((out.join(format!("{name}.svg")), figure.svg().map_err(draw)?));
+        png = Some((format!("{name}.png"), figure.png().map_err(draw)?));
     }
     if vtk {
         for (i, p) in points.iter().enumerate() {
@@ -53,8 +57,8 @@ pub(super) fn write_files(
         .map(|(p, text)| Staged::new(p, text.as_bytes()))
         .collect::<Result<Vec<_>, _>>()?;
     let mut written: Vec<PathBuf> = files.into_iter().map(|(p, _)| p).collect();
-    if let Some(bytes) = &png {
-        let path = out.join("campbell.png");
+    if let Some((name, bytes)) = &png {
+        let path = out.join(name);
         staged.push(Staged::new(&path, bytes)?);
         written.push(path);
     }
@@ -64,11 +68,26 @@ pub(super) fn write_files(
     Ok(written)
 }
 
+/// The columns that say which operating point a row is of: the time of a state of the run,
+/// else the speed.
+fn point_head(points: &[Point]) -> Vec<String> {
+    match points.first().is_some_and(|p| p.time.is_some()) {
+        true => vec!["time [s]".into()],
+        false => vec!["speed [rad/s]".into(), "speed [rpm]".into()],
+    }
+}
+
+fn point_columns(p: &Point) -> Vec<String> {
+    match p.time {
+        Some(t) => vec![number(t)],
+        None => vec![number(p.speed), number(rpm(p.speed))],
+    }
+}
+
 fn operating_csv(mech: &Mechanism, points: &[Point]) -> String {
     let mut t = CsvTable::new();
-    let mut head: Vec<String> = ["speed [rad/s]", "speed [rpm]", "iterations", "load steps"]
-        .map(String::from)
-        .into();
+    let mut head = point_head(points);
+    head.extend(["iterations".into(), "load steps".into()]);
     head.extend(
         mech.responses
             .iter()
@@ -76,12 +95,8 @@ fn operating_csv(mech: &Mechanism, points: &[Point]) -> String {
     );
     t.row(head);
     for p in points {
-        let mut row = vec![
-            number(p.speed),
-            number(rpm(p.speed)),
-            p.op.iterations.to_string(),
-            p.op.load_steps.to_string(),
-        ];
+        let mut row = point_columns(p);
+        row.extend([p.solve.0.to_string(), p.solve.1.to_string()]);
         row.extend(p.values.iter().map(|&x| number(x)));
         t.row(row);
     }
@@ -90,19 +105,19 @@ fn operating_csv(mech: &Mechanism, points: &[Point]) -> String {
 
 fn frequencies_csv(mech: &Mechanism, points: &[Point]) -> String {
     let mut t = CsvTable::new();
-    let mut head: Vec<String> = [
-        "speed [rad/s]",
-        "speed [rpm]",
-        "mode",
-        "repeated group",
-        "frequency [Hz]",
-        "damped frequency [Hz]",
-        "damping ratio",
-        "Re s [1/s]",
-        "Im s [rad/s]",
-    ]
-    .map(String::from)
-    .into();
+    let mut head = point_head(points);
+    head.extend(
+        [
+            "mode",
+            "repeated group",
+            "frequency [Hz]",
+            "damped frequency [Hz]",
+            "damping ratio",
+            "Re s [1/s]",
+            "Im s [rad/s]",
+        ]
+        .map(String::from),
+    );
     let derivatives = points.iter().all(|p| p.frequency_gradients.is_some());
     if derivatives {
         for v in &mech.design.variables {
@@ -112,9 +127,8 @@ fn frequencies_csv(mech: &Mechanism, points: &[Point]) -> String {
     t.row(head);
     for p in points {
         for (k, m) in p.modes.iter().enumerate() {
-            let mut row = vec![
-                number(p.speed),
-                number(rpm(p.speed)),
+            let mut row = point_columns(p);
+            row.extend([
                 (k + 1).to_string(),
                 m.group.to_string(),
                 number(m.frequency_hz()),
@@ -122,7 +136,7 @@ fn frequencies_csv(mech: &Mechanism, points: &[Point]) -> String {
                 number(m.damping_ratio()),
                 number(m.eigenvalue.re),
                 number(m.eigenvalue.im),
-            ];
+            ]);
             if let (true, Some(g)) = (derivatives, &p.frequency_gradients) {
                 row.extend(g.row(k).iter().map(|&x| number(x)));
             }
@@ -135,7 +149,7 @@ fn frequencies_csv(mech: &Mechanism, points: &[Point]) -> String {
 fn sensitivities_csv(mech: &Mechanism, points: &[Point]) -> Option<String> {
     points.first()?.gradients.as_ref()?;
     let vars = &mech.design.variables;
-    let mut head = vec!["speed [rad/s]".to_string(), "speed [rpm]".to_string()];
+    let mut head = point_head(points);
     let mut columns = Vec::new();
     for (i, r) in mech.responses.iter().enumerate() {
         if r.response.differentiable() {
@@ -154,7 +168,7 @@ fn sensitivities_csv(mech: &Mechanism, points: &[Point]) -> Option<String> {
     t.row(head);
     for p in points {
         let g = p.gradients.as_ref()?;
-        let mut row = vec![number(p.speed), number(rpm(p.speed))];
+        let mut row = point_columns(p);
         row.extend(columns.iter().map(|&(i, j)| number(g[(i, j)])));
         t.row(row);
     }
@@ -192,6 +206,33 @@ fn campbell(src: &Source, def: &OperatingDef, points: &[Point]) -> Figure {
         panels: vec![Panel {
             title: format!("modes about the steady spin of `{name}`"),
             x_label: "speed [rpm]".into(),
+            y_label: "frequency [Hz]".into(),
+            series,
+        }],
+    }
+}
+
+/// The modes' frequencies against the time of the run's states.
+fn along_the_run(src: &Source, points: &[Point]) -> Figure {
+    let x: Vec<f64> = points.iter().map(|p| p.time.unwrap_or(0.0)).collect();
+    let n = points.iter().map(|p| p.modes.len()).min().unwrap_or(0);
+    let series: Vec<Series> = (0..n)
+        .map(|k| {
+            let y: Vec<f64> = points.iter().map(|p| p.modes[k].frequency_hz()).collect();
+            Series::solid(format!("mode {}", k + 1), &x, &y, k + 1)
+        })
+        .collect();
+    Figure {
+        title: format!(
+            "Frequencies along the run of {}",
+            src.file.file_name().map_or_else(
+                || "the deck".to_string(),
+                |f| f.to_string_lossy().into_owned()
+            )
+        ),
+        panels: vec![Panel {
+            title: "modes linearised about the run's states (numbered by frequency)".into(),
+            x_label: "time [s]".into(),
             y_label: "frequency [Hz]".into(),
             series,
         }],
@@ -239,10 +280,11 @@ pub(super) fn summary(
                     .collect::<serde_json::Map<_, _>>()
             });
             json!({
+                "time_s": p.time,
                 "speed_rad_s": p.speed,
                 "speed_rpm": rpm(p.speed),
-                "iterations": p.op.iterations,
-                "load_steps": p.op.load_steps,
+                "iterations": p.solve.0,
+                "load_steps": p.solve.1,
                 "responses": responses,
                 "gradients": gradients,
                 "modes": modes,
@@ -271,21 +313,28 @@ pub(super) fn text(
             z if z.abs() < 1e-10 => 0.0,
             z => z,
         };
-        match &def.driver {
-            Some((name, _)) => writeln!(
+        match (&def.driver, p.time) {
+            (_, Some(t)) => writeln!(
+                s,
+                "the run's state at t = {} s (modes in the bodies' moving frames)",
+                short(t)
+            ),
+            (Some((name, _)), None) => writeln!(
                 s,
                 "steady spin of `{name}` at {} rpm ({} rad/s)",
                 short(rpm(p.speed)),
                 short(p.speed)
             ),
-            None => writeln!(s, "static equilibrium"),
+            (None, None) => writeln!(s, "static equilibrium"),
         }
         .expect("writing to a String");
-        let _ = writeln!(
-            s,
-            "  {} Newton iterations, {} load steps",
-            p.op.iterations, p.op.load_steps
-        );
+        if p.time.is_none() {
+            let _ = writeln!(
+                s,
+                "  {} Newton iterations, {} load steps",
+                p.solve.0, p.solve.1
+            );
+        }
         for (r, v) in mech.responses.iter().zip(&p.values) {
             let _ = writeln!(s, "  {:<24} {:>14} {}", r.name, short(*v), r.unit);
         }
@@ -329,11 +378,12 @@ pub(super) fn text(
 
 /// Legacy ASCII VTK of a flexible body at an operating point: its mesh at the equilibrium
 /// (global coordinates) and, per linearised mode, the nodal translations of the mode's real
-/// and imaginary parts (the frame's `δr + A (δθ × x)` and the modes' `X δw`, to first order).
+/// and imaginary parts (the frame's `δr + A (δθ × x)` and the modes' `X δw`, to first order;
+/// about a state of the run the frame's translation `δr` is in the body frame).
 fn mode_shapes(mech: &Mechanism, part: &crate::study::FlexiblePart, p: &Point) -> String {
     let model = &mech.model;
     let id = part.id;
-    let q = &p.op.state.q;
+    let q = &p.state.q;
     let (qr, vr) = (model.q_range(id), model.v_range(id));
     let r = nalgebra::Vector3::new(q[qr.start], q[qr.start + 1], q[qr.start + 2]);
     let a = model.rotation_of(id, q);
@@ -352,11 +402,14 @@ fn mode_shapes(mech: &Mechanism, part: &crate::study::FlexiblePart, p: &Point) -
         .iter()
         .map(|m| format!("{:.6e}", m.frequency_hz()))
         .collect();
+    let at = match p.time {
+        Some(t) => format!("the run's state at {} s", short(t)),
+        None => format!("{} rpm", short(rpm(p.speed))),
+    };
     let _ = writeln!(
         s,
-        "flexsens static: body {} at {} rpm; frequencies/Hz {}",
+        "flexsens static: body {} at {at}; frequencies/Hz {}",
         part.name,
-        short(rpm(p.speed)),
         f.join(" ")
     );
     let _ = writeln!(s, "ASCII\nDATASET UNSTRUCTURED_GRID");
@@ -397,7 +450,10 @@ fn mode_shapes(mech: &Mechanism, part: &crate::study::FlexiblePart, p: &Point) -
                         elastic[i] += modal.modes[(6 * k + i, j)] * c(6 + j);
                     }
                 }
-                let g = dr + a * (dtheta.cross(x) + elastic);
+                let g = match p.time {
+                    Some(_) => a * (dr + dtheta.cross(x) + elastic),
+                    None => dr + a * (dtheta.cross(x) + elastic),
+                };
                 let _ = writeln!(s, "{:e} {:e} {:e}", g.x, g.y, g.z);
             }
         }

@@ -72,6 +72,9 @@ pub struct RawOperating {
     pub speeds: Option<Spanned<Vec<Spanned<toml::Value>>>>,
     /// The drivers' time of the operating points (s; default the analysis's start).
     pub time: Option<Spanned<f64>>,
+    /// Times of the run (s) about whose states the mechanism is linearised, instead of
+    /// equilibria.
+    pub at: Option<Spanned<Vec<Spanned<f64>>>>,
     /// How many linearised modes are reported (default 10).
     pub modes: Option<Spanned<i64>>,
     /// The rotor orders drawn on the Campbell diagram (default 1 to 4).
