@@ -104,17 +104,7 @@ pub fn run(path: &Path, overrides: &[String]) -> Result<String, CliError> {
             super::sensitivity::prepare(&src, &mech)?;
         }
         if let Some(o) = &operating {
-            crate::deck::operating::check_times(&src, o, &mech.times)?;
-        }
-        if let Some((name, span)) = operating.as_ref().and_then(|o| o.driver.as_ref()) {
-            let id = mech.model.joint_id(name).expect("validated driver");
-            mbs::Spin::of_driver(&mech.model, id, 1.0).map_err(|e| {
-                src.error(
-                    span.clone(),
-                    Some("operating.driver".into()),
-                    format!("`{name}`: {e}"),
-                )
-            })?;
+            check_operating(&src, o, &mech)?;
         }
         let (system, state) = super::compute::assembled(&src, &mech)?;
         super::compute::warn_redundant_with_stiffening(&src, &mech, &system, &state);
@@ -169,6 +159,26 @@ pub fn run(path: &Path, overrides: &[String]) -> Result<String, CliError> {
 }
 
 /// What `flexsens static` will compute for `[operating]`, in one line.
+/// `[operating]` against the mechanism: the spin driver's axis, the times within the run.
+fn check_operating(
+    src: &crate::deck::Source,
+    o: &crate::deck::operating::OperatingDef,
+    mech: &crate::study::Mechanism,
+) -> Result<(), crate::deck::DeckError> {
+    crate::deck::operating::check_times(src, o, &mech.times)?;
+    if let Some((name, span)) = &o.driver {
+        let id = mech.model.joint_id(name).expect("validated driver");
+        mbs::Spin::of_driver(&mech.model, id, 1.0).map_err(|e| {
+            src.error(
+                span.clone(),
+                Some("operating.driver".into()),
+                format!("`{name}`: {e}"),
+            )
+        })?;
+    }
+    Ok(())
+}
+
 fn describe_operating(o: &crate::deck::operating::OperatingDef) -> String {
     use super::operating::rpm;
     if let (Some((first, _)), Some((last, _))) = (o.at.first(), o.at.last()) {
