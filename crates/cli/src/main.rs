@@ -69,6 +69,12 @@ enum Command {
         /// [design.*] variable that moves the laminate (per its unit).
         #[arg(long)]
         derivatives: bool,
+        /// Plate resultants to load the laminate with, `NAME=VALUE` (repeatable or
+        /// comma-separated; NAME one of Nx, Ny, Nxy, Qx, Qy in N/m and Mx, My, Mxy in N):
+        /// prints each ply's stresses and strains and, for plies whose material has strengths,
+        /// their failure indices and the least reserve factor per criterion.
+        #[arg(long = "load", value_name = "NAME=VALUE", allow_hyphen_values = true)]
+        load: Vec<String>,
     },
     /// Cross-section analysis of the deck's beam sections: 6×6 Timoshenko stiffness, classical
     /// stiffness, mass properties, tension and shear centres.
@@ -279,9 +285,15 @@ fn main() -> ExitCode {
             laminate,
             format,
             derivatives,
-        } => commands::laminate::run(deck, &cli.set, laminate.as_deref(), *format, *derivatives)
-            .map(|t| (t, 0))
-            .map_err(CliError::from),
+            load,
+        } => commands::laminate::run(
+            deck,
+            &cli.set,
+            laminate.as_deref(),
+            *format,
+            (*derivatives, load),
+        )
+        .map(|t| (t, 0)),
         Command::Section {
             deck,
             section,

@@ -283,3 +283,151 @@ mod no_panic {
         }
     }
 }
+
+/// The numbers of a JSON array.
+fn floats(v: &serde_json::Value) -> Vec<f64> {
+    v.as_array()
+        .unwrap_or_else(|| panic!("not an array: {v}"))
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect()
+}
+
+/// The cross-ply [0/90]s of T300/5208-like plies (0.125 mm) with their strengths (MPa: Xt 1500,
+/// Xc 1200, Yt 40, Yc 246, S12 68).
+const CROSS_PLY: &str = r#"
+[material.t300]
+E1 = 181e9
+E2 = 10.3e9
+E3 = 10.3e9
+G12 = 7.17e9
+G13 = 7.17e9
+G23 = 3.78e9
+nu12 = 0.28
+nu13 = 0.28
+nu23 = 0.36
+density = 1600.0
+Xt = 1500e6
+Xc = 1200e6
+Yt = 40e6
+Yc = 246e6
+S12 = 68e6
+
+[laminate.xply]
+plies = [
+  { material = "t300", thickness = 0.125e-3, angle = 0.0 },
+  { material = "t300", thickness = 0.125e-3, angle = 90.0 },
+]
+symmetric = true
+"#;
+
+#[test]
+fn a_bent_cross_ply_stresses_its_plies_and_fails_them_as_laminate_theory_by_hand() {
+    let (e1, e2, nu12): (f64, f64, f64) = (181e9, 10.3e9, 0.28);
+    let nu21 = nu12 * e2 / e1;
+    let d = 1.0 - nu12 * nu21;
+    let (q11, q22, q12) = (e1 / d, e2 / d, nu12 * e2 / d);
+    let t: f64 = 0.125e-3;
+    // D of [0/90]s: the 0° plies outside (|z| from t to 2t), the 90° ones inside
+    let outer = 2.0 * ((2.0 * t).powi(3) - t.powi(3)) / 3.0;
+    let inner = 2.0 * t.powi(3) / 3.0;
+    let (d11, d22, d12) = (
+        q11 * outer + q22 * inner,
+        q22 * outer + q11 * inner,
+        q12 * (outer + inner),
+    );
+    let mx = 5.0;
+    // κ = D⁻¹ [Mx, 0]
+    let det = d11 * d22 - d12 * d12;
+    let (kx, ky) = (d22 * mx / det, -d12 * mx / det);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("xply.toml");
+    std::fs::write(&path, CROSS_PLY).unwrap();
+    let o = run(&[
+        "laminate",
+        path.to_str().unwrap(),
+        "--load",
+        "Mx=5",
+        "--format",
+        "json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let values = &v["laminates"]["xply"]["values"];
+    let curvature = floats(&values["curvature"]);
+    assert!((curvature[0] / kx - 1.0).abs() < 1e-12 && (curvature[1] / ky - 1.0).abs() < 1e-10);
+    // the bottom of the 0° ply (z = −2t): σ1 = z (Q11 κx + Q12 κy), σ2 = z (Q12 κx + Q22 κy)
+    let z = -2.0 * t;
+    let (s1, s2) = (z * (q11 * kx + q12 * ky), z * (q12 * kx + q22 * ky));
+    let stress = &values["ply_stress"];
+    let bottom = floats(&stress[0]);
+    assert!(
+        (bottom[0] / s1 - 1.0).abs() < 1e-10,
+        "{} vs {s1}",
+        bottom[0]
+    );
+    assert!(
+        (bottom[1] / s2 - 1.0).abs() < 1e-10,
+        "{} vs {s2}",
+        bottom[1]
+    );
+    // the least reserve factors: max stress at that point (fibre compression, σ1/Xc)
+    let rf = floats(&values["reserve_factor"]);
+    assert!((rf[0] - 1200e6 / -s1).abs() < 1e-9 * rf[0], "{rf:?}");
+    // Tsai–Wu by hand at every point, the least R among them
+    let (xt, xc, yt, yc, s) = (1500e6, 1200e6, 40e6, 246e6, 68e6);
+    let (f11, f22) = (1.0 / (xt * xc), 1.0 / (yt * yc));
+    let tsai_wu = |p: &[f64]| {
+        let a = f11 * p[0] * p[0] + f22 * p[1] * p[1] + p[5] * p[5] / (s * s)
+            - (f11 * f22).sqrt() * p[0] * p[1];
+        let b = (1.0 / xt - 1.0 / xc) * p[0] + (1.0 / yt - 1.0 / yc) * p[1];
+        2.0 / (b + (b * b + 4.0 * a).sqrt())
+    };
+    let points = stress.as_array().unwrap();
+    assert_eq!(points.len(), 12);
+    let least = points
+        .iter()
+        .map(|p| tsai_wu(&floats(p)))
+        .fold(f64::INFINITY, f64::min);
+    assert!((rf[2] / least - 1.0).abs() < 1e-10, "{} vs {least}", rf[2]);
+    // and the table names the criteria and the critical plies
+    let o = run(&["laminate", path.to_str().unwrap(), "--load", "Mx=5,Qx=100"]);
+    let text = stdout(&o);
+    assert!(
+        text.contains("tsai-wu") && text.contains("at ply 0/bottom"),
+        "{text}"
+    );
+    assert!(!text.contains("NaN"), "{text}");
+    // a resultant that is not one, a value that is no number
+    for (arg, says) in [
+        ("Mz=5", "not a resultant"),
+        ("Mx=five", "not a finite number"),
+    ] {
+        let o = run(&["laminate", path.to_str().unwrap(), "--load", arg]);
+        assert_eq!(o.status.code(), Some(2), "{arg}");
+        assert!(stderr(&o).contains(says), "{arg}: {}", stderr(&o));
+    }
+}
+
+#[test]
+fn strengths_need_the_five_in_plane_ones_and_must_be_positive() {
+    let deck = |extra: &str| {
+        format!(
+            "[material.cfrp]\nE1 = 128e9\nE2 = 10.1e9\nE3 = 10.1e9\nG12 = 5.36e9\nG13 = 5.36e9\n\
+             G23 = 5.36e9\nnu12 = 0.23\nnu13 = 0.23\nnu23 = 0.23\ndensity = 1586\n{extra}\n\
+             [laminate.rod]\nplies = [{{ material = \"cfrp\", thickness = 1e-4, angle = 0.0 }}]\n"
+        )
+    };
+    expect_bad_deck(
+        &deck("Xt = 1.5e9\nXc = 1.2e9\nYt = 4e7\nYc = 2.46e8"),
+        1,
+        "material.cfrp.S12",
+        "strengths need Xt, Xc, Yt, Yc and S12",
+    );
+    expect_bad_deck(
+        &deck("Xt = 1.5e9\nXc = 1.2e9\nYt = 4e7\nYc = 2.46e8\nS12 = 6.8e7\nS23 = -1.0"),
+        17,
+        "material.cfrp.S23",
+        "must be a positive strength",
+    );
+}

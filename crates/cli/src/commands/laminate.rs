@@ -1,4 +1,5 @@
-//! `flexsens laminate`: plate stiffness of the deck's laminates and its ply-angle derivatives.
+//! `flexsens laminate`: plate stiffness of the deck's laminates and its ply-angle derivatives;
+//! with `--load`, the plies' stresses and failure indices under given resultants.
 
 use std::path::Path;
 
@@ -8,10 +9,12 @@ use serde_json::json;
 
 use super::Format;
 use super::output::{self, Derivative, Quantity, Report};
+use super::ply_stress::{PlateLoad, ply_quantities};
+use crate::deck;
 use crate::deck::bodies::ShellLaminate;
 use crate::deck::design::{DesignVariable, validate as validate_design};
-use crate::deck::laminates::{LaminateDef, validate};
-use crate::deck::{self, DeckError};
+use crate::deck::laminates::{LaminateDef, LaminateModel, validate};
+use crate::error::CliError;
 use crate::study::flexible::{Design, DesignRequest, LaminateDesign, shell_design};
 
 /// Width of the dual-number chunks (results do not depend on it).
@@ -98,7 +101,14 @@ fn derivative_blocks(name: &str, def: &LaminateDef, vars: &[DesignVariable]) -> 
         .collect()
 }
 
-fn report(name: &str, def: &LaminateDef, derivatives: bool, vars: &[DesignVariable]) -> Report {
+/// What is asked of each laminate.
+struct Request<'a> {
+    derivatives: bool,
+    vars: &'a [DesignVariable],
+    load: Option<(&'a PlateLoad, &'a LaminateModel)>,
+}
+
+fn report(name: &str, def: &LaminateDef, req: &Request) -> Result<Report, String> {
     let stack = &def.stack;
     let mut preamble = vec![
         format!(
@@ -128,19 +138,25 @@ fn report(name: &str, def: &LaminateDef, derivatives: bool, vars: &[DesignVariab
         .collect();
     let mut info = serde_json::Map::new();
     info.insert("plies".into(), json!(plies));
-    let derivatives = if derivatives {
-        derivative_blocks(name, def, vars)
+    let derivatives = if req.derivatives {
+        derivative_blocks(name, def, req.vars)
     } else {
         Vec::new()
     };
-    Report {
+    let mut values = quantities(&stack.stiffness());
+    if let Some((load, model)) = req.load {
+        let (q, lines) = ply_quantities(def, model, load)?;
+        values.extend(q);
+        preamble.extend(lines);
+    }
+    Ok(Report {
         kind: "laminate",
         name: name.to_string(),
         preamble,
         info,
-        values: quantities(&stack.stiffness()),
+        values,
         derivatives,
-    }
+    })
 }
 
 /// Run the command; the returned text goes to stdout.
@@ -149,16 +165,27 @@ pub fn run(
     overrides: &[String],
     only: Option<&str>,
     format: Format,
-    derivatives: bool,
-) -> Result<String, DeckError> {
+    (derivatives, load): (bool, &[String]),
+) -> Result<String, CliError> {
+    let load = PlateLoad::parse(load)?;
     let (src, raw) = deck::load(path, overrides)?;
     let model = validate(&src, &raw)?;
     let design = validate_design(&src, &raw, &model)?;
     let selected = deck::select(&src, &model.laminates, only, "laminate")?;
+    let req = Request {
+        derivatives,
+        vars: &design.variables,
+        load: load.as_ref().map(|l| (l, &model)),
+    };
     let reports: Vec<Report> = selected
         .iter()
-        .map(|(name, def)| report(name, def, derivatives, &design.variables))
-        .collect();
+        .map(|(name, def)| {
+            report(name, def, &req).map_err(|reason| CliError::Computation {
+                file: src.file.clone(),
+                reason: format!("laminate `{name}`: {reason}"),
+            })
+        })
+        .collect::<Result<_, _>>()?;
     Ok(output::render(
         format,
         raw.title.as_deref(),

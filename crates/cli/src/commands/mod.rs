@@ -9,6 +9,7 @@ pub mod modes;
 pub mod operating;
 pub mod optimize;
 pub mod output;
+mod ply_stress;
 pub mod report;
 pub mod run;
 mod run_files;

@@ -2,7 +2,7 @@
 
 use std::collections::BTreeMap;
 
-use laminate::{LaminateError, OrthotropicMaterial, Ply, PlyStack, ReferenceSurface};
+use laminate::{LaminateError, OrthotropicMaterial, Ply, PlyStack, PlyStrength, ReferenceSurface};
 use toml::Spanned;
 
 use super::check::suggestion;
@@ -21,6 +21,8 @@ pub struct LaminateDef {
 #[derive(Debug, Clone, Default)]
 pub struct LaminateModel {
     pub materials: BTreeMap<String, OrthotropicMaterial>,
+    /// The strengths of the materials that state them.
+    pub strengths: BTreeMap<String, PlyStrength>,
     pub laminates: BTreeMap<String, LaminateDef>,
 }
 
@@ -144,6 +146,70 @@ fn material(
         };
         src.error(sp, Some(k), e.to_string())
     })
+}
+
+/// The strengths of one material, if it states any: then at least `Xt`, `Xc`, `Yt`, `Yc` and
+/// `S12`, the through-thickness ones defaulting as [`PlyStrength::new`] says.
+fn strength(
+    src: &Source,
+    name: &str,
+    m: &Spanned<RawMaterial>,
+) -> Result<Option<PlyStrength>, DeckError> {
+    let raw = m.get_ref();
+    let keys = [
+        ("Xt", &raw.xt),
+        ("Xc", &raw.xc),
+        ("Yt", &raw.yt),
+        ("Yc", &raw.yc),
+        ("S12", &raw.s12),
+        ("Zt", &raw.zt),
+        ("Zc", &raw.zc),
+        ("S13", &raw.s13),
+        ("S23", &raw.s23),
+    ];
+    if keys.iter().all(|(_, v)| v.is_none()) {
+        return Ok(None);
+    }
+    let key = |k: &str| format!("material.{name}.{k}");
+    for (k, v) in &keys {
+        if let Some(v) = v
+            && !(v.get_ref().is_finite() && *v.get_ref() > 0.0)
+        {
+            return Err(src.error(
+                span(v),
+                Some(key(k)),
+                format!("{} must be a positive strength (Pa)", v.get_ref()),
+            ));
+        }
+    }
+    let missing: Vec<&str> = keys[..5]
+        .iter()
+        .filter(|(_, v)| v.is_none())
+        .map(|(k, _)| *k)
+        .collect();
+    if let Some(first) = missing.first() {
+        return Err(src.error(
+            span(m),
+            Some(key(first)),
+            format!(
+                "missing value: strengths need Xt, Xc, Yt, Yc and S12 (Pa; missing {})",
+                missing.join(", ")
+            ),
+        ));
+    }
+    let v = |i: usize| keys[i].1.as_ref().map(|s| *s.get_ref());
+    let given = |i: usize| v(i).expect("checked");
+    let base = PlyStrength::new(given(0), given(1), given(2), given(3), given(4))
+        .expect("checked positive");
+    let out = base
+        .with_transverse(
+            v(5).unwrap_or(base.zt),
+            v(6).unwrap_or(base.zc),
+            v(7).unwrap_or(base.s13),
+            v(8).unwrap_or(base.s23),
+        )
+        .expect("checked positive");
+    Ok(Some(out))
 }
 
 /// Validate one laminate.
@@ -300,6 +366,9 @@ pub fn validate(src: &Source, deck: &RawDeck) -> Result<LaminateModel, DeckError
         model
             .materials
             .insert(name.clone(), material(src, name, m)?);
+        if let Some(s) = strength(src, name, m)? {
+            model.strengths.insert(name.clone(), s);
+        }
     }
     for (name, l) in &deck.laminate {
         let def = laminate(src, name, l, &model.materials)?;

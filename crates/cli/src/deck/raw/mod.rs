@@ -139,6 +139,26 @@ pub struct RawMaterial {
     pub nu13: Option<Spanned<f64>>,
     pub nu23: Option<Spanned<f64>>,
     pub density: Option<Spanned<f64>>,
+    /// Strengths (Pa, compressive ones as magnitudes): along the fibres, across them in the
+    /// plane, through the thickness, and in shear.
+    #[serde(rename = "Xt")]
+    pub xt: Option<Spanned<f64>>,
+    #[serde(rename = "Xc")]
+    pub xc: Option<Spanned<f64>>,
+    #[serde(rename = "Yt")]
+    pub yt: Option<Spanned<f64>>,
+    #[serde(rename = "Yc")]
+    pub yc: Option<Spanned<f64>>,
+    #[serde(rename = "Zt")]
+    pub zt: Option<Spanned<f64>>,
+    #[serde(rename = "Zc")]
+    pub zc: Option<Spanned<f64>>,
+    #[serde(rename = "S12")]
+    pub s12: Option<Spanned<f64>>,
+    #[serde(rename = "S13")]
+    pub s13: Option<Spanned<f64>>,
+    #[serde(rename = "S23")]
+    pub s23: Option<Spanned<f64>>,
 }
 
 /// A ply stack, bottom ply first.
