@@ -205,3 +205,114 @@ fn bad_rigid_design_variables_are_located() {
         assert!(err.contains(words), "{err}");
     }
 }
+
+/// The pendulum deck with objectives over windows of the run, its bob's mass `m`.
+fn windowed_deck(m: f64) -> String {
+    pendulum_deck().replace(&format!("mass = {M:?}"), &format!("mass = {m:?}"))
+        + "
+[objective.peak]
+response = \"x\"
+kind = \"max\"
+window = [0.25, 0.613]
+
+[objective.settled]
+response = \"x\"
+kind = \"final\"
+window = [0.1, 0.437]
+
+[objective.swing]
+response = \"x\"
+kind = \"rms\"
+window = [0.2, 0.8]
+"
+}
+
+/// The objectives `peak`, `settled`, `swing` of the windowed deck with bob mass `m`: values
+/// and gradients (inertia, mass).
+fn windowed(dir: &std::path::Path, m: f64) -> Vec<(f64, Vec<f64>)> {
+    let deck = dir.join("windowed.toml");
+    std::fs::write(&deck, windowed_deck(m)).unwrap();
+    let out = dir.join("out");
+    let s = json(&[
+        "run",
+        deck.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--json",
+    ]);
+    ["peak", "settled", "swing"]
+        .iter()
+        .map(|name| {
+            let o = s["objectives"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|o| o["name"] == *name)
+                .unwrap();
+            let g = o["gradient"].as_array().unwrap();
+            (
+                o["value"].as_f64().unwrap(),
+                g.iter().map(|x| x.as_f64().unwrap()).collect(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn objectives_over_windows_match_the_swing_and_their_gradients_central_differences() {
+    let dir = tempfile::tempdir().unwrap();
+    let got = windowed(dir.path(), M);
+    // small swings: x = A cos ωt
+    let w = (M * G * D / (I + M * D * D)).sqrt();
+    let a = D * THETA0;
+    let x = |t: f64| a * (w * t).cos();
+    // the peak of the window is at its start (x falls from 0.25 s, past its zero at π/2ω =
+    // 0.369 s, to its trough at π/ω = 0.738 s)
+    let peak = x(0.25);
+    let settled = x(0.437);
+    // RMS over [t0, t1]: √(A²/2 (1 + (sin 2ωt1 − sin 2ωt0)/(2ω (t1 − t0))))
+    let (t0, t1) = (0.2, 0.8);
+    let swing = (a * a / 2.0
+        * (1.0 + ((2.0 * w * t1).sin() - (2.0 * w * t0).sin()) / (2.0 * w * (t1 - t0))))
+        .sqrt();
+    for ((value, _), (name, exact)) in
+        got.iter()
+            .zip([("peak", peak), ("settled", settled), ("swing", swing)])
+    {
+        // the closed form's own error O(θ0²) and the trapezoidal rule's on 0.01 s steps
+        assert!(
+            (value - exact).abs() < 1e-3 * a,
+            "{name}: {value} vs the closed form {exact}"
+        );
+    }
+    // d/dm against central differences of whole runs
+    let h = 1e-4 * M;
+    let (plus, minus) = (windowed(dir.path(), M + h), windowed(dir.path(), M - h));
+    for (k, name) in ["peak", "settled", "swing"].iter().enumerate() {
+        let fd = (plus[k].0 - minus[k].0) / (2.0 * h);
+        let g = got[k].1[1];
+        assert!(
+            (g - fd).abs() < 1e-5 * fd.abs().max(1e-3 * a),
+            "{name}: d/dm {g} vs central differences {fd}"
+        );
+    }
+}
+
+#[test]
+fn windows_must_be_two_increasing_times_within_the_run_and_not_with_at() {
+    for (window, kind, says) in [
+        ("[0.5]", "max", "expected [t0, t1]"),
+        ("[0.6, 0.5]", "max", "must end after it starts"),
+        ("[0.5, 1.5]", "max", "outside the simulated span"),
+        ("[0.2, 0.5]", "at\"\ntime = \"0.3", "takes its one time"),
+    ] {
+        let deck = pendulum_deck()
+            + &format!("\n[objective.w]\nresponse = \"x\"\nkind = \"{kind}\"\nwindow = {window}\n")
+                .replace("time = \"0.3\"", "time = 0.3");
+        let (_dir, err) = bad_deck(&deck, |p| with_deck("check", p, &[]));
+        assert!(
+            err.contains("objective.w.window") && err.contains(says),
+            "{window}: {err}"
+        );
+    }
+}

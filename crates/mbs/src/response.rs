@@ -340,6 +340,8 @@ pub enum Objective {
     Min,
     /// `ψ(t)`, linear between recorded points.
     At(f64),
+    /// `ψ` at the end of the history (of the window).
+    Final,
 }
 
 /// Value, gradient and (for extrema) time of an objective.
@@ -351,7 +353,73 @@ pub struct ObjectiveValue {
     pub time: Option<f64>,
 }
 
+/// The history `(times, values, gradients)` restricted to `[a, b]` (within it), the values and
+/// gradients at the ends interpolated linearly.
+fn clip(
+    (a, b): (f64, f64),
+    times: &[f64],
+    values: &[f64],
+    gradients: Option<&DMatrix<f64>>,
+) -> (Vec<f64>, Vec<f64>, Option<DMatrix<f64>>) {
+    let n = times.len();
+    // the value (and gradient row) at t by linear interpolation
+    let at = |t: f64| -> (f64, Option<Vec<f64>>) {
+        let i = times.partition_point(|&x| x < t).min(n - 1);
+        let (w0, i0) = if i == 0 || times[i] == t {
+            (0.0, i)
+        } else {
+            ((times[i] - t) / (times[i] - times[i - 1]), i - 1)
+        };
+        let mix = |x0: f64, x1: f64| w0 * x0 + (1.0 - w0) * x1;
+        let g = gradients.map(|g| (0..g.ncols()).map(|j| mix(g[(i0, j)], g[(i, j)])).collect());
+        (mix(values[i0], values[i]), g)
+    };
+    let inside: Vec<usize> = (0..n).filter(|&i| times[i] > a && times[i] < b).collect();
+    let (va, ga) = at(a);
+    let (vb, gb) = at(b);
+    let mut t = vec![a];
+    let mut v = vec![va];
+    let mut rows: Vec<Vec<f64>> = ga.into_iter().collect();
+    for &i in &inside {
+        t.push(times[i]);
+        v.push(values[i]);
+        if let Some(g) = gradients {
+            rows.push(g.row(i).iter().copied().collect());
+        }
+    }
+    t.push(b);
+    v.push(vb);
+    rows.extend(gb);
+    let g = gradients.map(|g| DMatrix::from_fn(t.len(), g.ncols(), |r, c| rows[r][c]));
+    (t, v, g)
+}
+
 impl Objective {
+    /// [`Objective::evaluate`] over the window `[t0, t1]` of the history when given (within
+    /// the history): the history between, with its values (and gradients) at the window's ends
+    /// interpolated linearly.
+    pub fn evaluate_in(
+        &self,
+        window: Option<(f64, f64)>,
+        times: &[f64],
+        values: &[f64],
+        gradients: Option<&DMatrix<f64>>,
+    ) -> Result<ObjectiveValue, SensitivityError> {
+        let Some((a, b)) = window else {
+            return self.evaluate(times, values, gradients);
+        };
+        let n = times.len();
+        if n == 0 || !(a < b && a >= times[0] && b <= times[n - 1]) {
+            return Err(SensitivityError::Response(format!(
+                "window [{a}, {b}] outside the history [{}, {}] or empty",
+                times.first().copied().unwrap_or(f64::NAN),
+                times.last().copied().unwrap_or(f64::NAN)
+            )));
+        }
+        let (t, v, g) = clip((a, b), times, values, gradients);
+        self.evaluate(&t, &v, g.as_ref())
+    }
+
     /// The objective of `values` at `times`, with its gradient from `gradients` (rows per time)
     /// when given.
     pub fn evaluate(
@@ -436,6 +504,11 @@ impl Objective {
                     time: Some(times[i]),
                 }
             }
+            Objective::Final => ObjectiveValue {
+                value: values[n - 1],
+                gradient: row(n - 1),
+                time: Some(times[n - 1]),
+            },
             Objective::At(t) => {
                 if !(t >= times[0] && t <= times[n - 1]) {
                     return Err(SensitivityError::Response(format!(
@@ -470,5 +543,91 @@ impl ResponseHistory {
     /// An objective of this history with its gradient.
     pub fn objective(&self, objective: &Objective) -> Result<ObjectiveValue, SensitivityError> {
         objective.evaluate(&self.times, &self.values, Some(&self.gradients))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `ψ = b f(t)` sampled at `times`, with its gradient `f(t)` along `b`.
+    fn history(times: &[f64], f: impl Fn(f64) -> f64, b: f64) -> (Vec<f64>, DMatrix<f64>) {
+        let v = times.iter().map(|&t| b * f(t)).collect();
+        let g = DMatrix::from_fn(times.len(), 1, |i, _| f(times[i]));
+        (v, g)
+    }
+
+    #[test]
+    fn windowed_objectives_of_a_piecewise_linear_history_are_exact() {
+        let times = [0.0, 0.3, 0.7, 1.0, 1.6, 2.0];
+        // linear: the trapezoidal rule and the interpolation at the ends are exact
+        let f = |t: f64| 2.0 * t + 1.0;
+        let (v, g) = history(&times, f, 1.0);
+        let w = Some((0.5, 1.3));
+        let integral = Objective::Integral
+            .evaluate_in(w, &times, &v, Some(&g))
+            .unwrap();
+        // ∫ (2t + 1) dt from 0.5 to 1.3 = [t² + t]
+        let exact = (1.3f64.powi(2) + 1.3) - (0.25 + 0.5);
+        assert!((integral.value - exact).abs() < 1e-14, "{}", integral.value);
+        let mean = Objective::Mean.evaluate_in(w, &times, &v, None).unwrap();
+        assert!((mean.value - exact / 0.8).abs() < 1e-14);
+        let fin = Objective::Final
+            .evaluate_in(w, &times, &v, Some(&g))
+            .unwrap();
+        assert!((fin.value - f(1.3)).abs() < 1e-14 && fin.time == Some(1.3));
+        let max = Objective::Max.evaluate_in(w, &times, &v, None).unwrap();
+        assert!((max.value - f(1.3)).abs() < 1e-14 && max.time == Some(1.3));
+        let min = Objective::Min.evaluate_in(w, &times, &v, None).unwrap();
+        assert!((min.value - f(0.5)).abs() < 1e-14 && min.time == Some(0.5));
+        // without a window: the whole history
+        let all = Objective::Final
+            .evaluate_in(None, &times, &v, None)
+            .unwrap();
+        assert_eq!(all.value, f(2.0));
+    }
+
+    #[test]
+    fn windowed_objectives_pick_interior_peaks_and_their_gradients_follow_the_values() {
+        let times: Vec<f64> = (0..=40).map(|i| 0.05 * i as f64).collect();
+        let f = |t: f64| (3.0 * t).sin() + 0.2 * t;
+        let w = Some((0.42, 1.81));
+        // the peak inside the window, at the sample nearest f's (t = 0.5458)
+        let (v, g) = history(&times, f, 1.0);
+        let max = Objective::Max.evaluate_in(w, &times, &v, Some(&g)).unwrap();
+        assert_eq!((max.value, max.time), (f(0.55), Some(0.55)));
+        assert_eq!(max.gradient, vec![f(0.55)]);
+        // every objective is b times that of f for ψ = b f, the gradient that of f
+        for kind in [
+            Objective::Integral,
+            Objective::Mean,
+            Objective::Rms,
+            Objective::Max,
+            Objective::Min,
+            Objective::Final,
+        ] {
+            let at = |b: f64| {
+                let (v, g) = history(&times, f, b);
+                kind.evaluate_in(w, &times, &v, Some(&g)).unwrap()
+            };
+            let (o, h) = (at(1.5), 1e-6);
+            let fd = (at(1.5 + h).value - at(1.5 - h).value) / (2.0 * h);
+            assert!(
+                (o.gradient[0] - fd).abs() < 1e-8 * fd.abs().max(1.0),
+                "{kind:?}: {} vs {fd}",
+                o.gradient[0]
+            );
+        }
+        // a window outside the history or empty is refused
+        assert!(
+            Objective::Max
+                .evaluate_in(Some((1.0, 2.5)), &times, &v, None)
+                .is_err()
+        );
+        assert!(
+            Objective::Max
+                .evaluate_in(Some((1.0, 1.0)), &times, &v, None)
+                .is_err()
+        );
     }
 }

@@ -319,8 +319,10 @@ fn put_objectives(g: &mut Group, mech: &Mechanism, c: &Computed) {
         let og = g.group(&base);
         og.attrs
             .insert("response".into(), Attr::Text(o.response.clone()));
-        og.attrs
-            .insert("kind".into(), Attr::Text(objective_label(&o.kind)));
+        og.attrs.insert(
+            "kind".into(),
+            Attr::Text(objective_label(&o.kind, o.window)),
+        );
     }
     for case in &c.fd {
         let base = format!("finite_differences/{}", case.label);
@@ -424,7 +426,7 @@ pub(crate) fn gradients_csv(mech: &Mechanism, c: &Computed) -> String {
         let fields = [
             o.name.clone(),
             o.response.clone(),
-            objective_label(&o.kind).to_string(),
+            objective_label(&o.kind, o.window).to_string(),
             number(o.value),
             o.unit.to_string(),
             o.time.map(number).unwrap_or_default(),
@@ -474,7 +476,7 @@ pub(crate) fn summary(
         .iter()
         .map(|o| {
             json!({
-                "name": o.name, "response": o.response, "kind": objective_label(&o.kind),
+                "name": o.name, "response": o.response, "kind": objective_label(&o.kind, o.window),
                 "value": o.value, "unit": o.unit, "time": o.time, "gradient": o.gradient,
             })
         })

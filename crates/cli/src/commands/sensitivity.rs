@@ -199,6 +199,7 @@ pub(crate) struct ObjectiveResult {
     pub(crate) response: String,
     pub(crate) unit: &'static str,
     pub(crate) kind: mbs::Objective,
+    pub(crate) window: Option<(f64, f64)>,
     pub(crate) value: f64,
     /// Where a maximum or minimum occurs.
     pub(crate) time: Option<f64>,
@@ -224,7 +225,7 @@ pub(crate) fn objectives(
                 .position(|r| r.name == o.response)
                 .expect("validated objective");
             let g = gradients.and_then(|g| g[i].as_ref());
-            let v = o.kind.evaluate(&mech.times, &values[i], g).map_err(|e| {
+            let v = (o.kind.evaluate_in(o.window, &mech.times, &values[i], g)).map_err(|e| {
                 CliError::Input(src.error(
                     None,
                     Some(format!("objective.{}", o.name)),
@@ -236,6 +237,7 @@ pub(crate) fn objectives(
                 response: o.response.clone(),
                 unit: mech.responses[i].unit,
                 kind: o.kind,
+                window: o.window,
                 value: v.value,
                 time: v.time,
                 gradient: v.gradient,

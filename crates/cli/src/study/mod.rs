@@ -476,8 +476,8 @@ impl Study {
         Ok(study)
     }
 
-    /// An objective taken at a time must lie in the simulated span (found before the run, not
-    /// after it).
+    /// An objective taken at a time, or over a window, must lie in the simulated span (found
+    /// before the run, not after it).
     fn check_objective_times(&self, src: &Source, raw: &RawDeck) -> Result<(), DeckError> {
         let (t0, t1) = (self.times[0], self.times[self.times.len() - 1]);
         for o in &self.design.objectives {
@@ -489,6 +489,18 @@ impl Study {
                     ro.time.as_ref().and_then(span),
                     Some(format!("objective.{}.time", o.name)),
                     format!("time = {t} s lies outside the simulated span [{t0}, {t1}] s"),
+                ));
+            }
+            if let Some((a, b)) = o.window
+                && !(a >= t0 && b <= t1)
+            {
+                let ro = raw.objective[&o.name].get_ref();
+                return Err(src.error(
+                    ro.window.as_ref().and_then(span),
+                    Some(format!("objective.{}.window", o.name)),
+                    format!(
+                        "the window [{a}, {b}] s reaches outside the simulated span [{t0}, {t1}] s"
+                    ),
                 ));
             }
         }

@@ -4,14 +4,19 @@
 use super::*;
 
 /// How an objective is written in tables and summaries.
-pub fn objective_label(o: &Objective) -> String {
-    match o {
+pub fn objective_label(o: &Objective, window: Option<(f64, f64)>) -> String {
+    let kind = match o {
         Objective::Integral => "integral".into(),
         Objective::Mean => "mean".into(),
         Objective::Rms => "rms".into(),
         Objective::Max => "max".into(),
         Objective::Min => "min".into(),
+        Objective::Final => "final".into(),
         Objective::At(t) => format!("at {t} s"),
+    };
+    match window {
+        Some((a, b)) => format!("{kind} in [{a}, {b}] s"),
+        None => kind,
     }
 }
 
@@ -21,6 +26,8 @@ pub struct ObjectiveDef {
     pub name: String,
     pub response: String,
     pub kind: Objective,
+    /// The times `[t0, t1]` (s) of the history it is taken over (the whole run when none).
+    pub window: Option<(f64, f64)>,
 }
 
 /// Where the perturbed runs of a finite-difference comparison take their steps.
@@ -105,6 +112,7 @@ pub(super) fn objective(
         "rms" => Objective::Rms,
         "max" => Objective::Max,
         "min" => Objective::Min,
+        "final" => Objective::Final,
         _ => {
             let t = ro.time.as_ref().ok_or_else(|| {
                 src.error(
@@ -125,11 +133,48 @@ pub(super) fn objective(
             "time is only used with kind = \"at\"",
         ));
     }
+    let window = match &ro.window {
+        Some(w) => Some(window(src, &k("window"), w, &kind)?),
+        None => None,
+    };
     Ok(ObjectiveDef {
         name: name.to_string(),
         response: resp.get_ref().clone(),
         kind,
+        window,
     })
+}
+
+/// `window = [t0, t1]`: two finite, increasing times, not with `kind = "at"`.
+fn window(
+    src: &Source,
+    key: &str,
+    w: &Spanned<Vec<Spanned<f64>>>,
+    kind: &Objective,
+) -> Result<(f64, f64), DeckError> {
+    if matches!(kind, Objective::At(_)) {
+        return Err(src.error(
+            span(w),
+            Some(key.to_string()),
+            "a window is for the kinds over time; kind = \"at\" takes its one time",
+        ));
+    }
+    let [a, b] = w.get_ref().as_slice() else {
+        return Err(src.error(
+            span(w),
+            Some(key.to_string()),
+            format!("expected [t0, t1] (s), found {} values", w.get_ref().len()),
+        ));
+    };
+    let (a, b) = (finite(src, key, a, "s")?, finite(src, key, b, "s")?);
+    if a >= b {
+        return Err(src.error(
+            span(w),
+            Some(key.to_string()),
+            format!("the window [{a}, {b}] s must end after it starts"),
+        ));
+    }
+    Ok((a, b))
 }
 
 pub(super) fn finite_differences(

@@ -349,10 +349,12 @@ pub struct RawDesign {
 pub struct RawObjective {
     /// A `[response.*]` name.
     pub response: Option<Spanned<String>>,
-    /// `"integral"`, `"mean"`, `"rms"`, `"max"`, `"min"` or `"at"`.
+    /// `"integral"`, `"mean"`, `"rms"`, `"max"`, `"min"`, `"final"` or `"at"`.
     pub kind: Option<Spanned<String>>,
     /// With `kind = "at"`: the time (s).
     pub time: Option<Spanned<f64>>,
+    /// `[t0, t1]` (s): the objective of the history within these times only.
+    pub window: Option<Spanned<Vec<Spanned<f64>>>>,
 }
 
 /// Settings of the direct sensitivity analysis.
