@@ -316,3 +316,84 @@ fn windows_must_be_two_increasing_times_within_the_run_and_not_with_at() {
         );
     }
 }
+
+#[test]
+fn a_point_of_the_bob_moves_as_the_swing_and_its_acceleration_derivatives_equal_differences() {
+    let (s, c) = THETA0.sin_cos();
+    let (x0, y0) = (D * s, -D * c);
+    let deck = pendulum_deck()
+        + &format!(
+            "
+[response.ax]
+kind = \"point-acceleration\"
+at = {{ body = \"bob\", point = [{x0:?}, {y0:?}, 0.0] }}
+component = \"x\"
+
+[response.vx]
+kind = \"point-velocity\"
+at = {{ body = \"bob\", point = [{x0:?}, {y0:?}, 0.0] }}
+component = \"x\"
+
+[response.from_pivot]
+kind = \"point-position\"
+at = {{ body = \"bob\", point = [{x0:?}, {y0:?}, 0.0] }}
+relative_to = {{ body = \"ground\", point = [0.0, -1.0, 0.0] }}
+component = \"y\"
+"
+        );
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("points.toml");
+    std::fs::write(&path, deck).unwrap();
+    let out = dir.path().join("out");
+    json(&[
+        "run",
+        path.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--json",
+    ]);
+    let g = Group::read_hdf5(&out.join("results.h5")).unwrap();
+    let t = f64s(&g, "time");
+    let (ax, vx, rel) = (
+        f64s(&g, "responses/ax"),
+        f64s(&g, "responses/vx"),
+        f64s(&g, "responses/from_pivot"),
+    );
+    let y = {
+        // the bob's centre y from its frame's position response x: y = −√(D² − x²)
+        let x = f64s(&g, "responses/x");
+        x.iter()
+            .map(|x| -(D * D - x * x).sqrt())
+            .collect::<Vec<_>>()
+    };
+    // small swings: x = A cos ωt, ẋ = −A ω sin ωt, ẍ = −A ω² cos ωt
+    let w = (M * G * D / (I + M * D * D)).sqrt();
+    let a = D * THETA0;
+    for (k, &tk) in t.iter().enumerate() {
+        assert!(
+            (vx[k] + a * w * (w * tk).sin()).abs() < 2e-3 * a * w,
+            "t = {tk}"
+        );
+        assert!(
+            (ax[k] + a * w * w * (w * tk).cos()).abs() < 2e-3 * a * w * w,
+            "t = {tk}"
+        );
+        // relative to a ground point 1 m below the pivot
+        assert!((rel[k] - (y[k] + 1.0)).abs() < 1e-9, "t = {tk}: {}", rel[k]);
+    }
+    // exact derivatives of the discrete solution against replayed central differences
+    for name in ["ax", "vx"] {
+        let d = f64s(&g, &format!("sensitivities/{name}"));
+        let fd = f64s(
+            &g,
+            &format!("finite_differences/central_relative_0.0001_replay/{name}"),
+        );
+        let scale = d.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let err = d
+            .iter()
+            .zip(&fd)
+            .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()))
+            / scale;
+        assert!(err < 1e-6, "{name}: {err:e}");
+    }
+}

@@ -16,6 +16,7 @@ use sens::{Dual, Scalar};
 use crate::body::{BodyId, foreshortening, mode_vec, pose};
 use crate::force::ForceId;
 use crate::joint::JointId;
+use crate::marker::Marker;
 use crate::model::Model;
 use crate::sensitivity::{DesignModel, SensitivityError, SensitivityRun, seeded};
 use crate::system::{MultibodySystem, Output};
@@ -60,6 +61,15 @@ pub enum Response {
     /// The power of an actuator, its torque times the rate of the relative angle it turns
     /// (W).
     ActuatorPower { force: ForceId },
+    /// Component `axis` (global) of the position (`order` 0, m), velocity (1, m/s) or
+    /// acceleration (2, m/s²) of a marker's point — a node's, deformed, on a flexible body —
+    /// or of its difference from another marker's point.
+    MarkerPoint {
+        marker: Marker,
+        relative_to: Option<Marker>,
+        order: usize,
+        axis: usize,
+    },
 }
 
 impl Response {
@@ -110,20 +120,25 @@ impl Response {
             }
             Response::Energy => o.energy.total(),
             Response::ConstraintViolation => o.position_violation,
-            Response::ActuatorTorque { .. } | Response::ActuatorPower { .. } => self
-                .evaluate::<f64, f64>(model, o.t, &o.q, &o.v, &[])
+            Response::ActuatorTorque { .. }
+            | Response::ActuatorPower { .. }
+            | Response::MarkerPoint { .. } => self
+                .evaluate_with::<f64, f64>(model, o.t, (&o.q, &o.v), &[], &o.accelerations)
                 .unwrap_or(f64::NAN),
         }
     }
 
-    /// Whether [`Response::evaluate`] reads the multipliers (a reaction force): the others
-    /// need the state alone, not the solution of Eq. (12).
-    pub fn needs_multipliers(&self) -> bool {
-        matches!(self, Response::ReactionForce { .. })
+    /// Whether [`Response::evaluate_with`] reads the solution of Eq. (12) — the multipliers (a
+    /// reaction force) or the accelerations (a marker's): the others need the state alone.
+    pub fn needs_solution(&self) -> bool {
+        matches!(
+            self,
+            Response::ReactionForce { .. } | Response::MarkerPoint { order: 2, .. }
+        )
     }
 
     /// The response at `(t, q, v)` with the multipliers `lambda` (one per constraint row, zero
-    /// for removed rows).
+    /// for removed rows); not of a marker's acceleration (see [`Response::evaluate_with`]).
     pub fn evaluate<P: Scalar, S: Scalar + From<P>>(
         &self,
         model: &Model<P>,
@@ -132,11 +147,54 @@ impl Response {
         v: &[S],
         lambda: &[S],
     ) -> Result<S, SensitivityError> {
+        self.evaluate_with(model, t, (q, v), lambda, &[])
+    }
+
+    /// [`Response::evaluate`] with the accelerations `v̇` (empty when unknown: a marker's
+    /// acceleration is then refused).
+    pub fn evaluate_with<P: Scalar, S: Scalar + From<P>>(
+        &self,
+        model: &Model<P>,
+        t: f64,
+        (q, v): (&[S], &[S]),
+        lambda: &[S],
+        accel: &[S],
+    ) -> Result<S, SensitivityError> {
         let bad = |m: &str| SensitivityError::Response(m.to_string());
         let flexible = |body: BodyId| match model.body(body) {
             crate::Body::Flexible(f) => Ok(f),
             crate::Body::Rigid(_) => Err(bad("nodal responses need a flexible body")),
         };
+        if let Response::MarkerPoint {
+            marker,
+            relative_to,
+            order,
+            axis,
+        } = self
+        {
+            if *order == 2 && accel.len() != model.n_v() {
+                return Err(bad("a marker's acceleration needs the accelerations"));
+            }
+            if *axis > 2 || *order > 2 {
+                return Err(bad("axis or order out of range"));
+            }
+            let point = |m: &Marker| -> S {
+                let k = model.marker(m, q, v).point;
+                match order {
+                    0 => k.val[*axis],
+                    1 => k.rate[*axis],
+                    _ => {
+                        let mut a = k.quad[*axis];
+                        for (col, x) in k.jac.iter() {
+                            a += x[*axis] * accel[col];
+                        }
+                        a
+                    }
+                }
+            };
+            let base = relative_to.as_ref().map_or(S::zero(), point);
+            return Ok(point(marker) - base);
+        }
         match *self {
             Response::BodyPosition { body, axis } => {
                 if body.0 >= model.n_bodies() || axis > 2 {
@@ -230,6 +288,7 @@ impl Response {
                     _ => tau,
                 })
             }
+            Response::MarkerPoint { .. } => unreachable!("answered above"),
             Response::ReactionMoment { .. } | Response::Energy | Response::ConstraintViolation => {
                 Err(bad(
                     "reaction moments, energies and constraint violations have no sensitivities",
@@ -263,11 +322,13 @@ pub fn response_history<const N: usize>(
     let mut gradients = DMatrix::zeros(run.times.len(), m);
     let mut lambda = vec![Dual::<N>::constant(0.0); nc];
     for (i, (&t, y)) in run.times.iter().zip(&run.states).enumerate() {
-        // the multipliers and their tangents (Eq. 40) only for a response that reads them
-        let sol = match response.needs_multipliers() {
+        // the multipliers, accelerations and their tangents (Eq. 40) only for a response that
+        // reads them
+        let sol = match response.needs_solution() {
             true => Some(sys.solve(t, &y[..nq], &y[nq..])?),
             false => None,
         };
+        let mut accel = Vec::new();
         let s = &run.sensitivities[i];
         for (c, (model, range)) in design.chunk_ranges().enumerate() {
             let yd = seeded::<N>(y, s, &range);
@@ -280,8 +341,9 @@ pub fn response_history<const N: usize>(
                 for (a, &r) in sol.rows.iter().enumerate() {
                     lambda[r] = x[nv + a];
                 }
+                accel = x[..nv].to_vec();
             }
-            let val = response.evaluate(model, t, qd, vd, &lambda)?;
+            let val = response.evaluate_with(model, t, (qd, vd), &lambda, &accel)?;
             if c == 0 {
                 values.push(val.v);
             }
@@ -314,13 +376,15 @@ pub fn response_values(
         .map(|(&t, y)| {
             let (q, v) = y.split_at(nq);
             let mut lambda = vec![0.0; nc];
-            if response.needs_multipliers() {
+            let mut accel = Vec::new();
+            if response.needs_solution() {
                 let sol = sys.solve(t, q, v)?;
                 for (a, &r) in sol.rows.iter().enumerate() {
                     lambda[r] = sol.x[nv + a];
                 }
+                accel = sol.x[..nv].to_vec();
             }
-            response.evaluate::<f64, f64>(model, t, q, v, &lambda)
+            response.evaluate_with::<f64, f64>(model, t, (q, v), &lambda, &accel)
         })
         .collect()
 }

@@ -97,6 +97,9 @@ choices! {
     RESPONSE_KIND: "[response.NAME]", "response.NAME.kind", [
         "position",
         "velocity",
+        "point-position",
+        "point-velocity",
+        "point-acceleration",
         "nodal-displacement",
         "mid-node-deflection",
         "reaction",

@@ -9,7 +9,7 @@ use toml::Spanned;
 
 use super::check::suggestion;
 use super::check::{direction, required, span};
-use super::mechanism::{BodyInfo, BodyPlace};
+use super::mechanism::{BodyInfo, BodyPlace, MarkerDef};
 use super::raw::{RawDeck, RawResponse};
 use super::{DeckError, Source};
 
@@ -72,6 +72,14 @@ enum SpecKind {
     Actuator {
         force: String,
         power: bool,
+    },
+    /// Component `axis` of a marker point's position (`order` 0), velocity (1) or
+    /// acceleration (2), global, less that of `relative_to`'s.
+    Point {
+        at: MarkerDef,
+        relative_to: Option<MarkerDef>,
+        order: usize,
+        axis: usize,
     },
 }
 
@@ -139,6 +147,17 @@ impl ResponseSpec {
                 }
                 Response::State(model.q_range(id(body)).start + 7 + *mode as usize - 1)
             }
+            SpecKind::Point {
+                at,
+                relative_to,
+                order,
+                axis,
+            } => Response::MarkerPoint {
+                marker: at.resolve(bodies),
+                relative_to: relative_to.as_ref().map(|m| m.resolve(bodies)),
+                order: *order,
+                axis: *axis,
+            },
             SpecKind::Energy => Response::Energy,
             SpecKind::ConstraintViolation => Response::ConstraintViolation,
             SpecKind::Actuator { force, power } => {
@@ -227,6 +246,9 @@ pub fn validate(
             "actuator-torque" => (t.actuator(actuators, Some(false), false)?, "N·m"),
             "actuator-force" => (t.actuator(actuators, Some(true), false)?, "N"),
             "actuator-power" => (t.actuator(actuators, None, true)?, "W"),
+            "point-position" => (t.point(0)?, "m"),
+            "point-velocity" => (t.point(1)?, "m/s"),
+            "point-acceleration" => (t.point(2)?, "m/s²"),
             other => {
                 return Err(src.error(
                     span(kind),
@@ -313,6 +335,30 @@ impl Table<'_> {
             self.span.clone(),
             names,
         )
+    }
+
+    /// `kind = "point-position"` (`order` 0), `"point-velocity"` (1) or
+    /// `"point-acceleration"` (2): a component of a marker point's kinematics.
+    fn point(&self, order: usize) -> Result<SpecKind, DeckError> {
+        let (src, k) = (self.src, |s: &str| self.key(s));
+        let at = required(
+            src,
+            self.span.clone(),
+            &k("at"),
+            &self.raw.at,
+            "at (a marker: { body, point | node | coupling })",
+        )?;
+        let at = super::mechanism::marker(src, &k("at"), at, self.bodies)?;
+        let relative_to = (self.raw.relative_to.as_ref())
+            .map(|m| super::mechanism::marker(src, &k("relative_to"), m, self.bodies))
+            .transpose()?;
+        let axis = self.component(&XYZ)?;
+        Ok(SpecKind::Point {
+            at,
+            relative_to,
+            order,
+            axis,
+        })
     }
 
     /// `kind = "position"`: a component of a body frame's origin.

@@ -63,7 +63,7 @@ impl MarkerDef {
 }
 
 /// A marker from its deck description (global point and axes in the initial configuration).
-pub(super) fn marker(
+pub fn marker(
     src: &Source,
     key: &str,
     m: &Spanned<RawMarker>,

@@ -18,8 +18,8 @@ mod actuators;
 mod markers;
 mod values;
 
-pub use markers::{MarkerDef, SiteDef};
-use markers::{marker, motion};
+use markers::motion;
+pub use markers::{MarkerDef, SiteDef, marker};
 pub use values::{angle, angular_rate, inertia, quantity, rotation};
 
 /// A body of the mechanism as markers and responses see it: its id in the model, where it is

@@ -549,6 +549,11 @@ pub struct RawResponse {
     /// Actuator torque, force and power: the `[force.NAME]` of kind `"joint-torque"` or
     /// `"joint-force"`.
     pub force: Option<Spanned<String>>,
+    /// Point kinematics: the marker whose point is followed.
+    pub at: Option<Spanned<RawMarker>>,
+    /// Point kinematics: the marker whose point's position, velocity or acceleration is
+    /// subtracted.
+    pub relative_to: Option<Spanned<RawMarker>>,
 }
 
 /// Settings of the time integration.
