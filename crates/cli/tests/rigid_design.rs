@@ -224,6 +224,11 @@ window = [0.1, 0.437]
 response = \"x\"
 kind = \"rms\"
 window = [0.2, 0.8]
+
+[objective.smooth_peak]
+response = \"x\"
+kind = \"ks\"
+rho = 4000.0
 "
 }
 
@@ -240,7 +245,7 @@ fn windowed(dir: &std::path::Path, m: f64) -> Vec<(f64, Vec<f64>)> {
         out.to_str().unwrap(),
         "--json",
     ]);
-    ["peak", "settled", "swing"]
+    ["peak", "settled", "swing", "smooth_peak"]
         .iter()
         .map(|name| {
             let o = s["objectives"]
@@ -275,6 +280,14 @@ fn objectives_over_windows_match_the_swing_and_their_gradients_central_differenc
     let swing = (a * a / 2.0
         * (1.0 + ((2.0 * w * t1).sin() - (2.0 * w * t0).sin()) / (2.0 * w * (t1 - t0))))
         .sqrt();
+    // KS over the whole run of A cos ωt (1 s, about 0.68 of a period): below the peak A
+    // reached at t = 0, within ln(T/τ)/ρ of it (τ ~ 1/(ω √(ρA)) the peak's width)
+    let ks = got[3].0;
+    let gap = (1.0 / (w * (4000.0 * a).sqrt())).ln().abs() / 4000.0;
+    assert!(
+        ks < a && a - ks < 2.0 * gap,
+        "KS {ks} against the peak {a} (gap {gap})"
+    );
     for ((value, _), (name, exact)) in
         got.iter()
             .zip([("peak", peak), ("settled", settled), ("swing", swing)])
@@ -288,7 +301,10 @@ fn objectives_over_windows_match_the_swing_and_their_gradients_central_differenc
     // d/dm against central differences of whole runs
     let h = 1e-4 * M;
     let (plus, minus) = (windowed(dir.path(), M + h), windowed(dir.path(), M - h));
-    for (k, name) in ["peak", "settled", "swing"].iter().enumerate() {
+    for (k, name) in ["peak", "settled", "swing", "smooth_peak"]
+        .iter()
+        .enumerate()
+    {
         let fd = (plus[k].0 - minus[k].0) / (2.0 * h);
         let g = got[k].1[1];
         assert!(
@@ -395,5 +411,21 @@ component = \"y\"
             .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()))
             / scale;
         assert!(err < 1e-6, "{name}: {err:e}");
+    }
+}
+
+#[test]
+fn a_ks_aggregate_needs_a_positive_rho_and_only_it_takes_one() {
+    for (lines, says) in [
+        ("kind = \"ks\"", "missing value: rho"),
+        ("kind = \"ks\"\nrho = -3.0", "must be positive"),
+        ("kind = \"max\"\nrho = 30.0", "only used with kind = \"ks\""),
+    ] {
+        let deck = pendulum_deck() + &format!("\n[objective.w]\nresponse = \"x\"\n{lines}\n");
+        let (_dir, err) = bad_deck(&deck, |p| with_deck("check", p, &[]));
+        assert!(
+            err.contains("objective.w.rho") && err.contains(says),
+            "{lines}: {err}"
+        );
     }
 }

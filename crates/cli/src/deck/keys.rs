@@ -118,7 +118,7 @@ choices! {
     ACTUATOR_GAIN: "[design.NAME]", "design.NAME.gain", ["kp", "kd"];
     INERTIA_AXIS: "[design.NAME]", "design.NAME.axis", ["x", "y", "z"];
     OBJECTIVE_KIND: "[objective.NAME]", "objective.NAME.kind",
-        ["integral", "mean", "rms", "max", "min", "final", "at"];
+        ["integral", "mean", "rms", "max", "min", "final", "ks", "at"];
     SENSITIVITY_METHOD: "[sensitivity]", "sensitivity.method",
         ["direct", "simultaneous", "corrector"];
     SENSITIVITY_MODES: "[sensitivity]", "sensitivity.modes", ["updated", "fixed"];

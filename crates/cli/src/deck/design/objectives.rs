@@ -12,6 +12,7 @@ pub fn objective_label(o: &Objective, window: Option<(f64, f64)>) -> String {
         Objective::Max => "max".into(),
         Objective::Min => "min".into(),
         Objective::Final => "final".into(),
+        Objective::Ks(rho) => format!("ks (rho = {rho})"),
         Objective::At(t) => format!("at {t} s"),
     };
     match window {
@@ -113,6 +114,25 @@ pub(super) fn objective(
         "max" => Objective::Max,
         "min" => Objective::Min,
         "final" => Objective::Final,
+        "ks" => {
+            let rho = ro.rho.as_ref().ok_or_else(|| {
+                src.error(
+                    span(o),
+                    Some(k("rho")),
+                    "missing value: rho, the aggregation parameter (in the inverse of the \
+                     response's unit) for kind = \"ks\"",
+                )
+            })?;
+            let x = finite(src, &k("rho"), rho, "1/unit")?;
+            if x <= 0.0 {
+                return Err(src.error(
+                    span(rho),
+                    Some(k("rho")),
+                    format!("rho = {x} must be positive"),
+                ));
+            }
+            Objective::Ks(x)
+        }
         _ => {
             let t = ro.time.as_ref().ok_or_else(|| {
                 src.error(
@@ -124,6 +144,15 @@ pub(super) fn objective(
             Objective::At(finite(src, &k("time"), t, "s")?)
         }
     };
+    if !matches!(kind, Objective::Ks(_))
+        && let Some(r) = &ro.rho
+    {
+        return Err(src.error(
+            span(r),
+            Some(k("rho")),
+            "rho is only used with kind = \"ks\"",
+        ));
+    }
     if !matches!(kind, Objective::At(_))
         && let Some(t) = &ro.time
     {

@@ -349,12 +349,14 @@ pub struct RawDesign {
 pub struct RawObjective {
     /// A `[response.*]` name.
     pub response: Option<Spanned<String>>,
-    /// `"integral"`, `"mean"`, `"rms"`, `"max"`, `"min"`, `"final"` or `"at"`.
+    /// `"integral"`, `"mean"`, `"rms"`, `"max"`, `"min"`, `"final"`, `"ks"` or `"at"`.
     pub kind: Option<Spanned<String>>,
     /// With `kind = "at"`: the time (s).
     pub time: Option<Spanned<f64>>,
     /// `[t0, t1]` (s): the objective of the history within these times only.
     pub window: Option<Spanned<Vec<Spanned<f64>>>>,
+    /// With `kind = "ks"`: the aggregation parameter ρ (in the inverse of the response's unit).
+    pub rho: Option<Spanned<f64>>,
 }
 
 /// Settings of the direct sensitivity analysis.
