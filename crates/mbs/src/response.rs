@@ -576,7 +576,7 @@ impl Objective {
                 }
             }
             Objective::Ks(rho) => {
-                if !(span > 0.0) || !(rho > 0.0 && rho.is_finite()) {
+                if !(span > 0.0 && rho > 0.0 && rho.is_finite()) {
                     return Err(SensitivityError::Response(
                         "KS aggregate over no time or with ρ not positive".into(),
                     ));
