@@ -17,6 +17,22 @@ use crate::mesh::{Region, SectionMesh};
 use crate::properties::{MassProperties, Props, SectionProperties, SectionSensitivities};
 use crate::{DesignMap, SectionError};
 
+/// The strain and stress at one integration point of a section ([`SectionAnalysis::stresses`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SectionPoint {
+    pub element: usize,
+    pub region: usize,
+    /// `(x₂, x₃)` (m).
+    pub position: [f64; 2],
+    /// Strain and stress in section axes, Voigt `[11, 22, 33, 23, 13, 12]` with 1 along the
+    /// beam (engineering shear; Pa).
+    pub strain: [f64; 6],
+    pub stress: [f64; 6],
+    /// The same in the region's material axes (1 along the fibres).
+    pub material_strain: [f64; 6],
+    pub material_stress: [f64; 6],
+}
+
 /// Geometry of one integration point, in the scalar `G` of the node coordinates (`f64`, or
 /// dual numbers whose tangents are node velocities: a ply thickness as a design variable).
 #[derive(Clone, Copy, Debug)]
@@ -468,6 +484,60 @@ impl SectionAnalysis {
                 w
             })
             .collect()
+    }
+
+    /// The 3-D strain and stress at every integration point under the section forces
+    /// `forces = [F₁, F₂, F₃, M₁, M₂, M₃]` (N, N·m; `F₁` axial, `M₁` torsion) of the central
+    /// solution: `ε = (Z Y + BN X + SN X₁) θ` and `σ = Q ε`, the warping of the shear forces
+    /// along the beam included (BECAS's recovery), in section axes and in each region's
+    /// material axes.
+    pub fn stresses(&self, forces: [f64; 6]) -> Vec<SectionPoint> {
+        let m = &self.model;
+        let mut out = Vec::with_capacity(m.gps.len());
+        let mut k = 0;
+        for (e, el) in m.mesh.elements.iter().enumerate() {
+            let nn = el.kind.node_count();
+            let region = &m.mesh.regions[el.region];
+            for gp in &m.gps[m.gp_start[e]..m.gp_start[e + 1]] {
+                let eps = strains(
+                    &el.nodes[..nn],
+                    gp,
+                    Fields {
+                        u: Some(&self.x),
+                        u1: Some(&self.x1),
+                        psi: Some(&self.y),
+                    },
+                );
+                let strain: [f64; 6] =
+                    std::array::from_fn(|i| (0..6).map(|c| eps[c][i] * forces[c]).sum());
+                let q = &self.q_points[k];
+                let stress: [f64; 6] =
+                    std::array::from_fn(|i| (0..6).map(|j| q[(i, j)] * strain[j]).sum());
+                // material axes in section axes: the wall frame's, turned by the ply angle
+                let r = region.frame.rotation_at(gp.x, gp.dx_dxi)
+                    * Region::ply_rotation(region.ply_angle);
+                let to_material = bond_stress_matrix(&r.transpose());
+                let material_stress: [f64; 6] =
+                    std::array::from_fn(|i| (0..6).map(|j| to_material[(i, j)] * stress[j]).sum());
+                let compliance = region.material.compliance();
+                let material_strain: [f64; 6] = std::array::from_fn(|i| {
+                    (0..6)
+                        .map(|j| compliance[(i, j)] * material_stress[j])
+                        .sum()
+                });
+                out.push(SectionPoint {
+                    element: e,
+                    region: el.region,
+                    position: gp.x,
+                    strain,
+                    stress,
+                    material_strain,
+                    material_stress,
+                });
+                k += 1;
+            }
+        }
+        out
     }
 
     /// Values and derivatives of every result with respect to the design variables of

@@ -9,7 +9,9 @@
 //! tension and shear centres ([`SectionProperties`]), and their exact derivatives with respect
 //! to design variables ([`DesignMap`], [`SectionSensitivities`]): ply angles, material
 //! constants and densities, and node positions — a generated section ([`GeneratedSection`])
-//! gives the node velocities of a ply thickness from the same code that places its nodes. A
+//! gives the node velocities of a ply thickness from the same code that places its nodes. It
+//! recovers the 3-D strains and stresses at the section's points under given section forces
+//! ([`SectionAnalysis::stresses`]). A
 //! section can also be given by its published properties instead of analysed
 //! ([`SectionProperties::given`], [`stiffness_from_centres`],
 //! [`SectionProperties::mass_of_matrix`]). It knows nothing about beam elements, multibody
@@ -73,7 +75,7 @@ mod mesh;
 mod parse;
 mod properties;
 
-pub use analysis::{SectionAnalysis, analyse, analyse_with_derivatives};
+pub use analysis::{SectionAnalysis, SectionPoint, analyse, analyse_with_derivatives};
 pub use design::{DesignMap, DesignVariable};
 pub use element::ElementKind;
 pub use error::SectionError;
