@@ -92,6 +92,13 @@ enum Command {
         /// to each [design.*] variable that moves the section (per its unit).
         #[arg(long)]
         derivatives: bool,
+        /// Section forces to load the section with, `NAME=VALUE` (repeatable or
+        /// comma-separated; NAME one of F1, F2, F3 in N and M1, M2, M3 in N·m, about the
+        /// section's origin): prints each region's stress extremes in its material axes and,
+        /// for regions whose material has strengths, their failure indices and the least
+        /// reserve factor per criterion.
+        #[arg(long = "load", value_name = "NAME=VALUE", allow_hyphen_values = true)]
+        load: Vec<String>,
     },
     /// Vibration modes of the deck's flexible bodies: frequencies, modal masses, damping, and
     /// their ply-angle derivatives (updated-mode, Nelson's method).
@@ -299,9 +306,15 @@ fn main() -> ExitCode {
             section,
             format,
             derivatives,
-        } => commands::section::run(deck, &cli.set, section.as_deref(), *format, *derivatives)
-            .map(|t| (t, 0))
-            .map_err(CliError::from),
+            load,
+        } => commands::section::run(
+            deck,
+            &cli.set,
+            section.as_deref(),
+            *format,
+            (*derivatives, load),
+        )
+        .map(|t| (t, 0)),
         Command::Modes {
             deck,
             body,

@@ -98,6 +98,13 @@ fn a_section_given_by_the_tubes_properties_is_the_tube() {
         "given.toml",
         &beam_deck_with_section(&tube_as_properties()),
     );
+    // it has no points to recover stresses at
+    let o = run(&["section", &given, "--load", "F1=1"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        o.status.code() == Some(2) && err.contains("no points to recover stresses"),
+        "{err}"
+    );
     let (fa, fg) = (frequencies(&analysed), frequencies(&given));
     assert_eq!(fa.len(), fg.len());
     for (a, g) in fa.iter().zip(&fg) {

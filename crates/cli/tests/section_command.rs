@@ -386,3 +386,91 @@ laminate = "flange"
         assert!(err.contains(key) && err.contains(words), "{err}");
     }
 }
+
+#[test]
+fn a_loaded_rectangle_bends_as_beam_theory_and_a_loaded_tube_fails_its_plies_consistently() {
+    // the isotropic bar (40 × 7.5 mm) bent about x₂ with an axial force: σ11 = N/A ± M h/2I
+    let p = deck("section_isotropic_rectangle.toml");
+    let doc = json(&[
+        "section",
+        p.to_str().unwrap(),
+        "--format",
+        "json",
+        "--load",
+        "F1=3000,M2=12",
+    ]);
+    let v = &doc["sections"]["bar"]["values"];
+    let (b, h) = (0.04f64, 0.0075f64);
+    let (a, i22) = (b * h, b * h.powi(3) / 12.0);
+    // one region: one row, written as a vector
+    let extremes: Vec<f64> = (v["region_stress_extremes"].as_array().unwrap().iter())
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    // the extremes are at the integration points nearest the faces, within the outer
+    // elements: between the face value and that one element in
+    let (lo, hi) = (
+        3000.0 / a - 12.0 * h / 2.0 / i22,
+        3000.0 / a + 12.0 * h / 2.0 / i22,
+    );
+    assert!(
+        extremes[1] <= hi && extremes[1] > 0.8 * hi,
+        "{extremes:?} vs {hi}"
+    );
+    assert!(
+        extremes[0] >= lo && extremes[0] < 0.8 * lo,
+        "{extremes:?} vs {lo}"
+    );
+    assert!(
+        v.get("region_failure_index").is_none(),
+        "no strengths, no indices"
+    );
+    // the composite tube with strengths: the max-stress index of each region is its largest
+    // stress ratio, the reserve factor the least over the regions
+    let t = deck("section_composite_tube.toml");
+    let strengths = [
+        "material.paper_composite.Xt=1.5e9",
+        "material.paper_composite.Xc=1.2e9",
+        "material.paper_composite.Yt=4e7",
+        "material.paper_composite.Yc=2.46e8",
+        "material.paper_composite.S12=6.8e7",
+    ];
+    let mut args = vec!["section", t.to_str().unwrap(), "--format", "json"];
+    for s in &strengths {
+        args.extend(["--set", s]);
+    }
+    args.extend(["--load", "F1=1000,M1=2"]);
+    let doc = json(&args);
+    let v = &doc["sections"]["rod"]["values"];
+    let rows = |key: &str| -> Vec<Vec<f64>> {
+        (v[key].as_array().unwrap().iter())
+            .map(|r| {
+                r.as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|x| x.as_f64().unwrap())
+                    .collect()
+            })
+            .collect()
+    };
+    let (ext, fi) = (rows("region_stress_extremes"), rows("region_failure_index"));
+    let mut least = f64::INFINITY;
+    for (e, f) in ext.iter().zip(&fi) {
+        // σ11 by sign against Xt, Xc; σ22 against Yt, Yc; τ12 against S12 (τ13, τ23 zero in a
+        // thin wall's plane-stress state: the default S13 = S23 = S12)
+        let ratio = [
+            e[1].max(0.0) / 1.5e9,
+            (-e[0]).max(0.0) / 1.2e9,
+            e[3].max(0.0) / 4e7,
+            (-e[2]).max(0.0) / 2.46e8,
+            e[4] / 6.8e7,
+            e[5] / 6.8e7,
+            e[6] / 6.8e7,
+        ]
+        .into_iter()
+        .fold(0.0f64, f64::max);
+        assert!((f[0] - ratio).abs() < 1e-12 * ratio, "{f:?} vs {ratio}");
+        least = least.min(1.0 / f[0]);
+    }
+    let rf = v["reserve_factor"][0].as_f64().unwrap();
+    assert!((rf - least).abs() < 1e-12 * least, "{rf} vs {least}");
+}

@@ -1,5 +1,6 @@
-//! `flexsens laminate --load`: the plies' stresses, strains and failure indices of a laminate
-//! under given plate resultants (docs/failure-criteria.md).
+//! `flexsens laminate --load` and `flexsens section --load`: the plies' stresses, strains and
+//! failure indices of a laminate under given plate resultants, and of a beam section's regions
+//! under given section forces (docs/failure-criteria.md).
 
 use laminate::{Criterion, PlateState, PlyPosition, PlyStrength};
 
@@ -29,49 +30,67 @@ pub struct PlateLoad {
 impl PlateLoad {
     /// The load of `--load NAME=VALUE` arguments (each may list several, comma-separated).
     pub fn parse(args: &[String]) -> Result<Option<Self>, CliError> {
-        if args.is_empty() {
-            return Ok(None);
-        }
-        let names: Vec<&str> = LOAD_NAMES.iter().map(|(n, _)| *n).collect();
-        let mut values = [0.0; 8];
-        let mut seen = [false; 8];
-        for item in args.iter().flat_map(|a| a.split(',')) {
-            let Some((name, value)) = item.split_once('=') else {
-                return Err(CliError::Usage(format!(
-                    "--load {item}: expected NAME=VALUE with NAME one of {}",
-                    names.join(", ")
-                )));
-            };
-            let name = name.trim();
-            let Some(i) = names.iter().position(|n| n.eq_ignore_ascii_case(name)) else {
-                return Err(CliError::Usage(format!(
-                    "--load {item}: `{name}` is not a resultant; one of {}",
-                    names.join(", ")
-                )));
-            };
-            let v: f64 = value
-                .trim()
-                .parse()
-                .ok()
-                .filter(|v: &f64| v.is_finite())
-                .ok_or_else(|| {
-                    CliError::Usage(format!(
-                        "--load {item}: `{}` is not a finite number ({})",
-                        value.trim(),
-                        LOAD_NAMES[i].1
-                    ))
-                })?;
-            if seen[i] {
-                return Err(CliError::Usage(format!(
-                    "--load: {} is given twice",
-                    LOAD_NAMES[i].0
-                )));
-            }
-            seen[i] = true;
-            values[i] = v;
-        }
-        Ok(Some(Self { values }))
+        Ok(parse_loads(args, &LOAD_NAMES)?.map(|v| Self {
+            values: std::array::from_fn(|i| v[i]),
+        }))
     }
+}
+
+/// The section forces `--load` names for a section, with their units.
+pub const SECTION_LOAD_NAMES: [(&str, &str); 6] = [
+    ("F1", "N"),
+    ("F2", "N"),
+    ("F3", "N"),
+    ("M1", "N*m"),
+    ("M2", "N*m"),
+    ("M3", "N*m"),
+];
+
+/// The values of `--load NAME=VALUE` arguments (each may list several, comma-separated) for
+/// the quantities `known` (name, unit), zero where not given; `None` without arguments.
+pub fn parse_loads(args: &[String], known: &[(&str, &str)]) -> Result<Option<Vec<f64>>, CliError> {
+    if args.is_empty() {
+        return Ok(None);
+    }
+    let names: Vec<&str> = known.iter().map(|(n, _)| *n).collect();
+    let mut values = vec![0.0; known.len()];
+    let mut seen = vec![false; known.len()];
+    for item in args.iter().flat_map(|a| a.split(',')) {
+        let Some((name, value)) = item.split_once('=') else {
+            return Err(CliError::Usage(format!(
+                "--load {item}: expected NAME=VALUE with NAME one of {}",
+                names.join(", ")
+            )));
+        };
+        let name = name.trim();
+        let Some(i) = names.iter().position(|n| n.eq_ignore_ascii_case(name)) else {
+            return Err(CliError::Usage(format!(
+                "--load {item}: `{name}` is not a resultant; one of {}",
+                names.join(", ")
+            )));
+        };
+        let v: f64 = value
+            .trim()
+            .parse()
+            .ok()
+            .filter(|v: &f64| v.is_finite())
+            .ok_or_else(|| {
+                CliError::Usage(format!(
+                    "--load {item}: `{}` is not a finite number ({})",
+                    value.trim(),
+                    known[i].1
+                ))
+            })?;
+        if seen[i] {
+            return Err(CliError::Usage(format!(
+                "--load: {} is given twice",
+                known[i].0
+            )));
+        }
+        seen[i] = true;
+        values[i] = v;
+    }
+    Ok(Some(values))
 }
 
 /// The ply points' labels, bottom first: `ply/position`.
@@ -182,4 +201,98 @@ pub fn ply_quantities(
         q.push(Quantity::vector("reserve_factor", "1", &reserve));
     }
     Ok((q, lines))
+}
+
+/// What the section forces `forces` do to the regions of a section: per region the extremes of
+/// its material-axis stresses over its integration points and, for regions whose material
+/// states strengths (`materials`: each region's `[material.*]` name), each criterion's largest
+/// failure index and the section's least reserve factor per criterion.
+pub fn section_quantities(
+    analysis: &section::SectionAnalysis,
+    materials: &[Option<String>],
+    model: &LaminateModel,
+    forces: [f64; 6],
+) -> (Vec<Quantity>, Vec<String>) {
+    let mesh = analysis.mesh();
+    let points = analysis.stresses(forces);
+    let nr = mesh.regions.len();
+    // σ11 min, max; σ22 min, max; |τ23|, |τ13|, |τ12| max
+    let mut extremes = vec![
+        [
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            0.0,
+            0.0,
+            0.0
+        ];
+        nr
+    ];
+    let criteria = Criterion::ALL;
+    let mut index = vec![vec![f64::NAN; criteria.len()]; nr];
+    for p in &points {
+        let s = p.material_stress;
+        let e = &mut extremes[p.region];
+        e[0] = e[0].min(s[0]);
+        e[1] = e[1].max(s[0]);
+        e[2] = e[2].min(s[1]);
+        e[3] = e[3].max(s[1]);
+        for (k, c) in [3, 4, 5].iter().enumerate() {
+            e[4 + k] = e[4 + k].max(s[*c].abs());
+        }
+        let strength = materials[p.region]
+            .as_ref()
+            .and_then(|m| model.strengths.get(m));
+        if let Some(strength) = strength {
+            let material = &mesh.regions[p.region].material;
+            for (c, criterion) in criteria.iter().enumerate() {
+                let fi = criterion.index(material, strength, &s);
+                let cell = &mut index[p.region][c];
+                *cell = if cell.is_nan() { fi } else { cell.max(fi) };
+            }
+        }
+    }
+    let mut q = vec![Quantity::matrix(
+        "region_stress_extremes",
+        "Pa",
+        nr,
+        7,
+        |r, c| extremes[r][c],
+    )];
+    let mut lines = vec![
+        "region stresses (MPa, material axes): s11 min, max; s22 min, max; |t23|, |t13|, |t12| max"
+            .to_string(),
+    ];
+    for (r, e) in extremes.iter().enumerate() {
+        let v: Vec<String> = e.iter().map(|x| format!("{:>9.3}", x / 1e6)).collect();
+        lines.push(format!("  {:<24} {}", mesh.regions[r].name, v.join(" ")));
+    }
+    if index.iter().any(|row| !row[0].is_nan()) {
+        q.push(Quantity::matrix(
+            "region_failure_index",
+            "1",
+            nr,
+            criteria.len(),
+            |r, c| index[r][c],
+        ));
+        let mut reserve = Vec::with_capacity(criteria.len());
+        lines.push("least reserve factors (regions with strengths):".to_string());
+        for (c, criterion) in criteria.iter().enumerate() {
+            let (r, fi) = (0..nr)
+                .map(|r| (r, index[r][c]))
+                .filter(|(_, fi)| !fi.is_nan())
+                .max_by(|a, b| a.1.total_cmp(&b.1))
+                .expect("a region with strengths");
+            reserve.push(1.0 / fi);
+            lines.push(format!(
+                "  {:<14} R = {:<12.5} in region {}",
+                criterion.name(),
+                1.0 / fi,
+                mesh.regions[r].name
+            ));
+        }
+        q.push(Quantity::vector("reserve_factor", "1", &reserve));
+    }
+    (q, lines)
 }

@@ -8,10 +8,12 @@ use serde_json::json;
 
 use super::Format;
 use super::output::{self, Derivative, Quantity, Report};
+use super::ply_stress::{SECTION_LOAD_NAMES, parse_loads, section_quantities};
+use crate::deck;
 use crate::deck::design::{DesignVariable, validate as validate_design};
-use crate::deck::laminates::validate as validate_laminates;
+use crate::deck::laminates::{LaminateModel, validate as validate_laminates};
 use crate::deck::sections::{SectionDef, validate_one};
-use crate::deck::{self, DeckError};
+use crate::error::CliError;
 
 use crate::study::flexible::{section_derivatives, section_design};
 
@@ -49,10 +51,16 @@ fn quantities(p: &SectionProperties) -> Vec<Quantity> {
 fn report(
     name: &str,
     def: &SectionDef,
-    derivatives: bool,
-    vars: &[DesignVariable],
+    (derivatives, vars): (bool, &[DesignVariable]),
+    load: Option<(&[f64; 6], &LaminateModel)>,
 ) -> Result<Report, String> {
     let mesh = &def.mesh;
+    if def.given.is_some() && load.is_some() {
+        return Err(
+            "a section given by its properties has no points to recover stresses at (--load)"
+                .into(),
+        );
+    }
     if let Some(given) = &def.given {
         return Ok(given_report(
             name,
@@ -107,6 +115,13 @@ fn report(
         preamble.push(format!("{:<28} {:>10.3}", r.name, r.ply_angle.to_degrees()));
         regions.push(json!({"name": r.name, "angle_deg": r.ply_angle.to_degrees()}));
     }
+    let mut values = quantities(&values);
+    if let Some((forces, model)) = load {
+        let analysis = section::SectionAnalysis::new(mesh).map_err(|e| e.to_string())?;
+        let (q, lines) = section_quantities(&analysis, &def.materials, model, *forces);
+        values.extend(q);
+        preamble.extend(lines);
+    }
     let mut info = serde_json::Map::new();
     info.insert("shape".into(), json!(def.shape));
     info.insert("nodes".into(), json!(mesh.nodes.len()));
@@ -117,7 +132,7 @@ fn report(
         name: name.into(),
         preamble,
         info,
-        values: quantities(&values),
+        values,
         derivatives: derivs,
     })
 }
@@ -147,8 +162,10 @@ pub fn run(
     overrides: &[String],
     only: Option<&str>,
     format: Format,
-    derivatives: bool,
-) -> Result<String, DeckError> {
+    (derivatives, load): (bool, &[String]),
+) -> Result<String, CliError> {
+    let load: Option<[f64; 6]> =
+        parse_loads(load, &SECTION_LOAD_NAMES)?.map(|v| std::array::from_fn(|i| v[i]));
     let (src, raw) = deck::load(path, overrides)?;
     let model = validate_laminates(&src, &raw)?;
     let design = validate_design(&src, &raw, &model)?;
@@ -156,8 +173,13 @@ pub fn run(
     let mut reports = Vec::new();
     for (name, s) in selected {
         let def = validate_one(&src, name, s, &model)?;
-        let r = report(name, &def, derivatives, &design.variables)
-            .map_err(|e| src.error(Some(s.span()), Some(format!("section.{name}")), e))?;
+        let r = report(
+            name,
+            &def,
+            (derivatives, &design.variables),
+            load.as_ref().map(|f| (f, &model)),
+        )
+        .map_err(|e| src.error(Some(s.span()), Some(format!("section.{name}")), e))?;
         reports.push(r);
     }
     Ok(output::render(
