@@ -421,7 +421,8 @@ fn execute(target: Target, work: &Path, input: &[u8]) -> String {
         Target::Deck => commands::check::run(&file, &[]).map_err(|e| e.to_string()),
         Target::SectionSimple | Target::SectionGmsh => {
             let deck = work.join("section.toml");
-            commands::section::run(&deck, &[], None, Format::Json, true).map_err(|e| e.to_string())
+            commands::section::run(&deck, &[], None, Format::Json, (true, &[]))
+                .map_err(|e| e.to_string())
         }
         Target::ShellGmsh => {
             let deck = work.join("shell.toml");

@@ -275,9 +275,8 @@ fn set_solver_threads() {
     });
 }
 
-fn main() -> ExitCode {
-    let cli = Cli::parse();
-    set_solver_threads();
+/// The limits of the command line for this process.
+fn set_limits(cli: &Cli) {
     limits::set(Limits {
         elements: cli.max_elements,
         steps: cli.max_steps,
@@ -285,6 +284,12 @@ fn main() -> ExitCode {
         input_bytes: cli.max_input_bytes,
         memory: cli.max_memory,
     });
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    set_solver_threads();
+    set_limits(&cli);
     // text for stdout and the exit code, or an error
     let result: Result<(String, u8), CliError> = match &cli.command {
         Command::Laminate {
