@@ -923,3 +923,54 @@ fn a_pendulum_linearises_about_its_equilibrium_and_along_its_swing_as_its_angle_
         );
     }
 }
+
+#[test]
+fn a_spinning_tips_acceleration_is_centripetal_and_its_derivative_equals_differences() {
+    let dir = tempfile::tempdir().unwrap();
+    let tip = |angle: f64| -> Vec<(f64, f64)> {
+        let deck = rotor(angle)
+            + "
+[response.tip_ax]
+kind = \"point-acceleration\"
+at = { body = \"rod\", node = 24 }
+component = \"x\"
+";
+        let path = dir.path().join("tip.toml");
+        std::fs::write(&path, deck).unwrap();
+        let out = dir.path().join("tip");
+        let j = json(&[
+            "static",
+            path.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--json",
+        ]);
+        (j["points"].as_array().unwrap().iter())
+            .map(|p| {
+                (
+                    p["responses"]["tip_ax"].as_f64().unwrap(),
+                    p["gradients"]["tip_ax"]["theta"].as_f64().unwrap(),
+                )
+            })
+            .collect()
+    };
+    let nominal = tip(15.0);
+    // the derivative comes from the centrifugal stretch alone (~1e-3 of the acceleration):
+    // a step large enough that the model's noise (~1e-8 of the value) stays below it
+    let h = 0.5;
+    let (up, down) = (tip(15.0 + h), tip(15.0 - h));
+    for (k, rpm) in [0.0f64, 3000.0, 6000.0].iter().enumerate() {
+        let w = rpm * std::f64::consts::PI / 30.0;
+        let (a, da) = nominal[k];
+        // the tip, 0.3 m out (stretched by up to ~0.1 mm at 6000 rpm), turns about the hub
+        assert!(
+            (a + w * w * 0.3).abs() <= 2e-3 * (w * w * 0.3) + 1e-9,
+            "{rpm} rpm: {a}"
+        );
+        let fd = (up[k].0 - down[k].0) / (2.0 * h);
+        assert!(
+            (da - fd).abs() <= 1e-3 * fd.abs() + 1e-9 * w * w + 1e-9,
+            "{rpm} rpm: d/dθ {da}, central differences {fd}"
+        );
+    }
+}

@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{bad_deck, beam_direct_vs_central, f64s, json, with_deck};
+use common::{bad_deck, beam_direct_vs_central, f64s, json, run_deck_json, with_deck};
 use flexsens::results::{Data, Group};
 
 /// Pendulum: a bob of mass M and inertia I about its centre, its centre D from a revolute
@@ -232,19 +232,10 @@ rho = 4000.0
 "
 }
 
-/// The objectives `peak`, `settled`, `swing` of the windowed deck with bob mass `m`: values
-/// and gradients (inertia, mass).
-fn windowed(dir: &std::path::Path, m: f64) -> Vec<(f64, Vec<f64>)> {
-    let deck = dir.join("windowed.toml");
-    std::fs::write(&deck, windowed_deck(m)).unwrap();
-    let out = dir.join("out");
-    let s = json(&[
-        "run",
-        deck.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--json",
-    ]);
+/// The objectives `peak`, `settled`, `swing`, `smooth_peak` of the windowed deck with bob mass
+/// `m`: values and gradients (inertia, mass).
+fn windowed(m: f64) -> Vec<(f64, Vec<f64>)> {
+    let s = run_deck_json(&windowed_deck(m));
     ["peak", "settled", "swing", "smooth_peak"]
         .iter()
         .map(|name| {
@@ -265,8 +256,7 @@ fn windowed(dir: &std::path::Path, m: f64) -> Vec<(f64, Vec<f64>)> {
 
 #[test]
 fn objectives_over_windows_match_the_swing_and_their_gradients_central_differences() {
-    let dir = tempfile::tempdir().unwrap();
-    let got = windowed(dir.path(), M);
+    let got = windowed(M);
     // small swings: x = A cos ωt
     let w = (M * G * D / (I + M * D * D)).sqrt();
     let a = D * THETA0;
@@ -300,7 +290,7 @@ fn objectives_over_windows_match_the_swing_and_their_gradients_central_differenc
     }
     // d/dm against central differences of whole runs
     let h = 1e-4 * M;
-    let (plus, minus) = (windowed(dir.path(), M + h), windowed(dir.path(), M - h));
+    let (plus, minus) = (windowed(M + h), windowed(M - h));
     for (k, name) in ["peak", "settled", "swing", "smooth_peak"]
         .iter()
         .enumerate()

@@ -441,18 +441,10 @@ fn a_loaded_rectangle_bends_as_beam_theory_and_a_loaded_tube_fails_its_plies_con
     args.extend(["--load", "F1=1000,M1=2"]);
     let doc = json(&args);
     let v = &doc["sections"]["rod"]["values"];
-    let rows = |key: &str| -> Vec<Vec<f64>> {
-        (v[key].as_array().unwrap().iter())
-            .map(|r| {
-                r.as_array()
-                    .unwrap()
-                    .iter()
-                    .map(|x| x.as_f64().unwrap())
-                    .collect()
-            })
-            .collect()
-    };
-    let (ext, fi) = (rows("region_stress_extremes"), rows("region_failure_index"));
+    let (ext, fi) = (
+        matrix(&v["region_stress_extremes"]),
+        matrix(&v["region_failure_index"]),
+    );
     let mut least = f64::INFINITY;
     for (e, f) in ext.iter().zip(&fi) {
         // σ11 by sign against Xt, Xc; σ22 against Yt, Yc; τ12 against S12 (τ13, τ23 zero in a

@@ -581,6 +581,13 @@ pub struct Linearisation {
 }
 
 impl OperatingPoint {
+    /// The velocities and accelerations of this point's steady motion at the positions `q`
+    /// (zero for a static equilibrium), in any scalar (e.g. positions seeded with the design
+    /// derivatives).
+    pub fn motion_at<P: Scalar, S: Scalar>(&self, model: &Model<P>, q: &[S]) -> (Vec<S>, Vec<S>) {
+        steady_motion(model, self.spin.as_ref(), q)
+    }
+
     /// The linearised equations about this operating point of `model` (the model it was
     /// found for).
     pub fn linearise(&self, model: &Model<f64>) -> Linearisation {

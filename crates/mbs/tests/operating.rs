@@ -12,6 +12,8 @@ use mbs::{
     TimeFunction, equilibrium, linearise_state, simulate,
 };
 use nalgebra::{Matrix3, Vector3};
+
+mod common;
 use sens::{Dual, Scalar};
 
 const G: f64 = 9.81;
@@ -147,26 +149,11 @@ fn spinning_slider<P: Scalar>(
             Matrix3::<f64>::identity().map(|x| m * (1e-3 * x)),
         ))
         .unwrap();
-    let z = Vector3::z();
-    model
-        .add_joint(Joint::new(
-            "bearing",
-            JointKind::Revolute,
-            Marker::ground(Vector3::zeros()).with_axis(z),
-            Marker::on(hub, Vector3::zeros()).with_axis(z),
-        ))
-        .unwrap();
-    let motor = model
-        .add_joint(Joint::new(
-            "motor",
-            JointKind::AngleDriver(TimeFunction::ConstantSpeed {
-                initial: 0.0,
-                rate: speed,
-            }),
-            Marker::ground(Vector3::zeros()).with_axes(Vector3::x(), Vector3::y()),
-            Marker::on(hub, Vector3::zeros()).with_axes(Vector3::x(), Vector3::y()),
-        ))
-        .unwrap();
+    let motion = TimeFunction::ConstantSpeed {
+        initial: 0.0,
+        rate: speed,
+    };
+    let motor = common::drive_about_z(&mut model, hub, motion);
     model
         .add_joint(Joint::new(
             "slot",
@@ -406,46 +393,15 @@ fn a_steadily_spinning_slider_linearises_as_its_steady_spin_at_any_time_of_its_r
 /// A uniform beam along x (`EI = m = L = 1` flapwise, chordwise 4× stiffer), clamped to a hub
 /// turned about z at `speed` by an angle driver; the modes of both planes, stiffened.
 fn driven_beam(speed: f64) -> (Model<f64>, mbs::State, JointId) {
-    use fem::{BeamSection, Mesh, ModalOptions, Properties, ReferenceCondition};
-    let mesh = Mesh::straight_beam(Vector3::zeros(), Vector3::x(), 16, 0, Vector3::y()).unwrap();
-    let stiff = 1e7;
-    let props = Properties {
-        sections: vec![BeamSection::diagonal(
-            [stiff, stiff, stiff, stiff, 1.0, 4.0],
-            1.0,
-            1e-9,
-            1e-9,
-        )],
-        laminates: vec![],
-    };
-    let mut options = ModalOptions::new(6);
-    options.reference = ReferenceCondition::ClampedNode(0);
-    let analysis = fem::modal_analysis(&mesh, &props, &options).unwrap();
-    let modal = fem::modal_body(&mesh, &props, &analysis).unwrap();
-    let body = mbs::FlexibleBody::new("beam", modal.clone())
-        .with_geometric_stiffness(fem::geometric_stiffness(&mesh, &modal, 0).unwrap());
     let mut model = Model::new();
-    let beam = model.add_flexible_body(body).unwrap();
-    let z = Vector3::z();
-    model
-        .add_joint(Joint::new(
-            "bearing",
-            JointKind::Revolute,
-            Marker::ground(Vector3::zeros()).with_axis(z),
-            Marker::on(beam, Vector3::zeros()).with_axis(z),
-        ))
+    let beam = model
+        .add_flexible_body(common::fem_cantilever(16, 6, [1.0, 4.0], true))
         .unwrap();
-    let motor = model
-        .add_joint(Joint::new(
-            "motor",
-            JointKind::AngleDriver(TimeFunction::ConstantSpeed {
-                initial: 0.0,
-                rate: speed,
-            }),
-            Marker::ground(Vector3::zeros()).with_axes(Vector3::x(), Vector3::y()),
-            Marker::on(beam, Vector3::zeros()).with_axes(Vector3::x(), Vector3::y()),
-        ))
-        .unwrap();
+    let motion = TimeFunction::ConstantSpeed {
+        initial: 0.0,
+        rate: speed,
+    };
+    let motor = common::drive_about_z(&mut model, beam, motion);
     let state = model.rest_state();
     (model, state, motor)
 }

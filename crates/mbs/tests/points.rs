@@ -2,53 +2,27 @@
 //! its position against the frame and the nodal displacement composed by hand, its velocity
 //! and acceleration against central differences in time of the run's dense output.
 
-use fem::{BeamSection, Mesh, ModalOptions, Properties, ReferenceCondition};
 use mbs::{
-    BdfOptions, FlexibleBody, Joint, JointKind, Marker, Model, MultibodySystem, RedundancyPolicy,
-    Response, TimeFunction, simulate,
+    BdfOptions, Marker, Model, MultibodySystem, RedundancyPolicy, Response, TimeFunction, simulate,
 };
 use nalgebra::Vector3;
 
-/// A beam along x (1 m, `EI` 100 and 400 in its two planes, unit mass per length) clamped at its
-/// root node to a hub on z that an angle driver spins up at 2 rad/s², under gravity along −y.
+mod common;
+
+/// A beam along x (1 m, `EI` 100 and 400 in its two planes, unit mass per length) clamped at
+/// its root node to a hub on z that an angle driver spins up at 2 rad/s², under gravity along
+/// −y.
 fn spun_beam() -> (Model<f64>, mbs::State, mbs::BodyId) {
-    let mesh = Mesh::straight_beam(Vector3::zeros(), Vector3::x(), 12, 0, Vector3::y()).unwrap();
-    let stiff = 1e7;
-    let props = Properties {
-        sections: vec![BeamSection::diagonal(
-            [stiff, stiff, stiff, stiff, 100.0, 400.0],
-            1.0,
-            1e-9,
-            1e-9,
-        )],
-        laminates: vec![],
-    };
-    let mut options = ModalOptions::new(4);
-    options.reference = ReferenceCondition::ClampedNode(0);
-    let analysis = fem::modal_analysis(&mesh, &props, &options).unwrap();
-    let modal = fem::modal_body(&mesh, &props, &analysis).unwrap();
     let mut model = Model::new();
     model.gravity = Vector3::new(0.0, -9.81, 0.0);
     let beam = model
-        .add_flexible_body(FlexibleBody::new("beam", modal))
+        .add_flexible_body(common::fem_cantilever(12, 4, [100.0, 400.0], false))
         .unwrap();
-    let z = Vector3::z();
-    model
-        .add_joint(Joint::new(
-            "bearing",
-            JointKind::Revolute,
-            Marker::ground(Vector3::zeros()).with_axis(z),
-            Marker::on(beam, Vector3::zeros()).with_axis(z),
-        ))
-        .unwrap();
-    model
-        .add_joint(Joint::new(
-            "motor",
-            JointKind::AngleDriver(TimeFunction::Polynomial(vec![0.0, 0.0, 1.0])),
-            Marker::ground(Vector3::zeros()).with_axes(Vector3::x(), Vector3::y()),
-            Marker::on(beam, Vector3::zeros()).with_axes(Vector3::x(), Vector3::y()),
-        ))
-        .unwrap();
+    common::drive_about_z(
+        &mut model,
+        beam,
+        TimeFunction::Polynomial(vec![0.0, 0.0, 1.0]),
+    );
     let state = model.rest_state();
     (model, state, beam)
 }

@@ -175,7 +175,6 @@ pub fn ply_quantities(
             criteria.len(),
             index,
         ));
-        let mut reserve = Vec::with_capacity(criteria.len());
         lines.push(format!(
             "least reserve factors (plies with strengths: {}):",
             (0..stack.plies().len())
@@ -184,21 +183,8 @@ pub fn ply_quantities(
                 .collect::<Vec<_>>()
                 .join(", ")
         ));
-        for (c, criterion) in criteria.iter().enumerate() {
-            let (r, fi) = (0..n)
-                .map(|r| (r, index(r, c)))
-                .filter(|(_, fi)| !fi.is_nan())
-                .max_by(|a, b| a.1.total_cmp(&b.1))
-                .expect("a ply with strengths");
-            reserve.push(1.0 / fi);
-            lines.push(format!(
-                "  {:<14} R = {:<12.5} at ply {}",
-                criterion.name(),
-                1.0 / fi,
-                point_label(points[r].ply, points[r].position)
-            ));
-        }
-        q.push(Quantity::vector("reserve_factor", "1", &reserve));
+        let at = |r: usize| format!("at ply {}", point_label(points[r].ply, points[r].position));
+        q.push(least_reserve(n, index, at, &mut lines));
     }
     Ok((q, lines))
 }
@@ -276,23 +262,36 @@ pub fn section_quantities(
             criteria.len(),
             |r, c| index[r][c],
         ));
-        let mut reserve = Vec::with_capacity(criteria.len());
         lines.push("least reserve factors (regions with strengths):".to_string());
-        for (c, criterion) in criteria.iter().enumerate() {
-            let (r, fi) = (0..nr)
-                .map(|r| (r, index[r][c]))
-                .filter(|(_, fi)| !fi.is_nan())
-                .max_by(|a, b| a.1.total_cmp(&b.1))
-                .expect("a region with strengths");
-            reserve.push(1.0 / fi);
-            lines.push(format!(
-                "  {:<14} R = {:<12.5} in region {}",
-                criterion.name(),
-                1.0 / fi,
-                mesh.regions[r].name
-            ));
-        }
-        q.push(Quantity::vector("reserve_factor", "1", &reserve));
+        let place = |r: usize| format!("in region {}", mesh.regions[r].name);
+        q.push(least_reserve(nr, |r, c| index[r][c], place, &mut lines));
     }
     (q, lines)
+}
+
+/// The least reserve factor `1/FI` of each criterion over `rows` rows of failure indices
+/// `index(row, criterion)` (NaN: no strengths there), with a line per criterion naming where
+/// it is (`place`).
+fn least_reserve(
+    rows: usize,
+    index: impl Fn(usize, usize) -> f64,
+    place: impl Fn(usize) -> String,
+    lines: &mut Vec<String>,
+) -> Quantity {
+    let mut reserve = Vec::with_capacity(Criterion::ALL.len());
+    for (c, criterion) in Criterion::ALL.iter().enumerate() {
+        let (r, fi) = (0..rows)
+            .map(|r| (r, index(r, c)))
+            .filter(|(_, fi)| !fi.is_nan())
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .expect("a row with strengths");
+        reserve.push(1.0 / fi);
+        lines.push(format!(
+            "  {:<14} R = {:<12.5} {}",
+            criterion.name(),
+            1.0 / fi,
+            place(r)
+        ));
+    }
+    Quantity::vector("reserve_factor", "1", &reserve)
 }

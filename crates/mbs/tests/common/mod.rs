@@ -1,6 +1,7 @@
 //! Test fixtures: rigid mechanisms and a small uniform beam reduced to a `ModalBody`
 //! (3-D Euler–Bernoulli frame elements, lumped mass, dense symmetric eigen), written here
-//! independently of `fem`.
+//! independently of `fem`; and a cantilever of `fem` elements with a drive about z
+//! ([`fem_cantilever`], [`drive_about_z`]).
 
 #![allow(dead_code)]
 
@@ -373,4 +374,66 @@ pub fn flow(model: &Model<f64>, q: &[f64], v: &[f64], s: f64) -> Vec<f64> {
         }
     }
     q
+}
+
+/// A uniform beam along x of `fem` elements (1 m, unit mass per length, shear- and axially
+/// stiff: Euler–Bernoulli), flapwise `EI = ei[0]` (bending in x–z) and chordwise `ei[1]`,
+/// clamped at its root node, reduced to `modes` modes; with its geometric stiffness when
+/// `stiffened`.
+pub fn fem_cantilever(
+    elements: usize,
+    modes: usize,
+    ei: [f64; 2],
+    stiffened: bool,
+) -> FlexibleBody<f64> {
+    use fem::{BeamSection, Mesh, ModalOptions, Properties, ReferenceCondition};
+    let mesh = Mesh::straight_beam(Vector3::zeros(), Vector3::x(), elements, 0, Vector3::y())
+        .expect("a straight beam");
+    let stiff = 1e7;
+    let props = Properties {
+        sections: vec![BeamSection::diagonal(
+            [stiff, stiff, stiff, stiff, ei[0], ei[1]],
+            1.0,
+            1e-9,
+            1e-9,
+        )],
+        laminates: vec![],
+    };
+    let mut options = ModalOptions::new(modes);
+    options.reference = ReferenceCondition::ClampedNode(0);
+    let analysis = fem::modal_analysis(&mesh, &props, &options).expect("modes");
+    let modal = fem::modal_body(&mesh, &props, &analysis).expect("a modal body");
+    let body = FlexibleBody::new("beam", modal.clone());
+    match stiffened {
+        true => body.with_geometric_stiffness(
+            fem::geometric_stiffness(&mesh, &modal, 0).expect("geometric stiffness"),
+        ),
+        false => body,
+    }
+}
+
+/// Turn `body` about the global z axis through the origin: a revolute joint (`bearing`) and an
+/// angle driver (`motor`) of `motion`, which is returned.
+pub fn drive_about_z<P: sens::Scalar>(
+    model: &mut Model<P>,
+    body: mbs::BodyId,
+    motion: TimeFunction,
+) -> mbs::JointId {
+    let z = Vector3::z();
+    model
+        .add_joint(Joint::new(
+            "bearing",
+            JointKind::Revolute,
+            Marker::ground(Vector3::zeros()).with_axis(z),
+            Marker::on(body, Vector3::zeros()).with_axis(z),
+        ))
+        .expect("the bearing");
+    model
+        .add_joint(Joint::new(
+            "motor",
+            JointKind::AngleDriver(motion),
+            Marker::ground(Vector3::zeros()).with_axes(Vector3::x(), Vector3::y()),
+            Marker::on(body, Vector3::zeros()).with_axes(Vector3::x(), Vector3::y()),
+        ))
+        .expect("the motor")
 }

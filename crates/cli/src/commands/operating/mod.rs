@@ -307,13 +307,15 @@ fn response_gradients(
         {
             lambda[r] = l;
         }
+        // the steady motion's accelerations at the moved positions (a point's acceleration)
+        let (_, accel) = op.motion_at(model, &q);
         for (i, r) in mech.responses.iter().enumerate() {
             if !r.response.differentiable() {
                 continue;
             }
             let val = r
                 .response
-                .evaluate(model, op.t, &q, &v, &lambda)
+                .evaluate_with(model, op.t, (&q, &v), &lambda, &accel)
                 .map_err(|e| computation(src, e))?;
             for (k, j) in range.clone().enumerate() {
                 g[(i, j)] = val.d[k];
