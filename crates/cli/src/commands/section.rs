@@ -15,7 +15,7 @@ use crate::deck::laminates::{LaminateModel, validate as validate_laminates};
 use crate::deck::sections::{SectionDef, validate_one};
 use crate::error::CliError;
 
-use crate::study::flexible::{section_derivatives, section_design};
+use crate::study::flexible::{section_derivatives_of, section_design};
 
 /// Unit of entry (r, c) of a stiffness relating `[ε, γ₂, γ₃ | κ₁, κ₂, κ₃]` to
 /// `[F₁, F₂, F₃ | M₁, M₂, M₃]`: force rows and strain columns carry N, moments and curvatures
@@ -67,6 +67,8 @@ fn report(
             &given.properties().map_err(|e| e.to_string())?,
         ));
     }
+    // one analysis for the properties, their derivatives and the stresses
+    let analysis = section::SectionAnalysis::new(mesh).map_err(|e| e.to_string())?;
     let (values, derivs) = if derivatives {
         // per region's ply angle, or per [design.*] variable that moves the section
         let design = if vars.is_empty() {
@@ -82,7 +84,7 @@ fn report(
                 .find(|v| v.name == name)
                 .map_or("rad", |v| v.unit)
         };
-        let s = section_derivatives(mesh, &design).map_err(|e| e.to_string())?;
+        let s = section_derivatives_of(&analysis, &design).map_err(|e| e.to_string())?;
         let d = s
             .variables
             .iter()
@@ -99,10 +101,7 @@ fn report(
             .collect();
         (s.properties, d)
     } else {
-        (
-            section::analyse(mesh).map_err(|e| e.to_string())?,
-            Vec::new(),
-        )
+        (analysis.properties().clone(), Vec::new())
     };
     let mut preamble = vec![
         format!("shape {}, {} nodes, {} elements", def.shape, mesh.nodes.len(), mesh.elements.len()),
@@ -117,7 +116,6 @@ fn report(
     }
     let mut values = quantities(&values);
     if let Some((forces, model)) = load {
-        let analysis = section::SectionAnalysis::new(mesh).map_err(|e| e.to_string())?;
         let (q, lines) = section_quantities(&analysis, &def.materials, model, *forces);
         values.extend(q);
         preamble.extend(lines);

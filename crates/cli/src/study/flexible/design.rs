@@ -13,11 +13,19 @@ pub fn section_derivatives(
     mesh: &section::SectionMesh,
     map: &section::DesignMap,
 ) -> Result<section::SectionSensitivities, section::SectionError> {
+    section_derivatives_of(&section::SectionAnalysis::new(mesh)?, map)
+}
+
+/// [`section_derivatives`] of a section already analysed.
+pub fn section_derivatives_of(
+    analysis: &section::SectionAnalysis,
+    map: &section::DesignMap,
+) -> Result<section::SectionSensitivities, section::SectionError> {
     match map.variables.len() {
-        0 | 1 => section::analyse_with_derivatives::<1>(mesh, map),
-        2 => section::analyse_with_derivatives::<2>(mesh, map),
-        3 | 4 => section::analyse_with_derivatives::<4>(mesh, map),
-        _ => section::analyse_with_derivatives::<CHUNK>(mesh, map),
+        0 | 1 => analysis.sensitivities::<1>(map),
+        2 => analysis.sensitivities::<2>(map),
+        3 | 4 => analysis.sensitivities::<4>(map),
+        _ => analysis.sensitivities::<CHUNK>(map),
     }
 }
 

@@ -23,8 +23,8 @@ mod properties;
 
 pub(crate) use design::move_own_section;
 pub use design::{
-    Design, DesignRequest, LaminateDesign, SectionDesign, section_derivatives, section_design,
-    shell_design,
+    Design, DesignRequest, LaminateDesign, SectionDesign, section_derivatives,
+    section_derivatives_of, section_design, shell_design,
 };
 use properties::{beam, laminate_regions, shell};
 
