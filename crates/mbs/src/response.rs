@@ -165,36 +165,6 @@ impl Response {
             crate::Body::Flexible(f) => Ok(f),
             crate::Body::Rigid(_) => Err(bad("nodal responses need a flexible body")),
         };
-        if let Response::MarkerPoint {
-            marker,
-            relative_to,
-            order,
-            axis,
-        } = self
-        {
-            if *order == 2 && accel.len() != model.n_v() {
-                return Err(bad("a marker's acceleration needs the accelerations"));
-            }
-            if *axis > 2 || *order > 2 {
-                return Err(bad("axis or order out of range"));
-            }
-            let point = |m: &Marker| -> S {
-                let k = model.marker(m, q, v).point;
-                match order {
-                    0 => k.val[*axis],
-                    1 => k.rate[*axis],
-                    _ => {
-                        let mut a = k.quad[*axis];
-                        for (col, x) in k.jac.iter() {
-                            a += x[*axis] * accel[col];
-                        }
-                        a
-                    }
-                }
-            };
-            let base = relative_to.as_ref().map_or(S::zero(), point);
-            return Ok(point(marker) - base);
-        }
         match *self {
             Response::BodyPosition { body, axis } => {
                 if body.0 >= model.n_bodies() || axis > 2 {
@@ -288,7 +258,35 @@ impl Response {
                     _ => tau,
                 })
             }
-            Response::MarkerPoint { .. } => unreachable!("answered above"),
+            Response::MarkerPoint {
+                ref marker,
+                ref relative_to,
+                order,
+                axis,
+            } => {
+                if order == 2 && accel.len() != model.n_v() {
+                    return Err(bad("a marker's acceleration needs the accelerations"));
+                }
+                if axis > 2 || order > 2 {
+                    return Err(bad("axis or order out of range"));
+                }
+                let point = |m: &Marker| -> S {
+                    let k = model.marker(m, q, v).point;
+                    match order {
+                        0 => k.val[axis],
+                        1 => k.rate[axis],
+                        _ => {
+                            let mut a = k.quad[axis];
+                            for (col, x) in k.jac.iter() {
+                                a += x[axis] * accel[col];
+                            }
+                            a
+                        }
+                    }
+                };
+                let base = relative_to.as_ref().map_or(S::zero(), point);
+                Ok(point(marker) - base)
+            }
             Response::ReactionMoment { .. } | Response::Energy | Response::ConstraintViolation => {
                 Err(bad(
                     "reaction moments, energies and constraint violations have no sensitivities",
@@ -424,6 +422,27 @@ pub struct ObjectiveValue {
     pub time: Option<f64>,
 }
 
+/// The history's value at `t` (within it) and its gradient row (empty without gradients),
+/// linear between recorded points.
+fn interpolate(
+    times: &[f64],
+    values: &[f64],
+    gradients: Option<&DMatrix<f64>>,
+    t: f64,
+) -> (f64, Vec<f64>) {
+    let i = times.partition_point(|&x| x < t).min(times.len() - 1);
+    let (w0, i0) = if i == 0 || times[i] == t {
+        (0.0, i)
+    } else {
+        ((times[i] - t) / (times[i] - times[i - 1]), i - 1)
+    };
+    let mix = |x0: f64, x1: f64| w0 * x0 + (1.0 - w0) * x1;
+    let g = gradients.map_or(Vec::new(), |g| {
+        (0..g.ncols()).map(|j| mix(g[(i0, j)], g[(i, j)])).collect()
+    });
+    (mix(values[i0], values[i]), g)
+}
+
 /// The history `(times, values, gradients)` restricted to `[a, b]` (within it), the values and
 /// gradients at the ends interpolated linearly.
 fn clip(
@@ -432,35 +451,17 @@ fn clip(
     values: &[f64],
     gradients: Option<&DMatrix<f64>>,
 ) -> (Vec<f64>, Vec<f64>, Option<DMatrix<f64>>) {
-    let n = times.len();
-    // the value (and gradient row) at t by linear interpolation
-    let at = |t: f64| -> (f64, Option<Vec<f64>>) {
-        let i = times.partition_point(|&x| x < t).min(n - 1);
-        let (w0, i0) = if i == 0 || times[i] == t {
-            (0.0, i)
-        } else {
-            ((times[i] - t) / (times[i] - times[i - 1]), i - 1)
-        };
-        let mix = |x0: f64, x1: f64| w0 * x0 + (1.0 - w0) * x1;
-        let g = gradients.map(|g| (0..g.ncols()).map(|j| mix(g[(i0, j)], g[(i, j)])).collect());
-        (mix(values[i0], values[i]), g)
-    };
-    let inside: Vec<usize> = (0..n).filter(|&i| times[i] > a && times[i] < b).collect();
-    let (va, ga) = at(a);
-    let (vb, gb) = at(b);
-    let mut t = vec![a];
-    let mut v = vec![va];
-    let mut rows: Vec<Vec<f64>> = ga.into_iter().collect();
-    for &i in &inside {
+    let (va, ga) = interpolate(times, values, gradients, a);
+    let (vb, gb) = interpolate(times, values, gradients, b);
+    let (mut t, mut v, mut rows) = (vec![a], vec![va], vec![ga]);
+    for i in (0..times.len()).filter(|&i| times[i] > a && times[i] < b) {
         t.push(times[i]);
         v.push(values[i]);
-        if let Some(g) = gradients {
-            rows.push(g.row(i).iter().copied().collect());
-        }
+        rows.push(gradients.map_or(Vec::new(), |g| g.row(i).iter().copied().collect()));
     }
     t.push(b);
     v.push(vb);
-    rows.extend(gb);
+    rows.push(gb);
     let g = gradients.map(|g| DMatrix::from_fn(t.len(), g.ncols(), |r, c| rows[r][c]));
     (t, v, g)
 }
@@ -608,22 +609,11 @@ impl Objective {
                         times[n - 1]
                     )));
                 }
-                let i = times.partition_point(|&x| x < t).min(n - 1);
-                if times[i] == t || i == 0 {
-                    ObjectiveValue {
-                        value: values[i],
-                        gradient: row(i),
-                        time: Some(t),
-                    }
-                } else {
-                    let a = (times[i] - t) / (times[i] - times[i - 1]);
-                    ObjectiveValue {
-                        value: a * values[i - 1] + (1.0 - a) * values[i],
-                        gradient: (0..m)
-                            .map(|j| a * g(i - 1, j) + (1.0 - a) * g(i, j))
-                            .collect(),
-                        time: Some(t),
-                    }
+                let (value, gradient) = interpolate(times, values, gradients, t);
+                ObjectiveValue {
+                    value,
+                    gradient,
+                    time: Some(t),
                 }
             }
         })
