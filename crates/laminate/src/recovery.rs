@@ -41,6 +41,17 @@ pub struct PlateState<S: Scalar> {
 }
 
 impl<S: Scalar> PlyStack<S> {
+    /// The deformation under the resultants `[Nx, Ny, Nxy, Mx, My, Mxy]` (N/m, N) and the
+    /// shear forces `[Qx, Qy]` (N/m): `[ε⁰; κ] = [A B; B D]⁻¹ [N; M]`.
+    pub fn state_under(&self, resultants: [S; 6], shear_forces: [S; 2]) -> PlateState<S> {
+        let e = solve6(&self.stiffness().abd(), resultants);
+        PlateState {
+            membrane: [e[0], e[1], e[2]],
+            curvature: [e[3], e[4], e[5]],
+            shear_forces,
+        }
+    }
+
     /// Each ply's stress and strain at its bottom, middle and top under `state`.
     ///
     /// In-plane: `σ = Q̄ₖ (ε⁰ + z κ)` (plane stress, `σ33 = 0`). Transverse shear: by the

@@ -108,7 +108,7 @@ struct Request<'a> {
     load: Option<(&'a PlateLoad, &'a LaminateModel)>,
 }
 
-fn report(name: &str, def: &LaminateDef, req: &Request) -> Result<Report, String> {
+fn report(name: &str, def: &LaminateDef, req: &Request) -> Report {
     let stack = &def.stack;
     let mut preamble = vec![
         format!(
@@ -145,18 +145,18 @@ fn report(name: &str, def: &LaminateDef, req: &Request) -> Result<Report, String
     };
     let mut values = quantities(&stack.stiffness());
     if let Some((load, model)) = req.load {
-        let (q, lines) = ply_quantities(def, model, load)?;
+        let (q, lines) = ply_quantities(def, model, load);
         values.extend(q);
         preamble.extend(lines);
     }
-    Ok(Report {
+    Report {
         kind: "laminate",
         name: name.to_string(),
         preamble,
         info,
         values,
         derivatives,
-    })
+    }
 }
 
 /// Run the command; the returned text goes to stdout.
@@ -179,13 +179,8 @@ pub fn run(
     };
     let reports: Vec<Report> = selected
         .iter()
-        .map(|(name, def)| {
-            report(name, def, &req).map_err(|reason| CliError::Computation {
-                file: src.file.clone(),
-                reason: format!("laminate `{name}`: {reason}"),
-            })
-        })
-        .collect::<Result<_, _>>()?;
+        .map(|(name, def)| report(name, def, &req))
+        .collect();
     Ok(output::render(
         format,
         raw.title.as_deref(),

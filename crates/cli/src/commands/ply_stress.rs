@@ -2,7 +2,7 @@
 //! failure indices of a laminate under given plate resultants, and of a beam section's regions
 //! under given section forces (docs/failure-criteria.md).
 
-use laminate::{Criterion, PlateState, PlyPosition, PlyStrength};
+use laminate::{Criterion, PlyPosition, PlyStrength};
 
 use super::output::Quantity;
 use crate::deck::laminates::{LaminateDef, LaminateModel};
@@ -111,31 +111,18 @@ pub fn ply_quantities(
     def: &LaminateDef,
     model: &LaminateModel,
     load: &PlateLoad,
-) -> Result<(Vec<Quantity>, Vec<String>), String> {
+) -> (Vec<Quantity>, Vec<String>) {
     let stack = &def.stack;
-    let abd = stack.stiffness().abd();
-    let resultants = nalgebra::Vector6::from_column_slice(&load.values[..6]);
-    let strains = abd
-        .lu()
-        .solve(&resultants)
-        .ok_or("the laminate's [A B; B D] is singular")?;
-    let state = PlateState {
-        membrane: [strains[0], strains[1], strains[2]],
-        curvature: [strains[3], strains[4], strains[5]],
-        shear_forces: [load.values[6], load.values[7]],
-    };
+    let v = &load.values;
+    let state = stack.state_under([v[0], v[1], v[2], v[3], v[4], v[5]], [v[6], v[7]]);
     let points = stack.ply_points(&state);
     let strengths: Vec<Option<&PlyStrength>> = (def.ply_materials.iter())
         .map(|m| model.strengths.get(m))
         .collect();
     let n = points.len();
     let mut q = vec![
-        Quantity::vector(
-            "midplane_strain",
-            "1",
-            &[strains[0], strains[1], strains[2]],
-        ),
-        Quantity::vector("curvature", "1/m", &[strains[3], strains[4], strains[5]]),
+        Quantity::vector("midplane_strain", "1", &state.membrane),
+        Quantity::vector("curvature", "1/m", &state.curvature),
         Quantity::matrix("ply_stress", "Pa", n, 6, |r, c| points[r].stress[c]),
         Quantity::matrix("ply_strain", "1", n, 6, |r, c| points[r].strain[c]),
     ];
@@ -161,13 +148,18 @@ pub fn ply_quantities(
     }
     if strengths.iter().any(Option::is_some) {
         let criteria = Criterion::ALL;
-        let index = |r: usize, c: usize| -> f64 {
-            let p = &points[r];
-            match strengths[p.ply] {
-                Some(s) => criteria[c].index(&stack.plies()[p.ply].material, s, &p.stress),
-                None => f64::NAN,
-            }
-        };
+        // per point, every criterion's index once (NaN for a ply without strengths)
+        let fi: Vec<Vec<f64>> = (points.iter())
+            .map(|p| {
+                (criteria.iter())
+                    .map(|c| match strengths[p.ply] {
+                        Some(s) => c.index(&stack.plies()[p.ply].material, s, &p.stress),
+                        None => f64::NAN,
+                    })
+                    .collect()
+            })
+            .collect();
+        let index = |r: usize, c: usize| fi[r][c];
         q.push(Quantity::matrix(
             "failure_index",
             "1",
@@ -186,7 +178,7 @@ pub fn ply_quantities(
         let at = |r: usize| format!("at ply {}", point_label(points[r].ply, points[r].position));
         q.push(least_reserve(n, index, at, &mut lines));
     }
-    Ok((q, lines))
+    (q, lines)
 }
 
 /// What the section forces `forces` do to the regions of a section: per region the extremes of
