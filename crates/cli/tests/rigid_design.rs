@@ -5,7 +5,10 @@
 
 mod common;
 
-use common::{bad_deck, beam_direct_vs_central, f64s, json, run_deck_json, with_deck};
+use common::{
+    bad_deck, beam_direct_vs_central, f64s, json, replayed_difference, run_deck_json, run_text,
+    with_deck,
+};
 use flexsens::results::{Data, Group};
 
 /// Pendulum: a bob of mass M and inertia I about its centre, its centre D from a revolute
@@ -348,17 +351,7 @@ component = \"y\"
 "
         );
     let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("points.toml");
-    std::fs::write(&path, deck).unwrap();
-    let out = dir.path().join("out");
-    json(&[
-        "run",
-        path.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--json",
-    ]);
-    let g = Group::read_hdf5(&out.join("results.h5")).unwrap();
+    let (_, g) = run_text(dir.path(), "points", &deck, &[]);
     let t = f64s(&g, "time");
     let (ax, vx, rel) = (
         f64s(&g, "responses/ax"),
@@ -389,17 +382,7 @@ component = \"y\"
     }
     // exact derivatives of the discrete solution against replayed central differences
     for name in ["ax", "vx"] {
-        let d = f64s(&g, &format!("sensitivities/{name}"));
-        let fd = f64s(
-            &g,
-            &format!("finite_differences/central_relative_0.0001_replay/{name}"),
-        );
-        let scale = d.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        let err = d
-            .iter()
-            .zip(&fd)
-            .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()))
-            / scale;
+        let err = replayed_difference(&g, name, "0.0001");
         assert!(err < 1e-6, "{name}: {err:e}");
     }
 }
