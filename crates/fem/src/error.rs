@@ -64,4 +64,7 @@ pub enum FemError {
     /// frequencies that split).
     #[error("{0}")]
     Derivatives(String),
+    /// Ply stresses the body cannot give (a body of beams, a modal body of another mesh).
+    #[error("{0}")]
+    Stresses(String),
 }

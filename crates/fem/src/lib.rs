@@ -26,7 +26,8 @@
 //! stiffness of unit nodal forces.
 //! [`correction`] adds distributing couplings over node sets and static correction modes at a
 //! body's interfaces (with exact derivatives); [`completeness`] checks how much of the static
-//! compliance under a mechanism's loads a body's basis misses.
+//! compliance under a mechanism's loads a body's basis misses. [`stress`] gives the plies'
+//! stresses of a shell body's modes, linear in its modal coordinates.
 //!
 //! Conventions: dof node by node `[u_x, u_y, u_z, θ_x, θ_y, θ_z]` (small rotation vector),
 //! global axes; matrices act on the free dof of an [`Assembly`] (constrained dof eliminated);
@@ -51,6 +52,7 @@ mod rigid;
 pub mod sensitivity;
 pub mod shell;
 mod small;
+pub mod stress;
 
 pub use assembly::{
     Assembly, Constraints, ElementOptions, MassKind, Properties, ReducedDof, RigidTie, dof,
@@ -81,3 +83,4 @@ pub use sensitivity::{
     mode_derivatives_with,
 };
 pub use shell::Membrane;
+pub use stress::{ModalStresses, ShellPlies, shell_modal_stresses};

@@ -199,6 +199,29 @@ pub(crate) fn membrane_operators(g: &TriGeometry, membrane: Membrane) -> Membran
     }
 }
 
+/// The laminate's deformation at the triangle's centroid per nodal dof, local frame: rows
+/// `[ε⁰xx, ε⁰yy, γ⁰xy, κxx, κyy, 2κxy, γxz, γyz]` — the membrane strain (Allman's linear field
+/// or the constant one, at the centroid the mean of its three points), the curvature, and the
+/// MITC3 shear field (linear: at the centroid the mean of its tying points).
+pub(crate) fn centroid_deformation(g: &TriGeometry, membrane: Membrane) -> SMatrix<f64, 8, 18> {
+    let b = shell_b(g);
+    let ops = membrane_operators(g, membrane);
+    let mut out = SMatrix::<f64, 8, 18>::zeros();
+    let third = 1.0 / 3.0;
+    for r in 0..3 {
+        for c in 0..18 {
+            out[(r, c)] = (ops.bm[0][(r, c)] + ops.bm[1][(r, c)] + ops.bm[2][(r, c)]) * third;
+            out[(3 + r, c)] = ops.bb[(r, c)];
+        }
+    }
+    for r in 0..2 {
+        for c in 0..18 {
+            out[(6 + r, c)] = (b.bs[0][(r, c)] + b.bs[1][(r, c)] + b.bs[2][(r, c)]) * third;
+        }
+    }
+    out
+}
+
 /// Local-frame stiffness (18×18) of a laminated triangle.
 pub fn shell_stiffness_local<S: Scalar>(
     g: &TriGeometry,

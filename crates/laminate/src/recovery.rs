@@ -6,7 +6,9 @@ use nalgebra::{Matrix3, Matrix6};
 use sens::Scalar;
 
 use crate::PlyStack;
-use crate::rotation::{bond_stress_matrix, plane_stress, rotation_about_normal};
+use crate::rotation::{
+    bond_stress_matrix, plane_stress, rotate_stiffness_of, rotation_about_normal,
+};
 
 /// Where through a ply a [`PlyPoint`] is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -62,8 +64,24 @@ impl<S: Scalar> PlyStack<S> {
     /// moment constant): exact, piecewise quadratic, zero on both faces, `3Q/2h` at the middle
     /// of a homogeneous plate. Strains from the stresses by each ply's compliance.
     pub fn ply_points(&self, state: &PlateState<S>) -> Vec<PlyPoint<S>> {
+        let c_bar: Vec<Matrix6<S>> = (self.plies().iter())
+            .map(|p| p.material.stiffness().map(S::from_f64))
+            .collect();
+        self.ply_points_with_materials(state, &c_bar)
+    }
+
+    /// [`Self::ply_points`] with each ply's material stiffness `C̄` (material axes) given, e.g.
+    /// duals whose tangents are derivatives with respect to material constants (as
+    /// [`Self::stiffness_with_materials`]). The strains are the stresses through the plies'
+    /// nominal compliance.
+    pub fn ply_points_with_materials(
+        &self,
+        state: &PlateState<S>,
+        c_bar: &[Matrix6<S>],
+    ) -> Vec<PlyPoint<S>> {
+        assert_eq!(c_bar.len(), self.plies().len(), "one stiffness per ply");
         let z = self.interfaces();
-        let k = self.stiffness();
+        let k = self.stiffness_with_materials(c_bar, &vec![S::zero(); c_bar.len()]);
         let abd = k.abd();
         // strain gradients of a unit moment gradient along x (M_x) and y (M_y)
         let gradient = |row: usize, q: S| -> [S; 6] {
@@ -75,7 +93,9 @@ impl<S: Scalar> PlyStack<S> {
             gradient(3, state.shear_forces[0]),
             gradient(4, state.shear_forces[1]),
         );
-        let c: Vec<Matrix6<S>> = self.plies().iter().map(|p| p.stiffness()).collect();
+        let c: Vec<Matrix6<S>> = (self.plies().iter().zip(c_bar))
+            .map(|(p, c)| rotate_stiffness_of(c, &rotation_about_normal(p.angle)))
+            .collect();
         let q: Vec<Matrix3<S>> = c.iter().map(plane_stress).collect();
         // ∫ from z0 to z1 of Q̄ (a + z b) dz = Q̄ (a (z1 − z0) + b (z1² − z0²)/2)
         let integral = |q: &Matrix3<S>, g: &[S; 6], z0: S, z1: S| -> [S; 3] {

@@ -1,7 +1,7 @@
 //! Ply stresses and strains through the thickness against closed forms: a homogeneous plate's
 //! bending stress and parabolic shear, a cross-ply's plies under stretching, a turned ply's
 //! strains by the tensor rule; the shear's equilibrium on a composite stack (its resultant and
-//! free faces); ply-angle derivatives against central differences.
+//! free faces); ply-angle and material-constant derivatives against central differences.
 
 use laminate::{OrthotropicMaterial, PlateState, Ply, PlyPosition, PlyStack};
 use sens::{Dual, Scalar};
@@ -182,4 +182,52 @@ fn ply_stress_derivatives_equal_central_differences() {
             }
         }
     }
+}
+
+#[test]
+fn ply_stress_derivatives_along_a_material_constant_equal_central_differences() {
+    // E1 moved: C̄ carries dC̄/dE1 (the stiffness and the stack's ABD of the shear gradient)
+    let angles = [0.3, -0.8, 1.1];
+    let st = state([3e-4, -1e-4, 2e-4], [0.4, 0.1, -0.3], [500.0, 200.0]);
+    let with_e1 = |e1: f64| {
+        let m = composite();
+        let mut c = m.constants();
+        c[0] = e1;
+        m.with_constants(c).unwrap()
+    };
+    let at = |e1: f64| stack(with_e1(e1), &angles, 0.2e-3).ply_points(&st);
+    let e1 = 128e9;
+    let mut dc = [0.0; 9];
+    dc[0] = 1.0;
+    let m = composite();
+    let c_bar: Vec<_> = (0..3)
+        .map(|_| {
+            let d = m.stiffness_derivative(&dc);
+            m.stiffness().zip_map(&d, |c, dc| Dual::<1>::new(c, [dc]))
+        })
+        .collect();
+    let dual_state = PlateState {
+        membrane: st.membrane.map(Dual::constant),
+        curvature: st.curvature.map(Dual::constant),
+        shear_forces: st.shear_forces.map(Dual::constant),
+    };
+    let seeded: Vec<Dual<1>> = angles.iter().map(|&a| Dual::constant(a)).collect();
+    let d = stack(m, &seeded, 0.2e-3).ply_points_with_materials(&dual_state, &c_bar);
+    let nominal = at(e1);
+    let h = 1e3;
+    let (fp, fm) = (at(e1 + h), at(e1 - h));
+    let mut moved = 0;
+    for (k, pt) in d.iter().enumerate() {
+        for c in 0..6 {
+            assert!((pt.stress[c].v - nominal[k].stress[c]).abs() < 1e-6);
+            let fd = (fp[k].stress[c] - fm[k].stress[c]) / (2.0 * h);
+            assert!(
+                (pt.stress[c].d[0] - fd).abs() < 1e-6 * (1e-3f64).max(fd.abs()),
+                "point {k} component {c}: {} vs {fd}",
+                pt.stress[c].d[0]
+            );
+            moved += usize::from(fd.abs() > 1e-6);
+        }
+    }
+    assert!(moved > 10, "E1 moves the ply stresses ({moved} components)");
 }

@@ -1,0 +1,272 @@
+//! The plies' stresses in a shell body's modes (docs/failure-criteria.md, "In a run").
+//!
+//! Both steps are linear: an element's laminate deformation at its centroid is linear in the
+//! body's modal coordinates `w` (`d = E w`, [`ElementDeformation`]), and each ply point's
+//! stress in its material axes is linear in the deformation (`σ = P d`, [`PlyStressPoint`]).
+//! So the ply stresses of a body in motion are `P E w`, with `E` and `P` formed once, in the
+//! design's scalar: on dual numbers their tangents are the derivatives of the modes (through
+//! `E`) and of the plies' angles, thicknesses and materials (through `P`), and a response
+//! evaluated with seeded `w` has its total derivative.
+
+use laminate::{OrthotropicMaterial, PlateState, PlyPosition, PlyStack};
+use nalgebra::{DMatrix, Matrix6, SMatrix, Vector3};
+use sens::Scalar;
+
+use crate::error::FemError;
+use crate::mesh::{Element, Mesh};
+use crate::modal::{ModalBody, NODE_DOFS};
+use crate::shell::{Membrane, TriGeometry, centroid_deformation};
+
+/// The size of a laminate's deformation `[ε⁰xx, ε⁰yy, γ⁰xy, κxx, κyy, 2κxy, Qx, Qy]`:
+/// reference-surface strains and curvatures (laminate axes, engineering shear, twisting
+/// curvature `2κxy`) and the transverse shear forces (N/m).
+pub const DEFORMATION: usize = 8;
+
+/// A laminate of a shell body as its ply stresses need it: the stack and each ply's material
+/// stiffness `C̄` (material axes), in the design's scalar (a material design variable moves
+/// `C̄`).
+#[derive(Clone, Debug)]
+pub struct ShellPlies<S: Scalar> {
+    pub stack: PlyStack<S>,
+    pub c_bar: Vec<Matrix6<S>>,
+}
+
+impl<S: Scalar> ShellPlies<S> {
+    /// The stack with its plies' own materials.
+    pub fn new(stack: PlyStack<S>) -> Self {
+        let c_bar = (stack.plies().iter())
+            .map(|p| p.material.stiffness().map(S::from_f64))
+            .collect();
+        Self { stack, c_bar }
+    }
+}
+
+/// A point through the thickness of a ply (its bottom, middle or top) and the stress there,
+/// material axes `[11, 22, 33, 23, 13, 12]` (Pa), per unit of each component of the
+/// laminate's deformation ([`DEFORMATION`]).
+#[derive(Clone, Debug)]
+pub struct PlyStressPoint<S: Scalar> {
+    pub ply: usize,
+    pub position: PlyPosition,
+    pub per_deformation: SMatrix<S, 6, DEFORMATION>,
+}
+
+/// The ply points of one laminate, bottom ply first, and its plies' materials.
+#[derive(Clone, Debug)]
+pub struct LaminatePoints<S: Scalar> {
+    pub points: Vec<PlyStressPoint<S>>,
+    pub materials: Vec<OrthotropicMaterial>,
+}
+
+/// A shell element's laminate deformation at its centroid per modal coordinate
+/// (`DEFORMATION × n_modes`), in the element's laminate axes (`e₁` the material axis on the
+/// element plane).
+#[derive(Clone, Debug)]
+pub struct ElementDeformation<S: Scalar> {
+    /// The element's index in the mesh.
+    pub element: usize,
+    /// Its laminate (an index of [`ModalStresses::laminates`]).
+    pub laminate: usize,
+    /// Its centroid in the body frame (m).
+    pub centroid: Vector3<f64>,
+    pub per_mode: DMatrix<S>,
+}
+
+/// The ply stresses of a shell body's modes ([`shell_modal_stresses`]).
+#[derive(Clone, Debug)]
+pub struct ModalStresses<S: Scalar> {
+    pub n_modes: usize,
+    pub laminates: Vec<LaminatePoints<S>>,
+    /// The shell elements, in mesh order.
+    pub elements: Vec<ElementDeformation<S>>,
+}
+
+impl<S: Scalar> ModalStresses<S> {
+    /// Convert the scalars (e.g. the values of a dual set).
+    pub fn map<Q: Scalar>(&self, f: &impl Fn(S) -> Q) -> ModalStresses<Q> {
+        ModalStresses {
+            n_modes: self.n_modes,
+            laminates: (self.laminates.iter())
+                .map(|l| LaminatePoints {
+                    points: (l.points.iter())
+                        .map(|p| PlyStressPoint {
+                            ply: p.ply,
+                            position: p.position,
+                            per_deformation: p.per_deformation.map(f),
+                        })
+                        .collect(),
+                    materials: l.materials.clone(),
+                })
+                .collect(),
+            elements: (self.elements.iter())
+                .map(|e| ElementDeformation {
+                    element: e.element,
+                    laminate: e.laminate,
+                    centroid: e.centroid,
+                    per_mode: e.per_mode.map(f),
+                })
+                .collect(),
+        }
+    }
+
+    /// The position in [`Self::elements`] of mesh element `element` (`None`: not a shell).
+    pub fn element_index(&self, element: usize) -> Option<usize> {
+        self.elements
+            .binary_search_by_key(&element, |e| e.element)
+            .ok()
+    }
+
+    /// The deformation of [`Self::elements`]`[i]` at the modal coordinates `w`.
+    pub fn deformation<T: Scalar + From<S>>(&self, i: usize, w: &[T]) -> [T; DEFORMATION] {
+        let e = &self.elements[i].per_mode;
+        std::array::from_fn(|r| {
+            (w.iter().enumerate()).fold(T::zero(), |acc, (j, &wj)| acc + T::from(e[(r, j)]) * wj)
+        })
+    }
+
+    /// The stress at ply point `point` of [`Self::elements`]`[i]`'s laminate under its
+    /// deformation `d`, material axes (Pa).
+    pub fn stress<T: Scalar + From<S>>(
+        &self,
+        i: usize,
+        point: usize,
+        d: &[T; DEFORMATION],
+    ) -> [T; 6] {
+        let p = &self.laminates[self.elements[i].laminate].points[point].per_deformation;
+        std::array::from_fn(|r| {
+            (d.iter().enumerate()).fold(T::zero(), |acc, (c, &dc)| acc + T::from(p[(r, c)]) * dc)
+        })
+    }
+}
+
+/// The ply stresses of the modes of `body`, a shell body on `mesh` whose element properties
+/// index `plies` (one [`ShellPlies`] per laminate; the body's modes in the mesh's axes, its
+/// first nodes the mesh's). Beam elements have none.
+pub fn shell_modal_stresses<S: Scalar>(
+    mesh: &Mesh,
+    plies: &[ShellPlies<S>],
+    membrane: Membrane,
+    body: &ModalBody<S>,
+) -> Result<ModalStresses<S>, FemError> {
+    let nm = body.n_modes();
+    if body.modes.nrows() < NODE_DOFS * mesh.nodes.len() {
+        return Err(FemError::Stresses(format!(
+            "ply stresses: the modal body has {} nodes, the mesh {}",
+            body.modes.nrows() / NODE_DOFS,
+            mesh.nodes.len()
+        )));
+    }
+    let laminates: Vec<LaminatePoints<S>> = plies.iter().map(laminate_points).collect();
+    let shear: Vec<_> = (plies.iter())
+        .map(|p| {
+            let density = vec![S::zero(); p.c_bar.len()];
+            p.stack.stiffness_with_materials(&p.c_bar, &density).shear
+        })
+        .collect();
+    let mut elements = Vec::new();
+    for (e, el) in mesh.elements.iter().enumerate() {
+        let Element::Shell {
+            nodes,
+            property,
+            material_axis,
+        } = *el
+        else {
+            continue;
+        };
+        if property >= plies.len() {
+            return Err(FemError::MissingProperty {
+                element: e,
+                kind: "laminate",
+                property,
+                available: plies.len(),
+            });
+        }
+        let p = nodes.map(|n| mesh.nodes[n]);
+        let g = TriGeometry::new(p, &material_axis, e)?;
+        let b = centroid_deformation(&g, membrane);
+        let r = g.frame;
+        // the element's local nodal dof per mode (18 × nm), then E = B U
+        let mut u = DMatrix::<S>::zeros(18, nm);
+        for (i, &n) in nodes.iter().enumerate() {
+            for block in 0..2 {
+                let row = NODE_DOFS * n + 3 * block;
+                for j in 0..nm {
+                    for a in 0..3 {
+                        let mut x = S::zero();
+                        for c in 0..3 {
+                            x += body.modes[(row + c, j)] * r[(a, c)];
+                        }
+                        u[(6 * i + 3 * block + a, j)] = x;
+                    }
+                }
+            }
+        }
+        let mut per_mode = DMatrix::<S>::zeros(DEFORMATION, nm);
+        for j in 0..nm {
+            let mut d = [S::zero(); DEFORMATION];
+            for (row, dr) in d.iter_mut().enumerate() {
+                for c in 0..18 {
+                    *dr += u[(c, j)] * b[(row, c)];
+                }
+            }
+            // the shear forces of the shear strains, Q = A_s γ
+            let a_s = &shear[property];
+            let q = [
+                a_s[(0, 0)] * d[6] + a_s[(0, 1)] * d[7],
+                a_s[(1, 0)] * d[6] + a_s[(1, 1)] * d[7],
+            ];
+            (d[6], d[7]) = (q[0], q[1]);
+            for (row, dr) in d.iter().enumerate() {
+                per_mode[(row, j)] = *dr;
+            }
+        }
+        let centroid = nodes
+            .iter()
+            .map(|&n| body.node_positions[n])
+            .sum::<Vector3<f64>>()
+            / 3.0;
+        elements.push(ElementDeformation {
+            element: e,
+            laminate: property,
+            centroid,
+            per_mode,
+        });
+    }
+    Ok(ModalStresses {
+        n_modes: nm,
+        laminates,
+        elements,
+    })
+}
+
+/// Each ply point's stress per unit deformation: the stack's recovery
+/// ([`PlyStack::ply_points_with_materials`], linear in the deformation) of each unit
+/// deformation.
+fn laminate_points<S: Scalar>(plies: &ShellPlies<S>) -> LaminatePoints<S> {
+    let unit = |k: usize| -> PlateState<S> {
+        let one = |i: usize| if i == k { S::one() } else { S::zero() };
+        PlateState {
+            membrane: [one(0), one(1), one(2)],
+            curvature: [one(3), one(4), one(5)],
+            shear_forces: [one(6), one(7)],
+        }
+    };
+    let columns: Vec<_> = (0..DEFORMATION)
+        .map(|k| {
+            plies
+                .stack
+                .ply_points_with_materials(&unit(k), &plies.c_bar)
+        })
+        .collect();
+    let points = (0..columns[0].len())
+        .map(|i| PlyStressPoint {
+            ply: columns[0][i].ply,
+            position: columns[0][i].position,
+            per_deformation: SMatrix::from_fn(|r, c| columns[c][i].stress[r]),
+        })
+        .collect();
+    LaminatePoints {
+        points,
+        materials: plies.stack.plies().iter().map(|p| p.material).collect(),
+    }
+}
