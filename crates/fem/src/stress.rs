@@ -124,6 +124,26 @@ impl<S: Scalar> ModalStresses<S> {
         })
     }
 
+    /// [`Self::deformation`] on the values alone.
+    pub fn deformation_value(&self, i: usize, w: &[f64]) -> [f64; DEFORMATION] {
+        let e = &self.elements[i].per_mode;
+        std::array::from_fn(|r| {
+            (w.iter().enumerate())
+                .map(|(j, &wj)| e[(r, j)].value() * wj)
+                .sum()
+        })
+    }
+
+    /// [`Self::stress`] on the values alone.
+    pub fn stress_value(&self, i: usize, point: usize, d: &[f64; DEFORMATION]) -> [f64; 6] {
+        let p = &self.laminates[self.elements[i].laminate].points[point].per_deformation;
+        std::array::from_fn(|r| {
+            (d.iter().enumerate())
+                .map(|(c, &dc)| p[(r, c)].value() * dc)
+                .sum()
+        })
+    }
+
     /// The stress at ply point `point` of [`Self::elements`]`[i]`'s laminate under its
     /// deformation `d`, material axes (Pa).
     pub fn stress<T: Scalar + From<S>>(

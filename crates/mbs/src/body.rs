@@ -5,7 +5,8 @@
 //! variables: `v_b = (ṙ, ω', ẇ)` — global velocity of the origin, angular velocity in body
 //! components, modal velocities.
 
-use fem::{GeometricStiffness, ModalBody};
+use fem::{GeometricStiffness, ModalBody, ModalStresses};
+use laminate::PlyStrength;
 use std::sync::OnceLock;
 
 use nalgebra::{DMatrix, Matrix3, Vector3, Vector4};
@@ -73,6 +74,18 @@ pub struct FlexibleBody<P: Scalar> {
     /// The second-order field of the beams, as the modal geometric stiffness of unit nodal
     /// forces (`None`: the linear floating frame).
     pub geometric: Option<Box<GeometricStiffness<P>>>,
+    /// The plies' stresses of a shell body's modes and the plies' strengths, for the ply
+    /// stress and failure responses (`None`: the body has none).
+    pub stresses: Option<Box<PlyStresses<P>>>,
+}
+
+/// The plies' stresses of a shell body's modes ([`fem::shell_modal_stresses`]) with each
+/// ply's strengths, `strengths[l][p]` for ply `p` of laminate `l` (`None`: not given, no
+/// failure index).
+#[derive(Clone, Debug)]
+pub struct PlyStresses<P: Scalar> {
+    pub modal: ModalStresses<P>,
+    pub strengths: Vec<Vec<Option<PlyStrength>>>,
 }
 
 impl<P: Scalar> FlexibleBody<P> {
@@ -81,7 +94,14 @@ impl<P: Scalar> FlexibleBody<P> {
             name: name.into(),
             modal,
             geometric: None,
+            stresses: None,
         }
+    }
+
+    /// The same body with its plies' stresses (the ply stress and failure responses).
+    pub fn with_ply_stresses(mut self, s: PlyStresses<P>) -> Self {
+        self.stresses = Some(Box::new(s));
+        self
     }
 
     /// The same body with its second-order field and so geometric stiffening
@@ -148,6 +168,12 @@ impl<P: Scalar> Body<P> {
                     damping_matrix: b.modal.damping_matrix.as_ref().map(|c| Box::new(c.map(f))),
                 },
                 geometric: b.geometric.as_ref().map(|g| Box::new(g.map(f))),
+                stresses: b.stresses.as_ref().map(|s| {
+                    Box::new(PlyStresses {
+                        modal: s.modal.map(f),
+                        strengths: s.strengths.clone(),
+                    })
+                }),
             }),
         }
     }

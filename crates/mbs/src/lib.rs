@@ -102,6 +102,7 @@ mod model;
 mod newton;
 mod nodal;
 mod operating;
+mod ply;
 mod response;
 mod sensitivity;
 mod system;
@@ -113,7 +114,7 @@ pub use bdf::{
     StepExtension, StructuredJacobian, TrialStep, bdf_stable, error_estimate_weights,
     lagrange_weights, stable_step,
 };
-pub use body::{Body, BodyId, FlexibleBody, RigidBody};
+pub use body::{Body, BodyId, FlexibleBody, PlyStresses, RigidBody};
 pub use eq12::{BodyMass, BodySchur, Eq12Factor};
 pub use error::{ConstraintError, ModelError};
 pub use fd::{

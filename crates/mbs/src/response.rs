@@ -10,6 +10,7 @@
 //! gradient by the same rule applied to the sensitivities (so that it is the exact derivative
 //! of the computed value); maxima and minima take the sensitivity at the point where they occur.
 
+use laminate::{Criterion, PlyPosition};
 use nalgebra::{DMatrix, Vector3};
 use sens::{Dual, Scalar};
 
@@ -18,6 +19,7 @@ use crate::force::ForceId;
 use crate::joint::JointId;
 use crate::marker::Marker;
 use crate::model::Model;
+use crate::ply::{PlySelection, ply_failure, ply_stress};
 use crate::sensitivity::{DesignModel, SensitivityError, SensitivityRun, seeded};
 use crate::system::{MultibodySystem, Output};
 
@@ -69,6 +71,30 @@ pub enum Response {
         relative_to: Option<Marker>,
         order: usize,
         axis: usize,
+    },
+    /// Component `component` (Voigt `[11, 22, 33, 23, 13, 12]`) of the stress in ply `ply` at
+    /// its `position` through the thickness, at the centroid of shell element `element` of a
+    /// flexible body with ply stresses ([`crate::FlexibleBody::with_ply_stresses`]), in the
+    /// ply's material axes (Pa).
+    PlyStress {
+        body: BodyId,
+        element: usize,
+        ply: usize,
+        position: PlyPosition,
+        component: usize,
+    },
+    /// The failure index under `criterion` (`1/R`, docs/failure-criteria.md) over the ply
+    /// points of shell element `element` (`None`: every one), ply `ply` (`None`: every one)
+    /// and `position` (`None`: bottom, middle and top): their largest (`rho` `None`), with the
+    /// derivatives of the point where it is, or their Kreisselmeier–Steinhauser aggregate
+    /// `max + ln Σ exp(ρ (FI_k − max)) / ρ` (between the largest and `ln n / ρ` above it).
+    PlyFailure {
+        body: BodyId,
+        element: Option<usize>,
+        ply: Option<usize>,
+        position: Option<PlyPosition>,
+        criterion: Criterion,
+        rho: Option<f64>,
     },
 }
 
@@ -122,7 +148,9 @@ impl Response {
             Response::ConstraintViolation => o.position_violation,
             Response::ActuatorTorque { .. }
             | Response::ActuatorPower { .. }
-            | Response::MarkerPoint { .. } => self
+            | Response::MarkerPoint { .. }
+            | Response::PlyStress { .. }
+            | Response::PlyFailure { .. } => self
                 .evaluate_with::<f64, f64>(model, o.t, (&o.q, &o.v), &[], &o.accelerations)
                 .unwrap_or(f64::NAN),
         }
@@ -286,6 +314,34 @@ impl Response {
                 };
                 let base = relative_to.as_ref().map_or(S::zero(), point);
                 Ok(point(marker) - base)
+            }
+            Response::PlyStress {
+                body,
+                element,
+                ply,
+                position,
+                component,
+            } => {
+                let f = flexible(body)?;
+                let w = &q[model.q_range(body).start + 7..model.q_range(body).end];
+                ply_stress(f, w, (element, ply, position), component).map_err(|m| bad(&m))
+            }
+            Response::PlyFailure {
+                body,
+                element,
+                ply,
+                position,
+                criterion,
+                rho,
+            } => {
+                let f = flexible(body)?;
+                let w = &q[model.q_range(body).start + 7..model.q_range(body).end];
+                let selection = PlySelection {
+                    element,
+                    ply,
+                    position,
+                };
+                ply_failure(f, w, selection, criterion, rho).map_err(|m| bad(&m))
             }
             Response::ReactionMoment { .. } | Response::Energy | Response::ConstraintViolation => {
                 Err(bad(

@@ -21,6 +21,7 @@ use crate::deck::design::{FdSteps, SensitivityScheme};
 use crate::error::CliError;
 use crate::progress::RunProgress;
 use crate::study::Mechanism;
+use crate::study::StressInput;
 
 /// Results of the direct sensitivity analysis, at the output times.
 pub(crate) struct Sensitivities {
@@ -90,14 +91,25 @@ pub(crate) fn dual_models<const N: usize>(
             part.name.clone(),
             bodies.frequency_derivatives(&part.analysis),
         ));
-        for ((model, body), props) in chunks.iter_mut().zip(bodies.chunks).zip(&bodies.properties) {
+        let chunk_bodies = chunks.iter_mut().zip(bodies.chunks).zip(&bodies.properties);
+        for (((model, body), props), range) in chunk_bodies.zip(&ranges) {
+            // the laminates of the chunk's seeded design, as its properties were made
+            let seeded = sens::seed_chunk::<N>(built.design.values(), range.start);
+            let stresses = StressInput::of(&part.def, built, || {
+                built.design.shell_plies(&seeded).map_err(|e| {
+                    runtime(
+                        src,
+                        format!("body `{}`: its plies' stresses: {e}", part.name),
+                    )
+                })
+            })?;
             let body = crate::study::flexible_model_body(
                 &part.name,
                 &built.mesh,
                 props,
                 &part.analysis,
                 body,
-                part.stiffening,
+                (part.stiffening, stresses),
             )
             .map_err(fem_error)?;
             *model.body_mut(part.id) = Body::Flexible(body);

@@ -109,6 +109,8 @@ choices! {
         "actuator-torque",
         "actuator-force",
         "actuator-power",
+        "ply-stress",
+        "ply-failure",
     ];
     INTEGRATOR: "[analysis]", "analysis.integrator", ["adaptive", "fixed"];
     ERROR_WEIGHTS: "[analysis]", "analysis.error_weights", ["uniform", "displacement"];

@@ -32,13 +32,16 @@ impl Assembly {
             let (built, analysis, modal, basis) =
                 flexible_body(src, name, span.clone(), def, request, true)?;
             let nodes = modal.node_positions.clone();
+            let stresses = StressInput::of(def, &built, || {
+                Ok::<_, CliError>(built.design.nominal_shell_plies())
+            })?;
             let body = flexible_model_body(
                 name,
                 &built.mesh,
                 &built.props,
                 &analysis,
                 modal,
-                def.stiffening,
+                (def.stiffening, stresses),
             )
             .map_err(|e| fem_error(src, name, span.clone(), e))?;
             let id = self

@@ -54,18 +54,53 @@ pub(crate) struct FlexiblePart {
     pub(crate) def: BodyDef,
 }
 
+/// What a shell body's ply stresses are built from: its laminates in the design's scalar
+/// ([`flexible::Design::shell_plies`]), its element options' membrane, its plies' strengths.
+pub(crate) struct StressInput<'a, S: sens::Scalar> {
+    pub(crate) plies: Vec<fem::ShellPlies<S>>,
+    pub(crate) membrane: fem::Membrane,
+    pub(crate) strengths: &'a [Vec<Option<laminate::PlyStrength>>],
+}
+
+impl<'a, S: sens::Scalar> StressInput<'a, S> {
+    /// The ply stresses' input of the body `def` built as `built`, when a response reads them
+    /// (`plies`: its laminates in the design's scalar, asked for only then).
+    pub(crate) fn of<E>(
+        def: &'a BodyDef,
+        built: &Built,
+        plies: impl FnOnce() -> Result<Vec<fem::ShellPlies<S>>, E>,
+    ) -> Result<Option<Self>, E> {
+        let Some(strengths) = &def.ply_strengths else {
+            return Ok(None);
+        };
+        Ok(Some(StressInput {
+            plies: plies()?,
+            membrane: built.options.element.membrane,
+            strengths,
+        }))
+    }
+}
+
 /// The multibody body of a flexible body's modes `modal` (of `analysis`, on the mesh `mesh`
 /// with the element properties `props` in the design's scalar), with its second-order field
-/// when `stiffening` (measured from the node at the body frame).
+/// when `stiffening` (measured from the node at the body frame) and its plies' stresses when
+/// `stresses` says what they are made of.
 pub(crate) fn flexible_model_body<S: sens::Scalar>(
     name: &str,
     mesh: &fem::Mesh,
     props: &fem::Properties<S>,
     analysis: &fem::ModalAnalysis,
     modal: fem::ModalBody<S>,
-    stiffening: bool,
+    (stiffening, stresses): (bool, Option<StressInput<S>>),
 ) -> Result<FlexibleBody<S>, fem::FemError> {
-    let body = FlexibleBody::new(name, modal);
+    let mut body = FlexibleBody::new(name, modal);
+    if let Some(input) = stresses {
+        let modal = fem::shell_modal_stresses(mesh, &input.plies, input.membrane, &body.modal)?;
+        body = body.with_ply_stresses(mbs::PlyStresses {
+            modal,
+            strengths: input.strengths.to_vec(),
+        });
+    }
     if !stiffening {
         return Ok(body);
     }
@@ -319,7 +354,7 @@ impl Study {
                     "the floating frame of reference needs mass = \"lumped\"",
                 )));
             }
-            let geometry = flexible::geometry(src, name, &def)?;
+            let geometry = flexible::geometry(src, name, &def, &laminates.strengths)?;
             places.insert(
                 name.clone(),
                 BodyPlace {
@@ -356,6 +391,14 @@ impl Study {
             })
             .collect();
         let response_specs = responses::validate(src, raw, &places, &joint_names, &actuators)?;
+        ply_responses(
+            src,
+            raw,
+            &response_specs,
+            &places,
+            &design,
+            &mut flexible_bodies,
+        )?;
         let spans = DesignSpans {
             variables: raw
                 .design
@@ -638,13 +681,16 @@ impl Mechanism {
                 body.align_to(&reference.modal, CLUSTER_TOL)
                     .map_err(|e| at_design(src, format!("body `{}`", part.name), b, e))?;
             }
+            let stresses = StressInput::of(&def, &built, || {
+                Ok::<_, CliError>(built.design.nominal_shell_plies())
+            })?;
             let body = flexible_model_body(
                 &part.name,
                 &built.mesh,
                 &built.props,
                 &analysis,
                 body,
-                def.stiffening,
+                (def.stiffening, stresses),
             )
             .map_err(|e| fem_error(src, &part.name, part.span.clone(), e))?;
             *model.body_mut(part.id) = Body::Flexible(body);
@@ -654,6 +700,61 @@ impl Mechanism {
         }
         Ok(model)
     }
+}
+
+/// The flexible bodies whose ply stresses a response reads get their plies' strengths (and
+/// so are built with their ply stresses). A maximum-strain index is refused on a body whose
+/// material a design variable moves: its strains are the stresses through the nominal
+/// compliance, whose derivative the index would miss.
+fn ply_responses(
+    src: &Source,
+    raw: &RawDeck,
+    specs: &[ResponseSpec],
+    places: &BTreeMap<String, mechanism::BodyPlace>,
+    design: &DesignDef,
+    bodies: &mut [FlexibleDef],
+) -> Result<(), CliError> {
+    for spec in specs {
+        let Some((body, criterion)) = spec.ply_body() else {
+            continue;
+        };
+        let map = (places[body].flexible.as_ref())
+            .and_then(|g| g.plies.as_ref())
+            .expect("validated as a shell body");
+        let def = &mut (bodies.iter_mut().find(|b| b.name == body))
+            .expect("validated body")
+            .def;
+        def.ply_strengths.get_or_insert_with(|| {
+            (map.laminates.iter())
+                .map(|(_, plies)| plies.iter().map(|(_, s)| *s).collect())
+                .collect()
+        });
+        if criterion != Some(laminate::Criterion::MaxStrain) || !design.enabled {
+            continue;
+        }
+        let materials = map
+            .laminates
+            .iter()
+            .flat_map(|(_, p)| p.iter().map(|(m, _)| m));
+        for m in materials {
+            if let Some(v) = (design.variables.iter()).find(|v| v.material_links(m).is_some()) {
+                return Err(src
+                    .error(
+                        raw.response.get(&spec.name).map(|r| r.span()),
+                        Some(format!("response.{}.criterion", spec.name)),
+                        format!(
+                            "design variable `{}` moves the material `{m}` of body `{body}`: the \
+                             max-strain index takes the strains through the nominal compliance \
+                             and would miss their derivative along it; use another criterion \
+                             (max-stress, tsai-wu, …) or leave the material fixed",
+                            v.name
+                        ),
+                    )
+                    .into());
+            }
+        }
+    }
+    Ok(())
 }
 
 /// A body definition with `modes = "auto"` set to the number of eigenmodes the built `part`

@@ -169,6 +169,20 @@ pub fn replayed_difference(g: &Group, response: &str, size: &str) -> f64 {
     worst_difference(&direct, &fd)
 }
 
+/// [`replayed_difference`] of each of a run's `m` design variables (its own scale).
+pub fn replayed_differences(g: &Group, response: &str, size: &str, m: usize) -> Vec<f64> {
+    let direct = f64s(g, &format!("sensitivities/{response}"));
+    let fd = f64s(
+        g,
+        &format!("finite_differences/central_relative_{size}_replay/{response}"),
+    );
+    let column =
+        |x: &[f64], v: usize| -> Vec<f64> { x.iter().skip(v).step_by(m).copied().collect() };
+    (0..m)
+        .map(|v| worst_difference(&column(&direct, v), &column(&fd, v)))
+        .collect()
+}
+
 /// The shipped deck `name` with `extra` appended, written in a fresh directory (kept alive by
 /// the returned guard).
 pub fn with_extra(name: &str, extra: &str) -> (tempfile::TempDir, std::path::PathBuf) {

@@ -151,6 +151,10 @@ pub struct BodyDef {
     /// Geometric stiffening of the modal stiffness by the body's axial forces.
     pub stiffening: bool,
     pub supports: Vec<SupportDef>,
+    /// The strengths of each ply of each of a shell body's laminates (`None` where its
+    /// material states none), when a response reads the body's ply stresses: the body is then
+    /// built with them (`None`: no response does).
+    pub ply_strengths: Option<Vec<Vec<Option<laminate::PlyStrength>>>>,
 }
 
 impl BodyDef {
@@ -324,6 +328,7 @@ pub fn validate_one(
         initial_modal_rates,
         stiffening,
         supports,
+        ply_strengths: None,
     })
 }
 

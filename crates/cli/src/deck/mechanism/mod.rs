@@ -48,7 +48,22 @@ pub struct BodyInfo {
 pub struct FlexibleGeometry {
     pub nodes: Vec<Vector3<f64>>,
     pub couplings: Vec<String>,
+    /// A shell body's plies (`None`: a beam body).
+    pub plies: Option<ShellPlyMap>,
 }
+
+/// A shell body's plies as its ply responses see them.
+#[derive(Debug, Clone)]
+pub struct ShellPlyMap {
+    /// Each mesh element's laminate (an index of `laminates`).
+    pub element_laminates: Vec<usize>,
+    /// Each laminate's name and, per ply, its material's name and strengths (`None`: the
+    /// material states none).
+    pub laminates: Vec<(String, Vec<PlyMaterial>)>,
+}
+
+/// A ply's material name and strengths (`None`: the material states none).
+pub type PlyMaterial = (String, Option<laminate::PlyStrength>);
 
 /// A body as the validation of markers and responses sees it: a flexible body's geometry,
 /// `None` for a rigid one.

@@ -534,7 +534,8 @@ pub struct RawTable {
 pub struct RawResponse {
     /// `"position"`, `"velocity"`, `"nodal-displacement"`, `"mid-node-deflection"`,
     /// `"reaction"`, `"modal"`, `"energy"`, `"constraint-violation"`, `"actuator-torque"`,
-    /// `"actuator-force"` or `"actuator-power"`.
+    /// `"actuator-force"`, `"actuator-power"`, `"point-position"`, `"point-velocity"`,
+    /// `"point-acceleration"`, `"ply-stress"` or `"ply-failure"`.
     pub kind: Option<Spanned<String>>,
     pub body: Option<Spanned<String>>,
     pub joint: Option<Spanned<String>>,
@@ -556,6 +557,20 @@ pub struct RawResponse {
     /// Point kinematics: the marker whose point's position, velocity or acceleration is
     /// subtracted.
     pub relative_to: Option<Spanned<RawMarker>>,
+    /// Ply stress and failure: the shell element (from 0; a failure index's default: every
+    /// element).
+    pub element: Option<Spanned<i64>>,
+    /// Ply stress and failure: the ply (from 0, bottom first; a failure index's default: every
+    /// ply).
+    pub ply: Option<Spanned<i64>>,
+    /// Ply stress and failure: `"bottom"`, `"middle"` or `"top"` of the ply (a failure index's
+    /// default: all three).
+    pub position: Option<Spanned<String>>,
+    /// Ply failure: the criterion (`"tsai-wu"`, `"max-stress"`, …).
+    pub criterion: Option<Spanned<String>>,
+    /// Ply failure over several points: the Kreisselmeier–Steinhauser parameter of their
+    /// aggregate (default: their largest).
+    pub rho: Option<Spanned<f64>>,
 }
 
 /// Settings of the time integration.

@@ -208,6 +208,38 @@ impl Design {
     }
 }
 
+impl Design {
+    /// A shell body's laminates at the design `b` as its ply stresses need them (none for a
+    /// beam body).
+    pub fn shell_plies<const N: usize>(
+        &self,
+        b: &[Dual<N>],
+    ) -> Result<Vec<fem::ShellPlies<Dual<N>>>, section::SectionError> {
+        let Design::Shell {
+            laminates, values, ..
+        } = self
+        else {
+            return Ok(Vec::new());
+        };
+        (laminates.iter())
+            .map(|l| {
+                let (stack, c_bar, _) = l.plies_at(b, values)?;
+                Ok(fem::ShellPlies { stack, c_bar })
+            })
+            .collect()
+    }
+
+    /// [`Design::shell_plies`] at the nominal design, values only.
+    pub fn nominal_shell_plies(&self) -> Vec<fem::ShellPlies<f64>> {
+        match self {
+            Design::Shell { laminates, .. } => (laminates.iter())
+                .map(|l| fem::ShellPlies::new(l.stack.clone()))
+                .collect(),
+            Design::Beam { .. } => Vec::new(),
+        }
+    }
+}
+
 impl LaminateDesign {
     /// Whether variable `j` changes the laminate.
     fn depends_on(&self, j: usize) -> bool {
@@ -223,6 +255,25 @@ impl LaminateDesign {
         b: &[Dual<N>],
         values: &[f64],
     ) -> Result<laminate::LaminateStiffness<Dual<N>>, section::SectionError> {
+        let (stack, c_bar, density) = self.plies_at(b, values)?;
+        Ok(stack.stiffness_with_materials(&c_bar, &density))
+    }
+
+    /// The laminate's plies at the design `b`: the stack turned and thickened, and each ply's
+    /// material stiffness `C̄` and density, with their tangents along the material variables.
+    #[allow(clippy::type_complexity)]
+    fn plies_at<const N: usize>(
+        &self,
+        b: &[Dual<N>],
+        values: &[f64],
+    ) -> Result<
+        (
+            PlyStack<Dual<N>>,
+            Vec<nalgebra::Matrix6<Dual<N>>>,
+            Vec<Dual<N>>,
+        ),
+        section::SectionError,
+    > {
         let LaminateDesign {
             stack,
             links,
@@ -278,7 +329,7 @@ impl LaminateDesign {
             }
         }
         let dual = stack.with_plies(&angles, &thickness).map_err(bad)?;
-        Ok(dual.stiffness_with_materials(&c_bar, &density))
+        Ok((dual, c_bar, density))
     }
 }
 

@@ -201,8 +201,30 @@ pub fn geometry(
     src: &Source,
     name: &str,
     def: &BodyDef,
+    strengths: &std::collections::BTreeMap<String, laminate::PlyStrength>,
 ) -> Result<crate::deck::mechanism::FlexibleGeometry, CliError> {
     let mesh = mesh(src, name, def)?;
+    let plies = match &def.shape {
+        BodyShape::Beam { .. } => None,
+        BodyShape::ShellRectangle { laminates, .. } | BodyShape::ShellMesh { laminates, .. } => {
+            Some(crate::deck::mechanism::ShellPlyMap {
+                element_laminates: (mesh.elements.iter())
+                    .map(|e| match e {
+                        fem::Element::Shell { property, .. } => *property,
+                        fem::Element::Beam { property, .. } => *property,
+                    })
+                    .collect(),
+                laminates: (laminates.laminates.iter())
+                    .map(|l| {
+                        let plies = (l.ply_materials.iter())
+                            .map(|m| (m.clone(), strengths.get(m).copied()))
+                            .collect();
+                        (l.name.clone(), plies)
+                    })
+                    .collect(),
+            })
+        }
+    };
     let couplings = couplings(src, def, &mesh)?;
     let mut nodes = mesh.nodes.clone();
     for c in &couplings {
@@ -217,6 +239,7 @@ pub fn geometry(
     Ok(crate::deck::mechanism::FlexibleGeometry {
         nodes,
         couplings: def.couplings.iter().map(|c| c.name.clone()).collect(),
+        plies,
     })
 }
 

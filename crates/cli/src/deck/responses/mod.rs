@@ -3,6 +3,7 @@
 use std::collections::BTreeMap;
 use std::ops::Range;
 
+use laminate::{Criterion, PlyPosition};
 use mbs::{ForceId, JointId, Model, Response};
 use nalgebra::Vector3;
 use toml::Spanned;
@@ -12,6 +13,8 @@ use super::check::{direction, required, span};
 use super::mechanism::{BodyInfo, BodyPlace, MarkerDef};
 use super::raw::{RawDeck, RawResponse};
 use super::{DeckError, Source};
+
+mod ply;
 
 /// A response of the built mechanism.
 #[derive(Debug, Clone)]
@@ -81,9 +84,38 @@ enum SpecKind {
         order: usize,
         axis: usize,
     },
+    /// Component `component` of the stress of `ply` at `position` of shell element `element`.
+    PlyStress {
+        body: String,
+        element: usize,
+        ply: usize,
+        position: PlyPosition,
+        component: usize,
+    },
+    /// A failure index over the ply points selected (`None`: every one).
+    PlyFailure {
+        body: String,
+        element: Option<usize>,
+        ply: Option<usize>,
+        position: Option<PlyPosition>,
+        criterion: Criterion,
+        rho: Option<f64>,
+    },
 }
 
 impl ResponseSpec {
+    /// The body whose ply stresses the response reads, with its failure criterion (`None`:
+    /// a stress component).
+    pub fn ply_body(&self) -> Option<(&str, Option<Criterion>)> {
+        match &self.kind {
+            SpecKind::PlyStress { body, .. } => Some((body, None)),
+            SpecKind::PlyFailure {
+                body, criterion, ..
+            } => Some((body, Some(*criterion))),
+            _ => None,
+        }
+    }
+
     /// The response of the built `model` (`bodies` and `joints`: its bodies and joints by
     /// name); a modal coordinate beyond the body's modes is an error at its key.
     pub fn resolve(
@@ -157,6 +189,34 @@ impl ResponseSpec {
                 relative_to: relative_to.as_ref().map(|m| m.resolve(bodies)),
                 order: *order,
                 axis: *axis,
+            },
+            SpecKind::PlyStress {
+                body,
+                element,
+                ply,
+                position,
+                component,
+            } => Response::PlyStress {
+                body: id(body),
+                element: *element,
+                ply: *ply,
+                position: *position,
+                component: *component,
+            },
+            SpecKind::PlyFailure {
+                body,
+                element,
+                ply,
+                position,
+                criterion,
+                rho,
+            } => Response::PlyFailure {
+                body: id(body),
+                element: *element,
+                ply: *ply,
+                position: *position,
+                criterion: *criterion,
+                rho: *rho,
             },
             SpecKind::Energy => Response::Energy,
             SpecKind::ConstraintViolation => Response::ConstraintViolation,
@@ -249,6 +309,8 @@ pub fn validate(
             "point-position" => (t.point(0)?, "m"),
             "point-velocity" => (t.point(1)?, "m/s"),
             "point-acceleration" => (t.point(2)?, "m/s²"),
+            "ply-stress" => (t.ply_stress()?, "Pa"),
+            "ply-failure" => (t.ply_failure()?, "1"),
             other => {
                 return Err(src.error(
                     span(kind),

@@ -1,0 +1,189 @@
+//! `kind = "ply-stress"` and `kind = "ply-failure"`: a shell body's ply stresses and failure
+//! indices (docs/failure-criteria.md, "In a run").
+
+use laminate::{Criterion, PlyPosition};
+use toml::Spanned;
+
+use super::{SpecKind, Table, component};
+use crate::deck::DeckError;
+use crate::deck::check::{positive, span, suggestion};
+use crate::deck::mechanism::ShellPlyMap;
+
+const POSITIONS: [&str; 3] = ["bottom", "middle", "top"];
+const POSITION_OF: [PlyPosition; 3] = [PlyPosition::Bottom, PlyPosition::Middle, PlyPosition::Top];
+/// Stress components, material axes (Voigt order).
+const STRESS: [&str; 6] = ["s11", "s22", "s33", "s23", "s13", "s12"];
+
+impl Table<'_> {
+    /// The shell body the response names and its plies.
+    fn shell_plies(&self) -> Result<(String, &ShellPlyMap), DeckError> {
+        let (body, geometry) = self.body(true)?;
+        let map = geometry.and_then(|g| g.plies.as_ref()).ok_or_else(|| {
+            self.src.error(
+                self.raw.body.as_ref().and_then(span),
+                Some(self.key("body")),
+                format!(
+                    "`{body}` is a beam body: ply stresses are recovered in shell bodies (a beam \
+                     section's stresses under given forces: `flexsens section --load`)"
+                ),
+            )
+        })?;
+        Ok((body, map))
+    }
+
+    /// `element` (required for a stress): a shell element of the body.
+    fn ply_element(&self, map: &ShellPlyMap, required: bool) -> Result<Option<usize>, DeckError> {
+        let Some(v) = &self.raw.element else {
+            return match required {
+                true => Err(self.missing("element", "element (a shell element, from 0)")),
+                false => Ok(None),
+            };
+        };
+        let n = map.element_laminates.len();
+        let e = *v.get_ref();
+        if e < 0 || e as usize >= n {
+            return Err(self.src.error(
+                span(v),
+                Some(self.key("element")),
+                format!("element {e} does not exist (elements 0 to {})", n - 1),
+            ));
+        }
+        Ok(Some(e as usize))
+    }
+
+    /// `ply` (required for a stress): a ply of one of `laminates` (from 0, bottom first).
+    fn ply_index(
+        &self,
+        map: &ShellPlyMap,
+        laminates: &[usize],
+        required: bool,
+    ) -> Result<Option<usize>, DeckError> {
+        let Some(v) = &self.raw.ply else {
+            return match required {
+                true => Err(self.missing("ply", "ply (from 0, bottom first)")),
+                false => Ok(None),
+            };
+        };
+        let most = (laminates.iter())
+            .map(|&l| map.laminates[l].1.len())
+            .max()
+            .unwrap_or(0);
+        let p = *v.get_ref();
+        if p < 0 || p as usize >= most {
+            let names: Vec<&str> = laminates.iter().map(|&l| &*map.laminates[l].0).collect();
+            return Err(self.src.error(
+                span(v),
+                Some(self.key("ply")),
+                format!(
+                    "ply {p} does not exist: laminate {} has plies 0 to {}",
+                    names.join(", "),
+                    most - 1
+                ),
+            ));
+        }
+        Ok(Some(p as usize))
+    }
+
+    /// `position` (required for a stress): where through the ply.
+    fn ply_position(&self, required: bool) -> Result<Option<PlyPosition>, DeckError> {
+        if self.raw.position.is_none() && !required {
+            return Ok(None);
+        }
+        let i = component(
+            self.src,
+            &self.key("position"),
+            self.raw.position.as_ref(),
+            self.span.clone(),
+            &POSITIONS,
+        )?;
+        Ok(Some(POSITION_OF[i]))
+    }
+
+    fn missing(&self, key: &str, what: &str) -> DeckError {
+        self.src.error(
+            self.span.clone(),
+            Some(self.key(key)),
+            format!("missing value: {what}"),
+        )
+    }
+
+    /// `kind = "ply-stress"`: a stress component of a ply point of a shell element.
+    pub(super) fn ply_stress(&self) -> Result<SpecKind, DeckError> {
+        let (body, map) = self.shell_plies()?;
+        let element = self.ply_element(map, true)?.expect("required");
+        let laminate = map.element_laminates[element];
+        let ply = self.ply_index(map, &[laminate], true)?.expect("required");
+        let position = self.ply_position(true)?.expect("required");
+        let component = self.component(&STRESS)?;
+        Ok(SpecKind::PlyStress {
+            body,
+            element,
+            ply,
+            position,
+            component,
+        })
+    }
+
+    /// `kind = "ply-failure"`: a failure index at a ply point, or over the points selected.
+    pub(super) fn ply_failure(&self) -> Result<SpecKind, DeckError> {
+        let (body, map) = self.shell_plies()?;
+        let element = self.ply_element(map, false)?;
+        let mut laminates: Vec<usize> = match element {
+            Some(e) => vec![map.element_laminates[e]],
+            None => map.element_laminates.clone(),
+        };
+        laminates.sort_unstable();
+        laminates.dedup();
+        let ply = self.ply_index(map, &laminates, false)?;
+        let position = self.ply_position(false)?;
+        let criterion = self.criterion()?;
+        let rho = (self.raw.rho.as_ref())
+            .map(|r| positive(self.src, &self.key("rho"), r, "1"))
+            .transpose()?;
+        // every ply selected needs its material's strengths
+        for &l in &laminates {
+            let (name, plies) = &map.laminates[l];
+            for (p, (material, strength)) in plies.iter().enumerate() {
+                if strength.is_none() && ply.is_none_or(|q| q == p) {
+                    return Err(self.src.error(
+                        self.raw.criterion.as_ref().and_then(span),
+                        Some(self.key("criterion")),
+                        format!(
+                            "ply {p} of laminate `{name}` is of material `{material}`, which \
+                             states no strengths: give Xt, Xc, Yt, Yc and S12 in \
+                             [material.{material}] (Pa)"
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(SpecKind::PlyFailure {
+            body,
+            element,
+            ply,
+            position,
+            criterion,
+            rho,
+        })
+    }
+
+    /// `criterion`: a failure criterion by its name.
+    fn criterion(&self) -> Result<Criterion, DeckError> {
+        let names: Vec<&str> = Criterion::ALL.iter().map(|c| c.name()).collect();
+        let c: &Spanned<String> = self.raw.criterion.as_ref().ok_or_else(|| {
+            self.missing("criterion", &format!("criterion ({})", names.join(", ")))
+        })?;
+        Criterion::from_name(c.get_ref()).ok_or_else(|| {
+            self.src.error(
+                span(c),
+                Some(self.key("criterion")),
+                format!(
+                    "unknown criterion `{}`: expected one of {}{}",
+                    c.get_ref(),
+                    names.join(", "),
+                    suggestion(c.get_ref(), &names)
+                ),
+            )
+        })
+    }
+}
