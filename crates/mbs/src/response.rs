@@ -315,39 +315,50 @@ impl Response {
                 let base = relative_to.as_ref().map_or(S::zero(), point);
                 Ok(point(marker) - base)
             }
-            Response::PlyStress {
-                body,
-                element,
-                ply,
-                position,
-                component,
-            } => {
-                let f = flexible(body)?;
-                let w = &q[model.q_range(body).start + 7..model.q_range(body).end];
-                ply_stress(f, w, (element, ply, position), component).map_err(|m| bad(&m))
-            }
-            Response::PlyFailure {
-                body,
-                element,
-                ply,
-                position,
-                criterion,
-                rho,
-            } => {
-                let f = flexible(body)?;
-                let w = &q[model.q_range(body).start + 7..model.q_range(body).end];
-                let selection = PlySelection {
-                    element,
-                    ply,
-                    position,
-                };
-                ply_failure(f, w, selection, criterion, rho).map_err(|m| bad(&m))
+            Response::PlyStress { .. } | Response::PlyFailure { .. } => {
+                self.ply(model, q).map_err(|m| bad(&m))
             }
             Response::ReactionMoment { .. } | Response::Energy | Response::ConstraintViolation => {
                 Err(bad(
                     "reaction moments, energies and constraint violations have no sensitivities",
                 ))
             }
+        }
+    }
+
+    /// A [`Response::PlyStress`] or [`Response::PlyFailure`] of `model` at the coordinates `q`.
+    fn ply<P: Scalar, S: Scalar + From<P>>(&self, model: &Model<P>, q: &[S]) -> Result<S, String> {
+        let (Response::PlyStress { body, .. } | Response::PlyFailure { body, .. }) = *self else {
+            return Err("not a ply response".into());
+        };
+        let crate::Body::Flexible(f) = model.body(body) else {
+            return Err("ply responses need a flexible body".into());
+        };
+        let w = &q[model.q_range(body).start + 7..model.q_range(body).end];
+        match *self {
+            Response::PlyStress {
+                element,
+                ply,
+                position,
+                component,
+                ..
+            } => ply_stress(f, w, (element, ply, position), component),
+            Response::PlyFailure {
+                element,
+                ply,
+                position,
+                criterion,
+                rho,
+                ..
+            } => {
+                let selection = PlySelection {
+                    element,
+                    ply,
+                    position,
+                };
+                ply_failure(f, w, selection, criterion, rho)
+            }
+            _ => Err("not a ply response".into()),
         }
     }
 }

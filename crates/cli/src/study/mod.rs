@@ -16,14 +16,15 @@
 mod assembly;
 mod error_weights;
 pub mod flexible;
+mod model_body;
 mod parameters;
 
 use std::collections::BTreeMap;
 use std::ops::{Deref, DerefMut, Range};
 
 use mbs::{
-    Baumgarte, BdfOptions, Body, BodyId, FlexibleBody, ForceId, JointId, Model, MultibodySystem,
-    Output, RedundancyPolicy, RigidBody, State,
+    Baumgarte, BdfOptions, Body, BodyId, ForceId, JointId, Model, MultibodySystem, Output,
+    RedundancyPolicy, RigidBody, State,
 };
 use nalgebra::{Matrix3, Vector3};
 
@@ -38,6 +39,8 @@ use crate::deck::{DeckError, RawDeck, Source};
 use crate::error::CliError;
 use assembly::Assembly;
 use flexible::{Built, DesignRequest, fem_error};
+use model_body::ply_responses;
+pub(crate) use model_body::{StressInput, flexible_model_body};
 pub(crate) use parameters::set_parameter;
 
 /// A flexible body of the mechanism with what its design derivatives need.
@@ -52,65 +55,6 @@ pub(crate) struct FlexiblePart {
     pub(crate) stiffening: bool,
     /// The validated body at the nominal design ([`BodyDef::at`] moves it to another).
     pub(crate) def: BodyDef,
-}
-
-/// What a shell body's ply stresses are built from: its laminates in the design's scalar
-/// ([`flexible::Design::shell_plies`]), its element options' membrane, its plies' strengths.
-pub(crate) struct StressInput<'a, S: sens::Scalar> {
-    pub(crate) plies: Vec<fem::ShellPlies<S>>,
-    pub(crate) membrane: fem::Membrane,
-    pub(crate) strengths: &'a [Vec<Option<laminate::PlyStrength>>],
-}
-
-impl<'a, S: sens::Scalar> StressInput<'a, S> {
-    /// The ply stresses' input of the body `def` built as `built`, when a response reads them
-    /// (`plies`: its laminates in the design's scalar, asked for only then).
-    pub(crate) fn of<E>(
-        def: &'a BodyDef,
-        built: &Built,
-        plies: impl FnOnce() -> Result<Vec<fem::ShellPlies<S>>, E>,
-    ) -> Result<Option<Self>, E> {
-        let Some(strengths) = &def.ply_strengths else {
-            return Ok(None);
-        };
-        Ok(Some(StressInput {
-            plies: plies()?,
-            membrane: built.options.element.membrane,
-            strengths,
-        }))
-    }
-}
-
-/// The multibody body of a flexible body's modes `modal` (of `analysis`, on the mesh `mesh`
-/// with the element properties `props` in the design's scalar), with its second-order field
-/// when `stiffening` (measured from the node at the body frame) and its plies' stresses when
-/// `stresses` says what they are made of.
-pub(crate) fn flexible_model_body<S: sens::Scalar>(
-    name: &str,
-    mesh: &fem::Mesh,
-    props: &fem::Properties<S>,
-    analysis: &fem::ModalAnalysis,
-    modal: fem::ModalBody<S>,
-    (stiffening, stresses): (bool, Option<StressInput<S>>),
-) -> Result<FlexibleBody<S>, fem::FemError> {
-    let mut body = FlexibleBody::new(name, modal);
-    if let Some(input) = stresses {
-        let modal = fem::shell_modal_stresses(mesh, &input.plies, input.membrane, &body.modal)?;
-        body = body.with_ply_stresses(mbs::PlyStresses {
-            modal,
-            strengths: input.strengths.to_vec(),
-        });
-    }
-    if !stiffening {
-        return Ok(body);
-    }
-    let clamp = body
-        .modal
-        .closest_node(&nalgebra::Vector3::zeros())
-        .unwrap_or(0);
-    let g = fem::second_order_field(mesh, props, analysis, &body.modal, clamp)?
-        .with_couplings(&analysis.couplings);
-    Ok(body.with_geometric_stiffness(g))
 }
 
 /// A validated flexible body: its definition and its table in the deck.
@@ -700,61 +644,6 @@ impl Mechanism {
         }
         Ok(model)
     }
-}
-
-/// The flexible bodies whose ply stresses a response reads get their plies' strengths (and
-/// so are built with their ply stresses). A maximum-strain index is refused on a body whose
-/// material a design variable moves: its strains are the stresses through the nominal
-/// compliance, whose derivative the index would miss.
-fn ply_responses(
-    src: &Source,
-    raw: &RawDeck,
-    specs: &[ResponseSpec],
-    places: &BTreeMap<String, mechanism::BodyPlace>,
-    design: &DesignDef,
-    bodies: &mut [FlexibleDef],
-) -> Result<(), CliError> {
-    for spec in specs {
-        let Some((body, criterion)) = spec.ply_body() else {
-            continue;
-        };
-        let map = (places[body].flexible.as_ref())
-            .and_then(|g| g.plies.as_ref())
-            .expect("validated as a shell body");
-        let def = &mut (bodies.iter_mut().find(|b| b.name == body))
-            .expect("validated body")
-            .def;
-        def.ply_strengths.get_or_insert_with(|| {
-            (map.laminates.iter())
-                .map(|(_, plies)| plies.iter().map(|(_, s)| *s).collect())
-                .collect()
-        });
-        if criterion != Some(laminate::Criterion::MaxStrain) || !design.enabled {
-            continue;
-        }
-        let materials = map
-            .laminates
-            .iter()
-            .flat_map(|(_, p)| p.iter().map(|(m, _)| m));
-        for m in materials {
-            if let Some(v) = (design.variables.iter()).find(|v| v.material_links(m).is_some()) {
-                return Err(src
-                    .error(
-                        raw.response.get(&spec.name).map(|r| r.span()),
-                        Some(format!("response.{}.criterion", spec.name)),
-                        format!(
-                            "design variable `{}` moves the material `{m}` of body `{body}`: the \
-                             max-strain index takes the strains through the nominal compliance \
-                             and would miss their derivative along it; use another criterion \
-                             (max-stress, tsai-wu, …) or leave the material fixed",
-                            v.name
-                        ),
-                    )
-                    .into());
-            }
-        }
-    }
-    Ok(())
 }
 
 /// A body definition with `modes = "auto"` set to the number of eigenmodes the built `part`
