@@ -33,6 +33,16 @@ pub struct SectionPoint {
     pub material_stress: [f64; 6],
 }
 
+/// The derivative of a point's stress along one design variable
+/// ([`SectionAnalysis::stress_derivatives`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StressDerivative {
+    /// `dσ/db` in section axes (Voigt `[11, 22, 33, 23, 13, 12]`).
+    pub stress: [f64; 6],
+    /// `dσ/db` in the region's material axes.
+    pub material_stress: [f64; 6],
+}
+
 /// Geometry of one integration point, in the scalar `G` of the node coordinates (`f64`, or
 /// dual numbers whose tangents are node velocities: a ply thickness as a design variable).
 #[derive(Clone, Copy, Debug)]
@@ -80,8 +90,10 @@ const NONE: usize = usize::MAX;
 /// the pins vanish and the compliance does not depend on the choice; the pinned `K` is
 /// symmetric positive definite and factorised once by sparse Cholesky (faer).
 ///
-/// Derivatives: only the compliance (and, through the densities and the geometry, the mass
-/// integrals) is differentiated; every other result follows from it in dual numbers.
+/// Derivatives: of the properties, only the compliance (and, through the densities and the
+/// geometry, the mass integrals) is differentiated; every other property follows from it in
+/// dual numbers. The recovered stresses' derivatives take the central solutions' tangents
+/// through the factorisation ([`SectionAnalysis::stress_derivatives`]).
 /// - Ply angles and material stiffnesses (only `Q` depends on them): by the adjoints of the
 ///   two systems (`SectionAnalysis::compliance_derivatives`), two six-column solves through
 ///   the same factorisation and one pass over the integration points of the regions the
@@ -128,6 +140,45 @@ struct Model {
     n_free: usize,
     /// Material stiffness of each region in its principal axes.
     c_bar: Vec<Matrix6<f64>>,
+}
+
+/// The strain and stress (section axes) and the stress in the material axes at integration
+/// point `gp` of an element of `nodes` in `region` (its ply angle `angle`, its material in
+/// section axes there `q`) under `forces`, of the central solution `fields`:
+/// `ε = (Z Y + BN X + SN X₁) θ`, `σ = Q ε`, turned by the wall frame and the ply angle.
+fn point_stress<F, G>(
+    (nodes, gp, fields): (&[usize], &GaussPoint<G>, Fields<'_, F>),
+    region: &Region,
+    angle: F,
+    q: &Matrix6<F>,
+    forces: [F; 6],
+) -> [[F; 6]; 3]
+where
+    F: Scalar + Mul<G, Output = F> + From<G>,
+    G: Scalar,
+{
+    let eps = strains(nodes, gp, fields);
+    let strain: [F; 6] =
+        std::array::from_fn(|i| (0..6).fold(F::zero(), |acc, c| acc + eps[c][i] * forces[c]));
+    let stress: [F; 6] =
+        std::array::from_fn(|i| (0..6).fold(F::zero(), |acc, j| acc + q[(i, j)] * strain[j]));
+    // material axes in section axes: the wall frame's, turned by the ply angle
+    let r = region.frame.rotation_at(gp.x, gp.dx_dxi).map(F::from) * Region::ply_rotation(angle);
+    let to_material = bond_stress_matrix(&r.transpose());
+    let material: [F; 6] = std::array::from_fn(|i| {
+        (0..6).fold(F::zero(), |acc, j| acc + to_material[(i, j)] * stress[j])
+    });
+    [strain, stress, material]
+}
+
+/// Each region's material in section axes, `T(θ) C̄ T(θ)ᵀ`, of dual angles and stiffnesses.
+fn ply_stiffnesses<const N: usize>(
+    angles: &[Dual<N>],
+    c_bar: &[Matrix6<Dual<N>>],
+) -> Vec<Matrix6<Dual<N>>> {
+    (angles.iter().zip(c_bar))
+        .map(|(&a, c)| rotate_stiffness_of(c, &Region::ply_rotation(a)))
+        .collect()
 }
 
 /// Analyse a section: the 6×6 stiffness and everything derived from it (see
@@ -495,30 +546,22 @@ impl SectionAnalysis {
         let m = &self.model;
         let mut out = Vec::with_capacity(m.gps.len());
         let mut k = 0;
+        let fields = Fields {
+            u: Some(&self.x[..]),
+            u1: Some(&self.x1[..]),
+            psi: Some(&self.y),
+        };
         for (e, el) in m.mesh.elements.iter().enumerate() {
             let nn = el.kind.node_count();
             let region = &m.mesh.regions[el.region];
             for gp in &m.gps[m.gp_start[e]..m.gp_start[e + 1]] {
-                let eps = strains(
-                    &el.nodes[..nn],
-                    gp,
-                    Fields {
-                        u: Some(&self.x),
-                        u1: Some(&self.x1),
-                        psi: Some(&self.y),
-                    },
+                let [strain, stress, material_stress] = point_stress(
+                    (&el.nodes[..nn], gp, fields),
+                    region,
+                    region.ply_angle,
+                    &self.q_points[k],
+                    forces,
                 );
-                let strain: [f64; 6] =
-                    std::array::from_fn(|i| (0..6).map(|c| eps[c][i] * forces[c]).sum());
-                let q = &self.q_points[k];
-                let stress: [f64; 6] =
-                    std::array::from_fn(|i| (0..6).map(|j| q[(i, j)] * strain[j]).sum());
-                // material axes in section axes: the wall frame's, turned by the ply angle
-                let r = region.frame.rotation_at(gp.x, gp.dx_dxi)
-                    * Region::ply_rotation(region.ply_angle);
-                let to_material = bond_stress_matrix(&r.transpose());
-                let material_stress: [f64; 6] =
-                    std::array::from_fn(|i| (0..6).map(|j| to_material[(i, j)] * stress[j]).sum());
                 let compliance = region.material.compliance();
                 let material_strain: [f64; 6] = std::array::from_fn(|i| {
                     (0..6)
@@ -535,6 +578,98 @@ impl SectionAnalysis {
                     material_stress,
                 });
                 k += 1;
+            }
+        }
+        out
+    }
+
+    /// The derivatives of the stresses of [`SectionAnalysis::stresses`] under the fixed
+    /// section forces `forces` with respect to each variable of `design`, `N` at a time: per
+    /// variable, per integration point (in the order of `stresses`; a point that a thickness
+    /// moves is followed), `dσ/db` in section and in material axes. The central solutions'
+    /// tangents go through the stored factorisation (the residuals of both warping systems in
+    /// dual numbers, as [`SectionAnalysis::compliance_dual`]), the materials', angles' and
+    /// geometry's through the recovery itself.
+    pub fn stress_derivatives<const N: usize>(
+        &self,
+        forces: [f64; 6],
+        design: &DesignMap,
+    ) -> Result<Vec<Vec<StressDerivative>>, SectionError> {
+        assert!(N > 0, "Dual<0> carries no tangents");
+        design.validate(&self.model.mesh)?;
+        let forces = forces.map(Dual::<N>::constant);
+        let mut out = vec![Vec::new(); design.variables.len()];
+        for range in chunk_ranges(design.variables.len(), N) {
+            let (angles, c_bar, nodes) = self.seeded::<N>(design, range.clone());
+            let q_ply = ply_stiffnesses(&angles, &c_bar);
+            let points = match nodes {
+                Some(nodes) => {
+                    let (gps, _) = geometry(&self.model.mesh, &nodes);
+                    let lift = |x: &[f64]| x.iter().map(|&v| Dual::constant(v)).collect::<Vec<_>>();
+                    let (x1, x) = (lift(&self.x1), lift(&self.x));
+                    let (y1, y) = (self.y1.map(Dual::constant), self.y.map(Dual::constant));
+                    let hats = Hats {
+                        x1: &x1,
+                        y1: &y1,
+                        x: &x,
+                        y: &y,
+                    };
+                    let fields = self.fields_dual(&q_ply, &gps, hats);
+                    self.dual_stresses(&q_ply, &angles, &gps, &fields, forces)
+                }
+                None => {
+                    let hats = Hats {
+                        x1: &self.x1,
+                        y1: &self.y1,
+                        x: &self.x,
+                        y: &self.y,
+                    };
+                    let fields = self.fields_dual(&q_ply, &self.model.gps, hats);
+                    self.dual_stresses(&q_ply, &angles, &self.model.gps, &fields, forces)
+                }
+            };
+            for (k, v) in range.enumerate() {
+                out[v] = (points.iter())
+                    .map(|[stress, material]| StressDerivative {
+                        stress: stress.map(|x| x.d[k]),
+                        material_stress: material.map(|x| x.d[k]),
+                    })
+                    .collect();
+            }
+        }
+        Ok(out)
+    }
+
+    /// The stresses (section axes, material axes) at every integration point `gps` under
+    /// `forces`, with the dual central solutions `fields`, materials `q_ply` and angles.
+    #[allow(clippy::type_complexity)]
+    fn dual_stresses<const N: usize, G>(
+        &self,
+        q_ply: &[Matrix6<Dual<N>>],
+        angles: &[Dual<N>],
+        gps: &[GaussPoint<G>],
+        (x1, _, x, y): &(Vec<Dual<N>>, [Dual<N>; 36], Vec<Dual<N>>, [Dual<N>; 36]),
+        forces: [Dual<N>; 6],
+    ) -> Vec<[[Dual<N>; 6]; 2]>
+    where
+        Dual<N>: Mul<G, Output = Dual<N>> + From<G>,
+        G: Scalar,
+    {
+        let m = &self.model;
+        let fields = Fields {
+            u: Some(&x[..]),
+            u1: Some(&x1[..]),
+            psi: Some(y),
+        };
+        let mut out = Vec::with_capacity(gps.len());
+        for (e, el) in m.mesh.elements.iter().enumerate() {
+            let nodes = &el.nodes[..el.kind.node_count()];
+            let region = &m.mesh.regions[el.region];
+            for gp in &gps[m.gp_start[e]..m.gp_start[e + 1]] {
+                let q = m.stiffness_at(el.region, gp, &q_ply[el.region]);
+                let [_, stress, material] =
+                    point_stress((nodes, gp, fields), region, angles[el.region], &q, forces);
+                out.push([stress, material]);
             }
         }
         out
@@ -631,48 +766,10 @@ impl SectionAnalysis {
         integrals: &[MassProperties],
         adjoint: bool,
     ) -> (MassProperties<Dual<N>>, Matrix6<Dual<N>>) {
-        // Dual ply angles and material stiffnesses: tangent k of region r is dθ_r/db and
-        // dC̄_r/db of variable start + k.
-        let mut angles: Vec<Dual<N>> = self
-            .model
-            .mesh
-            .regions
-            .iter()
-            .map(|r| Dual::constant(r.ply_angle))
-            .collect();
-        let mut c_bar: Vec<Matrix6<Dual<N>>> = self
-            .model
-            .c_bar
-            .iter()
-            .map(|c| c.map(Dual::constant))
-            .collect();
-        for (k, v) in range.clone().enumerate() {
-            for &(r, factor) in &design.variables[v].links {
-                angles[r].d[k] += factor;
-            }
-            for (r, dc) in &design.variables[v].materials {
-                for (x, d) in c_bar[*r].iter_mut().zip(dc.iter()) {
-                    x.d[k] += d;
-                }
-            }
-        }
-        let moves_nodes = range.clone().any(|v| !design.variables[v].nodes.is_empty());
-        if moves_nodes {
+        let (angles, c_bar, nodes) = self.seeded(design, range);
+        if let Some(nodes) = nodes {
             // Node coordinates carry their velocities dX/db: the geometry, the mass
             // integrals and the (lifted) fields are dual.
-            let mut nodes: Vec<[Dual<N>; 2]> = self
-                .model
-                .mesh
-                .nodes
-                .iter()
-                .map(|p| p.map(Dual::constant))
-                .collect();
-            for (k, v) in range.clone().enumerate() {
-                for &(n, dx) in &design.variables[v].nodes {
-                    nodes[n][0].d[k] += dx[0];
-                    nodes[n][1].d[k] += dx[1];
-                }
-            }
             let (gps, _) = geometry(&self.model.mesh, &nodes);
             let integrals = self.model.region_mass_integrals(&gps);
             if adjoint {
@@ -707,6 +804,49 @@ impl SectionAnalysis {
         }
     }
 
+    /// The regions' ply angles and material stiffnesses, and when a variable moves nodes the
+    /// node coordinates, as dual numbers whose tangent `k` is the derivative along variable
+    /// `range.start + k` of `design`.
+    #[allow(clippy::type_complexity)]
+    fn seeded<const N: usize>(
+        &self,
+        design: &DesignMap,
+        range: std::ops::Range<usize>,
+    ) -> (
+        Vec<Dual<N>>,
+        Vec<Matrix6<Dual<N>>>,
+        Option<Vec<[Dual<N>; 2]>>,
+    ) {
+        let m = &self.model;
+        let mut angles: Vec<Dual<N>> = (m.mesh.regions.iter())
+            .map(|r| Dual::constant(r.ply_angle))
+            .collect();
+        let mut c_bar: Vec<Matrix6<Dual<N>>> =
+            m.c_bar.iter().map(|c| c.map(Dual::constant)).collect();
+        for (k, v) in range.clone().enumerate() {
+            for &(r, factor) in &design.variables[v].links {
+                angles[r].d[k] += factor;
+            }
+            for (r, dc) in &design.variables[v].materials {
+                for (x, d) in c_bar[*r].iter_mut().zip(dc.iter()) {
+                    x.d[k] += d;
+                }
+            }
+        }
+        if !range.clone().any(|v| !design.variables[v].nodes.is_empty()) {
+            return (angles, c_bar, None);
+        }
+        let mut nodes: Vec<[Dual<N>; 2]> =
+            m.mesh.nodes.iter().map(|p| p.map(Dual::constant)).collect();
+        for (k, v) in range.enumerate() {
+            for &(n, dx) in &design.variables[v].nodes {
+                nodes[n][0].d[k] += dx[0];
+                nodes[n][1].d[k] += dx[1];
+            }
+        }
+        (angles, c_bar, Some(nodes))
+    }
+
     /// The compliance with dual ply angles, material stiffnesses and dual node coordinates by
     /// the adjoints of [`SectionAnalysis::compliance_derivatives`]. Its derivation holds for
     /// any dependence of the section's bilinear forms on the variables: with the `f64` fields
@@ -727,11 +867,7 @@ impl SectionAnalysis {
         // an element whose nodes stay and whose material is held adds no tangent
         let moves = |x: &Dual<N>| x.d.iter().any(|&t| t != 0.0);
         let node_moves: Vec<bool> = nodes.iter().map(|p| p.iter().any(moves)).collect();
-        let q_ply: Vec<Matrix6<Dual<N>>> = angles
-            .iter()
-            .zip(c_bar)
-            .map(|(&a, c)| rotate_stiffness_of(c, &Region::ply_rotation(a)))
-            .collect();
+        let q_ply = ply_stiffnesses(angles, c_bar);
         let ComplianceAdjoints { lx, ly, mx, my } = self.compliance_adjoints();
         let (lx, mx) = (&lx[..], &mx[..]);
         let lift = |x: &[f64]| {
@@ -802,11 +938,43 @@ impl SectionAnalysis {
         F: Scalar + Mul<G, Output = F>,
         G: Scalar,
     {
-        let q_ply: Vec<Matrix6<Dual<N>>> = angles
-            .iter()
-            .zip(c_bar)
-            .map(|(&a, c)| rotate_stiffness_of(c, &Region::ply_rotation(a)))
-            .collect();
+        let q_ply = ply_stiffnesses(angles, c_bar);
+        let (x1, _, x, y) = self.fields_dual(&q_ply, gps, hats);
+        let mut f = [Dual::<N>::constant(0.0); 36];
+        self.model.kernel(
+            Materials::PerRegion(&q_ply),
+            gps,
+            Fields {
+                u: Some(&x),
+                u1: Some(&x1),
+                psi: Some(&y),
+            },
+            Outputs {
+                b: None,
+                s: None,
+                z: None,
+                energy: Some(&mut f),
+            },
+        );
+        symmetric(&f)
+    }
+
+    /// The central solutions `X₁, Y₁, X, Y` with the dual materials in section axes `q_ply`
+    /// (per region) and (with `G` dual) node coordinates: their tangents by both systems'
+    /// residuals through the factorisation ([`SectionAnalysis::compliance_dual`]).
+    #[allow(clippy::type_complexity)]
+    fn fields_dual<const N: usize, F, G>(
+        &self,
+        q_ply: &[Matrix6<Dual<N>>],
+        gps: &[GaussPoint<G>],
+        hats: Hats<'_, F>,
+    ) -> (Vec<Dual<N>>, [Dual<N>; 36], Vec<Dual<N>>, [Dual<N>; 36])
+    where
+        Dual<N>: Mul<F, Output = Dual<N>> + Mul<G, Output = Dual<N>>,
+        F: Scalar + Mul<G, Output = F>,
+        G: Scalar,
+    {
+        let q_ply = q_ply.to_vec();
         let nd = 3 * self.model.mesh.nodes.len();
         let zero = Dual::<N>::constant(0.0);
         let t = force_derivative_map();
@@ -887,24 +1055,7 @@ impl SectionAnalysis {
                 |i, col| Dual::constant(if i == col { 1.0 } else { 0.0 }) - z[i * 6 + col],
             )
         };
-
-        let mut f = [Dual::<N>::constant(0.0); 36];
-        self.model.kernel(
-            Materials::PerRegion(&q_ply),
-            gps,
-            Fields {
-                u: Some(&x),
-                u1: Some(&x1),
-                psi: Some(&y),
-            },
-            Outputs {
-                b: None,
-                s: None,
-                z: None,
-                energy: Some(&mut f),
-            },
-        );
-        symmetric(&f)
+        (x1, y1, x, y)
     }
 
     /// `dF/db` of the variables `vars` (none of which may move nodes) by the adjoints of the

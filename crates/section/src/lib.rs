@@ -75,7 +75,9 @@ mod mesh;
 mod parse;
 mod properties;
 
-pub use analysis::{SectionAnalysis, SectionPoint, analyse, analyse_with_derivatives};
+pub use analysis::{
+    SectionAnalysis, SectionPoint, StressDerivative, analyse, analyse_with_derivatives,
+};
 pub use design::{DesignMap, DesignVariable};
 pub use element::ElementKind;
 pub use error::SectionError;

@@ -1,7 +1,8 @@
 //! Stress recovery of the warping analysis against closed forms: an isotropic rectangle's
 //! bending and axial stresses and (ν = 0) its parabolic shear, a thick isotropic tube's
 //! torsional shear `T r/J`, and a laminated thin-walled tube under axial force, torsion and
-//! bending against classical laminate theory on its wall.
+//! bending against classical laminate theory on its wall; the stresses' derivatives along a ply
+//! angle, a material constant and a ply thickness against central differences of the analysis.
 
 use laminate::{OrthotropicMaterial, PlateState, Ply, PlyStack};
 use section::{PlySpec, SectionAnalysis, rectangle, tube};
@@ -155,4 +156,89 @@ fn a_laminated_thin_tube_loads_its_plies_as_laminate_theory_on_its_wall() {
         }
     }
     assert!(worst < 0.01 * scale, "bending: {worst} of {scale}");
+}
+
+#[test]
+fn stress_derivatives_equal_central_differences_of_the_section_analysis() {
+    // a three-ply tube; variables: the middle ply's angle, E2 of every region, the inner ply's
+    // thickness (which moves the nodes, and the points with them)
+    let m = OrthotropicMaterial::new(
+        [128e9, 10.1e9, 10.1e9],
+        [5.36e9, 5.36e9, 3.6e9],
+        [0.23, 0.23, 0.4],
+        1586.0,
+    )
+    .unwrap();
+    let deg = std::f64::consts::PI / 180.0;
+    let generated = |angle: f64, e2: f64, thickness: f64| {
+        let mat = {
+            let mut c = m.constants();
+            c[1] = e2;
+            m.with_constants(c).unwrap()
+        };
+        section::GeneratedSection::Tube {
+            inner_radius: 0.01,
+            plies: vec![
+                PlySpec::new("p0", mat, 30.0 * deg, thickness, 1),
+                PlySpec::new("p1", mat, angle, 0.0007, 1),
+                PlySpec::new("p2", mat, 60.0 * deg, 0.0004, 1),
+            ],
+            circumferential: 24,
+        }
+    };
+    let (angle, e2, t0) = (-45.0 * deg, 10.1e9, 0.0005);
+    let nominal = generated(angle, e2, t0);
+    let mesh = nominal.mesh().unwrap();
+    let mut de2 = [0.0; 9];
+    de2[1] = 1.0;
+    let d_c = m.stiffness_derivative(&de2);
+    let design = section::DesignMap::new()
+        .with_named_variable(&mesh, "angle", &[("p1", 1.0)])
+        .unwrap()
+        .with_material_variable("e2", (0..mesh.regions.len()).map(|r| (r, d_c)).collect())
+        .with_geometry_variable(
+            "t0",
+            &nominal
+                .node_velocities(|p| f64::from(u8::from(p.name == "p0")))
+                .unwrap(),
+        );
+    let forces = [1500.0, 60.0, -90.0, 25.0, 35.0, -45.0];
+    let analysis = SectionAnalysis::new(&mesh).unwrap();
+    let exact = analysis.stress_derivatives::<2>(forces, &design).unwrap();
+    let at = |a: f64, e: f64, t: f64| {
+        SectionAnalysis::new(&generated(a, e, t).mesh().unwrap())
+            .unwrap()
+            .stresses(forces)
+    };
+    let steps = [1e-6, 1e6, 1e-9];
+    for (v, name) in ["angle", "e2", "t0"].iter().enumerate() {
+        let h = steps[v];
+        let mut p = [angle, e2, t0];
+        let mut q = p;
+        p[v] += h;
+        q[v] -= h;
+        let (plus, minus) = (at(p[0], p[1], p[2]), at(q[0], q[1], q[2]));
+        let cd = |i: usize, c: usize, material: bool| {
+            let (a, b) = match material {
+                true => (plus[i].material_stress[c], minus[i].material_stress[c]),
+                false => (plus[i].stress[c], minus[i].stress[c]),
+            };
+            (a - b) / (2.0 * h)
+        };
+        let mut scale = 0.0f64;
+        for i in 0..plus.len() {
+            for c in 0..6 {
+                scale = scale.max(cd(i, c, true).abs());
+            }
+        }
+        let mut worst = 0.0f64;
+        for (i, d) in exact[v].iter().enumerate() {
+            for c in 0..6 {
+                worst = worst.max((d.material_stress[c] - cd(i, c, true)).abs() / scale);
+                worst = worst.max((d.stress[c] - cd(i, c, false)).abs() / scale);
+            }
+        }
+        eprintln!("{name}: largest difference {worst:.2e} of the largest derivative {scale:.3e}");
+        assert!(scale > 0.0 && worst < 1e-6, "{name}: {worst:e}");
+    }
 }
