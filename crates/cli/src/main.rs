@@ -72,7 +72,8 @@ enum Command {
         /// Plate resultants to load the laminate with, `NAME=VALUE` (repeatable or
         /// comma-separated; NAME one of Nx, Ny, Nxy, Qx, Qy in N/m and Mx, My, Mxy in N):
         /// prints each ply's stresses and strains and, for plies whose material has strengths,
-        /// their failure indices and the least reserve factor per criterion.
+        /// their failure indices and the least reserve factor per criterion (with
+        /// --derivatives, their derivatives too, the reserve factors aside).
         #[arg(long = "load", value_name = "NAME=VALUE", allow_hyphen_values = true)]
         load: Vec<String>,
     },

@@ -431,3 +431,78 @@ fn strengths_need_the_five_in_plane_ones_and_must_be_positive() {
         "must be a positive strength",
     );
 }
+
+#[test]
+fn loaded_ply_stress_and_failure_derivatives_equal_central_differences_of_the_command() {
+    // an unbalanced [30/−45/60] under bending, stretching and shear: every ply angle's
+    // derivatives of the deformation, the ply stresses, strains and failure indices
+    let deck = |a: [f64; 3]| {
+        CROSS_PLY.replace(
+            "plies = [\n  { material = \"t300\", thickness = 0.125e-3, angle = 0.0 },\n  { material = \"t300\", thickness = 0.125e-3, angle = 90.0 },\n]\nsymmetric = true",
+            &format!(
+                "plies = [\n  {{ material = \"t300\", thickness = 0.125e-3, angle = {} }},\n  \
+                 {{ material = \"t300\", thickness = 0.125e-3, angle = {} }},\n  \
+                 {{ material = \"t300\", thickness = 0.125e-3, angle = {} }},\n]",
+                a[0], a[1], a[2]
+            ),
+        )
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let laminate = |a: [f64; 3], derivatives: bool| {
+        let path = dir.path().join("lam.toml");
+        std::fs::write(&path, deck(a)).unwrap();
+        let mut args = vec![
+            "laminate",
+            path.to_str().unwrap(),
+            "--load",
+            "Mx=2,My=-1,Nx=3000,Nxy=500,Qx=80",
+            "--format",
+            "json",
+        ];
+        if derivatives {
+            args.push("--derivatives");
+        }
+        let o = run(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        v["laminates"]["xply"].clone()
+    };
+    let angles = [30.0, -45.0, 60.0];
+    let nominal = laminate(angles, true);
+    assert!(nominal.to_string().contains("\"failure_index\""));
+    fn flat(v: &serde_json::Value) -> Vec<f64> {
+        match v {
+            serde_json::Value::Array(a) => a.iter().flat_map(flat).collect(),
+            x => vec![x.as_f64().unwrap_or(f64::NAN)],
+        }
+    }
+    let h = 1e-4; // degrees
+    for ply in 0..3 {
+        let block = &nominal["derivatives"][ply];
+        assert_eq!(block["wrt"], format!("plies.{ply}.angle"));
+        let (mut p, mut m) = (angles, angles);
+        p[ply] += h;
+        m[ply] -= h;
+        let (plus, minus) = (laminate(p, false), laminate(m, false));
+        for q in [
+            "midplane_strain",
+            "curvature",
+            "ply_stress",
+            "ply_strain",
+            "failure_index",
+        ] {
+            let exact = flat(&block["values"][q]);
+            let (vp, vm) = (flat(&plus["values"][q]), flat(&minus["values"][q]));
+            // per radian, the angles stepped in degrees
+            let cd: Vec<f64> = (vp.iter().zip(&vm))
+                .map(|(a, b)| (a - b) / (2.0 * h.to_radians()))
+                .collect();
+            let scale = cd.iter().fold(0.0f64, |s, x| s.max(x.abs()));
+            let worst = (exact.iter().zip(&cd)).fold(0.0f64, |w, (e, c)| w.max((e - c).abs()));
+            assert!(
+                scale > 0.0 && worst < 1e-5 * scale,
+                "ply {ply} {q}: {worst:e} of {scale:e}"
+            );
+        }
+    }
+}

@@ -46,7 +46,22 @@ impl<S: Scalar> PlyStack<S> {
     /// The deformation under the resultants `[Nx, Ny, Nxy, Mx, My, Mxy]` (N/m, N) and the
     /// shear forces `[Qx, Qy]` (N/m): `[ε⁰; κ] = [A B; B D]⁻¹ [N; M]`.
     pub fn state_under(&self, resultants: [S; 6], shear_forces: [S; 2]) -> PlateState<S> {
-        let e = solve6(&self.stiffness().abd(), resultants);
+        let c_bar: Vec<Matrix6<S>> = (self.plies().iter())
+            .map(|p| p.material.stiffness().map(S::from_f64))
+            .collect();
+        self.state_under_with_materials(resultants, shear_forces, &c_bar)
+    }
+
+    /// [`Self::state_under`] with each ply's material stiffness `C̄` given (as
+    /// [`Self::ply_points_with_materials`]).
+    pub fn state_under_with_materials(
+        &self,
+        resultants: [S; 6],
+        shear_forces: [S; 2],
+        c_bar: &[Matrix6<S>],
+    ) -> PlateState<S> {
+        let k = self.stiffness_with_materials(c_bar, &vec![S::zero(); c_bar.len()]);
+        let e = solve6(&k.abd(), resultants);
         PlateState {
             membrane: [e[0], e[1], e[2]],
             curvature: [e[3], e[4], e[5]],
@@ -72,8 +87,8 @@ impl<S: Scalar> PlyStack<S> {
 
     /// [`Self::ply_points`] with each ply's material stiffness `C̄` (material axes) given, e.g.
     /// duals whose tangents are derivatives with respect to material constants (as
-    /// [`Self::stiffness_with_materials`]). The strains are the stresses through the plies'
-    /// nominal compliance.
+    /// [`Self::stiffness_with_materials`]); the strains are the stresses through the inverse of
+    /// the given `C̄`.
     pub fn ply_points_with_materials(
         &self,
         state: &PlateState<S>,
@@ -115,7 +130,6 @@ impl<S: Scalar> PlyStack<S> {
                 [below[0] - ix[0] - iy[2], below[1] - ix[2] - iy[1]]
             };
             let to_material = bond_stress_matrix(&rotation_about_normal(ply.angle).transpose());
-            let compliance = ply.material.compliance();
             for (position, zz) in [
                 (PlyPosition::Bottom, z0),
                 (PlyPosition::Middle, (z0 + z1) * 0.5),
@@ -134,9 +148,7 @@ impl<S: Scalar> PlyStack<S> {
                 let stress: [S; 6] = std::array::from_fn(|r| {
                     (0..6).fold(S::zero(), |acc, c| acc + to_material[(r, c)] * laminate[c])
                 });
-                let strain: [S; 6] = std::array::from_fn(|r| {
-                    (0..6).fold(S::zero(), |acc, c| acc + stress[c] * compliance[(r, c)])
-                });
+                let strain = solve6(&c_bar[i], stress);
                 out.push(PlyPoint {
                     ply: i,
                     position,

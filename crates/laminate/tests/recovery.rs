@@ -227,6 +227,13 @@ fn ply_stress_derivatives_along_a_material_constant_equal_central_differences() 
                 pt.stress[c].d[0]
             );
             moved += usize::from(fd.abs() > 1e-6);
+            // the strains through the moved compliance
+            let fd = (fp[k].strain[c] - fm[k].strain[c]) / (2.0 * h);
+            assert!(
+                (pt.strain[c].d[0] - fd).abs() < 1e-5 * fd.abs() + 1e-20,
+                "point {k} strain {c}: {} vs {fd}",
+                pt.strain[c].d[0]
+            );
         }
     }
     assert!(moved > 10, "E1 moves the ply stresses ({moved} components)");

@@ -9,7 +9,7 @@ use serde_json::json;
 
 use super::Format;
 use super::output::{self, Derivative, Quantity, Report};
-use super::ply_stress::{PlateLoad, ply_quantities};
+use super::ply_stress::{PlateLoad, ply_quantities, ply_quantity_derivatives};
 use crate::deck;
 use crate::deck::bodies::ShellLaminate;
 use crate::deck::design::{DesignVariable, validate as validate_design};
@@ -73,30 +73,38 @@ pub(crate) fn derivatives(design: &Design) -> Vec<LaminateStiffness<f64>> {
 }
 
 /// The derivative blocks of a laminate: per ply angle (per radian), or with `[design.*]`
-/// variables per variable that moves this laminate (per its unit).
-fn derivative_blocks(name: &str, def: &LaminateDef, vars: &[DesignVariable]) -> Vec<Derivative> {
+/// variables per variable that moves this laminate (per its unit); with a load, its ply
+/// stresses', strains' and failure indices' derivatives too.
+fn derivative_blocks(name: &str, def: &LaminateDef, req: &Request) -> Vec<Derivative> {
     let laminate = [ShellLaminate::of(name, def)];
+    let vars = req.vars;
+    let request = match vars.is_empty() {
+        true => DesignRequest::EachPly,
+        false => DesignRequest::Variables(vars),
+    };
+    let design = shell_design(&laminate, request);
+    let mut blocks: Vec<Vec<Quantity>> = derivatives(&design).iter().map(quantities).collect();
+    if let Some((load, model)) = req.load {
+        let loaded = ply_quantity_derivatives(def, model, load, &design);
+        for (block, more) in blocks.iter_mut().zip(loaded) {
+            block.extend(more);
+        }
+    }
     if vars.is_empty() {
-        let design = shell_design(&laminate, DesignRequest::EachPly);
-        return derivatives(&design)
-            .iter()
-            .enumerate()
-            .map(|(i, d)| Derivative {
+        return (blocks.into_iter().enumerate())
+            .map(|(i, values)| Derivative {
                 wrt: format!("plies.{i}.angle"),
                 per: "rad",
-                values: quantities(d),
+                values,
             })
             .collect();
     }
-    let design = shell_design(&laminate, DesignRequest::Variables(vars));
-    vars.iter()
-        .zip(derivatives(&design))
-        .enumerate()
+    (vars.iter().zip(blocks).enumerate())
         .filter(|(j, _)| design.depends_on(*j))
-        .map(|(_, (v, d))| Derivative {
+        .map(|(_, (v, values))| Derivative {
             wrt: v.name.clone(),
             per: v.unit,
-            values: quantities(&d),
+            values,
         })
         .collect()
 }
@@ -139,7 +147,7 @@ fn report(name: &str, def: &LaminateDef, req: &Request) -> Report {
     let mut info = serde_json::Map::new();
     info.insert("plies".into(), json!(plies));
     let derivatives = if req.derivatives {
-        derivative_blocks(name, def, req.vars)
+        derivative_blocks(name, def, req)
     } else {
         Vec::new()
     };

@@ -2,7 +2,8 @@
 //! failure indices of a laminate under given plate resultants, and of a beam section's regions
 //! under given section forces (docs/failure-criteria.md).
 
-use laminate::{Criterion, PlyPosition, PlyStrength};
+use laminate::{Criterion, PlateState, PlyPoint, PlyPosition, PlyStrength};
+use sens::Scalar;
 
 use super::output::Quantity;
 use crate::deck::laminates::{LaminateDef, LaminateModel};
@@ -113,19 +114,11 @@ pub fn ply_quantities(
     load: &PlateLoad,
 ) -> (Vec<Quantity>, Vec<String>) {
     let stack = &def.stack;
-    let v = &load.values;
-    let state = stack.state_under([v[0], v[1], v[2], v[3], v[4], v[5]], [v[6], v[7]]);
-    let points = stack.ply_points(&state);
-    let strengths: Vec<Option<&PlyStrength>> = (def.ply_materials.iter())
-        .map(|m| model.strengths.get(m))
-        .collect();
+    let strengths = ply_strengths(def, model);
+    let response = LoadResponse::of(&fem::ShellPlies::new(stack.clone()), load, &strengths);
+    let points = &response.points;
     let n = points.len();
-    let mut q = vec![
-        Quantity::vector("midplane_strain", "1", &state.membrane),
-        Quantity::vector("curvature", "1/m", &state.curvature),
-        Quantity::matrix("ply_stress", "Pa", n, 6, |r, c| points[r].stress[c]),
-        Quantity::matrix("ply_strain", "1", n, 6, |r, c| points[r].strain[c]),
-    ];
+    let mut q = response.quantities(|x| x);
     let mut lines = vec![
         "ply stresses (MPa, material axes; the plies' points bottom first):".to_string(),
         format!(
@@ -133,7 +126,7 @@ pub fn ply_quantities(
             "ply/point", "z/mm", "s11", "s22", "s33", "t23", "t13", "t12"
         ),
     ];
-    for p in &points {
+    for p in points {
         let s: Vec<String> = p
             .stress
             .iter()
@@ -146,27 +139,8 @@ pub fn ply_quantities(
             s.join(" ")
         ));
     }
-    if strengths.iter().any(Option::is_some) {
-        let criteria = Criterion::ALL;
-        // per point, every criterion's index once (NaN for a ply without strengths)
-        let fi: Vec<Vec<f64>> = (points.iter())
-            .map(|p| {
-                (criteria.iter())
-                    .map(|c| match strengths[p.ply] {
-                        Some(s) => c.index(&stack.plies()[p.ply].material, s, &p.stress),
-                        None => f64::NAN,
-                    })
-                    .collect()
-            })
-            .collect();
+    if let Some(fi) = &response.indices {
         let index = |r: usize, c: usize| fi[r][c];
-        q.push(Quantity::matrix(
-            "failure_index",
-            "1",
-            n,
-            criteria.len(),
-            index,
-        ));
         lines.push(format!(
             "least reserve factors (plies with strengths: {}):",
             (0..stack.plies().len())
@@ -179,6 +153,108 @@ pub fn ply_quantities(
         q.push(least_reserve(n, index, at, &mut lines));
     }
     (q, lines)
+}
+
+/// Each ply's strengths (`None`: its material states none).
+fn ply_strengths<'a>(def: &LaminateDef, model: &'a LaminateModel) -> Vec<Option<&'a PlyStrength>> {
+    (def.ply_materials.iter())
+        .map(|m| model.strengths.get(m))
+        .collect()
+}
+
+/// What a plate load does to a laminate, in the scalar of its plies: the deformation, each
+/// ply point's stress and strain, and (with strengths) each point's index under every
+/// criterion (NaN for a ply without strengths).
+struct LoadResponse<S: Scalar> {
+    state: PlateState<S>,
+    points: Vec<PlyPoint<S>>,
+    indices: Option<Vec<Vec<S>>>,
+}
+
+impl<S: Scalar> LoadResponse<S> {
+    fn of(
+        plies: &fem::ShellPlies<S>,
+        load: &PlateLoad,
+        strengths: &[Option<&PlyStrength>],
+    ) -> Self {
+        let (stack, c_bar) = (&plies.stack, &plies.c_bar);
+        let v = load.values.map(S::from_f64);
+        let state = stack.state_under_with_materials(
+            [v[0], v[1], v[2], v[3], v[4], v[5]],
+            [v[6], v[7]],
+            c_bar,
+        );
+        let points = stack.ply_points_with_materials(&state, c_bar);
+        let indices = strengths.iter().any(Option::is_some).then(|| {
+            (points.iter())
+                .map(|p| {
+                    (Criterion::ALL.iter())
+                        .map(|c| match strengths[p.ply] {
+                            Some(s) => c.index(&stack.plies()[p.ply].material, s, &p.stress),
+                            None => S::from_f64(f64::NAN),
+                        })
+                        .collect()
+                })
+                .collect()
+        });
+        LoadResponse {
+            state,
+            points,
+            indices,
+        }
+    }
+
+    /// The quantities of the response, each number read by `part` (its value, or a tangent).
+    fn quantities(&self, part: impl Fn(S) -> f64) -> Vec<Quantity> {
+        let (state, points) = (&self.state, &self.points);
+        let n = points.len();
+        let mut q = vec![
+            Quantity::vector("midplane_strain", "1", &state.membrane.map(&part)),
+            Quantity::vector("curvature", "1/m", &state.curvature.map(&part)),
+            Quantity::matrix("ply_stress", "Pa", n, 6, |r, c| part(points[r].stress[c])),
+            Quantity::matrix("ply_strain", "1", n, 6, |r, c| part(points[r].strain[c])),
+        ];
+        if let Some(fi) = &self.indices {
+            // a ply without strengths: NaN, its tangents too
+            let at = |r: usize, c: usize| match fi[r][c].value().is_nan() {
+                true => f64::NAN,
+                false => part(fi[r][c]),
+            };
+            q.push(Quantity::matrix(
+                "failure_index",
+                "1",
+                n,
+                Criterion::ALL.len(),
+                at,
+            ));
+        }
+        q
+    }
+}
+
+/// The derivatives of [`ply_quantities`]'s quantities (the least reserve factors aside) with
+/// respect to each variable of `design` (one laminate's: `Design::shell_plies`), per variable.
+pub fn ply_quantity_derivatives(
+    def: &LaminateDef,
+    model: &LaminateModel,
+    load: &PlateLoad,
+    design: &crate::study::flexible::Design,
+) -> Vec<Vec<Quantity>> {
+    const CHUNK: usize = 8;
+    let strengths = ply_strengths(def, model);
+    let values = design.values();
+    let mut out = Vec::with_capacity(values.len());
+    for range in sens::chunk_ranges(values.len(), CHUNK) {
+        let seeded = sens::seed_chunk::<CHUNK>(values, range.start);
+        let plies = design
+            .shell_plies(&seeded)
+            .expect("the plies of a validated stack stay valid");
+        let response = LoadResponse::of(&plies[0], load, &strengths);
+        for k in 0..range.len() {
+            out.push(response.quantities(|x: sens::Dual<CHUNK>| x.d[k]));
+        }
+    }
+    out
 }
 
 /// What the section forces `forces` do to the regions of a section: per region the extremes of
