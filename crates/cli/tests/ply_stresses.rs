@@ -312,6 +312,28 @@ fn g_max(g: &flexsens::results::Group, response: &str) -> f64 {
 }
 
 #[test]
+fn a_box_selects_the_elements_whose_nodes_lie_in_it() {
+    // the whole strip: the body's peak; its outer half (x ≥ 0.15 m): the peak there, at its
+    // first elements, below the root's by beam theory's (L − x)² law
+    let text = format!(
+        "{STRIP}\n[response.all]\nkind = \"ply-failure\"\nbody = \"strip\"\n\
+         criterion = \"max-stress\"\nbox = [[-1.0, -1.0, -1.0], [1.0, 1.0, 1.0]]\n\n\
+         [response.outer]\nkind = \"ply-failure\"\nbody = \"strip\"\n\
+         criterion = \"max-stress\"\nbox = [[0.15, -1.0, -1.0], [0.3, 1.0, 1.0]]\n"
+    );
+    let (r, _) = static_point(&text, &[]);
+    let (all, outer, peak) = (
+        r["all"].as_f64().unwrap(),
+        r["outer"].as_f64().unwrap(),
+        r["peak"].as_f64().unwrap(),
+    );
+    assert_eq!(all, peak);
+    // the outer half's first elements have centroids at x = 0.15 + 0.01/3 m
+    let expected = peak * ((0.3 - 0.1533) / (0.3 - 0.0033_f64)).powi(2);
+    assert!((outer / expected - 1.0).abs() < 0.03, "{outer} vs {expected}");
+}
+
+#[test]
 fn ply_responses_refuse_what_they_cannot_give() {
     let cases: [(String, &str); 8] = [
         (
@@ -364,6 +386,21 @@ fn ply_responses_refuse_what_they_cannot_give() {
             "design variable `e` moves the material `al` of body `strip`: the max-strain index",
         ),
     ];
+    let both = STRIP.replace(
+        "criterion = \"tsai-hill\"",
+        "criterion = \"tsai-hill\"\nbox = [[0.0, 0.0, -1.0], [0.1, 0.02, 1.0]]",
+    );
+    let empty = STRIP.replace(
+        "[response.peak]\nkind = \"ply-failure\"",
+        "[response.peak]\nbox = [[0.1, 0.001, -1.0], [0.2, 0.002, 1.0]]\nkind = \"ply-failure\"",
+    );
+    let cases: Vec<(String, &str)> = cases
+        .into_iter()
+        .chain([
+            (both, "give the elements in one way: element = N or box"),
+            (empty, "no element of the body has all its nodes in the box"),
+        ])
+        .collect();
     for (text, message) in &cases {
         let (_dir, err) = bad_deck(text, |p| with_deck("check", p, &[]));
         assert!(err.contains(message), "expected `{message}` in:\n{err}");
@@ -376,4 +413,129 @@ fn ply_responses_refuse_what_they_cannot_give() {
         err.contains("`rod` is a beam body: ply stresses are recovered in shell bodies"),
         "{err}"
     );
+}
+
+/// The value printed for `name = VALUE …` in an optimisation's summary.
+fn summary_value(text: &str, name: &str) -> f64 {
+    let line = (text.lines())
+        .find(|l| l.trim_start().starts_with(&format!("{name} = ")))
+        .unwrap_or_else(|| panic!("no `{name}` in\n{text}"));
+    let value = line
+        .split('=')
+        .nth(1)
+        .unwrap()
+        .split_whitespace()
+        .next()
+        .unwrap();
+    value.parse().unwrap()
+}
+
+/// The multiplier printed on the line of constraint `name`.
+fn multiplier(text: &str, name: &str) -> f64 {
+    let line = (text.lines())
+        .find(|l| l.trim_start().starts_with(&format!("{name} = ")) && l.contains("multiplier"))
+        .unwrap_or_else(|| panic!("no constraint `{name}` in\n{text}"));
+    line.rsplit("= ").next().unwrap().trim().parse().unwrap()
+}
+
+#[test]
+fn the_lightest_plate_rod_that_holds_sits_on_its_strength_bound_and_a_sweep_confirms_it() {
+    // the shipped example, cheaper: 16 × 4 elements and the start's transient (6 ms), where
+    // the peak index is
+    let sets = [
+        "body.rod.elements=[16, 4]",
+        "response.mid_deflection.nodes=[34, 42, 50]",
+        "analysis.t_end=0.006",
+    ];
+    let dir = tempfile::tempdir().unwrap();
+    let path = deck("optimize_plate_strength.toml");
+    let mut args = vec![
+        "optimize".to_string(),
+        path.display().to_string(),
+        "-o".into(),
+        dir.path().join("opt").display().to_string(),
+        "--quiet".into(),
+    ];
+    for s in sets {
+        args.extend(["--set".into(), s.into()]);
+    }
+    let o = common::run(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    let text = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{text}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let (t_outer, t_core) = (
+        summary_value(&text, "t_outer"),
+        summary_value(&text, "t_core"),
+    );
+    // the strength bound is the active constraint, the frequency clear of its bound
+    let strength = summary_value(&text, "objective.strength");
+    assert!((strength - 0.6667).abs() < 1e-6, "{text}");
+    assert!(multiplier(&text, "objective.strength") < 0.0, "{text}");
+    assert!(summary_value(&text, "frequency.rod.1") > 185.0, "{text}");
+    assert_eq!(multiplier(&text, "frequency.rod.1"), 0.0, "{text}");
+    let kkt = text
+        .lines()
+        .find(|l| l.contains("KKT stationarity"))
+        .unwrap();
+    let stationarity: f64 = kkt.split_whitespace().nth(2).unwrap().parse().unwrap();
+    assert!(stationarity < 1e-3, "{kkt}");
+    // the rod's mass is ρ L w (2 t_outer + t_core)
+    let mass = |a: f64, b: f64| 1586.0 * 0.304 * 0.04 * (2.0 * a + b);
+    let optimum = text.lines().find(|l| l.starts_with("optimum")).unwrap();
+    let m_star: f64 = optimum.rsplit("= ").next().unwrap().trim().parse().unwrap();
+    assert!(
+        (m_star / mass(t_outer, t_core) - 1.0).abs() < 1e-9,
+        "{optimum}"
+    );
+    // the sweep about the optimum (±1 % in each thickness): every lighter design breaks the
+    // strength bound, every design that holds is heavier
+    let vary = |t: f64| format!("{:e},{:e},{:e}", 0.99 * t, t, 1.01 * t);
+    let mut args = vec![
+        "sweep".to_string(),
+        path.display().to_string(),
+        "-o".into(),
+        dir.path().join("sweep").display().to_string(),
+        "--vary".into(),
+        format!("design.t_outer={}", vary(t_outer)),
+        "--vary".into(),
+        format!("design.t_core={}", vary(t_core)),
+    ];
+    for s in sets {
+        args.extend(["--set".into(), s.into()]);
+    }
+    let o = common::run(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(dir.path().join("sweep/summary.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let column = |name: &str| header.iter().position(|h| h.starts_with(name)).unwrap();
+    let (a, b, s) = (
+        column("design.t_outer"),
+        column("design.t_core"),
+        column("strength ["),
+    );
+    let mut lighter = 0;
+    for line in lines {
+        let row: Vec<f64> = line
+            .split(',')
+            .map(|x| x.parse().unwrap_or(f64::NAN))
+            .collect();
+        let (m, strength) = (mass(row[a], row[b]), row[s]);
+        eprintln!(
+            "t_outer {:e}, t_core {:e}: mass {m:.6e}, strength {strength:.6}",
+            row[a], row[b]
+        );
+        if m < m_star * (1.0 - 1e-9) {
+            lighter += 1;
+            assert!(strength > 0.6667, "a lighter design holds: {line}");
+        }
+        if strength <= 0.6667 {
+            assert!(m >= m_star * (1.0 - 1e-9), "{line}");
+        }
+    }
+    assert!(lighter >= 3, "{csv}");
 }

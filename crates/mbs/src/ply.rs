@@ -9,8 +9,8 @@ use crate::body::{FlexibleBody, PlyStresses};
 
 /// Which ply points a failure response covers: `None` is every element, ply or position.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct PlySelection {
-    pub element: Option<usize>,
+pub(crate) struct PlySelection<'a> {
+    pub elements: Option<&'a [usize]>,
     pub ply: Option<usize>,
     pub position: Option<PlyPosition>,
 }
@@ -76,17 +76,19 @@ pub(crate) fn ply_stress<P: Scalar, S: Scalar + From<P>>(
 pub(crate) fn ply_failure<P: Scalar, S: Scalar + From<P>>(
     f: &FlexibleBody<P>,
     w: &[S],
-    selection: PlySelection,
+    selection: PlySelection<'_>,
     criterion: Criterion,
     rho: Option<f64>,
 ) -> Result<S, String> {
     let s = stresses_of(f)?;
     let m = &s.modal;
-    let elements: Vec<usize> = match selection.element {
-        Some(e) => vec![
-            m.element_index(e)
-                .ok_or_else(|| format!("element {e} is not a shell element of the body"))?,
-        ],
+    let elements: Vec<usize> = match selection.elements {
+        Some(list) => (list.iter())
+            .map(|&e| {
+                m.element_index(e)
+                    .ok_or_else(|| format!("element {e} is not a shell element of the body"))
+            })
+            .collect::<Result<_, _>>()?,
         None => (0..m.elements.len()).collect(),
     };
     let wv: Vec<f64> = w.iter().map(|x| x.value()).collect();

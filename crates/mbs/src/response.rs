@@ -84,13 +84,13 @@ pub enum Response {
         component: usize,
     },
     /// The failure index under `criterion` (`1/R`, docs/failure-criteria.md) over the ply
-    /// points of shell element `element` (`None`: every one), ply `ply` (`None`: every one)
-    /// and `position` (`None`: bottom, middle and top): their largest (`rho` `None`), with the
+    /// points of the shell elements `elements` (`None`: every one), ply `ply` (`None`: every
+    /// one) and `position` (`None`: bottom, middle and top): their largest (`rho` `None`), with the
     /// derivatives of the point where it is, or their Kreisselmeier–Steinhauser aggregate
     /// `max + ln Σ exp(ρ (FI_k − max)) / ρ` (between the largest and `ln n / ρ` above it).
     PlyFailure {
         body: BodyId,
-        element: Option<usize>,
+        elements: Option<Vec<usize>>,
         ply: Option<usize>,
         position: Option<PlyPosition>,
         criterion: Criterion,
@@ -344,7 +344,7 @@ impl Response {
                 ..
             } => ply_stress(f, w, (element, ply, position), component),
             Response::PlyFailure {
-                element,
+                ref elements,
                 ply,
                 position,
                 criterion,
@@ -352,7 +352,7 @@ impl Response {
                 ..
             } => {
                 let selection = PlySelection {
-                    element,
+                    elements: elements.as_deref(),
                     ply,
                     position,
                 };

@@ -57,6 +57,8 @@ pub struct FlexibleGeometry {
 pub struct ShellPlyMap {
     /// Each mesh element's laminate (an index of `laminates`).
     pub element_laminates: Vec<usize>,
+    /// Each mesh element's nodes (indices of the body's nodes).
+    pub element_nodes: Vec<Vec<usize>>,
     /// Each laminate's name and, per ply, its material's name and strengths (`None`: the
     /// material states none).
     pub laminates: Vec<(String, Vec<PlyMaterial>)>,

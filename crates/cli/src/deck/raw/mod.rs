@@ -560,6 +560,10 @@ pub struct RawResponse {
     /// Ply stress and failure: the shell element (from 0; a failure index's default: every
     /// element).
     pub element: Option<Spanned<i64>>,
+    /// Ply failure: the shell elements whose nodes all lie in the box `[[x0, y0, z0], [x1, y1,
+    /// z1]]` (m; instead of `element`).
+    #[serde(rename = "box")]
+    pub inside: Option<Spanned<[[f64; 3]; 2]>>,
     /// Ply stress and failure: the ply (from 0, bottom first; a failure index's default: every
     /// ply).
     pub ply: Option<Spanned<i64>>,

@@ -95,7 +95,7 @@ enum SpecKind {
     /// A failure index over the ply points selected (`None`: every one).
     PlyFailure {
         body: String,
-        element: Option<usize>,
+        elements: Option<Vec<usize>>,
         ply: Option<usize>,
         position: Option<PlyPosition>,
         criterion: Criterion,
@@ -205,14 +205,14 @@ impl ResponseSpec {
             },
             SpecKind::PlyFailure {
                 body,
-                element,
+                elements,
                 ply,
                 position,
                 criterion,
                 rho,
             } => Response::PlyFailure {
                 body: id(body),
-                element: *element,
+                elements: elements.clone(),
                 ply: *ply,
                 position: *position,
                 criterion: *criterion,

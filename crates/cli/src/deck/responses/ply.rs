@@ -2,6 +2,7 @@
 //! indices (docs/failure-criteria.md, "In a run").
 
 use laminate::{Criterion, PlyPosition};
+use nalgebra::Vector3;
 use toml::Spanned;
 
 use super::{SpecKind, Table, component};
@@ -15,9 +16,10 @@ const POSITION_OF: [PlyPosition; 3] = [PlyPosition::Bottom, PlyPosition::Middle,
 const STRESS: [&str; 6] = ["s11", "s22", "s33", "s23", "s13", "s12"];
 
 impl Table<'_> {
-    /// The shell body the response names and its plies.
-    fn shell_plies(&self) -> Result<(String, &ShellPlyMap), DeckError> {
+    /// The shell body the response names, its plies and its nodes.
+    fn shell_plies(&self) -> Result<(String, &ShellPlyMap, &[Vector3<f64>]), DeckError> {
         let (body, geometry) = self.body(true)?;
+        let nodes = geometry.map_or(&[][..], |g| &g.nodes[..]);
         let map = geometry.and_then(|g| g.plies.as_ref()).ok_or_else(|| {
             self.src.error(
                 self.raw.body.as_ref().and_then(span),
@@ -28,7 +30,7 @@ impl Table<'_> {
                 ),
             )
         })?;
-        Ok((body, map))
+        Ok((body, map, nodes))
     }
 
     /// `element` (required for a stress): a shell element of the body.
@@ -109,7 +111,7 @@ impl Table<'_> {
 
     /// `kind = "ply-stress"`: a stress component of a ply point of a shell element.
     pub(super) fn ply_stress(&self) -> Result<SpecKind, DeckError> {
-        let (body, map) = self.shell_plies()?;
+        let (body, map, _) = self.shell_plies()?;
         let element = self.ply_element(map, true)?.expect("required");
         let laminate = map.element_laminates[element];
         let ply = self.ply_index(map, &[laminate], true)?.expect("required");
@@ -124,12 +126,64 @@ impl Table<'_> {
         })
     }
 
+    /// `box`: the shell elements whose nodes all lie in it (within 1e-9 of the body's size).
+    fn elements_in_box(
+        &self,
+        map: &ShellPlyMap,
+        nodes: &[Vector3<f64>],
+    ) -> Result<Option<Vec<usize>>, DeckError> {
+        let Some(b) = &self.raw.inside else {
+            return Ok(None);
+        };
+        let key = self.key("box");
+        if self.raw.element.is_some() {
+            return Err(self.src.error(
+                span(b),
+                Some(key),
+                "give the elements in one way: element = N or box = [[…], […]]",
+            ));
+        }
+        let [lo, hi] = *b.get_ref();
+        if (0..3).any(|a| !(lo[a].is_finite() && hi[a].is_finite() && lo[a] <= hi[a])) {
+            return Err(self.src.error(
+                span(b),
+                Some(key),
+                "[[x0, y0, z0], [x1, y1, z1]] with finite corners, x0 ≤ x1, y0 ≤ y1, z0 ≤ z1",
+            ));
+        }
+        let (mut min, mut max) = (nodes[0], nodes[0]);
+        for p in nodes {
+            min = min.inf(p);
+            max = max.sup(p);
+        }
+        let tol = 1e-9 * (max - min).norm();
+        let inside =
+            |k: usize| (0..3).all(|a| nodes[k][a] >= lo[a] - tol && nodes[k][a] <= hi[a] + tol);
+        let elements: Vec<usize> = (0..map.element_nodes.len())
+            .filter(|&e| map.element_nodes[e].iter().all(|&k| inside(k)))
+            .collect();
+        if elements.is_empty() {
+            return Err(self.src.error(
+                span(b),
+                Some(key),
+                format!(
+                    "no element of the body has all its nodes in the box (its nodes span [{:e},                      {:e}, {:e}] to [{:e}, {:e}, {:e}] m)",
+                    min.x, min.y, min.z, max.x, max.y, max.z
+                ),
+            ));
+        }
+        Ok(Some(elements))
+    }
+
     /// `kind = "ply-failure"`: a failure index at a ply point, or over the points selected.
     pub(super) fn ply_failure(&self) -> Result<SpecKind, DeckError> {
-        let (body, map) = self.shell_plies()?;
-        let element = self.ply_element(map, false)?;
-        let mut laminates: Vec<usize> = match element {
-            Some(e) => vec![map.element_laminates[e]],
+        let (body, map, nodes) = self.shell_plies()?;
+        let elements = match self.elements_in_box(map, nodes)? {
+            Some(list) => Some(list),
+            None => self.ply_element(map, false)?.map(|e| vec![e]),
+        };
+        let mut laminates: Vec<usize> = match &elements {
+            Some(list) => list.iter().map(|&e| map.element_laminates[e]).collect(),
             None => map.element_laminates.clone(),
         };
         laminates.sort_unstable();
@@ -159,7 +213,7 @@ impl Table<'_> {
         }
         Ok(SpecKind::PlyFailure {
             body,
-            element,
+            elements,
             ply,
             position,
             criterion,

@@ -214,6 +214,7 @@ pub fn geometry(
                         fem::Element::Beam { property, .. } => *property,
                     })
                     .collect(),
+                element_nodes: (mesh.elements.iter()).map(|e| e.nodes().to_vec()).collect(),
                 laminates: (laminates.laminates.iter())
                     .map(|l| {
                         let plies = (l.ply_materials.iter())
