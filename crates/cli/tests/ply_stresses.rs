@@ -330,7 +330,10 @@ fn a_box_selects_the_elements_whose_nodes_lie_in_it() {
     assert_eq!(all, peak);
     // the outer half's first elements have centroids at x = 0.15 + 0.01/3 m
     let expected = peak * ((0.3 - 0.1533) / (0.3 - 0.0033_f64)).powi(2);
-    assert!((outer / expected - 1.0).abs() < 0.03, "{outer} vs {expected}");
+    assert!(
+        (outer / expected - 1.0).abs() < 0.03,
+        "{outer} vs {expected}"
+    );
 }
 
 #[test]
@@ -440,12 +443,15 @@ fn multiplier(text: &str, name: &str) -> f64 {
 
 #[test]
 fn the_lightest_plate_rod_that_holds_sits_on_its_strength_bound_and_a_sweep_confirms_it() {
-    // the shipped example, cheaper: 16 × 4 elements and the start's transient (6 ms), where
-    // the peak index is
+    // the shipped example, cheaper: 16 × 4 elements over the first 6 ms, started near that
+    // problem's own optimum (as the deck starts from its coarser mesh's)
     let sets = [
         "body.rod.elements=[16, 4]",
         "response.mid_deflection.nodes=[34, 42, 50]",
         "analysis.t_end=0.006",
+        "laminate.plate.plies.0.thickness=3.3e-3",
+        "laminate.plate.plies.1.thickness=0.75e-3",
+        "laminate.plate.plies.2.thickness=3.3e-3",
     ];
     let dir = tempfile::tempdir().unwrap();
     let path = deck("optimize_plate_strength.toml");
