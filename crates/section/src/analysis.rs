@@ -588,7 +588,7 @@ impl SectionAnalysis {
     /// variable, per integration point (in the order of `stresses`; a point that a thickness
     /// moves is followed), `dσ/db` in section and in material axes. The central solutions'
     /// tangents go through the stored factorisation (the residuals of both warping systems in
-    /// dual numbers, as [`SectionAnalysis::compliance_dual`]), the materials', angles' and
+    /// dual numbers, as `SectionAnalysis::compliance_dual`), the materials', angles' and
     /// geometry's through the recovery itself.
     pub fn stress_derivatives<const N: usize>(
         &self,
