@@ -97,7 +97,8 @@ enum Command {
         /// comma-separated; NAME one of F1, F2, F3 in N and M1, M2, M3 in N·m, about the
         /// section's origin): prints each region's stress extremes in its material axes and,
         /// for regions whose material has strengths, their failure indices and the least
-        /// reserve factor per criterion.
+        /// reserve factor per criterion (with --derivatives, the extremes' and indices'
+        /// derivatives too).
         #[arg(long = "load", value_name = "NAME=VALUE", allow_hyphen_values = true)]
         load: Vec<String>,
     },

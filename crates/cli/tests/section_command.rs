@@ -466,3 +466,66 @@ fn a_loaded_rectangle_bends_as_beam_theory_and_a_loaded_tube_fails_its_plies_con
     let rf = v["reserve_factor"][0].as_f64().unwrap();
     assert!((rf - least).abs() < 1e-12 * least, "{rf} vs {least}");
 }
+
+#[test]
+fn loaded_stress_extremes_and_failure_index_derivatives_equal_central_differences_of_the_command() {
+    // the composite tube with strengths under mixed forces: each quantity's derivative along
+    // ply 2's angle is its active point's (per radian)
+    let t = deck("section_composite_tube.toml");
+    let base = [
+        "--set",
+        "material.paper_composite.Xt=1.5e9",
+        "--set",
+        "material.paper_composite.Xc=1.2e9",
+        "--set",
+        "material.paper_composite.Yt=4e7",
+        "--set",
+        "material.paper_composite.Yc=2.46e8",
+        "--set",
+        "material.paper_composite.S12=6.8e7",
+        "--load",
+        "F1=1000,F2=30,M1=2,M2=-3",
+    ];
+    let run_at = |angle: f64, derivatives: bool| {
+        let set = format!("laminate.tube_wall.plies.2.angle={angle}");
+        let mut args = vec![
+            "section",
+            t.to_str().unwrap(),
+            "--format",
+            "json",
+            "--set",
+            &set,
+        ];
+        args.extend(base);
+        if derivatives {
+            args.push("--derivatives");
+        }
+        json(&args)["sections"]["rod"].clone()
+    };
+    let nominal = run_at(15.0, true);
+    let block = &nominal["derivatives"][2];
+    assert_eq!(block["wrt"], "tube_wall.plies.2.angle");
+    let h = 1e-4;
+    let (plus, minus) = (run_at(15.0 + h, false), run_at(15.0 - h, false));
+    for q in ["region_stress_extremes", "region_failure_index"] {
+        let (exact, vp, vm) = (
+            matrix(&block["values"][q]),
+            matrix(&plus["values"][q]),
+            matrix(&minus["values"][q]),
+        );
+        let mut scale = 0.0f64;
+        let mut worst = 0.0f64;
+        for r in 0..exact.len() {
+            for c in 0..exact[r].len() {
+                let fd = (vp[r][c] - vm[r][c]) / (2.0 * h.to_radians());
+                scale = scale.max(fd.abs());
+                worst = worst.max((exact[r][c] - fd).abs());
+            }
+        }
+        eprintln!("{q}: largest difference {worst:.2e} of {scale:.2e}");
+        assert!(
+            scale > 0.0 && worst < 1e-5 * scale,
+            "{q}: {worst:e} of {scale:e}"
+        );
+    }
+}

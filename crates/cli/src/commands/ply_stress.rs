@@ -268,73 +268,161 @@ pub fn section_quantities(
     forces: [f64; 6],
 ) -> (Vec<Quantity>, Vec<String>) {
     let mesh = analysis.mesh();
-    let points = analysis.stresses(forces);
+    let extremes = RegionExtremes::of(analysis, materials, model, forces);
     let nr = mesh.regions.len();
-    // σ11 min, max; σ22 min, max; |τ23|, |τ13|, |τ12| max
-    let mut extremes = vec![
-        [
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            0.0,
-            0.0,
-            0.0
-        ];
-        nr
-    ];
-    let criteria = Criterion::ALL;
-    let mut index = vec![vec![f64::NAN; criteria.len()]; nr];
-    for p in &points {
-        let s = p.material_stress;
-        let e = &mut extremes[p.region];
-        e[0] = e[0].min(s[0]);
-        e[1] = e[1].max(s[0]);
-        e[2] = e[2].min(s[1]);
-        e[3] = e[3].max(s[1]);
-        for (k, c) in [3, 4, 5].iter().enumerate() {
-            e[4 + k] = e[4 + k].max(s[*c].abs());
-        }
-        let strength = materials[p.region]
-            .as_ref()
-            .and_then(|m| model.strengths.get(m));
-        if let Some(strength) = strength {
-            let material = &mesh.regions[p.region].material;
-            for (c, criterion) in criteria.iter().enumerate() {
-                let fi = criterion.index(material, strength, &s);
-                let cell = &mut index[p.region][c];
-                *cell = if cell.is_nan() { fi } else { cell.max(fi) };
-            }
-        }
-    }
     let mut q = vec![Quantity::matrix(
         "region_stress_extremes",
         "Pa",
         nr,
         7,
-        |r, c| extremes[r][c],
+        |r, c| extremes.stress[r][c].0,
     )];
     let mut lines = vec![
         "region stresses (MPa, material axes): s11 min, max; s22 min, max; |t23|, |t13|, |t12| max"
             .to_string(),
     ];
-    for (r, e) in extremes.iter().enumerate() {
-        let v: Vec<String> = e.iter().map(|x| format!("{:>9.3}", x / 1e6)).collect();
+    for (r, e) in extremes.stress.iter().enumerate() {
+        let v: Vec<String> = e.iter().map(|x| format!("{:>9.3}", x.0 / 1e6)).collect();
         lines.push(format!("  {:<24} {}", mesh.regions[r].name, v.join(" ")));
     }
-    if index.iter().any(|row| !row[0].is_nan()) {
+    let index = |r: usize, c: usize| extremes.index[r][c].0;
+    if (0..nr).any(|r| !index(r, 0).is_nan()) {
         q.push(Quantity::matrix(
             "region_failure_index",
             "1",
             nr,
-            criteria.len(),
-            |r, c| index[r][c],
+            Criterion::ALL.len(),
+            index,
         ));
         lines.push("least reserve factors (regions with strengths):".to_string());
         let place = |r: usize| format!("in region {}", mesh.regions[r].name);
-        q.push(least_reserve(nr, |r, c| index[r][c], place, &mut lines));
+        q.push(least_reserve(nr, index, place, &mut lines));
     }
     (q, lines)
+}
+
+/// The derivatives of [`section_quantities`]'s region extremes and failure indices (the least
+/// reserve factors aside) along one design variable, from the points' stress derivatives
+/// `derivatives` (`SectionAnalysis::stress_derivatives`): each extreme's is its active
+/// point's.
+pub fn section_quantity_derivatives(
+    analysis: &section::SectionAnalysis,
+    materials: &[Option<String>],
+    model: &LaminateModel,
+    forces: [f64; 6],
+    derivatives: &[section::StressDerivative],
+) -> Vec<Quantity> {
+    let mesh = analysis.mesh();
+    let extremes = RegionExtremes::of(analysis, materials, model, forces);
+    let nr = mesh.regions.len();
+    // component and sign of each extreme's stress
+    const COMPONENT: [usize; 7] = [0, 0, 1, 1, 3, 4, 5];
+    let stress = |r: usize, c: usize| {
+        let (_, k) = extremes.stress[r][c];
+        let d = derivatives[k].material_stress[COMPONENT[c]];
+        match c >= 4 {
+            true => d * extremes.points[k].material_stress[COMPONENT[c]].signum(),
+            false => d,
+        }
+    };
+    let mut q = vec![Quantity::matrix(
+        "region_stress_extremes",
+        "Pa",
+        nr,
+        7,
+        stress,
+    )];
+    if (0..nr).any(|r| !extremes.index[r][0].0.is_nan()) {
+        let index = |r: usize, c: usize| {
+            let (fi, k) = extremes.index[r][c];
+            if fi.is_nan() {
+                return f64::NAN;
+            }
+            let p = &extremes.points[k];
+            let strength = extremes.strengths[r].expect("a region with an index");
+            let seeded: [sens::Dual<1>; 6] = std::array::from_fn(|i| {
+                sens::Dual::new(p.material_stress[i], [derivatives[k].material_stress[i]])
+            });
+            Criterion::ALL[c]
+                .index(&mesh.regions[r].material, strength, &seeded)
+                .d[0]
+        };
+        q.push(Quantity::matrix(
+            "region_failure_index",
+            "1",
+            nr,
+            Criterion::ALL.len(),
+            index,
+        ));
+    }
+    q
+}
+
+/// Per region, each stress extreme (s11 min, max; s22 min, max; |t23|, |t13|, |t12| max) and
+/// each criterion's largest index (NaN without strengths), with the integration point where
+/// it is.
+struct RegionExtremes<'a> {
+    points: Vec<section::SectionPoint>,
+    stress: Vec<[(f64, usize); 7]>,
+    index: Vec<Vec<(f64, usize)>>,
+    strengths: Vec<Option<&'a PlyStrength>>,
+}
+
+impl<'a> RegionExtremes<'a> {
+    fn of(
+        analysis: &section::SectionAnalysis,
+        materials: &[Option<String>],
+        model: &'a LaminateModel,
+        forces: [f64; 6],
+    ) -> Self {
+        let mesh = analysis.mesh();
+        let points = analysis.stresses(forces);
+        let nr = mesh.regions.len();
+        let strengths: Vec<Option<&PlyStrength>> = (0..nr)
+            .map(|r| materials[r].as_ref().and_then(|m| model.strengths.get(m)))
+            .collect();
+        let start = [
+            (f64::INFINITY, 0),
+            (f64::NEG_INFINITY, 0),
+            (f64::INFINITY, 0),
+            (f64::NEG_INFINITY, 0),
+            (0.0, 0),
+            (0.0, 0),
+            (0.0, 0),
+        ];
+        let mut stress = vec![start; nr];
+        let mut index = vec![vec![(f64::NAN, 0); Criterion::ALL.len()]; nr];
+        for (k, p) in points.iter().enumerate() {
+            let s = p.material_stress;
+            let e = &mut stress[p.region];
+            let candidates = [s[0], s[0], s[1], s[1], s[3].abs(), s[4].abs(), s[5].abs()];
+            for (c, &x) in candidates.iter().enumerate() {
+                let better = match c {
+                    0 | 2 => x < e[c].0,
+                    _ => x > e[c].0,
+                };
+                if better {
+                    e[c] = (x, k);
+                }
+            }
+            if let Some(strength) = strengths[p.region] {
+                let material = &mesh.regions[p.region].material;
+                for (c, criterion) in Criterion::ALL.iter().enumerate() {
+                    let fi = criterion.index(material, strength, &s);
+                    let cell = &mut index[p.region][c];
+                    if cell.0.is_nan() || fi > cell.0 {
+                        *cell = (fi, k);
+                    }
+                }
+            }
+        }
+        RegionExtremes {
+            points,
+            stress,
+            index,
+            strengths,
+        }
+    }
 }
 
 /// The least reserve factor `1/FI` of each criterion over `rows` rows of failure indices

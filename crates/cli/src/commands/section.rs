@@ -8,7 +8,9 @@ use serde_json::json;
 
 use super::Format;
 use super::output::{self, Derivative, Quantity, Report};
-use super::ply_stress::{SECTION_LOAD_NAMES, parse_loads, section_quantities};
+use super::ply_stress::{
+    SECTION_LOAD_NAMES, parse_loads, section_quantities, section_quantity_derivatives,
+};
 use crate::deck;
 use crate::deck::design::{DesignVariable, validate as validate_design};
 use crate::deck::laminates::{LaminateModel, validate as validate_laminates};
@@ -85,18 +87,29 @@ fn report(
                 .map_or("rad", |v| v.unit)
         };
         let s = section_derivatives_of(&analysis, &design).map_err(|e| e.to_string())?;
-        let d = s
-            .variables
-            .iter()
-            .zip(&s.derivatives)
-            .map(|(v, d)| Derivative {
+        // with a load, the stresses' derivatives at the fixed forces too
+        let loaded = match load {
+            Some((forces, model)) => {
+                let points = analysis
+                    .stress_derivatives::<4>(*forces, &design)
+                    .map_err(|e| e.to_string())?;
+                (points.iter())
+                    .map(|d| {
+                        section_quantity_derivatives(&analysis, &def.materials, model, *forces, d)
+                    })
+                    .collect()
+            }
+            None => vec![Vec::new(); s.variables.len()],
+        };
+        let d = (s.variables.iter().zip(&s.derivatives).zip(loaded))
+            .map(|((v, d), more)| Derivative {
                 wrt: if vars.is_empty() {
                     format!("{v}.angle")
                 } else {
                     v.clone()
                 },
                 per: per(v),
-                values: quantities(d),
+                values: quantities(d).into_iter().chain(more).collect(),
             })
             .collect();
         (s.properties, d)
