@@ -263,12 +263,9 @@ pub fn ply_quantity_derivatives(
 /// failure index and the section's least reserve factor per criterion.
 pub fn section_quantities(
     analysis: &section::SectionAnalysis,
-    materials: &[Option<String>],
-    model: &LaminateModel,
-    forces: [f64; 6],
+    extremes: &RegionExtremes,
 ) -> (Vec<Quantity>, Vec<String>) {
     let mesh = analysis.mesh();
-    let extremes = RegionExtremes::of(analysis, materials, model, forces);
     let nr = mesh.regions.len();
     let mut q = vec![Quantity::matrix(
         "region_stress_extremes",
@@ -307,13 +304,10 @@ pub fn section_quantities(
 /// point's.
 pub fn section_quantity_derivatives(
     analysis: &section::SectionAnalysis,
-    materials: &[Option<String>],
-    model: &LaminateModel,
-    forces: [f64; 6],
+    extremes: &RegionExtremes,
     derivatives: &[section::StressDerivative],
 ) -> Vec<Quantity> {
     let mesh = analysis.mesh();
-    let extremes = RegionExtremes::of(analysis, materials, model, forces);
     let nr = mesh.regions.len();
     // component and sign of each extreme's stress
     const COMPONENT: [usize; 7] = [0, 0, 1, 1, 3, 4, 5];
@@ -358,10 +352,11 @@ pub fn section_quantity_derivatives(
     q
 }
 
-/// Per region, each stress extreme (s11 min, max; s22 min, max; |t23|, |t13|, |t12| max) and
+/// What the section forces do to each region of a section, found once for the values and the
+/// derivatives: each stress extreme (s11 min, max; s22 min, max; |t23|, |t13|, |t12| max) and
 /// each criterion's largest index (NaN without strengths), with the integration point where
 /// it is.
-struct RegionExtremes<'a> {
+pub struct RegionExtremes<'a> {
     points: Vec<section::SectionPoint>,
     stress: Vec<[(f64, usize); 7]>,
     index: Vec<Vec<(f64, usize)>>,
@@ -369,7 +364,9 @@ struct RegionExtremes<'a> {
 }
 
 impl<'a> RegionExtremes<'a> {
-    fn of(
+    /// The extremes under `forces` (`materials`: each region's `[material.*]` name, whose
+    /// strengths `model` holds).
+    pub fn of(
         analysis: &section::SectionAnalysis,
         materials: &[Option<String>],
         model: &'a LaminateModel,

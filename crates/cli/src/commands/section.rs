@@ -9,7 +9,8 @@ use serde_json::json;
 use super::Format;
 use super::output::{self, Derivative, Quantity, Report};
 use super::ply_stress::{
-    SECTION_LOAD_NAMES, parse_loads, section_quantities, section_quantity_derivatives,
+    RegionExtremes, SECTION_LOAD_NAMES, parse_loads, section_quantities,
+    section_quantity_derivatives,
 };
 use crate::deck;
 use crate::deck::design::{DesignVariable, validate as validate_design};
@@ -69,8 +70,15 @@ fn report(
             &given.properties().map_err(|e| e.to_string())?,
         ));
     }
-    // one analysis for the properties, their derivatives and the stresses
+    // one analysis for the properties, their derivatives and the stresses, and the stresses'
+    // extremes found once for their values and derivatives
     let analysis = section::SectionAnalysis::new(mesh).map_err(|e| e.to_string())?;
+    let extremes = load.map(|(forces, model)| {
+        (
+            *forces,
+            RegionExtremes::of(&analysis, &def.materials, model, *forces),
+        )
+    });
     let (values, derivs) = if derivatives {
         // per region's ply angle, or per [design.*] variable that moves the section
         let design = if vars.is_empty() {
@@ -88,15 +96,13 @@ fn report(
         };
         let s = section_derivatives_of(&analysis, &design).map_err(|e| e.to_string())?;
         // with a load, the stresses' derivatives at the fixed forces too
-        let loaded = match load {
-            Some((forces, model)) => {
+        let loaded = match &extremes {
+            Some((forces, extremes)) => {
                 let points = analysis
                     .stress_derivatives::<4>(*forces, &design)
                     .map_err(|e| e.to_string())?;
                 (points.iter())
-                    .map(|d| {
-                        section_quantity_derivatives(&analysis, &def.materials, model, *forces, d)
-                    })
+                    .map(|d| section_quantity_derivatives(&analysis, extremes, d))
                     .collect()
             }
             None => vec![Vec::new(); s.variables.len()],
@@ -128,8 +134,8 @@ fn report(
         regions.push(json!({"name": r.name, "angle_deg": r.ply_angle.to_degrees()}));
     }
     let mut values = quantities(&values);
-    if let Some((forces, model)) = load {
-        let (q, lines) = section_quantities(&analysis, &def.materials, model, *forces);
+    if let Some((_, extremes)) = &extremes {
+        let (q, lines) = section_quantities(&analysis, extremes);
         values.extend(q);
         preamble.extend(lines);
     }

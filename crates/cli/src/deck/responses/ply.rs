@@ -7,7 +7,7 @@ use toml::Spanned;
 
 use super::{SpecKind, Table, component};
 use crate::deck::DeckError;
-use crate::deck::check::{positive, span, suggestion};
+use crate::deck::check::{self, positive, span, suggestion};
 use crate::deck::mechanism::ShellPlyMap;
 
 const POSITIONS: [&str; 3] = ["bottom", "middle", "top"];
@@ -35,11 +35,9 @@ impl Table<'_> {
 
     /// `element` (required for a stress): a shell element of the body.
     fn ply_element(&self, map: &ShellPlyMap, required: bool) -> Result<Option<usize>, DeckError> {
-        let Some(v) = &self.raw.element else {
-            return match required {
-                true => Err(self.missing("element", "element (a shell element, from 0)")),
-                false => Ok(None),
-            };
+        let what = "element (a shell element, from 0)";
+        let Some(v) = self.given("element", &self.raw.element, required, what)? else {
+            return Ok(None);
         };
         let n = map.element_laminates.len();
         let e = *v.get_ref();
@@ -60,11 +58,9 @@ impl Table<'_> {
         laminates: &[usize],
         required: bool,
     ) -> Result<Option<usize>, DeckError> {
-        let Some(v) = &self.raw.ply else {
-            return match required {
-                true => Err(self.missing("ply", "ply (from 0, bottom first)")),
-                false => Ok(None),
-            };
+        let what = "ply (from 0, bottom first)";
+        let Some(v) = self.given("ply", &self.raw.ply, required, what)? else {
+            return Ok(None);
         };
         let most = (laminates.iter())
             .map(|&l| map.laminates[l].1.len())
@@ -101,12 +97,20 @@ impl Table<'_> {
         Ok(Some(POSITION_OF[i]))
     }
 
-    fn missing(&self, key: &str, what: &str) -> DeckError {
-        self.src.error(
-            self.span.clone(),
-            Some(self.key(key)),
-            format!("missing value: {what}"),
-        )
+    /// The value at `key` (`field`): `check::required`'s when `required`, else as given.
+    fn given<'b, T>(
+        &self,
+        key: &str,
+        field: &'b Option<Spanned<T>>,
+        required: bool,
+        what: &str,
+    ) -> Result<Option<&'b Spanned<T>>, DeckError> {
+        match required {
+            true => {
+                check::required(self.src, self.span.clone(), &self.key(key), field, what).map(Some)
+            }
+            false => Ok(field.as_ref()),
+        }
     }
 
     /// `kind = "ply-stress"`: a stress component of a ply point of a shell element.
@@ -224,9 +228,15 @@ impl Table<'_> {
     /// `criterion`: a failure criterion by its name.
     fn criterion(&self) -> Result<Criterion, DeckError> {
         let names: Vec<&str> = Criterion::ALL.iter().map(|c| c.name()).collect();
-        let c: &Spanned<String> = self.raw.criterion.as_ref().ok_or_else(|| {
-            self.missing("criterion", &format!("criterion ({})", names.join(", ")))
-        })?;
+        let what = format!("criterion ({})", names.join(", "));
+        let key = self.key("criterion");
+        let c = check::required(
+            self.src,
+            self.span.clone(),
+            &key,
+            &self.raw.criterion,
+            &what,
+        )?;
         Criterion::from_name(c.get_ref()).ok_or_else(|| {
             self.src.error(
                 span(c),
