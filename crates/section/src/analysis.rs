@@ -595,16 +595,57 @@ impl SectionAnalysis {
         forces: [f64; 6],
         design: &DesignMap,
     ) -> Result<Vec<Vec<StressDerivative>>, SectionError> {
+        let cases = self.load_case_derivatives::<N>(&[forces], design)?;
+        Ok(cases
+            .into_iter()
+            .map(|mut per_case| per_case.remove(0))
+            .collect())
+    }
+
+    /// The derivatives of each integration point's material-axis stress per unit section
+    /// force: per variable of `design`, per point (in the order of
+    /// [`SectionAnalysis::stresses`]), `[k][i]` the derivative of stress component `i` under
+    /// the unit force `k` (`[F₁, F₂, F₃, M₁, M₂, M₃]`). The stresses are linear in the forces,
+    /// so these and the values of the six unit load cases give the derivative of the stress
+    /// under any forces, and of forces that depend on the design themselves. One pass of the
+    /// central solutions' tangents per chunk of `N` variables serves the six cases.
+    pub fn unit_stress_derivatives<const N: usize>(
+        &self,
+        design: &DesignMap,
+    ) -> Result<Vec<Vec<[[f64; 6]; 6]>>, SectionError> {
+        let unit: [[f64; 6]; 6] =
+            std::array::from_fn(|k| std::array::from_fn(|i| f64::from(i == k)));
+        let cases = self.load_case_derivatives::<N>(&unit, design)?;
+        Ok(cases
+            .into_iter()
+            .map(|per_case| {
+                let points = per_case[0].len();
+                (0..points)
+                    .map(|p| std::array::from_fn(|k| per_case[k][p].material_stress))
+                    .collect()
+            })
+            .collect())
+    }
+
+    /// The stress derivatives under each of the section forces `cases`: per variable, per
+    /// case, per integration point.
+    #[allow(clippy::type_complexity)]
+    fn load_case_derivatives<const N: usize>(
+        &self,
+        cases: &[[f64; 6]],
+        design: &DesignMap,
+    ) -> Result<Vec<Vec<Vec<StressDerivative>>>, SectionError> {
         assert!(N > 0, "Dual<0> carries no tangents");
         design.validate(&self.model.mesh)?;
-        let forces = forces.map(Dual::<N>::constant);
         let mut out = vec![Vec::new(); design.variables.len()];
         for range in chunk_ranges(design.variables.len(), N) {
             let (angles, c_bar, nodes) = self.seeded::<N>(design, range.clone());
             let q_ply = ply_stiffnesses(&angles, &c_bar);
-            let points = match nodes {
-                Some(nodes) => {
-                    let (gps, _) = geometry(&self.model.mesh, &nodes);
+            // the central solutions' tangents once (at the moved Gauss points when a thickness
+            // moves nodes), then each case's recovery
+            let moved = nodes.map(|nodes| geometry(&self.model.mesh, &nodes).0);
+            let fields = match &moved {
+                Some(gps) => {
                     let lift = |x: &[f64]| x.iter().map(|&v| Dual::constant(v)).collect::<Vec<_>>();
                     let (x1, x) = (lift(&self.x1), lift(&self.x));
                     let (y1, y) = (self.y1.map(Dual::constant), self.y.map(Dual::constant));
@@ -614,8 +655,7 @@ impl SectionAnalysis {
                         x: &x,
                         y: &y,
                     };
-                    let fields = self.fields_dual(&q_ply, &gps, hats);
-                    self.dual_stresses(&q_ply, &angles, &gps, &fields, forces)
+                    self.fields_dual(&q_ply, gps, hats)
                 }
                 None => {
                     let hats = Hats {
@@ -624,15 +664,29 @@ impl SectionAnalysis {
                         x: &self.x,
                         y: &self.y,
                     };
-                    let fields = self.fields_dual(&q_ply, &self.model.gps, hats);
-                    self.dual_stresses(&q_ply, &angles, &self.model.gps, &fields, forces)
+                    self.fields_dual(&q_ply, &self.model.gps, hats)
                 }
             };
+            let per_case: Vec<Vec<[[Dual<N>; 6]; 2]>> = (cases.iter())
+                .map(|forces| {
+                    let forces = forces.map(Dual::<N>::constant);
+                    match &moved {
+                        Some(gps) => self.dual_stresses(&q_ply, &angles, gps, &fields, forces),
+                        None => {
+                            self.dual_stresses(&q_ply, &angles, &self.model.gps, &fields, forces)
+                        }
+                    }
+                })
+                .collect();
             for (k, v) in range.enumerate() {
-                out[v] = (points.iter())
-                    .map(|[stress, material]| StressDerivative {
-                        stress: stress.map(|x| x.d[k]),
-                        material_stress: material.map(|x| x.d[k]),
+                out[v] = (per_case.iter())
+                    .map(|points| {
+                        (points.iter())
+                            .map(|[stress, material]| StressDerivative {
+                                stress: stress.map(|x| x.d[k]),
+                                material_stress: material.map(|x| x.d[k]),
+                            })
+                            .collect()
                     })
                     .collect();
             }

@@ -241,4 +241,18 @@ fn stress_derivatives_equal_central_differences_of_the_section_analysis() {
         eprintln!("{name}: largest difference {worst:.2e} of the largest derivative {scale:.3e}");
         assert!(scale > 0.0 && worst < 1e-6, "{name}: {worst:e}");
     }
+    // the unit-force derivatives (chunked differently) combine linearly into the same ones
+    let unit = analysis.unit_stress_derivatives::<1>(&design).unwrap();
+    for (v, per_point) in unit.iter().enumerate() {
+        let scale = (exact[v].iter())
+            .flat_map(|d| d.material_stress)
+            .fold(0.0f64, |m, x| m.max(x.abs()));
+        for (d, u) in exact[v].iter().zip(per_point) {
+            for c in 0..6 {
+                let combined: f64 = (0..6).map(|k| u[k][c] * forces[k]).sum();
+                let gap = (combined - d.material_stress[c]).abs() / scale;
+                assert!(gap < 1e-12, "variable {v}: {gap:e}");
+            }
+        }
+    }
 }
