@@ -269,6 +269,30 @@ fn element_dofs(el: &Element) -> Vec<usize> {
         .collect()
 }
 
+/// The section beam element `e` (of section `property`, frame `lam`) is formed with: its
+/// property's, with the out-of-plane shear released in a planar analysis about `planar_axis`
+/// ([`crate::beam::release_shear`]).
+pub fn beam_element_section<'a, S: Scalar>(
+    props: &'a Properties<S>,
+    (e, property): (usize, usize),
+    lam: &nalgebra::Matrix3<f64>,
+    planar_axis: Option<usize>,
+) -> Result<std::borrow::Cow<'a, BeamSection<S>>, FemError> {
+    let sec = props
+        .sections
+        .get(property)
+        .ok_or(FemError::MissingProperty {
+            element: e,
+            kind: "beam section",
+            property,
+            available: props.sections.len(),
+        })?;
+    Ok(match planar_axis {
+        Some(axis) => std::borrow::Cow::Owned(release_shear(sec, lam, axis, e)?),
+        None => std::borrow::Cow::Borrowed(sec),
+    })
+}
+
 /// Element stiffness and mass in global axes, as dense row-major `nd × nd` (nd = 12 or 18).
 pub fn element_matrices<S: Scalar>(
     mesh: &Mesh,
@@ -284,24 +308,8 @@ pub fn element_matrices<S: Scalar>(
             property,
             orientation,
         } => {
-            let sec = props
-                .sections
-                .get(property)
-                .ok_or(FemError::MissingProperty {
-                    element: e,
-                    kind: "beam section",
-                    property,
-                    available: props.sections.len(),
-                })?;
             let (l, lam) = beam_frame(&mesh.nodes[nodes[0]], &mesh.nodes[nodes[1]], &orientation);
-            let released;
-            let sec = match opts.planar_axis {
-                Some(axis) => {
-                    released = release_shear(sec, &lam, axis, e)?;
-                    &released
-                }
-                None => sec,
-            };
+            let sec = &*beam_element_section(props, (e, property), &lam, opts.planar_axis)?;
             let loc = beam_local(sec, l, e)?;
             let k = to_global(&loc.stiffness, &lam);
             let m = match mass {

@@ -222,12 +222,20 @@ pub enum BeamError {
     NotInPlane { element: usize },
 }
 
-/// Stiffness and consistent mass of a beam segment of length `l` in its local frame.
-pub fn beam_local<S: Scalar>(
+/// A segment's compliance and the end load at node 2 per local dof, `K₂₂ H` (`H = [−Rig(L),
+/// I]`: node 2's motion relative to node 1's rigidly transported, `K₂₂` the stiffness of node 2
+/// with node 1 clamped).
+struct Clamped<S: Scalar> {
+    compliance: Matrix6<S>,
+    h: M6x12<S>,
+    k22h: M6x12<S>,
+}
+
+fn clamped<S: Scalar>(
     section: &BeamSection<S>,
     l: f64,
     element: usize,
-) -> Result<BeamLocal<S>, BeamError> {
+) -> Result<Clamped<S>, BeamError> {
     if !(l > 0.0) {
         return Err(BeamError::ZeroLength { element });
     }
@@ -236,13 +244,43 @@ pub fn beam_local<S: Scalar>(
     let f = deformation(&compliance, l, l);
     let fs = (f + f.transpose()) * S::from_f64(0.5);
     let k22 = invert(&fs).ok_or(BeamError::SingularSection { element })?;
-    // H = [−Rig(L), I]
     let mut h = M6x12::<S>::zeros();
     let rig_l = rigid::<S>(l);
     h.fixed_view_mut::<6, 6>(0, 0).copy_from(&(-rig_l));
     h.fixed_view_mut::<6, 6>(0, 6)
         .copy_from(&Matrix6::identity());
-    let k22h = k22 * h;
+    Ok(Clamped {
+        compliance,
+        h,
+        k22h: k22 * h,
+    })
+}
+
+/// The section forces `[F₁, F₂, F₃, M₁, M₂, M₃]` at the middle of a beam segment of length `l`
+/// per local dof `[u₁, θ₁, u₂, θ₂]` (6 × 12): the end load at node 2, `K₂₂ H u`, carried to the
+/// middle, `T(L/2)`. Under end loads these are the segment's exact section forces (the forces
+/// constant along it, the moments linear); the middle is where the moments are the mean of the
+/// ends'.
+pub fn beam_midpoint_forces<S: Scalar>(
+    section: &BeamSection<S>,
+    l: f64,
+    element: usize,
+) -> Result<M6x12<S>, BeamError> {
+    let Clamped { k22h, .. } = clamped(section, l, element)?;
+    Ok(transfer::<S>(0.5 * l) * k22h)
+}
+
+/// Stiffness and consistent mass of a beam segment of length `l` in its local frame.
+pub fn beam_local<S: Scalar>(
+    section: &BeamSection<S>,
+    l: f64,
+    element: usize,
+) -> Result<BeamLocal<S>, BeamError> {
+    let Clamped {
+        compliance,
+        h,
+        k22h,
+    } = clamped(section, l, element)?;
     let stiffness = h.transpose() * k22h;
     // consistent mass with the exact static displacement field
     let ms = section.mass_matrix();

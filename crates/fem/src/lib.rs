@@ -27,7 +27,7 @@
 //! [`correction`] adds distributing couplings over node sets and static correction modes at a
 //! body's interfaces (with exact derivatives); [`completeness`] checks how much of the static
 //! compliance under a mechanism's loads a body's basis misses. [`stress`] gives the plies'
-//! stresses of a shell body's modes, linear in its modal coordinates.
+//! stresses of a shell or beam body's modes, linear in its modal coordinates.
 //!
 //! Conventions: dof node by node `[u_x, u_y, u_z, θ_x, θ_y, θ_z]` (small rotation vector),
 //! global axes; matrices act on the free dof of an [`Assembly`] (constrained dof eliminated);
@@ -83,4 +83,7 @@ pub use sensitivity::{
     mode_derivatives_with,
 };
 pub use shell::Membrane;
-pub use stress::{ModalStresses, ShellPlies, shell_modal_stresses};
+pub use stress::{
+    LaminatePoints, ModalStresses, PointPlace, ShellPlies, beam_modal_stresses, section_points,
+    shell_modal_stresses,
+};

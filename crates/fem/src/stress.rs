@@ -1,25 +1,30 @@
-//! The plies' stresses in a shell body's modes (docs/failure-criteria.md, "In a run").
+//! The plies' stresses in a flexible body's modes (docs/failure-criteria.md, "In a run").
 //!
-//! Both steps are linear: an element's laminate deformation at its centroid is linear in the
-//! body's modal coordinates `w` (`d = E w`, [`ElementDeformation`]), and each ply point's
-//! stress in its material axes is linear in the deformation (`σ = P d`, [`PlyStressPoint`]).
-//! So the ply stresses of a body in motion are `P E w`, with `E` and `P` formed once, in the
-//! design's scalar: on dual numbers their tangents are the derivatives of the modes (through
-//! `E`) and of the plies' angles, thicknesses and materials (through `P`), and a response
-//! evaluated with seeded `w` has its total derivative.
+//! Both steps are linear: an element's load is linear in the body's modal coordinates `w`
+//! (`d = E w`, [`ElementDeformation`]) — a shell element's laminate deformation at its
+//! centroid, a beam element's section forces at its middle — and each ply point's stress in
+//! its material axes is linear in that load (`σ = P d`, [`PlyStressPoint`]): the laminate's
+//! recovery through the thickness, or the section analysis's at its integration points. So the
+//! ply stresses of a body in motion are `P E w`, with `E` and `P` formed once, in the design's
+//! scalar: on dual numbers their tangents are the derivatives of the modes and section
+//! stiffnesses (through `E`) and of the plies' angles, thicknesses and materials (through `P`),
+//! and a response evaluated with seeded `w` has its total derivative.
 
 use laminate::{OrthotropicMaterial, PlateState, PlyPosition, PlyStack};
 use nalgebra::{DMatrix, Matrix6, SMatrix, Vector3};
 use sens::Scalar;
 
+use crate::assembly::{Properties, beam_element_section};
+use crate::beam::{beam_frame, beam_midpoint_forces};
 use crate::error::FemError;
 use crate::mesh::{Element, Mesh};
 use crate::modal::{ModalBody, NODE_DOFS};
 use crate::shell::{Membrane, TriGeometry, centroid_deformation};
 
-/// The size of a laminate's deformation `[ε⁰xx, ε⁰yy, γ⁰xy, κxx, κyy, 2κxy, Qx, Qy]`:
-/// reference-surface strains and curvatures (laminate axes, engineering shear, twisting
-/// curvature `2κxy`) and the transverse shear forces (N/m).
+/// The size of an element's load: a shell's laminate deformation `[ε⁰xx, ε⁰yy, γ⁰xy, κxx,
+/// κyy, 2κxy, Qx, Qy]` — reference-surface strains and curvatures (laminate axes, engineering
+/// shear, twisting curvature `2κxy`) and the transverse shear forces (N/m) — or a beam's
+/// section forces `[F₁, F₂, F₃, M₁, M₂, M₃]` (N, N·m; section axes) and two zeros.
 pub const DEFORMATION: usize = 8;
 
 /// A laminate of a shell body as its ply stresses need it: the stack and each ply's material
@@ -41,43 +46,55 @@ impl<S: Scalar> ShellPlies<S> {
     }
 }
 
-/// A point through the thickness of a ply (its bottom, middle or top) and the stress there,
-/// material axes `[11, 22, 33, 23, 13, 12]` (Pa), per unit of each component of the
-/// laminate's deformation ([`DEFORMATION`]).
+/// Where a stress point is: through the thickness of a shell's ply, or at an integration point
+/// `(x₂, x₃)` (m) of a beam's section.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PointPlace {
+    Ply(PlyPosition),
+    Section([f64; 2]),
+}
+
+/// A stress point of a laminate's ply or of a section's region and the stress there, material
+/// axes `[11, 22, 33, 23, 13, 12]` (Pa), per unit of each component of its element's load
+/// ([`DEFORMATION`]).
 #[derive(Clone, Debug)]
 pub struct PlyStressPoint<S: Scalar> {
+    /// The ply of a shell's laminate (from 0, bottom first), or the region of a beam's section.
     pub ply: usize,
-    pub position: PlyPosition,
+    pub place: PointPlace,
     pub per_deformation: SMatrix<S, 6, DEFORMATION>,
 }
 
-/// The ply points of one laminate, bottom ply first, and its plies' materials.
+/// The stress points of one laminate (bottom ply first) or one beam section (its integration
+/// points, as [`section::SectionAnalysis::stresses`] orders them), and the materials of its
+/// plies or regions.
 #[derive(Clone, Debug)]
 pub struct LaminatePoints<S: Scalar> {
     pub points: Vec<PlyStressPoint<S>>,
     pub materials: Vec<OrthotropicMaterial>,
 }
 
-/// A shell element's laminate deformation at its centroid per modal coordinate
-/// (`DEFORMATION × n_modes`), in the element's laminate axes (`e₁` the material axis on the
-/// element plane).
+/// An element's load per modal coordinate (`DEFORMATION × n_modes`): a shell element's
+/// laminate deformation at its centroid, in the element's laminate axes (`e₁` the material
+/// axis on the element plane); a beam element's section forces at its middle.
 #[derive(Clone, Debug)]
 pub struct ElementDeformation<S: Scalar> {
     /// The element's index in the mesh.
     pub element: usize,
-    /// Its laminate (an index of [`ModalStresses::laminates`]).
+    /// Its laminate or section (an index of [`ModalStresses::laminates`]).
     pub laminate: usize,
-    /// Its centroid in the body frame (m).
+    /// Its centroid (a beam's middle) in the body frame (m).
     pub centroid: Vector3<f64>,
     pub per_mode: DMatrix<S>,
 }
 
-/// The ply stresses of a shell body's modes ([`shell_modal_stresses`]).
+/// The ply stresses of a flexible body's modes ([`shell_modal_stresses`],
+/// [`beam_modal_stresses`]).
 #[derive(Clone, Debug)]
 pub struct ModalStresses<S: Scalar> {
     pub n_modes: usize,
     pub laminates: Vec<LaminatePoints<S>>,
-    /// The shell elements, in mesh order.
+    /// The shell (or beam) elements, in mesh order.
     pub elements: Vec<ElementDeformation<S>>,
 }
 
@@ -91,7 +108,7 @@ impl<S: Scalar> ModalStresses<S> {
                     points: (l.points.iter())
                         .map(|p| PlyStressPoint {
                             ply: p.ply,
-                            position: p.position,
+                            place: p.place,
                             per_deformation: p.per_deformation.map(f),
                         })
                         .collect(),
@@ -109,7 +126,8 @@ impl<S: Scalar> ModalStresses<S> {
         }
     }
 
-    /// The position in [`Self::elements`] of mesh element `element` (`None`: not a shell).
+    /// The position in [`Self::elements`] of mesh element `element` (`None`: not an element
+    /// of the body's kind).
     pub fn element_index(&self, element: usize) -> Option<usize> {
         self.elements
             .binary_search_by_key(&element, |e| e.element)
@@ -169,13 +187,7 @@ pub fn shell_modal_stresses<S: Scalar>(
     body: &ModalBody<S>,
 ) -> Result<ModalStresses<S>, FemError> {
     let nm = body.n_modes();
-    if body.modes.nrows() < NODE_DOFS * mesh.nodes.len() {
-        return Err(FemError::Stresses(format!(
-            "ply stresses: the modal body has {} nodes, the mesh {}",
-            body.modes.nrows() / NODE_DOFS,
-            mesh.nodes.len()
-        )));
-    }
+    check_nodes(mesh, body)?;
     let laminates: Vec<LaminatePoints<S>> = plies.iter().map(laminate_points).collect();
     let shear: Vec<_> = (plies.iter())
         .map(|p| {
@@ -206,21 +218,7 @@ pub fn shell_modal_stresses<S: Scalar>(
         let b = centroid_deformation(&g, membrane);
         let r = g.frame;
         // the element's local nodal dof per mode (18 × nm), then E = B U
-        let mut u = DMatrix::<S>::zeros(18, nm);
-        for (i, &n) in nodes.iter().enumerate() {
-            for block in 0..2 {
-                let row = NODE_DOFS * n + 3 * block;
-                for j in 0..nm {
-                    for a in 0..3 {
-                        let mut x = S::zero();
-                        for c in 0..3 {
-                            x += body.modes[(row + c, j)] * r[(a, c)];
-                        }
-                        u[(6 * i + 3 * block + a, j)] = x;
-                    }
-                }
-            }
-        }
+        let u = local_dof(body, &nodes, &r);
         let mut per_mode = DMatrix::<S>::zeros(DEFORMATION, nm);
         for j in 0..nm {
             let mut d = [S::zero(); DEFORMATION];
@@ -281,7 +279,7 @@ fn laminate_points<S: Scalar>(plies: &ShellPlies<S>) -> LaminatePoints<S> {
     let points = (0..columns[0].len())
         .map(|i| PlyStressPoint {
             ply: columns[0][i].ply,
-            position: columns[0][i].position,
+            place: PointPlace::Ply(columns[0][i].position),
             per_deformation: SMatrix::from_fn(|r, c| columns[c][i].stress[r]),
         })
         .collect();
@@ -289,4 +287,139 @@ fn laminate_points<S: Scalar>(plies: &ShellPlies<S>) -> LaminatePoints<S> {
         points,
         materials: plies.stack.plies().iter().map(|p| p.material).collect(),
     }
+}
+
+/// The ply stresses of the modes of `body`, a beam body on `mesh` whose element properties
+/// index `sections` (each one's stress points per unit section force, [`section_points`]) and
+/// `props` (the section stiffnesses its modes were computed with, in the design's scalar;
+/// `planar_axis` that of a planar analysis, whose beams release their out-of-plane shear).
+/// Each element's load is its section forces at its middle ([`beam_midpoint_forces`]), from
+/// its nodes' modal displacements in its frame. Shell elements have none.
+pub fn beam_modal_stresses<S: Scalar>(
+    mesh: &Mesh,
+    (props, planar_axis): (&Properties<S>, Option<usize>),
+    sections: &[LaminatePoints<S>],
+    body: &ModalBody<S>,
+) -> Result<ModalStresses<S>, FemError> {
+    let nm = body.n_modes();
+    check_nodes(mesh, body)?;
+    let mut elements = Vec::new();
+    for (e, el) in mesh.elements.iter().enumerate() {
+        let Element::Beam {
+            nodes,
+            property,
+            orientation,
+        } = *el
+        else {
+            continue;
+        };
+        if property >= sections.len() {
+            return Err(FemError::MissingProperty {
+                element: e,
+                kind: "section's stress points",
+                property,
+                available: sections.len(),
+            });
+        }
+        let (l, lam) = beam_frame(&mesh.nodes[nodes[0]], &mesh.nodes[nodes[1]], &orientation);
+        let section = beam_element_section(props, (e, property), &lam, planar_axis)?;
+        let forces = beam_midpoint_forces(&section, l, e)?;
+        let u = local_dof(body, &nodes, &lam);
+        let mut per_mode = DMatrix::<S>::zeros(DEFORMATION, nm);
+        for j in 0..nm {
+            for r in 0..6 {
+                let mut x = S::zero();
+                for c in 0..12 {
+                    x += forces[(r, c)] * u[(c, j)];
+                }
+                per_mode[(r, j)] = x;
+            }
+        }
+        elements.push(ElementDeformation {
+            element: e,
+            laminate: property,
+            centroid: (body.node_positions[nodes[0]] + body.node_positions[nodes[1]]) / 2.0,
+            per_mode,
+        });
+    }
+    Ok(ModalStresses {
+        n_modes: nm,
+        laminates: sections.to_vec(),
+        elements,
+    })
+}
+
+/// The stress points of a beam section: each integration point of `analysis` (region,
+/// position) with its material-axis stress per unit section force, the derivatives
+/// `derivatives` (per variable, per point,
+/// [`section::SectionAnalysis::unit_stress_derivatives`]) carried by the tangents of the
+/// variables' values `b` (none: values only).
+pub fn section_points<S: Scalar>(
+    analysis: &section::SectionAnalysis,
+    derivatives: &[Vec<[[f64; 6]; 6]>],
+    b: &[S],
+) -> LaminatePoints<S> {
+    let unit: Vec<Vec<section::SectionPoint>> = (0..6)
+        .map(|k| analysis.stresses(std::array::from_fn(|i| f64::from(i == k))))
+        .collect();
+    // each variable's tangent part, `b_j − value(b_j)`
+    let tangents: Vec<S> = b.iter().map(|&bj| bj - S::from_f64(bj.value())).collect();
+    let points = (0..unit[0].len())
+        .map(|p| PlyStressPoint {
+            ply: unit[0][p].region,
+            place: PointPlace::Section(unit[0][p].position),
+            per_deformation: SMatrix::from_fn(|r, c| {
+                if c >= 6 {
+                    return S::zero();
+                }
+                (derivatives.iter().zip(&tangents))
+                    .fold(S::from_f64(unit[c][p].material_stress[r]), |x, (d, &t)| {
+                        x + t * d[p][c][r]
+                    })
+            }),
+        })
+        .collect();
+    LaminatePoints {
+        points,
+        materials: (analysis.mesh().regions.iter())
+            .map(|r| r.material)
+            .collect(),
+    }
+}
+
+fn check_nodes<S: Scalar>(mesh: &Mesh, body: &ModalBody<S>) -> Result<(), FemError> {
+    if body.modes.nrows() < NODE_DOFS * mesh.nodes.len() {
+        return Err(FemError::Stresses(format!(
+            "ply stresses: the modal body has {} nodes, the mesh {}",
+            body.modes.nrows() / NODE_DOFS,
+            mesh.nodes.len()
+        )));
+    }
+    Ok(())
+}
+
+/// The element's local nodal dof per mode (`6·nodes × n_modes`): each node's translation and
+/// rotation of each mode in the frame `r` (rows: the local axes).
+fn local_dof<S: Scalar>(
+    body: &ModalBody<S>,
+    nodes: &[usize],
+    r: &nalgebra::Matrix3<f64>,
+) -> DMatrix<S> {
+    let nm = body.n_modes();
+    let mut u = DMatrix::<S>::zeros(6 * nodes.len(), nm);
+    for (i, &n) in nodes.iter().enumerate() {
+        for block in 0..2 {
+            let row = NODE_DOFS * n + 3 * block;
+            for j in 0..nm {
+                for a in 0..3 {
+                    let mut x = S::zero();
+                    for c in 0..3 {
+                        x += body.modes[(row + c, j)] * r[(a, c)];
+                    }
+                    u[(6 * i + 3 * block + a, j)] = x;
+                }
+            }
+        }
+    }
+    u
 }

@@ -190,7 +190,10 @@ fn strip_errors(nx: usize, ny: usize) -> (f64, f64) {
     .unwrap();
     let top = 2; // the ply's top point
     let middle = 1;
-    assert_eq!(s.laminates[0].points[top].position, PlyPosition::Top);
+    assert_eq!(
+        s.laminates[0].points[top].place,
+        fem::PointPlace::Ply(PlyPosition::Top)
+    );
     let root_stress = 6.0 * p * l / (b * h * h);
     let shear = 1.5 * p / (b * h);
     let (mut bending, mut transverse) = (0.0f64, 0.0f64);
