@@ -408,14 +408,6 @@ fn ply_responses_refuse_what_they_cannot_give() {
         let (_dir, err) = bad_deck(text, |p| with_deck("check", p, &[]));
         assert!(err.contains(message), "expected `{message}` in:\n{err}");
     }
-    // a beam body has no ply stresses (its sections' are `flexsens section --load`'s)
-    let beam = std::fs::read_to_string(deck("slider_crank_beam.toml")).unwrap()
-        + "\n[response.s]\nkind = \"ply-failure\"\nbody = \"rod\"\ncriterion = \"tsai-wu\"\n";
-    let (_dir, err) = bad_deck(&beam, |p| with_deck("check", p, &[]));
-    assert!(
-        err.contains("`rod` is a beam body: ply stresses are recovered in shell bodies"),
-        "{err}"
-    );
 }
 
 /// The value printed for `name = VALUE …` in an optimisation's summary.

@@ -1,7 +1,8 @@
-//! The ply stress and failure responses of a shell body ([`crate::Response::PlyStress`],
+//! The ply stress and failure responses of a flexible body ([`crate::Response::PlyStress`],
 //! [`crate::Response::PlyFailure`]): the stresses `P E w` of [`fem::stress`] at the body's
 //! modal coordinates, and a failure criterion on them (docs/failure-criteria.md, "In a run").
 
+use fem::PointPlace;
 use laminate::{Criterion, PlyPosition};
 use sens::Scalar;
 
@@ -22,40 +23,48 @@ const KS_CUTOFF: f64 = 40.0;
 fn stresses_of<P: Scalar>(f: &FlexibleBody<P>) -> Result<&PlyStresses<P>, String> {
     f.stresses.as_deref().ok_or_else(|| {
         format!(
-            "body `{}` has no ply stresses (a shell body's, built for its responses)",
+            "body `{}` has no ply stresses (built for its responses)",
             f.name
         )
     })
 }
 
 /// The element's position in the body's stresses and the index of the point of `ply` at
-/// `position` in its laminate.
+/// `place` in its laminate (a section's: its region `ply`'s point nearest to `place`).
 fn point_of<P: Scalar>(
     s: &PlyStresses<P>,
     element: usize,
     ply: usize,
-    position: PlyPosition,
+    place: PointPlace,
 ) -> Result<(usize, usize), String> {
     let i = (s.modal.element_index(element))
-        .ok_or_else(|| format!("element {element} is not a shell element of the body"))?;
+        .ok_or_else(|| format!("element {element} has no ply stresses in the body"))?;
     let lam = &s.modal.laminates[s.modal.elements[i].laminate];
-    let k = (lam.points.iter())
-        .position(|p| p.ply == ply && p.position == position)
+    let distance = |p: PointPlace| match (p, place) {
+        (PointPlace::Section(a), PointPlace::Section(b)) => Some((a[0] - b[0]).hypot(a[1] - b[1])),
+        (a, b) => (a == b).then_some(0.0),
+    };
+    let k = (lam.points.iter().enumerate())
+        .filter(|(_, p)| p.ply == ply)
+        .filter_map(|(k, p)| Some((k, distance(p.place)?)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(k, _)| k)
         .ok_or_else(|| {
             format!(
-                "element {element}'s laminate has plies 0 to {}",
+                "element {element}'s laminate or section has no point of ply (region) {ply} \
+                 at {place:?} (plies 0 to {})",
                 lam.materials.len().saturating_sub(1)
             )
         })?;
     Ok((i, k))
 }
 
-/// Component `component` of the stress of `ply` at `position` of shell element `element`
-/// (material axes, Pa) at the modal coordinates `w`.
+/// Component `component` of the stress of `ply` at `place` of element `element` (material
+/// axes, Pa) at the modal coordinates `w`.
 pub(crate) fn ply_stress<P: Scalar, S: Scalar + From<P>>(
     f: &FlexibleBody<P>,
     w: &[S],
-    (element, ply, position): (usize, usize, PlyPosition),
+    (element, ply, place): (usize, usize, PointPlace),
     component: usize,
 ) -> Result<S, String> {
     let s = stresses_of(f)?;
@@ -64,7 +73,7 @@ pub(crate) fn ply_stress<P: Scalar, S: Scalar + From<P>>(
             "stress component {component} out of range (0 to 5)"
         ));
     }
-    let (i, k) = point_of(s, element, ply, position)?;
+    let (i, k) = point_of(s, element, ply, place)?;
     let d = s.modal.deformation(i, w);
     Ok(s.modal.stress(i, k, &d)[component])
 }
@@ -86,7 +95,7 @@ pub(crate) fn ply_failure<P: Scalar, S: Scalar + From<P>>(
         Some(list) => (list.iter())
             .map(|&e| {
                 m.element_index(e)
-                    .ok_or_else(|| format!("element {e} is not a shell element of the body"))
+                    .ok_or_else(|| format!("element {e} has no ply stresses in the body"))
             })
             .collect::<Result<_, _>>()?,
         None => (0..m.elements.len()).collect(),
@@ -100,7 +109,9 @@ pub(crate) fn ply_failure<P: Scalar, S: Scalar + From<P>>(
         let d = m.deformation_value(i, &wv);
         for (k, p) in lam.points.iter().enumerate() {
             if selection.ply.is_some_and(|q| q != p.ply)
-                || selection.position.is_some_and(|q| q != p.position)
+                || selection
+                    .position
+                    .is_some_and(|q| p.place != PointPlace::Ply(q))
             {
                 continue;
             }

@@ -10,6 +10,7 @@
 //! gradient by the same rule applied to the sensitivities (so that it is the exact derivative
 //! of the computed value); maxima and minima take the sensitivity at the point where they occur.
 
+use fem::PointPlace;
 use laminate::{Criterion, PlyPosition};
 use nalgebra::{DMatrix, Vector3};
 use sens::{Dual, Scalar};
@@ -72,20 +73,23 @@ pub enum Response {
         order: usize,
         axis: usize,
     },
-    /// Component `component` (Voigt `[11, 22, 33, 23, 13, 12]`) of the stress in ply `ply` at
-    /// its `position` through the thickness, at the centroid of shell element `element` of a
-    /// flexible body with ply stresses ([`crate::FlexibleBody::with_ply_stresses`]), in the
-    /// ply's material axes (Pa).
+    /// Component `component` (Voigt `[11, 22, 33, 23, 13, 12]`) of the stress in the material
+    /// axes of a flexible body with ply stresses ([`crate::FlexibleBody::with_ply_stresses`])
+    /// (Pa): at the centroid of shell element `element`, in ply `ply` at its position through
+    /// the thickness (`place` [`PointPlace::Ply`]); or at the middle of beam element `element`,
+    /// at the integration point of the section's region `ply` nearest to `(x₂, x₃)` (`place`
+    /// [`PointPlace::Section`]).
     PlyStress {
         body: BodyId,
         element: usize,
         ply: usize,
-        position: PlyPosition,
+        place: PointPlace,
         component: usize,
     },
     /// The failure index under `criterion` (`1/R`, docs/failure-criteria.md) over the ply
-    /// points of the shell elements `elements` (`None`: every one), ply `ply` (`None`: every
-    /// one) and `position` (`None`: bottom, middle and top): their largest (`rho` `None`), with the
+    /// points of the elements `elements` (`None`: every one), ply `ply` (a beam section's
+    /// region; `None`: every one) and `position` (`None`: bottom, middle and top of a shell's
+    /// ply; a beam's points have none): their largest (`rho` `None`), with the
     /// derivatives of the point where it is, or their Kreisselmeier–Steinhauser aggregate
     /// `max + ln Σ exp(ρ (FI_k − max)) / ρ` (between the largest and `ln n / ρ` above it).
     PlyFailure {
@@ -339,10 +343,10 @@ impl Response {
             Response::PlyStress {
                 element,
                 ply,
-                position,
+                place,
                 component,
                 ..
-            } => ply_stress(f, w, (element, ply, position), component),
+            } => ply_stress(f, w, (element, ply, place), component),
             Response::PlyFailure {
                 ref elements,
                 ply,

@@ -96,7 +96,7 @@ pub(crate) fn dual_models<const N: usize>(
             // the laminates of the chunk's seeded design, as its properties were made
             let seeded = sens::seed_chunk::<N>(built.design.values(), range.start);
             let stresses = StressInput::of(&part.def, built, || {
-                built.design.shell_plies(&seeded).map_err(|e| {
+                built.design.stress_parts(&seeded).map_err(|e| {
                     runtime(
                         src,
                         format!("body `{}`: its plies' stresses: {e}", part.name),

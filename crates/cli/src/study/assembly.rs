@@ -33,7 +33,13 @@ impl Assembly {
                 flexible_body(src, name, span.clone(), def, request, true)?;
             let nodes = modal.node_positions.clone();
             let stresses = StressInput::of(def, &built, || {
-                Ok::<_, CliError>(built.design.nominal_shell_plies())
+                built
+                    .design
+                    .nominal_stress_parts()
+                    .map_err(|e| CliError::Computation {
+                        file: src.file.clone(),
+                        reason: format!("body `{}`: its plies' stresses: {e}", name),
+                    })
             })?;
             let body = flexible_model_body(
                 name,

@@ -626,7 +626,13 @@ impl Mechanism {
                     .map_err(|e| at_design(src, format!("body `{}`", part.name), b, e))?;
             }
             let stresses = StressInput::of(&def, &built, || {
-                Ok::<_, CliError>(built.design.nominal_shell_plies())
+                built
+                    .design
+                    .nominal_stress_parts()
+                    .map_err(|e| CliError::Computation {
+                        file: src.file.clone(),
+                        reason: format!("body `{}`: its plies' stresses: {e}", part.name),
+                    })
             })?;
             let body = flexible_model_body(
                 &part.name,

@@ -5,32 +5,33 @@ use std::collections::BTreeMap;
 
 use mbs::FlexibleBody;
 
-use super::flexible::Built;
+use super::flexible::{Built, StressParts};
 use super::{DesignDef, FlexibleDef, RawDeck, ResponseSpec, Source, mechanism};
 use crate::deck::bodies::BodyDef;
 use crate::error::CliError;
 
-/// What a shell body's ply stresses are built from: its laminates in the design's scalar
-/// ([`flexible::Design::shell_plies`]), its element options' membrane, its plies' strengths.
+/// What a flexible body's ply stresses are built from: its laminates or sections in the
+/// design's scalar ([`super::flexible::Design::stress_parts`]), its element options' membrane,
+/// its plies' (regions') strengths.
 pub(crate) struct StressInput<'a, S: sens::Scalar> {
-    pub(crate) plies: Vec<fem::ShellPlies<S>>,
+    pub(crate) parts: StressParts<S>,
     pub(crate) membrane: fem::Membrane,
     pub(crate) strengths: &'a [Vec<Option<laminate::PlyStrength>>],
 }
 
 impl<'a, S: sens::Scalar> StressInput<'a, S> {
     /// The ply stresses' input of the body `def` built as `built`, when a response reads them
-    /// (`plies`: its laminates in the design's scalar, asked for only then).
+    /// (`parts`: its laminates or sections in the design's scalar, asked for only then).
     pub(crate) fn of<E>(
         def: &'a BodyDef,
         built: &Built,
-        plies: impl FnOnce() -> Result<Vec<fem::ShellPlies<S>>, E>,
+        parts: impl FnOnce() -> Result<StressParts<S>, E>,
     ) -> Result<Option<Self>, E> {
         let Some(strengths) = &def.ply_strengths else {
             return Ok(None);
         };
         Ok(Some(StressInput {
-            plies: plies()?,
+            parts: parts()?,
             membrane: built.options.element.membrane,
             strengths,
         }))
@@ -51,7 +52,15 @@ pub(crate) fn flexible_model_body<S: sens::Scalar>(
 ) -> Result<FlexibleBody<S>, fem::FemError> {
     let mut body = FlexibleBody::new(name, modal);
     if let Some(input) = stresses {
-        let modal = fem::shell_modal_stresses(mesh, &input.plies, input.membrane, &body.modal)?;
+        let modal = match &input.parts {
+            StressParts::Shell(plies) => {
+                fem::shell_modal_stresses(mesh, plies, input.membrane, &body.modal)?
+            }
+            StressParts::Beam(sections) => {
+                let planar = analysis.options.element.planar_axis;
+                fem::beam_modal_stresses(mesh, (props, planar), sections, &body.modal)?
+            }
+        };
         body = body.with_ply_stresses(mbs::PlyStresses {
             modal,
             strengths: input.strengths.to_vec(),
@@ -85,9 +94,9 @@ pub(super) fn ply_responses(
         let Some((body, criterion)) = spec.ply_body() else {
             continue;
         };
-        let map = (places[body].flexible.as_ref())
-            .and_then(|g| g.plies.as_ref())
-            .expect("validated as a shell body");
+        let map = &(places[body].flexible.as_ref())
+            .expect("validated as a flexible body")
+            .plies;
         let def = &mut (bodies.iter_mut().find(|b| b.name == body))
             .expect("validated body")
             .def;

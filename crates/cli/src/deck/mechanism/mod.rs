@@ -48,23 +48,28 @@ pub struct BodyInfo {
 pub struct FlexibleGeometry {
     pub nodes: Vec<Vector3<f64>>,
     pub couplings: Vec<String>,
-    /// A shell body's plies (`None`: a beam body).
-    pub plies: Option<ShellPlyMap>,
+    /// The body's plies as its ply responses see them.
+    pub plies: PlyMap,
 }
 
-/// A shell body's plies as its ply responses see them.
+/// A flexible body's plies as its ply responses see them: a shell body's laminates and their
+/// plies, or a beam body's sections and their regions.
 #[derive(Debug, Clone)]
-pub struct ShellPlyMap {
-    /// Each mesh element's laminate (an index of `laminates`).
+pub struct PlyMap {
+    /// A beam body's: `laminates` are its sections, their plies the sections' regions.
+    pub beam: bool,
+    /// Each mesh element's laminate or section (an index of `laminates`).
     pub element_laminates: Vec<usize>,
     /// Each mesh element's nodes (indices of the body's nodes).
     pub element_nodes: Vec<Vec<usize>>,
-    /// Each laminate's name and, per ply, its material's name and strengths (`None`: the
-    /// material states none).
+    /// Each laminate's (section's) name and, per ply (region), its material's name and
+    /// strengths (`None`: the material states none). A section given by its properties has
+    /// no regions.
     pub laminates: Vec<(String, Vec<PlyMaterial>)>,
 }
 
-/// A ply's material name and strengths (`None`: the material states none).
+/// A ply's material name and strengths (`None`: the material states none; a section region's
+/// material that a mesh file defines has the name `""`).
 pub type PlyMaterial = (String, Option<laminate::PlyStrength>);
 
 /// A body as the validation of markers and responses sees it: a flexible body's geometry,

@@ -557,19 +557,25 @@ pub struct RawResponse {
     /// Point kinematics: the marker whose point's position, velocity or acceleration is
     /// subtracted.
     pub relative_to: Option<Spanned<RawMarker>>,
-    /// Ply stress and failure: the shell element (from 0; a failure index's default: every
+    /// Ply stress and failure: the element (from 0; a failure index's default: every
     /// element).
     pub element: Option<Spanned<i64>>,
-    /// Ply failure: the shell elements whose nodes all lie in the box `[[x0, y0, z0], [x1, y1,
+    /// Ply failure: the elements whose nodes all lie in the box `[[x0, y0, z0], [x1, y1,
     /// z1]]` (m; instead of `element`).
     #[serde(rename = "box")]
     pub inside: Option<Spanned<[[f64; 3]; 2]>>,
-    /// Ply stress and failure: the ply (from 0, bottom first; a failure index's default: every
-    /// ply).
+    /// Ply stress and failure of a shell body: the ply (from 0, bottom first; a failure
+    /// index's default: every ply).
     pub ply: Option<Spanned<i64>>,
-    /// Ply stress and failure: `"bottom"`, `"middle"` or `"top"` of the ply (a failure index's
-    /// default: all three).
+    /// Ply stress and failure of a shell body: `"bottom"`, `"middle"` or `"top"` of the ply (a
+    /// failure index's default: all three).
     pub position: Option<Spanned<String>>,
+    /// Ply stress and failure of a beam body: the section's region (from 0; a failure index's
+    /// default: every region).
+    pub region: Option<Spanned<i64>>,
+    /// Ply stress of a beam body: the point `[x₂, x₃]` of the section (m) whose nearest
+    /// integration point in the region is read.
+    pub section_point: Option<Spanned<[f64; 2]>>,
     /// Ply failure: the criterion (`"tsai-wu"`, `"max-stress"`, …).
     pub criterion: Option<Spanned<String>>,
     /// Ply failure over several points: the Kreisselmeier–Steinhauser parameter of their

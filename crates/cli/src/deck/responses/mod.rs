@@ -84,12 +84,13 @@ enum SpecKind {
         order: usize,
         axis: usize,
     },
-    /// Component `component` of the stress of `ply` at `position` of shell element `element`.
+    /// Component `component` of the stress of `ply` (a beam section's region) at `place` of
+    /// element `element`.
     PlyStress {
         body: String,
         element: usize,
         ply: usize,
-        position: PlyPosition,
+        place: fem::PointPlace,
         component: usize,
     },
     /// A failure index over the ply points selected (`None`: every one).
@@ -194,13 +195,13 @@ impl ResponseSpec {
                 body,
                 element,
                 ply,
-                position,
+                place,
                 component,
             } => Response::PlyStress {
                 body: id(body),
                 element: *element,
                 ply: *ply,
-                position: *position,
+                place: *place,
                 component: *component,
             },
             SpecKind::PlyFailure {

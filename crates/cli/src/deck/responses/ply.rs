@@ -1,5 +1,6 @@
-//! `kind = "ply-stress"` and `kind = "ply-failure"`: a shell body's ply stresses and failure
-//! indices (docs/failure-criteria.md, "In a run").
+//! `kind = "ply-stress"` and `kind = "ply-failure"`: a flexible body's ply stresses and
+//! failure indices — a shell's laminates' plies, a beam's sections' regions
+//! (docs/failure-criteria.md, "In a run").
 
 use laminate::{Criterion, PlyPosition};
 use nalgebra::Vector3;
@@ -8,7 +9,7 @@ use toml::Spanned;
 use super::{SpecKind, Table, component};
 use crate::deck::DeckError;
 use crate::deck::check::{self, positive, span, suggestion};
-use crate::deck::mechanism::ShellPlyMap;
+use crate::deck::mechanism::PlyMap;
 
 const POSITIONS: [&str; 3] = ["bottom", "middle", "top"];
 const POSITION_OF: [PlyPosition; 3] = [PlyPosition::Bottom, PlyPosition::Middle, PlyPosition::Top];
@@ -16,26 +17,45 @@ const POSITION_OF: [PlyPosition; 3] = [PlyPosition::Bottom, PlyPosition::Middle,
 const STRESS: [&str; 6] = ["s11", "s22", "s33", "s23", "s13", "s12"];
 
 impl Table<'_> {
-    /// The shell body the response names, its plies and its nodes.
-    fn shell_plies(&self) -> Result<(String, &ShellPlyMap, &[Vector3<f64>]), DeckError> {
+    /// The flexible body the response names, its plies and its nodes; the keys that belong to
+    /// the other kind of body refused.
+    fn ply_map(&self) -> Result<(String, &PlyMap, &[Vector3<f64>]), DeckError> {
         let (body, geometry) = self.body(true)?;
-        let nodes = geometry.map_or(&[][..], |g| &g.nodes[..]);
-        let map = geometry.and_then(|g| g.plies.as_ref()).ok_or_else(|| {
-            self.src.error(
-                self.raw.body.as_ref().and_then(span),
-                Some(self.key("body")),
-                format!(
-                    "`{body}` is a beam body: ply stresses are recovered in shell bodies (a beam \
-                     section's stresses under given forces: `flexsens section --load`)"
+        let g = geometry.expect("a flexible body");
+        let map = &g.plies;
+        let foreign = match map.beam {
+            true => [
+                ("ply", self.raw.ply.as_ref().and_then(span)),
+                ("position", self.raw.position.as_ref().and_then(span)),
+            ],
+            false => [
+                ("region", self.raw.region.as_ref().and_then(span)),
+                (
+                    "section_point",
+                    self.raw.section_point.as_ref().and_then(span),
                 ),
-            )
-        })?;
-        Ok((body, map, nodes))
+            ],
+        };
+        if let Some((key, at)) = foreign.into_iter().find(|(_, s)| s.is_some()) {
+            let why = match map.beam {
+                true => format!(
+                    "`{body}` is a beam body: its stress points are its sections' integration \
+                     points, chosen by `region` and (for a stress) `section_point = [x2, x3]`, \
+                     not by a ply and a position through it"
+                ),
+                false => format!(
+                    "`{body}` is a shell body: its stress points are chosen by `ply` and \
+                     `position` (a beam section's `region` and `section_point` do not apply)"
+                ),
+            };
+            return Err(self.src.error(at, Some(self.key(key)), why));
+        }
+        Ok((body, map, &g.nodes[..]))
     }
 
-    /// `element` (required for a stress): a shell element of the body.
-    fn ply_element(&self, map: &ShellPlyMap, required: bool) -> Result<Option<usize>, DeckError> {
-        let what = "element (a shell element, from 0)";
+    /// `element` (required for a stress): an element of the body.
+    fn ply_element(&self, map: &PlyMap, required: bool) -> Result<Option<usize>, DeckError> {
+        let what = "element (from 0)";
         let Some(v) = self.given("element", &self.raw.element, required, what)? else {
             return Ok(None);
         };
@@ -51,15 +71,43 @@ impl Table<'_> {
         Ok(Some(e as usize))
     }
 
-    /// `ply` (required for a stress): a ply of one of `laminates` (from 0, bottom first).
+    /// `ply` (required for a stress): a ply of one of `laminates` (from 0, bottom first); a
+    /// beam body's `region` of one of its sections. A section given by its properties has no
+    /// stress points and is refused.
     fn ply_index(
         &self,
-        map: &ShellPlyMap,
+        map: &PlyMap,
         laminates: &[usize],
         required: bool,
     ) -> Result<Option<usize>, DeckError> {
-        let what = "ply (from 0, bottom first)";
-        let Some(v) = self.given("ply", &self.raw.ply, required, what)? else {
+        let (key, field, what, parts, whole) = match map.beam {
+            true => (
+                "region",
+                &self.raw.region,
+                "region (from 0)",
+                "regions",
+                "section",
+            ),
+            false => (
+                "ply",
+                &self.raw.ply,
+                "ply (from 0, bottom first)",
+                "plies",
+                "laminate",
+            ),
+        };
+        if let Some(&l) = (laminates.iter()).find(|&&l| map.beam && map.laminates[l].1.is_empty()) {
+            return Err(self.src.error(
+                self.raw.body.as_ref().and_then(span),
+                Some(self.key("body")),
+                format!(
+                    "section `{}` of the body is given by its properties: it has no stress \
+                     points (a section analysed from its shape or mesh has)",
+                    map.laminates[l].0
+                ),
+            ));
+        }
+        let Some(v) = self.given(key, field, required, what)? else {
             return Ok(None);
         };
         let most = (laminates.iter())
@@ -71,15 +119,31 @@ impl Table<'_> {
             let names: Vec<&str> = laminates.iter().map(|&l| &*map.laminates[l].0).collect();
             return Err(self.src.error(
                 span(v),
-                Some(self.key("ply")),
+                Some(self.key(key)),
                 format!(
-                    "ply {p} does not exist: laminate {} has plies 0 to {}",
+                    "{key} {p} does not exist: {whole} {} has {parts} 0 to {}",
                     names.join(", "),
                     most - 1
                 ),
             ));
         }
         Ok(Some(p as usize))
+    }
+
+    /// `section_point` (a beam's stress): `[x₂, x₃]` in the section (m), finite.
+    fn section_point(&self) -> Result<[f64; 2], DeckError> {
+        let what = "section_point ([x2, x3], m: the region's integration point nearest to it)";
+        let v = self.given("section_point", &self.raw.section_point, true, what)?;
+        let v = v.expect("required");
+        let p = *v.get_ref();
+        if p.iter().any(|x| !x.is_finite()) {
+            return Err(self.src.error(
+                span(v),
+                Some(self.key("section_point")),
+                "[x2, x3] with finite coordinates (m)",
+            ));
+        }
+        Ok(p)
     }
 
     /// `position` (required for a stress): where through the ply.
@@ -113,27 +177,31 @@ impl Table<'_> {
         }
     }
 
-    /// `kind = "ply-stress"`: a stress component of a ply point of a shell element.
+    /// `kind = "ply-stress"`: a stress component of a ply point of a shell element, or of a
+    /// section point of a beam element.
     pub(super) fn ply_stress(&self) -> Result<SpecKind, DeckError> {
-        let (body, map, _) = self.shell_plies()?;
+        let (body, map, _) = self.ply_map()?;
         let element = self.ply_element(map, true)?.expect("required");
         let laminate = map.element_laminates[element];
         let ply = self.ply_index(map, &[laminate], true)?.expect("required");
-        let position = self.ply_position(true)?.expect("required");
+        let place = match map.beam {
+            true => fem::PointPlace::Section(self.section_point()?),
+            false => fem::PointPlace::Ply(self.ply_position(true)?.expect("required")),
+        };
         let component = self.component(&STRESS)?;
         Ok(SpecKind::PlyStress {
             body,
             element,
             ply,
-            position,
+            place,
             component,
         })
     }
 
-    /// `box`: the shell elements whose nodes all lie in it (within 1e-9 of the body's size).
+    /// `box`: the elements whose nodes all lie in it (within 1e-9 of the body's size).
     fn elements_in_box(
         &self,
-        map: &ShellPlyMap,
+        map: &PlyMap,
         nodes: &[Vector3<f64>],
     ) -> Result<Option<Vec<usize>>, DeckError> {
         let Some(b) = &self.raw.inside else {
@@ -181,7 +249,7 @@ impl Table<'_> {
 
     /// `kind = "ply-failure"`: a failure index at a ply point, or over the points selected.
     pub(super) fn ply_failure(&self) -> Result<SpecKind, DeckError> {
-        let (body, map, nodes) = self.shell_plies()?;
+        let (body, map, nodes) = self.ply_map()?;
         let elements = match self.elements_in_box(map, nodes)? {
             Some(list) => Some(list),
             None => self.ply_element(map, false)?.map(|e| vec![e]),
@@ -202,17 +270,29 @@ impl Table<'_> {
         for &l in &laminates {
             let (name, plies) = &map.laminates[l];
             for (p, (material, strength)) in plies.iter().enumerate() {
-                if strength.is_none() && ply.is_none_or(|q| q == p) {
-                    return Err(self.src.error(
-                        self.raw.criterion.as_ref().and_then(span),
-                        Some(self.key("criterion")),
-                        format!(
-                            "ply {p} of laminate `{name}` is of material `{material}`, which \
-                             states no strengths: give Xt, Xc, Yt, Yc and S12 in \
-                             [material.{material}] (Pa)"
-                        ),
-                    ));
+                if strength.is_some() || ply.is_some_and(|q| q != p) {
+                    continue;
                 }
+                let what = match map.beam {
+                    true => format!("region {p} of section `{name}`"),
+                    false => format!("ply {p} of laminate `{name}`"),
+                };
+                let why = match material.is_empty() {
+                    true => format!(
+                        "{what} has its material from the mesh file, which states no \
+                         strengths: make the region of a [material.*] of the deck with Xt, Xc, \
+                         Yt, Yc and S12 (Pa)"
+                    ),
+                    false => format!(
+                        "{what} is of material `{material}`, which states no strengths: give \
+                         Xt, Xc, Yt, Yc and S12 in [material.{material}] (Pa)"
+                    ),
+                };
+                return Err(self.src.error(
+                    self.raw.criterion.as_ref().and_then(span),
+                    Some(self.key("criterion")),
+                    why,
+                ));
             }
         }
         Ok(SpecKind::PlyFailure {

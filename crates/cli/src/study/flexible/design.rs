@@ -114,19 +114,61 @@ impl SectionDesign {
         b: &[Dual<N>],
         values: &[f64],
     ) -> Result<BeamSection<Dual<N>>, section::SectionError> {
+        // a section given by its properties has no mesh, and nothing moves it
+        let analysed = !self.mesh.elements.is_empty();
+        let moved =
+            (b.iter().zip(values).enumerate()).any(|(j, (bj, b0))| bj.v != *b0 && self.moved_by(j));
+        if !(analysed && moved) {
+            return Ok(BeamSection::from_sensitivities(&self.sens, b));
+        }
+        let (at, map_at, b_active) = self.analysed_at(b, values)?;
+        Ok(BeamSection::from_sensitivities(
+            &section_derivatives(&at, &map_at)?,
+            &b_active,
+        ))
+    }
+
+    /// The section's stress points at the design `b` (values and tangents,
+    /// [`fem::section_points`]), analysed at `b`; none for a section given by its properties.
+    fn points_at<const N: usize>(
+        &self,
+        b: &[Dual<N>],
+        values: &[f64],
+    ) -> Result<fem::LaminatePoints<Dual<N>>, section::SectionError> {
+        if self.mesh.elements.is_empty() {
+            return Ok(fem::LaminatePoints {
+                points: Vec::new(),
+                materials: Vec::new(),
+            });
+        }
+        let (at, map_at, b_active) = self.analysed_at(b, values)?;
+        let analysis = section::SectionAnalysis::new(&at)?;
+        let derivatives = match map_at.variables.len() {
+            0 => Vec::new(),
+            1 => analysis.unit_stress_derivatives::<1>(&map_at)?,
+            2 => analysis.unit_stress_derivatives::<2>(&map_at)?,
+            3 | 4 => analysis.unit_stress_derivatives::<4>(&map_at)?,
+            _ => analysis.unit_stress_derivatives::<CHUNK>(&map_at)?,
+        };
+        Ok(fem::section_points(&analysis, &derivatives, &b_active))
+    }
+
+    /// The section's mesh at the design `b` (its plies' angles, thicknesses and materials
+    /// moved from the nominal `values`), its design map there along the variables whose
+    /// tangents `b` carries, and those variables' values.
+    #[allow(clippy::type_complexity)]
+    fn analysed_at<const N: usize>(
+        &self,
+        b: &[Dual<N>],
+        values: &[f64],
+    ) -> Result<(section::SectionMesh, DesignMap, Vec<Dual<N>>), section::SectionError> {
         let SectionDesign {
-            sens,
             mesh,
             map,
             materials,
+            ..
         } = self;
         let steps: Vec<f64> = b.iter().zip(values).map(|(bj, b0)| bj.v - b0).collect();
-        // a section given by its properties has no mesh, and nothing moves it
-        let analysed = !mesh.elements.is_empty();
-        let moved = (0..steps.len()).any(|j| steps[j] != 0.0 && self.moved_by(j));
-        if !(analysed && moved) {
-            return Ok(BeamSection::from_sensitivities(sens, b));
-        }
         let mut at = (**mesh).clone();
         for (j, &step) in steps.iter().enumerate() {
             at = map.step(&at, j, step);
@@ -149,10 +191,7 @@ impl SectionDesign {
             variables: active.iter().map(|&j| all.variables[j].clone()).collect(),
         };
         let b_active: Vec<Dual<N>> = active.iter().map(|&j| b[j]).collect();
-        Ok(BeamSection::from_sensitivities(
-            &section_derivatives(&at, &map_at)?,
-            &b_active,
-        ))
+        Ok((at, map_at, b_active))
     }
 }
 
@@ -208,7 +247,54 @@ impl Design {
     }
 }
 
+/// What a flexible body's ply stresses are made of, in the design's scalar: a shell body's
+/// laminates, or a beam body's sections' stress points (one per element property).
+pub enum StressParts<S: sens::Scalar> {
+    Shell(Vec<fem::ShellPlies<S>>),
+    Beam(Vec<fem::LaminatePoints<S>>),
+}
+
 impl Design {
+    /// The body's laminates or sections at the design `b` as its ply stresses need them.
+    pub fn stress_parts<const N: usize>(
+        &self,
+        b: &[Dual<N>],
+    ) -> Result<StressParts<Dual<N>>, section::SectionError> {
+        Ok(match self {
+            Design::Shell { .. } => StressParts::Shell(self.shell_plies(b)?),
+            Design::Beam {
+                sections, values, ..
+            } => StressParts::Beam(
+                (sections.iter())
+                    .map(|s| s.points_at(b, values))
+                    .collect::<Result<_, _>>()?,
+            ),
+        })
+    }
+
+    /// [`Design::stress_parts`] at the nominal design, values only.
+    pub fn nominal_stress_parts(&self) -> Result<StressParts<f64>, section::SectionError> {
+        Ok(match self {
+            Design::Shell { laminates, .. } => StressParts::Shell(
+                (laminates.iter())
+                    .map(|l| fem::ShellPlies::new(l.stack.clone()))
+                    .collect(),
+            ),
+            Design::Beam { sections, .. } => StressParts::Beam(
+                (sections.iter())
+                    .map(|s| match s.mesh.elements.is_empty() {
+                        true => Ok(fem::LaminatePoints {
+                            points: Vec::new(),
+                            materials: Vec::new(),
+                        }),
+                        false => section::SectionAnalysis::new(&s.mesh)
+                            .map(|a| fem::section_points::<f64>(&a, &[], &[])),
+                    })
+                    .collect::<Result<_, _>>()?,
+            ),
+        })
+    }
+
     /// A shell body's laminates at the design `b` as its ply stresses need them (none for a
     /// beam body).
     pub fn shell_plies<const N: usize>(
@@ -227,16 +313,6 @@ impl Design {
                 Ok(fem::ShellPlies { stack, c_bar })
             })
             .collect()
-    }
-
-    /// [`Design::shell_plies`] at the nominal design, values only.
-    pub fn nominal_shell_plies(&self) -> Vec<fem::ShellPlies<f64>> {
-        match self {
-            Design::Shell { laminates, .. } => (laminates.iter())
-                .map(|l| fem::ShellPlies::new(l.stack.clone()))
-                .collect(),
-            Design::Beam { .. } => Vec::new(),
-        }
     }
 }
 

@@ -23,7 +23,7 @@ mod properties;
 
 pub(crate) use design::move_own_section;
 pub use design::{
-    Design, DesignRequest, LaminateDesign, SectionDesign, section_derivatives,
+    Design, DesignRequest, LaminateDesign, SectionDesign, StressParts, section_derivatives,
     section_derivatives_of, section_design, shell_design,
 };
 use properties::{beam, laminate_regions, shell};
@@ -204,27 +204,40 @@ pub fn geometry(
     strengths: &std::collections::BTreeMap<String, laminate::PlyStrength>,
 ) -> Result<crate::deck::mechanism::FlexibleGeometry, CliError> {
     let mesh = mesh(src, name, def)?;
-    let plies = match &def.shape {
-        BodyShape::Beam { .. } => None,
-        BodyShape::ShellRectangle { laminates, .. } | BodyShape::ShellMesh { laminates, .. } => {
-            Some(crate::deck::mechanism::ShellPlyMap {
-                element_laminates: (mesh.elements.iter())
-                    .map(|e| match e {
-                        fem::Element::Shell { property, .. } => *property,
-                        fem::Element::Beam { property, .. } => *property,
-                    })
-                    .collect(),
-                element_nodes: (mesh.elements.iter()).map(|e| e.nodes().to_vec()).collect(),
-                laminates: (laminates.laminates.iter())
-                    .map(|l| {
-                        let plies = (l.ply_materials.iter())
-                            .map(|m| (m.clone(), strengths.get(m).copied()))
-                            .collect();
-                        (l.name.clone(), plies)
-                    })
-                    .collect(),
+    let material = |m: &str| (m.to_string(), strengths.get(m).copied());
+    let laminates = match &def.shape {
+        BodyShape::Beam { sections, .. } => (sections.iter())
+            .map(|(name, s)| {
+                let regions = match s.given {
+                    Some(_) => Vec::new(),
+                    None => (s.materials.iter())
+                        .map(|m| m.as_deref().map_or((String::new(), None), material))
+                        .collect(),
+                };
+                (name.clone(), regions)
             })
+            .collect(),
+        BodyShape::ShellRectangle { laminates, .. } | BodyShape::ShellMesh { laminates, .. } => {
+            (laminates.laminates.iter())
+                .map(|l| {
+                    (
+                        l.name.clone(),
+                        l.ply_materials.iter().map(|m| material(m)).collect(),
+                    )
+                })
+                .collect()
         }
+    };
+    let plies = crate::deck::mechanism::PlyMap {
+        beam: matches!(def.shape, BodyShape::Beam { .. }),
+        element_laminates: (mesh.elements.iter())
+            .map(|e| match e {
+                fem::Element::Shell { property, .. } => *property,
+                fem::Element::Beam { property, .. } => *property,
+            })
+            .collect(),
+        element_nodes: (mesh.elements.iter()).map(|e| e.nodes().to_vec()).collect(),
+        laminates,
     };
     let couplings = couplings(src, def, &mesh)?;
     let mut nodes = mesh.nodes.clone();
