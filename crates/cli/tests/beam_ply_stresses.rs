@@ -62,6 +62,14 @@ region = 0
 section_point = [0.0, 0.005]
 component = "s11"
 
+[response.e11]
+kind = "ply-stress"
+body = "bar"
+element = 2
+region = 0
+section_point = [0.0, 0.005]
+component = "e11"
+
 [response.s13]
 kind = "ply-stress"
 body = "bar"
@@ -96,6 +104,7 @@ fn bar_errors(elements: usize, rows: usize) -> (f64, f64) {
         format!("body.bar.elements={elements}"),
         format!("section.bar.elements=[5, {rows}]"),
         format!("response.s11.element={e}"),
+        format!("response.e11.element={e}"),
         format!("response.s13.element={e}"),
         format!("response.max_stress.element={e}"),
     ];
@@ -116,6 +125,9 @@ fn bar_errors(elements: usize, rows: usize) -> (f64, f64) {
     // the section's largest max-stress index: the bottom's compression, σ/Xc
     let fi = r["max_stress"].as_f64().unwrap();
     assert!((fi / (s11 / 150e6) - 1.0).abs() < 1e-6, "{fi} {s11}");
+    // the strain there: σ/E (ν = 0)
+    let e11 = r["e11"].as_f64().unwrap();
+    assert!((e11 / (s11 / 70e9) - 1.0).abs() < 1e-9, "{e11} {s11}");
     (s11 / sigma - 1.0, s13.abs() / tau - 1.0)
 }
 
@@ -171,12 +183,16 @@ kind = "ply-thickness"
 laminate = "tube_wall"
 plies = [0]
 
+"# + E2
+}
+
+/// The material design variable of [`tube_rod`].
+const E2: &str = r#"
 [design.e2]
 kind = "material"
 material = "paper_composite"
 constant = "E2"
-"#
-}
+"#;
 
 #[test]
 fn tube_rod_ply_stress_and_failure_sensitivities_equal_replayed_central_differences() {
@@ -192,6 +208,19 @@ fn tube_rod_ply_stress_and_failure_sensitivities_equal_replayed_central_differen
         eprintln!("{response}: direct vs replayed central differences (e2, t0, theta) {errors:?}");
         assert!(errors.iter().all(|e| *e < 1e-4), "{response}: {errors:?}");
     }
+    // a ply's shear strain, through the nominal compliance (no material variable)
+    let strain = tube_rod().replace(E2, "")
+        + "\n[response.shear_strain]\nkind = \"ply-stress\"\nbody = \"rod\"\nelement = 4\n\
+           region = 1\nsection_point = [1.0e-3, 5.2e-3]\ncomponent = \"e12\"\n";
+    let (_, g) = run_text(
+        dir.path(),
+        "strain",
+        &strain,
+        &["analysis.t_end=0.01", "sensitivity.method=\"direct\""],
+    );
+    let errors = replayed_differences(&g, "shear_strain", "0.0001", 2);
+    eprintln!("shear_strain: direct vs replayed central differences (t0, theta) {errors:?}");
+    assert!(errors.iter().all(|e| *e < 1e-4), "{errors:?}");
 }
 
 #[test]
@@ -250,6 +279,18 @@ fn beam_ply_responses_refuse_what_they_cannot_give() {
     let (_dir, err) = bad_deck(&given, |p| with_deck("check", p, &[]));
     assert!(
         err.contains("section `bar` of the body is given by its properties: it has no stress"),
+        "{err}"
+    );
+    // a ply strain through the nominal compliance with the material a design variable
+    let moved = tube_rod()
+        + "\n[response.strain]\nkind = \"ply-stress\"\nbody = \"rod\"\nelement = 4\n\
+                              region = 1\nsection_point = [1.0e-3, 5.2e-3]\ncomponent = \"e12\"\n";
+    let (_dir, err) = bad_deck(&moved, |p| with_deck("check", p, &[]));
+    assert!(
+        err.contains(
+            "key `response.strain.component`: design variable `e2` moves the material \
+                      `paper_composite` of body `rod`: a ply strain takes the strains"
+        ),
         "{err}"
     );
     // a shell body's points are chosen by ply and position

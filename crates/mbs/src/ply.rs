@@ -60,12 +60,14 @@ fn point_of<P: Scalar>(
 }
 
 /// Component `component` of the stress of `ply` at `place` of element `element` (material
-/// axes, Pa) at the modal coordinates `w`.
+/// axes, Pa) at the modal coordinates `w`; with `strain`, of the strain (engineering shear),
+/// `ε = C⁻¹ σ` through the ply's nominal compliance (a design variable that moves the material
+/// moves `σ`, not `C⁻¹`: its caller refuses such a variable).
 pub(crate) fn ply_stress<P: Scalar, S: Scalar + From<P>>(
     f: &FlexibleBody<P>,
     w: &[S],
     (element, ply, place): (usize, usize, PointPlace),
-    component: usize,
+    (component, strain): (usize, bool),
 ) -> Result<S, String> {
     let s = stresses_of(f)?;
     if component > 5 {
@@ -75,7 +77,13 @@ pub(crate) fn ply_stress<P: Scalar, S: Scalar + From<P>>(
     }
     let (i, k) = point_of(s, element, ply, place)?;
     let d = s.modal.deformation(i, w);
-    Ok(s.modal.stress(i, k, &d)[component])
+    let stress = s.modal.stress(i, k, &d);
+    if !strain {
+        return Ok(stress[component]);
+    }
+    let lam = &s.modal.laminates[s.modal.elements[i].laminate];
+    let compliance = lam.materials[lam.points[k].ply].compliance();
+    Ok((0..6).fold(S::zero(), |e, c| e + stress[c] * compliance[(component, c)]))
 }
 
 /// The failure index under `criterion` over the points of `selection`: their largest (`rho`

@@ -78,13 +78,15 @@ pub enum Response {
     /// (Pa): at the centroid of shell element `element`, in ply `ply` at its position through
     /// the thickness (`place` [`PointPlace::Ply`]); or at the middle of beam element `element`,
     /// at the integration point of the section's region `ply` nearest to `(x₂, x₃)` (`place`
-    /// [`PointPlace::Section`]).
+    /// [`PointPlace::Section`]). With `strain`, the strain component instead (engineering
+    /// shear), through the ply's nominal compliance.
     PlyStress {
         body: BodyId,
         element: usize,
         ply: usize,
         place: PointPlace,
         component: usize,
+        strain: bool,
     },
     /// The failure index under `criterion` (`1/R`, docs/failure-criteria.md) over the ply
     /// points of the elements `elements` (`None`: every one), ply `ply` (a beam section's
@@ -345,8 +347,9 @@ impl Response {
                 ply,
                 place,
                 component,
+                strain,
                 ..
-            } => ply_stress(f, w, (element, ply, place), component),
+            } => ply_stress(f, w, (element, ply, place), (component, strain)),
             Response::PlyFailure {
                 ref elements,
                 ply,

@@ -79,9 +79,9 @@ pub(crate) fn flexible_model_body<S: sens::Scalar>(
 }
 
 /// The flexible bodies whose ply stresses a response reads get their plies' strengths (and
-/// so are built with their ply stresses). A maximum-strain index is refused on a body whose
-/// material a design variable moves: its strains are the stresses through the nominal
-/// compliance, whose derivative the index would miss.
+/// so are built with their ply stresses). A ply strain or a maximum-strain index is refused on
+/// a body whose material a design variable moves: its strains are the stresses through the
+/// nominal compliance, whose derivative it would miss.
 pub(super) fn ply_responses(
     src: &Source,
     raw: &RawDeck,
@@ -91,7 +91,7 @@ pub(super) fn ply_responses(
     bodies: &mut [FlexibleDef],
 ) -> Result<(), CliError> {
     for spec in specs {
-        let Some((body, criterion)) = spec.ply_body() else {
+        let Some((body, nominal_compliance)) = spec.ply_body() else {
             continue;
         };
         let map = &(places[body].flexible.as_ref())
@@ -105,9 +105,9 @@ pub(super) fn ply_responses(
                 .map(|(_, plies)| plies.iter().map(|(_, s)| *s).collect())
                 .collect()
         });
-        if criterion != Some(laminate::Criterion::MaxStrain) || !design.enabled {
+        let Some([what, key, instead]) = nominal_compliance.filter(|_| design.enabled) else {
             continue;
-        }
+        };
         let materials = map
             .laminates
             .iter()
@@ -117,12 +117,12 @@ pub(super) fn ply_responses(
                 return Err(src
                     .error(
                         raw.response.get(&spec.name).map(|r| r.span()),
-                        Some(format!("response.{}.criterion", spec.name)),
+                        Some(format!("response.{}.{key}", spec.name)),
                         format!(
-                            "design variable `{}` moves the material `{m}` of body `{body}`: the \
-                             max-strain index takes the strains through the nominal compliance \
-                             and would miss their derivative along it; use another criterion \
-                             (max-stress, tsai-wu, …) or leave the material fixed",
+                            "design variable `{}` moves the material `{m}` of body `{body}`: \
+                             {what} takes the strains through the nominal compliance and would \
+                             miss their derivative along it; {instead} or leave the material \
+                             fixed",
                             v.name
                         ),
                     )

@@ -84,14 +84,15 @@ enum SpecKind {
         order: usize,
         axis: usize,
     },
-    /// Component `component` of the stress of `ply` (a beam section's region) at `place` of
-    /// element `element`.
+    /// Component `component` of the stress (with `strain`, the strain) of `ply` (a beam
+    /// section's region) at `place` of element `element`.
     PlyStress {
         body: String,
         element: usize,
         ply: usize,
         place: fem::PointPlace,
         component: usize,
+        strain: bool,
     },
     /// A failure index over the ply points selected (`None`: every one).
     PlyFailure {
@@ -105,14 +106,24 @@ enum SpecKind {
 }
 
 impl ResponseSpec {
-    /// The body whose ply stresses the response reads, with its failure criterion (`None`:
-    /// a stress component).
-    pub fn ply_body(&self) -> Option<(&str, Option<Criterion>)> {
+    /// The body whose ply stresses the response reads, and when the response takes strains
+    /// through the plies' nominal compliance, `[what does, its key, what to use instead]`.
+    pub fn ply_body(&self) -> Option<(&str, Option<[&'static str; 3]>)> {
         match &self.kind {
-            SpecKind::PlyStress { body, .. } => Some((body, None)),
+            SpecKind::PlyStress { body, strain, .. } => Some((
+                body,
+                strain.then_some(["a ply strain", "component", "constrain a stress component"]),
+            )),
             SpecKind::PlyFailure {
                 body, criterion, ..
-            } => Some((body, Some(*criterion))),
+            } => Some((
+                body,
+                (*criterion == Criterion::MaxStrain).then_some([
+                    "the max-strain index",
+                    "criterion",
+                    "use another criterion (max-stress, tsai-wu, …)",
+                ]),
+            )),
             _ => None,
         }
     }
@@ -197,12 +208,14 @@ impl ResponseSpec {
                 ply,
                 place,
                 component,
+                strain,
             } => Response::PlyStress {
                 body: id(body),
                 element: *element,
                 ply: *ply,
                 place: *place,
                 component: *component,
+                strain: *strain,
             },
             SpecKind::PlyFailure {
                 body,
@@ -310,7 +323,7 @@ pub fn validate(
             "point-position" => (t.point(0)?, "m"),
             "point-velocity" => (t.point(1)?, "m/s"),
             "point-acceleration" => (t.point(2)?, "m/s²"),
-            "ply-stress" => (t.ply_stress()?, "Pa"),
+            "ply-stress" => t.ply_stress()?,
             "ply-failure" => (t.ply_failure()?, "1"),
             other => {
                 return Err(src.error(

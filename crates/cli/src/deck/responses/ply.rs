@@ -13,8 +13,10 @@ use crate::deck::mechanism::PlyMap;
 
 const POSITIONS: [&str; 3] = ["bottom", "middle", "top"];
 const POSITION_OF: [PlyPosition; 3] = [PlyPosition::Bottom, PlyPosition::Middle, PlyPosition::Top];
-/// Stress components, material axes (Voigt order).
-const STRESS: [&str; 6] = ["s11", "s22", "s33", "s23", "s13", "s12"];
+/// Stress and then strain components, material axes (Voigt order, engineering shear strains).
+const COMPONENTS: [&str; 12] = [
+    "s11", "s22", "s33", "s23", "s13", "s12", "e11", "e22", "e33", "e23", "e13", "e12",
+];
 
 impl Table<'_> {
     /// The flexible body the response names, its plies and its nodes; the keys that belong to
@@ -177,9 +179,9 @@ impl Table<'_> {
         }
     }
 
-    /// `kind = "ply-stress"`: a stress component of a ply point of a shell element, or of a
-    /// section point of a beam element.
-    pub(super) fn ply_stress(&self) -> Result<SpecKind, DeckError> {
+    /// `kind = "ply-stress"`: a stress or strain component of a ply point of a shell element,
+    /// or of a section point of a beam element, with its unit.
+    pub(super) fn ply_stress(&self) -> Result<(SpecKind, &'static str), DeckError> {
         let (body, map, _) = self.ply_map()?;
         let element = self.ply_element(map, true)?.expect("required");
         let laminate = map.element_laminates[element];
@@ -188,14 +190,16 @@ impl Table<'_> {
             true => fem::PointPlace::Section(self.section_point()?),
             false => fem::PointPlace::Ply(self.ply_position(true)?.expect("required")),
         };
-        let component = self.component(&STRESS)?;
-        Ok(SpecKind::PlyStress {
+        let c = self.component(&COMPONENTS)?;
+        let spec = SpecKind::PlyStress {
             body,
             element,
             ply,
             place,
-            component,
-        })
+            component: c % 6,
+            strain: c >= 6,
+        };
+        Ok((spec, if c >= 6 { "1" } else { "Pa" }))
     }
 
     /// `box`: the elements whose nodes all lie in it (within 1e-9 of the body's size).
