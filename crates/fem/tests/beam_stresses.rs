@@ -4,30 +4,17 @@
 //! design derivatives (a ply angle of a laminated tube, through the section's stiffness and
 //! its stress points, and a scale of the mode) against central differences.
 
+mod common;
+
+use common::{body_of, stress_derivative_pairs};
 use fem::{
-    Assembly, BeamSection, BeamSegment, Constraints, ElementOptions, MassKind, Mesh, ModalBody,
-    Properties, beam_modal_stresses, section_points,
+    Assembly, BeamSection, BeamSegment, Constraints, ElementOptions, MassKind, Mesh, Properties,
+    beam_modal_stresses, section_points,
 };
 use laminate::OrthotropicMaterial;
 use nalgebra::{DMatrix, Vector3};
 use section::{PlySpec, SectionAnalysis};
-use sens::{Dual, Scalar};
-
-/// A body whose "modes" are the given nodal fields (6 per node, mesh axes).
-fn body_of<S: Scalar>(mesh: &Mesh, modes: DMatrix<S>) -> ModalBody<S> {
-    let n = mesh.nodes.len();
-    let nm = modes.ncols();
-    ModalBody {
-        node_positions: mesh.nodes.clone(),
-        node_masses: vec![S::one(); n],
-        node_inertias: vec![Vector3::zeros(); n],
-        modes,
-        eigenvalues: vec![S::one(); nm],
-        modal_damping: vec![S::zero(); nm],
-        stiffness_matrix: None,
-        damping_matrix: None,
-    }
-}
+use sens::Dual;
 
 const START: [f64; 3] = [0.1, -0.05, 0.02];
 const END: [f64; 3] = [0.4, 0.15, 0.12];
@@ -199,25 +186,7 @@ fn beam_ply_stress_derivatives_equal_central_differences() {
         let (mut p, mut m) = (base, base);
         p[j] += steps[j];
         m[j] -= steps[j];
-        let (sp, sm) = (value(p), value(m));
-        let mut pairs = Vec::new();
-        for i in 0..dual.elements.len() {
-            let (dd, dp, dm) = (
-                dual.deformation(i, &w),
-                sp.deformation(i, &w),
-                sm.deformation(i, &w),
-            );
-            for k in 0..dual.laminates[0].points.len() {
-                let (s, sp, sm) = (
-                    dual.stress(i, k, &dd),
-                    sp.stress(i, k, &dp),
-                    sm.stress(i, k, &dm),
-                );
-                for r in 0..6 {
-                    pairs.push(((i, k, r), s[r].d[j], (sp[r].v - sm[r].v) / (2.0 * steps[j])));
-                }
-            }
-        }
+        let pairs = stress_derivative_pairs(&dual, (&value(p), &value(m)), &w, (j, steps[j]));
         let largest = pairs.iter().fold(0.0f64, |m, p| m.max(p.2.abs()));
         let moved = pairs.iter().filter(|p| p.2.abs() > 1e-3 * largest).count();
         let worst = (pairs.iter())

@@ -7,30 +7,14 @@
 
 mod common;
 
-use common::{paper_material, stack};
+use common::{body_of, paper_material, stack, stress_derivative_pairs};
 use fem::{
-    Assembly, Constraints, ElementOptions, MassKind, Membrane, Mesh, ModalBody, Properties,
-    ShellPlies, shell_modal_stresses,
+    Assembly, Constraints, ElementOptions, MassKind, Membrane, Mesh, Properties, ShellPlies,
+    shell_modal_stresses,
 };
 use laminate::{OrthotropicMaterial, PlateState, Ply, PlyPosition, PlyStack};
 use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
-use sens::{Dual, Scalar};
-
-/// A body whose "modes" are the given nodal fields (6 per node, mesh axes).
-fn body_of<S: Scalar>(mesh: &Mesh, modes: DMatrix<S>) -> ModalBody<S> {
-    let n = mesh.nodes.len();
-    let nm = modes.ncols();
-    ModalBody {
-        node_positions: mesh.nodes.clone(),
-        node_masses: vec![S::one(); n],
-        node_inertias: vec![Vector3::zeros(); n],
-        modes,
-        eigenvalues: vec![S::one(); nm],
-        modal_damping: vec![S::zero(); nm],
-        stiffness_matrix: None,
-        damping_matrix: None,
-    }
-}
+use sens::Dual;
 
 /// The plate field of constants `c = [a, b, c, d, g, h, k1, k2, k3, sx, sy]` in plate
 /// coordinates `(x, y)` (along `e₁`, `e₂`): `u = a x + b y`, `v = c x + d y`,
@@ -280,25 +264,7 @@ fn ply_stress_derivatives_equal_central_differences() {
         let (mut p, mut m) = (base, base);
         p[j] += steps[j];
         m[j] -= steps[j];
-        let (sp, sm) = (value(p), value(m));
-        let mut pairs = Vec::new();
-        for i in 0..dual.elements.len() {
-            let (dd, dp, dm) = (
-                dual.deformation(i, &w),
-                sp.deformation(i, &w),
-                sm.deformation(i, &w),
-            );
-            for k in 0..dual.laminates[0].points.len() {
-                let (s, sp, sm) = (
-                    dual.stress(i, k, &dd),
-                    sp.stress(i, k, &dp),
-                    sm.stress(i, k, &dm),
-                );
-                for r in 0..6 {
-                    pairs.push(((i, k, r), s[r].d[j], (sp[r].v - sm[r].v) / (2.0 * steps[j])));
-                }
-            }
-        }
+        let pairs = stress_derivative_pairs(&dual, (&value(p), &value(m)), &w, (j, steps[j]));
         let largest = pairs.iter().fold(0.0f64, |m, p| m.max(p.2.abs()));
         let moved = pairs.iter().filter(|p| p.2.abs() > 1e-3 * largest).count();
         for (at, exact, fd) in pairs {

@@ -1,9 +1,10 @@
 //! Test problems with known answers (oracles independent of the element code).
 #![allow(dead_code)]
 
-use fem::{BeamSection, Properties};
+use fem::{BeamSection, Mesh, ModalBody, ModalStresses, Properties};
 use laminate::{LaminateStiffness, OrthotropicMaterial, Ply, PlyStack};
 use nalgebra::{DMatrix, Matrix4, Vector3};
+use sens::{Dual, Scalar};
 
 /// An isotropic rectangular section, `hy` along x₂, `hz` along x₃; shear correction `kappa`.
 pub struct Rect {
@@ -358,4 +359,52 @@ pub fn beam(n: usize) -> fem::Mesh {
         Vector3::y(),
     )
     .unwrap()
+}
+
+/// A body whose "modes" are the given nodal fields (6 per node, mesh axes).
+pub fn body_of<S: Scalar>(mesh: &Mesh, modes: DMatrix<S>) -> ModalBody<S> {
+    let n = mesh.nodes.len();
+    let nm = modes.ncols();
+    ModalBody {
+        node_positions: mesh.nodes.clone(),
+        node_masses: vec![S::one(); n],
+        node_inertias: vec![Vector3::zeros(); n],
+        modes,
+        eigenvalues: vec![S::one(); nm],
+        modal_damping: vec![S::zero(); nm],
+        stiffness_matrix: None,
+        damping_matrix: None,
+    }
+}
+
+/// Every stress of `dual` at the modal coordinates `w` with its tangent `j` and the central
+/// difference of the same stress in `plus` and `minus` (the design moved by `±h`):
+/// `((element, point, component), tangent, difference)`.
+#[allow(clippy::type_complexity)]
+pub fn stress_derivative_pairs<const N: usize>(
+    dual: &ModalStresses<Dual<N>>,
+    (plus, minus): (&ModalStresses<Dual<N>>, &ModalStresses<Dual<N>>),
+    w: &[Dual<N>],
+    (j, h): (usize, f64),
+) -> Vec<((usize, usize, usize), f64, f64)> {
+    let mut pairs = Vec::new();
+    for i in 0..dual.elements.len() {
+        let (dd, dp, dm) = (
+            dual.deformation(i, w),
+            plus.deformation(i, w),
+            minus.deformation(i, w),
+        );
+        let points = dual.laminates[dual.elements[i].laminate].points.len();
+        for k in 0..points {
+            let (s, sp, sm) = (
+                dual.stress(i, k, &dd),
+                plus.stress(i, k, &dp),
+                minus.stress(i, k, &dm),
+            );
+            for r in 0..6 {
+                pairs.push(((i, k, r), s[r].d[j], (sp[r].v - sm[r].v) / (2.0 * h)));
+            }
+        }
+    }
+    pairs
 }
