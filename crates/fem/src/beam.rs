@@ -256,18 +256,18 @@ fn clamped<S: Scalar>(
     })
 }
 
-/// The section forces `[F₁, F₂, F₃, M₁, M₂, M₃]` at the middle of a beam segment of length `l`
-/// per local dof `[u₁, θ₁, u₂, θ₂]` (6 × 12): the end load at node 2, `K₂₂ H u`, carried to the
-/// middle, `T(L/2)`. Under end loads these are the segment's exact section forces (the forces
-/// constant along it, the moments linear); the middle is where the moments are the mean of the
-/// ends'.
-pub fn beam_midpoint_forces<S: Scalar>(
+/// The section forces `[F₁, F₂, F₃, M₁, M₂, M₃]` at the stations `x` (m from node 1) of a beam
+/// segment of length `l`, each per local dof `[u₁, θ₁, u₂, θ₂]` (6 × 12): the end load at node
+/// 2, `K₂₂ H u`, carried to the station, `T(L − x)`. Under end loads these are the segment's
+/// exact section forces (the forces constant along it, the moments linear).
+pub fn beam_station_forces<S: Scalar>(
     section: &BeamSection<S>,
     l: f64,
     element: usize,
-) -> Result<M6x12<S>, BeamError> {
+    x: &[f64],
+) -> Result<Vec<M6x12<S>>, BeamError> {
     let Clamped { k22h, .. } = clamped(section, l, element)?;
-    Ok(transfer::<S>(0.5 * l) * k22h)
+    Ok(x.iter().map(|&x| transfer::<S>(l - x) * k22h).collect())
 }
 
 /// Stiffness and consistent mass of a beam segment of length `l` in its local frame.

@@ -2,20 +2,20 @@
 //!
 //! Both steps are linear: an element's load is linear in the body's modal coordinates `w`
 //! (`d = E w`, [`ElementDeformation`]) — a shell element's laminate deformation at its
-//! centroid, a beam element's section forces at its middle — and each ply point's stress in
-//! its material axes is linear in that load (`σ = P d`, [`PlyStressPoint`]): the laminate's
-//! recovery through the thickness, or the section analysis's at its integration points. So the
-//! ply stresses of a body in motion are `P E w`, with `E` and `P` formed once, in the design's
-//! scalar: on dual numbers their tangents are the derivatives of the modes and section
-//! stiffnesses (through `E`) and of the plies' angles, thicknesses and materials (through `P`),
-//! and a response evaluated with seeded `w` has its total derivative.
+//! centroid, a beam element's section forces at its ends and middle — and each ply point's
+//! stress in its material axes is linear in that load (`σ = P d`, [`PlyStressPoint`]): the
+//! laminate's recovery through the thickness, or the section analysis's at its integration
+//! points. So the ply stresses of a body in motion are `P E w`, with `E` and `P` formed once,
+//! in the design's scalar: on dual numbers their tangents are the derivatives of the modes and
+//! section stiffnesses (through `E`) and of the plies' angles, thicknesses and materials
+//! (through `P`), and a response evaluated with seeded `w` has its total derivative.
 
 use laminate::{OrthotropicMaterial, PlateState, PlyPosition, PlyStack};
 use nalgebra::{DMatrix, Matrix6, SMatrix, Vector3};
 use sens::Scalar;
 
 use crate::assembly::{Properties, beam_element_section};
-use crate::beam::{beam_frame, beam_midpoint_forces};
+use crate::beam::{beam_frame, beam_station_forces};
 use crate::error::FemError;
 use crate::mesh::{Element, Mesh};
 use crate::modal::{ModalBody, NODE_DOFS};
@@ -74,16 +74,20 @@ pub struct LaminatePoints<S: Scalar> {
     pub materials: Vec<OrthotropicMaterial>,
 }
 
-/// An element's load per modal coordinate (`DEFORMATION × n_modes`): a shell element's
-/// laminate deformation at its centroid, in the element's laminate axes (`e₁` the material
-/// axis on the element plane); a beam element's section forces at its middle.
+/// An element's load per modal coordinate (`DEFORMATION × n_modes`) at one of its stations: a
+/// shell element's laminate deformation at its centroid, in the element's laminate axes (`e₁`
+/// the material axis on the element plane); a beam element's section forces at its start, its
+/// middle or its end ([`BEAM_STATIONS`]).
 #[derive(Clone, Debug)]
 pub struct ElementDeformation<S: Scalar> {
     /// The element's index in the mesh.
     pub element: usize,
     /// Its laminate or section (an index of [`ModalStresses::laminates`]).
     pub laminate: usize,
-    /// Its centroid (a beam's middle) in the body frame (m).
+    /// A beam element's station, the fraction of its length from its first node (`None`: a
+    /// shell element's centroid).
+    pub station: Option<f64>,
+    /// Where the station is in the body frame (m).
     pub centroid: Vector3<f64>,
     pub per_mode: DMatrix<S>,
 }
@@ -94,7 +98,8 @@ pub struct ElementDeformation<S: Scalar> {
 pub struct ModalStresses<S: Scalar> {
     pub n_modes: usize,
     pub laminates: Vec<LaminatePoints<S>>,
-    /// The shell (or beam) elements, in mesh order.
+    /// The shell (or beam) elements' stations, in mesh order (a beam element's from its first
+    /// node).
     pub elements: Vec<ElementDeformation<S>>,
 }
 
@@ -119,6 +124,7 @@ impl<S: Scalar> ModalStresses<S> {
                 .map(|e| ElementDeformation {
                     element: e.element,
                     laminate: e.laminate,
+                    station: e.station,
                     centroid: e.centroid,
                     per_mode: e.per_mode.map(f),
                 })
@@ -126,12 +132,19 @@ impl<S: Scalar> ModalStresses<S> {
         }
     }
 
-    /// The position in [`Self::elements`] of mesh element `element` (`None`: not an element
-    /// of the body's kind).
+    /// The positions in [`Self::elements`] of mesh element `element`'s stations (empty: not an
+    /// element of the body's kind).
+    pub fn element_stations(&self, element: usize) -> std::ops::Range<usize> {
+        let start = self.elements.partition_point(|e| e.element < element);
+        let end = self.elements.partition_point(|e| e.element <= element);
+        start..end
+    }
+
+    /// The position in [`Self::elements`] of mesh element `element` at its centroid (a shell)
+    /// or middle (a beam) (`None`: not an element of the body's kind).
     pub fn element_index(&self, element: usize) -> Option<usize> {
-        self.elements
-            .binary_search_by_key(&element, |e| e.element)
-            .ok()
+        self.element_stations(element)
+            .find(|&i| self.elements[i].station.is_none_or(|x| x == 0.5))
     }
 
     /// The deformation of [`Self::elements`]`[i]` at the modal coordinates `w`.
@@ -246,6 +259,7 @@ pub fn shell_modal_stresses<S: Scalar>(
         elements.push(ElementDeformation {
             element: e,
             laminate: property,
+            station: None,
             centroid,
             per_mode,
         });
@@ -289,12 +303,17 @@ fn laminate_points<S: Scalar>(plies: &ShellPlies<S>) -> LaminatePoints<S> {
     }
 }
 
+/// Where a beam element's stresses are sampled, as fractions of its length from its first
+/// node: its ends, where the joints' and supports' loads peak, and its middle.
+pub const BEAM_STATIONS: [f64; 3] = [0.0, 0.5, 1.0];
+
 /// The ply stresses of the modes of `body`, a beam body on `mesh` whose element properties
 /// index `sections` (each one's stress points per unit section force, [`section_points`]) and
 /// `props` (the section stiffnesses its modes were computed with, in the design's scalar;
 /// `planar_axis` that of a planar analysis, whose beams release their out-of-plane shear).
-/// Each element's load is its section forces at its middle ([`beam_midpoint_forces`]), from
-/// its nodes' modal displacements in its frame. Shell elements have none.
+/// Each element's loads are its section forces at its [`BEAM_STATIONS`]
+/// ([`beam_station_forces`]), from its nodes' modal displacements in its frame. Shell elements
+/// have none.
 pub fn beam_modal_stresses<S: Scalar>(
     mesh: &Mesh,
     (props, planar_axis): (&Properties<S>, Option<usize>),
@@ -323,24 +342,29 @@ pub fn beam_modal_stresses<S: Scalar>(
         }
         let (l, lam) = beam_frame(&mesh.nodes[nodes[0]], &mesh.nodes[nodes[1]], &orientation);
         let section = beam_element_section(props, (e, property), &lam, planar_axis)?;
-        let forces = beam_midpoint_forces(&section, l, e)?;
+        let at = BEAM_STATIONS.map(|x| x * l);
+        let forces = beam_station_forces(&section, l, e, &at)?;
         let u = local_dof(body, &nodes, &lam);
-        let mut per_mode = DMatrix::<S>::zeros(DEFORMATION, nm);
-        for j in 0..nm {
-            for r in 0..6 {
-                let mut x = S::zero();
-                for c in 0..12 {
-                    x += forces[(r, c)] * u[(c, j)];
+        let [p1, p2] = nodes.map(|n| body.node_positions[n]);
+        for (station, forces) in BEAM_STATIONS.iter().zip(&forces) {
+            let mut per_mode = DMatrix::<S>::zeros(DEFORMATION, nm);
+            for j in 0..nm {
+                for r in 0..6 {
+                    let mut x = S::zero();
+                    for c in 0..12 {
+                        x += forces[(r, c)] * u[(c, j)];
+                    }
+                    per_mode[(r, j)] = x;
                 }
-                per_mode[(r, j)] = x;
             }
+            elements.push(ElementDeformation {
+                element: e,
+                laminate: property,
+                station: Some(*station),
+                centroid: p1 + (p2 - p1) * *station,
+                per_mode,
+            });
         }
-        elements.push(ElementDeformation {
-            element: e,
-            laminate: property,
-            centroid: (body.node_positions[nodes[0]] + body.node_positions[nodes[1]]) / 2.0,
-            per_mode,
-        });
     }
     Ok(ModalStresses {
         n_modes: nm,

@@ -99,13 +99,19 @@ pub(crate) fn ply_failure<P: Scalar, S: Scalar + From<P>>(
 ) -> Result<S, String> {
     let s = stresses_of(f)?;
     let m = &s.modal;
+    // every station of the selected elements
     let elements: Vec<usize> = match selection.elements {
-        Some(list) => (list.iter())
-            .map(|&e| {
-                m.element_index(e)
-                    .ok_or_else(|| format!("element {e} has no ply stresses in the body"))
-            })
-            .collect::<Result<_, _>>()?,
+        Some(list) => {
+            let mut out = Vec::new();
+            for &e in list {
+                let stations = m.element_stations(e);
+                if stations.is_empty() {
+                    return Err(format!("element {e} has no ply stresses in the body"));
+                }
+                out.extend(stations);
+            }
+            out
+        }
         None => (0..m.elements.len()).collect(),
     };
     let wv: Vec<f64> = w.iter().map(|x| x.value()).collect();

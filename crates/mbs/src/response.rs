@@ -89,10 +89,11 @@ pub enum Response {
         strain: bool,
     },
     /// The failure index under `criterion` (`1/R`, docs/failure-criteria.md) over the ply
-    /// points of the elements `elements` (`None`: every one), ply `ply` (a beam section's
-    /// region; `None`: every one) and `position` (`None`: bottom, middle and top of a shell's
-    /// ply; a beam's points have none): their largest (`rho` `None`), with the
-    /// derivatives of the point where it is, or their Kreisselmeier–Steinhauser aggregate
+    /// points of the elements `elements` (`None`: every one; a beam element's at its ends and
+    /// middle), ply `ply` (a beam section's region; `None`: every one) and `position` (`None`:
+    /// bottom, middle and top of a shell's ply; a beam's points have none): their largest
+    /// (`rho` `None`), with the derivatives of the point where it is, or their
+    /// Kreisselmeier–Steinhauser aggregate
     /// `max + ln Σ exp(ρ (FI_k − max)) / ρ` (between the largest and `ln n / ρ` above it).
     PlyFailure {
         body: BodyId,
