@@ -12,7 +12,7 @@
 
 mod common;
 
-use common::{bad_deck, deck, json, replayed_differences, run_text, with_deck};
+use common::{bad_deck, deck, json, replayed_differences, run, run_text, with_deck};
 
 /// A 0.5 m aluminium bar of 20 mm × 10 mm (ν = 0: the section's shear is beam theory's
 /// parabola) clamped at its first node to the ground, sagging under gravity along −x₃.
@@ -297,6 +297,19 @@ fn beam_ply_responses_refuse_what_they_cannot_give() {
             "key `response.strain.component`: design variable `e2` moves the material \
                       `paper_composite` of body `rod`: a ply strain takes the strains"
         ),
+        "{err}"
+    );
+    // an aggregate of Hashin's fibre index is checked, with a warning of its jumps
+    let hashin = BAR.to_string()
+        + "\n[response.h]\nkind = \"ply-failure\"\nbody = \"bar\"\ncriterion = \"hashin\"\nrho = 100.0\n";
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("hashin.toml");
+    std::fs::write(&path, hashin).unwrap();
+    let o = run(&["check", path.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("warning: ") && err.contains("Hashin's fibre index jumps where σ11 changes"),
         "{err}"
     );
     // a shell body's points are chosen by ply and position

@@ -270,6 +270,17 @@ impl Table<'_> {
         let rho = (self.raw.rho.as_ref())
             .map(|r| positive(self.src, &self.key("rho"), r, "1"))
             .transpose()?;
+        if rho.is_some() && matches!(criterion, Criterion::Hashin | Criterion::HashinFibre) {
+            self.src.warn(
+                self.raw.criterion.as_ref().and_then(span),
+                Some(self.key("criterion")),
+                "Hashin's fibre index jumps where σ11 changes sign under shear (its tension form \
+                 counts the shear, its compression form does not), so this aggregate is not \
+                 differentiable in the design where a point's σ11 crosses zero \
+                 (docs/failure-criteria.md, \"In a run\"); for a constraint an optimiser \
+                 differentiates, use tsai-wu or hashin-matrix",
+            );
+        }
         // every ply selected needs its material's strengths
         for &l in &laminates {
             let (name, plies) = &map.laminates[l];
