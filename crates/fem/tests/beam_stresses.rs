@@ -6,10 +6,9 @@
 
 mod common;
 
-use common::{body_of, stress_derivative_pairs};
+use common::{body_of, static_displacements, stress_derivative_pairs};
 use fem::{
-    Assembly, BeamSection, BeamSegment, Constraints, ElementOptions, MassKind, Mesh, Properties,
-    beam_modal_stresses, section_points,
+    BeamSection, BeamSegment, Constraints, Mesh, Properties, beam_modal_stresses, section_points,
 };
 use laminate::OrthotropicMaterial;
 use nalgebra::{DMatrix, Vector3};
@@ -39,25 +38,11 @@ fn beam_mesh(elements: usize) -> Mesh {
 fn cantilever(mesh: &Mesh, props: &Properties<f64>, force: [f64; 3], moment: [f64; 3]) -> Vec<f64> {
     let mut constraints = Constraints::new();
     constraints.clamp(0);
-    let asm = Assembly::new(mesh, &constraints).unwrap();
-    let (kv, _) = asm
-        .values(mesh, props, &ElementOptions::default(), MassKind::Lumped)
-        .unwrap();
-    let k = asm.matrix(kv);
-    let nf = asm.n_free();
-    let mut kd = DMatrix::<f64>::zeros(nf, nf);
-    let (cp, ri) = (k.symbolic().col_ptr(), k.symbolic().row_idx());
-    for j in 0..nf {
-        for q in cp[j]..cp[j + 1] {
-            kd[(ri[q], j)] = k.val()[q];
-        }
-    }
     let tip = mesh.nodes.len() - 1;
     let mut f = vec![0.0; 6 * mesh.nodes.len()];
     f[6 * tip..6 * tip + 3].copy_from_slice(&force);
     f[6 * tip + 3..6 * tip + 6].copy_from_slice(&moment);
-    let u = kd.lu().solve(&asm.restrict(&f)).unwrap();
-    asm.expand(u.as_slice())
+    static_displacements(mesh, props, &constraints, &f)
 }
 
 #[test]

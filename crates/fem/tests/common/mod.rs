@@ -1,7 +1,10 @@
 //! Test problems with known answers (oracles independent of the element code).
 #![allow(dead_code)]
 
-use fem::{BeamSection, Mesh, ModalBody, ModalStresses, Properties};
+use fem::{
+    Assembly, BeamSection, Constraints, ElementOptions, MassKind, Mesh, ModalBody, ModalStresses,
+    Properties,
+};
 use laminate::{LaminateStiffness, OrthotropicMaterial, Ply, PlyStack};
 use nalgebra::{DMatrix, Matrix4, Vector3};
 use sens::{Dual, Scalar};
@@ -407,4 +410,29 @@ pub fn stress_derivative_pairs<const N: usize>(
         }
     }
     pairs
+}
+
+/// The static displacements (6 per node, mesh axes; zero where `constraints` fix them) of
+/// `mesh` with `props` under the nodal loads `f` (6 per node), by a dense solve.
+pub fn static_displacements(
+    mesh: &Mesh,
+    props: &Properties<f64>,
+    constraints: &Constraints,
+    f: &[f64],
+) -> Vec<f64> {
+    let asm = Assembly::new(mesh, constraints).unwrap();
+    let (kv, _) = asm
+        .values(mesh, props, &ElementOptions::default(), MassKind::Lumped)
+        .unwrap();
+    let k = asm.matrix(kv);
+    let nf = asm.n_free();
+    let mut kd = DMatrix::<f64>::zeros(nf, nf);
+    let (cp, ri) = (k.symbolic().col_ptr(), k.symbolic().row_idx());
+    for j in 0..nf {
+        for q in cp[j]..cp[j + 1] {
+            kd[(ri[q], j)] = k.val()[q];
+        }
+    }
+    let u = kd.lu().solve(&asm.restrict(f)).unwrap();
+    asm.expand(u.as_slice())
 }
