@@ -135,22 +135,12 @@ impl SectionDesign {
         b: &[Dual<N>],
         values: &[f64],
     ) -> Result<fem::LaminatePoints<Dual<N>>, section::SectionError> {
+        // a section given by its properties: nothing to move
         if self.mesh.elements.is_empty() {
-            return Ok(fem::LaminatePoints {
-                points: Vec::new(),
-                materials: Vec::new(),
-            });
+            return section_points_of(&self.mesh, &DesignMap::new(), &[]);
         }
         let (at, map_at, b_active) = self.analysed_at(b, values)?;
-        let analysis = section::SectionAnalysis::new(&at)?;
-        let derivatives = match map_at.variables.len() {
-            0 => Vec::new(),
-            1 => analysis.unit_stress_derivatives::<1>(&map_at)?,
-            2 => analysis.unit_stress_derivatives::<2>(&map_at)?,
-            3 | 4 => analysis.unit_stress_derivatives::<4>(&map_at)?,
-            _ => analysis.unit_stress_derivatives::<CHUNK>(&map_at)?,
-        };
-        Ok(fem::section_points(&analysis, &derivatives, &b_active))
+        section_points_of(&at, &map_at, &b_active)
     }
 
     /// The section's mesh at the design `b` (its plies' angles, thicknesses and materials
@@ -247,6 +237,32 @@ impl Design {
     }
 }
 
+/// The stress points of the section `mesh` ([`fem::section_points`]) with their derivatives
+/// along the variables of `map` carried by the tangents of their values `b`; none for a
+/// section given by its properties (no mesh).
+fn section_points_of<S: sens::Scalar>(
+    mesh: &section::SectionMesh,
+    map: &DesignMap,
+    b: &[S],
+) -> Result<fem::LaminatePoints<S>, section::SectionError> {
+    if mesh.elements.is_empty() {
+        return Ok(fem::LaminatePoints {
+            points: Vec::new(),
+            materials: Vec::new(),
+        });
+    }
+    let analysis = section::SectionAnalysis::new(mesh)?;
+    // in chunks no wider than the variables, as `section_derivatives_of`
+    let derivatives = match map.variables.len() {
+        0 => Vec::new(),
+        1 => analysis.unit_stress_derivatives::<1>(map)?,
+        2 => analysis.unit_stress_derivatives::<2>(map)?,
+        3 | 4 => analysis.unit_stress_derivatives::<4>(map)?,
+        _ => analysis.unit_stress_derivatives::<CHUNK>(map)?,
+    };
+    Ok(fem::section_points(&analysis, &derivatives, b))
+}
+
 /// What a flexible body's ply stresses are made of, in the design's scalar: a shell body's
 /// laminates, or a beam body's sections' stress points (one per element property).
 pub enum StressParts<S: sens::Scalar> {
@@ -282,14 +298,7 @@ impl Design {
             ),
             Design::Beam { sections, .. } => StressParts::Beam(
                 (sections.iter())
-                    .map(|s| match s.mesh.elements.is_empty() {
-                        true => Ok(fem::LaminatePoints {
-                            points: Vec::new(),
-                            materials: Vec::new(),
-                        }),
-                        false => section::SectionAnalysis::new(&s.mesh)
-                            .map(|a| fem::section_points::<f64>(&a, &[], &[])),
-                    })
+                    .map(|s| section_points_of(&s.mesh, &DesignMap::new(), &[]))
                     .collect::<Result<_, _>>()?,
             ),
         })
