@@ -1327,7 +1327,7 @@ where
 pub const SECOND_DERIVATIVE_STEP: f64 = 1e-4;
 
 /// `Zᵀ(K_bb − λM_bb)Z` for every cluster and design variable (`[var][cluster]`), from the dual
-/// `K_b` of variable `v` at `b ± h e_v` ([`cluster_second_derivatives`]).
+/// `K_b` of variable `v` at `b ± h e_v`, seeded along `v` alone ([`cluster_second_derivatives`]).
 pub fn second_derivative_terms<const N: usize, F>(
     mesh: &Mesh,
     assembly: &Assembly,
@@ -1345,11 +1345,16 @@ where
     let mut minus = Vec::with_capacity(b.len());
     for v in 0..b.len() {
         for (sign, out) in [(1.0, &mut plus), (-1.0, &mut minus)] {
-            let mut bb = b.to_vec();
-            bb[v] += sign * h;
-            // seed the chunk that contains v
+            // variable v alone seeded, in its slot of the chunk that contains it: only its
+            // tangent is read, and a section analysed again at the perturbed design then
+            // differentiates along it alone, not along the whole chunk
             let start = v - v % N;
-            let seeded = seed_chunk::<N>(&bb, start);
+            let seeded: Vec<Dual<N>> = (b.iter().enumerate())
+                .map(|(i, &x)| match i == v {
+                    true => Dual::variable(x + sign * h, v - start),
+                    false => Dual::constant(x),
+                })
+                .collect();
             let p = props(&seeded);
             let (kv, mv) = assembly.values(mesh, &p, element, mass)?;
             out.push(DesignMatrices {
