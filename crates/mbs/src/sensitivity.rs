@@ -63,6 +63,9 @@ use crate::system::{MultibodySystem, Solution};
 pub struct DesignModel<const N: usize> {
     chunks: Vec<Model<Dual<N>>>,
     n_variables: usize,
+    /// Each variable's scale `b̄_j` in the sensitivities' error weights (1 unless
+    /// [`Self::with_variable_scales`] says otherwise).
+    scales: Vec<f64>,
 }
 
 impl<const N: usize> DesignModel<N> {
@@ -88,7 +91,32 @@ impl<const N: usize> DesignModel<N> {
         Ok(Self {
             chunks,
             n_variables,
+            scales: vec![1.0; n_variables],
         })
+    }
+
+    /// The variables' scales `b̄_j`: the sensitivities `∂y/∂b_j` are weighted in the
+    /// integrator's error norm as the state's change `b̄_j ∂y/∂b_j` under a change `b̄_j` of the
+    /// variable, i.e. with the absolute tolerances `atol / b̄_j` (CVODES's `pbar`). Without
+    /// them a variable in small units (a ply thickness in metres) has sensitivities thousands
+    /// of times those of an angle in degrees, held to the same absolute tolerance: their
+    /// corrector iterates to a far tighter accuracy than the state's. Each scale must be
+    /// finite and positive.
+    pub fn with_variable_scales(mut self, scales: Vec<f64>) -> Result<Self, SensitivityError> {
+        if scales.len() != self.n_variables || scales.iter().any(|b| !(b.is_finite() && *b > 0.0)) {
+            return Err(SensitivityError::Layout(format!(
+                "{} variable scales for {} design variables, each finite and positive",
+                scales.len(),
+                self.n_variables
+            )));
+        }
+        self.scales = scales;
+        Ok(self)
+    }
+
+    /// The variables' scales in the error weights ([`Self::with_variable_scales`]).
+    pub fn variable_scales(&self) -> &[f64] {
+        &self.scales
     }
 
     pub fn n_variables(&self) -> usize {
@@ -562,25 +590,49 @@ fn add_scaled(acc: &mut DMatrix<f64>, a: f64, x: &DMatrix<f64>) {
     }
 }
 
+/// The absolute tolerances of the sensitivities: `atol_i · column_j` for component `i` of
+/// variable `j`'s column (the state's `atol` times [`SensitivityOptions::atol_scale`], over the
+/// variable's scale, [`DesignModel::with_variable_scales`]).
+struct SensitivityAtol {
+    atol: Vec<f64>,
+    column: Vec<f64>,
+}
+
+impl SensitivityAtol {
+    /// The error weight of entry `(i, j)` with the reference value `r`.
+    fn weight(&self, rtol: f64, r: f64, i: usize, j: usize) -> f64 {
+        rtol * r.abs() + self.atol[i] * self.column[j]
+    }
+}
+
 /// [`wrms_matrix`] of each column alone.
-fn column_norms(e: &DMatrix<f64>, reference: &DMatrix<f64>, rtol: f64, atol: &[f64]) -> Vec<f64> {
+fn column_norms(
+    e: &DMatrix<f64>,
+    reference: &DMatrix<f64>,
+    rtol: f64,
+    atol: &SensitivityAtol,
+) -> Vec<f64> {
     (0..e.ncols())
         .map(|j| {
             let sum: f64 = (0..e.nrows())
-                .map(|i| (e[(i, j)] / (rtol * reference[(i, j)].abs() + atol[i])).powi(2))
+                .map(|i| (e[(i, j)] / atol.weight(rtol, reference[(i, j)], i, j)).powi(2))
                 .sum();
             (sum / e.nrows().max(1) as f64).sqrt()
         })
         .collect()
 }
 
-fn wrms_matrix(e: &DMatrix<f64>, reference: &DMatrix<f64>, rtol: f64, atol: &[f64]) -> f64 {
+fn wrms_matrix(
+    e: &DMatrix<f64>,
+    reference: &DMatrix<f64>,
+    rtol: f64,
+    atol: &SensitivityAtol,
+) -> f64 {
     let n = e.nrows();
     let mut sum = 0.0;
     for j in 0..e.ncols() {
         for i in 0..n {
-            let w = rtol * reference[(i, j)].abs() + atol[i];
-            sum += (e[(i, j)] / w).powi(2);
+            sum += (e[(i, j)] / atol.weight(rtol, reference[(i, j)], i, j)).powi(2);
         }
     }
     (sum / (e.len().max(1) as f64)).sqrt()
@@ -621,13 +673,23 @@ impl<const N: usize> Extension<'_, N> {
     }
 
     /// The sensitivities' absolute tolerances from the state's.
-    fn sensitivity_atol(&self, atol: &[f64]) -> Vec<f64> {
-        atol.iter().map(|a| a * self.options.atol_scale).collect()
+    fn sensitivity_atol(&self, atol: &[f64]) -> SensitivityAtol {
+        SensitivityAtol {
+            atol: atol.to_vec(),
+            column: (self.design.scales.iter())
+                .map(|b| self.options.atol_scale / b)
+                .collect(),
+        }
     }
 
     /// The weighted RMS local error estimate of the sensitivities `s` of a trial step (0 without
     /// error control, and in the start-up steps, which the state controls alone).
-    fn error_estimate(&self, step: &TrialStep<'_>, s: &DMatrix<f64>, atol: &[f64]) -> f64 {
+    fn error_estimate(
+        &self,
+        step: &TrialStep<'_>,
+        s: &DMatrix<f64>,
+        atol: &SensitivityAtol,
+    ) -> f64 {
         if !self.options.error_control {
             return 0.0;
         }
@@ -655,7 +717,7 @@ impl<const N: usize> Extension<'_, N> {
         step: &TrialStep<'_>,
         sol: &Solution,
         psi: &DMatrix<f64>,
-        atol: &[f64],
+        atol: &SensitivityAtol,
         tol: f64,
         max_iterations: usize,
         mut s: DMatrix<f64>,
@@ -724,7 +786,7 @@ impl<const N: usize> Extension<'_, N> {
         &mut self,
         sys: &mut MultibodySystem,
         step: &TrialStep<'_>,
-        atol: &[f64],
+        atol: &SensitivityAtol,
         it: NewtonIterate,
     ) -> Result<DMatrix<f64>, IntegrationFailure> {
         let tol = SIMULTANEOUS_TOLERANCE;
@@ -805,7 +867,7 @@ impl<const N: usize> Extension<'_, N> {
         step: &TrialStep<'_>,
         sol: &Solution,
         psi: &DMatrix<f64>,
-        atol: &[f64],
+        atol: &SensitivityAtol,
         mut s: DMatrix<f64>,
         g0: DMatrix<f64>,
     ) -> Result<DMatrix<f64>, IntegrationFailure> {
@@ -864,7 +926,7 @@ impl<const N: usize> Extension<'_, N> {
         step: &TrialStep<'_>,
         sol: &Solution,
         psi: &DMatrix<f64>,
-        atol: &[f64],
+        atol: &SensitivityAtol,
         s: &mut DMatrix<f64>,
         g: Option<DMatrix<f64>>,
     ) -> Result<f64, IntegrationFailure> {

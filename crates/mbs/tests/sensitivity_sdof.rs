@@ -146,6 +146,99 @@ fn sdof_response_sensitivity_matches_the_closed_form() {
     }
 }
 
+/// The sensitivities' error weights follow each variable's scale: the stiffness exponent `b`
+/// and the same variable in units `c` times larger (`b' = b/c`, so `∂y/∂b' = c ∂y/∂b`) with
+/// the scale `1/c` ([`DesignModel::with_variable_scales`]) are integrated alike, column for
+/// column, by every corrector (the simultaneous one with its column-by-column iterations, and
+/// with error control): `∂y/∂b' = c ∂y/∂b` to round-off. With unit scales the large column
+/// is held to an absolute tolerance `c` times tighter than the small one and the corrector
+/// iterates further for it.
+#[test]
+fn sensitivity_error_weights_follow_the_variables_scales() {
+    let (b, c) = (0.3, 1.0e4);
+    let lam = K0 * f64::exp(b);
+    let model = oscillator(Dual::<2>::new(lam, [lam, lam * c]));
+    let plain = model.values();
+    let state = plain.rest_state();
+    let mut sys = MultibodySystem::new(plain, &state, RedundancyPolicy::Remove).unwrap();
+    for (label, options) in [
+        (
+            "corrector",
+            SensitivityOptions {
+                method: SensitivityMethod::StaggeredCorrector {
+                    tol: 0.05,
+                    max_iterations: 8,
+                },
+                ..SensitivityOptions::default()
+            },
+        ),
+        ("simultaneous", SensitivityOptions::simultaneous()),
+        (
+            "simultaneous, error control",
+            SensitivityOptions {
+                error_control: true,
+                ..SensitivityOptions::simultaneous()
+            },
+        ),
+    ] {
+        let mut run = |scales: Vec<f64>| {
+            let design = DesignModel::new(vec![model.clone()], 2)
+                .unwrap()
+                .with_variable_scales(scales)
+                .unwrap();
+            simulate_sensitivities(
+                &mut sys,
+                &design,
+                &state,
+                0.0,
+                0.4,
+                BdfOptions::adaptive(1e-5, 1e-8),
+                &options,
+            )
+            .unwrap()
+        };
+        // the largest |S₁ − c S₀| over the run, relative to the largest |c S₀|
+        let mismatch = |r: &mbs::SensitivityRun| {
+            let (mut diff, mut size) = (0.0f64, 0.0f64);
+            for s in &r.sensitivities {
+                for i in 0..s.nrows() {
+                    diff = diff.max((s[(i, 1)] - c * s[(i, 0)]).abs());
+                    size = size.max((c * s[(i, 0)]).abs());
+                }
+            }
+            diff / size
+        };
+        let scaled = run(vec![1.0, 1.0 / c]);
+        let unit = run(vec![1.0, 1.0]);
+        eprintln!(
+            "{label}: scaled {:.2e} ({:?}), unit scales {:.2e} ({:?})",
+            mismatch(&scaled),
+            scaled.sensitivity_statistics,
+            mismatch(&unit),
+            unit.sensitivity_statistics
+        );
+        assert!(
+            mismatch(&scaled) < 1e-11,
+            "{label}: {:e}",
+            mismatch(&scaled)
+        );
+        assert!(
+            unit.sensitivity_statistics.corrector_iterations
+                > scaled.sensitivity_statistics.corrector_iterations,
+            "{label}: unit scales iterate further"
+        );
+    }
+    // a scale must be finite and positive, one per variable
+    for bad in [vec![1.0], vec![1.0, 0.0], vec![1.0, f64::NAN]] {
+        assert!(
+            DesignModel::new(vec![model.clone()], 2)
+                .unwrap()
+                .with_variable_scales(bad)
+                .is_err()
+        );
+    }
+}
+
 /// A free flexible body hanging from a spherical joint at a node whose mode shape depends on
 /// the design, deformed and vibrating at the start: the initial sensitivities (Eq. 44) are the
 /// derivatives of the assembled state (perturbed designs assembled from the nominal assembled

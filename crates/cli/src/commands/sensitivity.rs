@@ -125,7 +125,10 @@ pub(crate) fn dual_models<const N: usize>(
             crate::study::set_parameter(model, mech, &v.target, Dual::new(v.value, d));
         }
     }
-    let design = DesignModel::new(chunks, m).map_err(|e| runtime(src, e))?;
+    let scales = mech.design.variables.iter().map(|v| v.error_scale());
+    let design = DesignModel::new(chunks, m)
+        .and_then(|d| d.with_variable_scales(scales.collect()))
+        .map_err(|e| runtime(src, e))?;
     Ok((design, frequencies))
 }
 
