@@ -220,6 +220,51 @@ fn beam_deck_thickness_sensitivities_match_replayed_central_differences() {
     }
 }
 
+/// A thin outer ply (0.08 mm) with its thickness and the plies' modulus `E1` as variables: the
+/// rod's repeated bending pairs take Dailey's second-derivative terms, by central differences
+/// of the section at a step relative to each variable (a step of 1e-4 in the variables' units,
+/// 0.1 mm, inverted the thin ply's section and failed the run). Every derivative against
+/// replayed central differences of whole runs.
+#[test]
+fn thin_ply_and_modulus_sensitivities_match_replayed_central_differences() {
+    let text = std::fs::read_to_string(common::deck("slider_crank_beam.toml")).unwrap();
+    let outer = "{ material = \"paper_composite\", thickness = 0.25e-3, angle = 15.0 },\n]";
+    assert!(text.contains(outer));
+    let text = text.replacen(
+        outer,
+        "{ material = \"paper_composite\", thickness = 0.08e-3, angle = 15.0 },\n]",
+        1,
+    ) + "\n[design.t3]\nkind = \"ply-thickness\"\nlaminate = \"tube_wall\"\nplies = [3]\n\
+         \n[design.e1]\nkind = \"material\"\nmaterial = \"paper_composite\"\nconstant = \"E1\"\n";
+    let dir = tempfile::tempdir().unwrap();
+    let (path, out) = (dir.path().join("thin.toml"), dir.path().join("out"));
+    std::fs::write(&path, text).unwrap();
+    let (path, out) = (path.display().to_string(), out.display().to_string());
+    common::json(&[
+        "run",
+        &path,
+        "-o",
+        &out,
+        "--json",
+        "--set",
+        "analysis.t_end=0.003",
+        "--set",
+        "sensitivity.method=\"direct\"",
+        "--set",
+        "finite_differences.scheme=central",
+        "--set",
+        "finite_differences.sizes=[1e-4]",
+    ]);
+    let results = std::path::Path::new(&out).join("results.h5");
+    let g = flexsens::results::Group::read_hdf5(&results).unwrap();
+    // variables in name order: e1, t3, theta
+    let errors = common::replayed_differences(&g, "mid_deflection", "0.0001", 3);
+    eprintln!("replayed differences (e1, t3, theta): {errors:?}");
+    for e in errors {
+        assert!(e < 1e-5, "{e:e}");
+    }
+}
+
 /// A mesh file's geometry is fixed: a ply thickness that would move it is refused, naming
 /// the variable and the section.
 #[test]

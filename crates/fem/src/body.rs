@@ -1252,7 +1252,7 @@ fn eigen_blocks<const N: usize>(
 /// Derivatives of the retained (and guard) modes of an analysis for all design variables.
 ///
 /// For [`ModeUpdate::Updated`] and clusters of repeated eigenvalues, Dailey's second-derivative
-/// terms are obtained by central differences (step [`SECOND_DERIVATIVE_STEP`]) of the exact dual
+/// terms are obtained by central differences (step [`second_derivative_step`]) of the exact dual
 /// `K_b` ([`second_derivative_terms`]).
 pub fn analysis_derivatives<const N: usize, F>(
     mesh: &Mesh,
@@ -1323,11 +1323,27 @@ where
     Ok(eigenvalue_derivatives(&analysis.pairs, &projected))
 }
 
-/// Step (in design-variable units) of the central differences of `K_b` for Dailey's terms.
+/// Step of the central differences of `K_b` for Dailey's terms, relative to each variable's
+/// magnitude (in its units where it is zero): [`second_derivative_step`].
 pub const SECOND_DERIVATIVE_STEP: f64 = 1e-4;
 
+/// The central-difference step of Dailey's terms for a variable of value `b`:
+/// [`SECOND_DERIVATIVE_STEP`] of `|b|`, or of one unit if `b` is zero. A step in the
+/// variable's units would be 40 % of a 0.25 mm ply's thickness in metres (and more than a
+/// 0.08 mm ply, whose perturbed section then inverts), and below the round-off of a modulus in
+/// pascals.
+pub fn second_derivative_step(b: f64) -> f64 {
+    SECOND_DERIVATIVE_STEP
+        * if b != 0.0 && b.is_finite() {
+            b.abs()
+        } else {
+            1.0
+        }
+}
+
 /// `Zᵀ(K_bb − λM_bb)Z` for every cluster and design variable (`[var][cluster]`), from the dual
-/// `K_b` of variable `v` at `b ± h e_v`, seeded along `v` alone ([`cluster_second_derivatives`]).
+/// `K_b` of variable `v` at `b ± h_v e_v` ([`second_derivative_step`]), seeded along `v` alone
+/// ([`cluster_second_derivatives`]).
 pub fn second_derivative_terms<const N: usize, F>(
     mesh: &Mesh,
     assembly: &Assembly,
@@ -1340,7 +1356,7 @@ pub fn second_derivative_terms<const N: usize, F>(
 where
     F: FnMut(&[Dual<N>]) -> Properties<Dual<N>>,
 {
-    let h = SECOND_DERIVATIVE_STEP;
+    let h: Vec<f64> = b.iter().map(|&x| second_derivative_step(x)).collect();
     let mut plus = Vec::with_capacity(b.len());
     let mut minus = Vec::with_capacity(b.len());
     for v in 0..b.len() {
@@ -1351,7 +1367,7 @@ where
             let start = v - v % N;
             let seeded: Vec<Dual<N>> = (b.iter().enumerate())
                 .map(|(i, &x)| match i == v {
-                    true => Dual::variable(x + sign * h, v - start),
+                    true => Dual::variable(x + sign * h[v], v - start),
                     false => Dual::constant(x),
                 })
                 .collect();
@@ -1363,7 +1379,7 @@ where
             });
         }
     }
-    Ok(cluster_second_derivatives(pairs, &plus, &minus, h))
+    Ok(cluster_second_derivatives(pairs, &plus, &minus, &h))
 }
 
 #[cfg(test)]

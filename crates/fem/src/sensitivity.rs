@@ -610,18 +610,19 @@ pub fn directional_eigenvalue_derivatives(
 /// Dailey's second-derivative terms `Zᵀ(K_bb − λM_bb)Z` of every cluster of repeated
 /// eigenvalues (`[var][cluster]`, 0×0 for distinct eigenvalues), by central differences of the
 /// exact first derivatives: `plus[v]`, `minus[v]` are `K_b`, `M_b` of variable `v` evaluated at
-/// `b ± h e_v`. Truncation error O(h²) on top of the exact first derivatives.
+/// `b ± h[v] e_v`. Truncation error O(h²) on top of the exact first derivatives.
 pub fn cluster_second_derivatives(
     modes: &Eigenpairs,
     plus: &[DesignMatrices],
     minus: &[DesignMatrices],
-    h: f64,
+    h: &[f64],
 ) -> Vec<Vec<SecondDerivatives>> {
     let n = modes.vectors.nrows();
     let groups = clusters(&modes.values, CLUSTER_RTOL);
     plus.iter()
         .zip(minus)
-        .map(|(p, q)| {
+        .zip(h)
+        .map(|((p, q), &h)| {
             groups
                 .iter()
                 .map(|g| {
