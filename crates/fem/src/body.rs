@@ -1330,7 +1330,7 @@ pub const SECOND_DERIVATIVE_STEP: f64 = 1e-4;
 /// The central-difference step of Dailey's terms for a variable of value `b`:
 /// [`SECOND_DERIVATIVE_STEP`] of `|b|`, or of one unit if `b` is zero. A step in the
 /// variable's units would be 40 % of a 0.25 mm ply's thickness in metres (and more than a
-/// 0.08 mm ply, whose perturbed section then inverts), and below the round-off of a modulus in
+/// 0.08 mm ply, whose perturbed section then inverts), and a few round-offs of a modulus in
 /// pascals.
 pub fn second_derivative_step(b: f64) -> f64 {
     SECOND_DERIVATIVE_STEP

@@ -114,11 +114,6 @@ impl<const N: usize> DesignModel<N> {
         Ok(self)
     }
 
-    /// The variables' scales in the error weights ([`Self::with_variable_scales`]).
-    pub fn variable_scales(&self) -> &[f64] {
-        &self.scales
-    }
-
     pub fn n_variables(&self) -> usize {
         self.n_variables
     }
@@ -186,7 +181,7 @@ pub struct SensitivityOptions {
     /// Include the sensitivities in the local error test (`max(err_y, err_S)`).
     pub error_control: bool,
     /// Absolute tolerance of the sensitivities = this factor × the state's `atol` (component
-    /// by component).
+    /// by component), over each variable's scale ([`DesignModel::with_variable_scales`]).
     pub atol_scale: f64,
 }
 
