@@ -17,7 +17,7 @@ use mbs::{
 use sens::Dual;
 
 use crate::deck::Source;
-use crate::deck::design::{FdSteps, SensitivityScheme};
+use crate::deck::design::{DesignVariable, FdSteps, SensitivityScheme};
 use crate::error::CliError;
 use crate::progress::RunProgress;
 use crate::study::Mechanism;
@@ -125,11 +125,24 @@ pub(crate) fn dual_models<const N: usize>(
             crate::study::set_parameter(model, mech, &v.target, Dual::new(v.value, d));
         }
     }
-    let scales = mech.design.variables.iter().map(|v| v.error_scale());
+    let scales = mech.design.variables.iter().map(error_scale);
     let design = DesignModel::new(chunks, m)
         .and_then(|d| d.with_variable_scales(scales.collect()))
         .map_err(|e| runtime(src, e))?;
     Ok((design, frequencies))
+}
+
+/// A variable's scale in the sensitivities' error weights
+/// (`mbs::DesignModel::with_variable_scales`): its derivatives are weighted as the responses'
+/// change under a change of one degree of an angle (whose nominal value has no size: 0° is a
+/// lay-up like any other), and of the nominal magnitude of any other variable (a thickness, a
+/// modulus, a mass; one unit if it is zero).
+fn error_scale(v: &DesignVariable) -> f64 {
+    if v.unit == "deg" || !(v.value.is_finite() && v.value != 0.0) {
+        1.0
+    } else {
+        v.value.abs()
+    }
 }
 
 /// The model build of a run with sensitivities, without the run ([`dual_models`]).

@@ -44,19 +44,6 @@ pub struct DesignVariable {
 }
 
 impl DesignVariable {
-    /// The variable's scale in the sensitivities' error weights
-    /// (`mbs::DesignModel::with_variable_scales`): its derivatives are weighted as the
-    /// responses' change under a change of one degree of an angle (whose nominal value has no
-    /// size: 0° is a lay-up like any other), and of the nominal magnitude of any other variable
-    /// (a thickness, a modulus, a mass; one unit if it is zero).
-    pub fn error_scale(&self) -> f64 {
-        if self.unit == "deg" || !(self.value.is_finite() && self.value != 0.0) {
-            1.0
-        } else {
-            self.value.abs()
-        }
-    }
-
     /// The plies of `laminate` this variable turns, `(stack ply, dθ/db)` (empty when it moves
     /// something else).
     pub fn ply_links(&self, laminate: &str) -> &[(usize, f64)] {
