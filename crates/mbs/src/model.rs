@@ -894,7 +894,11 @@ impl<P: Scalar> Model<P> {
 impl Model<f64> {
     /// Kinetic, gravitational, elastic and spring energies at `(t, q, v)`.
     pub fn energy(&self, t: f64, q: &[f64], v: &[f64]) -> Energy {
-        let (m, _) = self.mass_and_forces(t, q, v);
+        self.energy_with_mass(q, v, &self.mass_and_forces(t, q, v).0)
+    }
+
+    /// [`Model::energy`] with the mass matrix `m` at the state.
+    pub(crate) fn energy_with_mass(&self, q: &[f64], v: &[f64], m: &BodyMass<f64>) -> Energy {
         let kinetic = 0.5 * v.iter().zip(m.mul(v)).map(|(a, b)| a * b).sum::<f64>();
         let mut gravity = 0.0;
         let mut elastic = 0.0;

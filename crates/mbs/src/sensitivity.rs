@@ -381,9 +381,11 @@ fn write_rates<const N: usize>(
 }
 
 /// Eq. (12) solved at `(t, y)` from the values of the first chunk's dual evaluation
-/// ([`MultibodySystem::solve_dual`]), and `f_y S + f_b` there (`n × m`).
+/// ([`MultibodySystem::solve_dual`]), and `f_y S + f_b` there (`n × m`); the guarded rows'
+/// largest position violation is kept for the step check
+/// ([`MultibodySystem::note_violation`]).
 fn fused_rhs<const N: usize>(
-    sys: &MultibodySystem,
+    sys: &mut MultibodySystem,
     design: &DesignModel<N>,
     t: f64,
     y: &[f64],
@@ -398,7 +400,8 @@ fn fused_rhs<const N: usize>(
         let (qd, vd) = yd.split_at(nq);
         let (sl, res) = match &sol {
             None => {
-                let (sl, res) = sys.solve_dual(model, t, qd, vd)?;
+                let (sl, res, violation) = sys.solve_dual(model, t, qd, vd)?;
+                sys.note_violation(t, violation);
                 (&*sol.insert(sl), res)
             }
             Some(sl) => (sl, model.residual(t, qd, vd, &sl.rows, &sl.x)),

@@ -6,17 +6,13 @@ mod common;
 
 use common::assembled;
 use mbs::{
-    Baumgarte, BdfOptions, IntegrationFailure, Joint, JointKind, Marker, Model, RigidBody,
-    SimulationError, StepGuard, simulate,
+    Baumgarte, BdfOptions, IntegrationFailure, Joint, JointKind, Marker, Model, MultibodySystem,
+    OdeSystem, RigidBody, SimulationError, State, StepGuard, simulate,
 };
 use nalgebra::{Matrix3, Vector3};
 
-/// `(t, max |Φ|)` at the output times; `max_violation` replaces the guard's limit.
-fn pendulum(
-    baumgarte: Baumgarte,
-    max_violation: Option<f64>,
-    t_end: f64,
-) -> Result<Vec<(f64, f64)>, SimulationError> {
+/// The double pendulum, assembled, with its initial state.
+fn pendulum_system(baumgarte: Baumgarte) -> (MultibodySystem, State) {
     let mut model = Model::new();
     model.gravity = Vector3::new(0.0, -9.81, 0.0);
     model.baumgarte = baumgarte;
@@ -53,7 +49,16 @@ fn pendulum(
         Vector3::zeros(),
         Vector3::new(0.0, 0.0, 4.0),
     );
-    let (mut sys, state) = assembled(model, state);
+    assembled(model, state)
+}
+
+/// `(t, max |Φ|)` at the output times; `max_violation` replaces the guard's limit.
+fn pendulum(
+    baumgarte: Baumgarte,
+    max_violation: Option<f64>,
+    t_end: f64,
+) -> Result<Vec<(f64, f64)>, SimulationError> {
+    let (mut sys, state) = pendulum_system(baumgarte);
     if let Some(v) = max_violation {
         sys.set_guard(StepGuard {
             max_violation: v,
@@ -126,4 +131,43 @@ fn the_step_guard_stops_an_unstabilised_drift() {
     );
     assert!(msg.contains("7.500e-2"), "{msg}");
     assert!(e.t > 10.0 && e.t < 20.0, "{msg}");
+}
+
+/// The step check reads the constraint violation of the last right-hand side (the step's last
+/// Newton iterate) when it was evaluated at the step's time and within half the limit, and
+/// evaluates the state itself otherwise.
+#[test]
+fn the_step_check_reads_the_last_right_hand_side_only_at_its_time_and_below_half_the_limit() {
+    let (mut sys, state) = pendulum_system(Baumgarte::default());
+    let limit = sys.guard().max_violation;
+    let y_ok: Vec<f64> = state.q.iter().chain(&state.v).copied().collect();
+    // the lower link's origin moved along x: the elbow opens by `gap`
+    let opened = |gap: f64| {
+        let mut y = y_ok.clone();
+        y[7] += gap;
+        y
+    };
+    let (y_mid, y_bad) = (opened(0.7 * limit), opened(1.5 * limit));
+    let mut dy = vec![0.0; y_ok.len()];
+    let violation = |sys: &MultibodySystem, y: &[f64]| {
+        let (q, v) = y.split_at(state.q.len());
+        sys.check_state(0.0, q, v)
+    };
+    assert!(violation(&sys, &y_ok).is_ok() && violation(&sys, &y_mid).is_ok());
+    let refusal = violation(&sys, &y_bad).unwrap_err();
+    assert!(refusal.contains("joint `elbow`"), "{refusal}");
+
+    // at the time of the last right-hand side, within half the limit: read from it
+    sys.rhs(0.0, &y_ok, &mut dy).unwrap();
+    assert!(sys.check_step(0.0, &y_ok).is_ok());
+    assert!(
+        sys.check_step(0.0, &y_bad).is_ok(),
+        "the iterate's violation is read"
+    );
+    // at another time: the state itself
+    assert_eq!(sys.check_step(0.5, &y_bad), Err(refusal.clone()));
+    // above half the limit at the last right-hand side: the state itself
+    sys.rhs(0.0, &y_mid, &mut dy).unwrap();
+    assert_eq!(sys.check_step(0.0, &y_bad), Err(refusal.clone()));
+    assert!(sys.check_step(0.0, &y_mid).is_ok());
 }
