@@ -567,15 +567,15 @@ pub(crate) fn oscillatory_eigenvalues(jac: &DMatrix<f64>) -> Vec<Complex<f64>> {
     if jac.iter().any(|x| !x.is_finite()) {
         return Vec::new();
     }
-    let Some(schur) = nalgebra::Schur::try_new(jac.clone(), f64::EPSILON, 200 * jac.nrows().max(1))
-    else {
+    let n = jac.nrows();
+    let a = faer::Mat::<f64>::from_fn(n, jac.ncols(), |i, j| jac[(i, j)]);
+    let Ok(eigenvalues) = a.eigenvalues() else {
         return Vec::new();
     };
-    schur
-        .complex_eigenvalues()
+    eigenvalues
         .iter()
         .filter(|l| l.re <= 0.0 && l.im > l.re.abs())
-        .copied()
+        .map(|l| Complex::new(l.re, l.im))
         .collect()
 }
 
