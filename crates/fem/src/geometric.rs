@@ -41,6 +41,25 @@ pub struct GeometricStiffness<S: Scalar> {
     pub clamp: usize,
     /// Per component `i` of a force at node `k` (N), at `3k + i` (zero at the clamp).
     pub nodal: Vec<DMatrix<S>>,
+    /// A beam body's field by the elements that carry it, parents before children (`None`
+    /// for a shell's): `nodal[3k + i] = Σ_e t_e,i G_e` over the elements `e` on the path from
+    /// node `k` to the clamp, so that the field at every node costs one product by `G_e` per
+    /// element, accumulated along the tree, instead of three per node.
+    pub elements: Option<Vec<FieldElement<S>>>,
+}
+
+/// A beam element of a [`GeometricStiffness`] ([`GeometricStiffness::elements`]).
+#[derive(Clone, Debug)]
+pub struct FieldElement<S: Scalar> {
+    /// The element's node nearer the clamp.
+    pub parent: usize,
+    /// Its other node.
+    pub child: usize,
+    /// The unit vector from `parent` to `child` (body components).
+    pub axis: Vector3<f64>,
+    /// `G_e`: the modal geometric stiffness of a unit tension in the element
+    /// (`field_modes × field_modes`, symmetric).
+    pub unit: DMatrix<S>,
 }
 
 impl<S: Scalar> GeometricStiffness<S> {
@@ -51,6 +70,16 @@ impl<S: Scalar> GeometricStiffness<S> {
             field_modes: self.field_modes,
             clamp: self.clamp,
             nodal: self.nodal.iter().map(|x| x.map(f)).collect(),
+            elements: self.elements.as_ref().map(|els| {
+                els.iter()
+                    .map(|e| FieldElement {
+                        parent: e.parent,
+                        child: e.child,
+                        axis: e.axis,
+                        unit: e.unit.map(f),
+                    })
+                    .collect()
+            }),
         }
     }
 
@@ -188,9 +217,11 @@ pub fn geometric_stiffness<S: Scalar>(
         field_modes: nm,
         clamp,
         nodal: vec![DMatrix::<S>::zeros(nm, nm); 3 * n_nodes],
+        elements: None,
     };
     // each element's modal geometric stiffness for a unit tension, and its axial unit vector
     let mut unit: Vec<Option<(DMatrix<S>, Vector3<f64>)>> = vec![None; mesh.elements.len()];
+    let mut elements = Vec::with_capacity(order.len());
     for &c in &order {
         let Some((e, p)) = parent[c] else { continue };
         let d = x[c] - x[p];
@@ -201,8 +232,16 @@ pub fn geometric_stiffness<S: Scalar>(
             )));
         }
         let t = d / length;
-        unit[e] = Some((element_modal(body, p, c, &t, length), t));
+        let g = element_modal(body, p, c, &t, length);
+        elements.push(FieldElement {
+            parent: p,
+            child: c,
+            axis: t,
+            unit: g.clone(),
+        });
+        unit[e] = Some((g, t));
     }
+    out.elements = Some(elements);
     // a force at node k is carried by every element on the path from k to the clamp
     for k in 0..n_nodes {
         let mut node = k;
@@ -331,6 +370,44 @@ mod tests {
         let n = body.n_modes();
         assert!((0..n).all(|j| g.nodal[3 * 10][(j, j)] > 0.0));
         assert!(g.nodal[..3].iter().all(|k| k.amax() == 0.0));
+    }
+
+    /// The elements' form of the field is the nodal one: every node's matrices are the sums of
+    /// `t_e,i G_e` over the elements on its path to the clamp (clamped mid-span here, so that
+    /// the tree has two branches), and the elements come parents first.
+    #[test]
+    fn the_elements_sum_to_the_nodal_matrices_along_the_paths() {
+        let (mesh, body) = cantilever(10);
+        let g = geometric_stiffness(&mesh, &body, 4).unwrap();
+        let els = g
+            .elements
+            .as_ref()
+            .expect("a beam body's field has its elements");
+        assert_eq!(els.len(), 10);
+        let mut reached = [false; 11];
+        reached[4] = true;
+        for e in els {
+            assert!(reached[e.parent] && !reached[e.child], "parents first");
+            reached[e.child] = true;
+        }
+        for k in 0..11 {
+            let mut sum = vec![DMatrix::<f64>::zeros(g.field_modes, g.field_modes); 3];
+            let mut node = k;
+            while let Some(e) = els.iter().find(|e| e.child == node) {
+                for (i, s) in sum.iter_mut().enumerate() {
+                    *s += &e.unit * e.axis[i];
+                }
+                node = e.parent;
+            }
+            for (i, s) in sum.iter().enumerate() {
+                let nodal = &g.nodal[3 * k + i];
+                assert!(
+                    (s - nodal).amax() <= 1e-14 * nodal.amax().max(1.0),
+                    "node {k}"
+                );
+            }
+        }
+        assert!(g.nodal[3 * 10].amax() > 0.0 && g.nodal[0].amax() > 0.0);
     }
 
     /// The unit-tension matrix of a straight beam pulled at its tip is `∫ X'ᵀ X' dx` of the

@@ -126,6 +126,7 @@ pub fn shell_geometric_stiffness<S: Scalar>(
         field_modes: nf,
         clamp,
         nodal: vec![DMatrix::<S>::zeros(nf, nf); 3 * n_nodes],
+        elements: None,
     };
     for (p, &(j, l)) in pairs.iter().enumerate() {
         for node in 0..n_nodes {

@@ -70,7 +70,7 @@ pub use correction::{Coupling, Distribution, StaticCorrection, distribution};
 pub use design_body::{DesignBodies, design_bodies};
 pub use eigen::{EigenMethod, EigenOptions, Eigenpairs, lowest_modes, lowest_modes_of_nodes};
 pub use error::FemError;
-pub use geometric::{GeometricStiffness, geometric_stiffness, second_order_field};
+pub use geometric::{FieldElement, GeometricStiffness, geometric_stiffness, second_order_field};
 pub use geometric_shell::shell_geometric_stiffness;
 pub use mesh::{
     BeamSegment, Element, GmshTriangles, Mesh, MeshError, NodeId, bounding_box, parse_gmsh_v4,

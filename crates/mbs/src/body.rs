@@ -5,7 +5,7 @@
 //! variables: `v_b = (ṙ, ω', ẇ)` — global velocity of the origin, angular velocity in body
 //! components, modal velocities.
 
-use fem::{GeometricStiffness, ModalBody, ModalStresses};
+use fem::{FieldElement, GeometricStiffness, ModalBody, ModalStresses};
 use laminate::PlyStrength;
 use std::sync::OnceLock;
 
@@ -235,6 +235,76 @@ pub(crate) fn second_order_node_into<P: Scalar, S: Scalar + From<P>>(
     out.half = Vector3::zeros();
     for (j, c) in out.columns.iter().enumerate() {
         out.half += c * (w[j] * S::from_f64(0.5));
+    }
+}
+
+/// [`SecondOrderNode`]s of every node of a beam body's field from its elements
+/// ([`GeometricStiffness::elements`]), accumulated from the clamp along the tree: each
+/// element's `G_e w` and `G_e ẇ` once, where [`second_order_node_into`] takes the three
+/// nodal matrices of every node (their sums over the path). Nodes off the tree (a coupling's,
+/// massless) stay zero.
+pub(crate) struct FieldAtNodes<S: Scalar> {
+    nf: usize,
+    /// `Q_k(w)_j` at `k · nf + j`.
+    columns: Vec<Vector3<S>>,
+    half: Vec<Vector3<S>>,
+    rates: Vec<Vector3<S>>,
+}
+
+impl<S: Scalar> FieldAtNodes<S> {
+    pub(crate) fn new<P: Scalar>(
+        elements: &[FieldElement<P>],
+        nf: usize,
+        n_nodes: usize,
+        w: &[S],
+        wd: &[S],
+    ) -> Self
+    where
+        S: From<P>,
+    {
+        let mut out = Self {
+            nf,
+            columns: vec![Vector3::zeros(); n_nodes * nf],
+            half: vec![Vector3::zeros(); n_nodes],
+            rates: vec![Vector3::zeros(); n_nodes],
+        };
+        let (mut g, mut h) = (vec![S::zero(); nf], vec![S::zero(); nf]);
+        for e in elements {
+            // `G_e w` and `G_e ẇ` by its columns (= rows: symmetric), contiguous
+            let unit = e.unit.as_slice();
+            for j in 0..nf {
+                let col = &unit[j * nf..(j + 1) * nf];
+                let (mut a, mut b) = (S::zero(), S::zero());
+                for l in 0..nf {
+                    let x: S = lift(col[l]);
+                    a += x * w[l];
+                    b += x * wd[l];
+                }
+                g[j] = a;
+                h[j] = b;
+            }
+            let (mut half, mut rate) = (S::zero(), S::zero());
+            for j in 0..nf {
+                half += g[j] * w[j];
+                rate += h[j] * wd[j];
+            }
+            let t: Vector3<S> = vec3f(&e.axis);
+            let (p, c) = (e.parent, e.child);
+            for j in 0..nf {
+                out.columns[c * nf + j] = out.columns[p * nf + j] - t * g[j];
+            }
+            out.half[c] = out.half[p] - t * (half * S::from_f64(0.5));
+            out.rates[c] = out.rates[p] - t * rate;
+        }
+        out
+    }
+
+    /// Node `k`'s [`SecondOrderNode`] into `out`.
+    pub(crate) fn node_into(&self, k: usize, out: &mut SecondOrderNode<S>) {
+        out.columns
+            .copy_from_slice(&self.columns[k * self.nf..(k + 1) * self.nf]);
+        out.half = self.half[k];
+        out.rates = self.rates[k];
     }
 }
 
@@ -472,7 +542,7 @@ impl<P: Scalar> ModalInvariants<P> {
             field: field.map(|g| FieldInvariants::new(modal, g)),
             rotary: field.map(|_| RotaryInvariants::new(modal)),
             gram: field
-                .filter(|g| FieldGram::pays(modal, g.field_modes))
+                .filter(|g| FieldGram::pays(modal, g))
                 .map(|g| FieldGram::new(modal, g)),
             reach: (0..nm)
                 .map(|j| {
@@ -714,12 +784,19 @@ fn node_sums<P: Scalar, S: Scalar + From<P>>(
         rates: Vector3::zeros(),
     };
     let mut field_cc = vec![S::zero(); nf * nf];
+    let by_elements = field
+        .elements
+        .as_ref()
+        .map(|els| FieldAtNodes::new(els, nf, modal.n_nodes(), &w[..nf], &wd[..nf]));
     for k in 0..modal.n_nodes() {
         let mk: S = lift(modal.node_masses[k]);
         if mk == S::zero() {
             continue;
         }
-        second_order_node_into(field, k, w, wd, &mut second);
+        match &by_elements {
+            Some(f) => f.node_into(k, &mut second),
+            None => second_order_node_into(field, k, w, wd, &mut second),
+        }
         for j in 0..nf {
             let cj = second.columns[j] * mk;
             for l in j..nf {
@@ -1232,6 +1309,7 @@ mod tests {
             field_modes: nm,
             clamp: 0,
             nodal,
+            elements: None,
         }
     }
 
@@ -1527,6 +1605,123 @@ mod tests {
             );
             close(&f1, &f2, 1e-12 * scale(&f2), &what);
         }
+    }
+
+    /// A field given by beam elements on a tree with a branch (clamp at node 3, the branch at
+    /// node 4), arbitrary symmetric element matrices (with arbitrary design tangents) and
+    /// axes, its nodal matrices the sums over the paths; without `elements`, the nodal
+    /// matrices alone.
+    fn element_field(nm: usize, n_nodes: usize, elements: bool) -> GeometricStiffness<Dual<2>> {
+        let tree = [(3, 2), (2, 1), (1, 0), (3, 4), (4, 5), (4, 6)];
+        let els: Vec<FieldElement<Dual<2>>> = tree
+            .iter()
+            .enumerate()
+            .map(|(e, &(parent, child))| FieldElement {
+                parent,
+                child,
+                axis: Vector3::new(1.0, 0.3 * e as f64, -0.2).normalize(),
+                unit: DMatrix::from_fn(nm, nm, |j, l| {
+                    let x = (e * 5 + (j + l) * 3 + j * l) as f64;
+                    Dual::new(3.0 * (x * 0.47).cos(), [(x * 0.31).sin(), 0.2 * x.cos()])
+                }),
+            })
+            .collect();
+        let mut nodal = vec![DMatrix::zeros(nm, nm); 3 * n_nodes];
+        for k in 0..n_nodes {
+            let mut node = k;
+            while let Some(e) = els.iter().find(|e| e.child == node) {
+                for i in 0..3 {
+                    nodal[3 * k + i] += &e.unit * Dual::constant(e.axis[i]);
+                }
+                node = e.parent;
+            }
+        }
+        GeometricStiffness {
+            n_modes: nm,
+            field_modes: nm,
+            clamp: 3,
+            nodal,
+            elements: elements.then_some(els),
+        }
+    }
+
+    /// The field accumulated along a beam body's elements gives what its nodal matrices give,
+    /// values and tangents: with dual states, and with a design-dependent field.
+    #[test]
+    fn the_field_by_elements_gives_the_nodal_field() {
+        let modal = body();
+        let (nm, n_nodes) = (modal.n_modes(), modal.n_nodes());
+        let (q, v) = state(nm);
+        let gravity = Vector3::new(0.0, -9.81, 1.0);
+        let scale = |x: &[Dual<2>]| x.iter().fold(0.0f64, |a, x| a.max(x.v.abs()));
+        let close = |a: &[Dual<2>], b: &[Dual<2>], what: &str| {
+            let tol = 1e-13 * scale(b);
+            for (a, b) in a.iter().zip(b) {
+                assert!((a.v - b.v).abs() <= tol, "{what}: {a} vs {b}");
+                for k in 0..2 {
+                    assert!((a.d[k] - b.d[k]).abs() <= tol, "{what}: {a} vs {b}");
+                }
+            }
+        };
+        // dual states, the field's values
+        let value = |g: GeometricStiffness<Dual<2>>| g.map(&|x: Dual<2>| x.v);
+        let (by_elements, by_nodes) = (
+            value(element_field(nm, n_nodes, true)),
+            value(element_field(nm, n_nodes, false)),
+        );
+        assert!(by_elements.elements.is_some() && by_nodes.elements.is_none());
+        let (qd, vd) = dual_state(&q, &v);
+        let (m1, f1) = with_path(&modal, &by_elements, false, &qd, &vd, &gravity);
+        let (m2, f2) = with_path(&modal, &by_nodes, false, &qd, &vd, &gravity);
+        close(m1.as_slice(), m2.as_slice(), "mass, dual state");
+        close(&f1, &f2, "forces, dual state");
+        // the field matters at this amplitude: without it the modal forces differ
+        let none = GeometricStiffness {
+            nodal: vec![DMatrix::zeros(nm, nm); 3 * n_nodes],
+            ..by_nodes.clone()
+        };
+        let (_, f0) = with_path(&modal, &none, false, &qd, &vd, &gravity);
+        assert!((6..6 + nm).any(|j| (f0[j].v - f2[j].v).abs() > 1e-2 * scale(&f2)));
+        // design tangents of the field
+        let dm = ModalBody {
+            node_positions: modal.node_positions.clone(),
+            node_masses: modal
+                .node_masses
+                .iter()
+                .map(|&x| Dual::constant(x))
+                .collect(),
+            node_inertias: modal
+                .node_inertias
+                .iter()
+                .map(|x| x.map(Dual::constant))
+                .collect(),
+            modes: modal.modes.map(Dual::constant),
+            eigenvalues: modal
+                .eigenvalues
+                .iter()
+                .map(|&x| Dual::constant(x))
+                .collect(),
+            modal_damping: modal
+                .modal_damping
+                .iter()
+                .map(|&x| Dual::constant(x))
+                .collect(),
+            stiffness_matrix: None,
+            damping_matrix: None,
+        };
+        let (q2, v2): (Vec<Dual<2>>, Vec<Dual<2>>) = (
+            q.iter().map(|&x| Dual::constant(x)).collect(),
+            v.iter().map(|&x| Dual::constant(x)).collect(),
+        );
+        let (de, dn) = (
+            element_field(nm, n_nodes, true),
+            element_field(nm, n_nodes, false),
+        );
+        let (m1, f1) = with_path(&dm, &de, false, &q2, &v2, &gravity);
+        let (m2, f2) = with_path(&dm, &dn, false, &q2, &v2, &gravity);
+        assert!(f2.iter().any(|x| x.d[0] != 0.0 && x.d[1] != 0.0));
+        close(m1.as_slice(), m2.as_slice(), "mass, dual field");
+        close(&f1, &f2, "forces, dual field");
     }
 
     /// The deformation bound of the step guard is at least the largest nodal translation, and

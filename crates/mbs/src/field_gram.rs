@@ -70,19 +70,24 @@ impl<P: Scalar> FieldGram<P> {
         1 + self.n_modes + self.field_modes * (self.field_modes + 1) / 2
     }
 
-    /// Whether the table is cheaper than the node loop for `modal` with `nf` field modes
+    /// Whether the table is cheaper than the node loop for `modal` with the field `g`
     /// (operation counts only, so that a body takes the same path in every scalar).
-    pub(crate) fn pays(modal: &ModalBody<P>, nf: usize) -> bool {
-        let nm = modal.n_modes();
+    pub(crate) fn pays(modal: &ModalBody<P>, g: &GeometricStiffness<P>) -> bool {
+        let (nm, nf) = (modal.n_modes(), g.field_modes);
         let b = 1 + nm + nf * (nf + 1) / 2;
         let nodes = modal
             .node_masses
             .iter()
             .filter(|m| **m != P::zero())
             .count();
-        // the loop: the node's field columns and rates, then its mode sums; the table: about
-        // three contractions of B² 3 × 3 blocks
-        nodes * (6 * nf * nf + 40 * nm) > 27 * b * b
+        // the loop: the node's field columns and rates (from its three nodal matrices, or
+        // accumulated along a beam's elements, two products each), their products, then its
+        // mode sums; the table: about three contractions of B² 3 × 3 blocks
+        let field = match &g.elements {
+            None => nodes * 6 * nf * nf,
+            Some(els) => els.len() * 2 * nf * nf + nodes * 2 * nf * nf,
+        };
+        field + nodes * 40 * nm > 27 * b * b
     }
 
     pub(crate) fn new(modal: &ModalBody<P>, g: &GeometricStiffness<P>) -> Self {

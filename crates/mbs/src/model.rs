@@ -212,7 +212,15 @@ impl<P: Scalar> Model<P> {
                 || g.nodal.len() != 3 * body.modal.n_nodes()
                 || g.nodal
                     .iter()
-                    .any(|k| k.nrows() != g.field_modes || k.ncols() != g.field_modes))
+                    .any(|k| k.nrows() != g.field_modes || k.ncols() != g.field_modes)
+                || g.elements.as_ref().is_some_and(|els| {
+                    els.iter().any(|e| {
+                        e.parent >= body.modal.n_nodes()
+                            || e.child >= body.modal.n_nodes()
+                            || e.unit.nrows() != g.field_modes
+                            || e.unit.ncols() != g.field_modes
+                    })
+                }))
         {
             return Err(ModelError::BadBody {
                 name: body.name,

@@ -25,6 +25,7 @@ fn second_order_field(nodes: usize, modes: usize) -> fem::GeometricStiffness<f64
                 })
             })
             .collect(),
+        elements: None,
     }
 }
 
