@@ -1503,6 +1503,36 @@ mod tests {
         }
     }
 
+    /// `modal` in dual numbers: its node masses and modes with the tangents `mass(k, m_k)` and
+    /// `mode(row, j)`, the rest constant.
+    fn dual_body(
+        modal: &ModalBody<f64>,
+        mass: impl Fn(usize, f64) -> [f64; 2],
+        mode: impl Fn(usize, usize) -> [f64; 2],
+    ) -> ModalBody<Dual<2>> {
+        ModalBody {
+            node_positions: modal.node_positions.clone(),
+            node_masses: (modal.node_masses.iter().enumerate())
+                .map(|(k, &m)| Dual::new(m, mass(k, m)))
+                .collect(),
+            node_inertias: (modal.node_inertias.iter())
+                .map(|x| x.map(Dual::constant))
+                .collect(),
+            modes: DMatrix::from_fn(modal.modes.nrows(), modal.n_modes(), |r, j| {
+                Dual::new(modal.modes[(r, j)], mode(r, j))
+            }),
+            eigenvalues: constant(&modal.eigenvalues),
+            modal_damping: constant(&modal.modal_damping),
+            stiffness_matrix: None,
+            damping_matrix: None,
+        }
+    }
+
+    /// `x` as dual constants.
+    fn constant(x: &[f64]) -> Vec<Dual<2>> {
+        x.iter().map(|&x| Dual::constant(x)).collect()
+    }
+
     /// The dynamics of `modal` with field `field` through the Gram table (`gram`) or the node
     /// loop, whichever [`FieldGram::pays`] would choose.
     fn with_path<P: Scalar, S: Scalar + From<P>>(
@@ -1557,43 +1587,13 @@ mod tests {
             );
             close(&f1, &f2, 1e-12 * scale(&f2), &what);
             // design tangents: masses, modes and field on dual numbers
-            let dm = ModalBody {
-                node_positions: modal.node_positions.clone(),
-                node_masses: modal
-                    .node_masses
-                    .iter()
-                    .enumerate()
-                    .map(|(k, &m)| Dual::new(m, [0.1 * m * (1.0 + (k as f64).sin()), 0.0]))
-                    .collect(),
-                node_inertias: modal
-                    .node_inertias
-                    .iter()
-                    .map(|x| x.map(Dual::constant))
-                    .collect(),
-                modes: DMatrix::from_fn(modal.modes.nrows(), nm, |r, j| {
-                    Dual::new(
-                        modal.modes[(r, j)],
-                        [0.0, 0.05 * ((r + 3 * j) as f64).cos()],
-                    )
-                }),
-                eigenvalues: modal
-                    .eigenvalues
-                    .iter()
-                    .map(|&x| Dual::constant(x))
-                    .collect(),
-                modal_damping: modal
-                    .modal_damping
-                    .iter()
-                    .map(|&x| Dual::constant(x))
-                    .collect(),
-                stiffness_matrix: None,
-                damping_matrix: None,
-            };
-            let dg = g.map(&|x| Dual::<2>::new(x, [0.02 * x, -0.01 * x]));
-            let (q2, v2): (Vec<Dual<2>>, Vec<Dual<2>>) = (
-                q.iter().map(|&x| Dual::constant(x)).collect(),
-                v.iter().map(|&x| Dual::constant(x)).collect(),
+            let dm = dual_body(
+                &modal,
+                |k, m| [0.1 * m * (1.0 + (k as f64).sin()), 0.0],
+                |r, j| [0.0, 0.05 * ((r + 3 * j) as f64).cos()],
             );
+            let dg = g.map(&|x| Dual::<2>::new(x, [0.02 * x, -0.01 * x]));
+            let (q2, v2) = (constant(&q), constant(&v));
             let (m1, f1) = with_path(&dm, &dg, true, &q2, &v2, &gravity);
             let (m2, f2) = with_path(&dm, &dg, false, &q2, &v2, &gravity);
             let what = format!("dual parameters, field of {nf} modes");
@@ -1683,36 +1683,8 @@ mod tests {
         let (_, f0) = with_path(&modal, &none, false, &qd, &vd, &gravity);
         assert!((6..6 + nm).any(|j| (f0[j].v - f2[j].v).abs() > 1e-2 * scale(&f2)));
         // design tangents of the field
-        let dm = ModalBody {
-            node_positions: modal.node_positions.clone(),
-            node_masses: modal
-                .node_masses
-                .iter()
-                .map(|&x| Dual::constant(x))
-                .collect(),
-            node_inertias: modal
-                .node_inertias
-                .iter()
-                .map(|x| x.map(Dual::constant))
-                .collect(),
-            modes: modal.modes.map(Dual::constant),
-            eigenvalues: modal
-                .eigenvalues
-                .iter()
-                .map(|&x| Dual::constant(x))
-                .collect(),
-            modal_damping: modal
-                .modal_damping
-                .iter()
-                .map(|&x| Dual::constant(x))
-                .collect(),
-            stiffness_matrix: None,
-            damping_matrix: None,
-        };
-        let (q2, v2): (Vec<Dual<2>>, Vec<Dual<2>>) = (
-            q.iter().map(|&x| Dual::constant(x)).collect(),
-            v.iter().map(|&x| Dual::constant(x)).collect(),
-        );
+        let dm = dual_body(&modal, |_, _| [0.0; 2], |_, _| [0.0; 2]);
+        let (q2, v2) = (constant(&q), constant(&v));
         let (de, dn) = (
             element_field(nm, n_nodes, true),
             element_field(nm, n_nodes, false),
