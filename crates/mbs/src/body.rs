@@ -207,6 +207,25 @@ pub(crate) fn second_order_node<P: Scalar, S: Scalar + From<P>>(
     out
 }
 
+/// `(Σ_l A_jl w_l, Σ_l A_jl ẇ_l)` over the `n × n` symmetric `A`'s row `j` (its column `j`,
+/// contiguous), `n` the order of `A`.
+#[inline]
+fn symmetric_row_products<P: Scalar, S: Scalar + From<P>>(
+    a: &DMatrix<P>,
+    j: usize,
+    w: &[S],
+    wd: &[S],
+) -> (S, S) {
+    let col = a.column(j);
+    let (mut x_w, mut x_wd) = (S::zero(), S::zero());
+    for l in 0..a.nrows() {
+        let x: S = lift(col[l]);
+        x_w += x * w[l];
+        x_wd += x * wd[l];
+    }
+    (x_w, x_wd)
+}
+
 /// [`second_order_node`] into `out` (whose `columns` has `g.field_modes` entries).
 pub(crate) fn second_order_node_into<P: Scalar, S: Scalar + From<P>>(
     g: &GeometricStiffness<P>,
@@ -218,18 +237,10 @@ pub(crate) fn second_order_node_into<P: Scalar, S: Scalar + From<P>>(
     let nf = g.field_modes;
     out.rates = Vector3::zeros();
     for i in 0..3 {
-        let q = &g.nodal[3 * k + i];
         for j in 0..nf {
-            // column j (= row j: the matrices are symmetric), contiguous
-            let col = q.column(j);
-            let (mut c, mut r) = (S::zero(), S::zero());
-            for l in 0..nf {
-                let x: S = lift(col[l]);
-                c -= x * w[l];
-                r -= x * wd[l];
-            }
-            out.columns[j][i] = c;
-            out.rates[i] += r * wd[j];
+            let (c, r) = symmetric_row_products(&g.nodal[3 * k + i], j, w, wd);
+            out.columns[j][i] = -c;
+            out.rates[i] -= r * wd[j];
         }
     }
     out.half = Vector3::zeros();
@@ -270,18 +281,8 @@ impl<S: Scalar> FieldAtNodes<S> {
         };
         let (mut g, mut h) = (vec![S::zero(); nf], vec![S::zero(); nf]);
         for e in elements {
-            // `G_e w` and `G_e ẇ` by its columns (= rows: symmetric), contiguous
-            let unit = e.unit.as_slice();
             for j in 0..nf {
-                let col = &unit[j * nf..(j + 1) * nf];
-                let (mut a, mut b) = (S::zero(), S::zero());
-                for l in 0..nf {
-                    let x: S = lift(col[l]);
-                    a += x * w[l];
-                    b += x * wd[l];
-                }
-                g[j] = a;
-                h[j] = b;
+                (g[j], h[j]) = symmetric_row_products(&e.unit, j, w, wd);
             }
             let (mut half, mut rate) = (S::zero(), S::zero());
             for j in 0..nf {

@@ -321,6 +321,11 @@ impl MultibodySystem {
             .max_by(|a, b| a.1.total_cmp(&b.1))
     }
 
+    /// `max |Φ|` over the guarded rows ([`Self::worst_violation`]; 0 without rows).
+    fn largest_violation<S: Scalar>(&self, k: &[Kin<S>]) -> f64 {
+        self.worst_violation(k).map_or(0.0, |(_, phi)| phi)
+    }
+
     /// Keep the guarded rows' largest violation `phi` at a right-hand side at time `t` for the
     /// step check ([`OdeSystem::check_step`] of this system).
     pub(crate) fn note_violation(&mut self, t: f64, phi: f64) {
@@ -451,7 +456,7 @@ impl MultibodySystem {
         v: &[Dual<N>],
     ) -> Result<(Solution, Vec<Dual<N>>, f64), ConstraintError> {
         let k = model.constraint_kin(t, q, v);
-        let violation = self.worst_violation(&k).map_or(0.0, |(_, phi)| phi);
+        let violation = self.largest_violation(&k);
         let (m, f) = model.mass_and_forces(t, q, v);
         let rows = self.select_rows(&k);
         let mass = m.map(|x| x.value());
@@ -1071,7 +1076,7 @@ impl OdeSystem for MultibodySystem {
         self.report_progress(t);
         let (q, v) = y.split_at(self.model.n_q());
         let k = self.model.constraint_kin(t, q, v);
-        self.note_violation(t, self.worst_violation(&k).map_or(0.0, |(_, phi)| phi));
+        self.note_violation(t, self.largest_violation(&k));
         let (m, f) = self.model.mass_and_forces(t, q, v);
         let sol = self
             .solve_with(t, (q, v), &k, (&m, &f))
