@@ -14,7 +14,7 @@ use sens::Scalar;
 
 use crate::field_gram::{FieldGram, FrameSums};
 use crate::kin::{mtv, mv, rotation, skew};
-pub(crate) use crate::nodal::{axial, lift, mode_vec, outer, vec3, vec3f};
+pub(crate) use crate::nodal::{add_scaled, axial, lift, mode_vec, outer, vec3, vec3f};
 
 /// Handle of a body in a [`crate::Model`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -439,7 +439,9 @@ pub(crate) struct FieldInvariants<P: Scalar> {
 pub(crate) struct RotaryInvariants<P: Scalar> {
     /// `L_j = Σ_k Θ_kj μ_k + μ_k Θ_kjᵀ`.
     l: Vec<Matrix3<P>>,
-    /// `S_jl = Σ_k Θ_kj μ_k Θ_klᵀ + ½ (Θ_kj Θ_kl μ_k + μ_k Θ_klᵀ Θ_kjᵀ)` at `j · n_modes + l`.
+    /// The symmetric part `½ (S_jl + S_lj)` of
+    /// `S_jl = Σ_k Θ_kj μ_k Θ_klᵀ + ½ (Θ_kj Θ_kl μ_k + μ_k Θ_klᵀ Θ_kjᵀ)` at `j · n_modes + l`
+    /// (`ΔJ` takes only that part, and its derivatives are then `L_j + 2 Σ_l S_jl w_l`).
     s: Vec<Matrix3<P>>,
 }
 
@@ -468,23 +470,34 @@ impl<P: Scalar> RotaryInvariants<P> {
                 }
             }
         }
+        for j in 0..nm {
+            for l in j + 1..nm {
+                let sym = (r.s[j * nm + l] + r.s[l * nm + j]) * half;
+                r.s[j * nm + l] = sym;
+                r.s[l * nm + j] = sym;
+            }
+        }
         r
     }
 
-    /// `ΔJ(w) = Σ_j w_j L_j + Σ_jl w_j w_l S_jl` and its derivatives `∂ΔJ/∂w_j`.
+    /// `ΔJ(w) = Σ_j w_j L_j + Σ_jl w_j w_l S_jl` and its derivatives `∂ΔJ/∂w_j`: with
+    /// `E_j = Σ_l S_jl w_l`, `ΔJ = Σ_j (L_j + E_j) w_j` and `∂ΔJ/∂w_j = L_j + 2 E_j` (`S`
+    /// symmetric), one product of the table with `w`.
     fn at<S: Scalar + From<P>>(&self, w: &[S]) -> (Matrix3<S>, Vec<Matrix3<S>>) {
         let nm = self.l.len();
         let mut dj = Matrix3::<S>::zeros();
-        let mut d: Vec<Matrix3<S>> = self.l.iter().map(|x| x.map(lift)).collect();
-        for j in 0..nm {
-            dj += self.l[j].map(lift::<P, S>) * w[j];
-            for l in 0..nm {
-                let sjl: Matrix3<S> = self.s[j * nm + l].map(lift);
-                dj += sjl * (w[j] * w[l]);
-                d[j] += sjl * w[l];
-                d[l] += sjl * w[j];
-            }
-        }
+        let two = S::from_f64(2.0);
+        let d = (0..nm)
+            .map(|j| {
+                let mut e = Matrix3::<S>::zeros();
+                for (s_jl, &wl) in self.s[j * nm..(j + 1) * nm].iter().zip(w) {
+                    add_scaled(&mut e, s_jl, wl);
+                }
+                let lj: Matrix3<S> = self.l[j].map(lift);
+                dj += (lj + e) * w[j];
+                lj + e * two
+            })
+            .collect();
         (dj, d)
     }
 }

@@ -11,6 +11,26 @@ pub(crate) fn lift<P: Scalar, S: Scalar + From<P>>(x: P) -> S {
     S::from(x)
 }
 
+/// `acc += m s` for a matrix `m` of parameters: with parameters that carry no tangents, `s`
+/// scaled by their values (a product with a lifted constant would multiply its zero tangents
+/// too, twice the work for a dual `s`).
+#[inline]
+pub(crate) fn add_scaled<P: Scalar, S: Scalar + From<P>>(
+    acc: &mut Matrix3<S>,
+    m: &Matrix3<P>,
+    s: S,
+) {
+    if P::TANGENTS == 0 {
+        for (a, x) in acc.iter_mut().zip(m.iter()) {
+            *a += s * x.value();
+        }
+    } else {
+        for (a, x) in acc.iter_mut().zip(m.iter()) {
+            *a += lift::<P, S>(*x) * s;
+        }
+    }
+}
+
 #[inline]
 pub(crate) fn vec3<S: Scalar>(s: &[S]) -> Vector3<S> {
     Vector3::new(s[0], s[1], s[2])
