@@ -103,6 +103,7 @@ mod newton;
 mod nodal;
 mod operating;
 mod ply;
+mod reduced_newton;
 mod response;
 mod sensitivity;
 mod system;

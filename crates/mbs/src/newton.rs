@@ -14,7 +14,9 @@
 //! [ −R_q         −R_v     A  ] [z ]   [ 0 ]
 //! ```
 //!
-//! factorised by sparse LU, its symbolic analysis kept while the pattern stays.
+//! factorised by sparse LU, its symbolic analysis kept while the pattern stays; up to
+//! [`REDUCED_LIMIT`] unknowns in Eq. (12), reduced to those unknowns and factorised dense
+//! instead ([`crate::reduced_newton`]).
 //!
 //! `R_y` and `Q_y` come from dual evaluations of the residual seeded by colour: bodies whose
 //! equations share no row (no common neighbour in the graph of joints and forces) are seeded
@@ -41,6 +43,7 @@ use crate::eq12::BodyMass;
 use crate::joint::JointId;
 use crate::kin::Kin;
 use crate::model::Model;
+use crate::reduced_newton::{REDUCED_LIMIT, ReducedNewton};
 
 /// Width of the dual chunks.
 const CHUNK: usize = 8;
@@ -145,8 +148,12 @@ impl std::fmt::Debug for NewtonPattern {
 /// `∂f/∂y` of a large mechanism as the entries of the sparse Newton system (see the module
 /// documentation).
 pub(crate) struct SparseNewton {
-    /// `n_q + n_v`.
-    n_y: usize,
+    /// `n_q`, `n_v` and the unknowns of Eq. (12).
+    sizes: (usize, usize, usize),
+    /// Each body's coordinates and velocity variables.
+    bodies: Vec<(std::ops::Range<usize>, std::ops::Range<usize>)>,
+    /// Row and column of each entry.
+    idx: Vec<(usize, usize)>,
     /// Entries without the `c0` terms.
     values: Vec<f64>,
     /// Positions in `values` (and the pattern's entries) that take `c0`.
@@ -274,7 +281,12 @@ impl SparseNewton {
         let size = n_y + nv + rows.len();
         let (pattern, argsort, lu) = symbolic(size, &e.idx, cache)?;
         Some(Self {
-            n_y,
+            sizes: (nq, nv, nv + rows.len()),
+            bodies: model
+                .body_ids()
+                .map(|id| (model.q_range(id), model.v_range(id)))
+                .collect(),
+            idx: e.idx,
             values: e.val,
             diagonal,
             pattern,
@@ -322,6 +334,12 @@ fn symbolic(
 
 impl StructuredJacobian for SparseNewton {
     fn factor(&self, c0: f64) -> Option<Box<dyn LinearSolver>> {
+        if self.sizes.2 <= REDUCED_LIMIT
+            && let Some(r) =
+                ReducedNewton::new(self.sizes, &self.bodies, (&self.idx, &self.values), c0)
+        {
+            return Some(Box::new(r));
+        }
         let mut values = self.values.clone();
         for &d in &self.diagonal {
             values[d] += c0;
@@ -329,7 +347,10 @@ impl StructuredJacobian for SparseNewton {
         let a =
             SparseColMat::new_from_argsort(self.pattern.clone(), &self.argsort, &values).ok()?;
         let lu = Lu::try_new_with_symbolic(self.lu.clone(), a.as_ref()).ok()?;
-        Some(Box::new(NewtonLu { lu, n_y: self.n_y }))
+        Some(Box::new(NewtonLu {
+            lu,
+            n_y: self.sizes.0 + self.sizes.1,
+        }))
     }
 
     fn oscillatory_eigenvalues(&self) -> Vec<Complex<f64>> {
