@@ -14,7 +14,7 @@ use sens::Scalar;
 
 use crate::field_gram::{FieldGram, FrameSums};
 use crate::kin::{mtv, mv, rotation, skew};
-pub(crate) use crate::nodal::{add_scaled, axial, lift, mode_vec, outer, vec3, vec3f};
+pub(crate) use crate::nodal::{add_scaled, axial, dot_scaled, lift, mode_vec, outer, vec3, vec3f};
 
 /// Handle of a body in a [`crate::Model`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -920,10 +920,8 @@ fn second_order_dynamics<P: Scalar, S: Scalar + From<P>>(
     let mut m_ww = DMatrix::<S>::from_fn(nm, nm, |j, l| lift(inv.modal_mass[j * nm + l]));
     for j in 0..nm {
         for l in 0..nf {
-            let mut x = S::zero();
-            for p in 0..nf {
-                x += lift::<P, S>(fi.r[(j * nf + l) * nf + p]) * w[p];
-            }
+            let start = (j * nf + l) * nf;
+            let x = dot_scaled(&fi.r[start..start + nf], &w[..nf]);
             m_ww[(j, l)] += x;
             m_ww[(l, j)] += x;
         }
@@ -937,11 +935,8 @@ fn second_order_dynamics<P: Scalar, S: Scalar + From<P>>(
                 None => {
                     let mut x = S::zero();
                     for p in 0..nf {
-                        let mut y = S::zero();
-                        for qq in 0..nf {
-                            y += lift::<P, S>(fi.t[((j * nf + p) * nf + l) * nf + qq]) * w[qq];
-                        }
-                        x += y * w[p];
+                        let start = ((j * nf + p) * nf + l) * nf;
+                        x += dot_scaled(&fi.t[start..start + nf], &w[..nf]) * w[p];
                     }
                     x
                 }

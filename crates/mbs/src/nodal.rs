@@ -31,6 +31,21 @@ pub(crate) fn add_scaled<P: Scalar, S: Scalar + From<P>>(
     }
 }
 
+/// `Σ_p c_p w_p` for parameters `c`, scaled by their values when they carry no tangents (as
+/// [`add_scaled`]).
+#[inline]
+pub(crate) fn dot_scaled<P: Scalar, S: Scalar + From<P>>(c: &[P], w: &[S]) -> S {
+    if P::TANGENTS == 0 {
+        c.iter()
+            .zip(w)
+            .fold(S::zero(), |acc, (x, &wp)| acc + wp * x.value())
+    } else {
+        c.iter()
+            .zip(w)
+            .fold(S::zero(), |acc, (x, &wp)| acc + lift::<P, S>(*x) * wp)
+    }
+}
+
 #[inline]
 pub(crate) fn vec3<S: Scalar>(s: &[S]) -> Vector3<S> {
     Vector3::new(s[0], s[1], s[2])
