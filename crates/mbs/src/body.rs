@@ -14,7 +14,9 @@ use sens::Scalar;
 
 use crate::field_gram::{FieldGram, FrameSums};
 use crate::kin::{mtv, mv, rotation, skew};
-pub(crate) use crate::nodal::{add_scaled, axial, dot_scaled, lift, mode_vec, outer, vec3, vec3f};
+pub(crate) use crate::nodal::{
+    add_scaled, axial, dot_scaled, lift, mode_vec, mode_vec_times, outer, scaled, vec3, vec3f,
+};
 
 /// Handle of a body in a [`crate::Model`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -207,8 +209,17 @@ pub(crate) fn second_order_node<P: Scalar, S: Scalar + From<P>>(
     out
 }
 
+/// `Σ_l A_jl w_l` over the `n × n` symmetric `A`'s row `j` ([`symmetric_row_products`] without
+/// its second vector, the same operations).
+#[inline]
+fn symmetric_row_product<P: Scalar, S: Scalar + From<P>>(a: &DMatrix<P>, j: usize, w: &[S]) -> S {
+    let n = a.nrows();
+    dot_scaled(&a.as_slice()[j * n..(j + 1) * n], w)
+}
+
 /// `(Σ_l A_jl w_l, Σ_l A_jl ẇ_l)` over the `n × n` symmetric `A`'s row `j` (its column `j`,
-/// contiguous), `n` the order of `A`.
+/// contiguous), `n` the order of `A`; `w` and `ẇ` scaled by the entries' values when they carry
+/// no tangents (as [`crate::nodal::dot_scaled`]).
 #[inline]
 fn symmetric_row_products<P: Scalar, S: Scalar + From<P>>(
     a: &DMatrix<P>,
@@ -218,10 +229,18 @@ fn symmetric_row_products<P: Scalar, S: Scalar + From<P>>(
 ) -> (S, S) {
     let col = a.column(j);
     let (mut x_w, mut x_wd) = (S::zero(), S::zero());
-    for l in 0..a.nrows() {
-        let x: S = lift(col[l]);
-        x_w += x * w[l];
-        x_wd += x * wd[l];
+    if P::TANGENTS == 0 {
+        for l in 0..a.nrows() {
+            let x = col[l].value();
+            x_w += w[l] * x;
+            x_wd += wd[l] * x;
+        }
+    } else {
+        for l in 0..a.nrows() {
+            let x: S = lift(col[l]);
+            x_w += x * w[l];
+            x_wd += x * wd[l];
+        }
     }
     (x_w, x_wd)
 }
@@ -310,13 +329,19 @@ impl<S: Scalar> FieldAtNodes<S> {
 }
 
 /// `½ Q_k(w, w)`: the second-order displacement of node `k` at modal coordinates `w`
-/// ([`second_order_node`]).
+/// ([`second_order_node`]'s `half`, in the same order of operations, without its columns'
+/// products with the rates).
 pub(crate) fn foreshortening<P: Scalar, S: Scalar + From<P>>(
     g: &GeometricStiffness<P>,
     k: usize,
     w: &[S],
 ) -> Vector3<S> {
-    second_order_node(g, k, w, w).half
+    let mut half = Vector3::<S>::zeros();
+    for j in 0..g.field_modes {
+        let column = Vector3::from_fn(|i, _| -symmetric_row_product(&g.nodal[3 * k + i], j, w));
+        half += column * (w[j] * S::from_f64(0.5));
+    }
+    half
 }
 
 /// Body pose read from the body's coordinate slice.
@@ -803,8 +828,9 @@ fn node_sums<P: Scalar, S: Scalar + From<P>>(
         .as_ref()
         .map(|els| FieldAtNodes::new(els, nf, modal.n_nodes(), &w[..nf], &wd[..nf]));
     for k in 0..modal.n_nodes() {
-        let mk: S = lift(modal.node_masses[k]);
-        if mk == S::zero() {
+        // the node's mass scales duals by its value when it carries no tangents
+        let mk = modal.node_masses[k];
+        if lift::<P, S>(mk) == S::zero() {
             continue;
         }
         match &by_elements {
@@ -812,7 +838,7 @@ fn node_sums<P: Scalar, S: Scalar + From<P>>(
             None => second_order_node_into(field, k, w, wd, &mut second),
         }
         for j in 0..nf {
-            let cj = second.columns[j] * mk;
+            let cj = scaled(second.columns[j], mk);
             for l in j..nf {
                 field_cc[j * nf + l] += cj.dot(&second.columns[l]);
             }
@@ -821,23 +847,23 @@ fn node_sums<P: Scalar, S: Scalar + From<P>>(
         u += second.half;
         let mut ud = Vector3::<S>::zeros();
         for j in 0..nm {
+            u += mode_vec_times(modal, k, j, w[j]);
             let d: Vector3<S> = mode_vec(modal, k, j, false);
-            u += d * w[j];
             x[j] = if j < nf { d + second.columns[j] } else { d };
             ud += x[j] * wd[j];
         }
-        total += mk;
-        first += u * mk;
+        total += lift::<P, S>(mk);
+        first += scaled(u, mk);
         let ut = skew(&u);
-        m_oo += ut.transpose() * ut * mk;
+        m_oo += scaled(ut.transpose() * ut, mk);
         // the node's acceleration at zero accelerations, beyond the frame's r̈
         let c = om.cross(&om.cross(&u)) + om.cross(&ud) * two + second.rates;
-        qc += c * mk;
-        s_o += u.cross(&c) * mk;
-        let gc = (g_body - c) * mk;
+        qc += scaled(c, mk);
+        s_o += scaled(u.cross(&c), mk);
+        let gc = scaled(g_body - c, mk);
         for j in 0..nm {
-            m_rw[j] += x[j] * mk;
-            m_ow[j] += u.cross(&x[j]) * mk;
+            m_rw[j] += scaled(x[j], mk);
+            m_ow[j] += scaled(u.cross(&x[j]), mk);
             s_w[j] += x[j].dot(&gc);
         }
     }

@@ -2,7 +2,7 @@
 //! node vectors of a modal body, outer products and their axial vectors.
 
 use fem::ModalBody;
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{Matrix3, SMatrix, Vector3};
 use sens::Scalar;
 
 /// Convert a parameter to the evaluation scalar.
@@ -46,6 +46,21 @@ pub(crate) fn dot_scaled<P: Scalar, S: Scalar + From<P>>(c: &[P], w: &[S]) -> S 
     }
 }
 
+/// `v p` for a parameter `p`: `v` scaled by its value when it carries no tangents (as
+/// [`add_scaled`]).
+#[inline]
+pub(crate) fn scaled<P: Scalar, S: Scalar + From<P>, const R: usize, const C: usize>(
+    v: SMatrix<S, R, C>,
+    p: P,
+) -> SMatrix<S, R, C> {
+    if P::TANGENTS == 0 {
+        let x = p.value();
+        v.map(|a| a * x)
+    } else {
+        v * lift::<P, S>(p)
+    }
+}
+
 #[inline]
 pub(crate) fn vec3<S: Scalar>(s: &[S]) -> Vector3<S> {
     Vector3::new(s[0], s[1], s[2])
@@ -71,6 +86,27 @@ pub(crate) fn mode_vec<P: Scalar, S: Scalar + From<P>>(
         lift(modal.modes[(r + 1, j)]),
         lift(modal.modes[(r + 2, j)]),
     )
+}
+
+/// [`mode_vec`] times `s`: `s` scaled by the mode's entries when they carry no tangents (as
+/// [`add_scaled`]).
+#[inline]
+pub(crate) fn mode_vec_times<P: Scalar, S: Scalar + From<P>>(
+    modal: &ModalBody<P>,
+    k: usize,
+    j: usize,
+    s: S,
+) -> Vector3<S> {
+    if P::TANGENTS == 0 {
+        let r = 6 * k;
+        Vector3::new(
+            s * modal.modes[(r, j)].value(),
+            s * modal.modes[(r + 1, j)].value(),
+            s * modal.modes[(r + 2, j)].value(),
+        )
+    } else {
+        mode_vec::<P, S>(modal, k, j, false) * s
+    }
 }
 
 /// `a bᵀ`.
