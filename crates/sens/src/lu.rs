@@ -170,7 +170,9 @@ impl DenseLu {
         true
     }
 
-    /// `B ← A⁻¹ B`, column by column; `false` if singular.
+    /// `B ← A⁻¹ B`; `false` if singular. Several columns are solved side by side, row by row
+    /// ([`Self::solve_rows`] on a row-major copy): substituting them one at a time took about
+    /// three times the instructions for the eight columns of a dual chunk.
     pub fn solve_matrix(&self, b: &mut DMatrix<f64>) -> bool {
         assert_eq!(
             b.nrows(),
@@ -180,9 +182,14 @@ impl DenseLu {
         if !self.is_invertible() {
             return false;
         }
-        for mut col in b.column_iter_mut() {
-            self.substitute(col.as_mut_slice());
+        let m = b.ncols();
+        if m == 1 {
+            self.substitute(b.as_mut_slice());
+            return true;
         }
+        let mut rows: Vec<f64> = b.transpose().as_slice().to_vec();
+        self.solve_rows(&mut rows, m);
+        b.copy_from(&DMatrix::from_row_slice(self.n, m, &rows));
         true
     }
 }
