@@ -133,6 +133,19 @@ impl DenseLu {
         if m == 0 {
             return true;
         }
+        // the widths of the dual chunks with fixed-size rows, which the compiler unrolls
+        match m {
+            8 => self.substitute_rows(b, m, axpy_fixed::<8>),
+            4 => self.substitute_rows(b, m, axpy_fixed::<4>),
+            _ => self.substitute_rows(b, m, axpy),
+        }
+        true
+    }
+
+    /// [`Self::solve_rows`]'s interchanges and substitutions, with `update(row, other, a)`
+    /// doing `row −= a · other` on rows of `m` entries.
+    fn substitute_rows(&self, b: &mut [f64], m: usize, update: impl Fn(&mut [f64], &[f64], f64)) {
+        let n = self.n;
         for (k, &p) in self.piv.iter().enumerate() {
             if p != k {
                 let (top, bottom) = b.split_at_mut(p * m);
@@ -145,9 +158,7 @@ impl DenseLu {
             let row = &mut rest[..m];
             for (j, &l) in self.lu[i * n..i * n + i].iter().enumerate() {
                 if l != 0.0 {
-                    for (r, y) in row.iter_mut().zip(&done[j * m..(j + 1) * m]) {
-                        *r -= l * y;
-                    }
+                    update(row, &done[j * m..(j + 1) * m], l);
                 }
             }
         }
@@ -157,9 +168,7 @@ impl DenseLu {
             let row = &mut head[i * m..];
             for (j, &u) in self.lu[i * n + i + 1..(i + 1) * n].iter().enumerate() {
                 if u != 0.0 {
-                    for (r, x) in row.iter_mut().zip(&tail[j * m..(j + 1) * m]) {
-                        *r -= u * x;
-                    }
+                    update(row, &tail[j * m..(j + 1) * m], u);
                 }
             }
             let inv = 1.0 / self.lu[i * n + i];
@@ -167,7 +176,6 @@ impl DenseLu {
                 *r *= inv;
             }
         }
-        true
     }
 
     /// `B ← A⁻¹ B`; `false` if singular. Several columns are solved side by side, row by row
@@ -191,6 +199,22 @@ impl DenseLu {
         self.solve_rows(&mut rows, m);
         b.copy_from(&DMatrix::from_row_slice(self.n, m, &rows));
         true
+    }
+}
+
+/// `row −= a · other`.
+fn axpy(row: &mut [f64], other: &[f64], a: f64) {
+    for (r, y) in row.iter_mut().zip(other) {
+        *r -= a * y;
+    }
+}
+
+/// [`axpy`] on rows of `M` entries.
+fn axpy_fixed<const M: usize>(row: &mut [f64], other: &[f64], a: f64) {
+    let row: &mut [f64; M] = row.try_into().expect("a row of M entries");
+    let other: &[f64; M] = other.try_into().expect("a row of M entries");
+    for k in 0..M {
+        row[k] -= a * other[k];
     }
 }
 

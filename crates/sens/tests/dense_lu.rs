@@ -89,7 +89,7 @@ proptest! {
 
     #[test]
     fn every_solve_meets_its_equations(
-        (a, b) in (1usize..48).prop_flat_map(|n| (matrix(n), proptest::collection::vec(-1.0f64..1.0, n * 3)))
+        (a, b) in (1usize..48).prop_flat_map(|n| (matrix(n), proptest::collection::vec(-1.0f64..1.0, n * 8)))
     ) {
         let n = a.nrows();
         let lu = DenseLu::new(&a);
@@ -104,22 +104,29 @@ proptest! {
         for (u, v) in x.iter().zip(reference.iter()) {
             prop_assert!((u - v).abs() <= 1e-11 * (1.0 + v.abs()));
         }
-        // three right-hand sides: row-major, column-major and the LinearSolver trait agree
-        let cols = DMatrix::from_column_slice(n, 3, &b);
-        let mut by_columns = cols.clone();
-        prop_assert!(lu.solve_matrix(&mut by_columns));
-        let mut rows: Vec<f64> = (0..n).flat_map(|i| (0..3).map(move |j| (i, j))).map(|(i, j)| cols[(i, j)]).collect();
-        prop_assert!(lu.solve_rows(&mut rows, 3));
-        let mut trait_cols = b.clone();
-        lu.solve_columns(&mut trait_cols, 3);
-        for i in 0..n {
-            for j in 0..3 {
-                let c = by_columns[(i, j)];
-                prop_assert!((rows[i * 3 + j] - c).abs() <= 1e-12 * (1.0 + c.abs()));
-                prop_assert!((trait_cols[j * n + i] - c).abs() <= 1e-12 * (1.0 + c.abs()));
+        // several right-hand sides (the widths of the dual chunks among them, solved with
+        // fixed-size rows): row-major, column-major and the LinearSolver trait (one column at
+        // a time) agree
+        for m in [3, 4, 8] {
+            let cols = DMatrix::from_column_slice(n, m, &b[..n * m]);
+            let mut by_columns = cols.clone();
+            prop_assert!(lu.solve_matrix(&mut by_columns));
+            let mut rows: Vec<f64> = (0..n).flat_map(|i| (0..m).map(move |j| (i, j))).map(|(i, j)| cols[(i, j)]).collect();
+            prop_assert!(lu.solve_rows(&mut rows, m));
+            let mut trait_cols = b[..n * m].to_vec();
+            lu.solve_columns(&mut trait_cols, m);
+            for i in 0..n {
+                for j in 0..m {
+                    let c = trait_cols[j * n + i];
+                    prop_assert!((rows[i * m + j] - c).abs() <= 1e-12 * (1.0 + c.abs()));
+                    prop_assert!((by_columns[(i, j)] - c).abs() <= 1e-12 * (1.0 + c.abs()));
+                }
+                prop_assert!((trait_cols[i] - x[i]).abs() <= 1e-12 * (1.0 + x[i].abs()));
             }
-            let col = by_columns.column(0);
-            prop_assert!((col[i] - x[i]).abs() <= 1e-12 * (1.0 + x[i].abs()));
+            for j in 0..m {
+                let xj: Vec<f64> = (0..n).map(|i| by_columns[(i, j)]).collect();
+                prop_assert!(residual(&a, &xj, &b[j * n..(j + 1) * n]) < 1e-13);
+            }
         }
     }
 }
