@@ -289,9 +289,11 @@ impl BodySchur {
             .blocks()
             .map(|(o, b)| Cholesky::new(b.clone()).map(|c| (o, c)))
             .collect::<Option<Vec<_>>>()?;
-        let mut row_ptr = vec![0];
-        let mut cols = Vec::new();
-        let mut vals = Vec::new();
+        let nnz: usize = rows.iter().map(|r| r.cols().len()).sum();
+        let mut row_ptr = Vec::with_capacity(rows.len() + 1);
+        row_ptr.push(0);
+        let mut cols = Vec::with_capacity(nnz);
+        let mut vals = Vec::with_capacity(nnz);
         // the rows that touch each body
         let mut touching: Vec<Vec<usize>> = vec![Vec::new(); blocks.len()];
         for (r, row) in rows.iter().enumerate() {
@@ -389,7 +391,12 @@ fn schur_entries(
     rows: &RowsOfJ<'_>,
     touching: &[Vec<usize>],
 ) -> Vec<((usize, usize), f64)> {
-    let mut entries = Vec::new();
+    let mut entries = Vec::with_capacity(
+        touching
+            .iter()
+            .map(|rs| rs.len() * (rs.len() + 1) / 2)
+            .sum(),
+    );
     for ((o, chol), rs) in blocks.iter().zip(touching) {
         let n = chol.l_dirty().nrows();
         let mut jt = DMatrix::zeros(n, rs.len());

@@ -173,14 +173,18 @@ impl Cols {
         if self.is_empty() {
             return o.clone();
         }
-        let mut out: Vec<Range<usize>> = Vec::with_capacity(2);
+        // the distinct non-empty ranges, on the stack (this runs at every kinematic product)
+        let mut out: [Range<usize>; 4] = Default::default();
+        let mut n = 0;
         for r in self.ranges.iter().chain(&o.ranges) {
-            if !r.is_empty() && !out.contains(r) {
-                out.push(r.clone());
+            if !r.is_empty() && !out[..n].contains(r) {
+                out[n] = r.clone();
+                n += 1;
             }
         }
+        let out = &mut out[..n];
         out.sort_by_key(|r| r.start);
-        match out.as_slice() {
+        match out {
             [a] => Self::of(a.clone()),
             [a, b] => {
                 debug_assert!(a.end <= b.start, "overlapping velocity blocks");

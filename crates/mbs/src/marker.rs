@@ -184,8 +184,8 @@ pub(crate) fn marker_kin<P: Scalar, S: Scalar + From<P>>(
     let mut ud = Vector3::<S>::zeros();
     let mut th = Vector3::<S>::zeros();
     let mut thd = Vector3::<S>::zeros();
-    let mut xd = Vec::new();
-    let mut xt = Vec::new();
+    let mut xd = Vec::with_capacity(nm);
+    let mut xt = Vec::with_capacity(nm);
     // the node's acceleration at zero modal accelerations, beyond the frame's terms
     let mut udd = Vector3::<S>::zeros();
     match (&marker.site, body) {
