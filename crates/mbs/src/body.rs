@@ -219,7 +219,9 @@ fn symmetric_row_product<P: Scalar, S: Scalar + From<P>>(a: &DMatrix<P>, j: usiz
 
 /// `(Σ_l A_jl w_l, Σ_l A_jl ẇ_l)` over the `n × n` symmetric `A`'s row `j` (its column `j`,
 /// contiguous), `n` the order of `A`; `w` and `ẇ` scaled by the entries' values when they carry
-/// no tangents (as [`crate::nodal::dot_scaled`]).
+/// no tangents (as [`crate::nodal::dot_scaled`]). One pass over the column for both vectors:
+/// [`symmetric_row_product`] twice gives the same numbers and took 2 % more of the spatial
+/// four-bar's instructions.
 #[inline]
 fn symmetric_row_products<P: Scalar, S: Scalar + From<P>>(
     a: &DMatrix<P>,
