@@ -189,6 +189,26 @@ fn per_segment_angles_add_up_to_the_common_angle_and_equal_differences() {
     parts_add_up_to_the_whole(&uniform, &split, "0.01");
 }
 
+/// A thin outer ply (0.08 mm in both halves) and the tip half's thickness of it as the variable:
+/// it splits the halves' repeated pairs, whose Dailey terms analyse the section at a step
+/// relative to the variable (a step of 1e-4 in its units, 0.1 mm, inverted the thin ply's
+/// section and failed the run); its sensitivity equals replayed central differences of whole
+/// runs.
+#[test]
+fn a_thin_ply_of_one_half_splits_the_pairs_and_equals_differences() {
+    let outer = "thickness = 0.25e-3, angle = 15.0 },\n]";
+    let design = "[design.t_tip]\nkind = \"ply-thickness\"\nlaminate = \"tip_wall\"\nplies = [3]";
+    let text = split_rod(HALVES, design).replace(FITTED, GIVEN);
+    assert_eq!(text.matches(outer).count(), 2, "the outer ply of each half");
+    let text = text.replace(outer, "thickness = 0.08e-3, angle = 15.0 },\n]");
+    let dir = tempfile::tempdir().unwrap();
+    let sets = ["analysis.t_end=0.003", "sensitivity.method=\"direct\""];
+    let (_, g) = run_text(dir.path(), "thin", &text, &sets);
+    let errors = replayed_differences(&g, "mid_deflection", "0.0001", 1);
+    eprintln!("replayed differences: {errors:?}");
+    assert!(errors[0] < 1e-5, "{errors:?}");
+}
+
 /// Runs of the deck `whole` (one design variable: an angle over the whole body) and of `parts`
 /// (the same body in two parts, each of its own copy of the laminate, an angle each), over
 /// `t_end` s with direct sensitivities: the same mid-span history to round-off; each part's

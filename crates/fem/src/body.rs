@@ -16,7 +16,7 @@ use crate::mesh::{Mesh, NodeId};
 use crate::modal::ModalBody;
 use crate::sensitivity::{
     DesignMatrices, ModeDerivatives, cluster_second_derivatives, eigenvalue_derivatives,
-    has_repeated, mode_derivatives,
+    has_repeated, mode_derivatives, splits_clusters,
 };
 
 /// How the body frame is attached for the modal analysis.
@@ -1253,7 +1253,8 @@ fn eigen_blocks<const N: usize>(
 ///
 /// For [`ModeUpdate::Updated`] and clusters of repeated eigenvalues, Dailey's second-derivative
 /// terms are obtained by central differences (step [`second_derivative_step`]) of the exact dual
-/// `K_b` ([`second_derivative_terms`]).
+/// `K_b` ([`second_derivative_terms`]), for the variables that split a cluster
+/// ([`crate::sensitivity::splits_clusters`]; the others do not read them).
 pub fn analysis_derivatives<const N: usize, F>(
     mesh: &Mesh,
     analysis: &ModalAnalysis,
@@ -1268,10 +1269,13 @@ where
     let dm = design_matrices::<N, _>(mesh, &analysis.assembly, b, &mut props, el, mass)?;
     let updated = update == ModeUpdate::Updated;
     let second = if updated && has_repeated(&analysis.pairs) {
+        // only the variables that split a cluster read them (each costs the properties at
+        // two more designs: a beam's section analysed twice)
+        let needed = splits_clusters(&analysis.pairs, &dm);
         Some(second_derivative_terms::<N, _>(
             mesh,
             &analysis.assembly,
-            b,
+            (b, &needed),
             &mut props,
             el,
             mass,
@@ -1341,13 +1345,13 @@ pub fn second_derivative_step(b: f64) -> f64 {
         }
 }
 
-/// `Zᵀ(K_bb − λM_bb)Z` for every cluster and design variable (`[var][cluster]`), from the dual
-/// `K_b` of variable `v` at `b ± h_v e_v` ([`second_derivative_step`]), seeded along `v` alone
-/// ([`cluster_second_derivatives`]).
+/// `Zᵀ(K_bb − λM_bb)Z` for every cluster and design variable `v` with `needed[v]` (or past the
+/// end of `needed`) (`[var][cluster]`; none for the others), from the dual `K_b` of variable `v` at `b ± h_v e_v`
+/// ([`second_derivative_step`]), seeded along `v` alone ([`cluster_second_derivatives`]).
 pub fn second_derivative_terms<const N: usize, F>(
     mesh: &Mesh,
     assembly: &Assembly,
-    b: &[f64],
+    (b, needed): (&[f64], &[bool]),
     mut props: F,
     element: &ElementOptions,
     mass: MassKind,
@@ -1356,30 +1360,35 @@ pub fn second_derivative_terms<const N: usize, F>(
 where
     F: FnMut(&[Dual<N>]) -> Properties<Dual<N>>,
 {
-    let h: Vec<f64> = b.iter().map(|&x| second_derivative_step(x)).collect();
-    let mut plus = Vec::with_capacity(b.len());
-    let mut minus = Vec::with_capacity(b.len());
+    let mut out = Vec::with_capacity(b.len());
     for v in 0..b.len() {
-        for (sign, out) in [(1.0, &mut plus), (-1.0, &mut minus)] {
+        if !needed.get(v).copied().unwrap_or(true) {
+            out.push(Vec::new());
+            continue;
+        }
+        let h = second_derivative_step(b[v]);
+        let mut at = |sign: f64| -> Result<DesignMatrices, FemError> {
             // variable v alone seeded, in its slot of the chunk that contains it: only its
             // tangent is read, and a section analysed again at the perturbed design then
             // differentiates along it alone, not along the whole chunk
             let start = v - v % N;
             let seeded: Vec<Dual<N>> = (b.iter().enumerate())
                 .map(|(i, &x)| match i == v {
-                    true => Dual::variable(x + sign * h[v], v - start),
+                    true => Dual::variable(x + sign * h, v - start),
                     false => Dual::constant(x),
                 })
                 .collect();
             let p = props(&seeded);
             let (kv, mv) = assembly.values(mesh, &p, element, mass)?;
-            out.push(DesignMatrices {
+            Ok(DesignMatrices {
                 k: assembly.tangent_matrix(&kv, v - start),
                 m: assembly.tangent_matrix(&mv, v - start),
-            });
-        }
+            })
+        };
+        let (plus, minus) = (at(1.0)?, at(-1.0)?);
+        out.extend(cluster_second_derivatives(pairs, &[plus], &[minus], &[h]));
     }
-    Ok(cluster_second_derivatives(pairs, &plus, &minus, &h))
+    Ok(out)
 }
 
 #[cfg(test)]

@@ -648,3 +648,37 @@ pub fn has_repeated(modes: &Eigenpairs) -> bool {
         .iter()
         .any(|g| g.len() > 1)
 }
+
+/// For each design variable of `design`, whether its change splits a cluster of repeated
+/// eigenvalues of `modes` at first order (the eigenvalues of `Zᵀ(K_b − λM_b)Z` differ). Only
+/// those variables' eigenvector derivatives read Dailey's second-derivative terms
+/// ([`mode_derivatives`]): a change that keeps every cluster together (a symmetric design change
+/// of a symmetric body, such as a ply of a tube whose two halves form the pairs) leaves the
+/// rotation within the cluster free and takes none, so its terms need not be computed.
+pub fn splits_clusters(modes: &Eigenpairs, design: &[DesignMatrices]) -> Vec<bool> {
+    let n = modes.vectors.nrows();
+    let groups: Vec<Vec<usize>> = clusters(&modes.values, CLUSTER_RTOL)
+        .into_iter()
+        .filter(|g| g.len() > 1)
+        .collect();
+    let bases: Vec<(f64, DMatrix<f64>)> = groups
+        .iter()
+        .map(|g| {
+            let lambda = g.iter().map(|&i| modes.values[i]).sum::<f64>() / g.len() as f64;
+            (
+                lambda,
+                DMatrix::from_fn(n, g.len(), |i, j| modes.vectors[(i, g[j])]),
+            )
+        })
+        .collect();
+    design
+        .iter()
+        .map(|dm| {
+            bases.iter().any(|(lambda, z)| {
+                let (kb, mb) = (project(&dm.k, z, z), project(&dm.m, z, z));
+                let (values, _) = cluster_derivative(&kb, &mb, *lambda);
+                values.iter().any(|&x| x != values[0])
+            })
+        })
+        .collect()
+}

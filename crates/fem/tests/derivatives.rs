@@ -534,7 +534,7 @@ fn repeated_pair_eigenvector_derivatives_follow_the_split_branches() {
     let second = fem::second_derivative_terms::<2, _>(
         &mesh,
         &asm,
-        &b0,
+        (&b0, &[true, true]),
         square_props,
         &opts,
         MassKind::Consistent,
@@ -582,6 +582,74 @@ fn repeated_pair_eigenvector_derivatives_follow_the_split_branches() {
     // without the second-derivative terms the pair's derivatives are wrong (the terms matter)
     let err_without = (xw.column(1) - fd.column(1)).norm() / fd.column(1).norm();
     assert!(err_without > 1e-3, "{err_without}");
+}
+
+/// Dailey's second-derivative terms are computed only for the variables that split a cluster
+/// (`fem::splits_clusters`), and the others' derivatives do not read them: on the square plate
+/// with its repeated pair, the quadrant's angle and the rest's split the pair, a common turn of
+/// both (the plate stays tetragonal) keeps it together. The mode derivatives with the terms of
+/// the splitting variables alone equal those with every variable's, bit for bit, and the
+/// properties are evaluated at the perturbed designs of the splitting variables only.
+#[test]
+fn second_derivative_terms_only_for_the_variables_that_split_a_cluster() {
+    let (mesh, asm) = square_model();
+    // variables 0 and 1 as in `square_props`; variable 2 turns both laminates together
+    let props = |b: &[Dual<4>]| square_props(&[b[0] + b[2], b[1] + b[2]]);
+    let b0 = [0.3, 0.3, 0.0];
+    let opts = ElementOptions::default();
+    let pairs = square_values(&mesh, &asm, &[0.3, 0.3], 4);
+    let (k, m) = asm
+        .values(
+            &mesh,
+            &square_props(&[0.3, 0.3]),
+            &opts,
+            MassKind::Consistent,
+        )
+        .unwrap();
+    let (k, m) = (asm.matrix(k), asm.matrix(m));
+    let dm = design_matrices::<4, _>(&mesh, &asm, &b0, props, &opts, MassKind::Consistent).unwrap();
+    let split = fem::splits_clusters(&pairs, &dm);
+    assert_eq!(split, [true, true, false]);
+    // the common turn moves the pair's eigenvalue together (a real change, not a null variable)
+    let d = fem::mode_derivatives(&k, &m, &pairs, &dm, false, None).unwrap();
+    assert_eq!(d.eigenvalues[2][1], d.eigenvalues[2][2]);
+    assert!(
+        d.eigenvalues[2][1].abs() > 1e-3 * pairs.values[1],
+        "{:?}",
+        d.eigenvalues[2]
+    );
+    let mut calls = 0;
+    let mut counted = |b: &[Dual<4>]| {
+        calls += 1;
+        props(b)
+    };
+    let mode = MassKind::Consistent;
+    let terms = |needed: &[bool], p: &mut dyn FnMut(&[Dual<4>]) -> Properties<Dual<4>>| {
+        fem::second_derivative_terms::<4, _>(&mesh, &asm, (&b0, needed), p, &opts, mode, &pairs)
+            .unwrap()
+    };
+    let only = terms(&split, &mut counted);
+    assert_eq!(
+        calls, 4,
+        "two perturbed designs for each of the two splitting variables"
+    );
+    assert!(only[2].is_empty() && !only[0].is_empty() && !only[1].is_empty());
+    let all = terms(&[true; 3], &mut |b: &[Dual<4>]| props(b));
+    let with_only = fem::mode_derivatives(&k, &m, &pairs, &dm, true, Some(&only)).unwrap();
+    let with_all = fem::mode_derivatives(&k, &m, &pairs, &dm, true, Some(&all)).unwrap();
+    let without = fem::mode_derivatives(&k, &m, &pairs, &dm, true, None).unwrap();
+    let vectors = |d: &fem::ModeDerivatives, v: usize| d.eigenvectors.as_ref().unwrap()[v].clone();
+    for v in 0..3 {
+        assert_eq!(
+            vectors(&with_only, v),
+            vectors(&with_all, v),
+            "variable {v}"
+        );
+        assert_eq!(with_only.eigenvalues[v], with_all.eigenvalues[v]);
+    }
+    // the terms matter where they are computed, and not where they are skipped
+    assert_ne!(vectors(&without, 0), vectors(&with_all, 0));
+    assert_eq!(vectors(&without, 2), vectors(&with_all, 2));
 }
 
 /// The eigenvalue derivatives from element-by-element projections on the modes

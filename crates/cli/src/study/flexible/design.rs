@@ -5,10 +5,9 @@ use super::*;
 use crate::deck::design::Target;
 
 /// [`section::analyse_with_derivatives`] in chunks no wider than the map's variables: the work
-/// of a dual number grows with its width, and the results do not depend on it. (A deck with one
-/// angle analysed its sections in `Dual<8>`, eight times the tangent work it needs; with
-/// Dailey's terms the §5.1 rod's section is analysed three times, and that deck's run with
-/// sensitivities went from 370 to 343 ms.)
+/// of a dual number grows with its width, and the results do not depend on it (in `Dual<8>` a
+/// deck with one angle would do eight times the tangent work it needs, at the nominal design
+/// and at each of Dailey's perturbed designs of a variable that splits a repeated pair).
 pub fn section_derivatives(
     mesh: &section::SectionMesh,
     map: &section::DesignMap,
