@@ -124,6 +124,7 @@ pub fn shell_geometric_stiffness<S: Scalar>(
     let mut out = GeometricStiffness {
         n_modes: body.n_modes(),
         field_modes: nf,
+        eigenmodes: nf,
         clamp,
         nodal: vec![DMatrix::<S>::zeros(nf, nf); 3 * n_nodes],
         elements: None,

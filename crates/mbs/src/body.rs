@@ -210,35 +210,40 @@ pub(crate) fn second_order_node<P: Scalar, S: Scalar + From<P>>(
 }
 
 /// `Σ_l A_jl w_l` over the `n × n` symmetric `A`'s row `j` ([`symmetric_row_products`] without
-/// its second vector, the same operations).
+/// its second vector, the same operations), `l < len`.
 #[inline]
-fn symmetric_row_product<P: Scalar, S: Scalar + From<P>>(a: &DMatrix<P>, j: usize, w: &[S]) -> S {
+fn symmetric_row_product<P: Scalar, S: Scalar + From<P>>(
+    a: &DMatrix<P>,
+    (j, len): (usize, usize),
+    w: &[S],
+) -> S {
     let n = a.nrows();
-    dot_scaled(&a.as_slice()[j * n..(j + 1) * n], w)
+    dot_scaled(&a.as_slice()[j * n..j * n + len], w)
 }
 
 /// `(Σ_l A_jl w_l, Σ_l A_jl ẇ_l)` over the `n × n` symmetric `A`'s row `j` (its column `j`,
-/// contiguous), `n` the order of `A`; `w` and `ẇ` scaled by the entries' values when they carry
+/// contiguous), `l < len` (the row's entries that may be nonzero,
+/// [`GeometricStiffness::row_len`]); `w` and `ẇ` scaled by the entries' values when they carry
 /// no tangents (as [`crate::nodal::dot_scaled`]). One pass over the column for both vectors:
 /// [`symmetric_row_product`] twice gives the same numbers and took 2 % more of the spatial
 /// four-bar's instructions.
 #[inline]
 fn symmetric_row_products<P: Scalar, S: Scalar + From<P>>(
     a: &DMatrix<P>,
-    j: usize,
+    (j, len): (usize, usize),
     w: &[S],
     wd: &[S],
 ) -> (S, S) {
     let col = a.column(j);
     let (mut x_w, mut x_wd) = (S::zero(), S::zero());
     if P::TANGENTS == 0 {
-        for l in 0..a.nrows() {
+        for l in 0..len {
             let x = col[l].value();
             x_w += w[l] * x;
             x_wd += wd[l] * x;
         }
     } else {
-        for l in 0..a.nrows() {
+        for l in 0..len {
             let x: S = lift(col[l]);
             x_w += x * w[l];
             x_wd += x * wd[l];
@@ -259,7 +264,7 @@ pub(crate) fn second_order_node_into<P: Scalar, S: Scalar + From<P>>(
     out.rates = Vector3::zeros();
     for i in 0..3 {
         for j in 0..nf {
-            let (c, r) = symmetric_row_products(&g.nodal[3 * k + i], j, w, wd);
+            let (c, r) = symmetric_row_products(&g.nodal[3 * k + i], (j, g.row_len(j)), w, wd);
             out.columns[j][i] = -c;
             out.rates[i] -= r * wd[j];
         }
@@ -286,7 +291,7 @@ pub(crate) struct FieldAtNodes<S: Scalar> {
 impl<S: Scalar> FieldAtNodes<S> {
     pub(crate) fn new<P: Scalar>(
         elements: &[FieldElement<P>],
-        nf: usize,
+        (nf, eigenmodes): (usize, usize),
         n_nodes: usize,
         w: &[S],
         wd: &[S],
@@ -303,7 +308,8 @@ impl<S: Scalar> FieldAtNodes<S> {
         let (mut g, mut h) = (vec![S::zero(); nf], vec![S::zero(); nf]);
         for e in elements {
             for j in 0..nf {
-                (g[j], h[j]) = symmetric_row_products(&e.unit, j, w, wd);
+                let len = if j < eigenmodes { nf } else { eigenmodes };
+                (g[j], h[j]) = symmetric_row_products(&e.unit, (j, len), w, wd);
             }
             let (mut half, mut rate) = (S::zero(), S::zero());
             for j in 0..nf {
@@ -340,7 +346,8 @@ pub(crate) fn foreshortening<P: Scalar, S: Scalar + From<P>>(
 ) -> Vector3<S> {
     let mut half = Vector3::<S>::zeros();
     for j in 0..g.field_modes {
-        let column = Vector3::from_fn(|i, _| -symmetric_row_product(&g.nodal[3 * k + i], j, w));
+        let row = (j, g.row_len(j));
+        let column = Vector3::from_fn(|i, _| -symmetric_row_product(&g.nodal[3 * k + i], row, w));
         half += column * (w[j] * S::from_f64(0.5));
     }
     half
@@ -825,10 +832,15 @@ fn node_sums<P: Scalar, S: Scalar + From<P>>(
         rates: Vector3::zeros(),
     };
     let mut field_cc = vec![S::zero(); nf * nf];
-    let by_elements = field
-        .elements
-        .as_ref()
-        .map(|els| FieldAtNodes::new(els, nf, modal.n_nodes(), &w[..nf], &wd[..nf]));
+    let by_elements = field.elements.as_ref().map(|els| {
+        FieldAtNodes::new(
+            els,
+            (nf, field.eigenmodes),
+            modal.n_nodes(),
+            &w[..nf],
+            &wd[..nf],
+        )
+    });
     for k in 0..modal.n_nodes() {
         // the node's mass scales duals by its value when it carries no tangents
         let mk = modal.node_masses[k];
@@ -948,8 +960,8 @@ fn second_order_dynamics<P: Scalar, S: Scalar + From<P>>(
     let mut m_ww = DMatrix::<S>::from_fn(nm, nm, |j, l| lift(inv.modal_mass[j * nm + l]));
     for j in 0..nm {
         for l in 0..nf {
-            let start = (j * nf + l) * nf;
-            let x = dot_scaled(&fi.r[start..start + nf], &w[..nf]);
+            let (start, len) = ((j * nf + l) * nf, field.row_len(l));
+            let x = dot_scaled(&fi.r[start..start + len], &w[..len]);
             m_ww[(j, l)] += x;
             m_ww[(l, j)] += x;
         }
@@ -961,10 +973,11 @@ fn second_order_dynamics<P: Scalar, S: Scalar + From<P>>(
             let x = match &field_cc {
                 Some(cc) => cc[j * nf + l],
                 None => {
-                    let mut x = S::zero();
-                    for p in 0..nf {
+                    // `T[j, p, l, q]` is zero where `Q_jp` or `Q_lq` is
+                    let (mut x, len) = (S::zero(), field.row_len(l));
+                    for p in 0..field.row_len(j) {
                         let start = ((j * nf + p) * nf + l) * nf;
-                        x += dot_scaled(&fi.t[start..start + nf], &w[..nf]) * w[p];
+                        x += dot_scaled(&fi.t[start..start + len], &w[..len]) * w[p];
                     }
                     x
                 }
@@ -1344,6 +1357,7 @@ mod tests {
         GeometricStiffness {
             n_modes: nm,
             field_modes: nm,
+            eigenmodes: nm,
             clamp: 0,
             nodal,
             elements: None,
@@ -1676,6 +1690,7 @@ mod tests {
         GeometricStiffness {
             n_modes: nm,
             field_modes: nm,
+            eigenmodes: nm,
             clamp: 3,
             nodal,
             elements: elements.then_some(els),
@@ -1731,6 +1746,80 @@ mod tests {
         assert!(f2.iter().any(|x| x.d[0] != 0.0 && x.d[1] != 0.0));
         close(m1.as_slice(), m2.as_slice(), "mass, dual field");
         close(&f1, &f2, "forces, dual field");
+    }
+
+    /// A field without the products of two correction modes
+    /// ([`GeometricStiffness::without_correction_products`]) skips their zero entries in every
+    /// loop (rows past the eigenmodes read the eigenmodes' columns only): the dynamics through
+    /// the node loop (nodal matrices and elements) and the Gram table, and the foreshortening,
+    /// equal those of the same zeroed matrices read whole, bit for bit, values and tangents; and
+    /// leaving the products out changes the dynamics (the test would see a skipped nonzero).
+    #[test]
+    fn skipping_the_correction_products_reads_only_zeros() {
+        let modal = body();
+        let (nm, n_nodes) = (modal.n_modes(), modal.n_nodes());
+        let (q, v) = state(nm);
+        let gravity = Vector3::new(0.0, -9.81, 1.0);
+        let (qd, vd) = dual_state(&q, &v);
+        let dm = dual_body(&modal, |_, _| [0.0; 2], |_, _| [0.0; 2]);
+        let (q2, v2) = (constant(&q), constant(&v));
+        // one eigenmode, two correction modes
+        let e = 1;
+        // values and tangents, bit for bit (dual numbers compare by value)
+        let bits = |x: &[Dual<2>]| -> Vec<[u64; 3]> {
+            x.iter()
+                .map(|x| [x.v.to_bits(), x.d[0].to_bits(), x.d[1].to_bits()])
+                .collect()
+        };
+        let same = |a: &Dynamics<Dual<2>>, b: &Dynamics<Dual<2>>, what: &str| {
+            assert_eq!(bits(a.0.as_slice()), bits(b.0.as_slice()), "{what}: mass");
+            assert_eq!(bits(&a.1), bits(&b.1), "{what}: forces");
+        };
+        for elements in [true, false] {
+            let full = element_field(nm, n_nodes, elements);
+            let skipped = full.clone().without_correction_products(e);
+            assert_eq!(
+                (
+                    skipped.eigenmodes,
+                    skipped.row_len(e - 1),
+                    skipped.row_len(e)
+                ),
+                (e, nm, e)
+            );
+            let read_whole = GeometricStiffness {
+                eigenmodes: nm,
+                ..skipped.clone()
+            };
+            for gram in [false, true] {
+                let what = format!("elements {elements}, Gram table {gram}");
+                // dual parameters (the field's tangents), and dual states with the values
+                let a = with_path(&dm, &skipped, gram, &q2, &v2, &gravity);
+                let b = with_path(&dm, &read_whole, gram, &q2, &v2, &gravity);
+                same(&a, &b, &what);
+                let value = |g: &GeometricStiffness<Dual<2>>| g.map(&|x: Dual<2>| x.v);
+                let a = with_path(&modal, &value(&skipped), gram, &qd, &vd, &gravity);
+                let b = with_path(&modal, &value(&read_whole), gram, &qd, &vd, &gravity);
+                same(&a, &b, &format!("{what}, dual state"));
+                let c = with_path(&modal, &value(&full), gram, &qd, &vd, &gravity);
+                assert_ne!(
+                    bits(&a.1),
+                    bits(&c.1),
+                    "{what}: the products left out matter"
+                );
+            }
+            for k in 0..n_nodes {
+                let w: Vec<Dual<2>> = qd[7..7 + nm].to_vec();
+                let (a, b) = (
+                    foreshortening(&skipped, k, &w),
+                    foreshortening(&read_whole, k, &w),
+                );
+                assert_eq!(
+                    bits(a.as_slice()),
+                    bits(b.as_slice()),
+                    "elements {elements}, node {k}"
+                );
+            }
+        }
     }
 
     /// The deformation bound of the step guard is at least the largest nodal translation, and

@@ -17,6 +17,7 @@ fn second_order_field(nodes: usize, modes: usize) -> fem::GeometricStiffness<f64
     GeometricStiffness {
         n_modes: modes,
         field_modes: field,
+        eigenmodes: field,
         clamp: 0,
         nodal: (0..3 * nodes)
             .map(|r| {
@@ -264,4 +265,29 @@ fn invalid_markers_are_rejected_with_the_joint_name() {
         ))
         .unwrap_err();
     assert!(err.to_string().contains("t1 > t0"), "{err}");
+}
+
+/// A field whose eigenmodes leave out the products of later modes must hold zeros there (the
+/// loops skip them): one with nonzero entries is refused, naming the body and why; the same
+/// field with those entries zeroed (`without_correction_products`) is taken.
+#[test]
+fn a_field_with_products_past_its_eigenmodes_is_refused() {
+    let beam = Beam::slider_crank_rod(8);
+    let full = second_order_field(beam.n_nodes(), 4);
+    let body = |g: fem::GeometricStiffness<f64>| {
+        FlexibleBody::new("f", beam.modal_body(-0.152, 4, 4, 0.01)).with_geometric_stiffness(g)
+    };
+    let claimed = fem::GeometricStiffness {
+        eigenmodes: 2,
+        ..full.clone()
+    };
+    let err = Model::new().add_flexible_body(body(claimed)).unwrap_err();
+    let message = err.to_string();
+    assert!(
+        message.contains("f") && message.contains("products of modes past its eigenmodes"),
+        "{message}"
+    );
+    let zeroed = full.without_correction_products(2);
+    assert_eq!(zeroed.eigenmodes, 2);
+    assert!(Model::new().add_flexible_body(body(zeroed)).is_ok());
 }
