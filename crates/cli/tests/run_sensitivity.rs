@@ -149,7 +149,12 @@ fn beam_deck_sensitivities_match_replayed_central_differences_and_converge() {
 }
 
 /// Two variables that split the plies sum to the common angle's derivative; the result does
-/// not depend on how many variables share a run (dual-number chunk widths 1 and 4).
+/// not depend on how many variables share a run (dual-number chunk widths 1 and 4) beyond the
+/// direct method's iteration tolerance: its iterations stop at an estimated remaining error of
+/// about 1e-12 of `S` measured over all the run's variables (`mbs::sensitivity`'s
+/// `DIRECT_TOL`), so a variable's sensitivity with others beside it differs from its own run's
+/// by up to a few of those (1.3e-12 of its largest here; 5e-14 where both runs happen to stop
+/// after the same iterations).
 #[test]
 fn split_ply_variables_sum_to_the_common_angle_and_chunking_does_not_matter() {
     let text = std::fs::read_to_string(deck("slider_crank_beam.toml")).unwrap();
@@ -202,7 +207,7 @@ fn split_ply_variables_sum_to_the_common_angle_and_chunking_does_not_matter() {
     }
     eprintln!("inner + outer − common: {sum_err:.2e}; chunk widths 4 vs 1: {chunk_err:.2e}");
     assert!(sum_err < 1e-9, "{sum_err:e}");
-    assert!(chunk_err < 1e-12, "{chunk_err:e}");
+    assert!(chunk_err < 1e-11, "{chunk_err:e}");
     // the frequency derivatives split the same way
     let df = f64s(&g3, "bodies/rod/frequency_derivatives");
     for k in 0..df.len() / 3 {
