@@ -1345,9 +1345,10 @@ pub fn second_derivative_step(b: f64) -> f64 {
         }
 }
 
-/// `Zᵀ(K_bb − λM_bb)Z` for every cluster and design variable `v` with `needed[v]` (or past the
-/// end of `needed`) (`[var][cluster]`; none for the others), from the dual `K_b` of variable `v` at `b ± h_v e_v`
-/// ([`second_derivative_step`]), seeded along `v` alone ([`cluster_second_derivatives`]).
+/// `Zᵀ(K_bb − λM_bb)Z` for every cluster (`[var][cluster]`) of each design variable `v` with
+/// `needed[v]` (a variable past the end of `needed` is needed; the others get none), from the
+/// dual `K_b` of variable `v` at `b ± h_v e_v` ([`second_derivative_step`]), seeded along `v`
+/// alone ([`cluster_second_derivatives`]).
 pub fn second_derivative_terms<const N: usize, F>(
     mesh: &Mesh,
     assembly: &Assembly,

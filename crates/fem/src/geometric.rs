@@ -168,8 +168,8 @@ impl<S: Scalar> GeometricStiffness<S> {
 /// `analysis`) whose FE mesh is `mesh`, with the element properties `props`, measured from
 /// node `clamp`: [`geometric_stiffness`] on a beam mesh (exact statics along the tree, every
 /// mode, without the products of two static correction modes:
-/// [`GeometricStiffness::without_correction_products`]), [`crate::shell_geometric_stiffness`] on a shell mesh (the membrane's quadratic modes,
-/// of the eigenmodes).
+/// [`GeometricStiffness::without_correction_products`]), [`crate::shell_geometric_stiffness`]
+/// on a shell mesh (the membrane's quadratic modes, of the eigenmodes).
 pub fn second_order_field<S: Scalar>(
     mesh: &Mesh,
     props: &crate::Properties<S>,
