@@ -226,7 +226,6 @@ pub fn mode_derivatives_with(
     let n = k.nrows();
     let p = modes.values.len();
     let groups = clusters(&modes.values, CLUSTER_RTOL);
-    let x = &modes.vectors;
     let nvar = design.len();
     let mut lam_b = vec![vec![0.0; p]; nvar];
     let mut rot = vec![DMatrix::<f64>::identity(p, p); nvar];
@@ -243,9 +242,7 @@ pub fn mode_derivatives_with(
     let mut symbolic_lu: Option<SymbolicLu<usize>> = None;
     let mut tmp = vec![0.0; n];
     for (gi, g) in groups.iter().enumerate() {
-        let r = g.len();
-        let lambda = g.iter().map(|&i| modes.values[i]).sum::<f64>() / r as f64;
-        let z = DMatrix::from_fn(n, r, |i, j| x[(i, g[j])]);
+        let (lambda, z) = cluster_basis(modes, g);
         // per-variable projected derivative and rotation
         let mut per_var = Vec::with_capacity(nvar);
         for (v, dm) in design.iter().enumerate() {
@@ -538,8 +535,7 @@ pub fn eigenvalue_derivatives(
     let mut lam_b = vec![vec![0.0; p]; nvar];
     let mut rot = vec![DMatrix::<f64>::identity(p, p); nvar];
     for g in &groups {
-        let r = g.len();
-        let lambda = g.iter().map(|&i| modes.values[i]).sum::<f64>() / r as f64;
+        let (r, lambda) = (g.len(), cluster_mean(modes, g));
         for (v, pd) in projected.iter().enumerate() {
             let kb = DMatrix::from_fn(r, r, |a, b| pd.k[(g[a], g[b])]);
             let mb = DMatrix::from_fn(r, r, |a, b| pd.m[(g[a], g[b])]);
@@ -585,12 +581,10 @@ pub fn directional_eigenvalue_derivatives(
         direction.len(),
         "one weight per design variable"
     );
-    let n = modes.vectors.nrows();
     let mut out = vec![0.0; modes.values.len()];
     for g in clusters(&modes.values, CLUSTER_RTOL) {
         let r = g.len();
-        let lambda = g.iter().map(|&i| modes.values[i]).sum::<f64>() / r as f64;
-        let z = DMatrix::from_fn(n, r, |i, j| modes.vectors[(i, g[j])]);
+        let (lambda, z) = cluster_basis(modes, &g);
         let mut d = DMatrix::<f64>::zeros(r, r);
         for (dm, &w) in design.iter().zip(direction) {
             if w != 0.0 {
@@ -617,7 +611,6 @@ pub fn cluster_second_derivatives(
     minus: &[DesignMatrices],
     h: &[f64],
 ) -> Vec<Vec<SecondDerivatives>> {
-    let n = modes.vectors.nrows();
     let groups = clusters(&modes.values, CLUSTER_RTOL);
     plus.iter()
         .zip(minus)
@@ -630,8 +623,7 @@ pub fn cluster_second_derivatives(
                     if r == 1 {
                         return DMatrix::zeros(0, 0);
                     }
-                    let lambda = g.iter().map(|&i| modes.values[i]).sum::<f64>() / r as f64;
-                    let z = DMatrix::from_fn(n, r, |i, j| modes.vectors[(i, g[j])]);
+                    let (lambda, z) = cluster_basis(modes, g);
                     let dk = project(&p.k, &z, &z) - project(&q.k, &z, &z);
                     let dm = project(&p.m, &z, &z) - project(&q.m, &z, &z);
                     let s = (dk - dm * lambda) / (2.0 * h);
@@ -640,6 +632,19 @@ pub fn cluster_second_derivatives(
                 .collect()
         })
         .collect()
+}
+
+/// The mean eigenvalue of the cluster `g` (indices into the modes of `modes`).
+fn cluster_mean(modes: &Eigenpairs, g: &[usize]) -> f64 {
+    g.iter().map(|&i| modes.values[i]).sum::<f64>() / g.len() as f64
+}
+
+/// The cluster `g`'s mean eigenvalue `λ` and basis `Z` (its eigenvectors as columns).
+fn cluster_basis(modes: &Eigenpairs, g: &[usize]) -> (f64, DMatrix<f64>) {
+    let z = DMatrix::from_fn(modes.vectors.nrows(), g.len(), |i, j| {
+        modes.vectors[(i, g[j])]
+    });
+    (cluster_mean(modes, g), z)
 }
 
 /// Whether any cluster of repeated eigenvalues has more than one member.
@@ -656,20 +661,10 @@ pub fn has_repeated(modes: &Eigenpairs) -> bool {
 /// of a symmetric body, such as a ply of a tube whose two halves form the pairs) leaves the
 /// rotation within the cluster free and takes none, so its terms need not be computed.
 pub fn splits_clusters(modes: &Eigenpairs, design: &[DesignMatrices]) -> Vec<bool> {
-    let n = modes.vectors.nrows();
-    let groups: Vec<Vec<usize>> = clusters(&modes.values, CLUSTER_RTOL)
-        .into_iter()
-        .filter(|g| g.len() > 1)
-        .collect();
-    let bases: Vec<(f64, DMatrix<f64>)> = groups
+    let bases: Vec<(f64, DMatrix<f64>)> = clusters(&modes.values, CLUSTER_RTOL)
         .iter()
-        .map(|g| {
-            let lambda = g.iter().map(|&i| modes.values[i]).sum::<f64>() / g.len() as f64;
-            (
-                lambda,
-                DMatrix::from_fn(n, g.len(), |i, j| modes.vectors[(i, g[j])]),
-            )
-        })
+        .filter(|g| g.len() > 1)
+        .map(|g| cluster_basis(modes, g))
         .collect();
     design
         .iter()
