@@ -141,6 +141,18 @@ impl<S: Scalar> GeometricStiffness<S> {
         self
     }
 
+    /// Whether every matrix is zero where both modes are past [`GeometricStiffness::eigenmodes`]
+    /// (values and tangents), as [`GeometricStiffness::without_correction_products`] leaves
+    /// them: the entries [`GeometricStiffness::row_len`] lets the multibody layer's loops skip.
+    pub fn leaves_out_correction_products(&self) -> bool {
+        let e = self.eigenmodes;
+        let zero =
+            |m: &DMatrix<S>| (e..m.ncols()).all(|j| (e..m.nrows()).all(|i| m[(i, j)].is_zero()));
+        e <= self.field_modes
+            && self.nodal.iter().all(zero)
+            && (self.elements.iter().flatten()).all(|el| zero(&el.unit))
+    }
+
     /// The nodal cases of the couplings' nodes (numbered after the mesh's, in the order of
     /// `couplings`): a force at a coupling's point is spread over its nodes as the coupling
     /// spreads it (`Wᵀ`), and so are its cases. Moments at a coupling, as at a node, are left

@@ -228,7 +228,7 @@ impl<P: Scalar> Model<P> {
             });
         }
         if let Some(g) = &body.geometric
-            && !correction_products_left_out(g)
+            && !g.leaves_out_correction_products()
         {
             return Err(ModelError::BadBody {
                 name: body.name,
@@ -1189,19 +1189,4 @@ fn check_joint_torque(a: &Marker, b: &Marker, law: &TorqueLaw) -> Result<(), Mod
         }
     }
     Ok(())
-}
-
-/// Whether the matrices of `g` are zero where both modes are past its eigenmodes
-/// ([`fem::GeometricStiffness::eigenmodes`]), which the field's loops skip.
-fn correction_products_left_out<P: Scalar>(g: &fem::GeometricStiffness<P>) -> bool {
-    let e = g.eigenmodes;
-    let zero = |m: &DMatrix<P>| {
-        (e..m.ncols()).all(|j| {
-            (e..m.nrows())
-                .all(|i| m[(i, j)].value() == 0.0 && m[(i, j)].tangents().iter().all(|&t| t == 0.0))
-        })
-    };
-    e <= g.field_modes
-        && g.nodal.iter().all(zero)
-        && (g.elements.iter().flatten()).all(|el| zero(&el.unit))
 }
