@@ -380,7 +380,7 @@ fn linear_in_laminate<S: Scalar, const R: usize>(
     f: impl Fn(&LaminateStiffness<f64>) -> nalgebra::SMatrix<f64, R, R>,
 ) -> nalgebra::SMatrix<S, R, R> {
     let value = f(&lam.values());
-    if S::TANGENTS == 0 {
+    if S::PLAIN {
         return value.map(S::from_f64);
     }
     let tangents: Vec<_> = (0..S::TANGENTS).map(|k| f(&lam.tangent(k))).collect();

@@ -580,7 +580,7 @@ pub(crate) fn oscillatory_eigenvalues(jac: &DMatrix<f64>) -> Vec<Complex<f64>> {
 }
 
 /// Derivatives at `nodes[0]` of the Lagrange basis through `nodes`.
-fn bdf_coefficients(nodes: &[f64]) -> Vec<f64> {
+pub(crate) fn bdf_coefficients(nodes: &[f64]) -> Vec<f64> {
     let x0 = nodes[0];
     let mut c = vec![0.0; nodes.len()];
     c[0] = nodes[1..].iter().map(|&x| 1.0 / (x0 - x)).sum();

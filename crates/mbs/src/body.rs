@@ -223,8 +223,8 @@ fn symmetric_row_product<P: Scalar, S: Scalar + From<P>>(
 
 /// `(Σ_l A_jl w_l, Σ_l A_jl ẇ_l)` over the `n × n` symmetric `A`'s row `j` (its column `j`,
 /// contiguous), `l < len` (the row's entries that may be nonzero,
-/// [`GeometricStiffness::row_len`]); `w` and `ẇ` scaled by the entries' values when they carry
-/// no tangents (as [`crate::nodal::dot_scaled`]). One pass over the column for both vectors:
+/// [`GeometricStiffness::row_len`]); `w` and `ẇ` scaled by the entries' values when they are
+/// plain (as [`crate::nodal::dot_scaled`]). One pass over the column for both vectors:
 /// [`symmetric_row_product`] twice gives the same numbers and took 2 % more of the spatial
 /// four-bar's instructions.
 #[inline]
@@ -236,7 +236,7 @@ fn symmetric_row_products<P: Scalar, S: Scalar + From<P>>(
 ) -> (S, S) {
     let col = a.column(j);
     let (mut x_w, mut x_wd) = (S::zero(), S::zero());
-    if P::TANGENTS == 0 {
+    if P::PLAIN {
         for l in 0..len {
             let x = col[l].value();
             x_w += w[l] * x;
@@ -842,7 +842,7 @@ fn node_sums<P: Scalar, S: Scalar + From<P>>(
         )
     });
     for k in 0..modal.n_nodes() {
-        // the node's mass scales duals by its value when it carries no tangents
+        // the node's mass scales duals by its value when it is plain
         let mk = modal.node_masses[k];
         if lift::<P, S>(mk) == S::zero() {
             continue;

@@ -86,6 +86,7 @@
 // Checks that must also reject NaN are written `!(x > 0.0)` on purpose.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+mod adjoint;
 mod bdf;
 mod body;
 mod elastic_start;
@@ -109,6 +110,7 @@ mod sensitivity;
 mod system;
 mod tolerance;
 
+pub use adjoint::{AdjointStatistics, ObjectiveTerm, TapedModel, adjoint_gradient, contract_data};
 pub use bdf::{
     AcceptedStep, Bdf, BdfOptions, IntegrationError, IntegrationFailure, JACOBIAN_AGE,
     NewtonMatrix, NoExtension, OdeSystem, RhsError, STABILITY_GROWTH, Statistics, StepControl,
@@ -132,7 +134,8 @@ pub use operating::{
     OperatingSensitivities, Spin, equilibrium,
 };
 pub use response::{
-    Objective, ObjectiveValue, Response, ResponseHistory, response_history, response_values,
+    Objective, ObjectiveValue, Response, ResponseHistory, SampleWeights, response_history,
+    response_values,
 };
 pub use sensitivity::{
     DesignModel, SIMULTANEOUS_TOLERANCE, SensitivityError, SensitivityMethod, SensitivityOptions,

@@ -496,6 +496,18 @@ impl<P: Scalar> Model<P> {
         }
     }
 
+    /// Make every flexible body's inertia invariants now rather than at the first evaluation
+    /// (they are cached, computed from the modal data: on a taped scalar they must lie in the
+    /// part of the tape that outlives each evaluation, [`crate::TapedModel`]).
+    pub fn cache_invariants(&self) {
+        for s in &self.bodies {
+            if let Body::Flexible(b) = &s.body {
+                s.invariants
+                    .get_or_init(|| ModalInvariants::new(&b.modal, b.geometric.as_deref()));
+            }
+        }
+    }
+
     /// The model with its parameters as plain values.
     pub fn values(&self) -> Model<f64> {
         self.map(|x| x.value())

@@ -11,7 +11,7 @@ pub(crate) fn lift<P: Scalar, S: Scalar + From<P>>(x: P) -> S {
     S::from(x)
 }
 
-/// `acc += m s` for a matrix `m` of parameters: with parameters that carry no tangents, `s`
+/// `acc += m s` for a matrix `m` of parameters: with plain parameters (`P::PLAIN`), `s`
 /// scaled by their values (a product with a lifted constant would multiply its zero tangents
 /// too, twice the work for a dual `s`).
 #[inline]
@@ -20,7 +20,7 @@ pub(crate) fn add_scaled<P: Scalar, S: Scalar + From<P>>(
     m: &Matrix3<P>,
     s: S,
 ) {
-    if P::TANGENTS == 0 {
+    if P::PLAIN {
         for (a, x) in acc.iter_mut().zip(m.iter()) {
             *a += s * x.value();
         }
@@ -31,11 +31,11 @@ pub(crate) fn add_scaled<P: Scalar, S: Scalar + From<P>>(
     }
 }
 
-/// `Σ_p c_p w_p` for parameters `c`, scaled by their values when they carry no tangents (as
+/// `Σ_p c_p w_p` for parameters `c`, scaled by their values when they are plain (as
 /// [`add_scaled`]).
 #[inline]
 pub(crate) fn dot_scaled<P: Scalar, S: Scalar + From<P>>(c: &[P], w: &[S]) -> S {
-    if P::TANGENTS == 0 {
+    if P::PLAIN {
         c.iter()
             .zip(w)
             .fold(S::zero(), |acc, (x, &wp)| acc + wp * x.value())
@@ -46,14 +46,14 @@ pub(crate) fn dot_scaled<P: Scalar, S: Scalar + From<P>>(c: &[P], w: &[S]) -> S 
     }
 }
 
-/// `v p` for a parameter `p`: `v` scaled by its value when it carries no tangents (as
+/// `v p` for a parameter `p`: `v` scaled by its value when it is plain (as
 /// [`add_scaled`]).
 #[inline]
 pub(crate) fn scaled<P: Scalar, S: Scalar + From<P>, const R: usize, const C: usize>(
     v: SMatrix<S, R, C>,
     p: P,
 ) -> SMatrix<S, R, C> {
-    if P::TANGENTS == 0 {
+    if P::PLAIN {
         let x = p.value();
         v.map(|a| a * x)
     } else {
@@ -88,7 +88,7 @@ pub(crate) fn mode_vec<P: Scalar, S: Scalar + From<P>>(
     )
 }
 
-/// [`mode_vec`] times `s`: `s` scaled by the mode's entries when they carry no tangents (as
+/// [`mode_vec`] times `s`: `s` scaled by the mode's entries when they are plain (as
 /// [`add_scaled`]).
 #[inline]
 pub(crate) fn mode_vec_times<P: Scalar, S: Scalar + From<P>>(
@@ -97,7 +97,7 @@ pub(crate) fn mode_vec_times<P: Scalar, S: Scalar + From<P>>(
     j: usize,
     s: S,
 ) -> Vector3<S> {
-    if P::TANGENTS == 0 {
+    if P::PLAIN {
         let r = 6 * k;
         Vector3::new(
             s * modal.modes[(r, j)].value(),

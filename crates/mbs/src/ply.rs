@@ -167,15 +167,16 @@ pub(crate) fn ply_failure<P: Scalar, S: Scalar + From<P>>(
         )
     };
     let Some(rho) = rho else {
-        return Ok(match S::TANGENTS {
-            0 => S::from_f64(largest),
-            _ => index(i0, k0),
+        return Ok(if S::PLAIN {
+            S::from_f64(largest)
+        } else {
+            index(i0, k0)
         });
     };
     // the sum over the points near the largest, shifted by the largest's value (a constant:
     // the aggregate's derivative does not depend on the shift)
     let near = values.iter().filter(|v| rho * (v.2 - largest) > -KS_CUTOFF);
-    let sum = if S::TANGENTS == 0 {
+    let sum = if S::PLAIN {
         // values alone: the scan's
         S::from_f64(near.map(|v| (rho * (v.2 - largest)).exp()).sum())
     } else {

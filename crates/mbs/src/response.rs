@@ -497,48 +497,59 @@ pub struct ObjectiveValue {
     pub time: Option<f64>,
 }
 
-/// The history's value at `t` (within it) and its gradient row (empty without gradients),
-/// linear between recorded points.
-fn interpolate(
-    times: &[f64],
-    values: &[f64],
-    gradients: Option<&DMatrix<f64>>,
-    t: f64,
-) -> (f64, Vec<f64>) {
+/// An objective's value and its derivative with respect to each sample `ψ(t_i)` of the
+/// history it was computed from: its gradient is `Σ_i w_i dψ(t_i)/db`
+/// ([`Objective::evaluate_in`]), and the seed of the adjoint method (`crate::adjoint_gradient`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SampleWeights {
+    pub value: f64,
+    /// `∂Ψ/∂ψ(t_i)`, one per sample of the whole history (zero outside a window).
+    pub weights: Vec<f64>,
+    /// Where an extremum occurs, or the time of a value at a time.
+    pub time: Option<f64>,
+}
+
+/// A value of a history as the samples it mixes, `(index, weight)`.
+type Mix = [(usize, f64); 2];
+
+/// The history's value at `t` (within it) as the samples it mixes: linear between recorded
+/// points.
+fn interpolation(times: &[f64], t: f64) -> Mix {
     let i = times.partition_point(|&x| x < t).min(times.len() - 1);
     let (w0, i0) = if i == 0 || times[i] == t {
         (0.0, i)
     } else {
         ((times[i] - t) / (times[i] - times[i - 1]), i - 1)
     };
-    let mix = |x0: f64, x1: f64| w0 * x0 + (1.0 - w0) * x1;
-    let g = gradients.map_or(Vec::new(), |g| {
-        (0..g.ncols()).map(|j| mix(g[(i0, j)], g[(i, j)])).collect()
-    });
-    (mix(values[i0], values[i]), g)
+    [(i0, w0), (i, 1.0 - w0)]
 }
 
-/// The history `(times, values, gradients)` restricted to `[a, b]` (within it), the values and
-/// gradients at the ends interpolated linearly.
+/// The history restricted to `[a, b]` (within it): its times, its values (those at the ends
+/// interpolated linearly) and each value as the samples of the whole history it mixes.
 fn clip(
     (a, b): (f64, f64),
     times: &[f64],
     values: &[f64],
-    gradients: Option<&DMatrix<f64>>,
-) -> (Vec<f64>, Vec<f64>, Option<DMatrix<f64>>) {
-    let (va, ga) = interpolate(times, values, gradients, a);
-    let (vb, gb) = interpolate(times, values, gradients, b);
-    let (mut t, mut v, mut rows) = (vec![a], vec![va], vec![ga]);
+) -> (Vec<f64>, Vec<f64>, Vec<Mix>) {
+    let mix = |m: &Mix| m[0].1 * values[m[0].0] + m[1].1 * values[m[1].0];
+    let (ma, mb) = (interpolation(times, a), interpolation(times, b));
+    let (mut t, mut v, mut maps) = (vec![a], vec![mix(&ma)], vec![ma]);
     for i in (0..times.len()).filter(|&i| times[i] > a && times[i] < b) {
         t.push(times[i]);
         v.push(values[i]);
-        rows.push(gradients.map_or(Vec::new(), |g| g.row(i).iter().copied().collect()));
+        maps.push([(i, 1.0), (i, 0.0)]);
     }
     t.push(b);
-    v.push(vb);
-    rows.push(gb);
-    let g = gradients.map(|g| DMatrix::from_fn(t.len(), g.ncols(), |r, c| rows[r][c]));
-    (t, v, g)
+    v.push(mix(&mb));
+    maps.push(mb);
+    (t, v, maps)
+}
+
+/// One sample's weight: 1 at `i`, 0 elsewhere.
+fn one_hot(n: usize, i: usize) -> Vec<f64> {
+    let mut w = vec![0.0; n];
+    w[i] = 1.0;
+    w
 }
 
 impl Objective {
@@ -552,19 +563,27 @@ impl Objective {
         values: &[f64],
         gradients: Option<&DMatrix<f64>>,
     ) -> Result<ObjectiveValue, SensitivityError> {
-        let Some((a, b)) = window else {
-            return self.evaluate(times, values, gradients);
-        };
-        let n = times.len();
-        if n == 0 || !(a < b && a >= times[0] && b <= times[n - 1]) {
-            return Err(SensitivityError::Response(format!(
-                "window [{a}, {b}] outside the history [{}, {}] or empty",
-                times.first().copied().unwrap_or(f64::NAN),
-                times.last().copied().unwrap_or(f64::NAN)
-            )));
+        if gradients.is_some_and(|g| g.nrows() != times.len()) {
+            return Err(SensitivityError::Response(
+                "objective of an empty or inconsistent history".into(),
+            ));
         }
-        let (t, v, g) = clip((a, b), times, values, gradients);
-        self.evaluate(&t, &v, g.as_ref())
+        let s = self.weights_in(window, times, values)?;
+        let gradient = gradients.map_or(Vec::new(), |g| {
+            (0..g.ncols())
+                .map(|j| {
+                    (s.weights.iter().enumerate())
+                        .filter(|(_, w)| **w != 0.0)
+                        .map(|(i, w)| w * g[(i, j)])
+                        .sum()
+                })
+                .collect()
+        });
+        Ok(ObjectiveValue {
+            value: s.value,
+            gradient,
+            time: s.time,
+        })
     }
 
     /// The objective of `values` at `times`, with its gradient from `gradients` (rows per time)
@@ -575,18 +594,53 @@ impl Objective {
         values: &[f64],
         gradients: Option<&DMatrix<f64>>,
     ) -> Result<ObjectiveValue, SensitivityError> {
+        self.evaluate_in(None, times, values, gradients)
+    }
+
+    /// The objective over the window `[t0, t1]` of the history when given (as
+    /// [`Objective::evaluate_in`]) and its derivative with respect to each sample.
+    pub fn weights_in(
+        &self,
+        window: Option<(f64, f64)>,
+        times: &[f64],
+        values: &[f64],
+    ) -> Result<SampleWeights, SensitivityError> {
+        let Some((a, b)) = window else {
+            return self.weights(times, values);
+        };
         let n = times.len();
-        if n == 0 || values.len() != n || gradients.is_some_and(|g| g.nrows() != n) {
+        if n == 0 || values.len() != n || !(a < b && a >= times[0] && b <= times[n - 1]) {
+            return Err(SensitivityError::Response(format!(
+                "window [{a}, {b}] outside the history [{}, {}] or empty",
+                times.first().copied().unwrap_or(f64::NAN),
+                times.last().copied().unwrap_or(f64::NAN)
+            )));
+        }
+        let (t, v, maps) = clip((a, b), times, values);
+        let clipped = self.weights(&t, &v)?;
+        let mut weights = vec![0.0; n];
+        for (w, map) in clipped.weights.iter().zip(&maps) {
+            for &(i, m) in map {
+                weights[i] += w * m;
+            }
+        }
+        Ok(SampleWeights { weights, ..clipped })
+    }
+
+    /// The objective of `values` at `times` and its derivative with respect to each sample.
+    pub fn weights(
+        &self,
+        times: &[f64],
+        values: &[f64],
+    ) -> Result<SampleWeights, SensitivityError> {
+        let n = times.len();
+        if n == 0 || values.len() != n {
             return Err(SensitivityError::Response(
                 "objective of an empty or inconsistent history".into(),
             ));
         }
-        let m = gradients.map_or(0, |g| g.ncols());
-        let row = |i: usize| -> Vec<f64> {
-            gradients.map_or(Vec::new(), |g| g.row(i).iter().copied().collect())
-        };
         // trapezoidal weights
-        let weights = || -> Vec<f64> {
+        let trapezoid = || -> Vec<f64> {
             let mut w = vec![0.0; n];
             for i in 0..n.saturating_sub(1) {
                 let h = times[i + 1] - times[i];
@@ -596,58 +650,48 @@ impl Objective {
             w
         };
         let span = times[n - 1] - times[0];
-        let weighted = |w: &[f64], f: &dyn Fn(usize) -> f64, df: &dyn Fn(usize, usize) -> f64| {
-            let value: f64 = (0..n).map(|i| w[i] * f(i)).sum();
-            let gradient: Vec<f64> = (0..m)
-                .map(|j| (0..n).map(|i| w[i] * df(i, j)).sum())
-                .collect();
-            (value, gradient)
+        let plain = |value: f64, weights: Vec<f64>| SampleWeights {
+            value,
+            weights,
+            time: None,
         };
-        let g = |i: usize, j: usize| gradients.map_or(0.0, |g| g[(i, j)]);
         Ok(match *self {
             Objective::Integral | Objective::Mean => {
-                let mut w = weights();
+                let mut w = trapezoid();
                 if *self == Objective::Mean {
                     if !(span > 0.0) {
                         return Err(SensitivityError::Response("mean over no time".into()));
                     }
                     w.iter_mut().for_each(|x| *x /= span);
                 }
-                let (value, gradient) = weighted(&w, &|i| values[i], &g);
-                ObjectiveValue {
-                    value,
-                    gradient,
-                    time: None,
-                }
+                plain((0..n).map(|i| w[i] * values[i]).sum(), w)
             }
             Objective::Rms => {
                 if !(span > 0.0) {
                     return Err(SensitivityError::Response("RMS over no time".into()));
                 }
-                let w: Vec<f64> = weights().iter().map(|x| x / span).collect();
-                let (ms, dms) = weighted(&w, &|i| values[i] * values[i], &|i, j| {
-                    2.0 * values[i] * g(i, j)
-                });
-                let value = ms.sqrt();
-                let gradient = if value > 0.0 {
-                    dms.iter().map(|d| 0.5 * d / value).collect()
-                } else {
-                    vec![0.0; m]
-                };
-                ObjectiveValue {
-                    value,
-                    gradient,
-                    time: None,
-                }
+                let w: Vec<f64> = trapezoid().iter().map(|x| x / span).collect();
+                let value = (0..n)
+                    .map(|i| w[i] * values[i] * values[i])
+                    .sum::<f64>()
+                    .sqrt();
+                // d√(Σ w ψ²) = Σ w ψ dψ / √(…)
+                let weights = (0..n)
+                    .map(|i| match value > 0.0 {
+                        true => w[i] * values[i] / value,
+                        false => 0.0,
+                    })
+                    .collect();
+                plain(value, weights)
             }
             Objective::Max | Objective::Min => {
                 let sign = if *self == Objective::Max { 1.0 } else { -1.0 };
                 let i = (0..n)
                     .max_by(|&a, &b| (sign * values[a]).total_cmp(&(sign * values[b])))
                     .expect("non-empty");
-                ObjectiveValue {
+                SampleWeights {
                     value: values[i],
-                    gradient: row(i),
+                    weights: one_hot(n, i),
                     time: Some(times[i]),
                 }
             }
@@ -658,22 +702,19 @@ impl Objective {
                     ));
                 }
                 let peak = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-                let w = weights();
+                let w = trapezoid();
                 let e: Vec<f64> = (0..n)
                     .map(|i| w[i] * (rho * (values[i] - peak)).exp())
                     .collect();
                 let sum: f64 = e.iter().sum();
-                ObjectiveValue {
-                    value: peak + (sum / span).ln() / rho,
-                    gradient: (0..m)
-                        .map(|j| (0..n).map(|i| e[i] * g(i, j)).sum::<f64>() / sum)
-                        .collect(),
-                    time: None,
-                }
+                plain(
+                    peak + (sum / span).ln() / rho,
+                    e.iter().map(|x| x / sum).collect(),
+                )
             }
-            Objective::Final => ObjectiveValue {
+            Objective::Final => SampleWeights {
                 value: values[n - 1],
-                gradient: row(n - 1),
+                weights: one_hot(n, n - 1),
                 time: Some(times[n - 1]),
             },
             Objective::At(t) => {
@@ -684,10 +725,15 @@ impl Objective {
                         times[n - 1]
                     )));
                 }
-                let (value, gradient) = interpolate(times, values, gradients, t);
-                ObjectiveValue {
+                let mut weights = vec![0.0; n];
+                let mut value = 0.0;
+                for (i, w) in interpolation(times, t) {
+                    weights[i] += w;
+                    value += w * values[i];
+                }
+                SampleWeights {
                     value,
-                    gradient,
+                    weights,
                     time: Some(t),
                 }
             }

@@ -315,6 +315,7 @@ impl<const N: usize> One for Dual<N> {
 
 impl<const N: usize> Scalar for Dual<N> {
     const TANGENTS: usize = N;
+    const PLAIN: bool = false;
 
     #[inline]
     fn from_f64(x: f64) -> Self {

@@ -198,6 +198,7 @@ impl One for HyperDual {
 
 impl Scalar for HyperDual {
     const TANGENTS: usize = 2;
+    const PLAIN: bool = false;
 
     fn from_f64(x: f64) -> Self {
         Self::from(x)

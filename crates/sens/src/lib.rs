@@ -5,7 +5,9 @@
 //! - the [`Scalar`] trait, the one numeric generic of the project, implemented for `f64`
 //!   (plain analysis) and for [`Dual<N>`] (a value plus `N` tangent components, hand-written
 //!   forward-mode automatic differentiation), and for [`HyperDual`] (two tangents and their
-//!   mixed second-order part: the design derivative of a directional derivative);
+//!   mixed second-order part: the design derivative of a directional derivative), and for
+//!   [`Rev`] (a value on a thread-local [`Tape`]: reverse mode, the gradient of one scalar with
+//!   respect to every input in one sweep);
 //! - seeding of design variables and the evaluation of a function of many design variables in
 //!   chunks of a compile-time width `N` ([`seed`], [`jacobian`]);
 //! - pushing tangents through a linear solve whose matrix was factorised once in `f64`
@@ -19,6 +21,7 @@
 mod dual;
 mod hyper;
 mod lu;
+mod rev;
 mod scalar;
 pub mod seed;
 pub mod solve;
@@ -27,6 +30,7 @@ pub mod sparse;
 pub use dual::Dual;
 pub use hyper::HyperDual;
 pub use lu::DenseLu;
+pub use rev::{Rev, Tape};
 pub use scalar::Scalar;
 pub use seed::{Jacobian, chunk_ranges, gradient, jacobian, seed_chunk};
 pub use solve::{LinearSolver, solve_tangents};

@@ -48,8 +48,14 @@ pub trait Scalar:
     + One
     + Sum
 {
-    /// Number of tangent components carried (0 for `f64`).
+    /// Number of tangent components carried (0 for `f64` and for the taped [`crate::Rev`]).
     const TANGENTS: usize;
+    /// Whether the type is a plain number with no derivative information of any kind (`f64`):
+    /// code may then use a value in its place, e.g. scale by a parameter's value rather than
+    /// multiply by the lifted parameter. `false` for every differentiating type, the taped
+    /// [`crate::Rev`] included (which carries no tangents, yet a value in its place would cut it
+    /// from the tape).
+    const PLAIN: bool;
 
     /// A constant (all tangents zero).
     fn from_f64(x: f64) -> Self;
@@ -112,6 +118,7 @@ pub trait Scalar:
 
 impl Scalar for f64 {
     const TANGENTS: usize = 0;
+    const PLAIN: bool = true;
 
     #[inline]
     fn from_f64(x: f64) -> Self {

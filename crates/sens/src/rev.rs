@@ -1,0 +1,557 @@
+//! Reverse-mode differentiation on a thread-local tape: [`Rev`] and [`Tape`].
+//!
+//! A [`Rev`] is a value and the index of the tape node that made it. Every operation on a
+//! value that depends on an input ([`Rev::input`]) appends one node to the current thread's
+//! tape with the partial derivatives of the result with respect to its (at most two)
+//! arguments; operations on constants record nothing. A reverse sweep
+//! ([`Tape::backpropagate`]) then carries adjoints from the outputs back to every node at once:
+//! the gradient of one scalar with respect to all inputs costs a few evaluations, whatever
+//! their number (the adjoint method of docs/design.md §3).
+//!
+//! The tape is a stack, so one part of it can outlive another: the inputs and the quantities
+//! computed from them once (a model's data and what is cached from it) at the bottom, the
+//! evaluations that use them above, rewound ([`Tape::rewind`]) after each sweep. The adjoints
+//! a sweep leaves on the bottom part add up over the sweeps; one final sweep of the bottom part
+//! carries their sum to the inputs.
+//!
+//! A `Rev` is only meaningful on the thread that made it, while the tape still holds its node
+//! (not rewound below it, not cleared).
+
+use std::cell::RefCell;
+use std::fmt;
+use std::iter::Sum;
+use std::ops::{Add, AddAssign, Div, DivAssign, Mul, MulAssign, Neg, Sub, SubAssign};
+
+use num_traits::{One, Zero};
+
+use crate::Scalar;
+
+/// Index of no node: a constant, or a node's missing second argument.
+const NONE: u32 = u32::MAX;
+
+/// One operation: the result's partial derivatives with respect to its arguments.
+#[derive(Clone, Copy)]
+struct Node {
+    args: [u32; 2],
+    partials: [f64; 2],
+}
+
+thread_local! {
+    static TAPE: RefCell<Vec<Node>> = const { RefCell::new(Vec::new()) };
+}
+
+fn push(args: [u32; 2], partials: [f64; 2]) -> u32 {
+    TAPE.with(|t| {
+        let mut t = t.borrow_mut();
+        let index = t.len();
+        assert!(index < NONE as usize, "the reverse-mode tape is full");
+        t.push(Node { args, partials });
+        index as u32
+    })
+}
+
+/// The current thread's tape (a namespace: the tape itself is thread-local).
+pub struct Tape;
+
+impl Tape {
+    /// The number of nodes on the tape: a mark to [`Tape::rewind`] to.
+    pub fn len() -> usize {
+        TAPE.with(|t| t.borrow().len())
+    }
+
+    /// Whether the tape is empty.
+    pub fn is_empty() -> bool {
+        Self::len() == 0
+    }
+
+    /// Drop the nodes above `mark`; every `Rev` made after it becomes invalid.
+    pub fn rewind(mark: usize) {
+        TAPE.with(|t| t.borrow_mut().truncate(mark));
+    }
+
+    /// Drop every node.
+    pub fn clear() {
+        Self::rewind(0);
+    }
+
+    /// The reverse sweep over nodes `down_to..` (from the top down): each node's adjoint,
+    /// times its partial derivatives, is added to its arguments' adjoints, which may lie
+    /// below `down_to` (they are accumulated there, not swept further). `adjoints` is indexed
+    /// by node and extended with zeros to the tape's length; seed it with [`Rev::seed`].
+    pub fn backpropagate(adjoints: &mut Vec<f64>, down_to: usize) {
+        TAPE.with(|t| {
+            let t = t.borrow();
+            adjoints.resize(t.len().max(adjoints.len()), 0.0);
+            for i in (down_to..t.len()).rev() {
+                let a = adjoints[i];
+                if a == 0.0 {
+                    continue;
+                }
+                let node = &t[i];
+                for (&arg, &d) in node.args.iter().zip(&node.partials) {
+                    if arg != NONE {
+                        adjoints[arg as usize] += a * d;
+                    }
+                }
+            }
+        });
+    }
+}
+
+/// A value on the reverse-mode tape of the current thread (see the module documentation).
+///
+/// Equality and ordering compare the value only, as for [`crate::Dual`]. Where a derivative is
+/// infinite (`sqrt`, `asin`, `acos`, `ln`, `powi`, `powf` at their singular points) the
+/// recorded partial is zero: the result [`crate::Dual`] gives for an argument whose tangent is
+/// zero, the case such points arise in (the root of a squared norm that vanishes).
+#[derive(Clone, Copy)]
+pub struct Rev {
+    value: f64,
+    index: u32,
+}
+
+impl Rev {
+    /// A constant: it records nothing and has no adjoint.
+    #[inline]
+    pub const fn constant(value: f64) -> Self {
+        Self { value, index: NONE }
+    }
+
+    /// A new independent input: a node of its own.
+    pub fn input(value: f64) -> Self {
+        Self {
+            value,
+            index: push([NONE, NONE], [0.0, 0.0]),
+        }
+    }
+
+    /// The tape node of this value (`None` for a constant).
+    pub fn node(self) -> Option<usize> {
+        (self.index != NONE).then_some(self.index as usize)
+    }
+
+    /// Whether this value is a constant (depends on no input).
+    pub fn is_constant(self) -> bool {
+        self.index == NONE
+    }
+
+    /// Add `w` to this value's adjoint (nothing for a constant).
+    pub fn seed(self, adjoints: &mut Vec<f64>, w: f64) {
+        if let Some(i) = self.node() {
+            if adjoints.len() <= i {
+                adjoints.resize(i + 1, 0.0);
+            }
+            adjoints[i] += w;
+        }
+    }
+
+    /// This value's adjoint after a sweep (0 for a constant).
+    pub fn adjoint(self, adjoints: &[f64]) -> f64 {
+        self.node()
+            .and_then(|i| adjoints.get(i).copied())
+            .unwrap_or(0.0)
+    }
+
+    /// A unary result `f` with derivative `df`.
+    #[inline]
+    fn unary(self, f: f64, df: f64) -> Self {
+        if self.index == NONE {
+            return Self::constant(f);
+        }
+        Self {
+            value: f,
+            index: push([self.index, NONE], [df, 0.0]),
+        }
+    }
+
+    /// As [`Rev::unary`] with a derivative that may be infinite at the point (taken as zero).
+    #[inline]
+    fn unary_singular(self, f: f64, df: f64) -> Self {
+        self.unary(f, if df.is_finite() { df } else { 0.0 })
+    }
+
+    /// A binary result `f` with partials `da`, `db`.
+    #[inline]
+    fn binary(a: Self, b: Self, f: f64, da: f64, db: f64) -> Self {
+        match (a.index == NONE, b.index == NONE) {
+            (true, true) => Self::constant(f),
+            (false, true) => a.unary(f, da),
+            (true, false) => b.unary(f, db),
+            (false, false) => Self {
+                value: f,
+                index: push([a.index, b.index], [da, db]),
+            },
+        }
+    }
+}
+
+impl Default for Rev {
+    fn default() -> Self {
+        Self::constant(0.0)
+    }
+}
+
+impl fmt::Debug for Rev {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.node() {
+            Some(i) => write!(f, "Rev({:?} @{i})", self.value),
+            None => write!(f, "Rev({:?})", self.value),
+        }
+    }
+}
+
+impl fmt::Display for Rev {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        fmt::Display::fmt(&self.value, f)
+    }
+}
+
+impl PartialEq for Rev {
+    fn eq(&self, other: &Self) -> bool {
+        self.value == other.value
+    }
+}
+
+impl PartialOrd for Rev {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        self.value.partial_cmp(&other.value)
+    }
+}
+
+impl From<f64> for Rev {
+    fn from(v: f64) -> Self {
+        Self::constant(v)
+    }
+}
+
+macro_rules! binary_ops {
+    ($tr:ident, $method:ident, $tra:ident, $method_a:ident, |$a:ident, $b:ident| $body:expr) => {
+        impl $tr for Rev {
+            type Output = Rev;
+            #[inline]
+            fn $method(self, rhs: Rev) -> Rev {
+                let ($a, $b) = (self, rhs);
+                $body
+            }
+        }
+        impl $tr<f64> for Rev {
+            type Output = Rev;
+            #[inline]
+            fn $method(self, rhs: f64) -> Rev {
+                self.$method(Rev::constant(rhs))
+            }
+        }
+        impl $tr<Rev> for f64 {
+            type Output = Rev;
+            #[inline]
+            fn $method(self, rhs: Rev) -> Rev {
+                Rev::constant(self).$method(rhs)
+            }
+        }
+        impl $tra for Rev {
+            #[inline]
+            fn $method_a(&mut self, rhs: Rev) {
+                *self = (*self).$method(rhs);
+            }
+        }
+        impl $tra<f64> for Rev {
+            #[inline]
+            fn $method_a(&mut self, rhs: f64) {
+                *self = (*self).$method(rhs);
+            }
+        }
+    };
+}
+
+binary_ops!(Add, add, AddAssign, add_assign, |a, b| Rev::binary(
+    a,
+    b,
+    a.value + b.value,
+    1.0,
+    1.0
+));
+binary_ops!(Sub, sub, SubAssign, sub_assign, |a, b| Rev::binary(
+    a,
+    b,
+    a.value - b.value,
+    1.0,
+    -1.0
+));
+binary_ops!(Mul, mul, MulAssign, mul_assign, |a, b| Rev::binary(
+    a,
+    b,
+    a.value * b.value,
+    b.value,
+    a.value
+));
+binary_ops!(Div, div, DivAssign, div_assign, |a, b| {
+    let inv = 1.0 / b.value;
+    let f = a.value / b.value;
+    Rev::binary(a, b, f, inv, -f * inv)
+});
+
+impl Neg for Rev {
+    type Output = Rev;
+    #[inline]
+    fn neg(self) -> Rev {
+        self.unary(-self.value, -1.0)
+    }
+}
+
+impl Sum for Rev {
+    fn sum<I: Iterator<Item = Self>>(iter: I) -> Self {
+        iter.fold(Self::constant(0.0), |a, b| a + b)
+    }
+}
+
+impl<'a> Sum<&'a Rev> for Rev {
+    fn sum<I: Iterator<Item = &'a Self>>(iter: I) -> Self {
+        iter.fold(Self::constant(0.0), |a, &b| a + b)
+    }
+}
+
+impl Zero for Rev {
+    fn zero() -> Self {
+        Self::constant(0.0)
+    }
+    /// The constant zero (a zero value that depends on an input is not).
+    fn is_zero(&self) -> bool {
+        self.value == 0.0 && self.index == NONE
+    }
+}
+
+impl One for Rev {
+    fn one() -> Self {
+        Self::constant(1.0)
+    }
+}
+
+impl Scalar for Rev {
+    const TANGENTS: usize = 0;
+    const PLAIN: bool = false;
+
+    #[inline]
+    fn from_f64(x: f64) -> Self {
+        Self::constant(x)
+    }
+    /// # Panics
+    /// Always: a taped value has no tangents to be built from (its derivatives would be lost);
+    /// code that assembles results from precomputed tangents does not support `Rev`.
+    fn from_parts(_value: f64, _tangents: &[f64]) -> Self {
+        panic!("Rev cannot be built from precomputed tangents: its derivatives would be lost")
+    }
+    #[inline]
+    fn value(self) -> f64 {
+        self.value
+    }
+    #[inline]
+    fn tangents(&self) -> &[f64] {
+        &[]
+    }
+    #[inline]
+    fn sqrt(self) -> Self {
+        let s = self.value.sqrt();
+        self.unary_singular(s, 0.5 / s)
+    }
+    #[inline]
+    fn sin(self) -> Self {
+        let (s, c) = self.value.sin_cos();
+        self.unary(s, c)
+    }
+    #[inline]
+    fn cos(self) -> Self {
+        let (s, c) = self.value.sin_cos();
+        self.unary(c, -s)
+    }
+    #[inline]
+    fn tan(self) -> Self {
+        let t = self.value.tan();
+        self.unary(t, 1.0 + t * t)
+    }
+    #[inline]
+    fn asin(self) -> Self {
+        let v = self.value;
+        self.unary_singular(v.asin(), 1.0 / (1.0 - v * v).sqrt())
+    }
+    #[inline]
+    fn acos(self) -> Self {
+        let v = self.value;
+        self.unary_singular(v.acos(), -1.0 / (1.0 - v * v).sqrt())
+    }
+    #[inline]
+    fn atan(self) -> Self {
+        let v = self.value;
+        self.unary(v.atan(), 1.0 / (1.0 + v * v))
+    }
+    #[inline]
+    fn atan2(self, x: Self) -> Self {
+        // d atan2(y, x) = (x dy − y dx) / (x² + y²)
+        let (y, r2) = (self.value, x.value * x.value + self.value * self.value);
+        let (dy, dx) = if r2 > 0.0 {
+            (x.value / r2, -y / r2)
+        } else {
+            (0.0, 0.0)
+        };
+        Self::binary(self, x, y.atan2(x.value), dy, dx)
+    }
+    #[inline]
+    fn exp(self) -> Self {
+        let e = self.value.exp();
+        self.unary(e, e)
+    }
+    #[inline]
+    fn ln(self) -> Self {
+        self.unary_singular(self.value.ln(), 1.0 / self.value)
+    }
+    #[inline]
+    fn powi(self, n: i32) -> Self {
+        match n {
+            0 => Self::constant(1.0),
+            1 => self,
+            _ => self.unary_singular(self.value.powi(n), f64::from(n) * self.value.powi(n - 1)),
+        }
+    }
+    #[inline]
+    fn powf(self, p: Self) -> Self {
+        let f = self.value.powf(p.value);
+        if p.index == NONE {
+            // constant exponent: valid for a negative base with an integral exponent too
+            if p.value == 0.0 {
+                return Self::constant(1.0);
+            }
+            return self.unary_singular(f, p.value * self.value.powf(p.value - 1.0));
+        }
+        // d(a^p) = a^p (ln a dp + p/a da)
+        let da = p.value * f / self.value;
+        let dp = f * self.value.ln();
+        let finite = |d: f64| if d.is_finite() { d } else { 0.0 };
+        Self::binary(self, p, f, finite(da), finite(dp))
+    }
+    #[inline]
+    fn abs(self) -> Self {
+        if self.value < 0.0 { -self } else { self }
+    }
+    #[inline]
+    fn hypot(self, other: Self) -> Self {
+        let h = self.value.hypot(other.value);
+        let (da, db) = if h > 0.0 {
+            (self.value / h, other.value / h)
+        } else {
+            (0.0, 0.0)
+        };
+        Self::binary(self, other, h, da, db)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Dual;
+
+    /// The gradient of `f` at `x` by one reverse sweep.
+    fn reverse_gradient(f: impl Fn(&[Rev]) -> Rev, x: &[f64]) -> (f64, Vec<f64>) {
+        let mark = Tape::len();
+        let inputs: Vec<Rev> = x.iter().map(|&v| Rev::input(v)).collect();
+        let y = f(&inputs);
+        let mut adj = Vec::new();
+        y.seed(&mut adj, 1.0);
+        Tape::backpropagate(&mut adj, mark);
+        let g = inputs.iter().map(|r| r.adjoint(&adj)).collect();
+        Tape::rewind(mark);
+        (y.value(), g)
+    }
+
+    /// A function of three variables through every operation of [`Scalar`].
+    fn every_operation<S: Scalar>(x: &[S]) -> S {
+        let (a, b, c) = (x[0], x[1], x[2]);
+        let mut s = a * b - c / a + (a + 2.0) * (b - 0.5) / 3.0;
+        s += a.sqrt() * b.sin() + c.cos() * a.tan() + (b * 0.5).asin() - (c * 0.3).acos();
+        s -= a.atan() * b.atan2(c) + (a * 0.1).exp() * b.ln() + a.powi(3) - b.powf(c);
+        s *= S::from_f64(1.5);
+        s /= c.hypot(a) + 1.0;
+        s += -c.abs() + a.powf(S::from_f64(2.5)) + (c * a).max(b).min(a);
+        let sum: S = x.iter().copied().sum();
+        s + sum * 0.25 - S::from_f64(1.0) / (a + 0.1)
+    }
+
+    #[test]
+    fn the_gradient_of_every_operation_equals_forward_mode() {
+        for x in [[0.7, 1.3, 0.4], [1.9, 0.6, -1.2], [0.2, 1.7, 2.5]] {
+            let (value, g) = reverse_gradient(every_operation::<Rev>, &x);
+            let duals: Vec<Dual<3>> = (0..3).map(|k| Dual::variable(x[k], k)).collect();
+            let d = every_operation(&duals);
+            assert_eq!(value, d.v);
+            for k in 0..3 {
+                let err = (g[k] - d.d[k]).abs();
+                assert!(
+                    err <= 1e-13 * d.d[k].abs().max(1.0),
+                    "{k}: {} vs {}",
+                    g[k],
+                    d.d[k]
+                );
+            }
+            // and against central differences, independently of the dual type
+            for k in 0..3 {
+                let h = 1e-6;
+                let (mut xp, mut xm) = (x, x);
+                xp[k] += h;
+                xm[k] -= h;
+                let fd = (every_operation::<f64>(&xp) - every_operation::<f64>(&xm)) / (2.0 * h);
+                assert!(
+                    (g[k] - fd).abs() <= 1e-6 * fd.abs().max(1.0),
+                    "{k}: {} vs {fd}",
+                    g[k]
+                );
+            }
+        }
+        assert!(Tape::is_empty());
+    }
+
+    #[test]
+    fn constants_record_nothing_and_a_sweep_stops_at_its_mark() {
+        let mark = Tape::len();
+        let c = Rev::constant(2.0) * 3.0 + Rev::from_f64(1.0).sin();
+        assert!(c.is_constant());
+        assert_eq!(Tape::len(), mark);
+        // the bottom part: an input and a quantity computed from it once
+        let x = Rev::input(1.5);
+        let x2 = x * x;
+        let bottom = Tape::len();
+        let mut adj = Vec::new();
+        // two evaluations above it, each swept down to the bottom and rewound
+        for w in [1.0, 2.0] {
+            let y = x2 * w + x;
+            y.seed(&mut adj, 1.0);
+            Tape::backpropagate(&mut adj, bottom);
+            adj.truncate(bottom);
+            Tape::rewind(bottom);
+        }
+        // the bottom's adjoints add up: d/dx of (x² + x) + (2x² + x) = 6x + 2
+        assert_eq!(
+            x.adjoint(&adj),
+            2.0,
+            "only the direct uses reached the input yet"
+        );
+        Tape::backpropagate(&mut adj, mark);
+        assert_eq!(x.adjoint(&adj), 6.0 * 1.5 + 2.0);
+        Tape::rewind(mark);
+    }
+
+    #[test]
+    fn a_singular_point_gives_the_zero_tangent_result_of_dual() {
+        let mark = Tape::len();
+        let x = Rev::input(0.0);
+        let r = (x * x).sqrt();
+        let mut adj = Vec::new();
+        r.seed(&mut adj, 1.0);
+        Tape::backpropagate(&mut adj, mark);
+        assert_eq!(x.adjoint(&adj), 0.0);
+        Tape::rewind(mark);
+    }
+
+    #[test]
+    #[should_panic(expected = "precomputed tangents")]
+    fn building_from_parts_is_refused() {
+        let _ = Rev::from_parts(1.0, &[]);
+    }
+}

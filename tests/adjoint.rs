@@ -1,0 +1,179 @@
+//! The discrete adjoint (`mbs::adjoint_gradient`) on the paper's slider-crank with a composite
+//! tube rod (four ply angles, updated modes): its building blocks against the forward-mode
+//! Jacobian and design derivatives, its gradients against the direct method's on the same
+//! steps, and against central differences of the discrete solution on replayed steps.
+
+use flexsens_tests::{
+    Design, Ids, RodOptions, assembled, perturbed, slider_crank, slider_crank_design,
+};
+use mbs::{
+    BdfOptions, DesignModel, MultibodySystem, Objective, ObjectiveTerm, OdeSystem, Response,
+    SensitivityOptions, SensitivityRun, State, TapedModel, adjoint_gradient, contract_data,
+    initial_sensitivities, response_history, response_values, simulate_sensitivities,
+    simulate_steps, tangent_rhs,
+};
+use nalgebra::DMatrix;
+
+const ANGLES: [f64; 4] = [15.0, -30.0, 45.0, 60.0];
+const T_END: f64 = 0.01;
+
+fn options() -> BdfOptions {
+    BdfOptions::adaptive(1e-6, 1e-9)
+}
+
+fn model() -> (DesignModel<4>, MultibodySystem, State, Ids) {
+    let (dm, state, ids) =
+        slider_crank_design::<4>(&ANGLES, Design::PerPly, &RodOptions::default());
+    let (sys, state) = assembled(dm.values(), state);
+    (dm, sys, state, ids)
+}
+
+/// Largest absolute difference over the largest magnitude of `reference`.
+fn relative(a: &[f64], reference: &[f64]) -> f64 {
+    let scale = reference.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let diff = a
+        .iter()
+        .zip(reference)
+        .fold(0.0f64, |m, (x, r)| m.max((x - r).abs()));
+    diff / scale
+}
+
+#[test]
+fn the_pullback_is_the_transposed_jacobian_and_the_data_contraction_is_f_b() {
+    let (dm, mut sys, state, _) = model();
+    // a deformed, moving state
+    let run = simulate_steps(&mut sys, &state, 0.0, 0.004, options()).unwrap();
+    let (t, y) = (
+        *run.times.last().unwrap(),
+        run.states.last().unwrap().clone(),
+    );
+    let n = y.len();
+    let nq = sys.model().n_q();
+    let lambda: Vec<f64> = (0..n).map(|i| (1.3 * i as f64 + 0.2).sin()).collect();
+    let sol = sys.solve(t, &y[..nq], &y[nq..]).unwrap();
+
+    let mut taped = TapedModel::new(&dm.chunks()[0]);
+    let pulled = taped.pullback(t, &y, &sol, &lambda);
+    let mut jac = DMatrix::zeros(n, n);
+    sys.jacobian(t, &y, &mut jac).unwrap();
+    let expected: Vec<f64> = (jac.transpose() * nalgebra::DVector::from_column_slice(&lambda))
+        .iter()
+        .copied()
+        .collect();
+    let err = relative(&pulled, &expected);
+    assert!(err < 1e-11, "f_yᵀ λ off by {err:.2e}");
+
+    // λᵀ f_b from the data's adjoints, against the dual chunks' f_b (S = 0)
+    let contracted = contract_data(&dm, &taped.data_adjoints());
+    let fb = tangent_rhs(&sys, &dm, t, &y, &sol, &DMatrix::zeros(n, 4));
+    let expected: Vec<f64> = (0..4)
+        .map(|j| fb.column(j).iter().zip(&lambda).map(|(a, b)| a * b).sum())
+        .collect();
+    let err = relative(&contracted, &expected);
+    assert!(
+        err < 1e-11,
+        "λᵀ f_b off by {err:.2e}: {contracted:?} vs {expected:?}"
+    );
+    assert!(expected.iter().all(|g| g.abs() > 0.0));
+}
+
+/// An objective of a response's history over a window of it (the whole when `None`).
+type Case = (Response, Objective, Option<(f64, f64)>);
+
+/// The objectives checked: kinds, windows and responses (one that reads Eq. 12's multipliers).
+fn objectives(ids: &Ids) -> Vec<Case> {
+    let reaction = Response::ReactionForce {
+        joint: ids.wrist_pin,
+        axis: 0,
+    };
+    let quarter = Response::NodalDisplacement {
+        body: ids.rod,
+        node: ids.rod_mid / 2,
+        dof: 1,
+    };
+    vec![
+        (ids.mid_deflection(), Objective::Integral, None),
+        (ids.mid_deflection(), Objective::Max, None),
+        (
+            ids.mid_deflection(),
+            Objective::Ks(2e3),
+            Some((0.002, 0.009)),
+        ),
+        (reaction, Objective::Rms, None),
+        (quarter.clone(), Objective::At(0.6 * T_END), None),
+        (quarter, Objective::Final, None),
+    ]
+}
+
+/// The direct method's run (the exact derivative of the discrete solution) and its initial
+/// sensitivities.
+fn direct_run(dm: &DesignModel<4>, sys: &mut MultibodySystem, state: &State) -> SensitivityRun {
+    let opts = SensitivityOptions::default();
+    simulate_sensitivities(sys, dm, state, 0.0, T_END, options(), &opts).unwrap()
+}
+
+#[test]
+fn adjoint_gradients_equal_the_direct_methods_for_every_objective_kind() {
+    let (dm, mut sys, state, ids) = model();
+    let run = direct_run(&dm, &mut sys, &state);
+    let s0 = initial_sensitivities(&sys, &dm, 0.0, &state).unwrap();
+    for (response, objective, window) in objectives(&ids) {
+        let h = response_history(&sys, &dm, &run, &response).unwrap();
+        let direct = objective
+            .evaluate_in(window, &h.times, &h.values, Some(&h.gradients))
+            .unwrap();
+        let weights = objective.weights_in(window, &h.times, &h.values).unwrap();
+        assert_eq!(weights.value, direct.value);
+        let term = ObjectiveTerm {
+            response: response.clone(),
+            weights: weights.weights,
+        };
+        let (adjoint, stats) = adjoint_gradient(&mut sys, &dm, &run, &s0, &[term]).unwrap();
+        assert_eq!(stats.steps, run.times.len() - 1);
+        let err = relative(&adjoint, &direct.gradient);
+        assert!(
+            err < 1e-8,
+            "{response:?} {objective:?}: adjoint {adjoint:?} vs direct {:?} ({err:.2e})",
+            direct.gradient
+        );
+    }
+}
+
+#[test]
+fn adjoint_gradients_equal_central_differences_of_the_discrete_solution() {
+    let (dm, mut sys, state, ids) = model();
+    let run = simulate_steps(&mut sys, &state, 0.0, T_END, options()).unwrap();
+    let s0 = initial_sensitivities(&sys, &dm, 0.0, &state).unwrap();
+    let response = ids.mid_deflection();
+    let values = response_values(&sys, &run.times, &run.states, &response).unwrap();
+    let weights = Objective::Integral.weights(&run.times, &values).unwrap();
+    let term = ObjectiveTerm {
+        response: response.clone(),
+        weights: weights.weights,
+    };
+    let (adjoint, _) = adjoint_gradient(&mut sys, &dm, &run, &s0, &[term]).unwrap();
+    // each perturbed design on the nominal run's steps (the discrete solution's derivative)
+    let replay = run.replay_options(1e-6, &[1e-9], 1e-7);
+    let integral = |angles: &[f64]| {
+        let (m, _, _) = slider_crank(angles, &RodOptions::default());
+        let (mut s, st) = perturbed(&sys, &state, m);
+        let r = simulate_steps(&mut s, &st, 0.0, T_END, replay.clone()).unwrap();
+        let v = response_values(&s, &r.times, &r.states, &response).unwrap();
+        Objective::Integral
+            .evaluate(&r.times, &v, None)
+            .unwrap()
+            .value
+    };
+    let h = 0.05;
+    for j in 0..4 {
+        let (mut plus, mut minus) = (ANGLES, ANGLES);
+        plus[j] += h;
+        minus[j] -= h;
+        let fd = (integral(&plus) - integral(&minus)) / (2.0 * h);
+        assert!(
+            (adjoint[j] - fd).abs() < 1e-5 * adjoint.iter().fold(0.0f64, |m, g| m.max(g.abs())),
+            "ply {j}: adjoint {} vs central difference {fd}",
+            adjoint[j]
+        );
+    }
+}
