@@ -53,7 +53,7 @@ fn the_pullback_is_the_transposed_jacobian_and_the_data_contraction_is_f_b() {
     let sol = sys.solve(t, &y[..nq], &y[nq..]).unwrap();
 
     let mut taped = TapedModel::new(&dm.chunks()[0]);
-    let pulled = taped.pullback(t, &y, &sol, &lambda);
+    let pulled = taped.pullback(&sys, t, &y, &lambda).unwrap();
     let mut jac = DMatrix::zeros(n, n);
     sys.jacobian(t, &y, &mut jac).unwrap();
     let expected: Vec<f64> = (jac.transpose() * nalgebra::DVector::from_column_slice(&lambda))
@@ -117,25 +117,33 @@ fn adjoint_gradients_equal_the_direct_methods_for_every_objective_kind() {
     let (dm, mut sys, state, ids) = model();
     let run = direct_run(&dm, &mut sys, &state);
     let s0 = initial_sensitivities(&sys, &dm, 0.0, &state).unwrap();
-    for (response, objective, window) in objectives(&ids) {
-        let h = response_history(&sys, &dm, &run, &response).unwrap();
-        let direct = objective
-            .evaluate_in(window, &h.times, &h.values, Some(&h.gradients))
-            .unwrap();
-        let weights = objective.weights_in(window, &h.times, &h.values).unwrap();
-        assert_eq!(weights.value, direct.value);
-        let term = ObjectiveTerm {
-            response: response.clone(),
-            weights: weights.weights,
-        };
-        let (adjoint, stats) = adjoint_gradient(&mut sys, &dm, &run, &s0, &[term]).unwrap();
-        assert_eq!(stats.steps, run.times.len() - 1);
-        let err = relative(&adjoint, &direct.gradient);
-        assert!(
-            err < 1e-8,
-            "{response:?} {objective:?}: adjoint {adjoint:?} vs direct {:?} ({err:.2e})",
-            direct.gradient
-        );
+    // histories on the recorded points, and on output times between them (interpolated, as
+    // `flexsens run` samples them)
+    let t_out: Vec<f64> = (0..=40).map(|k| T_END * k as f64 / 40.0).collect();
+    for sampled in [run.clone(), run.resample(&t_out)] {
+        for (response, objective, window) in objectives(&ids) {
+            let h = response_history(&sys, &dm, &sampled, &response).unwrap();
+            let direct = objective
+                .evaluate_in(window, &h.times, &h.values, Some(&h.gradients))
+                .unwrap();
+            let weights = objective.weights_in(window, &h.times, &h.values).unwrap();
+            assert_eq!(weights.value, direct.value);
+            let term = ObjectiveTerm {
+                response: response.clone(),
+                times: h.times.clone(),
+                weights: weights.weights,
+            };
+            let (adjoint, stats) = adjoint_gradient(&mut sys, &dm, &run, &s0, &[term]).unwrap();
+            assert_eq!(stats.steps, run.times.len() - 1);
+            let err = relative(&adjoint, &direct.gradient);
+            assert!(
+                err < 1e-8,
+                "{response:?} {objective:?} on {} points: adjoint {adjoint:?} vs direct {:?} \
+                 ({err:.2e})",
+                h.times.len(),
+                direct.gradient
+            );
+        }
     }
 }
 
@@ -149,6 +157,7 @@ fn adjoint_gradients_equal_central_differences_of_the_discrete_solution() {
     let weights = Objective::Integral.weights(&run.times, &values).unwrap();
     let term = ObjectiveTerm {
         response: response.clone(),
+        times: run.times.clone(),
         weights: weights.weights,
     };
     let (adjoint, _) = adjoint_gradient(&mut sys, &dm, &run, &s0, &[term]).unwrap();

@@ -26,6 +26,7 @@ use nalgebra::DMatrix;
 use sens::{DenseLu, Dual, Rev, Scalar, Tape};
 
 use crate::bdf::{OdeSystem, bdf_coefficients};
+use crate::error::ConstraintError;
 use crate::model::Model;
 use crate::response::Response;
 use crate::sensitivity::{DesignModel, SensitivityError, SensitivityRun};
@@ -92,29 +93,40 @@ impl TapedModel {
         out
     }
 
-    /// `f_yᵀ λ` at `(t, y)` for the state's right-hand side `f = [q̇; v̇]` (`v̇` of Eq. 12 at
-    /// the solution `sol` there), and `λᵀ f_p` added to the data's adjoints.
-    ///
-    /// `λ_vᵀ v̇_p = μᵀ ∂(r − A x̂)/∂p` with `μ = A⁻ᵀ [λ_v; 0]` (one solve with the factorisation
-    /// of Eq. 12, whose matrix is symmetric): the reverse of [`Model::residual`] and
-    /// [`Model::kinematic_rates`], seeded with `μ` and `λ_q`.
-    pub fn pullback(&mut self, t: f64, y: &[f64], sol: &Solution, lambda: &[f64]) -> Vec<f64> {
-        let (nq, nv) = (self.model.n_q(), self.model.n_v());
+    /// `f_yᵀ λ` at `(t, y)` for the state's right-hand side `f = [q̇; v̇]` (`v̇` from Eq. 12
+    /// there), and `λᵀ f_p` added to the data's adjoints: one [`TapedModel::record`],
+    /// [`RecordedRhs::sweep`].
+    pub fn pullback(
+        &mut self,
+        sys: &MultibodySystem,
+        t: f64,
+        y: &[f64],
+        lambda: &[f64],
+    ) -> Result<Vec<f64>, ConstraintError> {
+        Ok(self.record(sys, t, y)?.sweep(lambda))
+    }
+
+    /// The right-hand side at `(t, y)` recorded on the tape (above the data), to be swept with
+    /// as many seeds as needed; rewound when the recording is dropped. Eq. (12) is solved with
+    /// the values of the recorded evaluation ([`MultibodySystem`]'s rows and factorisation).
+    pub fn record(
+        &mut self,
+        sys: &MultibodySystem,
+        t: f64,
+        y: &[f64],
+    ) -> Result<RecordedRhs<'_>, ConstraintError> {
+        let nq = self.model.n_q();
         let (q, v) = self.inputs(y);
-        let res = self.model.residual(t, &q, &v, &sol.rows, &sol.x);
+        let (sol, residual, _) = sys.solve_dual(&self.model, t, &q, &v)?;
         let mut qdot = vec![Rev::constant(0.0); nq];
         self.model.kinematic_rates(&q, &v, &mut qdot);
-        let mut mu = vec![0.0; sol.x.len()];
-        mu[..nv].copy_from_slice(&lambda[nq..]);
-        sol.lu.solve_in_place(&mut mu);
-        for (r, &m) in res.iter().zip(&mu) {
-            r.seed(&mut self.adjoints, m);
-        }
-        for (r, &l) in qdot.iter().zip(&lambda[..nq]) {
-            r.seed(&mut self.adjoints, l);
-        }
-        Tape::backpropagate(&mut self.adjoints, self.top);
-        self.finish_evaluation(&q, &v)
+        Ok(RecordedRhs {
+            taped: self,
+            sol,
+            inputs: q.into_iter().chain(v).collect(),
+            residual,
+            qdot,
+        })
     }
 
     /// `w ∂ψ/∂y` at `(t, y)` for a response `ψ`, and `w ∂ψ/∂p` added to the data's adjoints.
@@ -177,6 +189,54 @@ impl Drop for TapedModel {
     }
 }
 
+/// One evaluation of the right-hand side on the tape ([`TapedModel::record`]).
+pub struct RecordedRhs<'a> {
+    taped: &'a mut TapedModel,
+    sol: Solution,
+    /// `(q, v)`.
+    inputs: Vec<Rev>,
+    /// `r − A x̂` of Eq. (12) at the solution's `x̂`.
+    residual: Vec<Rev>,
+    qdot: Vec<Rev>,
+}
+
+impl RecordedRhs<'_> {
+    /// `f_yᵀ λ`, and `λᵀ f_p` added to the data's adjoints.
+    ///
+    /// `λ_vᵀ v̇_p = μᵀ ∂(r − A x̂)/∂p` with `μ = A⁻ᵀ [λ_v; 0]` (one solve with the
+    /// factorisation of Eq. 12, whose matrix is symmetric): the reverse of
+    /// [`Model::residual`] and [`Model::kinematic_rates`], seeded with `μ` and `λ_q`. Linear
+    /// in `λ`: sweeps with `λ₁` and `λ₂` add to the data what one with `λ₁ + λ₂` would.
+    pub fn sweep(&mut self, lambda: &[f64]) -> Vec<f64> {
+        let nq = self.qdot.len();
+        let taped = &mut *self.taped;
+        let mut mu = vec![0.0; self.sol.x.len()];
+        mu[..lambda.len() - nq].copy_from_slice(&lambda[nq..]);
+        self.sol.lu.solve_in_place(&mut mu);
+        for (r, &m) in self.residual.iter().zip(&mu) {
+            r.seed(&mut taped.adjoints, m);
+        }
+        for (r, &l) in self.qdot.iter().zip(&lambda[..nq]) {
+            r.seed(&mut taped.adjoints, l);
+        }
+        Tape::backpropagate(&mut taped.adjoints, taped.top);
+        let out = self
+            .inputs
+            .iter()
+            .map(|x| x.adjoint(&taped.adjoints))
+            .collect();
+        taped.adjoints[taped.top..].fill(0.0);
+        out
+    }
+}
+
+impl Drop for RecordedRhs<'_> {
+    fn drop(&mut self) {
+        self.taped.adjoints.truncate(self.taped.top);
+        Tape::rewind(self.taped.top);
+    }
+}
+
 /// `Σ_i p̄_i ∂p_i/∂b_j` for every design variable `j`: the data's adjoints (in the order
 /// [`Model::map`] visits the data) contracted with their derivatives, the tangents of the
 /// design model's chunks.
@@ -206,31 +266,175 @@ pub fn contract_data<const N: usize>(design: &DesignModel<N>, data_adjoints: &[f
     gradient
 }
 
-/// One term of an objective: a response's derivative weights at each recorded point of the run
-/// (e.g. [`crate::Objective::weights_in`] of its history there).
+/// One term of an objective: `Σ_k w_k ψ(t_k)` for a response `ψ` sampled at times `t_k`
+/// within the run, each sample the response at the run's interpolated state there
+/// ([`SensitivityRun::interpolate`], as [`SensitivityRun::resample`] samples it); `w_k` e.g.
+/// from [`crate::Objective::weights_in`] of the sampled history.
 #[derive(Clone, Debug)]
 pub struct ObjectiveTerm {
     pub response: Response,
-    /// `∂J/∂ψ(t_n)`, one per recorded point.
+    /// The sample times `t_k`, within the run (its recorded points, or output times).
+    pub times: Vec<f64>,
+    /// `∂J/∂ψ(t_k)`, one per sample.
     pub weights: Vec<f64>,
 }
+
+/// The adjoint's right-hand sides are needed for the recorded points a step's formula reaches
+/// back to (order ≤ 5): a ring of them.
+const RING: usize = 6;
 
 /// Work counters of an adjoint sweep.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct AdjointStatistics {
     /// Steps swept back.
     pub steps: usize,
-    /// Exact Jacobians `f_y` (each `⌈n/8⌉` evaluations in `Dual<8>`).
+    /// Exact Jacobians `f_y` (each `⌈n/8⌉` evaluations in `Dual<8>`), the preconditioner of
+    /// the steps' systems.
     pub jacobians: usize,
-    /// Reverse-mode evaluations of the right-hand side and of the responses.
+    /// Reverse-mode recordings of the right-hand side (one per step) and of the responses.
     pub reverse_evaluations: usize,
+    /// Reverse sweeps of the recorded right-hand sides (one per iteration of the steps'
+    /// systems).
+    pub sweeps: usize,
 }
 
-/// The gradient `dJ/db` of `J = Σ_terms Σ_n w_n ψ(t_n)` over the recorded points of `run` (a
-/// run of `sys`'s model from the initial sensitivities `s0`, every accepted step recorded:
+/// Iterations of a step's adjoint system before a new exact Jacobian.
+const MAX_ITERATIONS: usize = 6;
+/// The iterations stop when the update is below this fraction of the adjoint (largest
+/// components): the exact solution to a few hundred round-offs, as the direct method's.
+const ADJOINT_TOL: f64 = 1e-12;
+
+/// The adjoint's step systems `(c_0 I − f_y)ᵀ λ = r`, solved by iterations preconditioned
+/// with `(c_0 I − J)ᵀ` at the last exact Jacobian `J` (refactorised, not re-evaluated, when
+/// `c_0` changes), each one reverse sweep for `f_yᵀ λ` — the direct method's scheme
+/// transposed.
+#[derive(Default)]
+struct StepSolver {
+    /// `Jᵀ` and the LU of `c_0 I − Jᵀ` at `c_0`.
+    exact: Option<(DMatrix<f64>, f64, DenseLu)>,
+}
+
+impl StepSolver {
+    fn refresh(
+        &mut self,
+        sys: &mut MultibodySystem,
+        (t, y): (f64, &[f64]),
+        c0: f64,
+        stats: &mut AdjointStatistics,
+    ) -> Result<(), SensitivityError> {
+        let n = y.len();
+        let mut jac = DMatrix::zeros(n, n);
+        sys.jacobian(t, y, &mut jac)
+            .map_err(|e| SensitivityError::Response(e.0))?;
+        stats.jacobians += 1;
+        let jt = jac.transpose();
+        let lu = Self::factor(&jt, c0);
+        self.exact = Some((jt, c0, lu));
+        Ok(())
+    }
+
+    fn factor(jt: &DMatrix<f64>, c0: f64) -> DenseLu {
+        let mut a = -jt;
+        for d in 0..a.nrows() {
+            a[(d, d)] += c0;
+        }
+        DenseLu::new(&a)
+    }
+
+    /// `P⁻¹ x` in place; an error where `P` is singular.
+    fn precondition(&self, t: f64, x: &mut [f64]) -> Result<(), SensitivityError> {
+        let (_, _, lu) = self.exact.as_ref().expect("a preconditioner");
+        match lu.solve_in_place(x) {
+            true => Ok(()),
+            false => Err(SensitivityError::Response(format!(
+                "singular step matrix at t = {t} in the adjoint sweep"
+            ))),
+        }
+    }
+
+    /// `λ` of `(c_0 I − f_y)ᵀ λ = r` at `(t, y)`, `f_y` that of `recorded`, whose sweeps add
+    /// `λᵀ f_p` to the data's adjoints (the sweeps of the updates, which sum to `λ`).
+    fn solve(
+        &mut self,
+        sys: &mut MultibodySystem,
+        (t, y): (f64, &[f64]),
+        c0: f64,
+        r: &[f64],
+        recorded: &mut RecordedRhs<'_>,
+        stats: &mut AdjointStatistics,
+    ) -> Result<Vec<f64>, SensitivityError> {
+        if self.exact.is_none() {
+            self.refresh(sys, (t, y), c0, stats)?;
+        }
+        if let Some((jt, c, lu)) = self.exact.as_mut()
+            && *c != c0
+        {
+            *lu = Self::factor(jt, c0);
+            *c = c0;
+        }
+        let n = r.len();
+        let size = |x: &[f64]| x.iter().fold(0.0f64, |m, a| m.max(a.abs()));
+        let (mut lambda, mut ft_lambda) = (vec![0.0; n], vec![0.0; n]);
+        let mut delta = r.to_vec();
+        self.precondition(t, &mut delta)?;
+        let mut applied = f64::INFINITY;
+        let mut exact_here = false;
+        for it in 1.. {
+            // apply the update: λ and, by one sweep, f_yᵀ λ and the data's adjoints
+            let norm = size(&delta);
+            if !norm.is_finite() {
+                return Err(SensitivityError::Response(format!(
+                    "non-finite adjoint at t = {t}"
+                )));
+            }
+            let ft_delta = recorded.sweep(&delta);
+            stats.sweeps += 1;
+            for ((l, f), (d, fd)) in lambda
+                .iter_mut()
+                .zip(&mut ft_lambda)
+                .zip(delta.iter().zip(&ft_delta))
+            {
+                *l += d;
+                *f += fd;
+            }
+            let rate = norm / applied;
+            applied = norm;
+            // the remaining error after this update, about rate × its size (linear
+            // convergence)
+            let remaining = if it > 1 {
+                norm * rate / (1.0 - rate)
+            } else {
+                f64::INFINITY
+            };
+            if exact_here || (rate < 0.5 && remaining <= ADJOINT_TOL * size(&lambda)) {
+                return Ok(lambda);
+            }
+            // the next update: the residual r − (c_0 λ − f_yᵀ λ), preconditioned
+            delta = (0..n)
+                .map(|i| r[i] - c0 * lambda[i] + ft_lambda[i])
+                .collect();
+            if it >= MAX_ITERATIONS || (it > 1 && rate >= 0.5) {
+                // the exact Jacobian here: one more update solves the system
+                self.refresh(sys, (t, y), c0, stats)?;
+                exact_here = true;
+            }
+            self.precondition(t, &mut delta)?;
+            if !exact_here && size(&delta) <= ADJOINT_TOL * size(&lambda) {
+                // converged without it
+                return Ok(lambda);
+            }
+        }
+        unreachable!("the loop returns")
+    }
+}
+
+/// The gradient `dJ/db` of `J = Σ_terms Σ_k w_k ψ(t_k)` ([`ObjectiveTerm`]) over `run` (a run
+/// of `sys`'s model from the initial sensitivities `s0`, every accepted step recorded:
 /// [`crate::simulate_steps`] or [`crate::simulate_sensitivities`]) by the discrete adjoint
 /// (module documentation): the derivative of the same discrete solution the direct method
-/// differentiates, at the cost of one backward sweep whatever the number of variables.
+/// differentiates, at the cost of one backward sweep whatever the number of variables. Its
+/// memory beyond the run's states is a few state vectors (the ring of right-hand sides) and
+/// the tape of one step.
 pub fn adjoint_gradient<const N: usize>(
     sys: &mut MultibodySystem,
     design: &DesignModel<N>,
@@ -248,54 +452,70 @@ pub fn adjoint_gradient<const N: usize>(
             design.n_variables()
         )));
     }
-    if let Some(t) = terms.iter().find(|t| t.weights.len() != points) {
-        return Err(SensitivityError::Response(format!(
-            "{} weights of {:?} for {points} recorded points",
-            t.weights.len(),
-            t.response
-        )));
+    // the samples, by the last recorded point each mixes
+    let mut samples: Vec<Vec<(usize, f64, f64)>> = vec![Vec::new(); points];
+    for (a, term) in terms.iter().enumerate() {
+        let (t0, t1) = (run.times[0], run.times[points - 1]);
+        if term.weights.len() != term.times.len() {
+            return Err(SensitivityError::Response(format!(
+                "{} weights of {:?} for {} samples",
+                term.weights.len(),
+                term.response,
+                term.times.len()
+            )));
+        }
+        for (&t, &w) in term.times.iter().zip(&term.weights) {
+            if !(t >= t0 && t <= t1) {
+                return Err(SensitivityError::Response(format!(
+                    "sample at t = {t} outside the run [{t0}, {t1}]"
+                )));
+            }
+            if w != 0.0 {
+                samples[run.interpolation(t).0].push((a, t, w));
+            }
+        }
     }
     let mut taped = TapedModel::new(&design.chunks()[0]);
     let mut stats = AdjointStatistics::default();
-    // `rhs[i]`: ∂J/∂y_i minus the later steps' formula terms, the right-hand side of λ_i
-    let mut rhs = vec![vec![0.0; n]; points];
-    let mut jac = DMatrix::zeros(n, n);
+    // `rhs[i % RING]`: ∂J/∂y_i minus the later steps' formula terms, the right-hand side of λ_i
+    let mut rhs = vec![vec![0.0; n]; RING];
+    let mut step = StepSolver::default();
     for i in (0..points).rev() {
-        let (t, y) = (run.times[i], &run.states[i]);
-        for term in terms.iter().filter(|term| term.weights[i] != 0.0) {
-            let g = taped.response_pullback(sys, &term.response, t, y, term.weights[i])?;
+        for &(a, t, w) in &samples[i] {
+            // the response at the interpolated state, its adjoint spread by the weights
+            let (i, mix) = run.interpolation(t);
+            let mut y = vec![0.0; n];
+            for (j, m) in mix.iter().enumerate() {
+                y.iter_mut()
+                    .zip(&run.states[i - j])
+                    .for_each(|(y, x)| *y += m * x);
+            }
+            let g = taped.response_pullback(sys, &terms[a].response, t, &y, w)?;
             stats.reverse_evaluations += 1;
-            rhs[i].iter_mut().zip(&g).for_each(|(r, g)| *r += g);
+            for (j, m) in mix.iter().enumerate() {
+                (rhs[(i - j) % RING].iter_mut())
+                    .zip(&g)
+                    .for_each(|(r, g)| *r += m * g);
+            }
         }
         if i == 0 {
             break;
         }
+        let (t, y) = (run.times[i], &run.states[i]);
         let k = run.orders[i];
         let nodes: Vec<f64> = (0..=k).map(|j| run.times[i - j]).collect();
         let c = bdf_coefficients(&nodes);
         // (c_0 I − f_y)ᵀ λ_i = rhs_i
-        sys.jacobian(t, y, &mut jac)
-            .map_err(|e| SensitivityError::Response(e.0))?;
-        stats.jacobians += 1;
-        let mut a = -jac.transpose();
-        for d in 0..n {
-            a[(d, d)] += c[0];
-        }
-        let mut lambda = std::mem::take(&mut rhs[i]);
-        if !DenseLu::new(&a).solve_in_place(&mut lambda) {
-            return Err(SensitivityError::Response(format!(
-                "singular step matrix at t = {t} in the adjoint sweep"
-            )));
-        }
+        let r = std::mem::replace(&mut rhs[i % RING], vec![0.0; n]);
+        let lambda = {
+            let mut recorded = taped.record(sys, t, y)?;
+            step.solve(sys, (t, y), c[0], &r, &mut recorded, &mut stats)?
+        };
         for j in 1..=k {
-            rhs[i - j]
-                .iter_mut()
+            (rhs[(i - j) % RING].iter_mut())
                 .zip(&lambda)
                 .for_each(|(r, l)| *r -= c[j] * l);
         }
-        let sol = sys.solve(t, &y[..run.n_q], &y[run.n_q..])?;
-        taped.pullback(t, y, &sol, &lambda);
-        stats.reverse_evaluations += 1;
         stats.steps += 1;
     }
     let mut gradient = contract_data(design, &taped.data_adjoints());

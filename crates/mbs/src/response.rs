@@ -526,11 +526,7 @@ fn interpolation(times: &[f64], t: f64) -> Mix {
 
 /// The history restricted to `[a, b]` (within it): its times, its values (those at the ends
 /// interpolated linearly) and each value as the samples of the whole history it mixes.
-fn clip(
-    (a, b): (f64, f64),
-    times: &[f64],
-    values: &[f64],
-) -> (Vec<f64>, Vec<f64>, Vec<Mix>) {
+fn clip((a, b): (f64, f64), times: &[f64], values: &[f64]) -> (Vec<f64>, Vec<f64>, Vec<Mix>) {
     let mix = |m: &Mix| m[0].1 * values[m[0].0] + m[1].1 * values[m[1].0];
     let (ma, mb) = (interpolation(times, a), interpolation(times, b));
     let (mut t, mut v, mut maps) = (vec![a], vec![mix(&ma)], vec![ma]);

@@ -272,17 +272,7 @@ impl SensitivityRun {
     /// the step containing `t` (as [`Bdf::interpolate`]), the same weights for both, so the
     /// interpolated sensitivities are the derivatives of the interpolated state.
     pub fn interpolate(&self, t: f64) -> (Vec<f64>, DMatrix<f64>) {
-        let last = self.times.len() - 1;
-        let i = self
-            .times
-            .partition_point(|&x| x < t)
-            .clamp(1.min(last), last);
-        if self.times[i] == t || last == 0 {
-            return (self.states[i].clone(), self.sensitivities[i].clone());
-        }
-        let k = self.orders[i].max(1).min(i);
-        let nodes: Vec<f64> = (0..=k).map(|j| self.times[i - j]).collect();
-        let w = lagrange_weights(&nodes, t);
+        let (i, w) = self.interpolation(t);
         let mut y = vec![0.0; self.states[i].len()];
         let mut s = DMatrix::zeros(self.sensitivities[i].nrows(), self.sensitivities[i].ncols());
         for (j, wj) in w.iter().enumerate() {
@@ -292,6 +282,22 @@ impl SensitivityRun {
             s += &self.sensitivities[i - j] * *wj;
         }
         (y, s)
+    }
+
+    /// The recorded points [`SensitivityRun::interpolate`] mixes at `t`: `(i, w)`, the value at
+    /// `t` being `Σ_j w_j y_{i−j}` (one weight 1 at a recorded point).
+    pub fn interpolation(&self, t: f64) -> (usize, Vec<f64>) {
+        let last = self.times.len() - 1;
+        let i = self
+            .times
+            .partition_point(|&x| x < t)
+            .clamp(1.min(last), last);
+        if self.times[i] == t || last == 0 {
+            return (i, vec![1.0]);
+        }
+        let k = self.orders[i].max(1).min(i);
+        let nodes: Vec<f64> = (0..=k).map(|j| self.times[i - j]).collect();
+        (i, lagrange_weights(&nodes, t))
     }
 
     /// The run sampled at `t_out` (interpolated between steps, see

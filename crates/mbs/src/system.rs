@@ -444,17 +444,18 @@ impl MultibodySystem {
         dy[nq..].copy_from_slice(&sol.x[..self.model.n_v()]);
     }
 
-    /// [`MultibodySystem::solve`] and the dual residual of `model` (this system's model with
-    /// design tangents) at the seeded state `(q, v)` from one dual evaluation: the `f64`
-    /// equations are the values of the dual ones. Returns the solution and the residual
-    /// ([`Model::residual`] at its `x̂`).
-    pub(crate) fn solve_dual<const N: usize>(
+    /// [`MultibodySystem::solve`] and the residual of `model` (this system's model with design
+    /// tangents, or on the reverse-mode tape) at the state `(q, v)` (seeded, or tape inputs)
+    /// from one evaluation: the `f64` equations are the values of the differentiated ones.
+    /// Returns the solution, the residual ([`Model::residual`] at its `x̂`) and the guarded rows'
+    /// largest position violation.
+    pub(crate) fn solve_dual<P: Scalar, S: Scalar + From<P>>(
         &self,
-        model: &Model<Dual<N>>,
+        model: &Model<P>,
         t: f64,
-        q: &[Dual<N>],
-        v: &[Dual<N>],
-    ) -> Result<(Solution, Vec<Dual<N>>, f64), ConstraintError> {
+        q: &[S],
+        v: &[S],
+    ) -> Result<(Solution, Vec<S>, f64), ConstraintError> {
         let k = model.constraint_kin(t, q, v);
         let violation = self.largest_violation(&k);
         let (m, f) = model.mass_and_forces(t, q, v);

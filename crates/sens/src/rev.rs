@@ -40,11 +40,13 @@ thread_local! {
     static TAPE: RefCell<Vec<Node>> = const { RefCell::new(Vec::new()) };
 }
 
+#[inline]
 fn push(args: [u32; 2], partials: [f64; 2]) -> u32 {
     TAPE.with(|t| {
         let mut t = t.borrow_mut();
         let index = t.len();
-        assert!(index < NONE as usize, "the reverse-mode tape is full");
+        // 2³² nodes would take 96 GiB: memory runs out first
+        debug_assert!(index < NONE as usize, "the reverse-mode tape is full");
         t.push(Node { args, partials });
         index as u32
     })
