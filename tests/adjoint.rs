@@ -8,7 +8,7 @@ use flexsens_tests::{
 };
 use mbs::{
     BdfOptions, DesignModel, MultibodySystem, Objective, ObjectiveTerm, OdeSystem, Response,
-    SensitivityOptions, SensitivityRun, State, TapedModel, adjoint_gradient, contract_data,
+    SensitivityOptions, SensitivityRun, State, TapedModel, adjoint_gradients, contract_data,
     initial_sensitivities, response_history, response_values, simulate_sensitivities,
     simulate_steps, tangent_rhs,
 };
@@ -52,8 +52,11 @@ fn the_pullback_is_the_transposed_jacobian_and_the_data_contraction_is_f_b() {
     let lambda: Vec<f64> = (0..n).map(|i| (1.3 * i as f64 + 0.2).sin()).collect();
     let sol = sys.solve(t, &y[..nq], &y[nq..]).unwrap();
 
-    let mut taped = TapedModel::new(&dm.chunks()[0]);
-    let pulled = taped.pullback(&sys, t, &y, &lambda).unwrap();
+    let taped = TapedModel::new(&dm.chunks()[0]);
+    let mut adjoints = taped.adjoints();
+    let pulled = taped
+        .pullback(&sys, (t, &y), &mut adjoints, &lambda)
+        .unwrap();
     let mut jac = DMatrix::zeros(n, n);
     sys.jacobian(t, &y, &mut jac).unwrap();
     let expected: Vec<f64> = (jac.transpose() * nalgebra::DVector::from_column_slice(&lambda))
@@ -64,7 +67,7 @@ fn the_pullback_is_the_transposed_jacobian_and_the_data_contraction_is_f_b() {
     assert!(err < 1e-11, "f_yᵀ λ off by {err:.2e}");
 
     // λᵀ f_b from the data's adjoints, against the dual chunks' f_b (S = 0)
-    let contracted = contract_data(&dm, &taped.data_adjoints());
+    let contracted = contract_data(&dm, &taped.data_adjoints(&adjoints));
     let fb = tangent_rhs(&sys, &dm, t, &y, &sol, &DMatrix::zeros(n, 4));
     let expected: Vec<f64> = (0..4)
         .map(|j| fb.column(j).iter().zip(&lambda).map(|(a, b)| a * b).sum())
@@ -121,27 +124,30 @@ fn adjoint_gradients_equal_the_direct_methods_for_every_objective_kind() {
     // `flexsens run` samples them)
     let t_out: Vec<f64> = (0..=40).map(|k| T_END * k as f64 / 40.0).collect();
     for sampled in [run.clone(), run.resample(&t_out)] {
+        // every objective in one backward sweep
+        let mut terms = Vec::new();
+        let mut direct = Vec::new();
         for (response, objective, window) in objectives(&ids) {
             let h = response_history(&sys, &dm, &sampled, &response).unwrap();
-            let direct = objective
-                .evaluate_in(window, &h.times, &h.values, Some(&h.gradients))
-                .unwrap();
+            let d =
+                (objective.evaluate_in(window, &h.times, &h.values, Some(&h.gradients))).unwrap();
             let weights = objective.weights_in(window, &h.times, &h.values).unwrap();
-            assert_eq!(weights.value, direct.value);
-            let term = ObjectiveTerm {
+            assert_eq!(weights.value, d.value);
+            terms.push(vec![ObjectiveTerm {
                 response: response.clone(),
                 times: h.times.clone(),
                 weights: weights.weights,
-            };
-            let (adjoint, stats) = adjoint_gradient(&mut sys, &dm, &run, &s0, &[term]).unwrap();
-            assert_eq!(stats.steps, run.times.len() - 1);
-            let err = relative(&adjoint, &direct.gradient);
+            }]);
+            direct.push((format!("{response:?} {objective:?}"), d.gradient));
+        }
+        let (adjoint, stats) = adjoint_gradients(&mut sys, &dm, &run, &s0, &terms).unwrap();
+        assert_eq!(stats.steps, run.times.len() - 1);
+        for (a, (label, d)) in adjoint.iter().zip(&direct) {
+            let err = relative(a, d);
             assert!(
                 err < 1e-8,
-                "{response:?} {objective:?} on {} points: adjoint {adjoint:?} vs direct {:?} \
-                 ({err:.2e})",
-                h.times.len(),
-                direct.gradient
+                "{label} on {} points: adjoint {a:?} vs direct {d:?} ({err:.2e})",
+                sampled.times.len()
             );
         }
     }
@@ -160,7 +166,8 @@ fn adjoint_gradients_equal_central_differences_of_the_discrete_solution() {
         times: run.times.clone(),
         weights: weights.weights,
     };
-    let (adjoint, _) = adjoint_gradient(&mut sys, &dm, &run, &s0, &[term]).unwrap();
+    let (adjoint, _) = adjoint_gradients(&mut sys, &dm, &run, &s0, &[vec![term]]).unwrap();
+    let adjoint = &adjoint[0];
     // each perturbed design on the nominal run's steps (the discrete solution's derivative)
     let replay = run.replay_options(1e-6, &[1e-9], 1e-7);
     let integral = |angles: &[f64]| {

@@ -32,44 +32,51 @@ use crate::response::Response;
 use crate::sensitivity::{DesignModel, SensitivityError, SensitivityRun};
 use crate::system::{MultibodySystem, Solution};
 
-/// A model whose data are inputs of the current thread's reverse-mode tape, with the data's
-/// adjoints accumulated over the evaluations swept so far.
+/// A model whose data are inputs of the current thread's reverse-mode tape.
 ///
-/// The data and the inertia invariants made from them stay on the tape for the model's life
-/// (it is rewound to where it began when the model is dropped); each evaluation is recorded
-/// above them, swept, and rewound, its adjoints on the data part kept. Models on one thread
-/// must be dropped in the reverse order of their making (the tape is a stack).
+/// The data are the model's parameters and its flexible bodies' inertia invariants (made from
+/// them, each an input of its own: [`Model::map_with_invariants`]), so that no evaluation
+/// records more than its own operations and the tape below them is one node per datum. They
+/// stay on the tape for the model's life (it is rewound to where it began when the model is
+/// dropped); each evaluation is recorded above them, swept into [`Adjoints`], and rewound.
+/// Models on one thread must be dropped in the reverse order of their making (the tape is a
+/// stack).
 pub struct TapedModel {
     model: Model<Rev>,
-    /// The tape's length before the data: the data are nodes `base..base + n_data`.
+    /// The tape's length before the data: the data are nodes `base..top`.
     base: usize,
-    n_data: usize,
-    /// The tape's length after the data and the invariants: each evaluation starts here.
+    /// The tape's length after the data: each evaluation starts here.
     top: usize,
-    /// Adjoints by tape node; below `top` accumulated over the evaluations.
-    adjoints: Vec<f64>,
 }
 
+/// Adjoints by tape node of a [`TapedModel`]'s data, accumulated over the sweeps made into
+/// them (one set per objective), with room for the evaluation being swept.
+#[derive(Clone, Debug)]
+pub struct Adjoints(Vec<f64>);
+
 impl TapedModel {
-    /// `model` with each datum a new input of the tape (its value kept).
+    /// `model` with each datum a new input of the tape (its value kept), its invariants made
+    /// (if not yet) and taken as inputs too.
     pub fn new<P: Scalar>(model: &Model<P>) -> Self {
         let base = Tape::len();
-        let model = model.map(|x| Rev::input(x.value()));
-        let n_data = Tape::len() - base;
-        model.cache_invariants();
+        let model = model.map_with_invariants(|x| Rev::input(x.value()));
         let top = Tape::len();
-        Self {
-            model,
-            base,
-            n_data,
-            top,
-            adjoints: Vec::new(),
-        }
+        Self { model, base, top }
     }
 
     /// The number of data (inputs of the tape).
     pub fn n_data(&self) -> usize {
-        self.n_data
+        self.top - self.base
+    }
+
+    /// Zero adjoints of the data.
+    pub fn adjoints(&self) -> Adjoints {
+        Adjoints(vec![0.0; self.top])
+    }
+
+    /// The adjoint of each datum, in the order [`Model::map_with_invariants`] visits them.
+    pub fn data_adjoints(&self, adjoints: &Adjoints) -> Vec<f64> {
+        adjoints.0[self.base..self.top].to_vec()
     }
 
     /// `(q, v)` of `y` as new inputs of the tape.
@@ -80,37 +87,33 @@ impl TapedModel {
         (q, v)
     }
 
-    /// The adjoints of the inputs `(q, v)` after a sweep; the evaluation rewound, the data
-    /// part's adjoints kept.
-    fn finish_evaluation(&mut self, q: &[Rev], v: &[Rev]) -> Vec<f64> {
-        let out = q
-            .iter()
-            .chain(v)
-            .map(|x| x.adjoint(&self.adjoints))
-            .collect();
-        self.adjoints.truncate(self.top);
-        Tape::rewind(self.top);
+    /// The sweep of the evaluation above the data, seeded in `adjoints`: the adjoints of
+    /// `inputs`, the evaluation's part of `adjoints` cleared.
+    fn sweep_into(&self, adjoints: &mut Adjoints, inputs: &[Rev]) -> Vec<f64> {
+        Tape::backpropagate(&mut adjoints.0, self.top);
+        let out = inputs.iter().map(|x| x.adjoint(&adjoints.0)).collect();
+        adjoints.0.truncate(self.top);
         out
     }
 
     /// `f_yᵀ λ` at `(t, y)` for the state's right-hand side `f = [q̇; v̇]` (`v̇` from Eq. 12
-    /// there), and `λᵀ f_p` added to the data's adjoints: one [`TapedModel::record`],
+    /// there), and `λᵀ f_p` added to the data's `adjoints`: one [`TapedModel::record`],
     /// [`RecordedRhs::sweep`].
     pub fn pullback(
-        &mut self,
+        &self,
         sys: &MultibodySystem,
-        t: f64,
-        y: &[f64],
+        (t, y): (f64, &[f64]),
+        adjoints: &mut Adjoints,
         lambda: &[f64],
     ) -> Result<Vec<f64>, ConstraintError> {
-        Ok(self.record(sys, t, y)?.sweep(lambda))
+        Ok(self.record(sys, t, y)?.sweep(adjoints, lambda))
     }
 
     /// The right-hand side at `(t, y)` recorded on the tape (above the data), to be swept with
     /// as many seeds as needed; rewound when the recording is dropped. Eq. (12) is solved with
     /// the values of the recorded evaluation ([`MultibodySystem`]'s rows and factorisation).
     pub fn record(
-        &mut self,
+        &self,
         sys: &MultibodySystem,
         t: f64,
         y: &[f64],
@@ -129,57 +132,51 @@ impl TapedModel {
         })
     }
 
-    /// `w ∂ψ/∂y` at `(t, y)` for a response `ψ`, and `w ∂ψ/∂p` added to the data's adjoints.
-    /// A response that reads the multipliers or accelerations (a reaction force, a marker's
-    /// acceleration) reads them from the solution of Eq. (12) at `(t, y)`: their adjoint `x̄`
-    /// goes back through it as `f_b`'s does, `μ = A⁻ᵀ x̄` seeding the residual.
+    /// `w ∂ψ/∂y` at `(t, y)` for a response `ψ`, and `w ∂ψ/∂p` added to the data's
+    /// `adjoints`. A response that reads the multipliers or accelerations (a reaction force,
+    /// a marker's acceleration) reads them from the solution of Eq. (12) at `(t, y)`: their
+    /// adjoint `x̄` goes back through it as `f_b`'s does, `μ = A⁻ᵀ x̄` seeding the residual.
     pub fn response_pullback(
-        &mut self,
+        &self,
         sys: &MultibodySystem,
         response: &Response,
-        t: f64,
-        y: &[f64],
+        (t, y): (f64, &[f64]),
+        adjoints: &mut Adjoints,
         w: f64,
     ) -> Result<Vec<f64>, SensitivityError> {
         let (nv, nc) = (self.model.n_v(), self.model.n_constraints());
         let (q, v) = self.inputs(y);
-        if !response.needs_solution() {
+        let inputs: Vec<Rev> = q.iter().chain(&v).copied().collect();
+        let out = if !response.needs_solution() {
             let psi = response.evaluate(&self.model, t, &q, &v, &vec![Rev::constant(0.0); nc])?;
-            psi.seed(&mut self.adjoints, w);
-            Tape::backpropagate(&mut self.adjoints, self.top);
-            return Ok(self.finish_evaluation(&q, &v));
-        }
-        let sol = sys.solve(t, &y[..q.len()], &y[q.len()..])?;
-        let res = self.model.residual(t, &q, &v, &sol.rows, &sol.x);
-        let residual_top = Tape::len();
-        // the multipliers and accelerations as inputs of their own
-        let x: Vec<Rev> = sol.x.iter().map(|&a| Rev::input(a)).collect();
-        let mut lambda = vec![Rev::constant(0.0); nc];
-        for (a, &r) in sol.rows.iter().enumerate() {
-            lambda[r] = x[nv + a];
-        }
-        let psi = response.evaluate_with(&self.model, t, (&q, &v), &lambda, &x[..nv])?;
-        psi.seed(&mut self.adjoints, w);
-        Tape::backpropagate(&mut self.adjoints, residual_top);
-        let mut mu: Vec<f64> = x.iter().map(|a| a.adjoint(&self.adjoints)).collect();
-        // the response's part is swept: only the residual's remains, seeded with μ = A⁻ᵀ x̄
-        self.adjoints.truncate(residual_top);
-        Tape::rewind(residual_top);
-        sol.lu.solve_in_place(&mut mu);
-        for (r, &m) in res.iter().zip(&mu) {
-            r.seed(&mut self.adjoints, m);
-        }
-        Tape::backpropagate(&mut self.adjoints, self.top);
-        Ok(self.finish_evaluation(&q, &v))
-    }
-
-    /// The adjoint of each datum, in the order [`Model::map`] visits them: the data part of
-    /// the tape swept once, carrying the adjoints accumulated on the invariants to the data.
-    pub fn data_adjoints(&mut self) -> Vec<f64> {
-        let mut adjoints = self.adjoints.clone();
-        Tape::backpropagate(&mut adjoints, self.base);
-        adjoints.resize(self.base + self.n_data, 0.0);
-        adjoints[self.base..self.base + self.n_data].to_vec()
+            psi.seed(&mut adjoints.0, w);
+            self.sweep_into(adjoints, &inputs)
+        } else {
+            let sol = sys.solve(t, &y[..q.len()], &y[q.len()..])?;
+            let res = self.model.residual(t, &q, &v, &sol.rows, &sol.x);
+            let residual_top = Tape::len();
+            // the multipliers and accelerations as inputs of their own
+            let x: Vec<Rev> = sol.x.iter().map(|&a| Rev::input(a)).collect();
+            let mut lambda = vec![Rev::constant(0.0); nc];
+            for (a, &r) in sol.rows.iter().enumerate() {
+                lambda[r] = x[nv + a];
+            }
+            let psi = response.evaluate_with(&self.model, t, (&q, &v), &lambda, &x[..nv])?;
+            psi.seed(&mut adjoints.0, w);
+            Tape::backpropagate(&mut adjoints.0, residual_top);
+            let mut mu: Vec<f64> = x.iter().map(|a| a.adjoint(&adjoints.0)).collect();
+            // the response's part is swept: only the residual's remains, seeded with
+            // μ = A⁻ᵀ x̄
+            adjoints.0.truncate(residual_top);
+            Tape::rewind(residual_top);
+            sol.lu.solve_in_place(&mut mu);
+            for (r, &m) in res.iter().zip(&mu) {
+                r.seed(&mut adjoints.0, m);
+            }
+            self.sweep_into(adjoints, &inputs)
+        };
+        Tape::rewind(self.top);
+        Ok(out)
     }
 }
 
@@ -191,7 +188,7 @@ impl Drop for TapedModel {
 
 /// One evaluation of the right-hand side on the tape ([`TapedModel::record`]).
 pub struct RecordedRhs<'a> {
-    taped: &'a mut TapedModel,
+    taped: &'a TapedModel,
     sol: Solution,
     /// `(q, v)`.
     inputs: Vec<Rev>,
@@ -201,51 +198,42 @@ pub struct RecordedRhs<'a> {
 }
 
 impl RecordedRhs<'_> {
-    /// `f_yᵀ λ`, and `λᵀ f_p` added to the data's adjoints.
+    /// `f_yᵀ λ`, and `λᵀ f_p` added to the data's `adjoints`.
     ///
     /// `λ_vᵀ v̇_p = μᵀ ∂(r − A x̂)/∂p` with `μ = A⁻ᵀ [λ_v; 0]` (one solve with the
     /// factorisation of Eq. 12, whose matrix is symmetric): the reverse of
     /// [`Model::residual`] and [`Model::kinematic_rates`], seeded with `μ` and `λ_q`. Linear
     /// in `λ`: sweeps with `λ₁` and `λ₂` add to the data what one with `λ₁ + λ₂` would.
-    pub fn sweep(&mut self, lambda: &[f64]) -> Vec<f64> {
+    pub fn sweep(&self, adjoints: &mut Adjoints, lambda: &[f64]) -> Vec<f64> {
         let nq = self.qdot.len();
-        let taped = &mut *self.taped;
         let mut mu = vec![0.0; self.sol.x.len()];
         mu[..lambda.len() - nq].copy_from_slice(&lambda[nq..]);
         self.sol.lu.solve_in_place(&mut mu);
         for (r, &m) in self.residual.iter().zip(&mu) {
-            r.seed(&mut taped.adjoints, m);
+            r.seed(&mut adjoints.0, m);
         }
         for (r, &l) in self.qdot.iter().zip(&lambda[..nq]) {
-            r.seed(&mut taped.adjoints, l);
+            r.seed(&mut adjoints.0, l);
         }
-        Tape::backpropagate(&mut taped.adjoints, taped.top);
-        let out = self
-            .inputs
-            .iter()
-            .map(|x| x.adjoint(&taped.adjoints))
-            .collect();
-        taped.adjoints[taped.top..].fill(0.0);
-        out
+        self.taped.sweep_into(adjoints, &self.inputs)
     }
 }
 
 impl Drop for RecordedRhs<'_> {
     fn drop(&mut self) {
-        self.taped.adjoints.truncate(self.taped.top);
         Tape::rewind(self.taped.top);
     }
 }
 
 /// `Σ_i p̄_i ∂p_i/∂b_j` for every design variable `j`: the data's adjoints (in the order
-/// [`Model::map`] visits the data) contracted with their derivatives, the tangents of the
-/// design model's chunks.
+/// [`Model::map_with_invariants`] visits the data) contracted with their derivatives, the
+/// tangents of the design model's chunks (whose invariants are made if not yet).
 pub fn contract_data<const N: usize>(design: &DesignModel<N>, data_adjoints: &[f64]) -> Vec<f64> {
     let mut gradient = vec![0.0; design.n_variables()];
     for (chunk, range) in design.chunk_ranges() {
         let next = Cell::new(0);
         let sums = Cell::new([0.0; N]);
-        let _ = chunk.map(|x: Dual<N>| {
+        let _ = chunk.map_with_invariants(|x: Dual<N>| {
             let i = next.get();
             next.set(i + 1);
             let a = data_adjoints[i];
@@ -360,7 +348,7 @@ impl StepSolver {
         (t, y): (f64, &[f64]),
         c0: f64,
         r: &[f64],
-        recorded: &mut RecordedRhs<'_>,
+        (recorded, adjoints): (&RecordedRhs<'_>, &mut Adjoints),
         stats: &mut AdjointStatistics,
     ) -> Result<Vec<f64>, SensitivityError> {
         if self.exact.is_none() {
@@ -387,7 +375,7 @@ impl StepSolver {
                     "non-finite adjoint at t = {t}"
                 )));
             }
-            let ft_delta = recorded.sweep(&delta);
+            let ft_delta = recorded.sweep(adjoints, &delta);
             stats.sweeps += 1;
             for ((l, f), (d, fd)) in lambda
                 .iter_mut()
@@ -428,20 +416,66 @@ impl StepSolver {
     }
 }
 
-/// The gradient `dJ/db` of `J = Σ_terms Σ_k w_k ψ(t_k)` ([`ObjectiveTerm`]) over `run` (a run
-/// of `sys`'s model from the initial sensitivities `s0`, every accepted step recorded:
-/// [`crate::simulate_steps`] or [`crate::simulate_sensitivities`]) by the discrete adjoint
-/// (module documentation): the derivative of the same discrete solution the direct method
-/// differentiates, at the cost of one backward sweep whatever the number of variables. Its
-/// memory beyond the run's states is a few state vectors (the ring of right-hand sides) and
-/// the tape of one step.
-pub fn adjoint_gradient<const N: usize>(
+/// A sample of an objective's term: `(objective, term, t, w)`.
+type Sample = (usize, usize, f64, f64);
+
+/// The objectives' samples with nonzero weights, by the last recorded point of `run` each
+/// mixes (as [`SensitivityRun::interpolation`]).
+fn samples_by_point(
+    run: &SensitivityRun,
+    objectives: &[Vec<ObjectiveTerm>],
+) -> Result<Vec<Vec<Sample>>, SensitivityError> {
+    let points = run.times.len();
+    let (t0, t1) = (run.times[0], run.times[points - 1]);
+    let mut samples: Vec<Vec<Sample>> = vec![Vec::new(); points];
+    for (a, terms) in objectives.iter().enumerate() {
+        for (b, term) in terms.iter().enumerate() {
+            if term.weights.len() != term.times.len() {
+                return Err(SensitivityError::Response(format!(
+                    "{} weights of {:?} for {} samples",
+                    term.weights.len(),
+                    term.response,
+                    term.times.len()
+                )));
+            }
+            for (&t, &w) in term.times.iter().zip(&term.weights) {
+                if !(t >= t0 && t <= t1) {
+                    return Err(SensitivityError::Response(format!(
+                        "sample at t = {t} outside the run [{t0}, {t1}]"
+                    )));
+                }
+                if w != 0.0 {
+                    samples[run.interpolation(t).0].push((a, b, t, w));
+                }
+            }
+        }
+    }
+    Ok(samples)
+}
+
+/// One objective's backward sweep: the right-hand sides of its adjoints (`rhs[i % RING]`:
+/// `∂J/∂y_i` minus the later steps' formula terms) and its data's adjoints.
+struct Sweep {
+    rhs: Vec<Vec<f64>>,
+    adjoints: Adjoints,
+}
+
+/// The gradients `dJ_a/db` of objectives `J_a = Σ_terms Σ_k w_k ψ(t_k)` (each a list of
+/// [`ObjectiveTerm`]s) over `run` (a run of `sys`'s model from the initial sensitivities `s0`,
+/// every accepted step recorded: [`crate::simulate_steps`] or
+/// [`crate::simulate_sensitivities`]) by the discrete adjoint (module documentation): the
+/// derivatives of the same discrete solution the direct method differentiates, at the cost of
+/// one backward sweep whatever the number of variables. The objectives share each step's
+/// recording and the preconditioner; each adds its own sweeps. The memory beyond the run's
+/// states is a few state vectors per objective (the ring of right-hand sides), its data's
+/// adjoints and the tape of one step.
+pub fn adjoint_gradients<const N: usize>(
     sys: &mut MultibodySystem,
     design: &DesignModel<N>,
     run: &SensitivityRun,
     s0: &DMatrix<f64>,
-    terms: &[ObjectiveTerm],
-) -> Result<(Vec<f64>, AdjointStatistics), SensitivityError> {
+    objectives: &[Vec<ObjectiveTerm>],
+) -> Result<(Vec<Vec<f64>>, AdjointStatistics), SensitivityError> {
     let points = run.times.len();
     let n = run.states[0].len();
     if s0.nrows() != n || s0.ncols() != design.n_variables() {
@@ -452,48 +486,30 @@ pub fn adjoint_gradient<const N: usize>(
             design.n_variables()
         )));
     }
-    // the samples, by the last recorded point each mixes
-    let mut samples: Vec<Vec<(usize, f64, f64)>> = vec![Vec::new(); points];
-    for (a, term) in terms.iter().enumerate() {
-        let (t0, t1) = (run.times[0], run.times[points - 1]);
-        if term.weights.len() != term.times.len() {
-            return Err(SensitivityError::Response(format!(
-                "{} weights of {:?} for {} samples",
-                term.weights.len(),
-                term.response,
-                term.times.len()
-            )));
-        }
-        for (&t, &w) in term.times.iter().zip(&term.weights) {
-            if !(t >= t0 && t <= t1) {
-                return Err(SensitivityError::Response(format!(
-                    "sample at t = {t} outside the run [{t0}, {t1}]"
-                )));
-            }
-            if w != 0.0 {
-                samples[run.interpolation(t).0].push((a, t, w));
-            }
-        }
-    }
-    let mut taped = TapedModel::new(&design.chunks()[0]);
+    let samples = samples_by_point(run, objectives)?;
+    let taped = TapedModel::new(&design.chunks()[0]);
     let mut stats = AdjointStatistics::default();
-    // `rhs[i % RING]`: ∂J/∂y_i minus the later steps' formula terms, the right-hand side of λ_i
-    let mut rhs = vec![vec![0.0; n]; RING];
+    let mut sweeps: Vec<Sweep> = (0..objectives.len())
+        .map(|_| Sweep {
+            rhs: vec![vec![0.0; n]; RING],
+            adjoints: taped.adjoints(),
+        })
+        .collect();
     let mut step = StepSolver::default();
     for i in (0..points).rev() {
-        for &(a, t, w) in &samples[i] {
+        for &(a, b, t, w) in &samples[i] {
             // the response at the interpolated state, its adjoint spread by the weights
             let (i, mix) = run.interpolation(t);
             let mut y = vec![0.0; n];
             for (j, m) in mix.iter().enumerate() {
-                y.iter_mut()
-                    .zip(&run.states[i - j])
-                    .for_each(|(y, x)| *y += m * x);
+                (y.iter_mut().zip(&run.states[i - j])).for_each(|(y, x)| *y += m * x);
             }
-            let g = taped.response_pullback(sys, &terms[a].response, t, &y, w)?;
+            let sweep = &mut sweeps[a];
+            let response = &objectives[a][b].response;
+            let g = taped.response_pullback(sys, response, (t, &y), &mut sweep.adjoints, w)?;
             stats.reverse_evaluations += 1;
             for (j, m) in mix.iter().enumerate() {
-                (rhs[(i - j) % RING].iter_mut())
+                (sweep.rhs[(i - j) % RING].iter_mut())
                     .zip(&g)
                     .for_each(|(r, g)| *r += m * g);
             }
@@ -505,24 +521,31 @@ pub fn adjoint_gradient<const N: usize>(
         let k = run.orders[i];
         let nodes: Vec<f64> = (0..=k).map(|j| run.times[i - j]).collect();
         let c = bdf_coefficients(&nodes);
-        // (c_0 I − f_y)ᵀ λ_i = rhs_i
-        let r = std::mem::replace(&mut rhs[i % RING], vec![0.0; n]);
-        let lambda = {
-            let mut recorded = taped.record(sys, t, y)?;
-            step.solve(sys, (t, y), c[0], &r, &mut recorded, &mut stats)?
-        };
-        for j in 1..=k {
-            (rhs[(i - j) % RING].iter_mut())
-                .zip(&lambda)
-                .for_each(|(r, l)| *r -= c[j] * l);
+        let recorded = taped.record(sys, t, y)?;
+        stats.reverse_evaluations += 1;
+        for sweep in &mut sweeps {
+            // (c_0 I − f_y)ᵀ λ_i = rhs_i
+            let r = std::mem::replace(&mut sweep.rhs[i % RING], vec![0.0; n]);
+            let seen = (&recorded, &mut sweep.adjoints);
+            let lambda = step.solve(sys, (t, y), c[0], &r, seen, &mut stats)?;
+            for j in 1..=k {
+                (sweep.rhs[(i - j) % RING].iter_mut())
+                    .zip(&lambda)
+                    .for_each(|(r, l)| *r -= c[j] * l);
+            }
         }
         stats.steps += 1;
     }
-    let mut gradient = contract_data(design, &taped.data_adjoints());
-    for (j, g) in gradient.iter_mut().enumerate() {
-        *g += s0
-            .column(j)
-            .dot(&nalgebra::DVector::from_column_slice(&rhs[0]));
-    }
-    Ok((gradient, stats))
+    let gradients = sweeps
+        .iter()
+        .map(|sweep| {
+            let mut gradient = contract_data(design, &taped.data_adjoints(&sweep.adjoints));
+            let w0 = nalgebra::DVector::from_column_slice(&sweep.rhs[0]);
+            for (j, g) in gradient.iter_mut().enumerate() {
+                *g += s0.column(j).dot(&w0);
+            }
+            gradient
+        })
+        .collect();
+    Ok((gradients, stats))
 }

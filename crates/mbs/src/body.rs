@@ -480,6 +480,50 @@ pub(crate) struct RotaryInvariants<P: Scalar> {
 }
 
 impl<P: Scalar> RotaryInvariants<P> {
+    fn map<Q: Scalar>(&self, f: &impl Fn(P) -> Q) -> RotaryInvariants<Q> {
+        RotaryInvariants {
+            l: self.l.iter().map(|m| m.map(f)).collect(),
+            s: self.s.iter().map(|m| m.map(f)).collect(),
+        }
+    }
+}
+
+impl<P: Scalar> FieldInvariants<P> {
+    fn map<Q: Scalar>(&self, f: &impl Fn(P) -> Q) -> FieldInvariants<Q> {
+        FieldInvariants {
+            r: self.r.iter().map(|&x| f(x)).collect(),
+            t: self.t.iter().map(|&x| f(x)).collect(),
+        }
+    }
+}
+
+impl<P: Scalar> ModalInvariants<P> {
+    /// The same invariants with their scalars converted, visited in a fixed order (the sums'
+    /// fields in their declared order, each entry by entry; the values `reach` kept).
+    pub(crate) fn map<Q: Scalar>(&self, f: &impl Fn(P) -> Q) -> ModalInvariants<Q> {
+        let m3 = |m: &Matrix3<P>| m.map(f);
+        let v3 = |v: &Vector3<P>| v.map(f);
+        ModalInvariants {
+            n_modes: self.n_modes,
+            total: f(self.total),
+            first: v3(&self.first),
+            inertia: v3(&self.inertia),
+            second: m3(&self.second),
+            mode_first: self.mode_first.iter().map(v3).collect(),
+            mode_cross: self.mode_cross.iter().map(m3).collect(),
+            mode_second: self.mode_second.iter().map(m3).collect(),
+            mode_spin: self.mode_spin.iter().map(v3).collect(),
+            modal_mass: self.modal_mass.iter().map(|&x| f(x)).collect(),
+            field: self.field.as_ref().map(|x| x.map(f)),
+            rotary: self.rotary.as_ref().map(|x| x.map(f)),
+            gram: self.gram.as_ref().map(|x| x.map(f)),
+            reach: self.reach.clone(),
+            field_reach: self.field_reach.clone(),
+        }
+    }
+}
+
+impl<P: Scalar> RotaryInvariants<P> {
     fn new(modal: &ModalBody<P>) -> Self {
         let nm = modal.n_modes();
         let mut r = Self {

@@ -65,6 +65,20 @@ fn pair(nf: usize, j: usize, l: usize) -> usize {
 }
 
 impl<P: Scalar> FieldGram<P> {
+    /// The same table with its scalars converted, in a fixed order.
+    pub(crate) fn map<Q: Scalar>(&self, f: &impl Fn(P) -> Q) -> FieldGram<Q> {
+        FieldGram {
+            n_modes: self.n_modes,
+            field_modes: self.field_modes,
+            total: f(self.total),
+            first: self.first.iter().map(|v| v.map(f)).collect(),
+            gram: self.gram.iter().map(|m| m.map(f)).collect(),
+            trace: self.trace.iter().map(|&x| f(x)).collect(),
+        }
+    }
+}
+
+impl<P: Scalar> FieldGram<P> {
     /// The basis size `B`.
     fn size(&self) -> usize {
         1 + self.n_modes + self.field_modes * (self.field_modes + 1) / 2

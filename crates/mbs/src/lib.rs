@@ -110,7 +110,10 @@ mod sensitivity;
 mod system;
 mod tolerance;
 
-pub use adjoint::{AdjointStatistics, ObjectiveTerm, TapedModel, adjoint_gradient, contract_data};
+pub use adjoint::{
+    AdjointStatistics, Adjoints, ObjectiveTerm, RecordedRhs, TapedModel, adjoint_gradients,
+    contract_data,
+};
 pub use bdf::{
     AcceptedStep, Bdf, BdfOptions, IntegrationError, IntegrationFailure, JACOBIAN_AGE,
     NewtonMatrix, NoExtension, OdeSystem, RhsError, STABILITY_GROWTH, Statistics, StepControl,

@@ -496,16 +496,22 @@ impl<P: Scalar> Model<P> {
         }
     }
 
-    /// Make every flexible body's inertia invariants now rather than at the first evaluation
-    /// (they are cached, computed from the modal data: on a taped scalar they must lie in the
-    /// part of the tape that outlives each evaluation, [`crate::TapedModel`]).
-    pub fn cache_invariants(&self) {
-        for s in &self.bodies {
+    /// [`Model::map`] with the flexible bodies' inertia invariants (made from the data, cached
+    /// at the first evaluation) converted too rather than made again from the converted data:
+    /// `f` visits the data in [`Model::map`]'s order, then each flexible body's invariants in
+    /// the bodies' order. On the reverse-mode tape the invariants are then inputs of their own
+    /// ([`crate::TapedModel`]), their derivatives those of this model's.
+    pub fn map_with_invariants<Q: Scalar>(&self, f: impl Fn(P) -> Q) -> Model<Q> {
+        let out = self.map(&f);
+        for (s, o) in self.bodies.iter().zip(&out.bodies) {
             if let Body::Flexible(b) = &s.body {
-                s.invariants
+                let inv = s
+                    .invariants
                     .get_or_init(|| ModalInvariants::new(&b.modal, b.geometric.as_deref()));
+                let _ = o.invariants.set(inv.map(&f));
             }
         }
+        out
     }
 
     /// The model with its parameters as plain values.

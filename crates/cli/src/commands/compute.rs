@@ -75,12 +75,7 @@ pub(crate) fn compute(
         .map(|i| outputs.iter().map(|o| mech.value(i, o)).collect())
         .collect();
     let history_error = history_error(src, mech, &values);
-    let objectives = sensitivity::objectives(
-        src,
-        mech,
-        &values,
-        sens.as_ref().map(|s| s.responses.as_slice()),
-    )?;
+    let objectives = sensitivity::objectives(src, mech, &values, sens.as_ref())?;
     let fd = match &sens {
         Some(s) => {
             sensitivity::finite_differences(src, mech, &system, &state, &s.replay, progress)?

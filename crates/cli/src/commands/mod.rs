@@ -1,5 +1,6 @@
 //! The subcommands of `flexsens`.
 
+mod adjoint;
 pub mod check;
 pub mod compare;
 mod compute;

@@ -262,6 +262,14 @@ fn put_statistics(g: &mut Group, mech: &Mechanism, c: &Computed) {
             ("sensitivity_corrector_iterations", ss.corrector_iterations),
             ("sensitivity_direct_solves", ss.direct_solves),
         ]);
+        if let Some((_, a)) = &s.adjoint {
+            counters.extend([
+                ("adjoint_steps", a.steps),
+                ("adjoint_recordings", a.reverse_evaluations),
+                ("adjoint_sweeps", a.sweeps),
+                ("adjoint_jacobians", a.jacobians),
+            ]);
+        }
     }
     for (k, v) in counters {
         g.group("statistics")
@@ -386,9 +394,10 @@ pub(crate) fn history_csv(mech: &Mechanism, c: &Computed) -> String {
 }
 
 /// `sensitivities.csv`: time and `d(response)/d(variable)` for every response that has
-/// sensitivities and every design variable.
+/// sensitivities and every design variable (none with the adjoint method, which computes the
+/// objectives' gradients only).
 pub(crate) fn sensitivities_csv(mech: &Mechanism, c: &Computed) -> Option<String> {
-    let s = c.sensitivities.as_ref()?;
+    let s = c.sensitivities.as_ref().filter(|s| s.adjoint.is_none())?;
     let vars = &mech.design.variables;
     let mut head = vec!["time [s]".to_string()];
     let mut columns = Vec::new();
@@ -518,11 +527,24 @@ pub(crate) fn summary(
                         noise.insert(name.clone(), json!(ratio));
                     }
                 }
+                // each objective's gradient against the differences of its value
+                let objectives: serde_json::Map<_, _> = (c.objectives.iter())
+                    .zip(&case.objectives)
+                    .filter(|(o, d)| !o.gradient.is_empty() && o.gradient.len() == d.len())
+                    .map(|(o, d)| {
+                        let scale = o.gradient.iter().fold(0.0f64, |m, g| m.max(g.abs()));
+                        let diff = (o.gradient.iter().zip(d))
+                            .fold(0.0f64, |m, (g, f)| m.max((g - f).abs()));
+                        let rel = if scale > 0.0 { diff / scale } else { diff };
+                        (o.name.clone(), json!(rel))
+                    })
+                    .collect();
                 json!({
                     "case": case.label,
                     "max_relative_difference": worst,
                     "max_absolute": absolute,
                     "relative_noise": noise,
+                    "objectives": objectives,
                 })
             })
             .collect();

@@ -35,6 +35,9 @@ pub(crate) struct Sensitivities {
     pub(crate) frequencies: Vec<(String, DMatrix<f64>)>,
     /// Options that replay the run's steps (finite differences of the discrete solution).
     pub(crate) replay: BdfOptions,
+    /// With `sensitivity.method = "adjoint"`: per objective of the deck, its gradient (empty
+    /// for an objective of a response without sensitivities), and the backward sweeps' work.
+    pub(crate) adjoint: Option<(Vec<Vec<f64>>, mbs::AdjointStatistics)>,
 }
 
 fn runtime(src: &Source, m: impl std::fmt::Display) -> CliError {
@@ -167,6 +170,9 @@ fn analyse_chunked<const N: usize>(
         SensitivityScheme::Direct => SensitivityOptions::default(),
         SensitivityScheme::Corrector => SensitivityOptions::corrector(),
         SensitivityScheme::Simultaneous => SensitivityOptions::simultaneous(),
+        SensitivityScheme::Adjoint => {
+            return super::adjoint::analyse(src, mech, system, state, &design, frequencies);
+        }
     };
     options.error_control = mech.design.error_control;
     let (t0, t_end) = (mech.times[0], *mech.times.last().expect("output times"));
@@ -180,17 +186,7 @@ fn analyse_chunked<const N: usize>(
         &options,
     )
     .map_err(|e| runtime(src, e))?;
-    // Newton of the replayed steps converges to `newton_tol` of the error weights
-    // `atol + rtol |y|`: tight, but not below round-off when the tolerances are tiny (the
-    // fixed-step integrator's are 1e-10 and 1e-12). The weights' absolute part is at most the
-    // deck's `atol` on every component: displacement weights (`error_weights`) leave rates
-    // and modal coordinates looser by ω or √m, and a replay converged only to those differs
-    // from the discrete solution by more than the differences resolve
-    let newton_tol = (1e-12 / mech.options.rtol).clamp(1e-6, 1e-2);
-    let atol: Vec<f64> = (mech.options.atol.iter())
-        .map(|a| a.min(mech.displacement_tolerance))
-        .collect();
-    let replay = run.replay_options(mech.options.rtol, &atol, newton_tol);
+    let replay = replay_options(mech, &run);
     let sampled = run.resample(&mech.times);
     let outputs = sampled
         .times
@@ -218,7 +214,23 @@ fn analyse_chunked<const N: usize>(
         responses,
         frequencies,
         replay,
+        adjoint: None,
     })
+}
+
+/// Options that replay `run`'s steps for the finite differences of the discrete solution.
+pub(crate) fn replay_options(mech: &Mechanism, run: &mbs::SensitivityRun) -> BdfOptions {
+    // Newton of the replayed steps converges to `newton_tol` of the error weights
+    // `atol + rtol |y|`: tight, but not below round-off when the tolerances are tiny (the
+    // fixed-step integrator's are 1e-10 and 1e-12). The weights' absolute part is at most the
+    // deck's `atol` on every component: displacement weights (`error_weights`) leave rates
+    // and modal coordinates looser by ω or √m, and a replay converged only to those differs
+    // from the discrete solution by more than the differences resolve
+    let newton_tol = (1e-12 / mech.options.rtol).clamp(1e-6, 1e-2);
+    let atol: Vec<f64> = (mech.options.atol.iter())
+        .map(|a| a.min(mech.displacement_tolerance))
+        .collect();
+    run.replay_options(mech.options.rtol, &atol, newton_tol)
 }
 
 /// A computed objective.
@@ -236,17 +248,21 @@ pub(crate) struct ObjectiveResult {
 }
 
 /// The deck's objectives of the response histories `values` (one per response, at the output
-/// times) with their gradients from `gradients` when given.
+/// times) with their gradients from the sensitivities when given: of the response histories,
+/// or the adjoint method's.
 pub(crate) fn objectives(
     src: &Source,
     mech: &Mechanism,
     values: &[Vec<f64>],
-    gradients: Option<&[Option<DMatrix<f64>>]>,
+    sens: Option<&Sensitivities>,
 ) -> Result<Vec<ObjectiveResult>, CliError> {
+    let gradients = sens.map(|s| s.responses.as_slice());
+    let adjoint = sens.and_then(|s| s.adjoint.as_ref()).map(|a| &a.0);
     mech.design
         .objectives
         .iter()
-        .map(|o| {
+        .enumerate()
+        .map(|(k, o)| {
             let i = mech
                 .responses
                 .iter()
@@ -268,7 +284,7 @@ pub(crate) fn objectives(
                 window: o.window,
                 value: v.value,
                 time: v.time,
-                gradient: v.gradient,
+                gradient: adjoint.map_or(v.gradient, |a| a[k].clone()),
             })
         })
         .collect()
@@ -549,9 +565,18 @@ pub(crate) fn fd_summary_text(summary: &serde_json::Value) -> String {
     if let Some(cases) = summary["finite_differences"].as_array()
         && !cases.is_empty()
     {
+        // the adjoint method gives the objectives' gradients alone
+        let adjoint = cases.iter().all(|c| {
+            (c["max_relative_difference"].as_object()).is_none_or(|m| m.is_empty())
+                && (c["objectives"].as_object()).is_some_and(|m| !m.is_empty())
+        });
         let _ = writeln!(
             s,
-            "finite differences: largest |FD − direct| / max |direct| per response"
+            "finite differences: {}",
+            match adjoint {
+                true => "largest |FD − adjoint| / max |adjoint| per objective",
+                false => "largest |FD − direct| / max |direct| per response",
+            }
         );
         let mut unresolved = false;
         for case in cases {
@@ -574,6 +599,14 @@ pub(crate) fn fd_summary_text(summary: &serde_json::Value) -> String {
                         .join(", ")
                 })
                 .unwrap_or_default();
+            // without response sensitivities (the adjoint method): the objectives' gradients
+            let worst = match worst.is_empty() {
+                true => (case["objectives"].as_object().into_iter().flatten())
+                    .map(|(k, v)| format!("objective {k} {:.2e}", v.as_f64().unwrap_or(f64::NAN)))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                false => worst,
+            };
             let _ = writeln!(s, "  {:<36} {worst}", case["case"].as_str().unwrap_or(""));
         }
         if unresolved {

@@ -686,6 +686,7 @@ pub fn validate(
         method: match method {
             Some("corrector") => SensitivityScheme::Corrector,
             Some("direct") => SensitivityScheme::Direct,
+            Some("adjoint") => SensitivityScheme::Adjoint,
             _ => SensitivityScheme::Simultaneous,
         },
         fixed_modes: modes == Some("fixed"),

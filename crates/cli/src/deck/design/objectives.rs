@@ -56,6 +56,9 @@ pub enum SensitivityScheme {
     Corrector,
     /// Simultaneous corrector inside the state's Newton iteration (the cheapest; the default).
     Simultaneous,
+    /// The discrete adjoint (`mbs::adjoint_gradient`): the objectives' gradients only, each by
+    /// one backward sweep whatever the number of variables; no response sensitivities.
+    Adjoint,
 }
 
 impl SensitivityScheme {
@@ -65,6 +68,7 @@ impl SensitivityScheme {
             Self::Direct => "direct",
             Self::Corrector => "corrector",
             Self::Simultaneous => "simultaneous",
+            Self::Adjoint => "adjoint",
         }
     }
 }
