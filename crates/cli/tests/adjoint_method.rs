@@ -151,3 +151,43 @@ fn the_finite_difference_check_compares_the_adjoint_objective_gradients() {
         );
     }
 }
+
+#[test]
+fn an_optimisation_reads_the_same_gradients_from_the_adjoint() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(common::deck("optimize_beam_layup.toml"))
+        .unwrap()
+        .replace("max_evaluations = 60", "max_evaluations = 3")
+        .replace(
+            "starts = [[45.0, -45.0, -45.0, 45.0], [60.0, 30.0, -30.0, -60.0]]",
+            "starts = [[45.0, -45.0, -45.0, 45.0]]",
+        );
+    let path = dir.path().join("layup.toml");
+    std::fs::write(&path, text).unwrap();
+    // the first evaluation's objective gradient norm (iterations.csv), by each method
+    let norm = |method: &str| {
+        let out = dir.path().join(method);
+        let o = common::run(&[
+            "optimize",
+            path.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--quiet",
+            "--set",
+            T_END,
+            "--set",
+            &format!("sensitivity.method=\"{method}\""),
+        ]);
+        assert!(o.status.success() || o.status.code() == Some(1), "{o:?}");
+        let csv = std::fs::read_to_string(out.join("iterations.csv")).unwrap();
+        let head: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+        let col = (head.iter()).position(|h| *h == "gradient_norm").unwrap();
+        let row: Vec<&str> = csv.lines().nth(1).unwrap().split(',').collect();
+        row[col].parse::<f64>().unwrap()
+    };
+    let (direct, adjoint) = (norm("direct"), norm("adjoint"));
+    assert!(
+        (direct - adjoint).abs() < 1e-8 * direct,
+        "gradient norms: direct {direct}, adjoint {adjoint}"
+    );
+}

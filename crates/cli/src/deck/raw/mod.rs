@@ -366,8 +366,8 @@ pub struct RawSensitivity {
     /// `false` skips the sensitivities (e.g. in a sweep); default `true` when the deck declares
     /// design variables.
     pub enabled: Option<Spanned<bool>>,
-    /// `"simultaneous"` (default), `"direct"` (exact derivative of the discrete solution) or
-    /// `"corrector"`.
+    /// `"simultaneous"` (default), `"direct"` (exact derivative of the discrete solution),
+    /// `"corrector"` or `"adjoint"` (the objectives' gradients alone).
     pub method: Option<Spanned<String>>,
     /// Mode derivatives: `"updated"` (default) or `"fixed"`.
     pub modes: Option<Spanned<String>>,
