@@ -3,11 +3,8 @@
 //! sweep per objective whatever the number of design variables, the same numbers as the
 //! direct method's. The responses' sensitivity histories are not computed.
 
-use nalgebra::DMatrix;
-
 use mbs::{DesignModel, MultibodySystem, ObjectiveTerm, State};
 
-use super::sensitivity::{Sensitivities, replay_options};
 use crate::deck::Source;
 use crate::error::CliError;
 use crate::study::Mechanism;
@@ -19,17 +16,28 @@ fn runtime(src: &Source, m: impl std::fmt::Display) -> CliError {
     }
 }
 
+/// What the adjoint method computed.
+pub(crate) struct AdjointRun {
+    /// The run, every accepted step recorded.
+    pub(crate) run: mbs::SensitivityRun,
+    /// The outputs at the deck's output times.
+    pub(crate) outputs: Vec<mbs::Output>,
+    /// Per objective of the deck, its gradient (empty for an objective of a response without
+    /// sensitivities).
+    pub(crate) gradients: Vec<Vec<f64>>,
+    pub(crate) statistics: mbs::AdjointStatistics,
+}
+
 /// The analysis from the assembled `state` and the gradient of every objective of the deck by
 /// the adjoint method, with the design model's chunks `design` (their tangents are the design
-/// derivatives of the model's data) and each flexible body's frequency derivatives.
+/// derivatives of the model's data).
 pub(crate) fn analyse<const N: usize>(
     src: &Source,
     mech: &Mechanism,
     system: &mut MultibodySystem,
     state: &State,
     design: &DesignModel<N>,
-    frequencies: Vec<(String, DMatrix<f64>)>,
-) -> Result<Sensitivities, CliError> {
+) -> Result<AdjointRun, CliError> {
     let (t0, t_end) = (mech.times[0], *mech.times.last().expect("output times"));
     let run = mbs::simulate_steps(system, state, t0, t_end, mech.options.clone())
         .map_err(|e| runtime(src, e))?;
@@ -68,13 +76,10 @@ pub(crate) fn analyse<const N: usize>(
             g.clear();
         }
     }
-    Ok(Sensitivities {
+    Ok(AdjointRun {
+        run,
         outputs,
-        statistics: run.statistics,
-        sensitivity_statistics: Default::default(),
-        responses: vec![None; mech.responses.len()],
-        frequencies,
-        replay: replay_options(mech, &run),
-        adjoint: Some((gradients, statistics)),
+        gradients,
+        statistics,
     })
 }

@@ -171,7 +171,16 @@ fn analyse_chunked<const N: usize>(
         SensitivityScheme::Corrector => SensitivityOptions::corrector(),
         SensitivityScheme::Simultaneous => SensitivityOptions::simultaneous(),
         SensitivityScheme::Adjoint => {
-            return super::adjoint::analyse(src, mech, system, state, &design, frequencies);
+            let a = super::adjoint::analyse(src, mech, system, state, &design)?;
+            return Ok(Sensitivities {
+                outputs: a.outputs,
+                statistics: a.run.statistics,
+                sensitivity_statistics: Default::default(),
+                responses: vec![None; mech.responses.len()],
+                frequencies,
+                replay: replay_options(mech, &a.run),
+                adjoint: Some((a.gradients, a.statistics)),
+            });
         }
     };
     options.error_control = mech.design.error_control;
