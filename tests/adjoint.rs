@@ -4,7 +4,8 @@
 //! steps, and against central differences of the discrete solution on replayed steps.
 
 use flexsens_tests::{
-    Design, Ids, RodOptions, assembled, perturbed, slider_crank, slider_crank_design,
+    Design, Ids, RodOptions, adjoint_integral, assembled, perturbed, slider_crank,
+    slider_crank_design,
 };
 use mbs::{
     BdfOptions, DesignModel, MultibodySystem, Objective, ObjectiveTerm, OdeSystem, Response,
@@ -157,17 +158,8 @@ fn adjoint_gradients_equal_the_direct_methods_for_every_objective_kind() {
 fn adjoint_gradients_equal_central_differences_of_the_discrete_solution() {
     let (dm, mut sys, state, ids) = model();
     let run = simulate_steps(&mut sys, &state, 0.0, T_END, options()).unwrap();
-    let s0 = initial_sensitivities(&sys, &dm, 0.0, &state).unwrap();
     let response = ids.mid_deflection();
-    let values = response_values(&sys, &run.times, &run.states, &response).unwrap();
-    let weights = Objective::Integral.weights(&run.times, &values).unwrap();
-    let term = ObjectiveTerm {
-        response: response.clone(),
-        times: run.times.clone(),
-        weights: weights.weights,
-    };
-    let (adjoint, _) = adjoint_gradients(&mut sys, &dm, &run, &s0, &[vec![term]]).unwrap();
-    let adjoint = &adjoint[0];
+    let adjoint = &adjoint_integral(&mut sys, &dm, (&run, &state), &response);
     // each perturbed design on the nominal run's steps (the discrete solution's derivative)
     let replay = run.replay_options(1e-6, &[1e-9], 1e-7);
     let integral = |angles: &[f64]| {

@@ -436,3 +436,25 @@ pub fn perturbed(
     sys.assemble(0.0, &mut state, 1e-13).expect("assembly");
     (sys, state)
 }
+
+/// The gradient of the integral of `response` over the recorded points of `run` (a run of
+/// `sys` from its assembled `state`) by the adjoint method.
+pub fn adjoint_integral<const N: usize>(
+    sys: &mut MultibodySystem,
+    design: &DesignModel<N>,
+    (run, state): (&mbs::SensitivityRun, &State),
+    response: &Response,
+) -> Vec<f64> {
+    let s0 = mbs::initial_sensitivities(sys, design, run.times[0], state).unwrap();
+    let values = mbs::response_values(sys, &run.times, &run.states, response).unwrap();
+    let weights = mbs::Objective::Integral
+        .weights(&run.times, &values)
+        .unwrap();
+    let term = mbs::ObjectiveTerm {
+        response: response.clone(),
+        times: run.times.clone(),
+        weights: weights.weights,
+    };
+    let (mut g, _) = mbs::adjoint_gradients(sys, design, run, &s0, &[vec![term]]).unwrap();
+    g.remove(0)
+}

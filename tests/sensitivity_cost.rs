@@ -14,11 +14,11 @@
 use std::time::{Duration, Instant};
 
 use criterion::Criterion;
-use flexsens_tests::{Design, RodOptions, assembled, perturbed, slider_crank, slider_crank_design};
+use flexsens_tests::{
+    Design, RodOptions, adjoint_integral, assembled, perturbed, slider_crank, slider_crank_design,
+};
 use mbs::{
-    BdfOptions, MultibodySystem, Objective, ObjectiveTerm, SensitivityOptions, State,
-    adjoint_gradients, initial_sensitivities, response_values, simulate_sensitivities,
-    simulate_steps,
+    BdfOptions, MultibodySystem, SensitivityOptions, State, simulate_sensitivities, simulate_steps,
 };
 
 const T_END: f64 = 0.02;
@@ -71,15 +71,7 @@ fn adjoint_case<const W: usize>(n: usize) -> Box<dyn FnMut()> {
     let response = ids.mid_deflection();
     Box::new(move || {
         let run = simulate_steps(&mut sys, &state, 0.0, T_END, options()).unwrap();
-        let s0 = initial_sensitivities(&sys, &dm, 0.0, &state).unwrap();
-        let values = response_values(&sys, &run.times, &run.states, &response).unwrap();
-        let weights = Objective::Integral.weights(&run.times, &values).unwrap();
-        let term = ObjectiveTerm {
-            response: response.clone(),
-            times: run.times.clone(),
-            weights: weights.weights,
-        };
-        let (g, _) = adjoint_gradients(&mut sys, &dm, &run, &s0, &[vec![term]]).unwrap();
+        let g = adjoint_integral(&mut sys, &dm, (&run, &state), &response);
         std::hint::black_box(g);
     })
 }

@@ -58,6 +58,12 @@
 //! - [`Response`] (body positions, nodal displacements, the mid-node deflection, reaction
 //!   forces, state components) → [`response_history`] (values and `dψ/db`, Eq. 39) →
 //!   [`Objective`] (integral, mean, RMS, max/min with time, value at a time) with gradients.
+//! - The discrete adjoint ([`adjoint_gradients`], docs/design.md §3): the gradients of
+//!   objectives of a recorded run ([`simulate_steps`]) by a backward sweep over its steps,
+//!   whatever the number of variables — the model's data and invariants inputs of a
+//!   reverse-mode tape ([`TapedModel`], [`sens::Rev`]), their adjoints contracted with the
+//!   design model's tangents ([`contract_data`]); each objective's samples weighted by
+//!   [`Objective::weights_in`].
 //! - Finite differences for comparison ([`finite_differences`], [`simulate_response`]) on
 //!   independent adaptive runs or on the nominal step sequence replayed
 //!   ([`SensitivityRun::replay_options`], [`StepControl::Replay`]).
