@@ -1,10 +1,11 @@
-//! The discrete adjoint of a run: the gradient of one objective with respect to every design
-//! variable by one backward sweep over the accepted steps (docs/design.md §3, "The adjoint
-//! method").
+//! The discrete adjoint of a run: the gradients of objectives with respect to every design
+//! variable, each by one backward sweep over the accepted steps (docs/design.md §3, "The
+//! adjoint method").
 //!
 //! The forward run takes, at step `n` of order `k`, `Σ_{j=0..k} c_{n,j} y_{n−j} = f(y_n, b)`.
-//! For an objective `J = Σ_n Σ_r w_{r,n} ψ_r(t_n, y_n, b)` of response histories on its
-//! recorded points, the adjoints `λ_n` solve, from the last step back,
+//! For an objective `J = Σ_k w_k ψ(t_k, ỹ_k, b)` of responses sampled at times `t_k` of the run
+//! (`ỹ_k` the interpolated state there, a combination of recorded states), the adjoints `λ_n`
+//! solve, from the last step back,
 //!
 //! ```text
 //! (c_{n,0} I − f_y(y_n))ᵀ λ_n = ∂J/∂y_n − Σ_{m>n} c_{m,m−n} λ_m
