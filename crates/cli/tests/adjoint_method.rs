@@ -191,3 +191,32 @@ fn an_optimisation_reads_the_same_gradients_from_the_adjoint() {
         "gradient norms: direct {direct}, adjoint {adjoint}"
     );
 }
+
+#[test]
+fn the_adjoint_without_objectives_warns_that_it_computes_nothing() {
+    let text = std::fs::read_to_string(common::deck("slider_crank_beam.toml")).unwrap();
+    let start = text.find("[objective.peak_deflection]").unwrap();
+    let end = text.find("[sensitivity]").unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("none.toml");
+    std::fs::write(&path, format!("{}{}", &text[..start], &text[end..])).unwrap();
+    let out = dir.path().join("out");
+    let o = common::run(&[
+        "run",
+        path.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--set",
+        T_END,
+        "--set",
+        "sensitivity.method=\"adjoint\"",
+        "--set",
+        "finite_differences.enabled=false",
+    ]);
+    assert!(o.status.success(), "{o:?}");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("sensitivity.method") && err.contains("declares none"),
+        "{err}"
+    );
+}

@@ -38,6 +38,15 @@ pub(crate) fn analyse<const N: usize>(
     state: &State,
     design: &DesignModel<N>,
 ) -> Result<AdjointRun, CliError> {
+    if mech.design.objectives.is_empty() {
+        src.warn(
+            None,
+            Some("sensitivity.method".into()),
+            "the adjoint method gives the gradients of the deck's objectives, and it declares \
+             none: the run computes no sensitivities (declare an [objective.*] table, or use \
+             another method for the responses' sensitivities)",
+        );
+    }
     let (t0, t_end) = (mech.times[0], *mech.times.last().expect("output times"));
     let run = mbs::simulate_steps(system, state, t0, t_end, mech.options.clone())
         .map_err(|e| runtime(src, e))?;
