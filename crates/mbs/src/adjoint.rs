@@ -153,8 +153,8 @@ impl TapedModel {
             psi.seed(&mut adjoints.0, w);
             self.sweep_into(adjoints, &inputs)
         } else {
-            let sol = sys.solve(t, &y[..q.len()], &y[q.len()..])?;
-            let res = self.model.residual(t, &q, &v, &sol.rows, &sol.x);
+            // Eq. (12) solved with the values of the recorded residual (one evaluation)
+            let (sol, res, _) = sys.solve_dual(&self.model, t, &q, &v)?;
             let residual_top = Tape::len();
             // the multipliers and accelerations as inputs of their own
             let x: Vec<Rev> = sol.x.iter().map(|&a| Rev::input(a)).collect();
@@ -417,8 +417,9 @@ impl StepSolver {
     }
 }
 
-/// A sample of an objective's term: `(objective, term, t, w)`.
-type Sample = (usize, usize, f64, f64);
+/// A sample of an objective's term: `(objective, term, t, w, mix)`, its state `Σ_j mix_j
+/// y_{i−j}` for the recorded point `i` it is filed under (`SensitivityRun::interpolation`).
+type Sample = (usize, usize, f64, f64, Vec<f64>);
 
 /// The objectives' samples with nonzero weights, by the last recorded point of `run` each
 /// mixes (as [`SensitivityRun::interpolation`]).
@@ -446,7 +447,8 @@ fn samples_by_point(
                     )));
                 }
                 if w != 0.0 {
-                    samples[run.interpolation(t).0].push((a, b, t, w));
+                    let (i, mix) = run.interpolation(t);
+                    samples[i].push((a, b, t, w, mix));
                 }
             }
         }
@@ -498,9 +500,9 @@ pub fn adjoint_gradients<const N: usize>(
         .collect();
     let mut step = StepSolver::default();
     for i in (0..points).rev() {
-        for &(a, b, t, w) in &samples[i] {
+        for (a, b, t, w, mix) in &samples[i] {
+            let (a, b, t, w) = (*a, *b, *t, *w);
             // the response at the interpolated state, its adjoint spread by the weights
-            let (i, mix) = run.interpolation(t);
             let mut y = vec![0.0; n];
             for (j, m) in mix.iter().enumerate() {
                 (y.iter_mut().zip(&run.states[i - j])).for_each(|(y, x)| *y += m * x);

@@ -532,10 +532,9 @@ pub(crate) fn summary(
                     .zip(&case.objectives)
                     .filter(|(o, d)| !o.gradient.is_empty() && o.gradient.len() == d.len())
                     .map(|(o, d)| {
-                        let scale = o.gradient.iter().fold(0.0f64, |m, g| m.max(g.abs()));
-                        let diff = (o.gradient.iter().zip(d))
-                            .fold(0.0f64, |m, (g, f)| m.max((g - f).abs()));
-                        let rel = if scale > 0.0 { diff / scale } else { diff };
+                        // as the responses': per variable, relative to the gradient
+                        let row = |x: &[f64]| nalgebra::DMatrix::from_row_slice(1, x.len(), x);
+                        let rel = sensitivity::relative_difference(&row(d), &row(&o.gradient));
                         (o.name.clone(), json!(rel))
                     })
                     .collect();
