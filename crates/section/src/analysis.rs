@@ -639,7 +639,8 @@ impl SectionAnalysis {
         design.validate(&self.model.mesh)?;
         let mut out = vec![Vec::new(); design.variables.len()];
         for range in chunk_ranges(design.variables.len(), N) {
-            let (angles, c_bar, nodes) = self.seeded::<N>(design, range.clone());
+            let vars: Vec<usize> = range.clone().collect();
+            let (angles, c_bar, nodes) = self.seeded::<N>(design, &vars);
             let q_ply = ply_stiffnesses(&angles, &c_bar);
             // the central solutions' tangents once (at the moved Gauss points when a thickness
             // moves nodes), then each case's recovery
@@ -739,9 +740,9 @@ impl SectionAnalysis {
     }
 
     /// [`SectionAnalysis::sensitivities`], the compliance derivatives by the adjoints
-    /// (`adjoint`: of all chunks whose variables leave the nodes in place at once, and with
-    /// dual geometry for a chunk with a variable that moves nodes) or by dual numbers through
-    /// the solves (the oracle of the tests).
+    /// (`adjoint`: of all the variables that leave the nodes in place at once, and with dual
+    /// geometry for those that move nodes, `N` at a time; a variable that moves nothing of the
+    /// section costs nothing) or by dual numbers through the solves (the oracle of the tests).
     fn sensitivities_by<const N: usize>(
         &self,
         design: &DesignMap,
@@ -751,14 +752,20 @@ impl SectionAnalysis {
         design.validate(&self.model.mesh)?;
         let m = design.variables.len();
         let integrals = self.model.region_mass_integrals(&self.model.gps);
-        // The compliance derivatives of the chunks whose variables all leave the nodes in
-        // place, all at once by the adjoints; a chunk with a variable that moves nodes takes
-        // the adjoints with dual geometry, all its variables with it.
-        let moves_nodes = |v: usize| !design.variables[v].nodes.is_empty();
-        let fixed_geometry: Vec<usize> = chunk_ranges(m, N)
-            .filter(|range| adjoint && !range.clone().any(moves_nodes))
-            .flatten()
-            .collect();
+        // A variable that moves nothing of this section (another segment's ply, say) has zero
+        // derivatives and costs nothing. With the adjoints, the compliance derivatives of all
+        // the variables that leave the nodes in place come at once; those that move nodes take
+        // the adjoints with dual geometry, gathered in chunks of their own (each chunk is one
+        // dual pass over the section). Without them (the tests' oracle), every variable in
+        // chunks in order, through the solves.
+        let var = |v: usize| &design.variables[v];
+        let (fixed_geometry, moving): (Vec<usize>, Vec<usize>) = if adjoint {
+            (0..m)
+                .filter(|&v| !var(v).is_empty())
+                .partition(|&v| var(v).nodes.is_empty())
+        } else {
+            (Vec::new(), (0..m).collect())
+        };
         let mut d_compliance: Vec<Option<Matrix6<f64>>> = vec![None; m];
         for (&v, d) in fixed_geometry
             .iter()
@@ -767,8 +774,8 @@ impl SectionAnalysis {
             d_compliance[v] = Some(d);
         }
         let mut derivatives = vec![SectionProperties::default(); m];
-        for range in chunk_ranges(m, N) {
-            // Dual densities: tangent k of region r is dρ_r/db of variable start + k.
+        for vars in fixed_geometry.chunks(N).chain(moving.chunks(N)) {
+            // Dual densities: tangent k of region r is dρ_r/db of variable vars[k].
             let mut density: Vec<Dual<N>> = self
                 .model
                 .mesh
@@ -776,14 +783,14 @@ impl SectionAnalysis {
                 .iter()
                 .map(|r| Dual::constant(r.material.density()))
                 .collect();
-            for (k, v) in range.clone().enumerate() {
-                for &(r, drho) in &design.variables[v].densities {
+            for (k, &v) in vars.iter().enumerate() {
+                for &(r, drho) in &var(v).densities {
                     density[r].d[k] += drho;
                 }
             }
-            let (mass, compliance) = if range.clone().all(|v| d_compliance[v].is_some()) {
+            let (mass, compliance) = if vars.iter().all(|&v| d_compliance[v].is_some()) {
                 let mut f = self.properties.compliance.map(Dual::<N>::constant);
-                for (k, v) in range.clone().enumerate() {
+                for (k, &v) in vars.iter().enumerate() {
                     let d = d_compliance[v].as_ref().expect("checked above");
                     for (x, dx) in f.iter_mut().zip(d.iter()) {
                         x.d[k] = *dx;
@@ -791,11 +798,11 @@ impl SectionAnalysis {
                 }
                 (MassProperties::scaled_sum(&integrals, &density), f)
             } else {
-                self.mass_and_compliance_dual(design, range.clone(), &density, &integrals, adjoint)
+                self.mass_and_compliance_dual(design, vars, &density, &integrals, adjoint)
             };
             let props =
                 Props::from_compliance(compliance).ok_or(SectionError::SingularCompliance)?;
-            for (k, v) in range.enumerate() {
+            for (k, &v) in vars.iter().enumerate() {
                 derivatives[v] = SectionProperties::from_props(&props, &mass, |s| s.d[k]);
             }
         }
@@ -806,7 +813,7 @@ impl SectionAnalysis {
         })
     }
 
-    /// The mass properties and the compliance of the variables `range` as dual numbers, the
+    /// The mass properties and the compliance of the variables `vars` as dual numbers, the
     /// geometry dual when a variable moves nodes: the compliance's tangents by the adjoints
     /// with the dual geometry ([`SectionAnalysis::compliance_adjoint_dual`], `adjoint` and a
     /// variable that moves nodes) or through the solves
@@ -815,12 +822,12 @@ impl SectionAnalysis {
     fn mass_and_compliance_dual<const N: usize>(
         &self,
         design: &DesignMap,
-        range: std::ops::Range<usize>,
+        vars: &[usize],
         density: &[Dual<N>],
         integrals: &[MassProperties],
         adjoint: bool,
     ) -> (MassProperties<Dual<N>>, Matrix6<Dual<N>>) {
-        let (angles, c_bar, nodes) = self.seeded(design, range);
+        let (angles, c_bar, nodes) = self.seeded(design, vars);
         if let Some(nodes) = nodes {
             // Node coordinates carry their velocities dX/db: the geometry, the mass
             // integrals and the (lifted) fields are dual.
@@ -860,12 +867,12 @@ impl SectionAnalysis {
 
     /// The regions' ply angles and material stiffnesses, and when a variable moves nodes the
     /// node coordinates, as dual numbers whose tangent `k` is the derivative along variable
-    /// `range.start + k` of `design`.
+    /// `vars[k]` of `design`.
     #[allow(clippy::type_complexity)]
     fn seeded<const N: usize>(
         &self,
         design: &DesignMap,
-        range: std::ops::Range<usize>,
+        vars: &[usize],
     ) -> (
         Vec<Dual<N>>,
         Vec<Matrix6<Dual<N>>>,
@@ -877,7 +884,7 @@ impl SectionAnalysis {
             .collect();
         let mut c_bar: Vec<Matrix6<Dual<N>>> =
             m.c_bar.iter().map(|c| c.map(Dual::constant)).collect();
-        for (k, v) in range.clone().enumerate() {
+        for (k, &v) in vars.iter().enumerate() {
             for &(r, factor) in &design.variables[v].links {
                 angles[r].d[k] += factor;
             }
@@ -887,12 +894,12 @@ impl SectionAnalysis {
                 }
             }
         }
-        if !range.clone().any(|v| !design.variables[v].nodes.is_empty()) {
+        if vars.iter().all(|&v| design.variables[v].nodes.is_empty()) {
             return (angles, c_bar, None);
         }
         let mut nodes: Vec<[Dual<N>; 2]> =
             m.mesh.nodes.iter().map(|p| p.map(Dual::constant)).collect();
-        for (k, v) in range.enumerate() {
+        for (k, &v) in vars.iter().enumerate() {
             for &(n, dx) in &design.variables[v].nodes {
                 nodes[n][0].d[k] += dx[0];
                 nodes[n][1].d[k] += dx[1];

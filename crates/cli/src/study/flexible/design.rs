@@ -4,10 +4,11 @@
 use super::*;
 use crate::deck::design::Target;
 
-/// [`section::analyse_with_derivatives`] in chunks no wider than the map's variables: the work
-/// of a dual number grows with its width, and the results do not depend on it (in `Dual<8>` a
-/// deck with one angle would do eight times the tangent work it needs, at the nominal design
-/// and at each of Dailey's perturbed designs of a variable that splits a repeated pair).
+/// [`section::analyse_with_derivatives`] in chunks no wider than the variables that move the
+/// section: the work of a dual number grows with its width, and the results do not depend on
+/// it (in `Dual<8>` a deck with one angle would do eight times the tangent work it needs, at
+/// the nominal design and at each of Dailey's perturbed designs of a variable that splits a
+/// repeated pair; a segment of a tailored beam is moved by its own plies' variables alone).
 pub fn section_derivatives(
     mesh: &section::SectionMesh,
     map: &section::DesignMap,
@@ -20,7 +21,11 @@ pub fn section_derivatives_of(
     analysis: &section::SectionAnalysis,
     map: &section::DesignMap,
 ) -> Result<section::SectionSensitivities, section::SectionError> {
-    match map.variables.len() {
+    // the analysis takes the variables that move nodes in chunks of their own
+    let moving = |v: &&section::DesignVariable| !v.nodes.is_empty();
+    let touching = map.variables.iter().filter(|v| !v.is_empty());
+    let (moving, fixed) = (touching.clone().filter(moving).count(), touching.count());
+    match moving.max(fixed - moving) {
         0 | 1 => analysis.sensitivities::<1>(map),
         2 => analysis.sensitivities::<2>(map),
         3 | 4 => analysis.sensitivities::<4>(map),
