@@ -220,3 +220,32 @@ fn the_adjoint_without_objectives_warns_that_it_computes_nothing() {
         "{err}"
     );
 }
+
+/// `sensitivity.method = "auto"`: the adjoint for the tailored rod's 128 variables and one
+/// objective, the simultaneous method for the beam deck's one variable and two objectives
+/// (named in the results' `/sensitivities` group either way).
+#[test]
+fn auto_takes_the_adjoint_for_many_variables_per_objective() {
+    let dir = tempfile::tempdir().unwrap();
+    let method_of = |deck: &str, t_end: &str| {
+        let out = dir.path().join(deck);
+        let sets = [
+            t_end,
+            "sensitivity.method=\"auto\"",
+            "finite_differences.enabled=false",
+        ];
+        let (_, h5) = run_results(&common::deck(deck), &out, &sets);
+        let method = match h5.groups["sensitivities"].attrs.get("method") {
+            Some(Attr::Text(m)) => m.clone(),
+            other => panic!("{deck}: {other:?}"),
+        };
+        (method, out.join("sensitivities.csv").exists())
+    };
+    let (method, csv) = method_of("optimize_tailored_rod.toml", "analysis.t_end=0.002");
+    assert_eq!((method.as_str(), csv), ("adjoint, updated modes", false));
+    let (method, csv) = method_of("slider_crank_beam.toml", T_END);
+    assert_eq!(
+        (method.as_str(), csv),
+        ("simultaneous, updated modes", true)
+    );
+}

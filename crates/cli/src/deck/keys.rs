@@ -122,7 +122,7 @@ choices! {
     OBJECTIVE_KIND: "[objective.NAME]", "objective.NAME.kind",
         ["integral", "mean", "rms", "max", "min", "final", "ks", "at"];
     SENSITIVITY_METHOD: "[sensitivity]", "sensitivity.method",
-        ["direct", "simultaneous", "corrector", "adjoint"];
+        ["direct", "simultaneous", "corrector", "adjoint", "auto"];
     SENSITIVITY_MODES: "[sensitivity]", "sensitivity.modes", ["updated", "fixed"];
     FD_SCHEME: "[finite_differences]", "finite_differences.scheme", ["forward", "central"];
     FD_PERTURBATION: "[finite_differences]", "finite_differences.perturbation",

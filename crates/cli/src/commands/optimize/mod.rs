@@ -26,7 +26,9 @@ use nalgebra::{DMatrix, DVector};
 use sens::Dual;
 
 use crate::deck::bodies::BodyDef;
-use crate::deck::design::{DesignDef, DesignVariable, validate as validate_design};
+use crate::deck::design::{
+    DesignDef, DesignVariable, SensitivityScheme, validate as validate_design,
+};
 use crate::deck::laminates::{LaminateModel, validate as validate_laminates};
 use crate::deck::operating::OperatingDef;
 use crate::deck::optimize::{Bound, OptimizeDef, Quantity, validate as validate_optimize};
@@ -179,8 +181,10 @@ fn setup<'a>(path: &'a Path, overrides: &'a [String]) -> Result<(Problem<'a>, bo
         let mut study = Mechanism::validate(&src, &raw, true)?;
         study.design.finite_differences = None;
         let method_given = (raw.sensitivity.as_ref()).is_some_and(|s| s.get_ref().method.is_some());
-        if !method_given && adjoint_is_cheaper(&study) {
-            study.design.method = crate::deck::design::SensitivityScheme::Adjoint;
+        if !method_given {
+            let (variables, objectives) =
+                (study.design.variables.len(), study.design.objectives.len());
+            study.design.method = SensitivityScheme::cheaper(variables, objectives);
         }
         Some(study)
     } else {
@@ -338,19 +342,3 @@ pub fn run(
     }
     finish(&problem, mechanism, &rows, &statuses, &out, interrupted)
 }
-
-/// Whether the adjoint method gives the run's objectives' gradients for less than the default
-/// (simultaneous) method gives every response's sensitivities: measured on the paper's beam
-/// deck (docs/performance.md), the direct sensitivities cost about 0.3 analyses per variable
-/// and the adjoint about 5 per objective whatever the number of variables (the run computes
-/// every objective of the deck).
-fn adjoint_is_cheaper(study: &Mechanism) -> bool {
-    let variables = study.design.variables.len() as f64;
-    let objectives = study.design.objectives.len() as f64;
-    ADJOINT_ANALYSES * objectives < DIRECT_ANALYSES * variables
-}
-
-/// The adjoint method's cost per objective, in analyses ([`adjoint_is_cheaper`]).
-const ADJOINT_ANALYSES: f64 = 5.0;
-/// The simultaneous direct method's cost per variable, in analyses.
-const DIRECT_ANALYSES: f64 = 0.3;

@@ -681,14 +681,9 @@ pub fn validate(
         ));
     }
     Ok(DesignDef {
+        method: SensitivityScheme::of_deck(method, variables.len(), objectives.len()),
         variables,
         enabled,
-        method: match method {
-            Some("corrector") => SensitivityScheme::Corrector,
-            Some("direct") => SensitivityScheme::Direct,
-            Some("adjoint") => SensitivityScheme::Adjoint,
-            _ => SensitivityScheme::Simultaneous,
-        },
         fixed_modes: modes == Some("fixed"),
         error_control: s
             .and_then(|s| s.error_control.as_ref())

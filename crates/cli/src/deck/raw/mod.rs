@@ -367,7 +367,8 @@ pub struct RawSensitivity {
     /// design variables.
     pub enabled: Option<Spanned<bool>>,
     /// `"simultaneous"` (default), `"direct"` (exact derivative of the discrete solution),
-    /// `"corrector"` or `"adjoint"` (the objectives' gradients alone).
+    /// `"corrector"`, `"adjoint"` (the objectives' gradients alone) or `"auto"` (the adjoint
+    /// where it is the cheaper, else `"simultaneous"`).
     pub method: Option<Spanned<String>>,
     /// Mode derivatives: `"updated"` (default) or `"fixed"`.
     pub modes: Option<Spanned<String>>,
