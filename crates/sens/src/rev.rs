@@ -29,7 +29,10 @@ use crate::Scalar;
 /// Index of no node: a constant, or a node's missing second argument.
 const NONE: u32 = u32::MAX;
 
-/// One operation: the result's partial derivatives with respect to its arguments.
+/// One operation: the result's partial derivatives with respect to its arguments. A missing
+/// argument (an input's, a unary operation's second, a constant's) is the node itself with a
+/// zero partial: the sweep adds `0 · adjoint` to an adjoint it has already passed on, so it runs
+/// without a branch.
 #[derive(Clone, Copy)]
 struct Node {
     args: [u32; 2],
@@ -47,6 +50,7 @@ fn push(args: [u32; 2], partials: [f64; 2]) -> u32 {
         let index = t.len();
         // 2³² nodes would take 96 GiB: memory runs out first
         debug_assert!(index < NONE as usize, "the reverse-mode tape is full");
+        let args = args.map(|a| if a == NONE { index as u32 } else { a });
         t.push(Node { args, partials });
         index as u32
     })
@@ -85,16 +89,11 @@ impl Tape {
             let t = t.borrow();
             adjoints.resize(t.len().max(adjoints.len()), 0.0);
             for i in (down_to..t.len()).rev() {
+                // (a zero adjoint adds zeros: cheaper than a branch on it)
                 let a = adjoints[i];
-                if a == 0.0 {
-                    continue;
-                }
                 let node = &t[i];
-                for (&arg, &d) in node.args.iter().zip(&node.partials) {
-                    if arg != NONE {
-                        adjoints[arg as usize] += a * d;
-                    }
-                }
+                adjoints[node.args[0] as usize] += a * node.partials[0];
+                adjoints[node.args[1] as usize] += a * node.partials[1];
             }
         });
     }
