@@ -166,20 +166,10 @@ fn an_optimisation_reads_the_same_gradients_from_the_adjoint() {
     std::fs::write(&path, text).unwrap();
     // the first evaluation's objective gradient norm (iterations.csv), by each method
     let norm = |method: &str| {
+        let m = format!("sensitivity.method=\"{method}\"");
         let out = dir.path().join(method);
-        let o = common::run(&[
-            "optimize",
-            path.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-            "--quiet",
-            "--set",
-            T_END,
-            "--set",
-            &format!("sensitivity.method=\"{method}\""),
-        ]);
+        let (o, csv) = common::optimize_iterations(&path, &out, &[T_END, &m]);
         assert!(o.status.success() || o.status.code() == Some(1), "{o:?}");
-        let csv = std::fs::read_to_string(out.join("iterations.csv")).unwrap();
         let head: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
         let col = (head.iter()).position(|h| *h == "gradient_norm").unwrap();
         let row: Vec<&str> = csv.lines().nth(1).unwrap().split(',').collect();

@@ -109,20 +109,9 @@ fn the_optimiser_moves_material_to_mid_span_and_turns_its_fibres_axial() {
         text.replace("elements_around = 32", "elements_around = 16"),
     )
     .unwrap();
-    let out = dir.path().join("opt");
-    let o = common::run(&[
-        "optimize",
-        path.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--quiet",
-        "--set",
-        T_END,
-        "--set",
-        "optimize.max_evaluations=15",
-    ]);
+    let sets = [T_END, "optimize.max_evaluations=15"];
+    let (o, csv) = common::optimize_iterations(&path, &dir.path().join("opt"), &sets);
     assert!(o.status.success(), "{o:?}");
-    let csv = std::fs::read_to_string(out.join("iterations.csv")).unwrap();
     let head: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
     let rows: Vec<Vec<f64>> = (csv.lines().skip(1))
         .map(|l| {

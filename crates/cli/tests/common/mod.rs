@@ -85,6 +85,24 @@ pub fn with_deck(command: &str, deck: &Path, extra: &[&str]) -> Vec<String> {
     a
 }
 
+/// `flexsens optimize path -o out --quiet` with `--set` of each of `sets`: the process's
+/// output and its `iterations.csv` (empty if it wrote none).
+pub fn optimize_iterations(path: &Path, out: &Path, sets: &[&str]) -> (Output, String) {
+    let mut args = vec![
+        "optimize",
+        path.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ];
+    args.push("--quiet");
+    for s in sets {
+        args.extend(["--set", s]);
+    }
+    let o = run(&args);
+    let csv = std::fs::read_to_string(out.join("iterations.csv")).unwrap_or_default();
+    (o, csv)
+}
+
 /// Whether h5py can be imported; CI must have it (a missing h5py there fails the test instead
 /// of skipping it).
 pub fn h5py_available() -> bool {
