@@ -56,6 +56,15 @@ impl DesignMap {
         Self::default()
     }
 
+    /// The most variables [`crate::SectionAnalysis::sensitivities`] takes in one chunk: it
+    /// skips those that move nothing and takes those that move nodes in chunks of their own,
+    /// so a width beyond this number only adds tangents that stay zero.
+    pub fn widest_chunk(&self) -> usize {
+        let moves = self.variables.iter().filter(|v| !v.is_empty());
+        let moving_nodes = moves.clone().filter(|v| !v.nodes.is_empty()).count();
+        moving_nodes.max(moves.count() - moving_nodes)
+    }
+
     /// One variable per region, each driving its own region's ply angle.
     pub fn each_region(mesh: &SectionMesh) -> Self {
         DesignMap {

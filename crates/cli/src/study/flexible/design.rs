@@ -21,11 +21,7 @@ pub fn section_derivatives_of(
     analysis: &section::SectionAnalysis,
     map: &section::DesignMap,
 ) -> Result<section::SectionSensitivities, section::SectionError> {
-    // the analysis takes the variables that move nodes in chunks of their own, and skips
-    // those that move nothing
-    let moves = map.variables.iter().filter(|v| !v.is_empty());
-    let moving_nodes = moves.clone().filter(|v| !v.nodes.is_empty()).count();
-    match moving_nodes.max(moves.count() - moving_nodes) {
+    match map.widest_chunk() {
         0 | 1 => analysis.sensitivities::<1>(map),
         2 => analysis.sensitivities::<2>(map),
         3 | 4 => analysis.sensitivities::<4>(map),
