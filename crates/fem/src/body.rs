@@ -757,9 +757,11 @@ where
         let p = props(&seeded);
         let (kv, mv) = assembly.values(mesh, &p, element, mass)?;
         for t in 0..range.len() {
+            // the entries the variable moves (a segment's or region's variable: its
+            // elements'), not the whole pattern's zeros
             out.push(DesignMatrices {
-                k: assembly.tangent_matrix(&kv, t),
-                m: assembly.tangent_matrix(&mv, t),
+                k: crate::eigen::without_zeros(&assembly.tangent_matrix(&kv, t)),
+                m: crate::eigen::without_zeros(&assembly.tangent_matrix(&mv, t)),
             });
         }
     }

@@ -33,12 +33,19 @@ pub struct DesignBodies<const N: usize> {
 }
 
 impl<const N: usize> DesignBodies<N> {
-    /// `∂f/∂b` of the retained eigenmodes (Hz per unit of each variable; rows: the modes of
-    /// [`ModalAnalysis::kept`], columns: the variables).
+    /// `∂f/∂b` of the retained eigenmodes ([`ModeDerivatives::frequency_derivatives`]).
+    pub fn frequency_derivatives(&self, analysis: &ModalAnalysis) -> DMatrix<f64> {
+        self.derivatives.frequency_derivatives(analysis)
+    }
+}
+
+impl ModeDerivatives {
+    /// `∂f/∂b` of `analysis`'s retained eigenmodes (Hz per unit of each variable; rows: the
+    /// modes of [`ModalAnalysis::kept`], columns: the variables).
     pub fn frequency_derivatives(&self, analysis: &ModalAnalysis) -> DMatrix<f64> {
         let kept = &analysis.kept;
-        let mut df = DMatrix::zeros(kept.len(), self.derivatives.eigenvalues.len());
-        for (j, dl) in self.derivatives.eigenvalues.iter().enumerate() {
+        let mut df = DMatrix::zeros(kept.len(), self.eigenvalues.len());
+        for (j, dl) in self.eigenvalues.iter().enumerate() {
             for (k, &i) in kept.iter().enumerate() {
                 let (l, d) = (analysis.pairs.values[i], dl[i]);
                 // f = √λ / 2π ⇒ df = dλ / (4π √λ)
@@ -71,22 +78,9 @@ where
     let mut chunks = Vec::new();
     let mut seeded_properties = Vec::new();
     for range in chunk_ranges(b.len(), N) {
-        let mut body = modal_body_dual::<N>(
-            mesh,
-            properties,
-            analysis,
-            &matrices,
-            &derivatives,
-            range.start,
-            update,
-        )?;
-        let seeded = props(&seed_chunk::<N>(b, range.start));
-        let (m, mu) = lumped_nodal_masses(mesh, &seeded, &analysis.options.element)?;
-        // the mesh's nodes; the couplings' nodes after them carry no mass
-        for (k, (m, mu)) in m.into_iter().zip(mu).enumerate() {
-            body.node_masses[k] = m;
-            body.node_inertias[k] = Vector3::new(mu[0], mu[1], mu[2]);
-        }
+        let chunk = (matrices.as_slice(), &derivatives, range.start);
+        let (body, seeded) =
+            design_body_chunk(mesh, properties, analysis, b, chunk, &mut props, update)?;
         chunks.push(body);
         seeded_properties.push(seeded);
     }
@@ -96,4 +90,41 @@ where
         derivatives,
         matrices,
     })
+}
+
+/// One chunk's dual modal body of [`design_bodies`], from the derivatives of all variables
+/// ([`analysis_derivatives`]) `(matrices, derivatives)` and the chunk's first variable: its
+/// tangents are the derivatives with respect to the `N` variables from there, its lumped
+/// masses and inertias evaluated on the chunk's seeded design; with the element properties of
+/// that design. A caller that needs one chunk at a time (an adjoint contraction) builds them
+/// so instead of keeping all.
+pub fn design_body_chunk<const N: usize, F>(
+    mesh: &Mesh,
+    properties: &Properties<f64>,
+    analysis: &ModalAnalysis,
+    b: &[f64],
+    (matrices, derivatives, start): (&[DesignMatrices], &ModeDerivatives, usize),
+    mut props: F,
+    update: ModeUpdate,
+) -> Result<(ModalBody<Dual<N>>, Properties<Dual<N>>), FemError>
+where
+    F: FnMut(&[Dual<N>]) -> Properties<Dual<N>>,
+{
+    let mut body = modal_body_dual::<N>(
+        mesh,
+        properties,
+        analysis,
+        matrices,
+        derivatives,
+        start,
+        update,
+    )?;
+    let seeded = props(&seed_chunk::<N>(b, start));
+    let (m, mu) = lumped_nodal_masses(mesh, &seeded, &analysis.options.element)?;
+    // the mesh's nodes; the couplings' nodes after them carry no mass
+    for (k, (m, mu)) in m.into_iter().zip(mu).enumerate() {
+        body.node_masses[k] = m;
+        body.node_inertias[k] = Vector3::new(mu[0], mu[1], mu[2]);
+    }
+    Ok((body, seeded))
 }

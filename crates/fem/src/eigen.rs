@@ -109,8 +109,9 @@ pub fn spmv_columns(a: &SparseColMat<usize, f64>, x: &[f64], y: &mut [f64], cols
 }
 
 /// `a` without its stored zeros (a consistent shell mass on the stiffness pattern stores the
-/// translation–rotation couplings as zeros): the same products at a fraction of the reads.
-fn without_zeros(a: &SparseColMat<usize, f64>) -> SparseColMat<usize, f64> {
+/// translation–rotation couplings as zeros; a variable of one segment or region moves the
+/// entries of its elements alone): the same products at a fraction of the reads and memory.
+pub(crate) fn without_zeros(a: &SparseColMat<usize, f64>) -> SparseColMat<usize, f64> {
     let cp = a.symbolic().col_ptr();
     let ri = a.symbolic().row_idx();
     let val = a.val();

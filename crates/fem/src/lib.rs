@@ -67,7 +67,7 @@ pub use body::{
 };
 pub use completeness::{Completeness, InterfaceLoads, LoadCase, static_completeness};
 pub use correction::{Coupling, Distribution, StaticCorrection, distribution};
-pub use design_body::{DesignBodies, design_bodies};
+pub use design_body::{DesignBodies, design_bodies, design_body_chunk};
 pub use eigen::{EigenMethod, EigenOptions, Eigenpairs, lowest_modes, lowest_modes_of_nodes};
 pub use error::FemError;
 pub use geometric::{FieldElement, GeometricStiffness, geometric_stiffness, second_order_field};

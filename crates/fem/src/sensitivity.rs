@@ -24,9 +24,9 @@ use crate::error::FemError;
 /// Derivative matrices for one design variable.
 #[derive(Clone, Debug)]
 pub struct DesignMatrices {
-    /// `∂K/∂b` on the assembly pattern.
+    /// `∂K/∂b`: the entries of the assembly pattern it moves.
     pub k: SparseColMat<usize, f64>,
-    /// `∂M/∂b` on the assembly pattern (zero for ply angles).
+    /// `∂M/∂b`: the entries of the assembly pattern it moves (none for ply angles).
     pub m: SparseColMat<usize, f64>,
 }
 
