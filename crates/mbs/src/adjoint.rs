@@ -23,7 +23,7 @@
 
 use std::cell::Cell;
 
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, DVector};
 use sens::{DenseLu, Dual, Rev, Scalar, Tape};
 
 use crate::bdf::{OdeSystem, bdf_coefficients};
@@ -232,27 +232,33 @@ impl Drop for RecordedRhs<'_> {
 pub fn contract_data<const N: usize>(design: &DesignModel<N>, data_adjoints: &[f64]) -> Vec<f64> {
     let mut gradient = vec![0.0; design.n_variables()];
     for (chunk, range) in design.chunk_ranges() {
-        let next = Cell::new(0);
-        let sums = Cell::new([0.0; N]);
-        let _ = chunk.map_with_invariants(|x: Dual<N>| {
-            let i = next.get();
-            next.set(i + 1);
-            let a = data_adjoints[i];
-            if a != 0.0 {
-                let mut s = sums.get();
-                for (sk, dk) in s.iter_mut().zip(&x.d) {
-                    *sk += a * dk;
-                }
-                sums.set(s);
-            }
-            x.v
-        });
-        assert_eq!(next.get(), data_adjoints.len(), "data of another model");
+        let sums = contract_chunk(chunk, data_adjoints);
         for (k, j) in range.enumerate() {
-            gradient[j] = sums.get()[k];
+            gradient[j] = sums[k];
         }
     }
     gradient
+}
+
+/// [`contract_data`] for one chunk: `Σ_i p̄_i ∂p_i/∂b_k` for its `N` tangent directions.
+fn contract_chunk<const N: usize>(chunk: &Model<Dual<N>>, data_adjoints: &[f64]) -> [f64; N] {
+    let next = Cell::new(0);
+    let sums = Cell::new([0.0; N]);
+    let _ = chunk.map_with_invariants(|x: Dual<N>| {
+        let i = next.get();
+        next.set(i + 1);
+        let a = data_adjoints[i];
+        if a != 0.0 {
+            let mut s = sums.get();
+            for (sk, dk) in s.iter_mut().zip(&x.d) {
+                *sk += a * dk;
+            }
+            sums.set(s);
+        }
+        x.v
+    });
+    assert_eq!(next.get(), data_adjoints.len(), "data of another model");
+    sums.get()
 }
 
 /// One term of an objective: `Σ_k w_k ψ(t_k)` for a response `ψ` sampled at times `t_k`
@@ -468,10 +474,8 @@ struct Sweep {
 /// every accepted step recorded: [`crate::simulate_steps`] or
 /// [`crate::simulate_sensitivities`]) by the discrete adjoint (module documentation): the
 /// derivatives of the same discrete solution the direct method differentiates, at the cost of
-/// one backward sweep whatever the number of variables. The objectives share each step's
-/// recording and the preconditioner; each adds its own sweeps. The memory beyond the run's
-/// states is a few state vectors per objective (the ring of right-hand sides), its data's
-/// adjoints and the tape of one step.
+/// one backward sweep whatever the number of variables ([`adjoint_sweep`], then
+/// [`AdjointSweep::gradients`] of every chunk of `design`).
 pub fn adjoint_gradients<const N: usize>(
     sys: &mut MultibodySystem,
     design: &DesignModel<N>,
@@ -479,7 +483,6 @@ pub fn adjoint_gradients<const N: usize>(
     s0: &DMatrix<f64>,
     objectives: &[Vec<ObjectiveTerm>],
 ) -> Result<(Vec<Vec<f64>>, AdjointStatistics), SensitivityError> {
-    let points = run.times.len();
     let n = run.states[0].len();
     if s0.nrows() != n || s0.ncols() != design.n_variables() {
         return Err(SensitivityError::Layout(format!(
@@ -489,8 +492,70 @@ pub fn adjoint_gradients<const N: usize>(
             design.n_variables()
         )));
     }
+    let sweep = adjoint_sweep(sys, &design.chunks()[0], run, objectives)?;
+    let mut gradients = vec![vec![0.0; design.n_variables()]; objectives.len()];
+    for (chunk, range) in design.chunk_ranges() {
+        let s0 = s0.columns(range.start, range.len()).into_owned();
+        for (g, chunk_g) in gradients.iter_mut().zip(sweep.gradients(chunk, &s0)) {
+            g[range.clone()].copy_from_slice(&chunk_g);
+        }
+    }
+    Ok((gradients, sweep.statistics))
+}
+
+/// What the backward sweep of [`adjoint_sweep`] leaves for the gradients: per objective, the
+/// adjoints of the model's data and of the initial state; contracted with any chunk of design
+/// variables' derivatives ([`Self::gradients`]), one chunk at a time if the caller builds them
+/// so (the memory of one chunk's dual model instead of all).
+#[derive(Clone, Debug)]
+pub struct AdjointSweep {
+    /// Per objective, `p̄`: the adjoint of each datum of the model.
+    data: Vec<Vec<f64>>,
+    /// Per objective, `w_0 = ∂J/∂y_0 − Σ_m c_{m,m} λ_m`: the adjoint of the initial state.
+    initial: Vec<DVector<f64>>,
+    /// The sweep's work.
+    pub statistics: AdjointStatistics,
+}
+
+impl AdjointSweep {
+    /// Per objective, its gradient with respect to a chunk's variables: `chunk` a model of the
+    /// swept system's layout whose tangents are the derivatives of its data with respect to
+    /// those variables, `s0` their initial sensitivities (`n × k`, `k ≤ N` the chunk's
+    /// variables: [`crate::initial_sensitivities`] of a one-chunk [`DesignModel`]).
+    pub fn gradients<const N: usize>(
+        &self,
+        chunk: &Model<Dual<N>>,
+        s0: &DMatrix<f64>,
+    ) -> Vec<Vec<f64>> {
+        let k = s0.ncols().min(N);
+        (self.data.iter().zip(&self.initial))
+            .map(|(data, w0)| {
+                let sums = contract_chunk(chunk, data);
+                (0..k).map(|j| sums[j] + s0.column(j).dot(w0)).collect()
+            })
+            .collect()
+    }
+}
+
+/// The backward sweep of the discrete adjoint over `run` (a run of `sys`'s model, every
+/// accepted step recorded: [`crate::simulate_steps`] or [`crate::simulate_sensitivities`]) for
+/// objectives `J_a = Σ_terms Σ_k w_k ψ(t_k)` (each a list of [`ObjectiveTerm`]s), at the data
+/// of `model` (module documentation): `sys`'s model with the layout of the design chunks the
+/// sweep will be contracted with (one of them: their data are what the adjoints are of). No
+/// design variable enters; [`AdjointSweep::gradients`] turns the sweep into the gradients. The objectives share each step's recording and the
+/// preconditioner; each adds its own sweeps. The memory beyond the run's states is a few state
+/// vectors per objective (the ring of right-hand sides), its data's adjoints and the tape of
+/// one step.
+pub fn adjoint_sweep<P: Scalar>(
+    sys: &mut MultibodySystem,
+    model: &Model<P>,
+    run: &SensitivityRun,
+    objectives: &[Vec<ObjectiveTerm>],
+) -> Result<AdjointSweep, SensitivityError> {
+    let points = run.times.len();
+    let n = run.states[0].len();
     let samples = samples_by_point(run, objectives)?;
-    let taped = TapedModel::new(&design.chunks()[0]);
+    let taped = TapedModel::new(model);
     let mut stats = AdjointStatistics::default();
     let mut sweeps: Vec<Sweep> = (0..objectives.len())
         .map(|_| Sweep {
@@ -539,16 +604,13 @@ pub fn adjoint_gradients<const N: usize>(
         }
         stats.steps += 1;
     }
-    let gradients = sweeps
-        .iter()
-        .map(|sweep| {
-            let mut gradient = contract_data(design, &taped.data_adjoints(&sweep.adjoints));
-            let w0 = nalgebra::DVector::from_column_slice(&sweep.rhs[0]);
-            for (j, g) in gradient.iter_mut().enumerate() {
-                *g += s0.column(j).dot(&w0);
-            }
-            gradient
-        })
-        .collect();
-    Ok((gradients, stats))
+    Ok(AdjointSweep {
+        data: (sweeps.iter())
+            .map(|sweep| taped.data_adjoints(&sweep.adjoints))
+            .collect(),
+        initial: (sweeps.iter())
+            .map(|sweep| DVector::from_column_slice(&sweep.rhs[0]))
+            .collect(),
+        statistics: stats,
+    })
 }

@@ -62,7 +62,9 @@
 //!   objectives of a recorded run ([`simulate_steps`]) by a backward sweep over its steps,
 //!   whatever the number of variables — the model's data and invariants inputs of a
 //!   reverse-mode tape ([`TapedModel`], [`sens::Rev`]), their adjoints contracted with the
-//!   design model's tangents ([`contract_data`]); each objective's samples weighted by
+//!   design model's tangents ([`contract_data`]); or the sweep alone ([`adjoint_sweep`]) and
+//!   its contraction one chunk of variables at a time ([`AdjointSweep::gradients`]), so that
+//!   only one chunk's dual model need exist; each objective's samples weighted by
 //!   [`Objective::weights_in`].
 //! - Finite differences for comparison ([`finite_differences`], [`simulate_response`]) on
 //!   independent adaptive runs or on the nominal step sequence replayed
@@ -117,8 +119,8 @@ mod system;
 mod tolerance;
 
 pub use adjoint::{
-    AdjointStatistics, Adjoints, ObjectiveTerm, RecordedRhs, TapedModel, adjoint_gradients,
-    contract_data,
+    AdjointStatistics, AdjointSweep, Adjoints, ObjectiveTerm, RecordedRhs, TapedModel,
+    adjoint_gradients, adjoint_sweep, contract_data,
 };
 pub use bdf::{
     AcceptedStep, Bdf, BdfOptions, IntegrationError, IntegrationFailure, JACOBIAN_AGE,
