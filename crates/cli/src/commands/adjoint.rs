@@ -5,6 +5,8 @@
 
 use mbs::{DesignModel, MultibodySystem, ObjectiveTerm, State};
 
+use super::sensitivity::DualChunks;
+
 use crate::deck::Source;
 use crate::error::CliError;
 use crate::study::Mechanism;
@@ -29,14 +31,15 @@ pub(crate) struct AdjointRun {
 }
 
 /// The analysis from the assembled `state` and the gradient of every objective of the deck by
-/// the adjoint method, with the design model's chunks `design` (their tangents are the design
-/// derivatives of the model's data).
+/// the adjoint method: the backward sweep at the model's data, then its contraction with the
+/// design derivatives of the data, one chunk of `N` variables of `chunks` at a time (built,
+/// contracted and dropped: the memory of one chunk's dual model).
 pub(crate) fn analyse<const N: usize>(
     src: &Source,
     mech: &Mechanism,
     system: &mut MultibodySystem,
     state: &State,
-    design: &DesignModel<N>,
+    chunks: &DualChunks<N>,
 ) -> Result<AdjointRun, CliError> {
     if mech.design.objectives.is_empty() {
         src.warn(
@@ -55,7 +58,6 @@ pub(crate) fn analyse<const N: usize>(
         .map(|(&t, y)| system.output(t, y))
         .collect::<Result<Vec<_>, _>>()
         .map_err(|e| runtime(src, e))?;
-    let s0 = mbs::initial_sensitivities(system, design, t0, state).map_err(|e| runtime(src, e))?;
     // each differentiable objective's terms (one: its response on the output times)
     let mut objectives = Vec::new();
     for o in &mech.design.objectives {
@@ -77,12 +79,37 @@ pub(crate) fn analyse<const N: usize>(
             weights: weights.weights,
         }]);
     }
-    let (mut gradients, statistics) =
-        mbs::adjoint_gradients(system, design, &run, &s0, &objectives)
+    let m = mech.design.variables.len();
+    let mut gradients = vec![Vec::new(); objectives.len()];
+    let mut statistics = mbs::AdjointStatistics::default();
+    if objectives.iter().any(|terms| !terms.is_empty()) {
+        // the data the adjoints are of: the first chunk's (its values are the model's)
+        let ranges = chunks.ranges();
+        let mut first = Some(chunks.chunk(&ranges[0])?);
+        let taped_model = first.as_ref().expect("first chunk");
+        let sweep = mbs::adjoint_sweep(system, taped_model, &run, &objectives)
             .map_err(|e| runtime(src, e))?;
-    for (g, terms) in gradients.iter_mut().zip(&objectives) {
-        if terms.is_empty() {
-            g.clear();
+        statistics = sweep.statistics;
+        // an objective of a response without sensitivities keeps an empty gradient
+        for (g, terms) in gradients.iter_mut().zip(&objectives) {
+            if !terms.is_empty() {
+                g.resize(m, 0.0);
+            }
+        }
+        for range in ranges {
+            let chunk = match first.take() {
+                Some(chunk) => chunk,
+                None => chunks.chunk(&range)?,
+            };
+            let design = DesignModel::new(vec![chunk], range.len()).map_err(|e| runtime(src, e))?;
+            let s0 = mbs::initial_sensitivities(system, &design, t0, state)
+                .map_err(|e| runtime(src, e))?;
+            let chunk_gradients = sweep.gradients(&design.chunks()[0], &s0);
+            for (g, chunk_g) in gradients.iter_mut().zip(chunk_gradients) {
+                if !g.is_empty() {
+                    g[range.clone()].copy_from_slice(&chunk_g);
+                }
+            }
         }
     }
     Ok(AdjointRun {

@@ -65,37 +65,74 @@ pub(crate) fn analyse(
 
 /// Everything a run with sensitivities builds before it integrates: the dual models (one per
 /// chunk of `N` variables: modes, frequencies, correction modes and masses with their
-/// derivatives) and each flexible body's frequency derivatives. `flexsens check` builds them
-/// too, so that it refuses what `run` would.
+/// derivatives; [`DualChunks`]) and each flexible body's frequency derivatives. `flexsens
+/// check` builds them too, so that it refuses what `run` would.
 #[allow(clippy::type_complexity)]
 pub(crate) fn dual_models<const N: usize>(
     src: &Source,
     mech: &Mechanism,
 ) -> Result<(DesignModel<N>, Vec<(String, DMatrix<f64>)>), CliError> {
-    let m = mech.design.variables.len();
-    let update = if mech.design.fixed_modes {
-        fem::ModeUpdate::Fixed
-    } else {
-        fem::ModeUpdate::Updated
-    };
-    let ranges: Vec<_> = sens::chunk_ranges(m, N).collect();
-    let mut chunks: Vec<Model<Dual<N>>> = ranges
-        .iter()
-        .map(|_| mech.model.map(Dual::<N>::constant))
-        .collect();
-    let mut frequencies = Vec::new();
-    for part in &mech.flexible {
-        let fem_error =
-            |e| crate::study::flexible::fem_error(src, &part.name, part.span.clone(), e);
-        let built = &part.built;
-        let bodies =
-            built.design_bodies::<N>(src, &part.name, part.span.clone(), &part.analysis, update)?;
-        frequencies.push((
-            part.name.clone(),
-            bodies.frequency_derivatives(&part.analysis),
-        ));
-        let chunk_bodies = chunks.iter_mut().zip(bodies.chunks).zip(&bodies.properties);
-        for (((model, body), props), range) in chunk_bodies.zip(&ranges) {
+    let chunks = DualChunks::<N>::new(src, mech)?;
+    Ok((chunks.design_model()?, chunks.frequencies()))
+}
+
+/// The mechanism's dual models, one chunk of `N` design variables at a time: the derivatives
+/// of every flexible body's modes with respect to all variables (Nelson's method, made once)
+/// and what builds any chunk's `Model<Dual<N>>` from them. The direct method integrates all
+/// chunks together ([`Self::design_model`]); the adjoint contracts one after another
+/// ([`Self::chunk`]), so that only one is held.
+pub(crate) struct DualChunks<'a, const N: usize> {
+    src: &'a Source,
+    mech: &'a Mechanism,
+    update: fem::ModeUpdate,
+    /// Per flexible part of the mechanism: `K_b`, `M_b` and the mode derivatives.
+    derivatives: Vec<(Vec<fem::DesignMatrices>, fem::ModeDerivatives)>,
+}
+
+impl<'a, const N: usize> DualChunks<'a, N> {
+    pub(crate) fn new(src: &'a Source, mech: &'a Mechanism) -> Result<Self, CliError> {
+        let update = if mech.design.fixed_modes {
+            fem::ModeUpdate::Fixed
+        } else {
+            fem::ModeUpdate::Updated
+        };
+        let derivatives = (mech.flexible.iter())
+            .map(|part| {
+                let span = part.span.clone();
+                (part.built).mode_derivatives::<N>(src, &part.name, span, &part.analysis, update)
+            })
+            .collect::<Result<_, _>>()?;
+        Ok(Self {
+            src,
+            mech,
+            update,
+            derivatives,
+        })
+    }
+
+    /// The variables' chunks (`sens::chunk_ranges`).
+    pub(crate) fn ranges(&self) -> Vec<std::ops::Range<usize>> {
+        sens::chunk_ranges(self.mech.design.variables.len(), N).collect()
+    }
+
+    /// Per flexible body: `df_k/db_j` (rows: the retained modes).
+    pub(crate) fn frequencies(&self) -> Vec<(String, DMatrix<f64>)> {
+        (self.mech.flexible.iter().zip(&self.derivatives))
+            .map(|(part, (_, d))| (part.name.clone(), d.frequency_derivatives(&part.analysis)))
+            .collect()
+    }
+
+    /// The model whose tangents are the derivatives with respect to the variables of `range`
+    /// (one of [`Self::ranges`]).
+    pub(crate) fn chunk(&self, range: &std::ops::Range<usize>) -> Result<Model<Dual<N>>, CliError> {
+        let (src, mech) = (self.src, self.mech);
+        let mut model = mech.model.map(Dual::<N>::constant);
+        for (part, (matrices, derivatives)) in mech.flexible.iter().zip(&self.derivatives) {
+            let built = &part.built;
+            let at = (matrices.as_slice(), derivatives, range.start);
+            let named = (part.name.as_str(), part.span.clone());
+            let (body, props) =
+                built.design_body_chunk::<N>(src, named, &part.analysis, at, self.update)?;
             // the laminates of the chunk's seeded design, as its properties were made
             let seeded = sens::seed_chunk::<N>(built.design.values(), range.start);
             let stresses = StressInput::of(&part.def, built, || {
@@ -109,30 +146,45 @@ pub(crate) fn dual_models<const N: usize>(
             let body = crate::study::flexible_model_body(
                 &part.name,
                 &built.mesh,
-                props,
+                &props,
                 &part.analysis,
                 body,
                 (part.stiffening, stresses),
             )
-            .map_err(fem_error)?;
+            .map_err(|e| {
+                crate::study::flexible::fem_error(src, &part.name, part.span.clone(), e)
+            })?;
             *model.body_mut(part.id) = Body::Flexible(body);
         }
-    }
-    // rigid bodies' masses and inertias and actuators' gains, seeded in the chunk of their
-    // variable
-    for (model, range) in chunks.iter_mut().zip(&ranges) {
+        // rigid bodies' masses and inertias and actuators' gains, seeded in the chunk of their
+        // variable
         for (k, j) in range.clone().enumerate() {
             let v = &mech.design.variables[j];
             let mut d = [0.0; N];
             d[k] = 1.0;
-            crate::study::set_parameter(model, mech, &v.target, Dual::new(v.value, d));
+            crate::study::set_parameter(&mut model, mech, &v.target, Dual::new(v.value, d));
         }
+        Ok(model)
     }
-    let scales = mech.design.variables.iter().map(error_scale);
-    let design = DesignModel::new(chunks, m)
-        .and_then(|d| d.with_variable_scales(scales.collect()))
-        .map_err(|e| runtime(src, e))?;
-    Ok((design, frequencies))
+
+    /// All chunks together, with the variables' error scales.
+    pub(crate) fn design_model(&self) -> Result<DesignModel<N>, CliError> {
+        let chunks = (self.ranges().iter())
+            .map(|range| self.chunk(range))
+            .collect::<Result<Vec<_>, _>>()?;
+        let scales = self.mech.design.variables.iter().map(error_scale);
+        DesignModel::new(chunks, self.mech.design.variables.len())
+            .and_then(|d| d.with_variable_scales(scales.collect()))
+            .map_err(|e| runtime(self.src, e))
+    }
+
+    /// Every chunk built once and dropped (what `flexsens check` needs: the refusals of a
+    /// run with sensitivities).
+    fn check_all(&self) -> Result<(), CliError> {
+        self.ranges()
+            .iter()
+            .try_for_each(|range| self.chunk(range).map(drop))
+    }
 }
 
 /// A variable's scale in the sensitivities' error weights
@@ -148,14 +200,14 @@ fn error_scale(v: &DesignVariable) -> f64 {
     }
 }
 
-/// The model build of a run with sensitivities, without the run ([`dual_models`]).
+/// The model build of a run with sensitivities, without the run ([`DualChunks`]).
 pub(crate) fn prepare(src: &Source, mech: &Mechanism) -> Result<(), CliError> {
     match mech.design.variables.len() {
         0 => Ok(()),
-        1 => dual_models::<1>(src, mech).map(drop),
-        2 => dual_models::<2>(src, mech).map(drop),
-        3 | 4 => dual_models::<4>(src, mech).map(drop),
-        _ => dual_models::<8>(src, mech).map(drop),
+        1 => DualChunks::<1>::new(src, mech)?.check_all(),
+        2 => DualChunks::<2>::new(src, mech)?.check_all(),
+        3 | 4 => DualChunks::<4>::new(src, mech)?.check_all(),
+        _ => DualChunks::<8>::new(src, mech)?.check_all(),
     }
 }
 
@@ -165,13 +217,14 @@ fn analyse_chunked<const N: usize>(
     system: &mut MultibodySystem,
     state: &State,
 ) -> Result<Sensitivities, CliError> {
-    let (design, frequencies) = dual_models::<N>(src, mech)?;
+    let chunks = DualChunks::<N>::new(src, mech)?;
+    let frequencies = chunks.frequencies();
     let mut options = match mech.design.method {
         SensitivityScheme::Direct => SensitivityOptions::default(),
         SensitivityScheme::Corrector => SensitivityOptions::corrector(),
         SensitivityScheme::Simultaneous => SensitivityOptions::simultaneous(),
         SensitivityScheme::Adjoint => {
-            let a = super::adjoint::analyse(src, mech, system, state, &design)?;
+            let a = super::adjoint::analyse(src, mech, system, state, &chunks)?;
             return Ok(Sensitivities {
                 outputs: a.outputs,
                 statistics: a.run.statistics,
@@ -184,6 +237,7 @@ fn analyse_chunked<const N: usize>(
         }
     };
     options.error_control = mech.design.error_control;
+    let design = chunks.design_model()?;
     let (t0, t_end) = (mech.times[0], *mech.times.last().expect("output times"));
     let run = mbs::simulate_sensitivities(
         system,

@@ -74,10 +74,16 @@ pub struct LaminateDesign {
     pub thicknesses: Vec<Vec<(usize, f64)>>,
 }
 
-/// One section of a beam body: its values and derivatives with respect to each variable at the
-/// nominal design, and what the section at another design needs (its mesh and design map).
+/// One section of a beam body: its values and derivatives with respect to the variables that
+/// change it at the nominal design, and what the section at another design needs (its mesh and
+/// design map).
 pub struct SectionDesign {
+    /// The values, and the derivatives along the variables of `active` (in that order): a
+    /// tailored beam's section is changed by its own segment's variables alone, and the others'
+    /// zeros are not kept.
     pub sens: Box<SectionSensitivities>,
+    /// The variables whose derivatives `sens` holds, in increasing order.
+    pub active: Vec<usize>,
     pub mesh: Box<section::SectionMesh>,
     pub map: DesignMap,
     /// Per variable, `(region, law)` of the regions whose material it moves.
@@ -87,11 +93,39 @@ pub struct SectionDesign {
 impl SectionDesign {
     /// Whether variable `j` changes the section.
     fn depends_on(&self, j: usize) -> bool {
-        self.sens.derivatives.get(j).is_some_and(|d| {
+        self.active.binary_search(&j).is_ok()
+    }
+
+    /// A section's design from its sensitivities along all variables: the derivatives that
+    /// are not zero kept (those [`BeamSection::from_sensitivities`] reads).
+    pub fn new(
+        mut sens: SectionSensitivities,
+        mesh: section::SectionMesh,
+        map: DesignMap,
+        materials: MaterialLinks,
+    ) -> Self {
+        let moves = |d: &section::SectionProperties| {
             d.stiffness.iter().any(|x| *x != 0.0)
                 || d.mass_per_length != 0.0
+                || d.mass_centre.iter().any(|x| *x != 0.0)
                 || d.mass_inertia.iter().any(|x| *x != 0.0)
-        })
+        };
+        let all = sens.derivatives.len();
+        let active: Vec<usize> = (0..all).filter(|&j| moves(&sens.derivatives[j])).collect();
+        sens.derivatives = active
+            .iter()
+            .map(|&j| sens.derivatives[j].clone())
+            .collect();
+        if sens.variables.len() == all {
+            sens.variables = active.iter().map(|&j| sens.variables[j].clone()).collect();
+        }
+        Self {
+            sens: Box::new(sens),
+            active,
+            mesh: Box::new(mesh),
+            map,
+            materials,
+        }
     }
 
     /// Whether the section's own map moves anything with variable `j` (its regions' angles or
@@ -119,7 +153,8 @@ impl SectionDesign {
         let moved =
             (b.iter().zip(values).enumerate()).any(|(j, (bj, b0))| bj.v != *b0 && self.moved_by(j));
         if !(analysed && moved) {
-            return Ok(BeamSection::from_sensitivities(&self.sens, b));
+            let b_active: Vec<Dual<N>> = self.active.iter().map(|&j| b[j]).collect();
+            return Ok(BeamSection::from_sensitivities(&self.sens, &b_active));
         }
         let (at, map_at, b_active) = self.analysed_at(b, values)?;
         Ok(BeamSection::from_sensitivities(

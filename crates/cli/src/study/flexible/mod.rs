@@ -75,23 +75,26 @@ impl Built {
         })
     }
 
-    /// The dual modal bodies of `analysis` (this body's) for every chunk of `N` design
-    /// variables, with their mode derivatives (`fem::design_bodies` through
+    /// The dual modal body of `analysis` (this body's) for the chunk of `N` design variables
+    /// from `start`, from the derivatives of all variables (`mode_derivatives`), with the
+    /// element properties of the chunk's seeded design (`fem::design_body_chunk` through
     /// [`Design::properties`]).
-    pub fn design_bodies<const N: usize>(
+    #[allow(clippy::type_complexity)]
+    pub fn design_body_chunk<const N: usize>(
         &self,
         src: &Source,
-        name: &str,
-        span: std::ops::Range<usize>,
+        (name, span): (&str, std::ops::Range<usize>),
         analysis: &fem::ModalAnalysis,
+        (matrices, derivatives, start): (&[fem::DesignMatrices], &fem::ModeDerivatives, usize),
         update: fem::ModeUpdate,
-    ) -> Result<fem::DesignBodies<N>, CliError> {
+    ) -> Result<(fem::ModalBody<Dual<N>>, Properties<Dual<N>>), CliError> {
         self.through_design(src, name, span, |props| {
-            fem::design_bodies::<N, _>(
+            fem::design_body_chunk::<N, _>(
                 &self.mesh,
                 &self.props,
                 analysis,
                 self.design.values(),
+                (matrices, derivatives, start),
                 props,
                 update,
             )

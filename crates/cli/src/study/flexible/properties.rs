@@ -187,10 +187,10 @@ fn section_of_beam(
         }),
     }
     .map_err(|e| ("", format!("section `{section_name}`: {e}")))?;
-    Ok(SectionDesign {
-        sens: Box::new(s),
-        mesh: Box::new(section.mesh.clone()),
-        map: map.unwrap_or_default(),
+    Ok(SectionDesign::new(
+        s,
+        section.mesh.clone(),
+        map.unwrap_or_default(),
         materials,
-    })
+    ))
 }
