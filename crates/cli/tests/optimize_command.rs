@@ -218,6 +218,59 @@ fn the_lightest_plate_meets_its_frequency_bound_and_the_multiplier_is_dm_over_df
     assert!((mu - 7800.0 * t_areal).abs() < 1e-9 * mu, "{mu}");
 }
 
+/// The rows of `iterations.csv`: (evaluation, θ, frequency, largest violation, stationarity).
+fn tube_rows(out: &Path) -> Vec<(usize, f64, f64, f64, f64)> {
+    let csv = std::fs::read_to_string(out.join("iterations.csv")).unwrap();
+    csv.lines()
+        .skip(1)
+        .map(|l| {
+            let c: Vec<&str> = l.split(',').collect();
+            let x = |i: usize| c[i].parse::<f64>().unwrap();
+            (c[1].parse().unwrap(), x(2), x(3), x(4), x(6))
+        })
+        .collect()
+}
+
+/// SLSQP's own test (the objective's relative change) keeps the tube's run going nine
+/// evaluations past the optimum, each within 1e-14 of it; `kkt_tolerance` ends the run at the
+/// first feasible evaluation whose stationarity meets it — the same evaluations up to there.
+#[test]
+fn the_kkt_tolerance_ends_the_run_at_its_first_stationary_feasible_design() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = tube_deck(dir.path());
+    let (full_out, kkt_out) = (dir.path().join("full"), dir.path().join("kkt"));
+    let (text, err, code) = optimize(&path, &full_out, &["--quiet"]);
+    assert_eq!(code, Some(0), "{text}\n{err}");
+    let full = tube_rows(&full_out);
+    let tol = 1e-5;
+    let (text, err, code) = optimize(
+        &path,
+        &kkt_out,
+        &[
+            "--quiet",
+            "--set",
+            &format!("optimize.kkt_tolerance={tol:e}"),
+        ],
+    );
+    assert_eq!(code, Some(0), "{text}\n{err}");
+    assert!(
+        text.contains("converged (KKT stationarity") && text.contains("kkt_tolerance 1e-5"),
+        "{text}"
+    );
+    let stopped = tube_rows(&kkt_out);
+    // the first stationary evaluation of the full run, and nothing after it
+    let first = full
+        .iter()
+        .position(|r| r.3 <= 1e-6 && r.4 <= tol)
+        .expect("a stationary evaluation");
+    assert!(first + 1 < full.len(), "SLSQP's own stop came no later");
+    assert_eq!(stopped.len(), first + 1, "{text}");
+    assert_eq!(&full[..=first], &stopped[..]);
+    // where the optimum is: fibres along the axis
+    let theta = summary_value(&text, "theta");
+    assert!(theta.abs() < 1e-4, "θ* = {theta} deg\n{text}");
+}
+
 #[test]
 fn bad_optimize_tables_are_refused_with_their_key() {
     let dir = tempfile::tempdir().unwrap();
@@ -253,6 +306,11 @@ fn bad_optimize_tables_are_refused_with_their_key() {
             base.clone() + "starts = [[80.0]]\n",
             "optimize.starts[0]",
             "within its bounds",
+        ),
+        (
+            base.clone() + "kkt_tolerance = -1e-3\n",
+            "optimize.kkt_tolerance",
+            "must be a positive, finite number",
         ),
         (
             base.clone()

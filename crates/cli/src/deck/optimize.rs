@@ -94,6 +94,8 @@ pub struct OptimizeDef {
     pub bounds: Vec<(f64, f64)>,
     pub max_evaluations: usize,
     pub tolerance: f64,
+    /// Converged at a feasible evaluation whose KKT stationarity is at most this.
+    pub kkt_tolerance: Option<f64>,
     /// Starting designs; the first is the deck's own.
     pub starts: Vec<Vec<f64>>,
 }
@@ -380,6 +382,9 @@ pub fn validate(
         None => 1e-8,
         Some(t) => super::check::positive(src, "optimize.tolerance", t, "1")?,
     };
+    let kkt_tolerance = (o.kkt_tolerance.as_ref())
+        .map(|t| super::check::positive(src, "optimize.kkt_tolerance", t, "1"))
+        .transpose()?;
     let mut starts = vec![design.variables.iter().map(|v| v.value).collect::<Vec<_>>()];
     if let Some(s) = &o.starts {
         for (j, x) in s.get_ref().iter().enumerate() {
@@ -409,6 +414,7 @@ pub fn validate(
         bounds,
         max_evaluations,
         tolerance,
+        kkt_tolerance,
         starts,
     })
 }

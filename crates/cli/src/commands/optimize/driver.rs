@@ -1,5 +1,7 @@
 //! One start of the optimiser: SLSQP driven through its callbacks, every evaluation logged.
 
+use std::cell::Cell;
+
 use super::*;
 
 /// Run SLSQP from `x0`, logging every evaluation; returns how it ended.
@@ -15,6 +17,9 @@ pub(super) fn run_start(
     // the last design evaluated: SLSQP asks for the objective and each constraint in turn
     let last: RefCell<Option<Evaluated>> = RefCell::new(None);
     let count = AtomicUsize::new(0);
+    // the KKT stationarity of the feasible evaluation that met `optimize.kkt_tolerance`: the
+    // evaluations after it are refused, which ends SLSQP
+    let kkt_met: Cell<Option<f64>> = Cell::new(None);
     let scale_f = RefCell::new(None::<f64>);
     // SLSQP works in the unit box: y = (x − lower) / (upper − lower), so that variables of any
     // unit (degrees, metres, pascals) are equally scaled
@@ -35,6 +40,9 @@ pub(super) fn run_start(
         }
         if stop.load(Ordering::SeqCst) {
             return Err("interrupted".into());
+        }
+        if kkt_met.get().is_some() {
+            return Err("converged".into());
         }
         let e = p.evaluate(x).map_err(|e| e.to_string());
         let evaluation = count.fetch_add(1, Ordering::SeqCst) + 1;
@@ -67,6 +75,13 @@ pub(super) fn run_start(
             stationarity,
             multipliers,
         });
+        if let Some(tol) = p.def.kkt_tolerance
+            && e.is_ok()
+            && violation <= FEASIBLE
+            && stationarity <= tol
+        {
+            kkt_met.set(Some(stationarity));
+        }
         *last.borrow_mut() = Some((x.to_vec(), e.clone()));
         e
     };
@@ -143,6 +158,11 @@ pub(super) fn run_start(
     );
     if stop.load(Ordering::SeqCst) {
         "interrupted".to_string()
+    } else if let Some(s) = kkt_met.get() {
+        format!(
+            "converged (KKT stationarity {s:.1e} ≤ kkt_tolerance {:e})",
+            p.def.kkt_tolerance.unwrap_or_default()
+        )
     } else {
         match result {
             Ok((slsqp::SuccessStatus::MaxEvalReached, ..)) => "evaluation limit reached".into(),

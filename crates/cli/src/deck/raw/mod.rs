@@ -97,6 +97,8 @@ pub struct RawOptimize {
     pub max_evaluations: Option<Spanned<i64>>,
     /// Convergence: the relative change of the objective between iterations (default 1e-8).
     pub tolerance: Option<Spanned<f64>>,
+    /// Convergence: a feasible evaluation's KKT stationarity at most this (default: none).
+    pub kkt_tolerance: Option<Spanned<f64>>,
     /// More starting designs, each a list of the design variables' values (in the order of
     /// their names); the deck's own values are always the first start.
     pub starts: Option<Spanned<Vec<Vec<f64>>>>,
