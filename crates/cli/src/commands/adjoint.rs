@@ -82,7 +82,7 @@ pub(crate) fn analyse<const N: usize>(
     let m = mech.design.variables.len();
     let mut gradients = vec![Vec::new(); objectives.len()];
     let mut statistics = mbs::AdjointStatistics::default();
-    if objectives.iter().any(|terms| !terms.is_empty()) {
+    if m > 0 && objectives.iter().any(|terms| !terms.is_empty()) {
         // the data the adjoints are of: the first chunk's (its values are the model's)
         let ranges = chunks.ranges();
         let mut first = Some(chunks.chunk(&ranges[0])?);
