@@ -5,7 +5,7 @@
 
 use mbs::{DesignModel, MultibodySystem, ObjectiveTerm, State};
 
-use super::sensitivity::DualChunks;
+use super::dual_chunks::DualChunks;
 
 use crate::deck::Source;
 use crate::error::CliError;

@@ -4,6 +4,7 @@ mod adjoint;
 pub mod check;
 pub mod compare;
 mod compute;
+pub(crate) mod dual_chunks;
 pub mod laminate;
 pub mod merge;
 pub mod modes;

@@ -1,6 +1,6 @@
-//! The design-sensitivity part of `flexsens run`: the dual model of the mechanism, the direct
-//! sensitivity integration, response sensitivities, objectives with gradients and the
-//! finite-difference comparisons the deck asks for.
+//! The design-sensitivity part of `flexsens run`: the direct sensitivity integration (on the
+//! mechanism's dual models, `dual_chunks`), response sensitivities, objectives with gradients
+//! and the finite-difference comparisons the deck asks for.
 //!
 //! Chain (one code path from the ply angles up): the deck's `[design.*]` variables →
 //! laminate and section derivatives (`modes::Design`) → `fem::analysis_derivatives` (frequencies
@@ -11,17 +11,16 @@
 use nalgebra::DMatrix;
 
 use mbs::{
-    BdfOptions, Body, DesignModel, FdScheme, Model, MultibodySystem, Output, Perturbation,
-    SensitivityOptions, SensitivityStatistics, State, Statistics,
+    BdfOptions, FdScheme, MultibodySystem, Output, Perturbation, SensitivityOptions,
+    SensitivityStatistics, State, Statistics,
 };
-use sens::Dual;
 
+use super::dual_chunks::DualChunks;
 use crate::deck::Source;
-use crate::deck::design::{DesignVariable, FdSteps, SensitivityScheme};
+use crate::deck::design::{FdSteps, SensitivityScheme};
 use crate::error::CliError;
 use crate::progress::RunProgress;
 use crate::study::Mechanism;
-use crate::study::StressInput;
 
 /// Results of the direct sensitivity analysis, at the output times.
 pub(crate) struct Sensitivities {
@@ -60,143 +59,6 @@ pub(crate) fn analyse(
         2 => analyse_chunked::<2>(src, mech, system, state),
         3 | 4 => analyse_chunked::<4>(src, mech, system, state),
         _ => analyse_chunked::<8>(src, mech, system, state),
-    }
-}
-
-/// Everything a run with sensitivities builds before it integrates: the dual models (one per
-/// chunk of `N` variables: modes, frequencies, correction modes and masses with their
-/// derivatives; [`DualChunks`]) and each flexible body's frequency derivatives. `flexsens
-/// check` builds them too, so that it refuses what `run` would.
-#[allow(clippy::type_complexity)]
-pub(crate) fn dual_models<const N: usize>(
-    src: &Source,
-    mech: &Mechanism,
-) -> Result<(DesignModel<N>, Vec<(String, DMatrix<f64>)>), CliError> {
-    let chunks = DualChunks::<N>::new(src, mech)?;
-    Ok((chunks.design_model()?, chunks.frequencies()))
-}
-
-/// The mechanism's dual models, one chunk of `N` design variables at a time: the derivatives
-/// of every flexible body's modes with respect to all variables (Nelson's method, made once)
-/// and what builds any chunk's `Model<Dual<N>>` from them. The direct method integrates all
-/// chunks together ([`Self::design_model`]); the adjoint contracts one after another
-/// ([`Self::chunk`]), so that only one is held.
-pub(crate) struct DualChunks<'a, const N: usize> {
-    src: &'a Source,
-    mech: &'a Mechanism,
-    update: fem::ModeUpdate,
-    /// Per flexible part of the mechanism: `K_b`, `M_b` and the mode derivatives.
-    derivatives: Vec<(Vec<fem::DesignMatrices>, fem::ModeDerivatives)>,
-}
-
-impl<'a, const N: usize> DualChunks<'a, N> {
-    pub(crate) fn new(src: &'a Source, mech: &'a Mechanism) -> Result<Self, CliError> {
-        let update = if mech.design.fixed_modes {
-            fem::ModeUpdate::Fixed
-        } else {
-            fem::ModeUpdate::Updated
-        };
-        let derivatives = (mech.flexible.iter())
-            .map(|part| {
-                let span = part.span.clone();
-                (part.built).mode_derivatives::<N>(src, &part.name, span, &part.analysis, update)
-            })
-            .collect::<Result<_, _>>()?;
-        Ok(Self {
-            src,
-            mech,
-            update,
-            derivatives,
-        })
-    }
-
-    /// The variables' chunks (`sens::chunk_ranges`).
-    pub(crate) fn ranges(&self) -> Vec<std::ops::Range<usize>> {
-        sens::chunk_ranges(self.mech.design.variables.len(), N).collect()
-    }
-
-    /// Per flexible body: `df_k/db_j` (rows: the retained modes).
-    pub(crate) fn frequencies(&self) -> Vec<(String, DMatrix<f64>)> {
-        (self.mech.flexible.iter().zip(&self.derivatives))
-            .map(|(part, (_, d))| (part.name.clone(), d.frequency_derivatives(&part.analysis)))
-            .collect()
-    }
-
-    /// The model whose tangents are the derivatives with respect to the variables of `range`
-    /// (one of [`Self::ranges`]).
-    pub(crate) fn chunk(&self, range: &std::ops::Range<usize>) -> Result<Model<Dual<N>>, CliError> {
-        let (src, mech) = (self.src, self.mech);
-        let mut model = mech.model.map(Dual::<N>::constant);
-        for (part, (matrices, derivatives)) in mech.flexible.iter().zip(&self.derivatives) {
-            let built = &part.built;
-            let at = (matrices.as_slice(), derivatives, range.start);
-            let named = (part.name.as_str(), part.span.clone());
-            let (body, props) =
-                built.design_body_chunk::<N>(src, named, &part.analysis, at, self.update)?;
-            // the laminates of the chunk's seeded design, as its properties were made
-            let seeded = sens::seed_chunk::<N>(built.design.values(), range.start);
-            let stresses = StressInput::of(&part.def, built, || {
-                built.design.stress_parts(&seeded).map_err(|e| {
-                    runtime(
-                        src,
-                        format!("body `{}`: its plies' stresses: {e}", part.name),
-                    )
-                })
-            })?;
-            let body = crate::study::flexible_model_body(
-                &part.name,
-                &built.mesh,
-                &props,
-                &part.analysis,
-                body,
-                (part.stiffening, stresses),
-            )
-            .map_err(|e| {
-                crate::study::flexible::fem_error(src, &part.name, part.span.clone(), e)
-            })?;
-            *model.body_mut(part.id) = Body::Flexible(body);
-        }
-        // rigid bodies' masses and inertias and actuators' gains, seeded in the chunk of their
-        // variable
-        for (k, j) in range.clone().enumerate() {
-            let v = &mech.design.variables[j];
-            let mut d = [0.0; N];
-            d[k] = 1.0;
-            crate::study::set_parameter(&mut model, mech, &v.target, Dual::new(v.value, d));
-        }
-        Ok(model)
-    }
-
-    /// All chunks together, with the variables' error scales.
-    pub(crate) fn design_model(&self) -> Result<DesignModel<N>, CliError> {
-        let chunks = (self.ranges().iter())
-            .map(|range| self.chunk(range))
-            .collect::<Result<Vec<_>, _>>()?;
-        let scales = self.mech.design.variables.iter().map(error_scale);
-        DesignModel::new(chunks, self.mech.design.variables.len())
-            .and_then(|d| d.with_variable_scales(scales.collect()))
-            .map_err(|e| runtime(self.src, e))
-    }
-
-    /// Every chunk built once and dropped (what `flexsens check` needs: the refusals of a
-    /// run with sensitivities).
-    fn check_all(&self) -> Result<(), CliError> {
-        self.ranges()
-            .iter()
-            .try_for_each(|range| self.chunk(range).map(drop))
-    }
-}
-
-/// A variable's scale in the sensitivities' error weights
-/// (`mbs::DesignModel::with_variable_scales`): its derivatives are weighted as the responses'
-/// change under a change of one degree of an angle (whose nominal value has no size: 0° is a
-/// lay-up like any other), and of the nominal magnitude of any other variable (a thickness, a
-/// modulus, a mass; one unit if it is zero).
-fn error_scale(v: &DesignVariable) -> f64 {
-    if v.unit == "deg" || !(v.value.is_finite() && v.value != 0.0) {
-        1.0
-    } else {
-        v.value.abs()
     }
 }
 

@@ -152,7 +152,7 @@ pub(crate) fn operating_points(
         )
     })?;
     let design = match mech.design.enabled && !mech.design.variables.is_empty() {
-        true => Some(super::sensitivity::dual_models::<CHUNK>(src, mech)?.0),
+        true => Some(super::dual_chunks::dual_models::<CHUNK>(src, mech)?.0),
         false => None,
     };
     let mut points = Vec::new();
