@@ -54,17 +54,7 @@ pub(super) fn run_start(
             Err(_) => (f64::NAN, f64::NAN, Vec::new()),
         };
         if !quiet {
-            match &e {
-                Ok(ev) => eprintln!(
-                    "[start {start}] evaluation {evaluation}: {} = {:.6e}, violation {:.1e}, \
-                     stationarity {:.1e}",
-                    p.def.objective.label(),
-                    ev.f,
-                    violation,
-                    stationarity
-                ),
-                Err(m) => eprintln!("[start {start}] evaluation {evaluation} failed: {m}"),
-            }
+            report(p, (start, evaluation), &e, (violation, stationarity));
         }
         log.lock().expect("no poisoned lock").push(Row {
             start,
@@ -156,18 +146,48 @@ pub(super) fn run_start(
         p.def.max_evaluations,
         Some(tols),
     );
-    if stop.load(Ordering::SeqCst) {
-        "interrupted".to_string()
-    } else if let Some(s) = kkt_met.get() {
-        format!(
-            "converged (KKT stationarity {s:.1e} ≤ kkt_tolerance {:e})",
-            p.def.kkt_tolerance.unwrap_or_default()
-        )
-    } else {
-        match result {
-            Ok((slsqp::SuccessStatus::MaxEvalReached, ..)) => "evaluation limit reached".into(),
-            Ok((s, ..)) => format!("converged ({s:?})"),
-            Err((e, ..)) => format!("stopped ({e:?})"),
-        }
+    let kkt = kkt_met
+        .get()
+        .map(|s| (s, p.def.kkt_tolerance.unwrap_or_default()));
+    outcome(stop.load(Ordering::SeqCst), kkt, &result)
+}
+
+/// One evaluation's line on stderr.
+fn report(
+    p: &Problem,
+    (start, evaluation): (usize, usize),
+    e: &Result<Eval, String>,
+    (violation, stationarity): (f64, f64),
+) {
+    match e {
+        Ok(ev) => eprintln!(
+            "[start {start}] evaluation {evaluation}: {} = {:.6e}, violation {:.1e}, \
+             stationarity {:.1e}",
+            p.def.objective.label(),
+            ev.f,
+            violation,
+            stationarity
+        ),
+        Err(m) => eprintln!("[start {start}] evaluation {evaluation} failed: {m}"),
+    }
+}
+
+/// What `slsqp::minimize` returns.
+type SlsqpOutcome =
+    Result<(slsqp::SuccessStatus, Vec<f64>, f64), (slsqp::FailStatus, Vec<f64>, f64)>;
+
+/// How a start ended, as the summary says it: interrupted, converged on the KKT conditions
+/// (`kkt`: the stationarity met and `optimize.kkt_tolerance`), or SLSQP's own ending.
+fn outcome(interrupted: bool, kkt: Option<(f64, f64)>, result: &SlsqpOutcome) -> String {
+    if interrupted {
+        return "interrupted".to_string();
+    }
+    if let Some((s, tol)) = kkt {
+        return format!("converged (KKT stationarity {s:.1e} ≤ kkt_tolerance {tol:e})");
+    }
+    match result {
+        Ok((slsqp::SuccessStatus::MaxEvalReached, ..)) => "evaluation limit reached".into(),
+        Ok((s, ..)) => format!("converged ({s:?})"),
+        Err((e, ..)) => format!("stopped ({e:?})"),
     }
 }
