@@ -542,10 +542,10 @@ impl AdjointSweep {
 /// objectives `J_a = Σ_terms Σ_k w_k ψ(t_k)` (each a list of [`ObjectiveTerm`]s), at the data
 /// of `model` (module documentation): `sys`'s model with the layout of the design chunks the
 /// sweep will be contracted with (one of them: their data are what the adjoints are of). No
-/// design variable enters; [`AdjointSweep::gradients`] turns the sweep into the gradients. The objectives share each step's recording and the
-/// preconditioner; each adds its own sweeps. The memory beyond the run's states is a few state
-/// vectors per objective (the ring of right-hand sides), its data's adjoints and the tape of
-/// one step.
+/// design variable enters; [`AdjointSweep::gradients`] turns the sweep into the gradients. The
+/// objectives share each step's recording and the preconditioner; each adds its own sweeps.
+/// The memory beyond the run's states is a few state vectors per objective (the ring of
+/// right-hand sides), its data's adjoints and the tape of one step.
 pub fn adjoint_sweep<P: Scalar>(
     sys: &mut MultibodySystem,
     model: &Model<P>,
