@@ -20,10 +20,9 @@ fn runtime(src: &Source, m: impl std::fmt::Display) -> CliError {
     }
 }
 
-/// Everything a run with sensitivities builds before it integrates: the dual models (one per
-/// chunk of `N` variables: modes, frequencies, correction modes and masses with their
-/// derivatives; [`DualChunks`]) and each flexible body's frequency derivatives. `flexsens
-/// check` builds them too, so that it refuses what `run` would.
+/// All the dual models at once (one per chunk of `N` variables: modes, frequencies, correction
+/// modes and masses with their derivatives; [`DualChunks::design_model`]) and each flexible
+/// body's frequency derivatives: what the operating-point command differentiates with.
 #[allow(clippy::type_complexity)]
 pub(crate) fn dual_models<const N: usize>(
     src: &Source,
