@@ -39,6 +39,14 @@ pub enum CliError {
 }
 
 impl CliError {
+    /// A failure of the computation of the deck `src` ([`CliError::Computation`]).
+    pub(crate) fn computation(src: &crate::deck::Source, reason: impl std::fmt::Display) -> Self {
+        CliError::Computation {
+            file: src.file.clone(),
+            reason: reason.to_string(),
+        }
+    }
+
     /// The process exit code.
     pub fn exit_code(&self) -> u8 {
         match self {

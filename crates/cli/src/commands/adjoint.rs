@@ -11,13 +11,6 @@ use crate::deck::Source;
 use crate::error::CliError;
 use crate::study::Mechanism;
 
-fn runtime(src: &Source, m: impl std::fmt::Display) -> CliError {
-    CliError::Computation {
-        file: src.file.clone(),
-        reason: m.to_string(),
-    }
-}
-
 /// What the adjoint method computed.
 pub(crate) struct AdjointRun {
     /// The run, every accepted step recorded.
@@ -52,12 +45,12 @@ pub(crate) fn analyse<const N: usize>(
     }
     let (t0, t_end) = (mech.times[0], *mech.times.last().expect("output times"));
     let run = mbs::simulate_steps(system, state, t0, t_end, mech.options.clone())
-        .map_err(|e| runtime(src, e))?;
+        .map_err(|e| CliError::computation(src, e))?;
     let sampled = run.resample(&mech.times);
     let outputs = (sampled.times.iter().zip(&sampled.states))
         .map(|(&t, y)| system.output(t, y))
         .collect::<Result<Vec<_>, _>>()
-        .map_err(|e| runtime(src, e))?;
+        .map_err(|e| CliError::computation(src, e))?;
     // each differentiable objective's terms (one: its response on the output times)
     let mut objectives = Vec::new();
     for o in &mech.design.objectives {
@@ -88,7 +81,7 @@ pub(crate) fn analyse<const N: usize>(
         let mut first = Some(chunks.chunk(&ranges[0])?);
         let taped_model = first.as_ref().expect("first chunk");
         let sweep = mbs::adjoint_sweep(system, taped_model, &run, &objectives)
-            .map_err(|e| runtime(src, e))?;
+            .map_err(|e| CliError::computation(src, e))?;
         statistics = sweep.statistics;
         // an objective of a response without sensitivities keeps an empty gradient
         for (g, terms) in gradients.iter_mut().zip(&objectives) {
@@ -101,9 +94,10 @@ pub(crate) fn analyse<const N: usize>(
                 Some(chunk) => chunk,
                 None => chunks.chunk(&range)?,
             };
-            let design = DesignModel::new(vec![chunk], range.len()).map_err(|e| runtime(src, e))?;
+            let design = DesignModel::new(vec![chunk], range.len())
+                .map_err(|e| CliError::computation(src, e))?;
             let s0 = mbs::initial_sensitivities(system, &design, t0, state)
-                .map_err(|e| runtime(src, e))?;
+                .map_err(|e| CliError::computation(src, e))?;
             let chunk_gradients = sweep.gradients(&design.chunks()[0], &s0);
             for (g, chunk_g) in gradients.iter_mut().zip(chunk_gradients) {
                 if !g.is_empty() {

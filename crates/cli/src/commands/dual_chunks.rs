@@ -13,13 +13,6 @@ use crate::error::CliError;
 use crate::study::Mechanism;
 use crate::study::StressInput;
 
-fn runtime(src: &Source, m: impl std::fmt::Display) -> CliError {
-    CliError::Computation {
-        file: src.file.clone(),
-        reason: m.to_string(),
-    }
-}
-
 /// All the dual models at once (one per chunk of `N` variables: modes, frequencies, correction
 /// modes and masses with their derivatives; [`DualChunks::design_model`]) and each flexible
 /// body's frequency derivatives: what the operating-point command differentiates with.
@@ -93,7 +86,7 @@ impl<'a, const N: usize> DualChunks<'a, N> {
             let seeded = sens::seed_chunk::<N>(built.design.values(), range.start);
             let stresses = StressInput::of(&part.def, built, || {
                 built.design.stress_parts(&seeded).map_err(|e| {
-                    runtime(
+                    CliError::computation(
                         src,
                         format!("body `{}`: its plies' stresses: {e}", part.name),
                     )
@@ -131,7 +124,7 @@ impl<'a, const N: usize> DualChunks<'a, N> {
         let scales = self.mech.design.variables.iter().map(error_scale);
         DesignModel::new(chunks, self.mech.design.variables.len())
             .and_then(|d| d.with_variable_scales(scales.collect()))
-            .map_err(|e| runtime(self.src, e))
+            .map_err(|e| CliError::computation(self.src, e))
     }
 
     /// Every chunk built once and dropped (what `flexsens check` needs: the refusals of a

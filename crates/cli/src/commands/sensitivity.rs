@@ -39,13 +39,6 @@ pub(crate) struct Sensitivities {
     pub(crate) adjoint: Option<(Vec<Vec<f64>>, mbs::AdjointStatistics)>,
 }
 
-fn runtime(src: &Source, m: impl std::fmt::Display) -> CliError {
-    CliError::Computation {
-        file: src.file.clone(),
-        reason: m.to_string(),
-    }
-}
-
 /// The analysis with its direct sensitivities, from the assembled `state`.
 pub(crate) fn analyse(
     src: &Source,
@@ -110,7 +103,7 @@ fn analyse_chunked<const N: usize>(
         mech.options.clone(),
         &options,
     )
-    .map_err(|e| runtime(src, e))?;
+    .map_err(|e| CliError::computation(src, e))?;
     let replay = replay_options(mech, &run);
     let sampled = run.resample(&mech.times);
     let outputs = sampled
@@ -119,13 +112,13 @@ fn analyse_chunked<const N: usize>(
         .zip(&sampled.states)
         .map(|(&t, y)| system.output(t, y))
         .collect::<Result<Vec<_>, _>>()
-        .map_err(|e| runtime(src, e))?;
+        .map_err(|e| CliError::computation(src, e))?;
     let mut responses = Vec::new();
     for r in &mech.responses {
         responses.push(if r.response.differentiable() {
             Some(
                 mbs::response_history(system, &design, &sampled, &r.response)
-                    .map_err(|e| runtime(src, e))?
+                    .map_err(|e| CliError::computation(src, e))?
                     .gradients,
             )
         } else {
@@ -278,9 +271,9 @@ fn perturbed_outputs(
     }
     let t0 = mech.times[0];
     sys.assemble(t0, &mut st, assembly_tol)
-        .map_err(|e| runtime(src, format!("perturbed design {b:?}: {e}")))?;
+        .map_err(|e| CliError::computation(src, format!("perturbed design {b:?}: {e}")))?;
     let sim = mbs::simulate(&mut sys, &st, &mech.times, options.clone())
-        .map_err(|e| runtime(src, format!("perturbed design {b:?}: {e}")))?;
+        .map_err(|e| CliError::computation(src, format!("perturbed design {b:?}: {e}")))?;
     let mut out = Vec::new();
     let mut values = Vec::new();
     for r in &mech.responses {

@@ -113,13 +113,6 @@ pub fn run(path: &Path, overrides: &[String], req: &StaticRequest) -> Result<Str
     Ok(text(&mech, &def, &points, &crossings, &written))
 }
 
-fn computation(src: &Source, reason: impl std::fmt::Display) -> CliError {
-    CliError::Computation {
-        file: src.file.clone(),
-        reason: reason.to_string(),
-    }
-}
-
 /// rad/s → rpm.
 pub(crate) fn rpm(w: f64) -> f64 {
     w * 30.0 / std::f64::consts::PI
@@ -143,10 +136,10 @@ pub(crate) fn operating_points(
         (id, law.eval(t)[0], name.as_str(), span.clone())
     });
     let mut system = MultibodySystem::new_at(model.clone(), t, &mech.state, mech.policy)
-        .map_err(|e| computation(src, e))?;
+        .map_err(|e| CliError::computation(src, e))?;
     let mut start = mech.state.clone();
     system.assemble(t, &mut start, 1e-10).map_err(|e| {
-        computation(
+        CliError::computation(
             src,
             format!("the configuration at t = {t} s cannot be assembled: {e}"),
         )
@@ -178,8 +171,8 @@ pub(crate) fn operating_points(
             None => None,
         };
         let at = |e: mbs::OperatingError| match &driver {
-            Some(_) => computation(src, format!("at {} rpm: {e}", short(rpm(speed)))),
-            None => computation(src, e),
+            Some(_) => CliError::computation(src, format!("at {} rpm: {e}", short(rpm(speed)))),
+            None => CliError::computation(src, e),
         };
         let op = mbs::equilibrium(
             &model,
@@ -243,13 +236,14 @@ fn run_points(src: &Source, mech: &Mechanism, def: &OperatingDef) -> Result<Vec<
     let mut times = vec![t0];
     times.extend(def.at.iter().map(|(t, _)| *t).filter(|&t| t > t0));
     let sim = mbs::simulate(&mut system, &state, &times, mech.options.clone())
-        .map_err(|e| computation(src, e))?;
+        .map_err(|e| CliError::computation(src, e))?;
     let mut points = Vec::new();
     for o in &sim.outputs {
         if !def.at.iter().any(|(t, _)| *t == o.t) {
             continue;
         }
-        let here = |e: mbs::OperatingError| computation(src, format!("at t = {} s: {e}", o.t));
+        let here =
+            |e: mbs::OperatingError| CliError::computation(src, format!("at t = {} s: {e}", o.t));
         let state = mbs::State {
             q: o.q.clone(),
             v: o.v.clone(),
@@ -279,7 +273,9 @@ fn response_values(
     op: &OperatingPoint,
 ) -> Result<Vec<f64>, CliError> {
     let y = op.state.to_vec();
-    let output = system.output(op.t, &y).map_err(|e| computation(src, e))?;
+    let output = system
+        .output(op.t, &y)
+        .map_err(|e| CliError::computation(src, e))?;
     Ok((0..mech.responses.len())
         .map(|i| mech.value(i, &output))
         .collect())
@@ -316,7 +312,7 @@ fn response_gradients(
             let val = r
                 .response
                 .evaluate_with(model, op.t, (&q, &v), &lambda, &accel)
-                .map_err(|e| computation(src, e))?;
+                .map_err(|e| CliError::computation(src, e))?;
             for (k, j) in range.clone().enumerate() {
                 g[(i, j)] = val.d[k];
             }

@@ -9,7 +9,7 @@ use serde_json::json;
 
 use mbs::LinearMode;
 
-use super::{Crossing, Point, computation, rpm};
+use super::{Crossing, Point, rpm};
 use crate::commands::run_files::per;
 use crate::deck::Source;
 use crate::deck::operating::OperatingDef;
@@ -40,7 +40,7 @@ pub(super) fn write_files(
             true => (campbell(src, def, points), "campbell"),
             false => (along_the_run(src, points), "frequencies"),
         };
-        let draw = |e: String| computation(src, format!("cannot draw {name}.svg: {e}"));
+        let draw = |e: String| CliError::computation(src, format!("cannot draw {name}.svg: {e}"));
         files.push((out.join(format!("{name}.svg")), figure.svg().map_err(draw)?));
         png = Some((format!("{name}.png"), figure.png().map_err(draw)?));
     }
