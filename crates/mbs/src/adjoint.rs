@@ -30,7 +30,7 @@ use crate::bdf::{OdeSystem, bdf_coefficients};
 use crate::error::ConstraintError;
 use crate::model::Model;
 use crate::response::Response;
-use crate::sensitivity::{DesignModel, SensitivityError, SensitivityRun};
+use crate::sensitivity::{DesignModel, SensitivityError, SensitivityRun, interpolation};
 use crate::system::{MultibodySystem, Solution};
 
 /// A model whose data are inputs of the current thread's reverse-mode tape.
@@ -274,6 +274,40 @@ pub struct ObjectiveTerm {
     pub weights: Vec<f64>,
 }
 
+/// The accepted steps of a run as the backward sweep reads them: every step's time and
+/// order, and the states, which [`StepHistory::load`] may have to make readable first (a
+/// [`crate::CheckpointedRun`] recomputes them from a checkpoint).
+pub trait StepHistory {
+    /// `t_0, t_1, …`.
+    fn times(&self) -> &[f64];
+    /// The order of the step that ended at each time (0 for the initial point).
+    fn orders(&self) -> &[usize];
+    /// Make points `i − 5 ..= i` readable by [`StepHistory::state`]; called with `i`
+    /// decreasing.
+    fn load(&mut self, sys: &mut MultibodySystem, i: usize) -> Result<(), SensitivityError>;
+    /// `y_i` (a point [`StepHistory::load`] made readable).
+    fn state(&self, i: usize) -> &[f64];
+}
+
+/// Every state kept.
+impl StepHistory for &SensitivityRun {
+    fn times(&self) -> &[f64] {
+        &self.times
+    }
+
+    fn orders(&self) -> &[usize] {
+        &self.orders
+    }
+
+    fn load(&mut self, _: &mut MultibodySystem, _: usize) -> Result<(), SensitivityError> {
+        Ok(())
+    }
+
+    fn state(&self, i: usize) -> &[f64] {
+        &self.states[i]
+    }
+}
+
 /// The adjoint's right-hand sides are needed for the recorded points a step's formula reaches
 /// back to (order ≤ 5): a ring of them.
 const RING: usize = 6;
@@ -430,11 +464,12 @@ type Sample = (usize, usize, f64, f64, Vec<f64>);
 /// The objectives' samples with nonzero weights, by the last recorded point of `run` each
 /// mixes (as [`SensitivityRun::interpolation`]).
 fn samples_by_point(
-    run: &SensitivityRun,
+    run: &impl StepHistory,
     objectives: &[Vec<ObjectiveTerm>],
 ) -> Result<Vec<Vec<Sample>>, SensitivityError> {
-    let points = run.times.len();
-    let (t0, t1) = (run.times[0], run.times[points - 1]);
+    let times = run.times();
+    let points = times.len();
+    let (t0, t1) = (times[0], times[points - 1]);
     let mut samples: Vec<Vec<Sample>> = vec![Vec::new(); points];
     for (a, terms) in objectives.iter().enumerate() {
         for (b, term) in terms.iter().enumerate() {
@@ -453,7 +488,7 @@ fn samples_by_point(
                     )));
                 }
                 if w != 0.0 {
-                    let (i, mix) = run.interpolation(t);
+                    let (i, mix) = interpolation(times, run.orders(), t);
                     samples[i].push((a, b, t, w, mix));
                 }
             }
@@ -492,7 +527,7 @@ pub fn adjoint_gradients<const N: usize>(
             design.n_variables()
         )));
     }
-    let sweep = adjoint_sweep(sys, &design.chunks()[0], run, objectives)?;
+    let sweep = adjoint_sweep(sys, &design.chunks()[0], &mut { run }, objectives)?;
     let mut gradients = vec![vec![0.0; design.n_variables()]; objectives.len()];
     for (chunk, range) in design.chunk_ranges() {
         let s0 = s0.columns(range.start, range.len()).into_owned();
@@ -549,11 +584,11 @@ impl AdjointSweep {
 pub fn adjoint_sweep<P: Scalar>(
     sys: &mut MultibodySystem,
     model: &Model<P>,
-    run: &SensitivityRun,
+    run: &mut impl StepHistory,
     objectives: &[Vec<ObjectiveTerm>],
 ) -> Result<AdjointSweep, SensitivityError> {
-    let points = run.times.len();
-    let n = run.states[0].len();
+    let points = run.times().len();
+    let n = model.n_q() + model.n_v();
     let samples = samples_by_point(run, objectives)?;
     let taped = TapedModel::new(model);
     let mut stats = AdjointStatistics::default();
@@ -565,12 +600,13 @@ pub fn adjoint_sweep<P: Scalar>(
         .collect();
     let mut step = StepSolver::default();
     for i in (0..points).rev() {
+        run.load(sys, i)?;
         for (a, b, t, w, mix) in &samples[i] {
             let (a, b, t, w) = (*a, *b, *t, *w);
             // the response at the interpolated state, its adjoint spread by the weights
             let mut y = vec![0.0; n];
             for (j, m) in mix.iter().enumerate() {
-                (y.iter_mut().zip(&run.states[i - j])).for_each(|(y, x)| *y += m * x);
+                (y.iter_mut().zip(run.state(i - j))).for_each(|(y, x)| *y += m * x);
             }
             let sweep = &mut sweeps[a];
             let response = &objectives[a][b].response;
@@ -585,9 +621,9 @@ pub fn adjoint_sweep<P: Scalar>(
         if i == 0 {
             break;
         }
-        let (t, y) = (run.times[i], &run.states[i]);
-        let k = run.orders[i];
-        let nodes: Vec<f64> = (0..=k).map(|j| run.times[i - j]).collect();
+        let (t, y) = (run.times()[i], run.state(i));
+        let k = run.orders()[i];
+        let nodes: Vec<f64> = (0..=k).map(|j| run.times()[i - j]).collect();
         let c = bdf_coefficients(&nodes);
         let recorded = taped.record(sys, t, y)?;
         stats.reverse_evaluations += 1;

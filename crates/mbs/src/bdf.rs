@@ -617,6 +617,59 @@ fn divided_difference_weights(nodes: &[f64]) -> Vec<f64> {
 
 const HISTORY: usize = 8;
 
+/// A [`Bdf`] between two steps ([`Bdf::snapshot`]): its history, step and order control, and
+/// the point its Jacobian was evaluated at instead of the matrix.
+pub struct BdfSnapshot {
+    bdf: Bdf,
+    /// Whether the Newton matrix was factorised (at the snapshot's `lu_c0`).
+    factorised: bool,
+}
+
+impl BdfSnapshot {
+    /// The integrator as it was: its Jacobian evaluated again at the same point with `sys`
+    /// and factorised again, then its counters and estimates set back to what they were. The
+    /// steps it takes are bitwise those of the integrator the snapshot was taken of if `sys`
+    /// evaluates the same numbers at the same points (a [`crate::MultibodySystem`] of the same
+    /// model and assembly: its right-hand side, Jacobian and step check depend on `(t, y)`
+    /// alone, the check on the right-hand side the step's Newton iteration evaluated at the
+    /// same `t`).
+    pub fn restore(&self, sys: &mut impl OdeSystem) -> Result<Bdf, IntegrationError> {
+        let was = &self.bdf;
+        let mut bdf = was.clone_without_matrices();
+        if was.jac_age.is_some() {
+            let (t, y) = &was.jac_point;
+            bdf.refresh_jacobian(sys, *t, y)?;
+            if self.factorised {
+                bdf.factorize(was.lu_c0)?;
+            }
+            bdf.stats = was.stats;
+            bdf.jac_age = was.jac_age;
+            bdf.newton_rate = was.newton_rate;
+            bdf.oscillatory = was.oscillatory.clone();
+            *bdf.stability_edges.borrow_mut() = was.stability_edges.borrow().clone();
+        }
+        Ok(bdf)
+    }
+
+    /// The time of the snapshot (of the integrator's current state).
+    pub fn time(&self) -> f64 {
+        self.bdf.hist[0].0
+    }
+
+    /// The accepted state `back` points before the current one (0: the current one), where
+    /// the integrator's history still holds it (up to 7 back).
+    pub fn history(&self, back: usize) -> Option<&[f64]> {
+        self.bdf.hist.get(back).map(|(_, y)| y.as_slice())
+    }
+
+    /// The snapshot's size in bytes (its vectors).
+    pub fn bytes(&self) -> usize {
+        let b = &self.bdf;
+        let vectors = b.hist.len() + 3 + usize::from(b.jac_age.is_some());
+        8 * b.n * vectors + 8 * (b.last_times.len() + b.last_coeffs.len())
+    }
+}
+
 /// The BDF integrator. See the module documentation.
 pub struct Bdf {
     opts: BdfOptions,
@@ -629,6 +682,8 @@ pub struct Bdf {
     h: f64,
     steps_at_order: usize,
     jac: Jacobian,
+    /// Where `jac` was evaluated: a [`BdfSnapshot`] keeps this instead of the matrix.
+    jac_point: (f64, Vec<f64>),
     jac_age: Option<usize>,
     lu: Option<NewtonMatrix>,
     lu_c0: f64,
@@ -664,6 +719,7 @@ impl Bdf {
             h: 0.0,
             steps_at_order: 0,
             jac: Jacobian::Dense(DMatrix::zeros(0, 0)),
+            jac_point: (0.0, Vec::new()),
             jac_age: None,
             lu: None,
             lu_c0: 0.0,
@@ -927,6 +983,7 @@ impl Bdf {
             }
         }
         self.stats.jacobians += 1;
+        self.jac_point = (t, y.to_vec());
         if let StepControl::Adaptive {
             stability_limit: true,
             ..
@@ -1561,6 +1618,48 @@ impl Bdf {
                 .collect(),
             newton_matrix: self.lu.as_ref().expect("factorised"),
             newton_c0: self.lu_c0,
+        }
+    }
+
+    /// The integrator's state between two steps, small enough to keep many of: the Jacobian
+    /// and the Newton matrix are kept as the point the Jacobian was evaluated at, and
+    /// [`BdfSnapshot::restore`] evaluates and factorises them again there — the same numbers,
+    /// so that the restored integrator takes bitwise the steps this one takes from here,
+    /// given the system in the same state (see [`BdfSnapshot::restore`]).
+    pub fn snapshot(&self) -> BdfSnapshot {
+        BdfSnapshot {
+            bdf: self.clone_without_matrices(),
+            factorised: self.lu.is_some(),
+        }
+    }
+
+    /// A copy without the Jacobian and Newton matrix (the point of the Jacobian kept).
+    fn clone_without_matrices(&self) -> Bdf {
+        Bdf {
+            opts: self.opts.clone(),
+            stats: self.stats,
+            hist: self.hist.clone(),
+            f0: self.f0.clone(),
+            order: self.order,
+            h: self.h,
+            steps_at_order: self.steps_at_order,
+            jac: Jacobian::Dense(DMatrix::zeros(0, 0)),
+            jac_point: self.jac_point.clone(),
+            jac_age: self.jac_age,
+            lu: None,
+            lu_c0: self.lu_c0,
+            newton_rate: self.newton_rate,
+            last_rhs_error: self.last_rhs_error.clone(),
+            last_times: self.last_times.clone(),
+            last_coeffs: self.last_coeffs.clone(),
+            last_order: self.last_order,
+            n: self.n,
+            atol: self.atol.clone(),
+            replay_pos: self.replay_pos,
+            oscillatory: self.oscillatory.clone(),
+            stability_edges: std::cell::RefCell::new(self.stability_edges.borrow().clone()),
+            breakpoints: self.breakpoints.clone(),
+            first_step: self.first_step,
         }
     }
 

@@ -97,6 +97,7 @@
 mod adjoint;
 mod bdf;
 mod body;
+mod checkpoint;
 mod elastic_start;
 mod eq12;
 mod error;
@@ -119,16 +120,17 @@ mod system;
 mod tolerance;
 
 pub use adjoint::{
-    AdjointStatistics, AdjointSweep, Adjoints, ObjectiveTerm, RecordedRhs, TapedModel,
+    AdjointStatistics, AdjointSweep, Adjoints, ObjectiveTerm, RecordedRhs, StepHistory, TapedModel,
     adjoint_gradients, adjoint_sweep, contract_data,
 };
 pub use bdf::{
-    AcceptedStep, Bdf, BdfOptions, IntegrationError, IntegrationFailure, JACOBIAN_AGE,
+    AcceptedStep, Bdf, BdfOptions, BdfSnapshot, IntegrationError, IntegrationFailure, JACOBIAN_AGE,
     NewtonMatrix, NoExtension, OdeSystem, RhsError, STABILITY_GROWTH, Statistics, StepControl,
     StepExtension, StructuredJacobian, TrialStep, bdf_stable, error_estimate_weights,
     lagrange_weights, stable_step,
 };
 pub use body::{Body, BodyId, FlexibleBody, PlyStresses, RigidBody};
+pub use checkpoint::{CheckpointStatistics, CheckpointedRun, simulate_checkpointed};
 pub use eq12::{BodyMass, BodySchur, Eq12Factor};
 pub use error::{ConstraintError, ModelError};
 pub use fd::{

@@ -227,6 +227,9 @@ pub enum SensitivityError {
     Layout(String),
     #[error("response: {0}")]
     Response(String),
+    /// A dropped segment of a checkpointed run recomputed to other steps than the run's.
+    #[error("checkpoint recomputation: {0}")]
+    Recomputation(String),
 }
 
 /// Work counters of the sensitivity integration.
@@ -287,17 +290,7 @@ impl SensitivityRun {
     /// The recorded points [`SensitivityRun::interpolate`] mixes at `t`: `(i, w)`, the value at
     /// `t` being `Σ_j w_j y_{i−j}` (one weight 1 at a recorded point).
     pub fn interpolation(&self, t: f64) -> (usize, Vec<f64>) {
-        let last = self.times.len() - 1;
-        let i = self
-            .times
-            .partition_point(|&x| x < t)
-            .clamp(1.min(last), last);
-        if self.times[i] == t || last == 0 {
-            return (i, vec![1.0]);
-        }
-        let k = self.orders[i].max(1).min(i);
-        let nodes: Vec<f64> = (0..=k).map(|j| self.times[i - j]).collect();
-        (i, lagrange_weights(&nodes, t))
+        interpolation(&self.times, &self.orders, t)
     }
 
     /// The run sampled at `t_out` (interpolated between steps, see
@@ -319,6 +312,18 @@ impl SensitivityRun {
     pub fn state(&self, i: usize) -> State {
         State::from_vec(&self.states[i], self.n_q)
     }
+}
+
+/// [`SensitivityRun::interpolation`] of a run's recorded `times` and `orders`.
+pub(crate) fn interpolation(times: &[f64], orders: &[usize], t: f64) -> (usize, Vec<f64>) {
+    let last = times.len() - 1;
+    let i = times.partition_point(|&x| x < t).clamp(1.min(last), last);
+    if times[i] == t || last == 0 {
+        return (i, vec![1.0]);
+    }
+    let k = orders[i].max(1).min(i);
+    let nodes: Vec<f64> = (0..=k).map(|j| times[i - j]).collect();
+    (i, lagrange_weights(&nodes, t))
 }
 
 fn rhs_failure(e: impl std::fmt::Display) -> IntegrationFailure {

@@ -255,6 +255,11 @@ impl MultibodySystem {
         self.progress = observer;
     }
 
+    /// The progress observer, taken off (e.g. while steps already reported are recomputed).
+    pub(crate) fn take_progress(&mut self) -> Option<Progress> {
+        self.progress.take()
+    }
+
     /// Call the progress observer, if any, with `t` (for evaluations made outside
     /// [`OdeSystem::rhs`]).
     pub(crate) fn report_progress(&self, t: f64) {

@@ -206,3 +206,46 @@ fn a_chain_runs_as_on_the_dense_path_and_conserves_its_energy_undamped() {
         );
     }
 }
+
+/// A run recorded within a memory budget that holds none of its states: each segment's states
+/// recomputed from its checkpoint are bitwise the stored run's, with the sparse Newton matrix
+/// (12 links), the reduced one (6) and the dense one (2), and the samples at output times
+/// are bitwise those interpolated in the stored run.
+#[test]
+fn a_checkpointed_run_recomputes_its_dropped_states_bitwise() {
+    use mbs::{StepHistory, simulate_checkpointed, simulate_steps};
+    for links in [2, 6, 12] {
+        let (model, state) = chain(links, 4, 0.02);
+        let (mut sys, state) = assembled(model, state);
+        let y0 = state.to_vec();
+        let opts = BdfOptions::adaptive(1e-7, 1e-10);
+        let t_end = 0.02;
+        let stored = simulate_steps(&mut sys, &state, 0.0, t_end, opts.clone()).unwrap();
+        let t_out: Vec<f64> = (0..=7).map(|k| t_end * k as f64 / 7.0).collect();
+        // an eighth of the states' memory
+        let all = 8 * y0.len() * stored.times.len();
+        let (mut run, outputs) =
+            simulate_checkpointed(&mut sys, &state, (0.0, t_end), opts, &t_out, all / 8).unwrap();
+        assert_eq!(run.times, stored.times, "{links} links: the same steps");
+        assert_eq!(run.orders, stored.orders);
+        assert_eq!(outputs, stored.resample(&t_out).states);
+        let points = run.times.len();
+        for i in (0..points).rev() {
+            run.load(&mut sys, i).unwrap();
+            for j in 0..=5.min(i) {
+                assert_eq!(
+                    run.state(i - j),
+                    stored.states[i - j].as_slice(),
+                    "{links} links: point {} of {points} from point {i}",
+                    i - j
+                );
+            }
+        }
+        let memory = run.checkpoint_statistics();
+        eprintln!("{links} links: {points} points, {memory:?}, all states {all} B");
+        // all but the states the budget kept recomputed, once
+        assert!(memory.recomputed_steps >= points * 3 / 4, "{memory:?}");
+        assert!(memory.recomputed_steps < points, "{memory:?}");
+        assert!(memory.peak_bytes < all / 2, "{memory:?} against {all} B");
+    }
+}
