@@ -9,9 +9,9 @@ use flexsens_tests::{
 };
 use mbs::{
     BdfOptions, DesignModel, MultibodySystem, Objective, ObjectiveTerm, OdeSystem, Response,
-    SensitivityOptions, SensitivityRun, State, TapedModel, adjoint_gradients, contract_data,
-    initial_sensitivities, response_history, response_values, simulate_sensitivities,
-    simulate_steps, tangent_rhs,
+    SensitivityOptions, SensitivityRun, State, TapedModel, adjoint_gradients, adjoint_sweep,
+    contract_data, initial_sensitivities, response_history, response_values,
+    simulate_checkpointed, simulate_sensitivities, simulate_steps, tangent_rhs,
 };
 use nalgebra::DMatrix;
 
@@ -184,4 +184,46 @@ fn adjoint_gradients_equal_central_differences_of_the_discrete_solution() {
             adjoint[j]
         );
     }
+}
+
+/// The backward sweep over a run kept within an eighth of its states' memory (checkpoints,
+/// the states between them recomputed; the peak is that plus the segment being swept, long
+/// on a run this short): bitwise the gradients of the sweep over the stored
+/// run, for every objective kind, with the samples at the output times bitwise the stored
+/// run's.
+#[test]
+fn a_checkpointed_run_gives_the_stored_runs_gradients_bitwise() {
+    let (dm, mut sys, state, ids) = model();
+    let stored = simulate_steps(&mut sys, &state, 0.0, T_END, options()).unwrap();
+    let t_out: Vec<f64> = (0..=40).map(|k| T_END * k as f64 / 40.0).collect();
+    let sampled = stored.resample(&t_out);
+    let terms: Vec<Vec<ObjectiveTerm>> = (objectives(&ids).into_iter())
+        .map(|(response, objective, window)| {
+            let values = response_values(&sys, &t_out, &sampled.states, &response).unwrap();
+            let weights = objective.weights_in(window, &t_out, &values).unwrap();
+            vec![ObjectiveTerm {
+                response,
+                times: t_out.clone(),
+                weights: weights.weights,
+            }]
+        })
+        .collect();
+    let chunk = &dm.chunks()[0];
+    let s0 = initial_sensitivities(&sys, &dm, 0.0, &state).unwrap();
+    let expected = adjoint_sweep(&mut sys, chunk, &mut &stored, &terms)
+        .unwrap()
+        .gradients(chunk, &s0);
+
+    let all = 8 * state.to_vec().len() * stored.times.len();
+    let (mut run, outputs) =
+        simulate_checkpointed(&mut sys, &state, (0.0, T_END), options(), &t_out, all / 8).unwrap();
+    assert_eq!(outputs, sampled.states);
+    let sweep = adjoint_sweep(&mut sys, chunk, &mut run, &terms).unwrap();
+    assert_eq!(sweep.gradients(chunk, &s0), expected);
+    let memory = run.checkpoint_statistics();
+    assert!(
+        memory.recomputed_steps >= stored.times.len() / 2 && memory.peak_bytes < all * 3 / 4,
+        "{memory:?} for {} points ({all} B)",
+        stored.times.len()
+    );
 }
