@@ -10,8 +10,8 @@ use flexsens_tests::{
 use mbs::{
     BdfOptions, DesignModel, MultibodySystem, Objective, ObjectiveTerm, OdeSystem, Response,
     SensitivityOptions, SensitivityRun, State, TapedModel, adjoint_gradients, adjoint_sweep,
-    contract_data, initial_sensitivities, response_history, response_values,
-    simulate_checkpointed, simulate_sensitivities, simulate_steps, tangent_rhs,
+    contract_data, initial_sensitivities, response_history, response_values, simulate_checkpointed,
+    simulate_sensitivities, simulate_steps, tangent_rhs,
 };
 use nalgebra::DMatrix;
 

@@ -76,13 +76,40 @@ fn adjoint_equals_direct(deck: &str, laminate: &str) {
             "finite_differences.enabled=false".to_string(),
         ]
     };
-    let run = |method: &str| {
-        let s = sets(method);
+    let run = |method: &str, extra: Option<&str>| {
+        let mut s = sets(method).to_vec();
+        s.extend(extra.map(str::to_string));
         let s: Vec<&str> = s.iter().map(String::as_str).collect();
-        run_results(&path, &dir.path().join(method), &s)
+        run_results(
+            &path,
+            &dir.path().join(extra.map_or(method, |_| "extra")),
+            &s,
+        )
     };
-    let (direct, _) = run("direct");
-    let (adjoint, h5) = run("adjoint");
+    let (direct, _) = run("direct", None);
+    let (adjoint, h5) = run("adjoint", None);
+    // the run's states within 20 kB (about a twentieth of them): the dropped ones recomputed
+    // from checkpoints for the backward sweep, bitwise, so the same gradients to the bit
+    let (checkpointed, h5_checkpointed) = run("adjoint", Some("sensitivity.adjoint_memory=0.02"));
+    assert_eq!(checkpointed["objectives"], adjoint["objectives"]);
+    assert_eq!(
+        attr(&h5, "adjoint_recomputed_steps"),
+        0,
+        "16 MiB by default"
+    );
+    let recomputed = attr(&h5_checkpointed, "adjoint_recomputed_steps");
+    let steps = attr(&h5_checkpointed, "steps");
+    assert!(
+        recomputed > steps / 2 && recomputed < 3 * steps,
+        "{recomputed} of {steps}"
+    );
+    let memory = |h5| attr(h5, "adjoint_state_memory");
+    assert!(
+        memory(&h5_checkpointed) < memory(&h5) / 2,
+        "{} B against {} B",
+        memory(&h5_checkpointed),
+        memory(&h5)
+    );
     let (d, a) = (gradients(&direct), gradients(&adjoint));
     assert_eq!(d.len(), 7, "the deck's two objectives and the five above");
     let mut nonzero = 0;

@@ -8,14 +8,16 @@
 //! the run goes; when the kept states and snapshots outgrow the budget, the oldest segments'
 //! states are dropped, and when the snapshots alone outgrow half of it, every other snapshot
 //! is dropped (two segments become one, and the segments made later are twice as long). The
-//! sweep, going backwards, recomputes a dropped segment's states from its snapshot with the
-//! same integrator steps: one more analysis at most (of the dropped part), the memory at most
-//! the budget plus one segment.
+//! sweep, going backwards, recomputes a dropped segment from its snapshot with the same
+//! integrator steps, as a run of its own within half the budget (itself cut into segments
+//! and recomputed the same way if its states outgrow that): each level of recomputation costs
+//! at most one more analysis of the dropped part, and the memory stays within about twice the
+//! budget, however long the run.
 
 use std::collections::VecDeque;
 
 use crate::adjoint::StepHistory;
-use crate::bdf::{BdfOptions, BdfSnapshot, OdeSystem, Statistics};
+use crate::bdf::{Bdf, BdfOptions, BdfSnapshot, OdeSystem, Statistics};
 use crate::model::State;
 use crate::sensitivity::{SensitivityError, interpolation};
 use crate::system::MultibodySystem;
@@ -64,8 +66,12 @@ pub struct CheckpointedRun {
     /// The end time the run stepped to (the steps' limit, needed to recompute them).
     t_end: f64,
     segments: Vec<Segment>,
-    /// The recomputed states of a segment: `(its index, its states)`.
-    loaded: Option<(usize, Vec<Vec<f64>>)>,
+    /// The budget of the kept states and snapshots (bytes).
+    budget: usize,
+    /// A dropped segment recomputed: `(its index, its steps as a run of their own)`.
+    loaded: Option<(usize, Box<CheckpointedRun>)>,
+    /// The loaded run's recomputed steps already counted.
+    nested_recomputed: usize,
     /// The memory of the kept states, snapshots and loaded states (bytes).
     bytes: usize,
     /// The snapshots' part of it.
@@ -85,13 +91,6 @@ impl CheckpointedRun {
     /// The segment holding point `i` (`start < i ≤ start + len`; the first for point 0).
     fn segment_of(&self, i: usize) -> usize {
         self.segments.partition_point(|s| s.start < i).max(1) - 1
-    }
-
-    fn states_of(&self, s: usize) -> Option<&Vec<Vec<f64>>> {
-        match &self.loaded {
-            Some((l, states)) if *l == s => Some(states),
-            _ => self.segments[s].states.as_ref(),
-        }
     }
 
     /// Keep the states and snapshots within `budget`: the oldest segments' states dropped
@@ -135,39 +134,112 @@ impl CheckpointedRun {
         }
     }
 
-    /// Recompute segment `s`'s states from its snapshot (the loaded segment replaced).
+    /// Recompute segment `s` from its snapshot, as a run of its own within half the budget
+    /// (itself checkpointed if its states outgrow it; the loaded segment replaced).
     fn recompute(&mut self, sys: &mut MultibodySystem, s: usize) -> Result<(), SensitivityError> {
-        let n = sys.dim();
-        if let Some((_, states)) = self.loaded.take() {
-            self.bytes -= 8 * n * states.len();
-        }
+        self.loaded = None;
         let seg = &self.segments[s];
         let progress = sys.take_progress();
         let result = (|| {
-            let mut bdf = seg.snapshot.restore(sys)?;
-            let mut states = Vec::with_capacity(seg.len);
-            for m in 1..=seg.len {
-                bdf.step(sys, self.t_end)?;
-                let (t, y) = bdf.current();
-                if t != self.times[seg.start + m] {
-                    return Err(SensitivityError::Recomputation(format!(
-                        "the recomputation from the checkpoint at t = {} reached t = {t} \
-                         instead of the run's t = {}",
-                        seg.snapshot.time(),
-                        self.times[seg.start + m]
-                    )));
-                }
-                states.push(y.to_vec());
-            }
-            Ok(states)
+            let bdf = seg.snapshot.restore(sys)?;
+            Self::record(sys, bdf, (self.t_end, seg.len), self.budget / 2, |_, _| {})
         })();
         sys.set_progress(progress);
-        let states = result?;
-        self.memory.recomputed_steps += states.len();
-        self.bytes += 8 * n * states.len();
-        self.memory.peak_bytes = self.memory.peak_bytes.max(self.bytes);
-        self.loaded = Some((s, states));
+        let nested = result?;
+        let expected = &self.times[seg.start..=seg.start + seg.len];
+        if nested.times != expected {
+            let k = (nested.times.iter().zip(expected)).position(|(a, b)| a != b);
+            return Err(SensitivityError::Recomputation(format!(
+                "the steps from the checkpoint at t = {} differ from the run's{}",
+                seg.snapshot.time(),
+                k.map_or(String::new(), |k| format!(
+                    " at t = {} (the run's t = {})",
+                    nested.times[k], expected[k]
+                ))
+            )));
+        }
+        self.memory.recomputed_steps += seg.len;
+        self.loaded = Some((s, Box::new(nested)));
+        self.nested_recomputed = 0;
+        self.note_nested();
         Ok(())
+    }
+
+    /// The peak and recomputed steps of the loaded segment's run taken into this one's.
+    fn note_nested(&mut self) {
+        if let Some((_, nested)) = &self.loaded {
+            let inner = nested.memory;
+            self.memory.peak_bytes = (self.memory.peak_bytes).max(self.bytes + inner.peak_bytes);
+            self.memory.recomputed_steps += inner.recomputed_steps - self.nested_recomputed;
+            self.nested_recomputed = inner.recomputed_steps;
+        }
+    }
+
+    /// The steps of `bdf` from its current point, to `t_end` or for `steps` steps, its states
+    /// kept within `budget` (module documentation); `sample(run, window)` called at every
+    /// point with the run so far and its last states (up to 6, the current one last).
+    fn record(
+        sys: &mut MultibodySystem,
+        mut bdf: Bdf,
+        (t_end, steps): (f64, usize),
+        budget: usize,
+        mut sample: impl FnMut(&CheckpointedRun, &VecDeque<Vec<f64>>),
+    ) -> Result<CheckpointedRun, SensitivityError> {
+        let (t0, y0) = bdf.current();
+        let n = y0.len();
+        let mut run = CheckpointedRun {
+            n_q: sys.model().n_q(),
+            times: vec![t0],
+            orders: vec![0],
+            statistics: Statistics::default(),
+            t_end,
+            budget,
+            segments: Vec::new(),
+            loaded: None,
+            nested_recomputed: 0,
+            bytes: 0,
+            snapshot_bytes: 0,
+            memory: CheckpointStatistics::default(),
+        };
+        let mut window: VecDeque<Vec<f64>> = VecDeque::from([y0.to_vec()]);
+        let mut interval = FIRST_INTERVAL;
+        loop {
+            sample(&run, &window);
+            let i = run.times.len() - 1;
+            if bdf.current().0 >= t_end || i >= steps {
+                break;
+            }
+            if run.segments.last().is_none_or(|s| s.len >= interval) {
+                let snapshot = bdf.snapshot();
+                run.bytes += snapshot.bytes();
+                run.snapshot_bytes += snapshot.bytes();
+                run.segments.push(Segment {
+                    start: i,
+                    len: 0,
+                    snapshot,
+                    states: Some(Vec::new()),
+                });
+            }
+            bdf.step(sys, t_end)?;
+            let st = bdf.last_step();
+            run.times.push(st.times[0]);
+            run.orders.push(st.order);
+            let y = st.states[0].to_vec();
+            let seg = run.segments.last_mut().expect("a segment");
+            seg.len += 1;
+            if let Some(states) = seg.states.as_mut() {
+                states.push(y.clone());
+                run.bytes += 8 * n;
+            }
+            window.push_back(y);
+            if window.len() > WINDOW {
+                window.pop_front();
+            }
+            run.memory.peak_bytes = run.memory.peak_bytes.max(run.bytes);
+            run.enforce(budget, n, &mut interval);
+        }
+        run.statistics = bdf.statistics();
+        Ok(run)
     }
 }
 
@@ -182,9 +254,24 @@ impl StepHistory for CheckpointedRun {
 
     fn load(&mut self, sys: &mut MultibodySystem, i: usize) -> Result<(), SensitivityError> {
         let s = self.segment_of(i);
-        if i > self.segments[s].start && self.states_of(s).is_none() {
+        // the sweep has passed the later segments: their kept states go
+        let n = sys.dim();
+        for seg in &mut self.segments[s + 1..] {
+            if let Some(states) = seg.states.take() {
+                self.bytes -= 8 * n * states.len();
+            }
+        }
+        let start = self.segments[s].start;
+        if i <= start || self.segments[s].states.is_some() {
+            return Ok(());
+        }
+        if !matches!(&self.loaded, Some((l, _)) if *l == s) {
             self.recompute(sys, s)?;
         }
+        if let Some((_, nested)) = self.loaded.as_mut() {
+            nested.load(sys, i - start)?;
+        }
+        self.note_nested();
         Ok(())
     }
 
@@ -193,10 +280,15 @@ impl StepHistory for CheckpointedRun {
     fn state(&self, i: usize) -> &[f64] {
         let s = self.segment_of(i);
         let seg = &self.segments[s];
-        if i > seg.start
-            && let Some(states) = self.states_of(s)
-        {
-            return &states[i - seg.start - 1];
+        if i > seg.start {
+            if let Some(states) = &seg.states {
+                return &states[i - seg.start - 1];
+            }
+            if let Some((l, nested)) = &self.loaded
+                && *l == s
+            {
+                return nested.state(i - seg.start);
+            }
         }
         // the history of the first snapshot at or after point i
         let next = if i > seg.start { s + 1 } else { s };
@@ -226,25 +318,11 @@ pub fn simulate_checkpointed(
     }
     let y0 = state.to_vec();
     let n = y0.len();
-    let mut bdf = crate::bdf::Bdf::new(bdf_options);
+    let mut bdf = Bdf::new(bdf_options);
     bdf.init(sys, t0, &y0)?;
-    let mut run = CheckpointedRun {
-        n_q: sys.model().n_q(),
-        times: vec![t0],
-        orders: vec![0],
-        statistics: Statistics::default(),
-        t_end,
-        segments: Vec::new(),
-        loaded: None,
-        bytes: 0,
-        snapshot_bytes: 0,
-        memory: CheckpointStatistics::default(),
-    };
-    // the recent states, most recent last, for the samples at the output times
-    let mut window: VecDeque<Vec<f64>> = VecDeque::from([y0]);
     let mut outputs = Vec::with_capacity(t_out.len());
-    let mut interval = FIRST_INTERVAL;
-    loop {
+    let sample = |run: &CheckpointedRun, window: &VecDeque<Vec<f64>>| {
+        // the outputs up to the current point: all mix it (p = i)
         let i = run.times.len() - 1;
         while let Some(&t) = t_out.get(outputs.len())
             && t <= run.times[i]
@@ -257,38 +335,7 @@ pub fn simulate_checkpointed(
             }
             outputs.push(y);
         }
-        if bdf.current().0 >= t_end {
-            break;
-        }
-        if run.segments.last().is_none_or(|s| s.len >= interval) {
-            let snapshot = bdf.snapshot();
-            run.bytes += snapshot.bytes();
-            run.snapshot_bytes += snapshot.bytes();
-            run.segments.push(Segment {
-                start: i,
-                len: 0,
-                snapshot,
-                states: Some(Vec::new()),
-            });
-        }
-        bdf.step(sys, t_end)?;
-        let st = bdf.last_step();
-        run.times.push(st.times[0]);
-        run.orders.push(st.order);
-        let y = st.states[0].to_vec();
-        let seg = run.segments.last_mut().expect("a segment");
-        seg.len += 1;
-        if let Some(states) = seg.states.as_mut() {
-            states.push(y.clone());
-            run.bytes += 8 * n;
-        }
-        window.push_back(y);
-        if window.len() > WINDOW {
-            window.pop_front();
-        }
-        run.memory.peak_bytes = run.memory.peak_bytes.max(run.bytes);
-        run.enforce(budget, n, &mut interval);
-    }
-    run.statistics = bdf.statistics();
+    };
+    let run = CheckpointedRun::record(sys, bdf, (t_end, usize::MAX), budget, sample)?;
     Ok((run, outputs))
 }

@@ -65,7 +65,9 @@
 //!   design model's tangents ([`contract_data`]); or the sweep alone ([`adjoint_sweep`]) and
 //!   its contraction one chunk of variables at a time ([`AdjointSweep::gradients`]), so that
 //!   only one chunk's dual model need exist; each objective's samples weighted by
-//!   [`Objective::weights_in`].
+//!   [`Objective::weights_in`]. A long run's states within a memory budget
+//!   ([`simulate_checkpointed`]: snapshots of the integrator, [`BdfSnapshot`], the states
+//!   between them recomputed bitwise when the sweep reaches them; any [`StepHistory`]).
 //! - Finite differences for comparison ([`finite_differences`], [`simulate_response`]) on
 //!   independent adaptive runs or on the nominal step sequence replayed
 //!   ([`SensitivityRun::replay_options`], [`StepControl::Replay`]).

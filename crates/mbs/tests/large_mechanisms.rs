@@ -207,8 +207,8 @@ fn a_chain_runs_as_on_the_dense_path_and_conserves_its_energy_undamped() {
     }
 }
 
-/// A run recorded within a memory budget that holds none of its states: each segment's states
-/// recomputed from its checkpoint are bitwise the stored run's, with the sparse Newton matrix
+/// A run recorded within an eighth of its states' memory: each segment's states recomputed
+/// from its checkpoint (checkpointed again within half that) are bitwise the stored run's, with the sparse Newton matrix
 /// (12 links), the reduced one (6) and the dense one (2), and the samples at output times
 /// are bitwise those interpolated in the stored run.
 #[test]
@@ -243,9 +243,15 @@ fn a_checkpointed_run_recomputes_its_dropped_states_bitwise() {
         }
         let memory = run.checkpoint_statistics();
         eprintln!("{links} links: {points} points, {memory:?}, all states {all} B");
-        // all but the states the budget kept recomputed, once
+        // all but the states the budget kept recomputed, those of the long segments twice
+        // (their own runs checkpointed within half the budget)
         assert!(memory.recomputed_steps >= points * 3 / 4, "{memory:?}");
-        assert!(memory.recomputed_steps < points, "{memory:?}");
-        assert!(memory.peak_bytes < all / 2, "{memory:?} against {all} B");
+        assert!(memory.recomputed_steps < 3 * points, "{memory:?}");
+        // the budget, and the recomputed segments' runs within half of it each level (and
+        // a last level's 64 steps)
+        assert!(
+            memory.peak_bytes < all / 8 * 5 / 2,
+            "{memory:?} against {all} B"
+        );
     }
 }

@@ -13,14 +13,19 @@ use crate::study::Mechanism;
 
 /// What the adjoint method computed.
 pub(crate) struct AdjointRun {
-    /// The run, every accepted step recorded.
-    pub(crate) run: mbs::SensitivityRun,
+    /// The run's steps: times (the initial one included) and orders.
+    pub(crate) times: Vec<f64>,
+    pub(crate) orders: Vec<usize>,
+    /// The run's integrator counters.
+    pub(crate) statistics: mbs::Statistics,
+    /// The memory its states took ([`mbs::simulate_checkpointed`]).
+    pub(crate) checkpoints: mbs::CheckpointStatistics,
     /// The outputs at the deck's output times.
     pub(crate) outputs: Vec<mbs::Output>,
     /// Per objective of the deck, its gradient (empty for an objective of a response without
     /// sensitivities).
     pub(crate) gradients: Vec<Vec<f64>>,
-    pub(crate) statistics: mbs::AdjointStatistics,
+    pub(crate) adjoint_statistics: mbs::AdjointStatistics,
 }
 
 /// The analysis from the assembled `state` and the gradient of every objective of the deck by
@@ -44,10 +49,17 @@ pub(crate) fn analyse<const N: usize>(
         );
     }
     let (t0, t_end) = (mech.times[0], *mech.times.last().expect("output times"));
-    let run = mbs::simulate_steps(system, state, t0, t_end, mech.options.clone())
-        .map_err(|e| CliError::computation(src, e))?;
-    let sampled = run.resample(&mech.times);
-    let outputs = (sampled.times.iter().zip(&sampled.states))
+    let budget = mech.design.adjoint_memory;
+    let (mut run, states) = mbs::simulate_checkpointed(
+        system,
+        state,
+        (t0, t_end),
+        mech.options.clone(),
+        &mech.times,
+        budget,
+    )
+    .map_err(|e| CliError::computation(src, e))?;
+    let outputs = (mech.times.iter().zip(&states))
         .map(|(&t, y)| system.output(t, y))
         .collect::<Result<Vec<_>, _>>()
         .map_err(|e| CliError::computation(src, e))?;
@@ -80,7 +92,7 @@ pub(crate) fn analyse<const N: usize>(
         let ranges = chunks.ranges();
         let mut first = Some(chunks.chunk(&ranges[0])?);
         let taped_model = first.as_ref().expect("first chunk");
-        let sweep = mbs::adjoint_sweep(system, taped_model, &run, &objectives)
+        let sweep = mbs::adjoint_sweep(system, taped_model, &mut run, &objectives)
             .map_err(|e| CliError::computation(src, e))?;
         statistics = sweep.statistics;
         // an objective of a response without sensitivities keeps an empty gradient
@@ -107,9 +119,12 @@ pub(crate) fn analyse<const N: usize>(
         }
     }
     Ok(AdjointRun {
-        run,
+        checkpoints: run.checkpoint_statistics(),
+        times: run.times,
+        orders: run.orders,
+        statistics: run.statistics,
         outputs,
         gradients,
-        statistics,
+        adjoint_statistics: statistics,
     })
 }

@@ -262,12 +262,14 @@ fn put_statistics(g: &mut Group, mech: &Mechanism, c: &Computed) {
             ("sensitivity_corrector_iterations", ss.corrector_iterations),
             ("sensitivity_direct_solves", ss.direct_solves),
         ]);
-        if let Some((_, a)) = &s.adjoint {
+        if let Some((_, a, m)) = &s.adjoint {
             counters.extend([
                 ("adjoint_steps", a.steps),
                 ("adjoint_recordings", a.reverse_evaluations),
                 ("adjoint_sweeps", a.sweeps),
                 ("adjoint_jacobians", a.jacobians),
+                ("adjoint_recomputed_steps", m.recomputed_steps),
+                ("adjoint_state_memory", m.peak_bytes),
             ]);
         }
     }

@@ -36,7 +36,12 @@ pub(crate) struct Sensitivities {
     pub(crate) replay: BdfOptions,
     /// With `sensitivity.method = "adjoint"`: per objective of the deck, its gradient (empty
     /// for an objective of a response without sensitivities), and the backward sweeps' work.
-    pub(crate) adjoint: Option<(Vec<Vec<f64>>, mbs::AdjointStatistics)>,
+    /// With it, the memory of the run's states ([`mbs::CheckpointStatistics`]).
+    pub(crate) adjoint: Option<(
+        Vec<Vec<f64>>,
+        mbs::AdjointStatistics,
+        mbs::CheckpointStatistics,
+    )>,
 }
 
 /// The analysis with its direct sensitivities, from the assembled `state`.
@@ -82,12 +87,12 @@ fn analyse_chunked<const N: usize>(
             let a = super::adjoint::analyse(src, mech, system, state, &chunks)?;
             return Ok(Sensitivities {
                 outputs: a.outputs,
-                statistics: a.run.statistics,
+                statistics: a.statistics,
                 sensitivity_statistics: Default::default(),
                 responses: vec![None; mech.responses.len()],
                 frequencies,
-                replay: replay_options(mech, &a.run),
-                adjoint: Some((a.gradients, a.statistics)),
+                replay: replay_options(mech, (&a.times, &a.orders)),
+                adjoint: Some((a.gradients, a.adjoint_statistics, a.checkpoints)),
             });
         }
     };
@@ -104,7 +109,7 @@ fn analyse_chunked<const N: usize>(
         &options,
     )
     .map_err(|e| CliError::computation(src, e))?;
-    let replay = replay_options(mech, &run);
+    let replay = replay_options(mech, (&run.times, &run.orders));
     let sampled = run.resample(&mech.times);
     let outputs = sampled
         .times
@@ -137,7 +142,9 @@ fn analyse_chunked<const N: usize>(
 }
 
 /// Options that replay `run`'s steps for the finite differences of the discrete solution.
-pub(crate) fn replay_options(mech: &Mechanism, run: &mbs::SensitivityRun) -> BdfOptions {
+/// Options that replay a run's steps (its `times` and `orders`, the initial point's
+/// included).
+pub(crate) fn replay_options(mech: &Mechanism, (times, orders): (&[f64], &[usize])) -> BdfOptions {
     // Newton of the replayed steps converges to `newton_tol` of the error weights
     // `atol + rtol |y|`: tight, but not below round-off when the tolerances are tiny (the
     // fixed-step integrator's are 1e-10 and 1e-12). The weights' absolute part is at most the
@@ -148,7 +155,13 @@ pub(crate) fn replay_options(mech: &Mechanism, run: &mbs::SensitivityRun) -> Bdf
     let atol: Vec<f64> = (mech.options.atol.iter())
         .map(|a| a.min(mech.displacement_tolerance))
         .collect();
-    run.replay_options(mech.options.rtol, &atol, newton_tol)
+    BdfOptions::replay(
+        times[1..].to_vec(),
+        orders[1..].to_vec(),
+        mech.options.rtol,
+        atol,
+        newton_tol,
+    )
 }
 
 /// A computed objective.

@@ -259,6 +259,8 @@ pub struct DesignDef {
     pub method: SensitivityScheme,
     pub fixed_modes: bool,
     pub error_control: bool,
+    /// The adjoint method's budget for the run's states (bytes; `sensitivity.adjoint_memory`).
+    pub adjoint_memory: usize,
     pub objectives: Vec<ObjectiveDef>,
     pub finite_differences: Option<FdDef>,
 }
@@ -688,6 +690,7 @@ pub fn validate(
         error_control: s
             .and_then(|s| s.error_control.as_ref())
             .is_some_and(|e| *e.get_ref()),
+        adjoint_memory: objectives::adjoint_memory(src, s)?,
         objectives,
         finite_differences,
     })

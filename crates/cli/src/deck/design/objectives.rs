@@ -101,6 +101,18 @@ impl SensitivityScheme {
     }
 }
 
+/// `sensitivity.adjoint_memory` in bytes: 16 MiB unless set (a positive number of MiB).
+pub(super) fn adjoint_memory(
+    src: &Source,
+    s: Option<&crate::deck::raw::RawSensitivity>,
+) -> Result<usize, DeckError> {
+    let mib = match s.and_then(|s| s.adjoint_memory.as_ref()) {
+        None => 16.0,
+        Some(m) => crate::deck::check::positive(src, "sensitivity.adjoint_memory", m, "MiB")?,
+    };
+    Ok((mib * 1024.0 * 1024.0).min(usize::MAX as f64) as usize)
+}
+
 /// The adjoint method's cost per objective, in analyses ([`SensitivityScheme::cheaper`]).
 const ADJOINT_ANALYSES: f64 = 5.0;
 /// The simultaneous direct method's cost per variable, in analyses.

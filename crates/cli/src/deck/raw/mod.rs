@@ -376,6 +376,9 @@ pub struct RawSensitivity {
     pub modes: Option<Spanned<String>>,
     /// Include the sensitivities in the step-size control (default `false`).
     pub error_control: Option<Spanned<bool>>,
+    /// The adjoint method's memory for the run's states (MiB; default 16): beyond it the
+    /// states are recomputed from checkpoints.
+    pub adjoint_memory: Option<Spanned<f64>>,
 }
 
 /// Finite-difference comparisons to run.
