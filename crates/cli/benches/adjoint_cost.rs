@@ -4,7 +4,8 @@
 //! of 38 segments made from it the same way with `N` = 300. Before criterion's samples each
 //! case is run a few times and the best time is printed against the analysis alone (the row of
 //! `docs/performance.md`), with the peak resident memory of the run (Linux: the high-water mark
-//! of a process of its own) against the analysis's:
+//! of a process of its own) against the analysis's; then the rod with `N` = 32 over a run ten
+//! times as long, its states kept or checkpointed (`sensitivity.adjoint_memory`):
 //! `cargo bench -p flexsens --bench adjoint_cost`.
 
 use std::path::{Path, PathBuf};
@@ -193,7 +194,45 @@ fn adjoint_cost(c: &mut Criterion) {
             });
         }
     }
+    long_run(&text, out);
     group.finish();
+}
+
+/// The 16-segment rod with `N` = 32 over a run ten times as long (0.6 s): every state kept
+/// (the default budget, 16 MiB, holds them) against a budget of 1 MiB (`adjoint_memory`: the
+/// states checkpointed and recomputed for the sweep), each against the same run's analysis;
+/// printed only (one run each).
+fn long_run(text: &str, out: &Path) {
+    let deck = first_variables(text, 32).replacen("t_end = 0.06 ", "t_end = 0.6 ", 1);
+    assert!(deck.contains("t_end = 0.6 "), "the deck's t_end");
+    let mib = |m: Option<f64>| m.map_or("?".to_string(), |m| format!("{m:.0} MiB"));
+    let path = out.join("long.toml");
+    std::fs::write(&path, &deck).expect("the deck is written");
+    let analysis = best_of(1, &path, true, out);
+    eprintln!(
+        "0.6 s run: analysis {:.1} ms, peak {}",
+        analysis.as_secs_f64() * 1e3,
+        mib(peak_of(&path, true))
+    );
+    for (label, budget) in [("16 MiB", None), ("1 MiB", Some(1.0))] {
+        let deck = match budget {
+            None => deck.clone(),
+            Some(m) => deck.replacen(
+                "method = \"adjoint\"",
+                &format!("method = \"adjoint\"\nadjoint_memory = {m:?}"),
+                1,
+            ),
+        };
+        let path = out.join("long_adjoint.toml");
+        std::fs::write(&path, deck).expect("the deck is written");
+        let with = best_of(1, &path, false, out);
+        eprintln!(
+            "  N = 32, adjoint_memory {label}: {:.1} ms, {:.2} analyses; peak {}",
+            with.as_secs_f64() * 1e3,
+            with.as_secs_f64() / analysis.as_secs_f64(),
+            mib(peak_of(&path, false))
+        );
+    }
 }
 
 criterion_group!(benches, adjoint_cost);

@@ -609,6 +609,15 @@ pub(crate) fn summary_text(
             String::new()
         }
     );
+    if let Some((_, a, m)) = c.sensitivities.as_ref().and_then(|s| s.adjoint.as_ref()) {
+        let mib = m.peak_bytes as f64 / (1024.0 * 1024.0);
+        let _ = writeln!(
+            s,
+            "adjoint: {} sweeps, {} Jacobians; the run's states {mib:.1} MiB at the most, {} \
+             steps recomputed",
+            a.sweeps, a.jacobians, m.recomputed_steps
+        );
+    }
     let _ = writeln!(
         s,
         "largest position-constraint violation: {:.3e} (equations dropped as redundant: {:.3e})",
