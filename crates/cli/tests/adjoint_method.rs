@@ -266,3 +266,23 @@ fn auto_takes_the_adjoint_for_many_variables_per_objective() {
         ("simultaneous, updated modes", true)
     );
 }
+
+#[test]
+fn a_memory_budget_that_is_not_a_positive_number_is_refused() {
+    let text = std::fs::read_to_string(common::deck("slider_crank_beam.toml")).unwrap();
+    for bad in ["0.0", "-1.0", "nan"] {
+        let deck = text.replacen(
+            "[sensitivity]\n",
+            &format!("[sensitivity]\nadjoint_memory = {bad}\n"),
+            1,
+        );
+        let (_dir, err) = common::bad_deck(&deck, |p| common::with_deck("check", p, &[]));
+        let line = common::line_of(&deck, "adjoint_memory");
+        assert!(
+            err.contains("sensitivity.adjoint_memory")
+                && err.contains("must be a positive, finite number (MiB)")
+                && err.contains(&format!(":{line}")),
+            "{bad}: {err}"
+        );
+    }
+}
