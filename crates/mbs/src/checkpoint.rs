@@ -254,12 +254,15 @@ impl StepHistory for CheckpointedRun {
 
     fn load(&mut self, sys: &mut MultibodySystem, i: usize) -> Result<(), SensitivityError> {
         let s = self.segment_of(i);
-        // the sweep has passed the later segments: their kept states go
+        // the sweep has passed the later segments: their kept or recomputed states go
         let n = sys.dim();
         for seg in &mut self.segments[s + 1..] {
             if let Some(states) = seg.states.take() {
                 self.bytes -= 8 * n * states.len();
             }
+        }
+        if matches!(&self.loaded, Some((l, _)) if *l > s) {
+            self.loaded = None;
         }
         let start = self.segments[s].start;
         if i <= start || self.segments[s].states.is_some() {
