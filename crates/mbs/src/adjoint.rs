@@ -181,6 +181,82 @@ impl TapedModel {
     }
 }
 
+impl TapedModel {
+    /// `w_0ᵀ S_0` for the initial sensitivities `S_0` of [`crate::initial_sensitivities`]
+    /// by reverse mode, its `w_0ᵀ S_0 = p̄_0ᵀ p_b` added to the data's `adjoints`: the
+    /// projections' systems solved once with `w_0`'s parts (their matrix is symmetric), the
+    /// constraints and mass matrix swept once. `false` (nothing added) where the start deformed
+    /// the flexible bodies or gave them elastic rates: their rules are left to the forward
+    /// `S_0`.
+    fn initial_pullback(
+        &self,
+        sys: &MultibodySystem,
+        (t0, y0): (f64, &[f64]),
+        w0: &[f64],
+        adjoints: &mut Adjoints,
+    ) -> Result<bool, SensitivityError> {
+        if sys.elastic_start().is_some() || sys.elastic_rates() {
+            return Ok(false);
+        }
+        let model = sys.model();
+        let nq = model.n_q();
+        let (q, v) = y0.split_at(nq);
+        let cols = sys.rigid_columns();
+        let c = model.constraints(t0, q, v);
+        let kkt = sys.start_projection(t0, q, &c.jacobian, &cols)?;
+        let rows = kkt.rows.clone();
+        let zero_rows = vec![0.0; rows.len()];
+        // the velocities' projection increment and multipliers from the guess (as S_0's)
+        let guess = match sys.start_guess() {
+            Some(g) if g.t == t0 && g.q == q => g.v.clone(),
+            _ => v.to_vec(),
+        };
+        let cg = model.constraints(t0, q, &guess);
+        let b: Vec<f64> = rows.iter().map(|&r| -cg.phi_dot[r]).collect();
+        let (dv, mu) = kkt.solve(&vec![0.0; cols.len()], &b);
+        // velocities: w_vᵀ v_b = αᵀ ∂r₁ + βᵀ ∂(−Φ̇_I), (α, β) = K⁻¹ [w_v; 0], along q_b and p_b
+        let wv: Vec<f64> = cols.iter().map(|&ci| w0[nq + ci]).collect();
+        let (alpha, beta) = kkt.solve(&wv, &zero_rows);
+        let qr: Vec<Rev> = q.iter().map(|&x| Rev::input(x)).collect();
+        let vr: Vec<Rev> = v.iter().map(|&x| Rev::constant(x)).collect();
+        let cd = self.model.constraints(t0, &qr, &vr);
+        let (md, _) = self.model.mass_and_forces(t0, &qr, &vr);
+        for (&ca, &al) in cols.iter().zip(&alpha) {
+            for (&cb, &x) in cols.iter().zip(&dv) {
+                md[(ca, cb)].seed(&mut adjoints.0, -al * x);
+            }
+            for (&r, &u) in rows.iter().zip(&mu) {
+                cd.jacobian[(r, ca)].seed(&mut adjoints.0, -al * u);
+            }
+        }
+        for (&r, &be) in rows.iter().zip(&beta) {
+            cd.phi_dot[r].seed(&mut adjoints.0, -be);
+        }
+        let q_bar = self.sweep_into(adjoints, &qr);
+        Tape::rewind(self.top);
+        // positions: (w_q + q̄)ᵀ q_b = (Bᵀ(w_q + q̄))ᵀ d, d from K⁻¹ [0; −Φ_b]: −zᵀ Φ_b with
+        // z the multipliers of K⁻¹ [Bᵀ(w_q + q̄); 0] (B the kinematic rates' map)
+        let qc: Vec<Rev> = q.iter().map(|&x| Rev::constant(x)).collect();
+        let d: Vec<Rev> = (0..model.n_v()).map(|_| Rev::input(0.0)).collect();
+        let mut rates = vec![Rev::constant(0.0); nq];
+        self.model.kinematic_rates(&qc, &d, &mut rates);
+        for ((r, w), qb) in rates.iter().zip(&w0[..nq]).zip(&q_bar) {
+            r.seed(&mut adjoints.0, w + qb);
+        }
+        let d_bar = self.sweep_into(adjoints, &d);
+        Tape::rewind(self.top);
+        let g: Vec<f64> = cols.iter().map(|&ci| d_bar[ci]).collect();
+        let (_, z) = kkt.solve(&g, &zero_rows);
+        let phi = self.model.constraints(t0, &qc, &vr).phi;
+        for (&r, &zk) in rows.iter().zip(&z) {
+            phi[r].seed(&mut adjoints.0, -zk);
+        }
+        self.sweep_into(adjoints, &[]);
+        Tape::rewind(self.top);
+        Ok(true)
+    }
+}
+
 impl Drop for TapedModel {
     fn drop(&mut self) {
         Tape::rewind(self.base);
@@ -546,13 +622,21 @@ pub fn adjoint_gradients<const N: usize>(
 pub struct AdjointSweep {
     /// Per objective, `p̄`: the adjoint of each datum of the model.
     data: Vec<Vec<f64>>,
-    /// Per objective, `w_0 = ∂J/∂y_0 − Σ_m c_{m,m} λ_m`: the adjoint of the initial state.
+    /// Per objective, `w_0 = ∂J/∂y_0 − Σ_m c_{m,m} λ_m`: the adjoint of the initial state,
+    /// zero where the sweep took it back through the start's projections into `data`.
     initial: Vec<DVector<f64>>,
     /// The sweep's work.
     pub statistics: AdjointStatistics,
 }
 
 impl AdjointSweep {
+    /// Whether [`Self::gradients`] reads the initial sensitivities: only where the start
+    /// deformed the flexible bodies or gave them elastic rates (elsewhere the initial state's
+    /// adjoint went back through the start's projections in the sweep, and `s0` may be zero).
+    pub fn needs_initial_sensitivities(&self) -> bool {
+        (self.initial.iter()).any(|w| w.iter().any(|&x| x != 0.0))
+    }
+
     /// Per objective, its gradient with respect to a chunk's variables: `chunk` a model of the
     /// swept system's layout whose tangents are the derivatives of its data with respect to
     /// those variables, `s0` their initial sensitivities (`n × k`, `k ≤ N` the chunk's
@@ -639,6 +723,13 @@ pub fn adjoint_sweep<P: Scalar>(
             }
         }
         stats.steps += 1;
+    }
+    // the initial state's adjoint through the start's projections, where reverse mode can
+    let (t0, y0) = (run.times()[0], run.state(0));
+    for sweep in &mut sweeps {
+        if taped.initial_pullback(sys, (t0, y0), &sweep.rhs[0], &mut sweep.adjoints)? {
+            sweep.rhs[0].fill(0.0);
+        }
     }
     Ok(AdjointSweep {
         data: (sweeps.iter())

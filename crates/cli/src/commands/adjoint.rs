@@ -108,8 +108,14 @@ pub(crate) fn analyse<const N: usize>(
             };
             let design = DesignModel::new(vec![chunk], range.len())
                 .map_err(|e| CliError::computation(src, e))?;
-            let s0 = mbs::initial_sensitivities(system, &design, t0, state)
-                .map_err(|e| CliError::computation(src, e))?;
+            // (read only where the start deformed the bodies or gave them elastic rates: the
+            // sweep took the initial state's adjoint back through the start otherwise)
+            let s0 = if sweep.needs_initial_sensitivities() {
+                mbs::initial_sensitivities(system, &design, t0, state)
+                    .map_err(|e| CliError::computation(src, e))?
+            } else {
+                nalgebra::DMatrix::zeros(state.to_vec().len(), range.len())
+            };
             let chunk_gradients = sweep.gradients(&design.chunks()[0], &s0);
             for (g, chunk_g) in gradients.iter_mut().zip(chunk_gradients) {
                 if !g.is_empty() {
