@@ -30,7 +30,9 @@ use crate::bdf::{OdeSystem, bdf_coefficients};
 use crate::error::ConstraintError;
 use crate::model::Model;
 use crate::response::Response;
-use crate::sensitivity::{DesignModel, SensitivityError, SensitivityRun, interpolation};
+use crate::sensitivity::{
+    DesignModel, SensitivityError, SensitivityRun, interpolation, start_increment,
+};
 use crate::system::{MultibodySystem, Solution};
 
 /// A model whose data are inputs of the current thread's reverse-mode tape.
@@ -179,9 +181,7 @@ impl TapedModel {
         Tape::rewind(self.top);
         Ok(out)
     }
-}
 
-impl TapedModel {
     /// `w_0ᵀ S_0` for the initial sensitivities `S_0` of [`crate::initial_sensitivities`]
     /// by reverse mode, its `w_0ᵀ S_0 = p̄_0ᵀ p_b` added to the data's `adjoints`: the
     /// projections' systems solved once with `w_0`'s parts (their matrix is symmetric), the
@@ -207,13 +207,7 @@ impl TapedModel {
         let rows = kkt.rows.clone();
         let zero_rows = vec![0.0; rows.len()];
         // the velocities' projection increment and multipliers from the guess (as S_0's)
-        let guess = match sys.start_guess() {
-            Some(g) if g.t == t0 && g.q == q => g.v.clone(),
-            _ => v.to_vec(),
-        };
-        let cg = model.constraints(t0, q, &guess);
-        let b: Vec<f64> = rows.iter().map(|&r| -cg.phi_dot[r]).collect();
-        let (dv, mu) = kkt.solve(&vec![0.0; cols.len()], &b);
+        let (dv, mu) = start_increment(sys, t0, (q, v), &kkt, cols.len());
         // velocities: w_vᵀ v_b = αᵀ ∂r₁ + βᵀ ∂(−Φ̇_I), (α, β) = K⁻¹ [w_v; 0], along q_b and p_b
         let wv: Vec<f64> = cols.iter().map(|&ci| w0[nq + ci]).collect();
         let (alpha, beta) = kkt.solve(&wv, &zero_rows);

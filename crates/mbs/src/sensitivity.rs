@@ -54,7 +54,7 @@ use crate::bdf::{
 };
 use crate::error::ConstraintError;
 use crate::model::{Model, State};
-use crate::system::{MultibodySystem, Solution};
+use crate::system::{MultibodySystem, Solution, StartProjection};
 
 /// The model with design derivatives: one `Model<Dual<N>>` per chunk of `N` design variables
 /// (chunk `c` carries the tangents of variables `c·N .. min((c+1)·N, m)`; unused tangent slots of
@@ -497,13 +497,7 @@ pub fn initial_sensitivities<const N: usize>(
         (cols, kkt)
     };
     let nr = cols.len();
-    let guess = match sys.start_guess() {
-        Some(g) if g.t == t0 && g.q == state.q => g.v.clone(),
-        _ => state.v.clone(),
-    };
-    let cg = model.constraints(t0, &state.q, &guess);
-    let b: Vec<f64> = kkt.rows.iter().map(|&r| -cg.phi_dot[r]).collect();
-    let (dv, mu) = kkt.solve(&vec![0.0; nr], &b);
+    let (dv, mu) = start_increment(sys, t0, (&state.q, &state.v), &kkt, nr);
     for (dm, range) in design.chunk_ranges() {
         let yd = seeded::<N>(&y, &s, &range);
         let (qd, vd) = yd.split_at(nq);
@@ -533,6 +527,25 @@ pub fn initial_sensitivities<const N: usize>(
         }
     }
     Ok(s)
+}
+
+/// The velocity projection of [`MultibodySystem::assemble`] at `(q, v)` (its result) from the
+/// velocities it was given (kept by the assembly; `v` itself if it assembled another state):
+/// `(Δ̂, μ̂)`, its increment over the `n_cols` columns of `kkt` and its multipliers.
+pub(crate) fn start_increment(
+    sys: &MultibodySystem,
+    t0: f64,
+    (q, v): (&[f64], &[f64]),
+    kkt: &StartProjection,
+    n_cols: usize,
+) -> (Vec<f64>, Vec<f64>) {
+    let guess = match sys.start_guess() {
+        Some(g) if g.t == t0 && g.q == q => g.v.clone(),
+        _ => v.to_vec(),
+    };
+    let cg = sys.model().constraints(t0, q, &guess);
+    let b: Vec<f64> = kkt.rows.iter().map(|&r| -cg.phi_dot[r]).collect();
+    kkt.solve(&vec![0.0; n_cols], &b)
 }
 
 /// The sensitivities as a [`StepExtension`] of the integrator.

@@ -114,7 +114,7 @@ pub(crate) fn analyse<const N: usize>(
                 mbs::initial_sensitivities(system, &design, t0, state)
                     .map_err(|e| CliError::computation(src, e))?
             } else {
-                nalgebra::DMatrix::zeros(state.to_vec().len(), range.len())
+                nalgebra::DMatrix::zeros(state.q.len() + state.v.len(), range.len())
             };
             let chunk_gradients = sweep.gradients(&design.chunks()[0], &s0);
             for (g, chunk_g) in gradients.iter_mut().zip(chunk_gradients) {
