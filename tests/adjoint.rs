@@ -232,7 +232,9 @@ fn a_checkpointed_run_gives_the_stored_runs_gradients_bitwise() {
 /// assembled to them): the joints' positions and rates at the start then depend on the
 /// mode shapes, so the initial sensitivities' position and velocity parts are not zero, and
 /// the sweep takes the initial state's adjoint back through both projections by reverse
-/// mode: the gradients equal the direct method's (forward `S_0`) to 1e-8.
+/// mode: the gradients equal the direct method's (forward `S_0`) to 1e-9 — the peak's kinds
+/// too, whose single sample on this stiff start (steps of a few µs) shows any residual the
+/// adjoint's step iterations leave (5–7e-7 when they stopped at 1e-12 of the adjoint).
 #[test]
 fn the_adjoint_of_a_deformed_start_equals_the_direct_methods() {
     let (dm, state, ids) =
@@ -258,11 +260,7 @@ fn the_adjoint_of_a_deformed_start_equals_the_direct_methods() {
     let run = direct_run(&dm, &mut sys, &state);
     let mut terms = Vec::new();
     let mut direct = Vec::new();
-    // (the peak's kinds, max and KS, differ from the direct method's by 5–7e-7 on this start,
-    // with the forward S_0 as with the reverse pullback: not the start's adjoint)
-    let smooth = (objectives(&ids).into_iter())
-        .filter(|(_, o, _)| !matches!(o, Objective::Max | Objective::Ks(_)));
-    for (response, objective, window) in smooth {
+    for (response, objective, window) in objectives(&ids) {
         let h = response_history(&sys, &dm, &run, &response).unwrap();
         let d = objective.evaluate_in(window, &h.times, &h.values, Some(&h.gradients));
         let weights = objective.weights_in(window, &h.times, &h.values).unwrap();
@@ -280,7 +278,7 @@ fn the_adjoint_of_a_deformed_start_equals_the_direct_methods() {
     for (a, (label, d)) in adjoint.iter().zip(&direct) {
         let err = relative(a, d);
         assert!(
-            err < 1e-8,
+            err < 1e-9,
             "{label}: adjoint {a:?} vs direct {d:?} ({err:.2e})"
         );
     }
