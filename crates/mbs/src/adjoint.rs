@@ -31,7 +31,8 @@ use crate::error::ConstraintError;
 use crate::model::Model;
 use crate::response::Response;
 use crate::sensitivity::{
-    DesignModel, SensitivityError, SensitivityRun, interpolation, start_increment,
+    DesignModel, SensitivityError, SensitivityRun, interpolation, mix as mix_states,
+    start_increment,
 };
 use crate::system::{MultibodySystem, Solution};
 
@@ -687,10 +688,7 @@ pub fn adjoint_sweep<P: Scalar>(
         for (a, b, t, w, mix) in &samples[i] {
             let (a, b, t, w) = (*a, *b, *t, *w);
             // the response at the interpolated state, its adjoint spread by the weights
-            let mut y = vec![0.0; n];
-            for (j, m) in mix.iter().enumerate() {
-                (y.iter_mut().zip(run.state(i - j))).for_each(|(y, x)| *y += m * x);
-            }
+            let y = mix_states(mix, |j| run.state(i - j));
             let sweep = &mut sweeps[a];
             let response = &objectives[a][b].response;
             let g = taped.response_pullback(sys, response, (t, &y), &mut sweep.adjoints, w)?;

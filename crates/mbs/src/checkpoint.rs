@@ -19,7 +19,7 @@ use std::collections::VecDeque;
 use crate::adjoint::StepHistory;
 use crate::bdf::{Bdf, BdfOptions, BdfSnapshot, OdeSystem, Statistics};
 use crate::model::State;
-use crate::sensitivity::{SensitivityError, interpolation};
+use crate::sensitivity::{SensitivityError, interpolation, mix};
 use crate::system::MultibodySystem;
 
 /// Steps per segment at the start (doubled each time the snapshots are thinned).
@@ -320,7 +320,6 @@ pub fn simulate_checkpointed(
         )));
     }
     let y0 = state.to_vec();
-    let n = y0.len();
     let mut bdf = Bdf::new(bdf_options);
     bdf.init(sys, t0, &y0)?;
     let mut outputs = Vec::with_capacity(t_out.len());
@@ -331,12 +330,7 @@ pub fn simulate_checkpointed(
             && t <= run.times[i]
         {
             let (p, w) = interpolation(&run.times, &run.orders, t);
-            let mut y = vec![0.0; n];
-            for (j, wj) in w.iter().enumerate() {
-                let x = &window[window.len() - 1 - (i - p) - j];
-                (y.iter_mut().zip(x)).for_each(|(a, b)| *a += wj * b);
-            }
-            outputs.push(y);
+            outputs.push(mix(&w, |j| &window[window.len() - 1 - (i - p) - j]));
         }
     };
     let run = CheckpointedRun::record(sys, bdf, (t_end, usize::MAX), budget, sample)?;

@@ -276,12 +276,9 @@ impl SensitivityRun {
     /// interpolated sensitivities are the derivatives of the interpolated state.
     pub fn interpolate(&self, t: f64) -> (Vec<f64>, DMatrix<f64>) {
         let (i, w) = self.interpolation(t);
-        let mut y = vec![0.0; self.states[i].len()];
+        let y = mix(&w, |j| &self.states[i - j]);
         let mut s = DMatrix::zeros(self.sensitivities[i].nrows(), self.sensitivities[i].ncols());
         for (j, wj) in w.iter().enumerate() {
-            for (a, b) in y.iter_mut().zip(&self.states[i - j]) {
-                *a += wj * b;
-            }
             s += &self.sensitivities[i - j] * *wj;
         }
         (y, s)
@@ -324,6 +321,18 @@ pub(crate) fn interpolation(times: &[f64], orders: &[usize], t: f64) -> (usize, 
     let k = orders[i].max(1).min(i);
     let nodes: Vec<f64> = (0..=k).map(|j| times[i - j]).collect();
     (i, lagrange_weights(&nodes, t))
+}
+
+/// `Σ_j w_j y_j` of the states `y_j = state(j)` that [`interpolation`]'s weights `w` mix
+/// (`j` back from the point it returns), summed in that order: the one way a sample of a run
+/// is made from its recorded states, so that every sample of the same point is bitwise the same
+/// whichever store the states come from.
+pub(crate) fn mix<'a>(w: &[f64], state: impl Fn(usize) -> &'a [f64]) -> Vec<f64> {
+    let mut y = vec![0.0; state(0).len()];
+    for (j, wj) in w.iter().enumerate() {
+        (y.iter_mut().zip(state(j))).for_each(|(a, b)| *a += wj * b);
+    }
+    y
 }
 
 fn rhs_failure(e: impl std::fmt::Display) -> IntegrationFailure {
