@@ -15,6 +15,7 @@ mod ply_stress;
 pub mod report;
 pub mod run;
 mod run_files;
+mod run_summary;
 pub mod section;
 pub(crate) mod sensitivity;
 mod shard;

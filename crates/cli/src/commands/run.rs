@@ -6,9 +6,8 @@
 use std::path::{Path, PathBuf};
 
 use super::compute::{Computed, compute};
-use super::run_files::{
-    gradients_csv, history_csv, results, sensitivities_csv, summary, summary_text,
-};
+use super::run_files::{gradients_csv, history_csv, results, sensitivities_csv};
+use super::run_summary::{summary, summary_text};
 use super::shard::remove_old;
 use crate::deck::{self, Source};
 use crate::error::CliError;
