@@ -406,7 +406,8 @@ const MAX_ITERATIONS: usize = 6;
 /// The residual a looser stop leaves is multiplied by the stiff step matrix, and a gradient
 /// carries it summed over the steps: at 1e-12 the gradient of a peak (one sample's
 /// derivative) on a stiff run differed from the direct method's by 5e-7 relative, at 1e-15 by
-/// 3e-12, for about one sweep more in ten (docs/design.md §3).
+/// 3e-12 (every kind of objective by at most 4e-11), for about one sweep more in ten
+/// (docs/design.md §3).
 const ADJOINT_TOL: f64 = 1e-15;
 
 /// The adjoint's step systems `(c_0 I − f_y)ᵀ λ = r`, solved by iterations preconditioned
