@@ -116,6 +116,35 @@ fn direct_run(dm: &DesignModel<4>, sys: &mut MultibodySystem, state: &State) -> 
     simulate_sensitivities(sys, dm, state, 0.0, T_END, options(), &opts).unwrap()
 }
 
+/// A gradient and what it is of.
+type Labelled = (String, Vec<f64>);
+
+/// Each objective of [`objectives`] on the points of `run` (a direct method's run): its terms
+/// for the adjoint sweep (the samples' weights, which give the objective's value) and, labelled,
+/// its gradient by the direct method.
+fn terms_and_direct(
+    sys: &MultibodySystem,
+    dm: &DesignModel<4>,
+    run: &SensitivityRun,
+    ids: &Ids,
+) -> (Vec<Vec<ObjectiveTerm>>, Vec<Labelled>) {
+    let mut terms = Vec::new();
+    let mut direct = Vec::new();
+    for (response, objective, window) in objectives(ids) {
+        let h = response_history(sys, dm, run, &response).unwrap();
+        let d = (objective.evaluate_in(window, &h.times, &h.values, Some(&h.gradients))).unwrap();
+        let weights = objective.weights_in(window, &h.times, &h.values).unwrap();
+        assert_eq!(weights.value, d.value);
+        terms.push(vec![ObjectiveTerm {
+            response: response.clone(),
+            times: h.times.clone(),
+            weights: weights.weights,
+        }]);
+        direct.push((format!("{response:?} {objective:?}"), d.gradient));
+    }
+    (terms, direct)
+}
+
 #[test]
 fn adjoint_gradients_equal_the_direct_methods_for_every_objective_kind() {
     let (dm, mut sys, state, ids) = model();
@@ -126,21 +155,7 @@ fn adjoint_gradients_equal_the_direct_methods_for_every_objective_kind() {
     let t_out: Vec<f64> = (0..=40).map(|k| T_END * k as f64 / 40.0).collect();
     for sampled in [run.clone(), run.resample(&t_out)] {
         // every objective in one backward sweep
-        let mut terms = Vec::new();
-        let mut direct = Vec::new();
-        for (response, objective, window) in objectives(&ids) {
-            let h = response_history(&sys, &dm, &sampled, &response).unwrap();
-            let d =
-                (objective.evaluate_in(window, &h.times, &h.values, Some(&h.gradients))).unwrap();
-            let weights = objective.weights_in(window, &h.times, &h.values).unwrap();
-            assert_eq!(weights.value, d.value);
-            terms.push(vec![ObjectiveTerm {
-                response: response.clone(),
-                times: h.times.clone(),
-                weights: weights.weights,
-            }]);
-            direct.push((format!("{response:?} {objective:?}"), d.gradient));
-        }
+        let (terms, direct) = terms_and_direct(&sys, &dm, &sampled, &ids);
         let (adjoint, stats) = adjoint_gradients(&mut sys, &dm, &run, &s0, &terms).unwrap();
         assert_eq!(stats.steps, run.times.len() - 1);
         for (a, (label, d)) in adjoint.iter().zip(&direct) {
@@ -258,19 +273,7 @@ fn the_adjoint_of_a_deformed_start_equals_the_direct_methods() {
         size(nq..s0.nrows())
     );
     let run = direct_run(&dm, &mut sys, &state);
-    let mut terms = Vec::new();
-    let mut direct = Vec::new();
-    for (response, objective, window) in objectives(&ids) {
-        let h = response_history(&sys, &dm, &run, &response).unwrap();
-        let d = objective.evaluate_in(window, &h.times, &h.values, Some(&h.gradients));
-        let weights = objective.weights_in(window, &h.times, &h.values).unwrap();
-        terms.push(vec![ObjectiveTerm {
-            response: response.clone(),
-            times: h.times.clone(),
-            weights: weights.weights,
-        }]);
-        direct.push((format!("{response:?} {objective:?}"), d.unwrap().gradient));
-    }
+    let (terms, direct) = terms_and_direct(&sys, &dm, &run, &ids);
     let chunk = &dm.chunks()[0];
     let sweep = adjoint_sweep(&mut sys, chunk, &mut &run, &terms).unwrap();
     assert!(!sweep.needs_initial_sensitivities());
