@@ -849,7 +849,7 @@ fn frame_blocks<S: Scalar>(
 /// The [`FrameSums`] of a second-order body by a loop over its nodes (the reference form;
 /// [`FieldGram::sums`] gives the same from the body's Gram table).
 #[allow(clippy::too_many_arguments)]
-fn node_sums<P: Scalar, S: Scalar + From<P>>(
+pub(crate) fn node_sums<P: Scalar, S: Scalar + From<P>>(
     modal: &ModalBody<P>,
     field: &GeometricStiffness<P>,
     inv: &ModalInvariants<P>,
@@ -969,7 +969,15 @@ fn second_order_dynamics<P: Scalar, S: Scalar + From<P>>(
         field_cc,
     } = match &inv.gram {
         Some(gram) => gram.sums(&inv.mode_spin, w, wd, &om, &g_body),
-        None => node_sums(modal, field, inv, w, wd, &om, &g_body),
+        // on the reverse-mode tape, a beam's sums as one operation
+        None => crate::taped_sums::taped_node_sums(
+            (modal, field),
+            &inv.mode_spin,
+            (w, wd),
+            &om,
+            &g_body,
+        )
+        .unwrap_or_else(|| node_sums(modal, field, inv, w, wd, &om, &g_body)),
     };
     let inertia: Vector3<S> = inv.inertia.map(lift);
     for i in 0..3 {
@@ -1738,6 +1746,141 @@ mod tests {
             clamp: 3,
             nodal,
             elements: elements.then_some(els),
+        }
+    }
+
+    /// The nodal sums of a beam body recorded on the tape as one operation
+    /// ([`crate::taped_sums`]) reverse as the node loop recorded operation by operation does:
+    /// the same values, and the same adjoints of every input (state and data) for arbitrary
+    /// output adjoints, with a field of every mode and of the leading ones, with the products
+    /// of correction modes left out, and with a massless node; and the adjoints of the state
+    /// equal central differences of the loop in `f64`.
+    #[test]
+    fn the_taped_sums_reverse_as_the_node_loop_does() {
+        use sens::{Rev, Tape};
+        let mut modal = body();
+        modal.node_masses[5] = 0.0;
+        let (nm, n_nodes) = (modal.n_modes(), modal.n_nodes());
+        let (q, v) = state(nm);
+        let full = element_field(nm, n_nodes, true).map(&|x| x.v);
+        let leading = |nf: usize| {
+            let mut g = full.clone();
+            g.field_modes = nf;
+            g.eigenmodes = nf;
+            for e in g.elements.as_mut().expect("elements") {
+                e.unit = e.unit.view((0, 0), (nf, nf)).into_owned();
+            }
+            g
+        };
+        let fields = [
+            ("every mode", full.clone()),
+            ("leading modes", leading(nm - 1)),
+            (
+                "no correction products",
+                full.clone().without_correction_products(1),
+            ),
+        ];
+        let om = Vector3::new(3.0, -1.5, 2.5);
+        let g_body = Vector3::new(0.4, -9.7, 1.1);
+        // the outputs' adjoints, arbitrary
+        let seed = |i: usize| ((i * 7 + 3) as f64 * 0.43).sin();
+        for (what, field) in fields {
+            let mark = Tape::len();
+            let body =
+                FlexibleBody::new("rod", modal.clone()).with_geometric_stiffness(field.clone());
+            let Body::Flexible(taped) = Body::Flexible(body).map(&Rev::input) else {
+                unreachable!("a flexible body")
+            };
+            let (mr, fr) = (&taped.modal, taped.geometric.as_deref().expect("a field"));
+            let inv = ModalInvariants::new(mr, Some(fr));
+            let state_in: Vec<Rev> = (q[7..].iter().chain(&v[6..]).chain(om.iter()))
+                .chain(g_body.iter())
+                .map(|&x| Rev::input(x))
+                .collect();
+            let (w, rest) = state_in.split_at(nm);
+            let (wd, rest) = rest.split_at(nm);
+            let (omr, gr) = (vec3(&rest[..3]), vec3(&rest[3..]));
+            let sums = [
+                crate::taped_sums::taped_node_sums((mr, fr), &inv.mode_spin, (w, wd), &omr, &gr)
+                    .expect("a beam's sums on the tape"),
+                node_sums(mr, fr, &inv, w, wd, &omr, &gr),
+            ];
+            let flat = |s: &FrameSums<Rev>| -> Vec<Rev> {
+                let mut out = vec![s.total];
+                out.extend(s.first.iter().chain(s.m_oo.iter()));
+                out.extend(s.m_rw.iter().chain(&s.m_ow).flat_map(|x| x.iter().copied()));
+                out.extend(s.qc.iter().chain(s.s_o.iter()).chain(&s.s_w));
+                out.extend(s.field_cc.as_ref().expect("node sums"));
+                out
+            };
+            let (a, b) = (flat(&sums[0]), flat(&sums[1]));
+            let scale = b.iter().fold(0.0f64, |m, x| m.max(x.value().abs()));
+            for (i, (x, y)) in a.iter().zip(&b).enumerate() {
+                let err = (x.value() - y.value()).abs();
+                assert!(err <= 1e-14 * scale, "{what}: output {i}: {x} vs {y}");
+            }
+            // every input's adjoint: the state, then all the data on the tape
+            let adjoint_of = |outputs: &[Rev]| {
+                let mut adj = Vec::new();
+                for (i, y) in outputs.iter().enumerate() {
+                    y.seed(&mut adj, seed(i));
+                }
+                Tape::backpropagate(&mut adj, mark);
+                adj.resize(Tape::len(), 0.0);
+                adj
+            };
+            let top = state_in.last().and_then(|x| x.node()).expect("on the tape") + 1;
+            let (ga, gb) = (adjoint_of(&a), adjoint_of(&b));
+            let scale = gb[mark..top].iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            assert!(scale > 0.0);
+            for i in mark..top {
+                let err = (ga[i] - gb[i]).abs();
+                assert!(
+                    err <= 1e-12 * scale,
+                    "{what}: input {i}: {} vs {}",
+                    ga[i],
+                    gb[i]
+                );
+            }
+            // the state's adjoints against central differences of the f64 loop
+            let inv64 = ModalInvariants::new(&modal, Some(&field));
+            let functional = |x: &[f64]| {
+                let (w, rest) = x.split_at(nm);
+                let (wd, rest) = rest.split_at(nm);
+                let s = node_sums(
+                    &modal,
+                    &field,
+                    &inv64,
+                    w,
+                    wd,
+                    &vec3(&rest[..3]),
+                    &vec3(&rest[3..]),
+                );
+                let mut out = vec![s.total];
+                out.extend(s.first.iter().chain(s.m_oo.iter()));
+                out.extend(s.m_rw.iter().chain(&s.m_ow).flat_map(|x| x.iter().copied()));
+                out.extend(s.qc.iter().chain(s.s_o.iter()).chain(&s.s_w));
+                out.extend(s.field_cc.as_ref().expect("node sums"));
+                out.iter()
+                    .enumerate()
+                    .map(|(i, y)| seed(i) * y)
+                    .sum::<f64>()
+            };
+            let x0: Vec<f64> = state_in.iter().map(|x| x.value()).collect();
+            for (k, r) in state_in.iter().enumerate() {
+                let h = 1e-6 * x0[k].abs().max(1.0);
+                let (mut xp, mut xm) = (x0.clone(), x0.clone());
+                xp[k] += h;
+                xm[k] -= h;
+                let fd = (functional(&xp) - functional(&xm)) / (2.0 * h);
+                let got = r.adjoint(&ga);
+                assert!(
+                    (got - fd).abs() <= 1e-7 * scale.max(fd.abs()),
+                    "{what}: state {k}: {got} vs {fd}"
+                );
+            }
+            drop((sums, a, b, inv, taped));
+            Tape::rewind(mark);
         }
     }
 

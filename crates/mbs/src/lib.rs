@@ -119,6 +119,7 @@ mod reduced_newton;
 mod response;
 mod sensitivity;
 mod system;
+mod taped_sums;
 mod tolerance;
 
 pub use adjoint::{

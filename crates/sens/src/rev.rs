@@ -14,6 +14,11 @@
 //! a sweep leaves on the bottom part add up over the sweeps; one final sweep of the bottom part
 //! carries their sum to the inputs.
 //!
+//! A function whose reverse is cheaper written by hand than swept node by node (many
+//! multiply-adds with few inputs and outputs) can be recorded as one operation instead
+//! ([`Rev::external`]): its outputs are nodes of their own, and the sweep calls its
+//! [`ExternalReverse`] once they have their adjoints.
+//!
 //! A `Rev` is only meaningful on the thread that made it, while the tape still holds its node
 //! (not rewound below it, not cleared).
 
@@ -39,8 +44,26 @@ struct Node {
     partials: [f64; 2],
 }
 
+/// The reverse of a function recorded as one operation ([`Rev::external`]).
+pub trait ExternalReverse: 'static {
+    /// Add `(∂y/∂x)ᵀ ȳ` to `x_bar` (one entry per input of the operation, zero on entry),
+    /// `y_bar` the adjoints of its outputs.
+    fn reverse(&self, y_bar: &[f64], x_bar: &mut [f64]);
+}
+
+/// An operation recorded by [`Rev::external`]: its outputs are nodes `first..end`.
+struct External {
+    first: usize,
+    end: usize,
+    /// The inputs' nodes ([`NONE`] for a constant).
+    inputs: Vec<u32>,
+    op: Box<dyn ExternalReverse>,
+}
+
 thread_local! {
     static TAPE: RefCell<Vec<Node>> = const { RefCell::new(Vec::new()) };
+    /// The external operations on the tape, in the order of their outputs.
+    static EXTERNAL: RefCell<Vec<External>> = const { RefCell::new(Vec::new()) };
 }
 
 #[inline]
@@ -73,6 +96,11 @@ impl Tape {
     /// Drop the nodes above `mark`; every `Rev` made after it becomes invalid.
     pub fn rewind(mark: usize) {
         TAPE.with(|t| t.borrow_mut().truncate(mark));
+        EXTERNAL.with(|e| {
+            let mut e = e.borrow_mut();
+            let keep = e.partition_point(|x| x.end <= mark);
+            e.truncate(keep);
+        });
     }
 
     /// Drop every node.
@@ -84,18 +112,46 @@ impl Tape {
     /// times its partial derivatives, is added to its arguments' adjoints, which may lie
     /// below `down_to` (they are accumulated there, not swept further). `adjoints` is indexed
     /// by node and extended with zeros to the tape's length; seed it with [`Rev::seed`].
+    /// An external operation is reversed when the sweep has passed its outputs; one whose
+    /// outputs straddle `down_to` is an error.
     pub fn backpropagate(adjoints: &mut Vec<f64>, down_to: usize) {
         TAPE.with(|t| {
-            let t = t.borrow();
-            adjoints.resize(t.len().max(adjoints.len()), 0.0);
-            for i in (down_to..t.len()).rev() {
-                // (a zero adjoint adds zeros: cheaper than a branch on it)
-                let a = adjoints[i];
-                let node = &t[i];
-                adjoints[node.args[0] as usize] += a * node.partials[0];
-                adjoints[node.args[1] as usize] += a * node.partials[1];
-            }
+            EXTERNAL.with(|e| {
+                let (t, e) = (t.borrow(), e.borrow());
+                adjoints.resize(t.len().max(adjoints.len()), 0.0);
+                let mut top = t.len();
+                let mut x_bar = Vec::new();
+                for op in e.iter().rev().take_while(|op| op.end > down_to) {
+                    assert!(
+                        op.first >= down_to,
+                        "a sweep that splits an external operation"
+                    );
+                    sweep_nodes(&t, adjoints, op.end..top);
+                    x_bar.clear();
+                    x_bar.resize(op.inputs.len(), 0.0);
+                    op.op.reverse(&adjoints[op.first..op.end], &mut x_bar);
+                    for (&i, &a) in op.inputs.iter().zip(&x_bar) {
+                        if i != NONE {
+                            adjoints[i as usize] += a;
+                        }
+                    }
+                    top = op.first;
+                }
+                sweep_nodes(&t, adjoints, down_to..top);
+            })
         });
+    }
+}
+
+/// The reverse sweep over the nodes of `range`, from the top down.
+#[inline]
+fn sweep_nodes(t: &[Node], adjoints: &mut [f64], range: std::ops::Range<usize>) {
+    for i in range.rev() {
+        // (a zero adjoint adds zeros: cheaper than a branch on it)
+        let a = adjoints[i];
+        let node = &t[i];
+        adjoints[node.args[0] as usize] += a * node.partials[0];
+        adjoints[node.args[1] as usize] += a * node.partials[1];
     }
 }
 
@@ -124,6 +180,27 @@ impl Rev {
             value,
             index: push([NONE, NONE], [0.0, 0.0]),
         }
+    }
+
+    /// Values `outputs` of a function of `inputs` computed elsewhere, recorded as one
+    /// operation whose reverse is `op` (called by [`Tape::backpropagate`] with the outputs'
+    /// adjoints): one node per output, and no node for the function's own operations. With
+    /// every input a constant the outputs are constants.
+    pub fn external(inputs: &[Rev], outputs: &[f64], op: impl ExternalReverse) -> Vec<Rev> {
+        if inputs.iter().all(|x| x.is_constant()) {
+            return outputs.iter().map(|&y| Self::constant(y)).collect();
+        }
+        let first = Tape::len();
+        let out: Vec<Rev> = outputs.iter().map(|&y| Self::input(y)).collect();
+        EXTERNAL.with(|e| {
+            e.borrow_mut().push(External {
+                first,
+                end: first + outputs.len(),
+                inputs: inputs.iter().map(|x| x.index).collect(),
+                op: Box::new(op),
+            })
+        });
+        out
     }
 
     /// The tape node of this value (`None` for a constant).
@@ -473,6 +550,54 @@ mod tests {
         s += -c.abs() + a.powf(S::from_f64(2.5)) + (c * a).max(b).min(a);
         let sum: S = x.iter().copied().sum();
         s + sum * 0.25 - S::from_f64(1.0) / (a + 0.1)
+    }
+
+    /// `(x₀ x₁, x₀ + x₁²)` with its reverse written by hand.
+    struct ProductAndSquare([f64; 2]);
+
+    impl ExternalReverse for ProductAndSquare {
+        fn reverse(&self, y_bar: &[f64], x_bar: &mut [f64]) {
+            let [a, b] = self.0;
+            x_bar[0] += y_bar[0] * b + y_bar[1];
+            x_bar[1] += y_bar[0] * a + y_bar[1] * 2.0 * b;
+        }
+    }
+
+    fn product_and_square<S: Scalar>(x: &[S]) -> [S; 2] {
+        [x[0] * x[1], x[0] + x[1] * x[1]]
+    }
+
+    #[test]
+    fn an_external_operation_is_reversed_as_its_nodes_would_be() {
+        // f = sin(y₀) y₁ + x₂ y₀ with y the pair of x₀ + x₂ and 3 x₁, each way
+        let f = |x: &[Rev], external: bool| {
+            let args = [x[0] + x[2], x[1] * 3.0];
+            let y = if external {
+                let a = args.map(|a| a.value());
+                let y = Rev::external(&args, &product_and_square(&a), ProductAndSquare(a));
+                [y[0], y[1]]
+            } else {
+                product_and_square(&args)
+            };
+            y[0].sin() * y[1] + x[2] * y[0]
+        };
+        let x = [0.4, -1.1, 0.7];
+        let (v0, g0) = reverse_gradient(|x| f(x, false), &x);
+        let before = Tape::len();
+        let (v1, g1) = reverse_gradient(|x| f(x, true), &x);
+        assert_eq!(Tape::len(), before, "rewound");
+        assert_eq!(v0, v1);
+        for k in 0..3 {
+            assert!(
+                (g0[k] - g1[k]).abs() <= 1e-14 * g0[k].abs().max(1.0),
+                "{g0:?} vs {g1:?}"
+            );
+        }
+        // nothing of the operation is left after a rewind: a later sweep is the plain one
+        assert!(EXTERNAL.with(|e| e.borrow().is_empty()));
+        // constant inputs give constants and record nothing
+        let y = Rev::external(&[Rev::constant(1.0)], &[2.0], ProductAndSquare([0.0; 2]));
+        assert!(y[0].is_constant() && Tape::len() == before);
     }
 
     #[test]

@@ -1,0 +1,484 @@
+//! The nodal sums of a beam body with a second-order field on the reverse-mode tape as one
+//! operation ([`sens::Rev::external`]) with its reverse written by hand.
+//!
+//! The loop over the nodes ([`crate::body`]'s `node_sums`, the field accumulated along the
+//! beam's elements) is a few thousand multiply-adds per node with few inputs (the modal
+//! coordinates and rates, the angular velocity, gravity, and the body's data) and few outputs
+//! ([`FrameSums`]): recorded node by node it was most of the tape of a step of the adjoint
+//! sweep, which sweeps each step's tape five to six times (docs/design.md §3, "The adjoint
+//! method"). Here the sums are evaluated in `f64`, their intermediate vectors kept, and each
+//! sweep runs the reverse below: the same derivatives to round-off
+//! (`tests::the_taped_sums_reverse_as_the_node_loop_does`), about a third of the work.
+//!
+//! The sums, per node `k` of mass `m` (massless nodes skipped), with the field's columns
+//! `C_j`, half displacement `H` and rates' term `R` accumulated from the clamp along the
+//! elements (`C_j ← C_j − t g_j`, `H ← H − t ½ Σ g_j w_j`, `R ← R − t Σ h_j ẇ_j` with
+//! `g_j = Σ_l G_lj w_l`, `h_j = Σ_l G_lj ẇ_l` of the element's unit geometric stiffness `G`):
+//!
+//! ```text
+//! u = u0 + H + Σ X_j w_j,  x_j = X_j + C_j,  u̇ = Σ x_j ẇ_j,  c = ω × (ω × u) + 2 ω × u̇ + R
+//! total += m, first += m u, m_oo += m ũᵀũ, qc += m c, s_o += m u × c,
+//! m_rw_j += m x_j, m_ow_j += m u × x_j, s_w_j += m x_j · (g − c), cc_jl += m C_j · C_l (j ≤ l)
+//! ```
+//!
+//! with `m_ow_j` starting at `Σ μ∘T_j`.
+
+use std::any::Any;
+
+use fem::{GeometricStiffness, ModalBody};
+use nalgebra::{Matrix3, Vector3};
+use sens::{ExternalReverse, Rev, Scalar};
+
+use crate::field_gram::FrameSums;
+use crate::kin::skew;
+
+/// [`FrameSums`] of a beam body with a second-order field recorded as one tape operation, when
+/// the evaluation is on the tape (`P` and `S` are [`Rev`]) and the field is accumulated along
+/// the body's elements; `None` otherwise (the caller's node loop then records them).
+pub(crate) fn taped_node_sums<P: Scalar, S: Scalar>(
+    (modal, field): (&ModalBody<P>, &GeometricStiffness<P>),
+    mode_spin: &[Vector3<P>],
+    (w, wd): (&[S], &[S]),
+    om: &Vector3<S>,
+    g_body: &Vector3<S>,
+) -> Option<FrameSums<S>> {
+    let modal = (modal as &dyn Any).downcast_ref::<ModalBody<Rev>>()?;
+    let field = (field as &dyn Any).downcast_ref::<GeometricStiffness<Rev>>()?;
+    let mode_spin: Vec<Vector3<Rev>> = (mode_spin.iter())
+        .map(|v| (v as &dyn Any).downcast_ref::<Vector3<Rev>>().copied())
+        .collect::<Option<_>>()?;
+    let rev = |x: &S| (x as &dyn Any).downcast_ref::<Rev>().copied();
+    let state: Vec<Rev> = (w.iter().chain(wd).chain(om.iter()).chain(g_body.iter()))
+        .map(rev)
+        .collect::<Option<_>>()?;
+    let sums = record(modal, field, &mode_spin, &state)?;
+    (Box::new(sums) as Box<dyn Any>)
+        .downcast::<FrameSums<S>>()
+        .ok()
+        .map(|b| *b)
+}
+
+/// The body's data in `f64` as the sums read them, and their tape handles.
+struct BodyData {
+    nm: usize,
+    nf: usize,
+    masses: Vec<f64>,
+    u0: Vec<Vector3<f64>>,
+    /// `X_kj` at `k · nm + j`.
+    modes: Vec<Vector3<f64>>,
+    /// `(parent, child, axis)` of each element, in the order from the clamp.
+    elements: Vec<(usize, usize, Vector3<f64>)>,
+    /// Each element's `G` (column-major, `nf × nf`).
+    units: Vec<f64>,
+    /// `len_j`: the entries `l < len_j` of column `j` of `G` that may be nonzero.
+    row_len: Vec<usize>,
+}
+
+/// The inputs of the operation: `w`, `ẇ` (each `nm`), `ω`, `g` (3 each), then the node masses,
+/// the modes' translations (`k`, `j`, component), the elements' `G` and `Σ μ∘T_j`.
+fn inputs(
+    modal: &ModalBody<Rev>,
+    field: &GeometricStiffness<Rev>,
+    mode_spin: &[Vector3<Rev>],
+    state: &[Rev],
+) -> Option<(Vec<Rev>, BodyData)> {
+    let elements = field.elements.as_ref()?;
+    let (nm, nf, n) = (modal.n_modes(), field.field_modes, modal.n_nodes());
+    let mut handles = state.to_vec();
+    handles.extend(&modal.node_masses);
+    for k in 0..n {
+        for j in 0..nm {
+            handles.extend((0..3).map(|i| modal.modes[(6 * k + i, j)]));
+        }
+    }
+    for e in elements {
+        handles.extend(e.unit.iter());
+    }
+    handles.extend(mode_spin.iter().flat_map(|v| v.iter().copied()));
+    let data = BodyData {
+        nm,
+        nf,
+        masses: modal.node_masses.iter().map(|m| m.value()).collect(),
+        u0: modal.node_positions.clone(),
+        modes: (0..n * nm)
+            .map(|kj| {
+                let (k, j) = (kj / nm, kj % nm);
+                Vector3::from_fn(|i, _| modal.modes[(6 * k + i, j)].value())
+            })
+            .collect(),
+        elements: elements
+            .iter()
+            .map(|e| (e.parent, e.child, e.axis))
+            .collect(),
+        units: elements
+            .iter()
+            .flat_map(|e| e.unit.iter().map(|x| x.value()))
+            .collect(),
+        row_len: (0..nf).map(|j| field.row_len(j)).collect(),
+    };
+    Some((handles, data))
+}
+
+/// The operation's values and what its reverse reads.
+struct Evaluation {
+    data: BodyData,
+    w: Vec<f64>,
+    wd: Vec<f64>,
+    om: Vector3<f64>,
+    g: Vector3<f64>,
+    /// Per element, `g_j` and `h_j`.
+    gh: Vec<(Vec<f64>, Vec<f64>)>,
+    /// Per node, `C_j` (at `k · nf + j`).
+    columns: Vec<Vector3<f64>>,
+    /// Per node, `u`, `u̇`, `c` and the columns `x_j` (at `k · nm + j`).
+    u: Vec<Vector3<f64>>,
+    ud: Vec<Vector3<f64>>,
+    c: Vec<Vector3<f64>>,
+    x: Vec<Vector3<f64>>,
+}
+
+/// The outputs in order: `total`, `first`, `m_oo` (column-major), `m_rw`, `m_ow`, `qc`,
+/// `s_o`, `s_w`, then `cc_jl` for `j ≤ l`.
+fn n_outputs(nm: usize, nf: usize) -> usize {
+    1 + 3 + 9 + 3 * nm + 3 * nm + 3 + 3 + nm + nf * (nf + 1) / 2
+}
+
+fn record(
+    modal: &ModalBody<Rev>,
+    field: &GeometricStiffness<Rev>,
+    mode_spin: &[Vector3<Rev>],
+    state: &[Rev],
+) -> Option<FrameSums<Rev>> {
+    let (handles, data) = inputs(modal, field, mode_spin, state)?;
+    let (nm, nf) = (data.nm, data.nf);
+    let v: Vec<f64> = state.iter().map(|x| x.value()).collect();
+    let spin: Vec<Vector3<f64>> = mode_spin.iter().map(|s| s.map(|x| x.value())).collect();
+    let evaluation = Evaluation::new(
+        data,
+        (&v[..nm], &v[nm..2 * nm]),
+        Vector3::new(v[2 * nm], v[2 * nm + 1], v[2 * nm + 2]),
+        Vector3::new(v[2 * nm + 3], v[2 * nm + 4], v[2 * nm + 5]),
+    );
+    let values = evaluation.sums(&spin);
+    debug_assert_eq!(values.len(), n_outputs(nm, nf));
+    let out = Rev::external(&handles, &values, evaluation);
+    Some(frame_sums(&out, nm, nf))
+}
+
+/// The [`FrameSums`] of the outputs (in [`n_outputs`]' order).
+fn frame_sums<S: Scalar>(out: &[S], nm: usize, nf: usize) -> FrameSums<S> {
+    let mut it = out.iter().copied();
+    let mut next = || it.next().expect("the operation's outputs");
+    let total = next();
+    let v3 = |next: &mut dyn FnMut() -> S| Vector3::new(next(), next(), next());
+    let first = v3(&mut next);
+    let m_oo = Matrix3::from_column_slice(&[(); 9].map(|_| next()));
+    let m_rw = (0..nm).map(|_| v3(&mut next)).collect();
+    let m_ow = (0..nm).map(|_| v3(&mut next)).collect();
+    let qc = v3(&mut next);
+    let s_o = v3(&mut next);
+    let s_w = (0..nm).map(|_| next()).collect();
+    let mut field_cc = vec![S::zero(); nf * nf];
+    for j in 0..nf {
+        for l in j..nf {
+            field_cc[j * nf + l] = next();
+        }
+    }
+    FrameSums {
+        total,
+        first,
+        m_oo,
+        m_rw,
+        m_ow,
+        qc,
+        s_o,
+        s_w,
+        field_cc: Some(field_cc),
+    }
+}
+
+impl Evaluation {
+    /// The field along the elements, then each node's vectors.
+    fn new(data: BodyData, (w, wd): (&[f64], &[f64]), om: Vector3<f64>, g: Vector3<f64>) -> Self {
+        let (nm, nf, n) = (data.nm, data.nf, data.masses.len());
+        let mut columns = vec![Vector3::zeros(); n * nf];
+        let mut half = vec![Vector3::zeros(); n];
+        let mut rates = vec![Vector3::zeros(); n];
+        let mut gh = Vec::with_capacity(data.elements.len());
+        for (e, &(p, c, t)) in data.elements.iter().enumerate() {
+            let unit = &data.units[e * nf * nf..(e + 1) * nf * nf];
+            let (mut g, mut h) = (vec![0.0; nf], vec![0.0; nf]);
+            for j in 0..nf {
+                let col = &unit[j * nf..j * nf + data.row_len[j]];
+                for (l, &a) in col.iter().enumerate() {
+                    g[j] += w[l] * a;
+                    h[j] += wd[l] * a;
+                }
+            }
+            let (mut hw, mut rate) = (0.0, 0.0);
+            for j in 0..nf {
+                hw += g[j] * w[j];
+                rate += h[j] * wd[j];
+            }
+            for j in 0..nf {
+                columns[c * nf + j] = columns[p * nf + j] - t * g[j];
+            }
+            half[c] = half[p] - t * (hw * 0.5);
+            rates[c] = rates[p] - t * rate;
+            gh.push((g, h));
+        }
+        let (mut u, mut ud, mut cs) = (Vec::with_capacity(n), Vec::with_capacity(n), Vec::new());
+        let mut x = vec![Vector3::zeros(); n * nm];
+        for k in 0..n {
+            let mut uk = data.u0[k] + half[k];
+            let mut udk = Vector3::zeros();
+            for j in 0..nm {
+                let xk = data.modes[k * nm + j];
+                uk += xk * w[j];
+                x[k * nm + j] = if j < nf { xk + columns[k * nf + j] } else { xk };
+                udk += x[k * nm + j] * wd[j];
+            }
+            cs.push(om.cross(&om.cross(&uk)) + om.cross(&udk) * 2.0 + rates[k]);
+            u.push(uk);
+            ud.push(udk);
+        }
+        Self {
+            data,
+            w: w.to_vec(),
+            wd: wd.to_vec(),
+            om,
+            g,
+            gh,
+            columns,
+            u,
+            ud,
+            c: cs,
+            x,
+        }
+    }
+
+    /// The sums (in [`n_outputs`]' order), `m_ow_j` starting at `spin_j`.
+    fn sums(&self, spin: &[Vector3<f64>]) -> Vec<f64> {
+        let (nm, nf) = (self.data.nm, self.data.nf);
+        let mut total = 0.0;
+        let mut first = Vector3::zeros();
+        let mut m_oo = Matrix3::zeros();
+        let mut m_rw = vec![Vector3::zeros(); nm];
+        let mut m_ow = spin.to_vec();
+        let mut qc = Vector3::zeros();
+        let mut s_o = Vector3::zeros();
+        let mut s_w = vec![0.0; nm];
+        let mut cc = vec![0.0; nf * nf];
+        for (k, &m) in self.data.masses.iter().enumerate() {
+            if m == 0.0 {
+                continue;
+            }
+            let col = &self.columns[k * nf..(k + 1) * nf];
+            for j in 0..nf {
+                let cj = col[j] * m;
+                for l in j..nf {
+                    cc[j * nf + l] += cj.dot(&col[l]);
+                }
+            }
+            let (u, c) = (self.u[k], self.c[k]);
+            total += m;
+            first += u * m;
+            let ut = skew(&u);
+            m_oo += (ut.transpose() * ut) * m;
+            qc += c * m;
+            s_o += u.cross(&c) * m;
+            let gc = (self.g - c) * m;
+            for j in 0..nm {
+                let x = self.x[k * nm + j];
+                m_rw[j] += x * m;
+                m_ow[j] += u.cross(&x) * m;
+                s_w[j] += x.dot(&gc);
+            }
+        }
+        let mut out = vec![total];
+        out.extend(first.iter());
+        out.extend(m_oo.iter());
+        out.extend(m_rw.iter().flat_map(|v| v.iter().copied()));
+        out.extend(m_ow.iter().flat_map(|v| v.iter().copied()));
+        out.extend(qc.iter().chain(s_o.iter()));
+        out.extend(&s_w);
+        for j in 0..nf {
+            out.extend(&cc[j * nf + j..(j + 1) * nf]);
+        }
+        out
+    }
+}
+
+/// The adjoints of the sums (in [`n_outputs`]' order).
+struct SumsBar<'a> {
+    total: f64,
+    first: Vector3<f64>,
+    m_oo: Matrix3<f64>,
+    m_rw: Vec<Vector3<f64>>,
+    m_ow: Vec<Vector3<f64>>,
+    qc: Vector3<f64>,
+    s_o: Vector3<f64>,
+    s_w: &'a [f64],
+    /// `cc_jl` for `j ≤ l` at `j · nf + l`, zero below.
+    cc: Vec<f64>,
+}
+
+impl<'a> SumsBar<'a> {
+    fn new(y: &'a [f64], nm: usize, nf: usize) -> Self {
+        let v3 = |i: usize| Vector3::new(y[i], y[i + 1], y[i + 2]);
+        let mut i = 13;
+        let m_rw = (0..nm).map(|j| v3(i + 3 * j)).collect();
+        i += 3 * nm;
+        let m_ow = (0..nm).map(|j| v3(i + 3 * j)).collect();
+        i += 3 * nm;
+        let (qc, s_o) = (v3(i), v3(i + 3));
+        i += 6;
+        let s_w = &y[i..i + nm];
+        i += nm;
+        let mut cc = vec![0.0; nf * nf];
+        for j in 0..nf {
+            for l in j..nf {
+                cc[j * nf + l] = y[i];
+                i += 1;
+            }
+        }
+        Self {
+            total: y[0],
+            first: v3(1),
+            m_oo: Matrix3::from_column_slice(&y[4..13]),
+            m_rw,
+            m_ow,
+            qc,
+            s_o,
+            s_w,
+            cc,
+        }
+    }
+}
+
+impl ExternalReverse for Evaluation {
+    fn reverse(&self, y_bar: &[f64], x_bar: &mut [f64]) {
+        let d = &self.data;
+        let (nm, nf, n) = (d.nm, d.nf, d.masses.len());
+        let b = SumsBar::new(y_bar, nm, nf);
+        // the inputs' adjoints: w, ẇ, ω, g, masses, modes, units, spin
+        let (state, rest) = x_bar.split_at_mut(2 * nm + 6);
+        let (masses_bar, rest) = rest.split_at_mut(n);
+        let (modes_bar, rest) = rest.split_at_mut(n * nm * 3);
+        let (units_bar, spin_bar) = rest.split_at_mut(d.elements.len() * nf * nf);
+        let (mut w_bar, mut wd_bar) = (vec![0.0; nm], vec![0.0; nm]);
+        let (mut om_bar, mut g_bar) = (Vector3::zeros(), Vector3::zeros());
+        for j in 0..nm {
+            for i in 0..3 {
+                spin_bar[3 * j + i] += b.m_ow[j][i];
+            }
+        }
+        let mut columns_bar = vec![Vector3::<f64>::zeros(); n * nf];
+        let mut half_bar = vec![Vector3::<f64>::zeros(); n];
+        let mut rates_bar = vec![Vector3::<f64>::zeros(); n];
+        let m_oo_sym = b.m_oo + b.m_oo.transpose();
+        let trace = b.m_oo.trace();
+        let om = self.om;
+        for (k, &m) in d.masses.iter().enumerate() {
+            if m == 0.0 {
+                continue;
+            }
+            let (u, ud, c) = (self.u[k], self.ud[k], self.c[k]);
+            let x = &self.x[k * nm..(k + 1) * nm];
+            let col = &self.columns[k * nf..(k + 1) * nf];
+            let g_c = self.g - c;
+            // the mass's adjoint: every sum is linear in it
+            let ut = skew(&u);
+            let mut m_bar = b.total
+                + b.first.dot(&u)
+                + b.m_oo.dot(&(ut.transpose() * ut))
+                + b.qc.dot(&c)
+                + b.s_o.dot(&u.cross(&c));
+            let mut sw_x = Vector3::zeros(); // Σ_j s̄_w_j x_j
+            for j in 0..nm {
+                m_bar += b.m_rw[j].dot(&x[j]) + b.m_ow[j].dot(&u.cross(&x[j]));
+                m_bar += b.s_w[j] * x[j].dot(&g_c);
+                sw_x += x[j] * b.s_w[j];
+            }
+            for j in 0..nf {
+                for l in j..nf {
+                    m_bar += b.cc[j * nf + l] * col[j].dot(&col[l]);
+                }
+            }
+            masses_bar[k] += m_bar;
+            g_bar += sw_x * m;
+            // c̄, then ū (directly and through c), u̇ through c
+            let c_bar = (b.qc + b.s_o.cross(&u) - sw_x) * m;
+            let mut u_bar = (b.first + u * (2.0 * trace) - m_oo_sym * u + c.cross(&b.s_o)) * m;
+            for j in 0..nm {
+                u_bar += x[j].cross(&b.m_ow[j]) * m;
+            }
+            u_bar += om * om.dot(&c_bar) - c_bar * om.dot(&om);
+            om_bar += c_bar * om.dot(&u) + u * om.dot(&c_bar) - om * (2.0 * u.dot(&c_bar));
+            om_bar += ud.cross(&c_bar) * 2.0;
+            let ud_bar = c_bar.cross(&om) * 2.0;
+            rates_bar[k] += c_bar;
+            half_bar[k] += u_bar;
+            // the columns x_j = X_j + C_j, and u = u0 + H + Σ X_j w_j
+            for j in 0..nm {
+                let x_bar =
+                    (b.m_rw[j] + b.m_ow[j].cross(&u) + g_c * b.s_w[j]) * m + ud_bar * self.wd[j];
+                wd_bar[j] += x[j].dot(&ud_bar);
+                let xk = d.modes[k * nm + j];
+                w_bar[j] += xk.dot(&u_bar);
+                let modes_bar = &mut modes_bar[(k * nm + j) * 3..(k * nm + j) * 3 + 3];
+                for i in 0..3 {
+                    modes_bar[i] += x_bar[i] + u_bar[i] * self.w[j];
+                }
+                if j < nf {
+                    columns_bar[k * nf + j] += x_bar;
+                }
+            }
+            // Σ_{j ≤ l} c̄c_jl m C_j · C_l
+            for j in 0..nf {
+                for l in j..nf {
+                    let a = b.cc[j * nf + l] * m;
+                    columns_bar[k * nf + j] += col[l] * a;
+                    columns_bar[k * nf + l] += col[j] * a;
+                }
+            }
+        }
+        // back along the elements, from the tips to the clamp
+        for (e, &(p, c, t)) in d.elements.iter().enumerate().rev() {
+            let (g, h) = &self.gh[e];
+            let hw_bar = -0.5 * t.dot(&half_bar[c]);
+            let rate_bar = -t.dot(&rates_bar[c]);
+            let hb = half_bar[c];
+            half_bar[p] += hb;
+            let rb = rates_bar[c];
+            rates_bar[p] += rb;
+            let unit_bar = &mut units_bar[e * nf * nf..(e + 1) * nf * nf];
+            for j in 0..nf {
+                let cb = columns_bar[c * nf + j];
+                columns_bar[p * nf + j] += cb;
+                let g_bar = -t.dot(&cb) + hw_bar * self.w[j];
+                let h_bar = rate_bar * self.wd[j];
+                w_bar[j] += hw_bar * g[j];
+                wd_bar[j] += rate_bar * h[j];
+                let unit = &d.units[e * nf * nf + j * nf..];
+                for l in 0..d.row_len[j] {
+                    unit_bar[j * nf + l] += g_bar * self.w[l] + h_bar * self.wd[l];
+                    w_bar[l] += g_bar * unit[l];
+                    wd_bar[l] += h_bar * unit[l];
+                }
+            }
+        }
+        state[..nm]
+            .iter_mut()
+            .zip(&w_bar)
+            .for_each(|(a, b)| *a += b);
+        state[nm..2 * nm]
+            .iter_mut()
+            .zip(&wd_bar)
+            .for_each(|(a, b)| *a += b);
+        for i in 0..3 {
+            state[2 * nm + i] += om_bar[i];
+            state[2 * nm + 3 + i] += g_bar[i];
+        }
+    }
+}
