@@ -1884,6 +1884,97 @@ mod tests {
         }
     }
 
+    /// A node's field from its nodal matrices recorded as one tape operation
+    /// ([`crate::taped_sums::taped_second_order_node`]) reverses as the loop recorded
+    /// operation by operation: the same values, the same adjoints of `w`, `ẇ` and every entry
+    /// of the matrices, for fields of every mode, of the leading ones and without the
+    /// correction products; and the adjoints of `w`, `ẇ` equal central differences.
+    #[test]
+    fn a_taped_node_field_reverses_as_its_loop_does() {
+        use sens::{Rev, Tape};
+        let modal = body();
+        let nm = modal.n_modes();
+        let (q, v) = state(nm);
+        let seed = |i: usize| ((i * 5 + 2) as f64 * 0.71).cos();
+        let flat = |s: &SecondOrderNode<Rev>| -> Vec<Rev> {
+            let mut out: Vec<Rev> = s.half.iter().copied().collect();
+            out.extend(s.columns.iter().flat_map(|c| c.iter().copied()));
+            out.extend(s.rates.iter());
+            out
+        };
+        let fields = [
+            ("every mode", field(&modal)),
+            ("leading modes", leading_field(&modal, nm - 1)),
+            (
+                "no correction products",
+                field(&modal).without_correction_products(1),
+            ),
+        ];
+        for (what, g) in fields {
+            for k in [0, 4] {
+                let mark = Tape::len();
+                let gr = g.map(&Rev::input);
+                let state_in: Vec<Rev> = q[7..]
+                    .iter()
+                    .chain(&v[6..])
+                    .map(|&x| Rev::input(x))
+                    .collect();
+                let (w, wd) = state_in.split_at(nm);
+                let taped =
+                    crate::taped_sums::taped_second_order_node(&gr, k, w, wd).expect("on the tape");
+                let looped = second_order_node(&gr, k, w, wd);
+                let (a, b) = (flat(&taped), flat(&looped));
+                for (x, y) in a.iter().zip(&b) {
+                    assert!((x.value() - y.value()).abs() <= 1e-15, "{what}: {x} vs {y}");
+                }
+                let adjoint_of = |outputs: &[Rev]| {
+                    let mut adj = Vec::new();
+                    for (i, y) in outputs.iter().enumerate() {
+                        y.seed(&mut adj, seed(i));
+                    }
+                    Tape::backpropagate(&mut adj, mark);
+                    adj.resize(Tape::len(), 0.0);
+                    adj
+                };
+                let top = state_in.last().and_then(|x| x.node()).expect("on the tape") + 1;
+                let (ga, gb) = (adjoint_of(&a), adjoint_of(&b));
+                for i in mark..top {
+                    assert!(
+                        (ga[i] - gb[i]).abs() <= 1e-14,
+                        "{what}: input {i}: {} vs {}",
+                        ga[i],
+                        gb[i]
+                    );
+                }
+                let functional = |x: &[f64]| {
+                    let s = second_order_node(&g, k, &x[..nm], &x[nm..]);
+                    let mut out: Vec<f64> = s.half.iter().copied().collect();
+                    out.extend(s.columns.iter().flat_map(|c| c.iter().copied()));
+                    out.extend(s.rates.iter());
+                    out.iter()
+                        .enumerate()
+                        .map(|(i, y)| seed(i) * y)
+                        .sum::<f64>()
+                };
+                let x0: Vec<f64> = state_in.iter().map(|x| x.value()).collect();
+                for (i, r) in state_in.iter().enumerate() {
+                    let h = 1e-6;
+                    let (mut xp, mut xm) = (x0.clone(), x0.clone());
+                    xp[i] += h;
+                    xm[i] -= h;
+                    let fd = (functional(&xp) - functional(&xm)) / (2.0 * h);
+                    let got = r.adjoint(&ga);
+                    assert!(
+                        (got - fd).abs() <= 1e-8 * fd.abs().max(1.0),
+                        "{what}: {i}: {got} vs {fd}"
+                    );
+                }
+                drop((taped, looped, a, b, gr));
+                Tape::rewind(mark);
+            }
+        }
+    }
+
     /// The field accumulated along a beam body's elements gives what its nodal matrices give,
     /// values and tangents: with dual states, and with a design-dependent field.
     #[test]

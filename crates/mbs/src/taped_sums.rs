@@ -22,6 +22,10 @@
 //! ```
 //!
 //! with `m_ow_j` starting at `Σ μ∘T_j`.
+//!
+//! A marker at a node of a body with a second-order field reads the node's field from its
+//! three nodal matrices ([`crate::body::second_order_node`]); on the tape that is one operation
+//! too ([`taped_second_order_node`]).
 
 use std::any::Any;
 
@@ -29,6 +33,7 @@ use fem::{GeometricStiffness, ModalBody};
 use nalgebra::{Matrix3, Vector3};
 use sens::{ExternalReverse, Rev, Scalar};
 
+use crate::body::SecondOrderNode;
 use crate::field_gram::FrameSums;
 use crate::kin::skew;
 
@@ -479,6 +484,128 @@ impl ExternalReverse for Evaluation {
         for i in 0..3 {
             state[2 * nm + i] += om_bar[i];
             state[2 * nm + 3 + i] += g_bar[i];
+        }
+    }
+}
+
+/// [`crate::body::second_order_node`] of node `k` recorded as one tape operation when the
+/// evaluation is on the tape (`P` and `S` are [`Rev`]); `None` otherwise. Its reverse, with
+/// `c_ij = Σ_l A_i,lj w_l` and `r_ij = Σ_l A_i,lj ẇ_l` over the node's nodal matrices `A_i`
+/// (`C_j = −c_·j`, `R = −Σ_j r_·j ẇ_j`, `H = ½ Σ_j C_j w_j`), is [`NodeField`]'s.
+pub(crate) fn taped_second_order_node<P: Scalar, S: Scalar>(
+    g: &GeometricStiffness<P>,
+    k: usize,
+    w: &[S],
+    wd: &[S],
+) -> Option<SecondOrderNode<S>> {
+    let g = (g as &dyn Any).downcast_ref::<GeometricStiffness<Rev>>()?;
+    let nf = g.field_modes;
+    let matrices = &g.nodal[3 * k..3 * k + 3];
+    if matrices.iter().any(|a| a.shape() != (nf, nf)) {
+        return None;
+    }
+    let rev = |x: &S| (x as &dyn Any).downcast_ref::<Rev>().copied();
+    let mut handles: Vec<Rev> = (w[..nf].iter().chain(&wd[..nf]))
+        .map(rev)
+        .collect::<Option<_>>()?;
+    handles.extend(matrices.iter().flat_map(|a| a.iter().copied()));
+    let op = NodeField {
+        nf,
+        w: w[..nf].iter().map(|x| x.value()).collect(),
+        wd: wd[..nf].iter().map(|x| x.value()).collect(),
+        matrices: matrices
+            .iter()
+            .flat_map(|a| a.iter().map(|x| x.value()))
+            .collect(),
+        row_len: (0..nf).map(|j| g.row_len(j)).collect(),
+        products: Vec::new(),
+    };
+    let (op, values) = op.evaluate();
+    let out = Rev::external(&handles, &values, op);
+    let v3 = |i: usize| Vector3::new(out[i], out[i + 1], out[i + 2]);
+    let node = SecondOrderNode {
+        half: v3(0),
+        columns: (0..nf).map(|j| v3(3 + 3 * j)).collect(),
+        rates: v3(3 + 3 * nf),
+    };
+    (Box::new(node) as Box<dyn Any>)
+        .downcast::<SecondOrderNode<S>>()
+        .ok()
+        .map(|b| *b)
+}
+
+/// One node's field from its nodal matrices, as a tape operation: inputs `w`, `ẇ` (the
+/// field's `nf` each) and the three matrices (column-major); outputs `H`, the `C_j` and `R`.
+struct NodeField {
+    nf: usize,
+    w: Vec<f64>,
+    wd: Vec<f64>,
+    matrices: Vec<f64>,
+    row_len: Vec<usize>,
+    /// `(c_ij, r_ij)` at `i · nf + j`.
+    products: Vec<(f64, f64)>,
+}
+
+impl NodeField {
+    /// The operation with its products, and its outputs (in [`second_order_node_into`]'s
+    /// order of operations).
+    ///
+    /// [`second_order_node_into`]: crate::body::second_order_node_into
+    fn evaluate(mut self) -> (Self, Vec<f64>) {
+        let nf = self.nf;
+        let mut columns = vec![Vector3::<f64>::zeros(); nf];
+        let mut rates = Vector3::<f64>::zeros();
+        for i in 0..3 {
+            for j in 0..nf {
+                let col = &self.matrices[i * nf * nf + j * nf..][..self.row_len[j]];
+                let (mut c, mut r) = (0.0, 0.0);
+                for (l, &a) in col.iter().enumerate() {
+                    c += self.w[l] * a;
+                    r += self.wd[l] * a;
+                }
+                self.products.push((c, r));
+                columns[j][i] = -c;
+                rates[i] -= r * self.wd[j];
+            }
+        }
+        let mut half = Vector3::<f64>::zeros();
+        for (j, c) in columns.iter().enumerate() {
+            half += c * (self.w[j] * 0.5);
+        }
+        let mut out: Vec<f64> = half.iter().copied().collect();
+        out.extend(columns.iter().flat_map(|c| c.iter().copied()));
+        out.extend(rates.iter());
+        (self, out)
+    }
+}
+
+impl ExternalReverse for NodeField {
+    fn reverse(&self, y_bar: &[f64], x_bar: &mut [f64]) {
+        let nf = self.nf;
+        let (w_bar, rest) = x_bar.split_at_mut(nf);
+        let (wd_bar, a_bar) = rest.split_at_mut(nf);
+        let half_bar = Vector3::new(y_bar[0], y_bar[1], y_bar[2]);
+        let rates_bar = &y_bar[3 + 3 * nf..6 + 3 * nf];
+        for j in 0..nf {
+            let column = |i: usize| -self.products[i * nf + j].0;
+            let c = Vector3::from_fn(|i, _| column(i));
+            w_bar[j] += 0.5 * c.dot(&half_bar);
+        }
+        for i in 0..3 {
+            for j in 0..nf {
+                let (_, r) = self.products[i * nf + j];
+                // C_j = −c_ij (its adjoint with ½ w_j H̄ from the half), R_i −= r_ij ẇ_j
+                let c_bar = -(y_bar[3 + 3 * j + i] + 0.5 * self.w[j] * half_bar[i]);
+                let r_bar = -rates_bar[i] * self.wd[j];
+                wd_bar[j] -= rates_bar[i] * r;
+                let at = i * nf * nf + j * nf;
+                let col = &self.matrices[at..at + self.row_len[j]];
+                for (l, &a) in col.iter().enumerate() {
+                    a_bar[at + l] += c_bar * self.w[l] + r_bar * self.wd[l];
+                    w_bar[l] += c_bar * a;
+                    wd_bar[l] += r_bar * a;
+                }
+            }
         }
     }
 }
