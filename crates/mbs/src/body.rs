@@ -1749,6 +1749,26 @@ mod tests {
         }
     }
 
+    /// The adjoint of every tape node from `mark` up after one sweep seeded with `seed(i)` on
+    /// output `i`.
+    fn swept(outputs: &[sens::Rev], mark: usize, seed: impl Fn(usize) -> f64) -> Vec<f64> {
+        let mut adj = Vec::new();
+        for (i, y) in outputs.iter().enumerate() {
+            y.seed(&mut adj, seed(i));
+        }
+        sens::Tape::backpropagate(&mut adj, mark);
+        adj.resize(sens::Tape::len(), 0.0);
+        adj
+    }
+
+    /// The central difference of `f` at `x` along coordinate `k`, step `h`.
+    fn central(f: impl Fn(&[f64]) -> f64, x: &[f64], k: usize, h: f64) -> f64 {
+        let (mut xp, mut xm) = (x.to_vec(), x.to_vec());
+        xp[k] += h;
+        xm[k] -= h;
+        (f(&xp) - f(&xm)) / (2.0 * h)
+    }
+
     /// The nodal sums of a beam body recorded on the tape as one operation
     /// ([`crate::taped_sums`]) reverse as the node loop recorded operation by operation does:
     /// the same values, and the same adjoints of every input (state and data) for arbitrary
@@ -1820,17 +1840,8 @@ mod tests {
                 assert!(err <= 1e-14 * scale, "{what}: output {i}: {x} vs {y}");
             }
             // every input's adjoint: the state, then all the data on the tape
-            let adjoint_of = |outputs: &[Rev]| {
-                let mut adj = Vec::new();
-                for (i, y) in outputs.iter().enumerate() {
-                    y.seed(&mut adj, seed(i));
-                }
-                Tape::backpropagate(&mut adj, mark);
-                adj.resize(Tape::len(), 0.0);
-                adj
-            };
             let top = state_in.last().and_then(|x| x.node()).expect("on the tape") + 1;
-            let (ga, gb) = (adjoint_of(&a), adjoint_of(&b));
+            let (ga, gb) = (swept(&a, mark, seed), swept(&b, mark, seed));
             let scale = gb[mark..top].iter().fold(0.0f64, |m, x| m.max(x.abs()));
             assert!(scale > 0.0);
             for i in mark..top {
@@ -1868,11 +1879,7 @@ mod tests {
             };
             let x0: Vec<f64> = state_in.iter().map(|x| x.value()).collect();
             for (k, r) in state_in.iter().enumerate() {
-                let h = 1e-6 * x0[k].abs().max(1.0);
-                let (mut xp, mut xm) = (x0.clone(), x0.clone());
-                xp[k] += h;
-                xm[k] -= h;
-                let fd = (functional(&xp) - functional(&xm)) / (2.0 * h);
+                let fd = central(functional, &x0, k, 1e-6 * x0[k].abs().max(1.0));
                 let got = r.adjoint(&ga);
                 assert!(
                     (got - fd).abs() <= 1e-7 * scale.max(fd.abs()),
@@ -1927,17 +1934,8 @@ mod tests {
                 for (x, y) in a.iter().zip(&b) {
                     assert!((x.value() - y.value()).abs() <= 1e-15, "{what}: {x} vs {y}");
                 }
-                let adjoint_of = |outputs: &[Rev]| {
-                    let mut adj = Vec::new();
-                    for (i, y) in outputs.iter().enumerate() {
-                        y.seed(&mut adj, seed(i));
-                    }
-                    Tape::backpropagate(&mut adj, mark);
-                    adj.resize(Tape::len(), 0.0);
-                    adj
-                };
                 let top = state_in.last().and_then(|x| x.node()).expect("on the tape") + 1;
-                let (ga, gb) = (adjoint_of(&a), adjoint_of(&b));
+                let (ga, gb) = (swept(&a, mark, seed), swept(&b, mark, seed));
                 for i in mark..top {
                     assert!(
                         (ga[i] - gb[i]).abs() <= 1e-14,
@@ -1958,11 +1956,7 @@ mod tests {
                 };
                 let x0: Vec<f64> = state_in.iter().map(|x| x.value()).collect();
                 for (i, r) in state_in.iter().enumerate() {
-                    let h = 1e-6;
-                    let (mut xp, mut xm) = (x0.clone(), x0.clone());
-                    xp[i] += h;
-                    xm[i] -= h;
-                    let fd = (functional(&xp) - functional(&xm)) / (2.0 * h);
+                    let fd = central(functional, &x0, i, 1e-6);
                     let got = r.adjoint(&ga);
                     assert!(
                         (got - fd).abs() <= 1e-8 * fd.abs().max(1.0),
