@@ -7,8 +7,9 @@
 //! ([`FrameSums`]): recorded node by node it was most of the tape of a step of the adjoint
 //! sweep, which sweeps each step's tape five to six times (docs/design.md §3, "The adjoint
 //! method"). Here the sums are evaluated in `f64`, their intermediate vectors kept, and each
-//! sweep runs the reverse below: the same derivatives to round-off
-//! (`tests::the_taped_sums_reverse_as_the_node_loop_does`), about a third of the work.
+//! sweep runs the reverse below: the same derivatives to round-off (the `crate::body` test
+//! `the_taped_sums_reverse_as_the_node_loop_does`), in about a third of the time the sweeps of
+//! its recording took on the tailored rod (docs/performance.md).
 //!
 //! The sums, per node `k` of mass `m` (massless nodes skipped), with the field's columns
 //! `C_j`, half displacement `H` and rates' term `R` accumulated from the clamp along the
