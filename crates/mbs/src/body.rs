@@ -14,6 +14,8 @@ use sens::Scalar;
 
 use crate::field_gram::{FieldGram, FrameSums};
 use crate::kin::{mtv, mv, rotation, skew};
+
+pub(crate) mod taped_sums;
 pub(crate) use crate::nodal::{
     add_scaled, axial, dot_scaled, lift, mode_vec, mode_vec_times, outer, scaled, vec3, vec3f,
 };
@@ -970,14 +972,8 @@ fn second_order_dynamics<P: Scalar, S: Scalar + From<P>>(
     } = match &inv.gram {
         Some(gram) => gram.sums(&inv.mode_spin, w, wd, &om, &g_body),
         // on the reverse-mode tape, a beam's sums as one operation
-        None => crate::taped_sums::taped_node_sums(
-            (modal, field),
-            &inv.mode_spin,
-            (w, wd),
-            &om,
-            &g_body,
-        )
-        .unwrap_or_else(|| node_sums(modal, field, inv, w, wd, &om, &g_body)),
+        None => taped_sums::taped_node_sums((modal, field), &inv.mode_spin, (w, wd), &om, &g_body)
+            .unwrap_or_else(|| node_sums(modal, field, inv, w, wd, &om, &g_body)),
     };
     let inertia: Vector3<S> = inv.inertia.map(lift);
     for i in 0..3 {
@@ -1770,7 +1766,7 @@ mod tests {
     }
 
     /// The nodal sums of a beam body recorded on the tape as one operation
-    /// ([`crate::taped_sums`]) reverse as the node loop recorded operation by operation does:
+    /// ([`taped_sums`]) reverse as the node loop recorded operation by operation does:
     /// the same values, and the same adjoints of every input (state and data) for arbitrary
     /// output adjoints, with a field of every mode and of the leading ones, with the products
     /// of correction modes left out, and with a massless node; and the adjoints of the state
@@ -1821,7 +1817,7 @@ mod tests {
             let (wd, rest) = rest.split_at(nm);
             let (omr, gr) = (vec3(&rest[..3]), vec3(&rest[3..]));
             let sums = [
-                crate::taped_sums::taped_node_sums((mr, fr), &inv.mode_spin, (w, wd), &omr, &gr)
+                taped_sums::taped_node_sums((mr, fr), &inv.mode_spin, (w, wd), &omr, &gr)
                     .expect("a beam's sums on the tape"),
                 node_sums(mr, fr, &inv, w, wd, &omr, &gr),
             ];
@@ -1892,7 +1888,7 @@ mod tests {
     }
 
     /// A node's field from its nodal matrices recorded as one tape operation
-    /// ([`crate::taped_sums::taped_second_order_node`]) reverses as the loop recorded
+    /// ([`taped_sums::taped_second_order_node`]) reverses as the loop recorded
     /// operation by operation: the same values, the same adjoints of `w`, `ẇ` and every entry
     /// of the matrices, for fields of every mode, of the leading ones and without the
     /// correction products; and the adjoints of `w`, `ẇ` equal central differences.
@@ -1928,7 +1924,7 @@ mod tests {
                     .collect();
                 let (w, wd) = state_in.split_at(nm);
                 let taped =
-                    crate::taped_sums::taped_second_order_node(&gr, k, w, wd).expect("on the tape");
+                    taped_sums::taped_second_order_node(&gr, k, w, wd).expect("on the tape");
                 let looped = second_order_node(&gr, k, w, wd);
                 let (a, b) = (flat(&taped), flat(&looped));
                 for (x, y) in a.iter().zip(&b) {

@@ -119,7 +119,6 @@ mod reduced_newton;
 mod response;
 mod sensitivity;
 mod system;
-mod taped_sums;
 mod tolerance;
 
 pub use adjoint::{

@@ -206,7 +206,7 @@ pub(crate) fn marker_kin<P: Scalar, S: Scalar + From<P>>(
                 let w = &q[qo + 7..qo + 7 + nm];
                 let wd = &v[vo + 6..vo + 6 + nm];
                 // on the reverse-mode tape, one operation
-                let second = crate::taped_sums::taped_second_order_node(g, *k, w, wd)
+                let second = crate::body::taped_sums::taped_second_order_node(g, *k, w, wd)
                     .unwrap_or_else(|| second_order_node(g, *k, w, wd));
                 u += second.half;
                 for (j, c) in second.columns.iter().enumerate() {

@@ -34,7 +34,7 @@ use fem::{GeometricStiffness, ModalBody};
 use nalgebra::{Matrix3, Vector3};
 use sens::{ExternalReverse, Rev, Scalar};
 
-use crate::body::SecondOrderNode;
+use super::SecondOrderNode;
 use crate::field_gram::FrameSums;
 use crate::kin::skew;
 
