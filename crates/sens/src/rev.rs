@@ -47,7 +47,8 @@ struct Node {
 /// The reverse of a function recorded as one operation ([`Rev::external`]).
 pub trait ExternalReverse: 'static {
     /// Add `(∂y/∂x)ᵀ ȳ` to `x_bar` (one entry per input of the operation, zero on entry),
-    /// `y_bar` the adjoints of its outputs.
+    /// `y_bar` the adjoints of its outputs. Called during a sweep: it must not record on the
+    /// tape.
     fn reverse(&self, y_bar: &[f64], x_bar: &mut [f64]);
 }
 

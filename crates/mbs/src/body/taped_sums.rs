@@ -90,6 +90,9 @@ fn inputs(
 ) -> Option<(Vec<Rev>, BodyData)> {
     let elements = field.elements.as_ref()?;
     let (nm, nf, n) = (modal.n_modes(), field.field_modes, modal.n_nodes());
+    if elements.iter().any(|e| e.unit.shape() != (nf, nf)) {
+        return None;
+    }
     let mut handles = state.to_vec();
     handles.extend(&modal.node_masses);
     for k in 0..n {
