@@ -1774,6 +1774,15 @@ mod tests {
     #[test]
     fn the_taped_sums_reverse_as_the_node_loop_does() {
         use sens::{Rev, Tape};
+        // every sum, the field's products whole (written here, not by the code under test)
+        fn flat<S: Scalar>(s: &FrameSums<S>) -> Vec<S> {
+            let mut out = vec![s.total];
+            out.extend(s.first.iter().chain(s.m_oo.iter()));
+            out.extend(s.m_rw.iter().chain(&s.m_ow).flat_map(|x| x.iter().copied()));
+            out.extend(s.qc.iter().chain(s.s_o.iter()).chain(&s.s_w));
+            out.extend(s.field_cc.as_ref().expect("node sums"));
+            out
+        }
         let mut modal = body();
         modal.node_masses[5] = 0.0;
         let (nm, n_nodes) = (modal.n_modes(), modal.n_nodes());
@@ -1821,14 +1830,6 @@ mod tests {
                     .expect("a beam's sums on the tape"),
                 node_sums(mr, fr, &inv, w, wd, &omr, &gr),
             ];
-            let flat = |s: &FrameSums<Rev>| -> Vec<Rev> {
-                let mut out = vec![s.total];
-                out.extend(s.first.iter().chain(s.m_oo.iter()));
-                out.extend(s.m_rw.iter().chain(&s.m_ow).flat_map(|x| x.iter().copied()));
-                out.extend(s.qc.iter().chain(s.s_o.iter()).chain(&s.s_w));
-                out.extend(s.field_cc.as_ref().expect("node sums"));
-                out
-            };
             let (a, b) = (flat(&sums[0]), flat(&sums[1]));
             let scale = b.iter().fold(0.0f64, |m, x| m.max(x.value().abs()));
             for (i, (x, y)) in a.iter().zip(&b).enumerate() {
@@ -1863,12 +1864,8 @@ mod tests {
                     &vec3(&rest[..3]),
                     &vec3(&rest[3..]),
                 );
-                let mut out = vec![s.total];
-                out.extend(s.first.iter().chain(s.m_oo.iter()));
-                out.extend(s.m_rw.iter().chain(&s.m_ow).flat_map(|x| x.iter().copied()));
-                out.extend(s.qc.iter().chain(s.s_o.iter()).chain(&s.s_w));
-                out.extend(s.field_cc.as_ref().expect("node sums"));
-                out.iter()
+                flat(&s)
+                    .iter()
                     .enumerate()
                     .map(|(i, y)| seed(i) * y)
                     .sum::<f64>()

@@ -50,16 +50,22 @@ pub(crate) fn taped_node_sums<P: Scalar, S: Scalar>(
 ) -> Option<FrameSums<S>> {
     let modal = (modal as &dyn Any).downcast_ref::<ModalBody<Rev>>()?;
     let field = (field as &dyn Any).downcast_ref::<GeometricStiffness<Rev>>()?;
-    let mode_spin: Vec<Vector3<Rev>> = (mode_spin.iter())
-        .map(|v| (v as &dyn Any).downcast_ref::<Vector3<Rev>>().copied())
-        .collect::<Option<_>>()?;
-    let rev = |x: &S| (x as &dyn Any).downcast_ref::<Rev>().copied();
-    let state: Vec<Rev> = (w.iter().chain(wd).chain(om.iter()).chain(g_body.iter()))
-        .map(rev)
-        .collect::<Option<_>>()?;
-    let sums = record(modal, field, &mode_spin, &state)?;
-    (Box::new(sums) as Box<dyn Any>)
-        .downcast::<FrameSums<S>>()
+    let mode_spin: Vec<Vector3<Rev>> = taped(mode_spin)?;
+    let state: Vec<Rev> = taped(w.iter().chain(wd).chain(om.iter()).chain(g_body.iter()))?;
+    cast(record(modal, field, &mode_spin, &state)?)
+}
+
+/// The values of `x` as `T` (`None` unless they are `T`s: the evaluation is not on the tape).
+fn taped<'a, S: 'static, T: Copy + 'static>(x: impl IntoIterator<Item = &'a S>) -> Option<Vec<T>> {
+    (x.into_iter())
+        .map(|x| (x as &dyn Any).downcast_ref::<T>().copied())
+        .collect()
+}
+
+/// `x` as a `U`, which it is (the generic caller's type, [`Rev`]'s on the tape).
+fn cast<T: 'static, U: 'static>(x: T) -> Option<U> {
+    (Box::new(x) as Box<dyn Any>)
+        .downcast::<U>()
         .ok()
         .map(|b| *b)
 }
@@ -146,10 +152,19 @@ struct Evaluation {
     x: Vec<Vector3<f64>>,
 }
 
-/// The outputs in order: `total`, `first`, `m_oo` (column-major), `m_rw`, `m_ow`, `qc`,
-/// `s_o`, `s_w`, then `cc_jl` for `j ≤ l`.
-fn n_outputs(nm: usize, nf: usize) -> usize {
-    1 + 3 + 9 + 3 * nm + 3 * nm + 3 + 3 + nm + nf * (nf + 1) / 2
+/// The sums as the operation's outputs, in order: `total`, `first`, `m_oo` (column-major),
+/// `m_rw`, `m_ow`, `qc`, `s_o`, `s_w`, then `cc_jl` for `j ≤ l` ([`frame_sums`] reads them
+/// back, and the outputs' adjoints the same way).
+fn flatten<S: Scalar>(s: &FrameSums<S>) -> Vec<S> {
+    let mut out = vec![s.total];
+    out.extend(s.first.iter().chain(s.m_oo.iter()));
+    out.extend(s.m_rw.iter().chain(&s.m_ow).flat_map(|v| v.iter().copied()));
+    out.extend(s.qc.iter().chain(s.s_o.iter()).chain(&s.s_w));
+    let nf = s.field_cc.as_ref().map_or(0, |cc| cc.len().isqrt());
+    for j in 0..nf {
+        out.extend(&s.field_cc.as_ref().expect("the field's products")[j * nf + j..(j + 1) * nf]);
+    }
+    out
 }
 
 fn record(
@@ -168,13 +183,12 @@ fn record(
         Vector3::new(v[2 * nm], v[2 * nm + 1], v[2 * nm + 2]),
         Vector3::new(v[2 * nm + 3], v[2 * nm + 4], v[2 * nm + 5]),
     );
-    let values = evaluation.sums(&spin);
-    debug_assert_eq!(values.len(), n_outputs(nm, nf));
+    let values = flatten(&evaluation.sums(&spin));
     let out = Rev::external(&handles, &values, evaluation);
     Some(frame_sums(&out, nm, nf))
 }
 
-/// The [`FrameSums`] of the outputs (in [`n_outputs`]' order).
+/// The [`FrameSums`] of the outputs (in [`flatten`]'s order; `cc_jl` zero for `j > l`).
 fn frame_sums<S: Scalar>(out: &[S], nm: usize, nf: usize) -> FrameSums<S> {
     let mut it = out.iter().copied();
     let mut next = || it.next().expect("the operation's outputs");
@@ -266,8 +280,8 @@ impl Evaluation {
         }
     }
 
-    /// The sums (in [`n_outputs`]' order), `m_ow_j` starting at `spin_j`.
-    fn sums(&self, spin: &[Vector3<f64>]) -> Vec<f64> {
+    /// The sums, `m_ow_j` starting at `spin_j`.
+    fn sums(&self, spin: &[Vector3<f64>]) -> FrameSums<f64> {
         let (nm, nf) = (self.data.nm, self.data.nf);
         let mut total = 0.0;
         let mut first = Vector3::zeros();
@@ -304,63 +318,16 @@ impl Evaluation {
                 s_w[j] += x.dot(&gc);
             }
         }
-        let mut out = vec![total];
-        out.extend(first.iter());
-        out.extend(m_oo.iter());
-        out.extend(m_rw.iter().flat_map(|v| v.iter().copied()));
-        out.extend(m_ow.iter().flat_map(|v| v.iter().copied()));
-        out.extend(qc.iter().chain(s_o.iter()));
-        out.extend(&s_w);
-        for j in 0..nf {
-            out.extend(&cc[j * nf + j..(j + 1) * nf]);
-        }
-        out
-    }
-}
-
-/// The adjoints of the sums (in [`n_outputs`]' order).
-struct SumsBar<'a> {
-    total: f64,
-    first: Vector3<f64>,
-    m_oo: Matrix3<f64>,
-    m_rw: Vec<Vector3<f64>>,
-    m_ow: Vec<Vector3<f64>>,
-    qc: Vector3<f64>,
-    s_o: Vector3<f64>,
-    s_w: &'a [f64],
-    /// `cc_jl` for `j ≤ l` at `j · nf + l`, zero below.
-    cc: Vec<f64>,
-}
-
-impl<'a> SumsBar<'a> {
-    fn new(y: &'a [f64], nm: usize, nf: usize) -> Self {
-        let v3 = |i: usize| Vector3::new(y[i], y[i + 1], y[i + 2]);
-        let mut i = 13;
-        let m_rw = (0..nm).map(|j| v3(i + 3 * j)).collect();
-        i += 3 * nm;
-        let m_ow = (0..nm).map(|j| v3(i + 3 * j)).collect();
-        i += 3 * nm;
-        let (qc, s_o) = (v3(i), v3(i + 3));
-        i += 6;
-        let s_w = &y[i..i + nm];
-        i += nm;
-        let mut cc = vec![0.0; nf * nf];
-        for j in 0..nf {
-            for l in j..nf {
-                cc[j * nf + l] = y[i];
-                i += 1;
-            }
-        }
-        Self {
-            total: y[0],
-            first: v3(1),
-            m_oo: Matrix3::from_column_slice(&y[4..13]),
+        FrameSums {
+            total,
+            first,
+            m_oo,
             m_rw,
             m_ow,
             qc,
             s_o,
             s_w,
-            cc,
+            field_cc: Some(cc),
         }
     }
 }
@@ -369,7 +336,8 @@ impl ExternalReverse for Evaluation {
     fn reverse(&self, y_bar: &[f64], x_bar: &mut [f64]) {
         let d = &self.data;
         let (nm, nf, n) = (d.nm, d.nf, d.masses.len());
-        let b = SumsBar::new(y_bar, nm, nf);
+        let b = frame_sums(y_bar, nm, nf);
+        let cc = b.field_cc.as_deref().expect("the field's products");
         // the inputs' adjoints: w, ẇ, ω, g, masses, modes, units, spin
         let (state, rest) = x_bar.split_at_mut(2 * nm + 6);
         let (masses_bar, rest) = rest.split_at_mut(n);
@@ -411,7 +379,7 @@ impl ExternalReverse for Evaluation {
             }
             for j in 0..nf {
                 for l in j..nf {
-                    m_bar += b.cc[j * nf + l] * col[j].dot(&col[l]);
+                    m_bar += cc[j * nf + l] * col[j].dot(&col[l]);
                 }
             }
             masses_bar[k] += m_bar;
@@ -446,7 +414,7 @@ impl ExternalReverse for Evaluation {
             // Σ_{j ≤ l} c̄c_jl m C_j · C_l
             for j in 0..nf {
                 for l in j..nf {
-                    let a = b.cc[j * nf + l] * m;
+                    let a = cc[j * nf + l] * m;
                     columns_bar[k * nf + j] += col[l] * a;
                     columns_bar[k * nf + l] += col[j] * a;
                 }
@@ -508,10 +476,7 @@ pub(crate) fn taped_second_order_node<P: Scalar, S: Scalar>(
     if matrices.iter().any(|a| a.shape() != (nf, nf)) {
         return None;
     }
-    let rev = |x: &S| (x as &dyn Any).downcast_ref::<Rev>().copied();
-    let mut handles: Vec<Rev> = (w[..nf].iter().chain(&wd[..nf]))
-        .map(rev)
-        .collect::<Option<_>>()?;
+    let mut handles: Vec<Rev> = taped(w[..nf].iter().chain(&wd[..nf]))?;
     handles.extend(matrices.iter().flat_map(|a| a.iter().copied()));
     let op = NodeField {
         nf,
@@ -532,10 +497,7 @@ pub(crate) fn taped_second_order_node<P: Scalar, S: Scalar>(
         columns: (0..nf).map(|j| v3(3 + 3 * j)).collect(),
         rates: v3(3 + 3 * nf),
     };
-    (Box::new(node) as Box<dyn Any>)
-        .downcast::<SecondOrderNode<S>>()
-        .ok()
-        .map(|b| *b)
+    cast(node)
 }
 
 /// One node's field from its nodal matrices, as a tape operation: inputs `w`, `ẇ` (the
