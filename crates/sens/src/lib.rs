@@ -8,7 +8,8 @@
 //!   mixed second-order part: the design derivative of a directional derivative), and for
 //!   [`Rev`] (a value on a thread-local [`Tape`]: reverse mode, the gradient of one scalar with
 //!   respect to every input in one sweep; a function with its reverse written by hand recorded
-//!   as one operation, [`ExternalReverse`]);
+//!   as one operation, [`ExternalReverse`], such as the rows of a table dotted with a vector,
+//!   [`Rev::dot_rows`]);
 //! - seeding of design variables and the evaluation of a function of many design variables in
 //!   chunks of a compile-time width `N` ([`seed`], [`jacobian`]);
 //! - pushing tangents through a linear solve whose matrix was factorised once in `f64`

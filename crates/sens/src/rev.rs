@@ -17,7 +17,8 @@
 //! A function whose reverse is cheaper written by hand than swept node by node (many
 //! multiply-adds with few inputs and outputs) can be recorded as one operation instead
 //! ([`Rev::external`]): its outputs are nodes of their own, and the sweep calls its
-//! [`ExternalReverse`] once they have their adjoints.
+//! [`ExternalReverse`] once they have their adjoints. [`Rev::dot_rows`] is one such operation:
+//! the rows of a table dotted with a vector, one node per row instead of two per product.
 //!
 //! A `Rev` is only meaningful on the thread that made it, while the tape still holds its node
 //! (not rewound below it, not cleared).
@@ -59,6 +60,33 @@ struct External {
     /// The inputs' nodes ([`NONE`] for a constant).
     inputs: Vec<u32>,
     op: Box<dyn ExternalReverse>,
+}
+
+/// The reverse of [`Rev::dot_rows`]: `x̄_p = Σ_i ȳ_i a_ip`, `ā_ip = ȳ_i x_p` (inputs `x`, then
+/// the rows' entries).
+struct DotRows {
+    rows: Vec<f64>,
+    lens: Vec<usize>,
+    x: Vec<f64>,
+}
+
+impl ExternalReverse for DotRows {
+    fn reverse(&self, y_bar: &[f64], x_bar: &mut [f64]) {
+        let (x_adj, row_adj) = x_bar.split_at_mut(self.x.len());
+        let mut start = 0;
+        for (&len, &y) in self.lens.iter().zip(y_bar) {
+            let (row, row_adj) = (
+                &self.rows[start..start + len],
+                &mut row_adj[start..start + len],
+            );
+            let (x, x_adj) = (&self.x[..len], &mut x_adj[..len]);
+            for p in 0..len {
+                x_adj[p] += y * row[p];
+                row_adj[p] += y * x[p];
+            }
+            start += len;
+        }
+    }
 }
 
 thread_local! {
@@ -202,6 +230,39 @@ impl Rev {
             })
         });
         out
+    }
+
+    /// `y_i = Σ_p a_ip x_p` for the rows `a_i` of `rows`, laid end to end (row `i` is the next
+    /// `lens[i]` entries, dotted with `x[..lens[i]]`), recorded as one operation: one node per
+    /// row instead of two per product. The values are those of the products summed in order
+    /// from zero, as the same dot products recorded operation by operation give.
+    ///
+    /// # Panics
+    /// If the lengths do not add up to the entries, or a row is longer than `x`.
+    pub fn dot_rows(rows: &[Rev], lens: &[usize], x: &[Rev]) -> Vec<Rev> {
+        assert_eq!(
+            lens.iter().sum::<usize>(),
+            rows.len(),
+            "the rows' lengths add up to their entries"
+        );
+        assert!(
+            lens.iter().all(|&len| len <= x.len()),
+            "a row no longer than the vector"
+        );
+        let op = DotRows {
+            rows: rows.iter().map(|a| a.value).collect(),
+            lens: lens.to_vec(),
+            x: x.iter().map(|a| a.value).collect(),
+        };
+        let mut values = Vec::with_capacity(lens.len());
+        let mut start = 0;
+        for &len in lens {
+            let row = &op.rows[start..start + len];
+            values.push(row.iter().zip(&op.x).fold(0.0, |acc, (a, b)| acc + a * b));
+            start += len;
+        }
+        let inputs: Vec<Rev> = x.iter().chain(rows).copied().collect();
+        Self::external(&inputs, &values, op)
     }
 
     /// The tape node of this value (`None` for a constant).
@@ -599,6 +660,65 @@ mod tests {
         // constant inputs give constants and record nothing
         let y = Rev::external(&[Rev::constant(1.0)], &[2.0], ProductAndSquare([0.0; 2]));
         assert!(y[0].is_constant() && Tape::len() == before);
+    }
+
+    #[test]
+    fn rows_dotted_as_one_operation_reverse_as_their_products_do() {
+        // rows of lengths 3, 0, 2, 3 (an input repeated, a constant among the entries) dotted
+        // with the first entries of x, then a nonlinear function of the results
+        let lens = [3, 0, 2, 3];
+        let f = |v: &[Rev], one_op: bool| {
+            let (x, a) = v.split_at(3);
+            let rows = [a[0], a[1], a[2], a[3], x[0], a[4], Rev::constant(0.7), a[0]];
+            let y = if one_op {
+                Rev::dot_rows(&rows, &lens, x)
+            } else {
+                let mut start = 0;
+                (lens.iter())
+                    .map(|&len| {
+                        let row = &rows[start..start + len];
+                        start += len;
+                        row.iter()
+                            .zip(x)
+                            .fold(Rev::constant(0.0), |acc, (&r, &xp)| acc + r * xp)
+                    })
+                    .collect()
+            };
+            (y[0] * y[2]).sin() + y[3] * y[3] + y[1] * x[1]
+        };
+        let v = [0.3, -1.2, 0.8, 1.1, 0.4, -0.6, 2.0, 0.9];
+        let (v0, g0) = reverse_gradient(|v| f(v, false), &v);
+        let (v1, g1) = reverse_gradient(|v| f(v, true), &v);
+        assert_eq!(v0, v1, "the same values");
+        let plain = |v: &[f64]| {
+            let rows = [v[3], v[4], v[5], v[6], v[0], v[7], 0.7, v[3]];
+            let dot = |r: &[f64]| r.iter().zip(v).map(|(a, b)| a * b).sum::<f64>();
+            let y = [dot(&rows[0..3]), 0.0, dot(&rows[3..5]), dot(&rows[5..8])];
+            (y[0] * y[2]).sin() + y[3] * y[3]
+        };
+        for k in 0..v.len() {
+            assert!((g0[k] - g1[k]).abs() <= 1e-14 * g0[k].abs().max(1.0), "{k}");
+            let h = 1e-6;
+            let (mut p, mut m) = (v, v);
+            p[k] += h;
+            m[k] -= h;
+            let fd = (plain(&p) - plain(&m)) / (2.0 * h);
+            assert!(
+                (g1[k] - fd).abs() <= 1e-8 * fd.abs().max(1.0),
+                "{k}: {} vs {fd}",
+                g1[k]
+            );
+        }
+        // one node per row, none for the products
+        let mark = Tape::len();
+        let x: Vec<Rev> = (0..3).map(|k| Rev::input(k as f64)).collect();
+        let inputs = Tape::len();
+        let y = Rev::dot_rows(&[x[0], x[1], x[2], x[0]], &[3, 1], &x);
+        assert_eq!(
+            (Tape::len() - inputs, y[0].value(), y[1].value()),
+            (2, 5.0, 0.0)
+        );
+        Tape::rewind(mark);
     }
 
     #[test]
