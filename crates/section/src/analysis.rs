@@ -241,19 +241,22 @@ impl<'a, F: Scalar> LagrangeFields<'a, F> {
     }
 
     /// `[ε, α, e₁, β]` of the six columns at `gp` (of an element with nodes `nodes`), with
-    /// `ε = [BN Z] u + SN X₁`, `α = ε/2 − [BN Z] λ`, `e₁ = [BN Z] u₁`, `β = SN λ_X − [BN Z] μ`.
+    /// `ε = [BN Z] u + SN X₁`, `α = ε/2 − [BN Z] λ`, `e₁ = [BN Z] u₁`, `β = SN λ_X − [BN Z] μ`,
+    /// in the scalar `O` of the fields' products with the geometry's (the fields', or dual
+    /// numbers for plain fields at dual integration points).
     #[inline(always)]
-    fn at<G>(&self, nodes: &[usize], gp: &GaussPoint<G>) -> [[[F; 6]; 6]; 4]
+    fn at<G, O>(&self, nodes: &[usize], gp: &GaussPoint<G>) -> [[[O; 6]; 6]; 4]
     where
-        F: Mul<G, Output = F>,
+        F: Mul<G, Output = O>,
         G: Scalar,
+        O: Scalar + From<F>,
     {
-        let eps = strains(nodes, gp, self.eps);
+        let eps: [[O; 6]; 6] = strains(nodes, gp, self.eps);
         let e1 = strains(nodes, gp, self.e1);
-        let l = strains(nodes, gp, self.lambda);
-        let sl = strains(nodes, gp, self.s_lambda);
-        let mu = strains(nodes, gp, self.mu);
-        let half = F::from_f64(0.5);
+        let l: [[O; 6]; 6] = strains(nodes, gp, self.lambda);
+        let sl: [[O; 6]; 6] = strains(nodes, gp, self.s_lambda);
+        let mu: [[O; 6]; 6] = strains(nodes, gp, self.mu);
+        let half = O::from_f64(0.5);
         let alpha = std::array::from_fn(|c| std::array::from_fn(|i| half * eps[c][i] - l[c][i]));
         let beta = std::array::from_fn(|c| std::array::from_fn(|i| sl[c][i] - mu[c][i]));
         [eps, alpha, e1, beta]
@@ -323,21 +326,22 @@ where
 /// the warping rate) of the six columns of the fields `f` at the integration point `gp` of an
 /// element with nodes `nodes`: `eps[column][component]`.
 #[inline(always)]
-fn strains<F, G>(nodes: &[usize], gp: &GaussPoint<G>, f: Fields<'_, F>) -> [[F; 6]; 6]
+fn strains<F, G, O>(nodes: &[usize], gp: &GaussPoint<G>, f: Fields<'_, F>) -> [[O; 6]; 6]
 where
-    F: Scalar + Mul<G, Output = F>,
+    F: Copy + Mul<G, Output = O>,
     G: Scalar,
+    O: Scalar + From<F>,
 {
     let [x2, x3] = gp.x;
     // component-major while accumulating (the six columns of a nodal component are
     // contiguous in the fields), column-major on return
-    let mut e = [[F::zero(); 6]; 6];
+    let mut e = [[O::zero(); 6]; 6];
     if let Some(psi) = f.psi {
         for c in 0..6 {
             let p = |i: usize| psi[i * 6 + c];
-            e[0][c] += p(0) + p(4) * x3 - p(5) * x2;
-            e[4][c] += p(2) + p(3) * x2;
-            e[5][c] += p(1) - p(3) * x3;
+            e[0][c] += O::from(p(0)) + p(4) * x3 - p(5) * x2;
+            e[4][c] += O::from(p(2)) + p(3) * x2;
+            e[5][c] += O::from(p(1)) - p(3) * x3;
         }
     }
     if let Some(u) = f.u {
@@ -363,9 +367,9 @@ where
             let g = 3 * node;
             let na = gp.n[a];
             for c in 0..6 {
-                e[0][c] += u1[g * 6 + c] * na;
-                e[5][c] += u1[(g + 1) * 6 + c] * na;
-                e[4][c] += u1[(g + 2) * 6 + c] * na;
+                e[0][c] += O::from(u1[g * 6 + c]) * na;
+                e[5][c] += O::from(u1[(g + 1) * 6 + c]) * na;
+                e[4][c] += O::from(u1[(g + 2) * 6 + c]) * na;
             }
         }
     }
@@ -930,16 +934,8 @@ impl SectionAnalysis {
         let node_moves: Vec<bool> = nodes.iter().map(|p| p.iter().any(moves)).collect();
         let q_ply = ply_stiffnesses(angles, c_bar);
         let ComplianceAdjoints { lx, ly, mx, my } = self.compliance_adjoints();
-        let (lx, mx) = (&lx[..], &mx[..]);
-        let lift = |x: &[f64]| {
-            x.iter()
-                .map(|&v| Dual::<N>::constant(v))
-                .collect::<Vec<_>>()
-        };
-        let lift36 = |y: &[f64; 36]| y.map(Dual::<N>::constant);
-        let (x, x1, lx, mx) = (lift(&self.x), lift(&self.x1), lift(lx), lift(mx));
-        let (y, y1, ly, my) = (lift36(&self.y), lift36(&self.y1), lift36(ly), lift36(my));
-        let fields = LagrangeFields::new((&x, &x1, &y, &y1), (&lx, &ly, &mx, &my));
+        // the fields plain, their products with the dual geometry dual
+        let fields = LagrangeFields::new((&self.x, &self.x1, &self.y, &self.y1), (lx, ly, mx, my));
         let zero = Dual::<N>::constant(0.0);
         let region_moves: Vec<bool> = q_ply.iter().map(|q| q.iter().any(moves)).collect();
         let mut l = [[zero; 6]; 6];
@@ -950,7 +946,7 @@ impl SectionAnalysis {
             }
             for gp in &gps[m.gp_start[e]..m.gp_start[e + 1]] {
                 let q = m.stiffness_at(el.region, gp, &q_ply[el.region]);
-                let [eps, alpha, e1, beta] = fields.at(nodes, gp);
+                let [eps, alpha, e1, beta]: [[[Dual<N>; 6]; 6]; 4] = fields.at(nodes, gp);
                 // w Q ε_c and w Q e₁_c
                 let weighted = |a: &[Dual<N>; 6]| -> [Dual<N>; 6] {
                     std::array::from_fn(|i| {
