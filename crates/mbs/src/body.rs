@@ -17,7 +17,7 @@ use crate::kin::{mtv, mv, rotation, skew};
 
 pub(crate) mod taped_sums;
 pub(crate) use crate::nodal::{
-    add_scaled, axial, dot_scaled, lift, mode_vec, mode_vec_times, outer, scaled, vec3, vec3f,
+    axial, dot_rows, dot_scaled, lift, mode_vec, mode_vec_times, outer, scaled, vec3, vec3f,
 };
 
 /// Handle of a body in a [`crate::Model`].
@@ -462,7 +462,9 @@ pub(crate) struct ModalInvariants<P: Scalar> {
 pub(crate) struct FieldInvariants<P: Scalar> {
     /// `R[j, l, p] = Σ_k m_k X_kj · Q_k,lp` at `(j · nf + l) · nf + p`.
     r: Vec<P>,
-    /// `T[j, p, l, q] = Σ_k m_k Q_k,jp · Q_k,lq` at `((j · nf + p) · nf + l) · nf + q`.
+    /// `T[j, p, l, q] = Σ_k m_k Q_k,jp · Q_k,lq` at `((j · nf + p) · nf + l) · nf + q`, for a
+    /// body whose sums come from its Gram table (empty otherwise: the loop over the nodes sums
+    /// `Σ m C_j · C_l` itself, and `nf⁴` sums a node are not made for nothing).
     t: Vec<P>,
 }
 
@@ -476,16 +478,17 @@ pub(crate) struct RotaryInvariants<P: Scalar> {
     /// `L_j = Σ_k Θ_kj μ_k + μ_k Θ_kjᵀ`.
     l: Vec<Matrix3<P>>,
     /// The symmetric part `½ (S_jl + S_lj)` of
-    /// `S_jl = Σ_k Θ_kj μ_k Θ_klᵀ + ½ (Θ_kj Θ_kl μ_k + μ_k Θ_klᵀ Θ_kjᵀ)` at `j · n_modes + l`
+    /// `S_jl = Σ_k Θ_kj μ_k Θ_klᵀ + ½ (Θ_kj Θ_kl μ_k + μ_k Θ_klᵀ Θ_kjᵀ)`, entry `i` (column
+    /// major) at `(9 j + i) · n_modes + l`: the rows contracted with `w` are contiguous
     /// (`ΔJ` takes only that part, and its derivatives are then `L_j + 2 Σ_l S_jl w_l`).
-    s: Vec<Matrix3<P>>,
+    s: Vec<P>,
 }
 
 impl<P: Scalar> RotaryInvariants<P> {
     fn map<Q: Scalar>(&self, f: &impl Fn(P) -> Q) -> RotaryInvariants<Q> {
         RotaryInvariants {
             l: self.l.iter().map(|m| m.map(f)).collect(),
-            s: self.s.iter().map(|m| m.map(f)).collect(),
+            s: self.s.iter().map(|&x| f(x)).collect(),
         }
     }
 }
@@ -528,10 +531,8 @@ impl<P: Scalar> ModalInvariants<P> {
 impl<P: Scalar> RotaryInvariants<P> {
     fn new(modal: &ModalBody<P>) -> Self {
         let nm = modal.n_modes();
-        let mut r = Self {
-            l: vec![Matrix3::zeros(); nm],
-            s: vec![Matrix3::zeros(); nm * nm],
-        };
+        let mut l = vec![Matrix3::zeros(); nm];
+        let mut s = vec![Matrix3::<P>::zeros(); nm * nm];
         let half = P::from_f64(0.5);
         for k in 0..modal.n_nodes() {
             let mu = Matrix3::from_diagonal(&modal.node_inertias[k]);
@@ -543,21 +544,27 @@ impl<P: Scalar> RotaryInvariants<P> {
                 .collect();
             for j in 0..nm {
                 let tm = theta[j] * mu;
-                r.l[j] += tm + tm.transpose();
-                for l in 0..nm {
-                    let b = theta[j] * theta[l] * mu * half;
-                    r.s[j * nm + l] += tm * theta[l].transpose() + b + b.transpose();
+                l[j] += tm + tm.transpose();
+                for p in 0..nm {
+                    let b = theta[j] * theta[p] * mu * half;
+                    s[j * nm + p] += tm * theta[p].transpose() + b + b.transpose();
                 }
             }
         }
         for j in 0..nm {
-            for l in j + 1..nm {
-                let sym = (r.s[j * nm + l] + r.s[l * nm + j]) * half;
-                r.s[j * nm + l] = sym;
-                r.s[l * nm + j] = sym;
+            for p in j + 1..nm {
+                let sym = (s[j * nm + p] + s[p * nm + j]) * half;
+                s[j * nm + p] = sym;
+                s[p * nm + j] = sym;
             }
         }
-        r
+        let s = (0..9 * nm * nm)
+            .map(|x| {
+                let (ji, p) = (x / nm, x % nm);
+                s[ji / 9 * nm + p][ji % 9]
+            })
+            .collect();
+        Self { l, s }
     }
 
     /// `ΔJ(w) = Σ_j w_j L_j + Σ_jl w_j w_l S_jl` and its derivatives `∂ΔJ/∂w_j`: with
@@ -567,12 +574,11 @@ impl<P: Scalar> RotaryInvariants<P> {
         let nm = self.l.len();
         let mut dj = Matrix3::<S>::zeros();
         let two = S::from_f64(2.0);
+        let rows: Vec<&[P]> = self.s.chunks(nm).collect();
+        let e_all = dot_rows(&rows, &w[..nm]);
         let d = (0..nm)
             .map(|j| {
-                let mut e = Matrix3::<S>::zeros();
-                for (s_jl, &wl) in self.s[j * nm..(j + 1) * nm].iter().zip(w) {
-                    add_scaled(&mut e, s_jl, wl);
-                }
+                let e = Matrix3::from_column_slice(&e_all[9 * j..9 * j + 9]);
                 let lj: Matrix3<S> = self.l[j].map(lift);
                 dj += (lj + e) * w[j];
                 lj + e * two
@@ -583,10 +589,11 @@ impl<P: Scalar> RotaryInvariants<P> {
 }
 
 impl<P: Scalar> FieldInvariants<P> {
-    fn new(modal: &ModalBody<P>, g: &GeometricStiffness<P>) -> Self {
+    /// The sums of `modal`'s field `g`, `T` only with `fourth_order`.
+    fn new(modal: &ModalBody<P>, g: &GeometricStiffness<P>, fourth_order: bool) -> Self {
         let (nm, nf) = (modal.n_modes(), g.field_modes);
         let mut r = vec![P::zero(); nm * nf * nf];
-        let mut t = vec![P::zero(); nf * nf * nf * nf];
+        let mut t = vec![P::zero(); if fourth_order { nf * nf * nf * nf } else { 0 }];
         for k in 0..modal.n_nodes() {
             let m = modal.node_masses[k];
             if m == P::zero() {
@@ -601,6 +608,9 @@ impl<P: Scalar> FieldInvariants<P> {
                             r[(j * nf + l) * nf + p] -= x * q[(l, p)];
                         }
                     }
+                }
+                if !fourth_order {
+                    continue;
                 }
                 for j in 0..nf {
                     for p in 0..nf {
@@ -622,6 +632,9 @@ impl<P: Scalar> ModalInvariants<P> {
     /// The invariants of `modal`, with those of its second-order field `field` if any.
     pub(crate) fn new(modal: &ModalBody<P>, field: Option<&GeometricStiffness<P>>) -> Self {
         let nm = modal.n_modes();
+        let gram = field
+            .filter(|g| FieldGram::pays(modal, g))
+            .map(|g| FieldGram::new(modal, g));
         let mut inv = Self {
             n_modes: nm,
             total: P::zero(),
@@ -633,11 +646,9 @@ impl<P: Scalar> ModalInvariants<P> {
             mode_second: vec![Matrix3::zeros(); nm * nm],
             mode_spin: vec![Vector3::zeros(); nm],
             modal_mass: vec![P::zero(); nm * nm],
-            field: field.map(|g| FieldInvariants::new(modal, g)),
+            field: field.map(|g| FieldInvariants::new(modal, g, gram.is_some())),
             rotary: field.map(|_| RotaryInvariants::new(modal)),
-            gram: field
-                .filter(|g| FieldGram::pays(modal, g))
-                .map(|g| FieldGram::new(modal, g)),
+            gram,
             reach: (0..nm)
                 .map(|j| {
                     (0..modal.n_nodes())
@@ -1006,29 +1017,44 @@ fn second_order_dynamics<P: Scalar, S: Scalar + From<P>>(
         .as_ref()
         .expect("the invariants of a body with a field have the field's");
     let mut m_ww = DMatrix::<S>::from_fn(nm, nm, |j, l| lift(inv.modal_mass[j * nm + l]));
-    for j in 0..nm {
-        for l in 0..nf {
-            let (start, len) = ((j * nf + l) * nf, field.row_len(l));
-            let x = dot_scaled(&fi.r[start..start + len], &w[..len]);
-            m_ww[(j, l)] += x;
-            m_ww[(l, j)] += x;
-        }
+    let rows: Vec<&[P]> = (0..nm * nf)
+        .map(|jl| {
+            let (start, len) = (jl * nf, field.row_len(jl % nf));
+            &fi.r[start..start + len]
+        })
+        .collect();
+    for (jl, x) in dot_rows(&rows, w).into_iter().enumerate() {
+        let (j, l) = (jl / nf, jl % nf);
+        m_ww[(j, l)] += x;
+        m_ww[(l, j)] += x;
     }
+    // Σ m C_j · C_l = Σ_pq T[j, p, l, q] w_p w_q: summed with the nodes when they were (a
+    // third of the contraction's work), else contracted; `T[j, p, l, q]` is zero where `Q_jp`
+    // or `Q_lq` is
+    let t_rows = field_cc.is_none().then(|| {
+        let rows: Vec<&[P]> = (0..nf)
+            .flat_map(|j| (j..nf).flat_map(move |l| (0..field.row_len(j)).map(move |p| (j, l, p))))
+            .map(|(j, l, p)| {
+                let start = ((j * nf + p) * nf + l) * nf;
+                &fi.t[start..start + field.row_len(l)]
+            })
+            .collect();
+        dot_rows(&rows, w)
+    });
+    let mut t_row = 0;
     for j in 0..nf {
         for l in j..nf {
-            // Σ m C_j · C_l = Σ_pq T[j, p, l, q] w_p w_q: summed with the nodes when they were
-            // (a third of the contraction's work), else contracted
-            let x = match &field_cc {
-                Some(cc) => cc[j * nf + l],
-                None => {
-                    // `T[j, p, l, q]` is zero where `Q_jp` or `Q_lq` is
-                    let (mut x, len) = (S::zero(), field.row_len(l));
-                    for p in 0..field.row_len(j) {
-                        let start = ((j * nf + p) * nf + l) * nf;
-                        x += dot_scaled(&fi.t[start..start + len], &w[..len]) * w[p];
+            let x = match (&field_cc, &t_rows) {
+                (Some(cc), _) => cc[j * nf + l],
+                (None, Some(t)) => {
+                    let mut x = S::zero();
+                    for &wp in &w[..field.row_len(j)] {
+                        x += t[t_row] * wp;
+                        t_row += 1;
                     }
                     x
                 }
+                (None, None) => unreachable!("contracted without the nodal sums"),
             };
             m_ww[(j, l)] += x;
             if l != j {
@@ -1648,6 +1674,7 @@ mod tests {
         );
         let mut inv = ModalInvariants::new(modal, Some(field));
         inv.gram = gram.then(|| FieldGram::new(modal, field));
+        inv.field = Some(FieldInvariants::new(modal, field, gram));
         let lock = OnceLock::new();
         assert!(lock.set(inv).is_ok());
         let (mut m, mut f) = (DMatrix::zeros(n, n), vec![S::zero(); n]);
@@ -1703,6 +1730,87 @@ mod tests {
                 &what,
             );
             close(&f1, &f2, 1e-12 * scale(&f2), &what);
+        }
+    }
+
+    /// The dynamics through the Gram table on the reverse-mode tape (its contractions one
+    /// operation each, [`FieldGram`]) reverse as the node loop recorded operation by operation
+    /// does: the same mass matrix and forces, the same adjoints of every input (the state, the
+    /// body's modes, masses, inertias and field), for a field of every mode and of the leading
+    /// ones; and the state's adjoints equal central differences in `f64`.
+    #[test]
+    fn the_gram_table_on_the_tape_reverses_as_the_node_loop_does() {
+        use sens::{Rev, Tape};
+        let modal = body();
+        let nm = modal.n_modes();
+        let (q, v) = state(nm);
+        let gravity = Vector3::new(0.0, -9.81, 1.0);
+        let flat = |(m, f): &Dynamics<Rev>| -> Vec<Rev> { m.iter().chain(f).copied().collect() };
+        let seed = |i: usize| ((i * 5 + 2) as f64 * 0.61).cos();
+        for nf in [nm, nm - 1] {
+            let field = leading_field(&modal, nf);
+            let mark = Tape::len();
+            let body =
+                FlexibleBody::new("rod", modal.clone()).with_geometric_stiffness(field.clone());
+            let Body::Flexible(taped) = Body::Flexible(body).map(&Rev::input) else {
+                unreachable!("a flexible body")
+            };
+            let (mr, fr) = (&taped.modal, taped.geometric.as_deref().expect("a field"));
+            let state: Vec<Rev> = q.iter().chain(&v).map(|&x| Rev::input(x)).collect();
+            let top = Tape::len();
+            let (qr, vr) = state.split_at(q.len());
+            let a = flat(&with_path(mr, fr, true, qr, vr, &gravity));
+            let b = flat(&with_path(mr, fr, false, qr, vr, &gravity));
+            let scale = b.iter().fold(0.0f64, |m, x| m.max(x.value().abs()));
+            for (i, (x, y)) in a.iter().zip(&b).enumerate() {
+                assert!(
+                    (x.value() - y.value()).abs() <= 1e-13 * scale,
+                    "field of {nf} modes: output {i}: {x} vs {y}"
+                );
+            }
+            let (mut ga, mut gb) = (swept(&a, mark, seed), swept(&b, mark, seed));
+            // the table reads a nodal matrix's symmetric pairs once, the loop both: their
+            // adjoints compare summed (the derivative along a symmetric change of the field)
+            for m in &fr.nodal {
+                for j in 0..nf {
+                    for l in j + 1..nf {
+                        let node = |j: usize, l: usize| m[(j, l)].node().expect("an input");
+                        let (x, y) = (node(j, l), node(l, j));
+                        for g in [&mut ga, &mut gb] {
+                            g[x] += g[y];
+                            g[y] = 0.0;
+                        }
+                    }
+                }
+            }
+            let scale = gb[mark..top].iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            assert!(scale > 0.0);
+            for i in mark..top {
+                assert!(
+                    (ga[i] - gb[i]).abs() <= 1e-12 * scale,
+                    "field of {nf} modes: input {i}: {} vs {}",
+                    ga[i],
+                    gb[i]
+                );
+            }
+            let functional = |x: &[f64]| {
+                let (m, f) =
+                    with_path(&modal, &field, true, &x[..q.len()], &x[q.len()..], &gravity);
+                (m.iter().chain(&f).enumerate())
+                    .map(|(i, y)| seed(i) * y)
+                    .sum::<f64>()
+            };
+            let x0: Vec<f64> = q.iter().chain(&v).copied().collect();
+            for (k, r) in state.iter().enumerate() {
+                let fd = central(functional, &x0, k, 1e-6 * x0[k].abs().max(1.0));
+                let got = r.adjoint(&ga);
+                assert!(
+                    (got - fd).abs() <= 1e-7 * scale.max(fd.abs()),
+                    "field of {nf} modes: state {k}: {got} vs {fd}"
+                );
+            }
+            drop((a, b, state, taped));
+            Tape::rewind(mark);
         }
     }
 

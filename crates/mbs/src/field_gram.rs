@@ -20,7 +20,7 @@ use fem::{GeometricStiffness, ModalBody};
 use nalgebra::{Matrix3, Vector3};
 use sens::Scalar;
 
-use crate::nodal::{axial, lift, mode_vec, outer, vec3f};
+use crate::nodal::{axial, dot_rows, lift, mode_vec, outer, vec3f};
 
 /// The sums over a second-order body's nodes that its mass matrix block and inertia forces
 /// take (body components): `total = Σ m`, `first = Σ m u`, `m_oo = Σ m ũᵀũ` (the nodal
@@ -52,9 +52,10 @@ pub(crate) struct FieldGram<P: Scalar> {
     total: P,
     /// `F_α = Σ_k m_k e_kα`.
     first: Vec<Vector3<P>>,
-    /// `G_αβ = Σ_k m_k e_kα e_kβᵀ` at `α · B + β`.
-    gram: Vec<Matrix3<P>>,
-    /// `tr G_αβ` at `α · B + β`.
+    /// `G_αβ = Σ_k m_k e_kα e_kβᵀ`, its entry `i` (column major) at `(9 β + i) · B + α`: the
+    /// rows the sums contract with a coefficient vector over `α` are contiguous.
+    gram: Vec<P>,
+    /// `tr G_αβ` at `β · B + α` (symmetric in `α`, `β`).
     trace: Vec<P>,
 }
 
@@ -72,7 +73,7 @@ impl<P: Scalar> FieldGram<P> {
             field_modes: self.field_modes,
             total: f(self.total),
             first: self.first.iter().map(|v| v.map(f)).collect(),
-            gram: self.gram.iter().map(|m| m.map(f)).collect(),
+            gram: self.gram.iter().map(|&x| f(x)).collect(),
             trace: self.trace.iter().map(|&x| f(x)).collect(),
         }
     }
@@ -116,7 +117,7 @@ impl<P: Scalar> FieldGram<P> {
         };
         let b = out.size();
         out.first = vec![Vector3::zeros(); b];
-        out.gram = vec![Matrix3::zeros(); b * b];
+        let mut gram = vec![Matrix3::<P>::zeros(); b * b];
         let mut e = vec![Vector3::<P>::zeros(); b];
         for k in 0..modal.n_nodes() {
             let m = modal.node_masses[k];
@@ -138,16 +139,24 @@ impl<P: Scalar> FieldGram<P> {
                 out.first[a] += e[a] * m;
                 let ea = e[a] * m;
                 for c in a..b {
-                    out.gram[a * b + c] += outer(&ea, &e[c]);
+                    gram[a * b + c] += outer(&ea, &e[c]);
                 }
             }
         }
         for a in 0..b {
             for c in 0..a {
-                out.gram[a * b + c] = out.gram[c * b + a].transpose();
+                gram[a * b + c] = gram[c * b + a].transpose();
             }
         }
-        out.trace = out.gram.iter().map(|m| m.trace()).collect();
+        out.gram = (0..9 * b * b)
+            .map(|x| {
+                let (ci, a) = (x / b, x % b);
+                gram[a * b + ci / 9][ci % 9]
+            })
+            .collect();
+        out.trace = (0..b * b)
+            .map(|x| gram[(x % b) * b + x / b].trace())
+            .collect();
         out
     }
 
@@ -220,23 +229,25 @@ impl<P: Scalar> FieldGram<P> {
             out
         };
         // T_β = Σ_α c^u_α G_αβ = Σ m u e_βᵀ and U_β = Σ_α c^u̇_α G_αβ = Σ m u̇ e_βᵀ, and
-        // r_β = Σ_α c^ρ_α tr G_αβ = Σ m ρ · e_β; (the coefficients of u̇ vanish on u0, those
-        // of ρ on u0 and the modes: structurally, whatever the values of dual numbers)
-        let mut t = vec![Matrix3::<S>::zeros(); b];
-        let mut u = vec![Matrix3::<S>::zeros(); b];
-        let mut r = vec![S::zero(); b];
-        for a in 0..b {
-            for c in 0..b {
-                let g = self.gram[a * b + c].map(lift::<P, S>);
-                t[c] += g * cu[a];
-                if a >= 1 {
-                    u[c] += g * cud[a];
-                }
-                if a > nm {
-                    r[c] += lift::<P, S>(self.trace[a * b + c]) * crho[a];
-                }
-            }
-        }
+        // r_β = Σ_α c^ρ_α tr G_αβ = Σ m ρ · e_β, each entry a row of the table dotted with the
+        // coefficients (on the reverse-mode tape one operation per table rather than two nodes
+        // per product, which would be most of a step's tape on a shell); the coefficients of
+        // u̇ vanish on u0, those of ρ on u0 and the modes (structurally, whatever the values of
+        // dual numbers)
+        let rows = |from: usize| -> Vec<&[P]> {
+            (0..9 * b)
+                .map(|ci| &self.gram[ci * b + from..(ci + 1) * b])
+                .collect()
+        };
+        let blocks = |entries: Vec<S>| -> Vec<Matrix3<S>> {
+            entries.chunks(9).map(Matrix3::from_column_slice).collect()
+        };
+        let t = blocks(dot_rows(&rows(0), &cu));
+        let u = blocks(dot_rows(&rows(1), &cud[1..]));
+        let trace_rows: Vec<&[P]> = (0..b)
+            .map(|c| &self.trace[c * b + nm + 1..(c + 1) * b])
+            .collect();
+        let r = dot_rows(&trace_rows, &crho[nm + 1..]);
         let first = first_of(&cu);
         let s_uu = Self::combine(&cu, &t);
         let s_uud = Self::combine(&cud, &t);

@@ -37,6 +37,7 @@ use sens::{ExternalReverse, Rev, Scalar};
 use super::SecondOrderNode;
 use crate::field_gram::FrameSums;
 use crate::kin::skew;
+use crate::nodal::{cast, taped};
 
 /// [`FrameSums`] of a beam body with a second-order field recorded as one tape operation, when
 /// the evaluation is on the tape (`P` and `S` are [`Rev`]) and the field is accumulated along
@@ -53,21 +54,6 @@ pub(crate) fn taped_node_sums<P: Scalar, S: Scalar>(
     let mode_spin: Vec<Vector3<Rev>> = taped(mode_spin)?;
     let state: Vec<Rev> = taped(w.iter().chain(wd).chain(om.iter()).chain(g_body.iter()))?;
     cast(record(modal, field, &mode_spin, &state)?)
-}
-
-/// The values of `x` as `T` (`None` unless they are `T`s: the evaluation is not on the tape).
-fn taped<'a, S: 'static, T: Copy + 'static>(x: impl IntoIterator<Item = &'a S>) -> Option<Vec<T>> {
-    (x.into_iter())
-        .map(|x| (x as &dyn Any).downcast_ref::<T>().copied())
-        .collect()
-}
-
-/// `x` as a `U`, which it is (the generic caller's type, [`Rev`]'s on the tape).
-fn cast<T: 'static, U: 'static>(x: T) -> Option<U> {
-    (Box::new(x) as Box<dyn Any>)
-        .downcast::<U>()
-        .ok()
-        .map(|b| *b)
 }
 
 /// The body's data in `f64` as the sums read them, and their tape handles.
