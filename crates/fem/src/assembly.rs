@@ -33,6 +33,29 @@ pub struct Properties<S: Scalar> {
 }
 
 impl<S: Scalar> Properties<S> {
+    /// Whether element `el`'s property carries a tangent (a missing property does not).
+    pub fn moves(&self, el: &Element) -> bool {
+        let moving = |x: &S| x.tangents().iter().any(|&t| t != 0.0);
+        match *el {
+            Element::Beam { property, .. } => self.sections.get(property).is_some_and(|s| {
+                (s.stiffness.iter().chain([&s.mass_per_length]))
+                    .chain(&s.mass_centre)
+                    .chain(&s.inertia)
+                    .any(moving)
+            }),
+            Element::Shell { property, .. } => self.laminates.get(property).is_some_and(|l| {
+                (l.a.iter().chain(&l.b).chain(&l.d).chain(&l.shear))
+                    .chain([
+                        &l.mass_per_area,
+                        &l.first_moment,
+                        &l.rotary_inertia,
+                        &l.thickness,
+                    ])
+                    .any(moving)
+            }),
+        }
+    }
+
     /// The laminate `property` of shell element `e` (an error naming both when it is missing).
     pub fn laminate(&self, e: usize, property: usize) -> Result<&LaminateStiffness<S>, FemError> {
         self.laminates
@@ -316,17 +339,7 @@ pub fn element_matrices<S: Scalar>(
                 MassKind::Consistent => {
                     DMatrix::from_iterator(12, 12, to_global(&loc.mass, &lam).iter().copied())
                 }
-                MassKind::Lumped => {
-                    let (mk, mu) = beam_lumped(sec, l, &lam);
-                    let mut m = DMatrix::zeros(12, 12);
-                    for n in 0..2 {
-                        for d in 0..3 {
-                            m[(6 * n + d, 6 * n + d)] = mk;
-                            m[(6 * n + 3 + d, 6 * n + 3 + d)] = mu[d];
-                        }
-                    }
-                    m
-                }
+                MassKind::Lumped => lumped_matrix(2, beam_lumped(sec, l, &lam)),
             };
             Ok((DMatrix::from_iterator(12, 12, k.iter().copied()), m))
         }
@@ -354,17 +367,7 @@ pub fn element_matrices<S: Scalar>(
                     .iter()
                     .copied(),
                 ),
-                MassKind::Lumped => {
-                    let (mk, mu) = shell_lumped(&g, lam, opts.drilling);
-                    let mut m = DMatrix::zeros(18, 18);
-                    for n in 0..3 {
-                        for d in 0..3 {
-                            m[(6 * n + d, 6 * n + d)] = mk;
-                            m[(6 * n + 3 + d, 6 * n + 3 + d)] = mu[d];
-                        }
-                    }
-                    m
-                }
+                MassKind::Lumped => lumped_matrix(3, shell_lumped(&g, lam, opts.drilling)),
             };
             Ok((DMatrix::from_iterator(18, 18, k.iter().copied()), m))
         }
@@ -419,15 +422,59 @@ pub fn lumped_nodal_masses<S: Scalar>(
     let mut m = vec![S::zero(); n];
     let mut mu = vec![[S::zero(); 3]; n];
     for e in 0..mesh.elements.len() {
-        let (_, me) = element_matrices(mesh, e, props, opts, MassKind::Lumped)?;
-        for (a, &node) in mesh.elements[e].nodes().iter().enumerate() {
-            m[node] += me[(6 * a, 6 * a)];
+        let (me, mue) = element_lumped_mass(mesh, e, props, opts)?;
+        for &node in mesh.elements[e].nodes() {
+            m[node] += me;
             for d in 0..3 {
-                mu[node][d] += me[(6 * a + 3 + d, 6 * a + 3 + d)];
+                mu[node][d] += mue[d];
             }
         }
     }
     Ok((m, mu))
+}
+
+/// Each node's share of element `e`'s lumped mass and rotary inertias (diagonal, global
+/// axes): the diagonal of its [`MassKind::Lumped`] mass matrix ([`element_matrices`]),
+/// without its stiffness.
+fn element_lumped_mass<S: Scalar>(
+    mesh: &Mesh,
+    e: usize,
+    props: &Properties<S>,
+    opts: &ElementOptions,
+) -> Result<(S, [S; 3]), FemError> {
+    match mesh.elements[e] {
+        Element::Beam {
+            nodes,
+            property,
+            orientation,
+        } => {
+            let (l, lam) = beam_frame(&mesh.nodes[nodes[0]], &mesh.nodes[nodes[1]], &orientation);
+            let sec = &*beam_element_section(props, (e, property), &lam, opts.planar_axis)?;
+            Ok(beam_lumped(sec, l, &lam))
+        }
+        Element::Shell {
+            nodes,
+            property,
+            material_axis,
+        } => {
+            let lam = props.laminate(e, property)?;
+            let g = TriGeometry::new(nodes.map(|n| mesh.nodes[n]), &material_axis, e)?;
+            Ok(shell_lumped(&g, lam, opts.drilling))
+        }
+    }
+}
+
+/// The lumped mass matrix of an element of `nodes` nodes (six dof each) whose nodes each
+/// carry the mass `mk` and the rotary inertias `mu`.
+fn lumped_matrix<S: Scalar>(nodes: usize, (mk, mu): (S, [S; 3])) -> DMatrix<S> {
+    let mut m = DMatrix::zeros(6 * nodes, 6 * nodes);
+    for n in 0..nodes {
+        for d in 0..3 {
+            m[(6 * n + d, 6 * n + d)] = mk;
+            m[(6 * n + 3 + d, 6 * n + 3 + d)] = mu[d];
+        }
+    }
+    m
 }
 
 /// The rigid tie of every node (`None`: untied) and each tie's free rigid motions
@@ -692,10 +739,39 @@ impl Assembly {
         opts: &ElementOptions,
         mass: MassKind,
     ) -> Result<(Vec<S>, Vec<S>), FemError> {
+        self.sum_elements(mesh, props, opts, mass, |_| true)
+    }
+
+    /// The tangents of [`Self::values`] (the values of its result are the sums of those
+    /// elements alone): the elements whose properties carry no tangent, which would add zeros
+    /// to them, are left out — a design variable moves one segment's or region's elements,
+    /// and each element's matrices in dual numbers cost as many products as its tangents.
+    pub fn tangent_values<S: Scalar>(
+        &self,
+        mesh: &Mesh,
+        props: &Properties<S>,
+        opts: &ElementOptions,
+        mass: MassKind,
+    ) -> Result<(Vec<S>, Vec<S>), FemError> {
+        self.sum_elements(mesh, props, opts, mass, |el| props.moves(el))
+    }
+
+    /// The assembled `K` and `M` entries of the elements `include` takes.
+    fn sum_elements<S: Scalar>(
+        &self,
+        mesh: &Mesh,
+        props: &Properties<S>,
+        opts: &ElementOptions,
+        mass: MassKind,
+        include: impl Fn(&Element) -> bool,
+    ) -> Result<(Vec<S>, Vec<S>), FemError> {
         let nnz = self.nnz();
         let mut k = vec![S::zero(); nnz];
         let mut m = vec![S::zero(); nnz];
         for e in 0..mesh.elements.len() {
+            if !include(&mesh.elements[e]) {
+                continue;
+            }
             let (ke, me) = element_matrices(mesh, e, props, opts, mass)?;
             let nd = ke.nrows();
             match &self.slots[e] {

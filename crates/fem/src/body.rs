@@ -755,7 +755,7 @@ where
     for range in sens::chunk_ranges(b.len(), N) {
         let seeded = seed_chunk::<N>(b, range.start);
         let p = props(&seeded);
-        let (kv, mv) = assembly.values(mesh, &p, element, mass)?;
+        let (kv, mv) = assembly.tangent_values(mesh, &p, element, mass)?;
         for t in 0..range.len() {
             // the entries the variable moves (a segment's or region's variable: its
             // elements'), not the whole pattern's zeros

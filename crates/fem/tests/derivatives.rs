@@ -815,3 +815,54 @@ fn partly_free_modes_and_derivatives_match_central_differences() {
         }
     }
 }
+
+/// `K_b`, `M_b` of a variable that moves only a region's elements (the square's quadrant or
+/// its complement), assembled from the moved elements alone ([`Assembly::tangent_values`]),
+/// equal central differences of the whole assembly, zeros included where the region has no
+/// entry; and an element moves exactly when its property carries a tangent.
+#[test]
+fn design_matrices_of_a_region_equal_central_differences_of_the_assembly() {
+    let (mesh, asm) = square_model();
+    let opts = ElementOptions::default();
+    let b0 = [0.3, -0.4];
+    for mass in [MassKind::Consistent, MassKind::Lumped] {
+        let dm = design_matrices::<1, _>(&mesh, &asm, &b0, square_props, &opts, mass).unwrap();
+        for (j, d) in dm.iter().enumerate() {
+            let seeded = sens::seed_chunk::<1>(&b0, j);
+            let props = square_props(&seeded);
+            let moved = (mesh.elements.iter())
+                .filter(|el| props.moves(el))
+                .map(|el| match el {
+                    fem::Element::Shell { property, .. } => *property,
+                    fem::Element::Beam { .. } => unreachable!("a shell mesh"),
+                });
+            assert!(moved.clone().count() > 0 && moved.clone().all(|p| p == j));
+            let h = 1e-6;
+            let at = |s: f64| {
+                let mut b = b0;
+                b[j] += s;
+                let (k, m) = asm.values(&mesh, &square_props(&b), &opts, mass).unwrap();
+                (dense(&asm.matrix(k)), dense(&asm.matrix(m)))
+            };
+            let ((kp, mp), (km, mm)) = (at(h), at(-h));
+            for (exact, plus, minus, stiffness) in [(&d.k, &kp, &km, true), (&d.m, &mp, &mm, false)]
+            {
+                let exact = dense(exact);
+                let scale = plus.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+                let mut nonzero = 0;
+                for i in 0..exact.len() {
+                    let fd = (plus[i] - minus[i]) / (2.0 * h);
+                    assert!(
+                        (exact[i] - fd).abs() <= 1e-8 * scale,
+                        "variable {j}, entry {i}: {} vs {fd}",
+                        exact[i]
+                    );
+                    nonzero += (exact[i] != 0.0) as usize;
+                }
+                // the angle moves its region's stiffness (not its mass: the plies' masses do
+                // not turn)
+                assert_eq!(nonzero > 0, stiffness, "variable {j}: {nonzero} entries");
+            }
+        }
+    }
+}
