@@ -47,8 +47,10 @@ use crate::system::{MultibodySystem, Solution};
 /// stack).
 pub struct TapedModel {
     model: Model<Rev>,
-    /// The tape's length before the data: the data are nodes `base..top`.
+    /// The tape's length before the data: the data are nodes `base..top`, the model's
+    /// parameters (`base..base + parameters`), then its invariants.
     base: usize,
+    parameters: usize,
     /// The tape's length after the data: each evaluation starts here.
     top: usize,
 }
@@ -60,12 +62,19 @@ pub struct Adjoints(Vec<f64>);
 
 impl TapedModel {
     /// `model` with each datum a new input of the tape (its value kept), its invariants made
-    /// (if not yet) and taken as inputs too.
+    /// (in `f64`, from the values) and taken as inputs too.
     pub fn new<P: Scalar>(model: &Model<P>) -> Self {
+        let values = model.values();
+        let parameters = values.n_parameters();
         let base = Tape::len();
-        let model = model.map_with_invariants(|x| Rev::input(x.value()));
+        let model = values.map_with_invariants(Rev::input);
         let top = Tape::len();
-        Self { model, base, top }
+        Self {
+            model,
+            base,
+            parameters,
+            top,
+        }
     }
 
     /// The number of data (inputs of the tape).
@@ -78,9 +87,26 @@ impl TapedModel {
         Adjoints(vec![0.0; self.top])
     }
 
-    /// The adjoint of each datum, in the order [`Model::map_with_invariants`] visits them.
+    /// The adjoint of each of the model's parameters, in the order [`Model::map`] visits
+    /// them, those of the flexible bodies' invariants taken back to the parameters they are
+    /// made from (node by node, in reverse mode): what [`contract_data`] contracts with the
+    /// parameters' derivatives, so that no chunk of variables makes its invariants in dual
+    /// numbers.
     pub fn data_adjoints(&self, adjoints: &Adjoints) -> Vec<f64> {
-        adjoints.0[self.base..self.top].to_vec()
+        let mut all = self.parameter_adjoints(&[adjoints]);
+        all.pop().expect("one set")
+    }
+
+    /// [`Self::data_adjoints`] of several sets of adjoints (each node's invariants recorded
+    /// once for all of them).
+    pub fn parameter_adjoints(&self, adjoints: &[&Adjoints]) -> Vec<Vec<f64>> {
+        let mut all: Vec<Vec<f64>> = (adjoints.iter())
+            .map(|a| a.0[..self.top].to_vec())
+            .collect();
+        self.model.invariants_to_parameters(&mut all);
+        (all.iter())
+            .map(|a| a[self.base..self.base + self.parameters].to_vec())
+            .collect()
     }
 
     /// `(q, v)` of `y` as new inputs of the tape.
@@ -297,9 +323,9 @@ impl Drop for RecordedRhs<'_> {
     }
 }
 
-/// `Σ_i p̄_i ∂p_i/∂b_j` for every design variable `j`: the data's adjoints (in the order
-/// [`Model::map_with_invariants`] visits the data) contracted with their derivatives, the
-/// tangents of the design model's chunks (whose invariants are made if not yet).
+/// `Σ_i p̄_i ∂p_i/∂b_j` for every design variable `j`: the parameters' adjoints
+/// ([`TapedModel::data_adjoints`], in the order [`Model::map`] visits the parameters)
+/// contracted with their derivatives, the tangents of the design model's chunks.
 pub fn contract_data<const N: usize>(design: &DesignModel<N>, data_adjoints: &[f64]) -> Vec<f64> {
     let mut gradient = vec![0.0; design.n_variables()];
     for (chunk, range) in design.chunk_ranges() {
@@ -315,7 +341,7 @@ pub fn contract_data<const N: usize>(design: &DesignModel<N>, data_adjoints: &[f
 fn contract_chunk<const N: usize>(chunk: &Model<Dual<N>>, data_adjoints: &[f64]) -> [f64; N] {
     let next = Cell::new(0);
     let sums = Cell::new([0.0; N]);
-    let _ = chunk.map_with_invariants(|x: Dual<N>| {
+    let _ = chunk.map(|x: Dual<N>| {
         let i = next.get();
         next.set(i + 1);
         let a = data_adjoints[i];
@@ -730,9 +756,7 @@ pub fn adjoint_sweep<P: Scalar>(
         }
     }
     Ok(AdjointSweep {
-        data: (sweeps.iter())
-            .map(|sweep| taped.data_adjoints(&sweep.adjoints))
-            .collect(),
+        data: taped.parameter_adjoints(&sweeps.iter().map(|s| &s.adjoints).collect::<Vec<_>>()),
         initial: (sweeps.iter())
             .map(|sweep| DVector::from_column_slice(&sweep.rhs[0]))
             .collect(),

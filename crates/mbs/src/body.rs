@@ -7,12 +7,13 @@
 
 use fem::{FieldElement, GeometricStiffness, ModalBody, ModalStresses};
 use laminate::PlyStrength;
+use std::ops::Range;
 use std::sync::OnceLock;
 
 use nalgebra::{DMatrix, Matrix3, Vector3, Vector4};
-use sens::Scalar;
+use sens::{Rev, Scalar, Tape};
 
-use crate::field_gram::{FieldGram, FrameSums};
+use crate::field_gram::{FieldGram, FrameSums, GramSeeds};
 use crate::kin::{mtv, mv, rotation, skew};
 
 pub(crate) mod taped_sums;
@@ -528,13 +529,205 @@ impl<P: Scalar> ModalInvariants<P> {
     }
 }
 
+impl ModalInvariants<Rev> {
+    /// Add to each of `adjoints` (by tape node) the adjoints of the data of `body` that these
+    /// invariants of it (inputs of the tape of their own, made from that data's values)
+    /// carry back, from the invariants' adjoints in it: the reverse of [`Self::new`] written
+    /// by hand, node by node ([`ModalInvariants::seed_node`], [`GramSeeds::seed_node`]), its
+    /// cost a few times that of the invariants in `f64` (recorded on the tape, a shell's
+    /// would cost twenty times that of making them in `Dual<8>`).
+    pub(crate) fn pull_back_to(&self, body: &FlexibleBody<Rev>, adjoints: &mut [Vec<f64>]) {
+        let field = body.geometric.as_deref();
+        let mark = Tape::len();
+        for a in adjoints.iter_mut() {
+            let bar = self.map(&|x: Rev| x.adjoint(a));
+            let gram = bar.gram.as_ref().map(GramSeeds::new);
+            let rotary = bar.rotary.as_ref().map(RotaryInvariants::raw_adjoints);
+            for k in 0..body.modal.n_nodes() {
+                bar.seed_node(&body.modal, field, rotary.as_deref(), k, a);
+                if let (Some(g), Some(field)) = (&gram, field) {
+                    g.seed_node(&body.modal, field, k, a);
+                }
+            }
+            // (the data are the tape's inputs: nothing was recorded above them)
+            Tape::backpropagate(a, mark);
+            a.truncate(mark);
+        }
+        Tape::rewind(mark);
+    }
+}
+
+impl ModalInvariants<f64> {
+    /// With these the adjoints of a body's invariants, seed in `adjoints` those of node `k`'s
+    /// data (its mass, rotary inertias, mode vectors and field: `modal` and `field` on the
+    /// tape) that its terms in the sums carry back; `rotary` the rotary sums' adjoints before
+    /// their symmetrisation ([`RotaryInvariants::raw_adjoints`]). The node's terms are
+    /// those [`Self::of_nodes`] adds, nodes skipped where it skips them; the Gram table's are
+    /// [`GramSeeds::seed_node`]'s.
+    fn seed_node(
+        &self,
+        modal: &ModalBody<Rev>,
+        field: Option<&GeometricStiffness<Rev>>,
+        rotary: Option<&[Matrix3<f64>]>,
+        k: usize,
+        adjoints: &mut Vec<f64>,
+    ) {
+        let nm = self.n_modes;
+        let value = |v: Vector3<Rev>| v.map(|x| x.value());
+        let m = modal.node_masses[k].value();
+        let mu = value(modal.node_inertias[k]);
+        let u0 = modal.node_positions[k];
+        let x: Vec<Vector3<f64>> = (0..nm)
+            .map(|j| value(mode_vec(modal, k, j, false)))
+            .collect();
+        let t: Vec<Vector3<f64>> = (0..nm)
+            .map(|j| value(mode_vec(modal, k, j, true)))
+            .collect();
+        let mut m_bar = self.total + self.first.dot(&u0) + u0.dot(&(self.second * u0));
+        let mut mu_bar = self.inertia;
+        let mut x_bar = vec![Vector3::<f64>::zeros(); nm];
+        let mut t_bar = vec![Vector3::<f64>::zeros(); nm];
+        for j in 0..nm {
+            m_bar += self.mode_first[j].dot(&x[j]) + u0.dot(&(self.mode_cross[j] * x[j]));
+            x_bar[j] += (self.mode_first[j] + self.mode_cross[j].tr_mul(&u0)) * m;
+            t_bar[j] += self.mode_spin[j].component_mul(&mu);
+            mu_bar += self.mode_spin[j].component_mul(&t[j]);
+            for l in 0..nm {
+                let (second, mass) = (&self.mode_second[j * nm + l], self.modal_mass[j * nm + l]);
+                m_bar += x[j].dot(&(second * x[l])) + mass * x[j].dot(&x[l]);
+                x_bar[j] += (second * x[l] + x[l] * mass) * m;
+                x_bar[l] += (second.tr_mul(&x[j]) + x[j] * mass) * m;
+                t_bar[j] += t[l].component_mul(&mu) * mass;
+                t_bar[l] += t[j].component_mul(&mu) * mass;
+                mu_bar += t[j].component_mul(&t[l]) * mass;
+            }
+        }
+        if let (Some(sums), Some(g)) = (&self.field, field) {
+            m_bar += sums.seed_node(modal, g, k, (m, &x, &mut x_bar), adjoints);
+        }
+        if let Some(raw) = rotary
+            && mu != Vector3::zeros()
+        {
+            let l_bar = &self.rotary.as_ref().expect("the rotary sums' adjoints").l;
+            let mu_m = Matrix3::from_diagonal(&mu);
+            let theta: Vec<Matrix3<f64>> = t.iter().map(crate::kin::skew).collect();
+            let mut theta_bar = vec![Matrix3::<f64>::zeros(); nm];
+            let mut mu_m_bar = Matrix3::<f64>::zeros();
+            for j in 0..nm {
+                // L_j = Θ_j μ + μ Θ_jᵀ
+                let lb = &l_bar[j];
+                theta_bar[j] += (lb + lb.transpose()) * mu_m;
+                mu_m_bar += theta[j].tr_mul(lb) + lb * theta[j];
+                for p in 0..nm {
+                    // S_jp = Θ_j μ Θ_pᵀ + B + Bᵀ, B = ½ Θ_j Θ_p μ
+                    let a = &raw[j * nm + p];
+                    let a_sym = (a + a.transpose()) * 0.5;
+                    theta_bar[j] += a * theta[p] * mu_m + a_sym * mu_m * theta[p].transpose();
+                    theta_bar[p] += a.tr_mul(&theta[j]) * mu_m + theta[j].tr_mul(&a_sym) * mu_m;
+                    mu_m_bar +=
+                        theta[j].tr_mul(a) * theta[p] + (theta[j] * theta[p]).tr_mul(&a_sym);
+                }
+            }
+            for j in 0..nm {
+                let tb = &theta_bar[j];
+                t_bar[j] += Vector3::new(
+                    tb[(2, 1)] - tb[(1, 2)],
+                    tb[(0, 2)] - tb[(2, 0)],
+                    tb[(1, 0)] - tb[(0, 1)],
+                );
+            }
+            mu_bar += mu_m_bar.diagonal();
+        }
+        modal.node_masses[k].seed(adjoints, m_bar);
+        for i in 0..3 {
+            modal.node_inertias[k][i].seed(adjoints, mu_bar[i]);
+            for j in 0..nm {
+                modal.modes[(fem::NODE_DOFS * k + i, j)].seed(adjoints, x_bar[j][i]);
+                modal.modes[(fem::NODE_DOFS * k + 3 + i, j)].seed(adjoints, t_bar[j][i]);
+            }
+        }
+    }
+}
+
+impl FieldInvariants<f64> {
+    /// With these the adjoints of a body's field sums, seed in `adjoints` those of node `k`'s
+    /// field `g` (on the tape) and add to `x_bar` those of its mode vectors `x` (mass `m`)
+    /// that its terms carry back; the mass's adjoint returned. `R[j, l, p] −= m X_j,i
+    /// Q_i,lp`, `T[j, p, l, q] += m Q_i,jp Q_i,lq` for each of the node's three nodal matrices
+    /// `Q_i` (none for a node without mass, as [`FieldInvariants::new`]).
+    fn seed_node(
+        &self,
+        modal: &ModalBody<Rev>,
+        g: &GeometricStiffness<Rev>,
+        k: usize,
+        (m, x, x_bar): (f64, &[Vector3<f64>], &mut [Vector3<f64>]),
+        adjoints: &mut Vec<f64>,
+    ) -> f64 {
+        if modal.node_masses[k].value() == 0.0 {
+            return 0.0;
+        }
+        let (nm, nf) = (x.len(), g.field_modes);
+        let mut m_bar = 0.0;
+        for i in 0..3 {
+            let q = &g.nodal[3 * k + i];
+            let qv = q.map(|a| a.value());
+            let mut q_bar = DMatrix::<f64>::zeros(nf, nf);
+            for j in 0..nm {
+                for l in 0..nf {
+                    for p in 0..nf {
+                        let r = self.r[(j * nf + l) * nf + p];
+                        m_bar -= r * x[j][i] * qv[(l, p)];
+                        x_bar[j][i] -= r * m * qv[(l, p)];
+                        q_bar[(l, p)] -= r * m * x[j][i];
+                    }
+                }
+            }
+            if !self.t.is_empty() {
+                for j in 0..nf {
+                    for p in 0..nf {
+                        for l in 0..nf {
+                            for qq in 0..nf {
+                                let t = self.t[((j * nf + p) * nf + l) * nf + qq];
+                                m_bar += t * qv[(j, p)] * qv[(l, qq)];
+                                q_bar[(j, p)] += t * m * qv[(l, qq)];
+                                q_bar[(l, qq)] += t * m * qv[(j, p)];
+                            }
+                        }
+                    }
+                }
+            }
+            for (a, &b) in q.iter().zip(q_bar.iter()) {
+                a.seed(adjoints, b);
+            }
+        }
+        m_bar
+    }
+}
+
+impl RotaryInvariants<f64> {
+    /// With these the adjoints of the rotary sums, the adjoints of the sums `S_jp` before
+    /// their symmetrisation (at `j · n_modes + p`): `½ (S̄_jp + S̄_pj)` of the stored ones.
+    fn raw_adjoints(&self) -> Vec<Matrix3<f64>> {
+        let nm = self.l.len();
+        let stored =
+            |j: usize, p: usize| Matrix3::from_fn(|r, c| self.s[(9 * j + r + 3 * c) * nm + p]);
+        (0..nm * nm)
+            .map(|jp| {
+                let (j, p) = (jp / nm, jp % nm);
+                (stored(j, p) + stored(p, j)) * 0.5
+            })
+            .collect()
+    }
+}
+
 impl<P: Scalar> RotaryInvariants<P> {
-    fn new(modal: &ModalBody<P>) -> Self {
+    /// The sums over the nodes `nodes` of `modal`.
+    fn new(modal: &ModalBody<P>, nodes: Range<usize>) -> Self {
         let nm = modal.n_modes();
         let mut l = vec![Matrix3::zeros(); nm];
         let mut s = vec![Matrix3::<P>::zeros(); nm * nm];
         let half = P::from_f64(0.5);
-        for k in 0..modal.n_nodes() {
+        for k in nodes {
             let mu = Matrix3::from_diagonal(&modal.node_inertias[k]);
             if mu == Matrix3::zeros() {
                 continue;
@@ -589,12 +782,17 @@ impl<P: Scalar> RotaryInvariants<P> {
 }
 
 impl<P: Scalar> FieldInvariants<P> {
-    /// The sums of `modal`'s field `g`, `T` only with `fourth_order`.
-    fn new(modal: &ModalBody<P>, g: &GeometricStiffness<P>, fourth_order: bool) -> Self {
+    /// The sums of `modal`'s field `g` over the nodes `nodes`, `T` only with `fourth_order`.
+    fn new(
+        modal: &ModalBody<P>,
+        g: &GeometricStiffness<P>,
+        fourth_order: bool,
+        nodes: Range<usize>,
+    ) -> Self {
         let (nm, nf) = (modal.n_modes(), g.field_modes);
         let mut r = vec![P::zero(); nm * nf * nf];
         let mut t = vec![P::zero(); if fourth_order { nf * nf * nf * nf } else { 0 }];
-        for k in 0..modal.n_nodes() {
+        for k in nodes {
             let m = modal.node_masses[k];
             if m == P::zero() {
                 continue;
@@ -631,10 +829,28 @@ impl<P: Scalar> FieldInvariants<P> {
 impl<P: Scalar> ModalInvariants<P> {
     /// The invariants of `modal`, with those of its second-order field `field` if any.
     pub(crate) fn new(modal: &ModalBody<P>, field: Option<&GeometricStiffness<P>>) -> Self {
+        let gram = field.is_some_and(|g| FieldGram::pays(modal, g));
+        Self::of_nodes(modal, field, (gram, gram), 0..modal.n_nodes())
+    }
+
+    /// [`Self::new`]'s sums over the nodes `nodes` alone: with `fourth_order`, the field's
+    /// fourth-order sums `T`, which a body whose sums come from its Gram table reads
+    /// ([`FieldGram::pays`] of the whole body), and with `gram` that table. Every invariant is a sum over the nodes of
+    /// terms made from that node's data alone (the symmetrised and reordered tables too: those
+    /// steps are linear), so the whole body's invariants are the sums of its nodes', and their
+    /// adjoints go back to the data one node at a time
+    /// ([`crate::adjoint::TapedModel::data_adjoints`]). (`reach` and `field_reach`, values
+    /// only, are the nodes' own.)
+    pub(crate) fn of_nodes(
+        modal: &ModalBody<P>,
+        field: Option<&GeometricStiffness<P>>,
+        (fourth_order, gram): (bool, bool),
+        nodes: Range<usize>,
+    ) -> Self {
         let nm = modal.n_modes();
         let gram = field
-            .filter(|g| FieldGram::pays(modal, g))
-            .map(|g| FieldGram::new(modal, g));
+            .filter(|_| gram)
+            .map(|g| FieldGram::new(modal, g, nodes.clone()));
         let mut inv = Self {
             n_modes: nm,
             total: P::zero(),
@@ -646,12 +862,12 @@ impl<P: Scalar> ModalInvariants<P> {
             mode_second: vec![Matrix3::zeros(); nm * nm],
             mode_spin: vec![Vector3::zeros(); nm],
             modal_mass: vec![P::zero(); nm * nm],
-            field: field.map(|g| FieldInvariants::new(modal, g, gram.is_some())),
-            rotary: field.map(|_| RotaryInvariants::new(modal)),
+            field: field.map(|g| FieldInvariants::new(modal, g, fourth_order, nodes.clone())),
+            rotary: field.map(|_| RotaryInvariants::new(modal, nodes.clone())),
             gram,
             reach: (0..nm)
                 .map(|j| {
-                    (0..modal.n_nodes())
+                    (nodes.clone())
                         .map(|k| {
                             mode_vec::<P, P>(modal, k, j, false)
                                 .map(|x| x.value())
@@ -664,7 +880,7 @@ impl<P: Scalar> ModalInvariants<P> {
                 let nf = g.field_modes;
                 (0..nf * nf)
                     .map(|jl| {
-                        (0..modal.n_nodes())
+                        (nodes.clone())
                             .map(|k| {
                                 let c = |i: usize| g.nodal[3 * k + i][(jl / nf, jl % nf)].value();
                                 Vector3::new(c(0), c(1), c(2)).norm()
@@ -674,7 +890,7 @@ impl<P: Scalar> ModalInvariants<P> {
                     .collect()
             }),
         };
-        for k in 0..modal.n_nodes() {
+        for k in nodes {
             let m = modal.node_masses[k];
             let mu = modal.node_inertias[k];
             let u0 = modal.node_positions[k];
@@ -1673,8 +1889,9 @@ mod tests {
             FlexibleBody::new("rod", modal.clone()).with_geometric_stiffness(field.clone()),
         );
         let mut inv = ModalInvariants::new(modal, Some(field));
-        inv.gram = gram.then(|| FieldGram::new(modal, field));
-        inv.field = Some(FieldInvariants::new(modal, field, gram));
+        let nodes = 0..modal.n_nodes();
+        inv.gram = gram.then(|| FieldGram::new(modal, field, nodes.clone()));
+        inv.field = Some(FieldInvariants::new(modal, field, gram, nodes));
         let lock = OnceLock::new();
         assert!(lock.set(inv).is_ok());
         let (mut m, mut f) = (DMatrix::zeros(n, n), vec![S::zero(); n]);
@@ -1730,6 +1947,122 @@ mod tests {
                 &what,
             );
             close(&f1, &f2, 1e-12 * scale(&f2), &what);
+        }
+    }
+
+    /// The invariants' reverse written by hand ([`ModalInvariants::pull_back_to`]) gives the
+    /// data's adjoints that the invariants recorded on the tape operation by operation give —
+    /// with and without the field's fourth-order sums and Gram table, a node without mass and
+    /// one without rotary inertia among them — and those equal central differences of a
+    /// weighted sum of the invariants in `f64`.
+    /// A change of size `h` of one datum of a body or of its field.
+    type Perturbation = Box<dyn Fn(&mut ModalBody<f64>, &mut GeometricStiffness<f64>, f64)>;
+
+    #[test]
+    fn the_invariants_reverse_by_hand_as_the_tape_does() {
+        use sens::{Rev, Tape};
+        let mut modal = body();
+        modal.node_masses[4] = 0.0;
+        modal.node_inertias[2] = Vector3::zeros();
+        let n = modal.n_nodes();
+        let field = leading_field(&modal, modal.n_modes() - 1);
+        let weight = |i: usize| ((i * 7 + 3) as f64 * 0.37).sin();
+        // Σ_i weight_i inv_i over the invariants' scalars in their visiting order
+        let weighted = |inv: &ModalInvariants<f64>| {
+            let (sum, i) = (std::cell::Cell::new(0.0), std::cell::Cell::new(0));
+            let _ = inv.map(&|x: f64| {
+                sum.set(sum.get() + weight(i.get()) * x);
+                i.set(i.get() + 1);
+                x
+            });
+            sum.get()
+        };
+        for flags in [(false, false), (true, false), (true, true)] {
+            let mark = Tape::len();
+            let body =
+                FlexibleBody::new("rod", modal.clone()).with_geometric_stiffness(field.clone());
+            let Body::Flexible(taped) = Body::Flexible(body).map(&Rev::input) else {
+                unreachable!("a flexible body")
+            };
+            let top = Tape::len();
+            let g = taped.geometric.as_deref();
+            // the oracle: the invariants recorded on the tape, swept
+            let recorded = ModalInvariants::of_nodes(&taped.modal, g, flags, 0..n);
+            let (mut oracle, i) = (Vec::new(), std::cell::Cell::new(0));
+            let seeds = std::cell::RefCell::new(&mut oracle);
+            let _ = recorded.map(&|x: Rev| {
+                x.seed(&mut seeds.borrow_mut(), weight(i.get()));
+                i.set(i.get() + 1);
+                x
+            });
+            Tape::backpropagate(&mut oracle, mark);
+            oracle.resize(top, 0.0);
+            // by hand: the invariants as inputs of their own, seeded alike
+            let values = recorded.map(&|x: Rev| x.value());
+            let inputs = values.map(&Rev::input);
+            let by_hand = std::cell::RefCell::new(vec![0.0; Tape::len()]);
+            let i = std::cell::Cell::new(0);
+            let _ = inputs.map(&|x: Rev| {
+                by_hand.borrow_mut()[x.node().expect("an input")] += weight(i.get());
+                i.set(i.get() + 1);
+                x
+            });
+            let mut sets = vec![by_hand.into_inner()];
+            inputs.pull_back_to(&taped, &mut sets);
+            let scale = oracle[mark..top].iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            assert!(scale > 0.0);
+            for k in mark..top {
+                assert!(
+                    (sets[0][k] - oracle[k]).abs() <= 1e-12 * scale,
+                    "{flags:?}: input {k}: {} vs {}",
+                    sets[0][k],
+                    oracle[k]
+                );
+            }
+            // against central differences: a mass, an inertia, a translation and a rotation
+            // entry of a mode, a field entry
+            let adjoint_of = |x: Rev| sets[0][x.node().expect("an input")];
+            let of = |modal: &ModalBody<f64>, field: &GeometricStiffness<f64>| {
+                weighted(&ModalInvariants::of_nodes(modal, Some(field), flags, 0..n))
+            };
+            let cases: [(Rev, Perturbation); 5] = [
+                (
+                    taped.modal.node_masses[3],
+                    Box::new(|m, _, h| m.node_masses[3] += h),
+                ),
+                (
+                    taped.modal.node_inertias[5][1],
+                    Box::new(|m, _, h| m.node_inertias[5][1] += h),
+                ),
+                (
+                    taped.modal.modes[(6 * 2 + 1, 1)],
+                    Box::new(|m, _, h| m.modes[(6 * 2 + 1, 1)] += h),
+                ),
+                (
+                    taped.modal.modes[(6 * 5 + 4, 2)],
+                    Box::new(|m, _, h| m.modes[(6 * 5 + 4, 2)] += h),
+                ),
+                (
+                    g.expect("a field").nodal[3 * 6 + 2][(1, 0)],
+                    Box::new(|_, f, h| f.nodal[3 * 6 + 2][(1, 0)] += h),
+                ),
+            ];
+            for (c, (x, step)) in cases.iter().enumerate() {
+                let h = 1e-6;
+                let at = |s: f64| {
+                    let (mut m, mut f) = (modal.clone(), field.clone());
+                    step(&mut m, &mut f, s);
+                    of(&m, &f)
+                };
+                let fd = (at(h) - at(-h)) / (2.0 * h);
+                let got = adjoint_of(*x);
+                assert!(
+                    (got - fd).abs() <= 1e-7 * fd.abs().max(scale),
+                    "{flags:?}: case {c}: {got} vs {fd}"
+                );
+            }
+            drop((recorded, inputs, taped));
+            Tape::rewind(mark);
         }
     }
 

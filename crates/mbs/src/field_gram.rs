@@ -16,9 +16,11 @@
 //! `O(n_nodes · (nf² + n_modes))`. [`FrameSums`] are the same sums either way (to round-off;
 //! the node loop stays for bodies with few nodes, where it is cheaper).
 
+use std::ops::Range;
+
 use fem::{GeometricStiffness, ModalBody};
 use nalgebra::{Matrix3, Vector3};
-use sens::Scalar;
+use sens::{Rev, Scalar};
 
 use crate::nodal::{axial, dot_rows, lift, mode_vec, outer, vec3f};
 
@@ -105,7 +107,12 @@ impl<P: Scalar> FieldGram<P> {
         field + nodes * 40 * nm > 27 * b * b
     }
 
-    pub(crate) fn new(modal: &ModalBody<P>, g: &GeometricStiffness<P>) -> Self {
+    /// The table of the sums over the nodes `nodes` of `modal`.
+    pub(crate) fn new(
+        modal: &ModalBody<P>,
+        g: &GeometricStiffness<P>,
+        nodes: Range<usize>,
+    ) -> Self {
         let (nm, nf) = (modal.n_modes(), g.field_modes);
         let mut out = Self {
             n_modes: nm,
@@ -119,21 +126,12 @@ impl<P: Scalar> FieldGram<P> {
         out.first = vec![Vector3::zeros(); b];
         let mut gram = vec![Matrix3::<P>::zeros(); b * b];
         let mut e = vec![Vector3::<P>::zeros(); b];
-        for k in 0..modal.n_nodes() {
+        for k in nodes {
             let m = modal.node_masses[k];
             if m == P::zero() {
                 continue;
             }
-            e[0] = vec3f(&modal.node_positions[k]);
-            for j in 0..nm {
-                e[1 + j] = mode_vec(modal, k, j, false);
-            }
-            for j in 0..nf {
-                for l in j..nf {
-                    e[1 + nm + pair(nf, j, l)] =
-                        Vector3::from_fn(|i, _| g.nodal[3 * k + i][(j, l)]);
-                }
-            }
+            basis(modal, g, k, &mut e);
             out.total += m;
             for a in 0..b {
                 out.first[a] += e[a] * m;
@@ -294,6 +292,95 @@ impl<P: Scalar> FieldGram<P> {
             s_o,
             s_w,
             field_cc: None,
+        }
+    }
+}
+
+/// The basis vectors `e_kα` of node `k` (`e` of [`FieldGram::size`]): its position, its modes'
+/// translations, then its field's columns `Q_k,jl` (`j ≤ l`).
+fn basis<P: Scalar>(
+    modal: &ModalBody<P>,
+    g: &GeometricStiffness<P>,
+    k: usize,
+    e: &mut [Vector3<P>],
+) {
+    let (nm, nf) = (modal.n_modes(), g.field_modes);
+    e[0] = vec3f(&modal.node_positions[k]);
+    for j in 0..nm {
+        e[1 + j] = mode_vec(modal, k, j, false);
+    }
+    for j in 0..nf {
+        for l in j..nf {
+            e[1 + nm + pair(nf, j, l)] = Vector3::from_fn(|i, _| g.nodal[3 * k + i][(j, l)]);
+        }
+    }
+}
+
+/// The adjoints of a [`FieldGram`]'s scalars, arranged for the reverse of one node's terms
+/// ([`Self::seed_node`]): `total̄`, `F̄_α` and the blocks `Ḡ_αβ` (the table's adjoint plus its
+/// trace's times the identity) at `α · B + β`.
+pub(crate) struct GramSeeds {
+    total: f64,
+    first: Vec<Vector3<f64>>,
+    blocks: Vec<Matrix3<f64>>,
+}
+
+impl GramSeeds {
+    /// The seeds of a table whose adjoints are `bar` (a table of the same layout).
+    pub(crate) fn new(bar: &FieldGram<f64>) -> Self {
+        let b = bar.size();
+        let blocks = (0..b * b)
+            .map(|x| {
+                let (a, c) = (x / b, x % b);
+                Matrix3::from_fn(|r, col| bar.gram[(9 * c + r + 3 * col) * b + a])
+                    + Matrix3::identity() * bar.trace[c * b + a]
+            })
+            .collect();
+        Self {
+            total: bar.total,
+            first: bar.first.clone(),
+            blocks,
+        }
+    }
+
+    /// Seed, in `adjoints`, node `k`'s mass and basis vectors (their tape nodes: `modal` and
+    /// `g` are on the tape) with the adjoints these seeds carry back through that node's terms
+    /// `m e_α`, `m e_α e_βᵀ` (every block: the lower ones are the upper's transposes) and
+    /// `m`: `ē_γ = m (F̄_γ + Σ_β Ḡ_γβ e_β + Ḡ_βγᵀ e_β)`, `m̄ = total̄ + Σ_α F̄_α · e_α +
+    /// Σ_αβ e_αᵀ Ḡ_αβ e_β`.
+    pub(crate) fn seed_node(
+        &self,
+        modal: &ModalBody<Rev>,
+        g: &GeometricStiffness<Rev>,
+        k: usize,
+        adjoints: &mut Vec<f64>,
+    ) {
+        let m = modal.node_masses[k];
+        if m.value() == 0.0 {
+            return;
+        }
+        let b = self.first.len();
+        let mut e = vec![Vector3::<Rev>::zeros(); b];
+        basis(modal, g, k, &mut e);
+        let ev: Vec<Vector3<f64>> = e.iter().map(|v| v.map(|x| x.value())).collect();
+        let mv = m.value();
+        let mut e_bar: Vec<Vector3<f64>> = self.first.iter().map(|f| f * mv).collect();
+        let mut m_bar = self.total;
+        for a in 0..b {
+            m_bar += self.first[a].dot(&ev[a]);
+            for c in 0..b {
+                let block = &self.blocks[a * b + c];
+                let ge = block * ev[c];
+                m_bar += ev[a].dot(&ge);
+                e_bar[a] += ge * mv;
+                e_bar[c] += block.tr_mul(&ev[a]) * mv;
+            }
+        }
+        m.seed(adjoints, m_bar);
+        for (v, bar) in e.iter().zip(&e_bar) {
+            for i in 0..3 {
+                v[i].seed(adjoints, bar[i]);
+            }
         }
     }
 }

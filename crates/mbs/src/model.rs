@@ -141,6 +141,20 @@ impl<P: Scalar> Default for Model<P> {
     }
 }
 
+impl Model<sens::Rev> {
+    /// For a model whose parameters and invariants are inputs of the tape
+    /// ([`Self::map_with_invariants`]), add the adjoints of its flexible bodies' invariants in
+    /// each of `adjoints` (by tape node) to the parameters they are made from
+    /// ([`ModalInvariants::pull_back_to`]).
+    pub(crate) fn invariants_to_parameters(&self, adjoints: &mut [Vec<f64>]) {
+        for s in &self.bodies {
+            if let (Body::Flexible(b), Some(inv)) = (&s.body, s.invariants.get()) {
+                inv.pull_back_to(b, adjoints);
+            }
+        }
+    }
+}
+
 impl<P: Scalar> Model<P> {
     pub fn new() -> Self {
         Self {
@@ -512,6 +526,17 @@ impl<P: Scalar> Model<P> {
             }
         }
         out
+    }
+
+    /// The number of parameters [`Self::map`] visits (those [`Self::map_with_invariants`]
+    /// visits first).
+    pub(crate) fn n_parameters(&self) -> usize {
+        let count = std::cell::Cell::new(0);
+        let _ = self.map(|x| {
+            count.set(count.get() + 1);
+            x.value()
+        });
+        count.get()
     }
 
     /// The model with its parameters as plain values.
