@@ -18,8 +18,10 @@
 //! The products with `f_b` and `∂ψ/∂b` are not formed per variable: the model's data (modes,
 //! frequencies, masses, the invariants made from them) are inputs of a reverse-mode tape
 //! ([`TapedModel`], [`sens::Rev`]); each step's evaluation, swept backwards, adds `λ_nᵀ ∂f/∂p`
-//! to the data's adjoint `p̄`, and at the end `p̄` is contracted once with each variable's
-//! derivative of the data, which the [`DesignModel`]'s chunks carry as their tangents.
+//! to the data's adjoint `p̄`, and at the end `p̄` — the invariants' part first taken back to
+//! the data they are made from ([`TapedModel::data_adjoints`]) — is contracted once with each
+//! variable's derivative of the data, which the [`DesignModel`]'s chunks carry as their
+//! tangents.
 
 use std::cell::Cell;
 

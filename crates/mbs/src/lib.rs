@@ -61,7 +61,8 @@
 //! - The discrete adjoint ([`adjoint_gradients`], docs/design.md §3): the gradients of
 //!   objectives of a recorded run ([`simulate_steps`]) by a backward sweep over its steps,
 //!   whatever the number of variables — the model's data and invariants inputs of a
-//!   reverse-mode tape ([`TapedModel`], [`sens::Rev`]), their adjoints contracted with the
+//!   reverse-mode tape ([`TapedModel`], [`sens::Rev`]), the invariants' adjoints taken back
+//!   to the data by hand ([`TapedModel::data_adjoints`]), the data's contracted with the
 //!   design model's tangents ([`contract_data`]); or the sweep alone ([`adjoint_sweep`]) and
 //!   its contraction one chunk of variables at a time ([`AdjointSweep::gradients`]), so that
 //!   only one chunk's dual model need exist; each objective's samples weighted by
