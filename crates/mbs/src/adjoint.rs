@@ -91,16 +91,15 @@ impl TapedModel {
 
     /// The adjoint of each of the model's parameters, in the order [`Model::map`] visits
     /// them, those of the flexible bodies' invariants taken back to the parameters they are
-    /// made from (node by node, in reverse mode): what [`contract_data`] contracts with the
-    /// parameters' derivatives, so that no chunk of variables makes its invariants in dual
-    /// numbers.
+    /// made from (node by node, by a reverse written by hand): what [`contract_data`]
+    /// contracts with the parameters' derivatives, so that no chunk of variables makes its
+    /// invariants in dual numbers.
     pub fn data_adjoints(&self, adjoints: &Adjoints) -> Vec<f64> {
         let mut all = self.parameter_adjoints(&[adjoints]);
         all.pop().expect("one set")
     }
 
-    /// [`Self::data_adjoints`] of several sets of adjoints (each node's invariants recorded
-    /// once for all of them).
+    /// [`Self::data_adjoints`] of several sets of adjoints (one per objective).
     pub fn parameter_adjoints(&self, adjoints: &[&Adjoints]) -> Vec<Vec<f64>> {
         let mut all: Vec<Vec<f64>> = (adjoints.iter())
             .map(|a| a.0[..self.top].to_vec())
