@@ -835,12 +835,12 @@ impl<P: Scalar> ModalInvariants<P> {
 
     /// [`Self::new`]'s sums over the nodes `nodes` alone: with `fourth_order`, the field's
     /// fourth-order sums `T`, which a body whose sums come from its Gram table reads
-    /// ([`FieldGram::pays`] of the whole body), and with `gram` that table. Every invariant is a sum over the nodes of
-    /// terms made from that node's data alone (the symmetrised and reordered tables too: those
-    /// steps are linear), so the whole body's invariants are the sums of its nodes', and their
-    /// adjoints go back to the data one node at a time
-    /// ([`crate::adjoint::TapedModel::data_adjoints`]). (`reach` and `field_reach`, values
-    /// only, are the nodes' own.)
+    /// ([`FieldGram::pays`] of the whole body), and with `gram` that table. Every invariant is
+    /// a sum over the nodes of terms made from that node's data alone (the symmetrised and
+    /// reordered tables too: those steps are linear), so the whole body's invariants are the
+    /// sums of its nodes', and their adjoints go back to the data one node at a time
+    /// ([`ModalInvariants::pull_back_to`]). (`reach` and `field_reach`, values only, are the
+    /// nodes' own.)
     pub(crate) fn of_nodes(
         modal: &ModalBody<P>,
         field: Option<&GeometricStiffness<P>>,
@@ -1950,14 +1950,14 @@ mod tests {
         }
     }
 
+    /// A change of size `h` of one datum of a body or of its field.
+    type Perturbation = Box<dyn Fn(&mut ModalBody<f64>, &mut GeometricStiffness<f64>, f64)>;
+
     /// The invariants' reverse written by hand ([`ModalInvariants::pull_back_to`]) gives the
     /// data's adjoints that the invariants recorded on the tape operation by operation give —
     /// with and without the field's fourth-order sums and Gram table, a node without mass and
     /// one without rotary inertia among them — and those equal central differences of a
     /// weighted sum of the invariants in `f64`.
-    /// A change of size `h` of one datum of a body or of its field.
-    type Perturbation = Box<dyn Fn(&mut ModalBody<f64>, &mut GeometricStiffness<f64>, f64)>;
-
     #[test]
     fn the_invariants_reverse_by_hand_as_the_tape_does() {
         use sens::{Rev, Tape};
