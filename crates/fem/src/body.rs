@@ -1382,7 +1382,7 @@ where
                 })
                 .collect();
             let p = props(&seeded);
-            let (kv, mv) = assembly.values(mesh, &p, element, mass)?;
+            let (kv, mv) = assembly.tangent_values(mesh, &p, element, mass)?;
             Ok(DesignMatrices {
                 k: assembly.tangent_matrix(&kv, v - start),
                 m: assembly.tangent_matrix(&mv, v - start),
