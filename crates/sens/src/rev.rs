@@ -3,7 +3,10 @@
 //! A [`Rev`] is a value and the index of the tape node that made it. Every operation on a
 //! value that depends on an input ([`Rev::input`]) appends one node to the current thread's
 //! tape with the partial derivatives of the result with respect to its (at most two)
-//! arguments; operations on constants record nothing. A reverse sweep
+//! arguments; operations on constants record nothing, nor do those whose result is a constant
+//! (a zero partial: `x · 0`) or its argument itself (`x + 0`, `x · 1`, `x / 1`: the argument's
+//! node serves) — the sums of products with zero and unit entries that rotation and
+//! kinematics code is full of. A reverse sweep
 //! ([`Tape::backpropagate`]) then carries adjoints from the outputs back to every node at once:
 //! the gradient of one scalar with respect to all inputs costs a few evaluations, whatever
 //! their number (the adjoint method of docs/design.md §3).
@@ -295,8 +298,12 @@ impl Rev {
     /// A unary result `f` with derivative `df`.
     #[inline]
     fn unary(self, f: f64, df: f64) -> Self {
-        if self.index == NONE {
+        if self.index == NONE || df == 0.0 {
             return Self::constant(f);
+        }
+        if df == 1.0 && f.to_bits() == self.value.to_bits() {
+            // the argument itself (`x + 0`, `x · 1`): its node serves
+            return self;
         }
         Self {
             value: f,
@@ -781,6 +788,28 @@ mod tests {
         );
         Tape::backpropagate(&mut adj, mark);
         assert_eq!(x.adjoint(&adj), 6.0 * 1.5 + 2.0);
+        Tape::rewind(mark);
+    }
+
+    #[test]
+    fn identities_and_zero_partials_record_nothing_and_keep_the_gradient() {
+        let mark = Tape::len();
+        let x = Rev::input(1.5);
+        let after_input = Tape::len();
+        let same = [x + 0.0, x - 0.0, x * 1.0, x / 1.0, Rev::from_f64(0.0) + x];
+        assert_eq!(Tape::len(), after_input, "no node for an identity");
+        assert!(same.iter().all(|y| y.node() == x.node() && y.value == 1.5));
+        let zero = x * 0.0;
+        assert!(zero.is_constant() && zero.value == 0.0);
+        // −0 + 0 is +0: the value is the operation's, the node the argument's
+        let nz = Rev::input(-0.0);
+        assert!((nz + 0.0).value.is_sign_positive() && (nz + 0.0).node() != nz.node());
+        // d/dx of (x + 0)·1·x + 0·x + x·2 = 2x + 2
+        let y = (x + 0.0) * 1.0 * x + x * 0.0 + x * 2.0;
+        let mut adj = Vec::new();
+        y.seed(&mut adj, 1.0);
+        Tape::backpropagate(&mut adj, mark);
+        assert_eq!(x.adjoint(&adj), 2.0 * 1.5 + 2.0);
         Tape::rewind(mark);
     }
 
