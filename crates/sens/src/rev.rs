@@ -38,6 +38,10 @@ use crate::Scalar;
 /// Index of no node: a constant, or a node's missing second argument.
 const NONE: u32 = u32::MAX;
 
+/// `args[1]` of a node with more than two arguments ([`Rev::dot`], [`Rev::sub_scaled`]): they are entries
+/// `args[0]..partials[0]` of the thread's table of wide arguments.
+const WIDE: u32 = u32::MAX - 1;
+
 /// One operation: the result's partial derivatives with respect to its arguments. A missing
 /// argument (an input's, a unary operation's second, a constant's) is the node itself with a
 /// zero partial: the sweep adds `0 · adjoint` to an adjoint it has already passed on, so it runs
@@ -94,6 +98,8 @@ impl ExternalReverse for DotRows {
 
 thread_local! {
     static TAPE: RefCell<Vec<Node>> = const { RefCell::new(Vec::new()) };
+    /// The arguments and partials of the nodes with more than two, in the order of the nodes.
+    static WIDE_ARGS: RefCell<Vec<(u32, f64)>> = const { RefCell::new(Vec::new()) };
     /// The external operations on the tape, in the order of their outputs.
     static EXTERNAL: RefCell<Vec<External>> = const { RefCell::new(Vec::new()) };
 }
@@ -107,6 +113,55 @@ fn push(args: [u32; 2], partials: [f64; 2]) -> u32 {
         debug_assert!(index < NONE as usize, "the reverse-mode tape is full");
         let args = args.map(|a| if a == NONE { index as u32 } else { a });
         t.push(Node { args, partials });
+        index as u32
+    })
+}
+
+/// The arguments of a node being recorded by [`wide_node`].
+struct WideArgs<'a>(&'a mut Vec<(u32, f64)>);
+
+impl WideArgs<'_> {
+    /// An argument with its partial; nothing for a constant or a zero partial.
+    #[inline]
+    fn arg(&mut self, index: u32, partial: f64) {
+        if index != NONE && partial != 0.0 {
+            self.0.push((index, partial));
+        }
+    }
+}
+
+/// The node of a result whose arguments `add` gives: [`NONE`] for none, a node of the usual
+/// kind for two at most, a wide node for more.
+#[inline]
+fn wide_node(add: impl FnOnce(&mut WideArgs)) -> u32 {
+    WIDE_ARGS.with(|w| {
+        let mut w = w.borrow_mut();
+        let start = w.len();
+        add(&mut WideArgs(&mut w));
+        match w.len() - start {
+            0 => NONE,
+            1 | 2 => {
+                let first = w[start];
+                let second = w.get(start + 1).copied().unwrap_or((NONE, 0.0));
+                w.truncate(start);
+                push([first.0, second.0], [first.1, second.1])
+            }
+            _ => push_wide(start, w.len()),
+        }
+    })
+}
+
+/// A node whose arguments are the wide arguments `start..end`.
+fn push_wide(start: usize, end: usize) -> u32 {
+    TAPE.with(|t| {
+        let mut t = t.borrow_mut();
+        let index = t.len();
+        debug_assert!(index < WIDE as usize, "the reverse-mode tape is full");
+        let start = u32::try_from(start).expect("fewer than 2³² wide arguments");
+        t.push(Node {
+            args: [start, WIDE],
+            partials: [end as f64, 0.0],
+        });
         index as u32
     })
 }
@@ -127,7 +182,17 @@ impl Tape {
 
     /// Drop the nodes above `mark`; every `Rev` made after it becomes invalid.
     pub fn rewind(mark: usize) {
-        TAPE.with(|t| t.borrow_mut().truncate(mark));
+        TAPE.with(|t| {
+            let mut t = t.borrow_mut();
+            // the wide arguments of the nodes dropped: from the first wide node's on
+            if let Some(node) = t
+                .get(mark..)
+                .and_then(|n| n.iter().find(|n| n.args[1] == WIDE))
+            {
+                WIDE_ARGS.with(|w| w.borrow_mut().truncate(node.args[0] as usize));
+            }
+            t.truncate(mark);
+        });
         EXTERNAL.with(|e| {
             let mut e = e.borrow_mut();
             let keep = e.partition_point(|x| x.end <= mark);
@@ -150,26 +215,30 @@ impl Tape {
         TAPE.with(|t| {
             EXTERNAL.with(|e| {
                 let (t, e) = (t.borrow(), e.borrow());
-                adjoints.resize(t.len().max(adjoints.len()), 0.0);
-                let mut top = t.len();
-                let mut x_bar = Vec::new();
-                for op in e.iter().rev().take_while(|op| op.end > down_to) {
-                    assert!(
-                        op.first >= down_to,
-                        "a sweep that splits an external operation"
-                    );
-                    sweep_nodes(&t, adjoints, op.end..top);
-                    x_bar.clear();
-                    x_bar.resize(op.inputs.len(), 0.0);
-                    op.op.reverse(&adjoints[op.first..op.end], &mut x_bar);
-                    for (&i, &a) in op.inputs.iter().zip(&x_bar) {
-                        if i != NONE {
-                            adjoints[i as usize] += a;
+                WIDE_ARGS.with(|w| {
+                    let wide = w.borrow();
+                    let t = (&t[..], &wide[..]);
+                    adjoints.resize(t.0.len().max(adjoints.len()), 0.0);
+                    let mut top = t.0.len();
+                    let mut x_bar = Vec::new();
+                    for op in e.iter().rev().take_while(|op| op.end > down_to) {
+                        assert!(
+                            op.first >= down_to,
+                            "a sweep that splits an external operation"
+                        );
+                        sweep_nodes(t, adjoints, op.end..top);
+                        x_bar.clear();
+                        x_bar.resize(op.inputs.len(), 0.0);
+                        op.op.reverse(&adjoints[op.first..op.end], &mut x_bar);
+                        for (&i, &a) in op.inputs.iter().zip(&x_bar) {
+                            if i != NONE {
+                                adjoints[i as usize] += a;
+                            }
                         }
+                        top = op.first;
                     }
-                    top = op.first;
-                }
-                sweep_nodes(&t, adjoints, down_to..top);
+                    sweep_nodes(t, adjoints, down_to..top);
+                })
             })
         });
     }
@@ -177,13 +246,24 @@ impl Tape {
 
 /// The reverse sweep over the nodes of `range`, from the top down.
 #[inline]
-fn sweep_nodes(t: &[Node], adjoints: &mut [f64], range: std::ops::Range<usize>) {
+fn sweep_nodes(
+    (t, wide): (&[Node], &[(u32, f64)]),
+    adjoints: &mut [f64],
+    range: std::ops::Range<usize>,
+) {
     for i in range.rev() {
         // (a zero adjoint adds zeros: cheaper than a branch on it)
         let a = adjoints[i];
         let node = &t[i];
-        adjoints[node.args[0] as usize] += a * node.partials[0];
-        adjoints[node.args[1] as usize] += a * node.partials[1];
+        if node.args[1] == WIDE {
+            let args = &wide[node.args[0] as usize..node.partials[0] as usize];
+            for &(j, p) in args {
+                adjoints[j as usize] += a * p;
+            }
+        } else {
+            adjoints[node.args[0] as usize] += a * node.partials[0];
+            adjoints[node.args[1] as usize] += a * node.partials[1];
+        }
     }
 }
 
@@ -475,6 +555,36 @@ impl One for Rev {
 
 impl Scalar for Rev {
     const TANGENTS: usize = 0;
+    /// One node with an argument for each factor (constants left out), the value summed as
+    /// `f64` sums it.
+    fn dot(a: &[Self], b: &[Self]) -> Self {
+        assert_eq!(a.len(), b.len(), "dot of two slices of one length");
+        let mut value = 0.0;
+        let index = wide_node(|args| {
+            for (k, (x, y)) in a.iter().zip(b).enumerate() {
+                let p = x.value * y.value;
+                value = if k == 0 { p } else { value + p };
+                args.arg(x.index, y.value);
+                args.arg(y.index, x.value);
+            }
+        });
+        Self { value, index }
+    }
+
+    /// One node with an argument for `init` and each `a_j` (constants left out), the value
+    /// as `f64` computes it.
+    fn sub_scaled(init: Self, a: &[Self], x: &[f64]) -> Self {
+        assert_eq!(a.len(), x.len(), "sub_scaled of two slices of one length");
+        let mut value = init.value;
+        let index = wide_node(|args| {
+            args.arg(init.index, 1.0);
+            for (a, &x) in a.iter().zip(x) {
+                value -= a.value * x;
+                args.arg(a.index, -x);
+            }
+        });
+        Self { value, index }
+    }
     const PLAIN: bool = false;
 
     #[inline]
@@ -789,6 +899,51 @@ mod tests {
         Tape::backpropagate(&mut adj, mark);
         assert_eq!(x.adjoint(&adj), 6.0 * 1.5 + 2.0);
         Tape::rewind(mark);
+    }
+
+    #[test]
+    fn dot_and_sub_scaled_are_one_node_reversed_as_their_products_are() {
+        let x = [1.5, -0.7, 2.0, 0.3, 0.9];
+        let c = Rev::constant(4.0);
+        let written = |v: &[Rev]| v[1] * v[2] + c * v[3] + v[2] * v[4] + v[3] * c;
+        let (value, gradient) = reverse_gradient(written, &x);
+        let mark = Tape::len();
+        let v: Vec<Rev> = x.iter().map(|&x| Rev::input(x)).collect();
+        let wide_mark = WIDE_ARGS.with(|w| w.borrow().len());
+        let nodes = Tape::len();
+        let y = Rev::dot(&[v[1], c, v[2], v[3]], &[v[2], v[3], v[4], c]);
+        let z = Rev::sub_scaled(v[0], &[v[1], v[2], v[3]], &[0.5, -2.0, 3.0]);
+        assert_eq!(Tape::len(), nodes + 2, "one node each");
+        assert_eq!(y.value, value, "summed as written out");
+        assert_eq!(z.value, 1.5 - -0.7 * 0.5 - 2.0 * -2.0 - 0.3 * 3.0);
+        let mut adj = Vec::new();
+        y.seed(&mut adj, 1.0);
+        z.seed(&mut adj, 10.0);
+        Tape::backpropagate(&mut adj, mark);
+        let expected = [
+            10.0,
+            gradient[1] - 5.0,
+            gradient[2] + 20.0,
+            gradient[3] - 30.0,
+        ];
+        for (xi, g) in v.iter().zip(expected.iter().chain(&gradient[4..])) {
+            assert!((xi.adjoint(&adj) - g).abs() <= 1e-14 * g.abs().max(1.0));
+        }
+        // two arguments at most make a node of the usual kind; constants record nothing
+        let narrow = Rev::dot(&[v[1], c], &[c, c]);
+        assert_eq!(narrow.value, -0.7 * 4.0 + 16.0);
+        assert_eq!(Tape::len(), nodes + 3);
+        assert!(Rev::dot(&[c], &[c]).is_constant() && Rev::dot(&[], &[]).value == 0.0);
+        // a rewind drops the wide nodes' arguments with them
+        Tape::rewind(mark);
+        assert_eq!(WIDE_ARGS.with(|w| w.borrow().len()), wide_mark);
+        // the other types compute the same operations in the same order
+        assert_eq!(
+            f64::dot(&[-0.7, 4.0, 2.0, 0.3], &[2.0, 0.3, 0.9, 4.0]),
+            value
+        );
+        let plain = f64::sub_scaled(1.5, &[-0.7, 2.0, 0.3], &[0.5, -2.0, 3.0]);
+        assert_eq!(plain, z.value);
     }
 
     #[test]

@@ -90,6 +90,26 @@ pub trait Scalar:
     /// `sqrt(self² + other²)` without needless overflow.
     fn hypot(self, other: Self) -> Self;
 
+    /// `a_0 b_0 + a_1 b_1 + …`, added left to right (`a`, `b` of one length, zero if empty):
+    /// one node on the reverse-mode tape whatever the length ([`crate::Rev`]), the operations
+    /// as written out for the other types.
+    #[inline]
+    fn dot(a: &[Self], b: &[Self]) -> Self {
+        debug_assert_eq!(a.len(), b.len(), "dot of two slices of one length");
+        match (a.split_first(), b.split_first()) {
+            (Some((&a0, a)), Some((&b0, b))) => {
+                (a.iter().zip(b)).fold(a0 * b0, |s, (&x, &y)| s + x * y)
+            }
+            _ => Self::zero(),
+        }
+    }
+    /// `init − a_0 x_0 − a_1 x_1 − …`, subtracted left to right (`a`, `x` of one length): one
+    /// node on the reverse-mode tape ([`crate::Rev`]), as written out for the other types.
+    #[inline]
+    fn sub_scaled(init: Self, a: &[Self], x: &[f64]) -> Self {
+        debug_assert_eq!(a.len(), x.len(), "sub_scaled of two slices of one length");
+        (a.iter().zip(x)).fold(init, |s, (&a, &x)| s - a * x)
+    }
     /// `sin` and `cos` together.
     fn sin_cos(self) -> (Self, Self) {
         (self.sin(), self.cos())
