@@ -915,15 +915,20 @@ impl<P: Scalar> Model<P> {
     ) -> Vec<S> {
         let nv = self.n_v;
         let mut out = Vec::with_capacity(nv + rows.len());
+        // `r − Σ a_j x̂_j` over the nonzero `x̂_j`: one node on the reverse-mode tape
+        let (mut a, mut x) = (Vec::new(), Vec::new());
+        let mut minus_products = |r: S, entries: &mut dyn Iterator<Item = (S, f64)>| {
+            (a.clear(), x.clear());
+            for (aj, xj) in entries.filter(|&(_, xj)| xj != 0.0) {
+                a.push(aj);
+                x.push(xj);
+            }
+            S::sub_scaled(r, &a, &x)
+        };
         for (o, block) in m.blocks() {
             for i in 0..block.nrows() {
-                let mut r = f[o + i];
-                for j in 0..block.ncols() {
-                    if x_hat[o + j] != 0.0 {
-                        r -= block[(i, j)] * x_hat[o + j];
-                    }
-                }
-                out.push(r);
+                let row = &mut (0..block.ncols()).map(|j| (block[(i, j)], x_hat[o + j]));
+                out.push(minus_products(f[o + i], row));
             }
         }
         for (a, &row) in rows.iter().enumerate() {
@@ -938,13 +943,9 @@ impl<P: Scalar> Model<P> {
         let beta2 = S::from_f64(self.baumgarte.beta * self.baumgarte.beta);
         for &row in rows {
             let c = &k[row];
-            let mut r = -c.quad - two_alpha * c.rate - beta2 * c.val;
-            for (col, &x) in c.jac.iter() {
-                if x_hat[col] != 0.0 {
-                    r -= x * x_hat[col];
-                }
-            }
-            out.push(r);
+            let r = -c.quad - two_alpha * c.rate - beta2 * c.val;
+            let jac = &mut c.jac.iter().map(|(col, &x)| (x, x_hat[col]));
+            out.push(minus_products(r, jac));
         }
         out
     }
