@@ -559,12 +559,12 @@ impl StepSolver {
             self.precondition(t, &mut delta)?;
             let (next, scale) = (size(&delta), size(&lambda));
             let next_rate = next / applied;
-            if !exact_here
-                && next_rate < 0.5
+            let converging = next_rate < 0.5
                 && next <= UNSWEPT_TOL * scale
-                && next * next_rate / (1.0 - next_rate) <= ADJOINT_TOL * scale
-            {
-                // converged with this update, too small to need its sweep (UNSWEPT_TOL)
+                && next * next_rate / (1.0 - next_rate) <= ADJOINT_TOL * scale;
+            if !exact_here && (converging || next <= ADJOINT_TOL * scale) {
+                // converged with this update, too small to need its sweep (UNSWEPT_TOL), or
+                // at the round-off floor
                 lambda.iter_mut().zip(&delta).for_each(|(l, d)| *l += d);
                 return Ok(lambda);
             }
