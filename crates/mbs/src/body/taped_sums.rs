@@ -340,6 +340,15 @@ impl ExternalReverse for Evaluation {
         let mut half_bar = vec![Vector3::<f64>::zeros(); n];
         let mut rates_bar = vec![Vector3::<f64>::zeros(); n];
         let m_oo_sym = b.m_oo + b.m_oo.transpose();
+        let mut cc_sym = vec![0.0; nf * nf];
+        for j in 0..nf {
+            for l in j..nf {
+                let c = cc[j * nf + l];
+                cc_sym[j * nf + l] += c;
+                cc_sym[l * nf + j] += c;
+            }
+        }
+        let mut sc = vec![Vector3::<f64>::zeros(); nf];
         let trace = b.m_oo.trace();
         let om = self.om;
         for (k, &m) in d.masses.iter().enumerate() {
@@ -363,11 +372,11 @@ impl ExternalReverse for Evaluation {
                 m_bar += b.s_w[j] * x[j].dot(&g_c);
                 sw_x += x[j] * b.s_w[j];
             }
-            for j in 0..nf {
-                for l in j..nf {
-                    m_bar += cc[j * nf + l] * col[j].dot(&col[l]);
-                }
+            // S C_j with S the symmetric form of c̄c (Σ_{j ≤ l} c̄c_jl C_j · C_l = ½ Σ_j C_j · (S C)_j)
+            for (j, sc) in sc.iter_mut().enumerate() {
+                *sc = (0..nf).map(|l| col[l] * cc_sym[j * nf + l]).sum();
             }
+            m_bar += 0.5 * (0..nf).map(|j| col[j].dot(&sc[j])).sum::<f64>();
             masses_bar[k] += m_bar;
             g_bar += sw_x * m;
             // c̄, then ū (directly and through c), u̇ through c
@@ -398,12 +407,8 @@ impl ExternalReverse for Evaluation {
                 }
             }
             // Σ_{j ≤ l} c̄c_jl m C_j · C_l
-            for j in 0..nf {
-                for l in j..nf {
-                    let a = cc[j * nf + l] * m;
-                    columns_bar[k * nf + j] += col[l] * a;
-                    columns_bar[k * nf + l] += col[j] * a;
-                }
+            for (bar, sc) in columns_bar[k * nf..(k + 1) * nf].iter_mut().zip(&sc) {
+                *bar += sc * m;
             }
         }
         // back along the elements, from the tips to the clamp
