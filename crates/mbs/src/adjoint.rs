@@ -428,8 +428,9 @@ pub struct AdjointStatistics {
 /// Iterations of a step's adjoint system before a new exact Jacobian.
 const MAX_ITERATIONS: usize = 6;
 /// The iterations stop when the error left in the adjoint (estimated from the updates' rate
-/// of convergence) is below this fraction of it (largest components), or stagnate at the round-off floor above it (then an exact Jacobian solves
-/// the step): the step's system solved to round-off, as the direct method solves its own by LU.
+/// of convergence) is below this fraction of it (largest components), or stagnate at the
+/// round-off floor above it (then an exact Jacobian solves the step): the step's system solved
+/// to round-off, as the direct method solves its own by LU.
 /// The residual a looser stop leaves is multiplied by the stiff step matrix, and a gradient
 /// carries it summed over the steps: at 1e-12 the gradient of a peak (one sample's
 /// derivative) on a stiff run differed from the direct method's by 5e-7 relative, at 1e-15 by

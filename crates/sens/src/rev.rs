@@ -38,8 +38,8 @@ use crate::Scalar;
 /// Index of no node: a constant, or a node's missing second argument.
 const NONE: u32 = u32::MAX;
 
-/// `args[1]` of a node with more than two arguments ([`Rev::dot`], [`Rev::sub_scaled`]): they are entries
-/// `args[0]..partials[0]` of the thread's table of wide arguments.
+/// `args[1]` of a node with more than two arguments ([`Scalar::dot`], [`Scalar::sub_scaled`]):
+/// they are entries `args[0]..partials[0]` of the thread's table of wide arguments.
 const WIDE: u32 = u32::MAX - 1;
 
 /// One operation: the result's partial derivatives with respect to its arguments. A missing

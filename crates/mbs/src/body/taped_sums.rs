@@ -372,7 +372,7 @@ impl ExternalReverse for Evaluation {
                 m_bar += b.s_w[j] * x[j].dot(&g_c);
                 sw_x += x[j] * b.s_w[j];
             }
-            // S C_j with S the symmetric form of c̄c (Σ_{j ≤ l} c̄c_jl C_j · C_l = ½ Σ_j C_j · (S C)_j)
+            // (S C)_j, S the symmetric form of c̄c: Σ_{j ≤ l} c̄c_jl C_j · C_l = ½ Σ_j C_j · (S C)_j
             for (j, sc) in sc.iter_mut().enumerate() {
                 *sc = (0..nf).map(|l| col[l] * cc_sym[j * nf + l]).sum();
             }
