@@ -918,7 +918,8 @@ impl<P: Scalar> Model<P> {
         // `r − Σ a_j x̂_j` over the nonzero `x̂_j`: one node on the reverse-mode tape
         let (mut a, mut x) = (Vec::new(), Vec::new());
         let mut minus_products = |r: S, entries: &mut dyn Iterator<Item = (S, f64)>| {
-            (a.clear(), x.clear());
+            a.clear();
+            x.clear();
             for (aj, xj) in entries.filter(|&(_, xj)| xj != 0.0) {
                 a.push(aj);
                 x.push(xj);
