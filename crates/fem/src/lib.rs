@@ -79,8 +79,8 @@ pub use modal::{ModalBody, ModalBodyError, NODE_DOFS};
 pub use rigid::{RigidMotion, free_rigid_motions};
 pub use sensitivity::{
     DesignMatrices, ModeDerivatives, ProjectedDerivative, cluster_second_derivatives,
-    directional_eigenvalue_derivatives, eigenvalue_derivatives, mode_derivatives,
-    mode_derivatives_with, splits_clusters,
+    directional_eigenvalue_derivatives, eigenvalue_derivatives, eigenvector_adjoint,
+    mode_derivatives, mode_derivatives_with, splits_clusters,
 };
 pub use shell::Membrane;
 pub use stress::{

@@ -267,12 +267,8 @@ pub fn mode_derivatives_with(
             &mut symbolic_lu,
         )?;
         for (v, dm) in design.iter().enumerate() {
-            let d = &per_var[v];
-            let zr = &z * &d.rotation;
-            let vs = nelson.particular_solutions(m, dm, lambda, &zr, &d.values, &mut tmp)?;
             let sec = second.and_then(|s| s.get(v)).and_then(|s| s.get(gi));
-            let c = eigenvector_coefficients(m, dm, lambda, &zr, &vs, d, sec);
-            let xv = vs + &zr * c;
+            let xv = nelson.derivatives(m, dm, (lambda, &z), &per_var[v], sec, &mut tmp)?;
             for (a, &i) in g.iter().enumerate() {
                 xb[v].column_mut(i).copy_from(&xv.column(a));
             }
@@ -284,6 +280,97 @@ pub fn mode_derivatives_with(
         rotations: rot,
         clusters: groups,
     })
+}
+
+/// `Σ_i ȳ_iᵀ ∂x_i/∂b` for every design variable of `design`: the eigenvector derivatives of
+/// [`mode_derivatives`] contracted with the adjoints `ybar` (`n × p`, one column per mode of
+/// `modes`; within a cluster of repeated eigenvalues against the derivatives in the basis of
+/// the values, `X_b Γᵀ`, as [`crate::modal_body_dual`] reads them), without one solve per mode
+/// and variable (docs/design.md §3, "The adjoint method"). For a distinct eigenvalue `λ` with
+/// eigenvector `x`, Nelson's `x_b = v + c x` (`A v = f`, `c = −xᵀMv − ½ xᵀM_b x`) gives, with
+/// `s = ȳᵀx` and the Nelson matrix `A` symmetric, `ȳᵀx_b = wᵀf − ½ s xᵀM_b x` for
+/// `w = A⁻¹(ȳ − s M x)`: one solve per mode, then per variable
+/// `−wᵀ(K_b − λM_b)x + λ_b wᵀMx − ½ s xᵀM_b x` (`w`'s removed component zero). A cluster's
+/// derivatives depend on each variable through its rotation `Γ`: they are formed variable by
+/// variable, as [`mode_derivatives`] does. Modes whose adjoint is zero cost nothing.
+pub fn eigenvector_adjoint(
+    k: &SparseColMat<usize, f64>,
+    m: &SparseColMat<usize, f64>,
+    modes: &Eigenpairs,
+    design: &[DesignMatrices],
+    ybar: &DMatrix<f64>,
+    second: Option<&[Vec<SecondDerivatives>]>,
+) -> Result<Vec<f64>, FemError> {
+    let n = k.nrows();
+    assert_eq!(
+        ybar.shape(),
+        (n, modes.values.len()),
+        "one adjoint per mode"
+    );
+    let dense = n <= crate::eigen::DENSE_LIMIT;
+    let symbolic_ldlt = if dense {
+        None
+    } else {
+        Some(SparseLdlt::symbolic(k)?)
+    };
+    let mut symbolic_lu: Option<SymbolicLu<usize>> = None;
+    let mut out = vec![0.0; design.len()];
+    let (mut tmp, mut kx, mut mx) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    for (gi, g) in clusters(&modes.values, CLUSTER_RTOL).iter().enumerate() {
+        if g.iter().all(|&i| ybar.column(i).iter().all(|&y| y == 0.0)) {
+            continue;
+        }
+        let (lambda, z) = cluster_basis(modes, g);
+        let nelson = NelsonSystem::new(
+            k,
+            m,
+            lambda,
+            &z,
+            dense,
+            symbolic_ldlt.as_ref(),
+            &mut symbolic_lu,
+        );
+        let mut nelson = nelson?;
+        if g.len() > 1 {
+            let yg = ybar.select_columns(g);
+            for (v, dm) in design.iter().enumerate() {
+                let kb = project(&dm.k, &z, &z);
+                let mb = project(&dm.m, &z, &z);
+                let (values, rotation) = cluster_derivative(&kb, &mb, lambda);
+                let d = ClusterDerivative {
+                    values,
+                    rotation,
+                    mb,
+                };
+                let sec = second.and_then(|s| s.get(v)).and_then(|s| s.get(gi));
+                let xv = nelson.derivatives(m, dm, (lambda, &z), &d, sec, &mut tmp)?;
+                out[v] += (xv * d.rotation.transpose()).dot(&yg);
+            }
+            continue;
+        }
+        let x = z.column(0);
+        let y = ybar.column(g[0]);
+        let s = y.dot(&x);
+        spmv(m, x.as_slice(), &mut mx);
+        let mut w: Vec<f64> = y.iter().zip(&mx).map(|(y, mx)| y - s * mx).collect();
+        for &q in &nelson.removed {
+            w[q] = 0.0;
+        }
+        nelson.solve_checked(&mut w, &mut tmp)?;
+        for &q in &nelson.removed {
+            w[q] = 0.0;
+        }
+        let w_mx: f64 = w.iter().zip(&mx).map(|(a, b)| a * b).sum();
+        for (v, dm) in design.iter().enumerate() {
+            spmv(&dm.k, x.as_slice(), &mut kx);
+            spmv(&dm.m, x.as_slice(), &mut tmp);
+            let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(a, b)| a * b).sum::<f64>();
+            let x_mb_x = dot(x.as_slice(), &tmp);
+            let lambda_b = dot(x.as_slice(), &kx) - lambda * x_mb_x;
+            out[v] += -dot(&w, &kx) + lambda * dot(&w, &tmp) + lambda_b * w_mx - 0.5 * s * x_mb_x;
+        }
+    }
+    Ok(out)
 }
 
 /// The derivative of a cluster of eigenvalues for one design variable.
@@ -351,6 +438,24 @@ impl<'s> NelsonSystem<'s> {
             checked: false,
             symbolic_lu,
         })
+    }
+
+    /// The derivatives of the cluster's eigenvectors (basis `z`, eigenvalue `lambda`) for the
+    /// design variable `dm` with eigenvalue derivatives and rotation `d`: `V + ZΓ c`, in the
+    /// rotated basis `ZΓ`.
+    fn derivatives(
+        &mut self,
+        m: &SparseColMat<usize, f64>,
+        dm: &DesignMatrices,
+        (lambda, z): (f64, &DMatrix<f64>),
+        d: &ClusterDerivative,
+        second: Option<&SecondDerivatives>,
+        tmp: &mut [f64],
+    ) -> Result<DMatrix<f64>, FemError> {
+        let zr = z * &d.rotation;
+        let vs = self.particular_solutions(m, dm, lambda, &zr, &d.values, tmp)?;
+        let c = eigenvector_coefficients(m, dm, lambda, &zr, &vs, d, second);
+        Ok(vs + &zr * c)
     }
 
     /// Nelson's particular solutions `V` (n × r) of the design variable `dm` for the rotated

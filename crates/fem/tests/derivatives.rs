@@ -866,3 +866,121 @@ fn design_matrices_of_a_region_equal_central_differences_of_the_assembly() {
         }
     }
 }
+
+/// `Σ_i ȳ_iᵀ x_{i,b}` of the eigenvector derivatives of `d` in the basis of the values
+/// (`X_b Γᵀ`), per variable: what [`fem::eigenvector_adjoint`] computes without them.
+fn contracted(d: &fem::ModeDerivatives, ybar: &DMatrix<f64>) -> Vec<f64> {
+    let xb = d.eigenvectors.as_ref().expect("eigenvector derivatives");
+    (xb.iter().zip(&d.rotations))
+        .map(|(x, g)| (x * g.transpose()).dot(ybar))
+        .collect()
+}
+
+/// Deterministic adjoints of all sizes and signs, zero for the modes in `skip`.
+fn some_adjoints(n: usize, p: usize, skip: &[usize]) -> DMatrix<f64> {
+    DMatrix::from_fn(n, p, |i, j| {
+        if skip.contains(&j) {
+            0.0
+        } else {
+            ((i * 7 + j * 13) as f64 * 0.731).sin() * (1.0 + j as f64)
+        }
+    })
+}
+
+fn assert_contractions_agree(adjoint: &[f64], direct: &[f64]) {
+    let scale = direct.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+    assert!(scale > 0.0, "the contractions vanish");
+    for (v, (a, d)) in adjoint.iter().zip(direct).enumerate() {
+        assert!(
+            (a - d).abs() < 1e-10 * scale,
+            "variable {v}: adjoint {a:e}, Nelson's derivatives {d:e}"
+        );
+    }
+}
+
+/// The strip's laminate with two ply angles `b[0]`, `b[1]` and the total thickness `b[2]`
+/// (which moves the mass too).
+fn strip_props_thickness<S: Scalar>(b: &[S]) -> Properties<S> {
+    let ply = |angle: S| Ply {
+        material: paper_material(),
+        thickness: b[2] * 0.5,
+        angle,
+    };
+    Properties {
+        sections: vec![],
+        laminates: vec![
+            PlyStack::new(vec![ply(b[0]), ply(b[1])])
+                .unwrap()
+                .stiffness(),
+        ],
+    }
+}
+
+#[test]
+fn eigenvector_adjoint_equals_the_contracted_nelson_derivatives() {
+    // distinct eigenvalues: the dense path (a small strip) and the sparse LDLᵀ one (a larger
+    // strip), one mode's adjoint zero; two ply angles and the thickness
+    let b0 = [0.5, -0.8, 0.01];
+    for (nx, ny) in [(12, 2), (24, 4)] {
+        let mesh = Mesh::rectangle(0.6, 0.08, nx, ny, 0).unwrap();
+        let mut c = Constraints::new();
+        let left = mesh.nodes_on_segment(Vector3::zeros(), Vector3::new(0.0, 0.08, 0.0), 1e-9);
+        c.fix_nodes(&left, &dof::ALL);
+        let asm = Assembly::new(&mesh, &c).unwrap();
+        let opts = ElementOptions::default();
+        let (k, m) = asm
+            .values(
+                &mesh,
+                &strip_props_thickness(&b0),
+                &opts,
+                MassKind::Consistent,
+            )
+            .unwrap();
+        let (k, m) = (asm.matrix(k), asm.matrix(m));
+        let pairs = lowest_modes(&k, &m, 5, &Default::default()).unwrap();
+        let (props, mass) = (strip_props_thickness, MassKind::Consistent);
+        let dm = design_matrices::<3, _>(&mesh, &asm, &b0, props, &opts, mass).unwrap();
+        assert!(
+            dm[2].m.val().iter().any(|&x| x != 0.0),
+            "the thickness moves the mass"
+        );
+        let d = fem::mode_derivatives(&k, &m, &pairs, &dm, true, None).unwrap();
+        let ybar = some_adjoints(k.nrows(), 5, &[2]);
+        let adjoint = fem::eigenvector_adjoint(&k, &m, &pairs, &dm, &ybar, None).unwrap();
+        assert_contractions_agree(&adjoint, &contracted(&d, &ybar));
+    }
+}
+
+#[test]
+fn eigenvector_adjoint_of_a_split_pair_equals_the_contracted_dailey_derivatives() {
+    // the square plate's repeated pair, split by variable 0 (Dailey's terms) and kept together
+    // by variable 1
+    let (mesh, asm) = square_model();
+    let b0 = [0.3, 0.3];
+    let opts = ElementOptions::default();
+    let pairs = square_values(&mesh, &asm, &b0, 4);
+    let (k, m) = asm
+        .values(&mesh, &square_props(&b0), &opts, MassKind::Consistent)
+        .unwrap();
+    let (k, m) = (asm.matrix(k), asm.matrix(m));
+    let dm = design_matrices::<2, _>(&mesh, &asm, &b0, square_props, &opts, MassKind::Consistent)
+        .unwrap();
+    let second = fem::second_derivative_terms::<2, _>(
+        &mesh,
+        &asm,
+        (&b0, &[true, true]),
+        square_props,
+        &opts,
+        MassKind::Consistent,
+        &pairs,
+    )
+    .unwrap();
+    assert!(
+        fem::sensitivity::has_repeated(&pairs),
+        "the square has a repeated pair"
+    );
+    let d = fem::mode_derivatives(&k, &m, &pairs, &dm, true, Some(&second)).unwrap();
+    let ybar = some_adjoints(k.nrows(), 4, &[]);
+    let adjoint = fem::eigenvector_adjoint(&k, &m, &pairs, &dm, &ybar, Some(&second)).unwrap();
+    assert_contractions_agree(&adjoint, &contracted(&d, &ybar));
+}
