@@ -903,6 +903,20 @@ impl Assembly {
             .collect()
     }
 
+    /// The transpose of [`Self::expand_columns`]: `Tᵀ x` of columns on all dof, to the dof of
+    /// the matrices (the adjoint of an expansion).
+    pub fn restrict_columns(&self, x: &DMatrix<f64>) -> DMatrix<f64> {
+        let mut out = DMatrix::zeros(self.n_free(), x.ncols());
+        for g in 0..self.n_full {
+            for &(i, c) in self.terms(g) {
+                for j in 0..x.ncols() {
+                    out[(i, j)] += c * x[(g, j)];
+                }
+            }
+        }
+        out
+    }
+
     /// [`Self::expand`] column by column.
     pub fn expand_columns(&self, x: &DMatrix<f64>) -> DMatrix<f64> {
         let mut out = DMatrix::zeros(self.n_full, x.ncols());

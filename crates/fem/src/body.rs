@@ -178,7 +178,7 @@ pub enum CorrectionDamping {
 
 impl CorrectionDamping {
     /// The least ratio, checked: finite and `≥ 0` (`None` for [`Self::Proportional`]).
-    fn floor(self) -> Result<Option<f64>, FemError> {
+    pub(crate) fn floor(self) -> Result<Option<f64>, FemError> {
         match self {
             Self::Proportional => Ok(None),
             Self::AtLeast(z) if z.is_finite() && z >= 0.0 => Ok(Some(z)),
@@ -890,7 +890,10 @@ pub fn modal_body_dual<const N: usize>(
     let mut modes = base.modes.map(Dual::<N>::constant);
     // the retained eigenvectors' derivatives on the free dof, per variable of the chunk
     let mut x_b: Vec<DMatrix<f64>> = Vec::new();
-    if update == ModeUpdate::Updated {
+    if update == ModeUpdate::Updated && derivs.eigenvectors_by_adjoint {
+        // the eigenvectors' part of the tangents is the adjoint's ([`eigenvector_adjoints`])
+        x_b = vec![DMatrix::zeros(x.nrows(), kept.len()); vars.len()];
+    } else if update == ModeUpdate::Updated {
         let xb = derivs.eigenvectors.as_ref().ok_or_else(|| {
             FemError::Derivatives("updated-mode needs eigenvector derivatives".into())
         })?;
@@ -1084,41 +1087,64 @@ fn floored_damping<const N: usize>(
     let (r, pe) = (kr.nrows(), eigen.nrows());
     let lambda: Vec<f64> = (0..r).map(|i| kr[(i, i)].value()).collect();
     let (alpha, beta) = fit.unwrap_or((Dual::constant(0.0), Dual::constant(0.0)));
-    // each mode's law: its value f, slope f′ and design tangent (of α, β), if proportional
-    let law: Vec<(f64, f64, [f64; N])> = (0..r)
-        .map(|i| {
-            let l = lambda[i];
-            let proportional = alpha + beta * l;
-            let floor = 2.0 * z * l.max(0.0).sqrt();
-            if i < pe || proportional.value() >= floor {
-                (proportional.value(), beta.value(), proportional.d)
-            } else {
-                (floor, z / l.max(f64::MIN_POSITIVE).sqrt(), [0.0; N])
-            }
-        })
-        .collect();
+    let laws = damping_laws(&lambda, pe, (alpha.value(), beta.value()), z);
     DMatrix::from_fn(r, r, |i, j| {
         if i < pe && j < pe {
             return eigen[(i, j)];
         }
-        let ((fi, si, gi), (fj, _, _)) = (law[i], law[j]);
-        let gap = lambda[i] - lambda[j];
-        let slope = if gap.abs() > 1e-12 * lambda[i].abs().max(lambda[j].abs()) {
-            (fi - fj) / gap
-        } else {
-            si
-        };
+        let (wk, wm) = floored_weights(&laws, &lambda, i, j);
         let (k, m) = (&kr[(i, j)], &mr[(i, j)]);
-        let mean = (lambda[i] + lambda[j]) / 2.0;
         let mut d = [0.0; N];
         for (t, d) in d.iter_mut().enumerate() {
-            *d = (k.d[t] - m.d[t] * mean) * slope + m.d[t] * (fi + fj) / 2.0;
-            if i == j {
-                *d += gi[t];
+            *d = k.d[t] * wk + m.d[t] * wm;
+            // the proportional law's design tangent (of α, β)
+            if i == j && laws[i].2 {
+                *d += alpha.d[t] + beta.d[t] * lambda[i];
             }
         }
-        Dual::new(if i == j { fi } else { 0.0 }, d)
+        Dual::new(if i == j { laws[i].0 } else { 0.0 }, d)
     })
+}
+
+/// Each mode's damping law in [`floored_damping`] at the modal stiffness's values `lambda`
+/// (the first `pe` eigenmodes, then the correction modes): its value `f`, its slope `f′` and
+/// whether it is the proportional law `α + βλ` (the floor `2zλ^½` otherwise).
+pub(crate) fn damping_laws(
+    lambda: &[f64],
+    pe: usize,
+    (alpha, beta): (f64, f64),
+    z: f64,
+) -> Vec<(f64, f64, bool)> {
+    (lambda.iter().enumerate())
+        .map(|(i, &l)| {
+            let proportional = alpha + beta * l;
+            let floor = 2.0 * z * l.max(0.0).sqrt();
+            if i < pe || proportional >= floor {
+                (proportional, beta, true)
+            } else {
+                (floor, z / l.max(f64::MIN_POSITIVE).sqrt(), false)
+            }
+        })
+        .collect()
+}
+
+/// The weights of `K'ᵢⱼ` and `M'ᵢⱼ` in the entry `(i, j)` of [`floored_damping`]'s tangent:
+/// `f[λᵢ, λⱼ]` and `(fᵢ + fⱼ)/2 − f[λᵢ, λⱼ] (λᵢ + λⱼ)/2`.
+pub(crate) fn floored_weights(
+    laws: &[(f64, f64, bool)],
+    lambda: &[f64],
+    i: usize,
+    j: usize,
+) -> (f64, f64) {
+    let ((fi, si, _), (fj, _, _)) = (laws[i], laws[j]);
+    let gap = lambda[i] - lambda[j];
+    let slope = if gap.abs() > 1e-12 * lambda[i].abs().max(lambda[j].abs()) {
+        (fi - fj) / gap
+    } else {
+        si
+    };
+    let mean = (lambda[i] + lambda[j]) / 2.0;
+    (slope, (fi + fj) / 2.0 - mean * slope)
 }
 
 /// The clusters of repeated eigenvalues among the retained modes that a variable of `vars`
@@ -1126,7 +1152,7 @@ fn floored_damping<const N: usize>(
 /// Within such a cluster the modes are not differentiable one by one, only their subspace: the
 /// body then carries the cluster's block of its modal stiffness ([`eigen_blocks`]). A cluster
 /// retained in part is refused (its subspace would mix with the modes left out).
-fn split_clusters(
+pub(crate) fn split_clusters(
     analysis: &ModalAnalysis,
     derivs: &ModeDerivatives,
     vars: &[usize],

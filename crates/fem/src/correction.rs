@@ -158,6 +158,23 @@ impl Distribution {
         out
     }
 
+    /// The adjoint of [`Self::rows`]: `x_bar += Wᵀ rows_bar` for the adjoint `rows_bar` (6 × p)
+    /// of the point's rows.
+    pub fn rows_adjoint(&self, rows_bar: &DMatrix<f64>, x_bar: &mut DMatrix<f64>) {
+        for (i, &k) in self.nodes.iter().enumerate() {
+            for d in 0..6 {
+                for r in 0..6 {
+                    let w = self.weights[(r, 6 * i + d)];
+                    if w != 0.0 {
+                        for j in 0..rows_bar.ncols() {
+                            x_bar[(6 * k + d, j)] += rows_bar[(r, j)] * w;
+                        }
+                    }
+                }
+            }
+        }
+    }
+
     /// The nodal loads (`6·n_nodes`, node by node) of a unit load `e_c` (force `c < 3`, moment
     /// `c ≥ 3`) at the point: column `c` of `Wᵀ`.
     pub fn load(&self, c: usize, n_nodes: usize) -> DVector<f64> {
@@ -334,6 +351,22 @@ pub(crate) fn static_correction(
 }
 
 impl StaticCorrection {
+    /// The adjoint of the retained eigenvectors' derivatives `X_b` (`n_free × p`) through the
+    /// shapes' derivatives of [`Self::shape_derivatives`], given the shapes' adjoint `phi_bar`
+    /// (`n_free × s`): `Φ_b = G_b C` takes `X_b` in as `G_b = −X_b A − X X_bᵀMΨ + …`
+    /// (`A = XᵀMΨ`), so that `X̄ = −Ḡ Aᵀ − MΨ (XᵀḠ)ᵀ` with `Ḡ = Φ̄ Cᵀ`.
+    pub(crate) fn eigenvector_adjoint(
+        &self,
+        m: &SparseColMat<usize, f64>,
+        x: &DMatrix<f64>,
+        phi_bar: &DMatrix<f64>,
+    ) -> DMatrix<f64> {
+        let g_bar = phi_bar * self.coefficients.transpose();
+        let m_psi = times(m, &self.psi);
+        let a = x.transpose() * &m_psi;
+        -(&g_bar * a.transpose()) - m_psi * (g_bar.transpose() * x)
+    }
+
     /// `Φ_b` for each design variable (`n_free × s` each), given `K_b`, `M_b` and the
     /// eigenvectors' derivatives `x_b` (zero for fixed modes: `None`), at the analysis of
     /// `assembly`, `k`, `m`, `x`. The loads do not depend on the design.

@@ -48,6 +48,7 @@ pub mod geometric;
 mod geometric_shell;
 pub mod mesh;
 mod modal;
+mod modal_adjoint;
 mod rigid;
 pub mod sensitivity;
 pub mod shell;
@@ -76,6 +77,7 @@ pub use mesh::{
     BeamSegment, Element, GmshTriangles, Mesh, MeshError, NodeId, bounding_box, parse_gmsh_v4,
 };
 pub use modal::{ModalBody, ModalBodyError, NODE_DOFS};
+pub use modal_adjoint::eigenvector_adjoints;
 pub use rigid::{RigidMotion, free_rigid_motions};
 pub use sensitivity::{
     DesignMatrices, ModeDerivatives, ProjectedDerivative, cluster_second_derivatives,

@@ -46,6 +46,11 @@ pub struct ModeDerivatives {
     pub rotations: Vec<DMatrix<f64>>,
     /// The clusters of repeated eigenvalues (indices into the modes).
     pub clusters: Vec<Vec<usize>>,
+    /// The eigenvector derivatives are left to the adjoint method (`eigenvectors` is `None`):
+    /// an updated-mode dual body made from these derivatives leaves their part out of its
+    /// tangents ([`crate::modal_body_dual`]), and [`crate::eigenvector_adjoints`] with
+    /// [`eigenvector_adjoint`] contract it.
+    pub eigenvectors_by_adjoint: bool,
 }
 
 enum Factor {
@@ -279,6 +284,7 @@ pub fn mode_derivatives_with(
         eigenvectors: x_b,
         rotations: rot,
         clusters: groups,
+        eigenvectors_by_adjoint: false,
     })
 }
 
@@ -653,6 +659,7 @@ pub fn eigenvalue_derivatives(
         eigenvectors: None,
         rotations: rot,
         clusters: groups,
+        eigenvectors_by_adjoint: false,
     }
 }
 

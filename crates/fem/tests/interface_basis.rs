@@ -562,3 +562,109 @@ fn a_rigid_coupling_on_supported_nodes_keeps_the_motions_they_allow() {
         }
     }
 }
+
+/// A body of `shape`'s layout whose every datum is a deterministic number of either sign: the
+/// adjoints a dual body's tangents are contracted with.
+fn some_adjoints(shape: &ModalBody<Dual<3>>) -> ModalBody<f64> {
+    let next = std::cell::Cell::new(0usize);
+    let f = |_: &Dual<3>| {
+        let k = next.get();
+        next.set(k + 1);
+        ((k * 37 % 101) as f64 * 0.173).sin()
+    };
+    ModalBody {
+        node_positions: shape.node_positions.clone(),
+        node_masses: shape.node_masses.iter().map(f).collect(),
+        node_inertias: shape
+            .node_inertias
+            .iter()
+            .map(|v| v.map(|x| f(&x)))
+            .collect(),
+        modes: shape.modes.map(|x| f(&x)),
+        eigenvalues: shape.eigenvalues.iter().map(f).collect(),
+        modal_damping: shape.modal_damping.iter().map(f).collect(),
+        stiffness_matrix: (shape.stiffness_matrix.as_ref()).map(|k| Box::new(k.map(|x| f(&x)))),
+        damping_matrix: (shape.damping_matrix.as_ref()).map(|c| Box::new(c.map(|x| f(&x)))),
+    }
+}
+
+/// `Σ bar · tangent t` over the data of `body`, for each of its three tangents.
+fn contracted(body: &ModalBody<Dual<3>>, bar: &ModalBody<f64>) -> [f64; 3] {
+    let mut out = [0.0; 3];
+    let mut add = |x: &Dual<3>, b: f64| {
+        for (o, d) in out.iter_mut().zip(&x.d) {
+            *o += b * d;
+        }
+    };
+    let pairs = |a: &[Dual<3>], b: &[f64], add: &mut dyn FnMut(&Dual<3>, f64)| {
+        a.iter().zip(b).for_each(|(x, &b)| add(x, b))
+    };
+    pairs(&body.node_masses, &bar.node_masses, &mut add);
+    for (a, b) in body.node_inertias.iter().zip(&bar.node_inertias) {
+        pairs(a.as_slice(), b.as_slice(), &mut add);
+    }
+    pairs(body.modes.as_slice(), bar.modes.as_slice(), &mut add);
+    pairs(&body.eigenvalues, &bar.eigenvalues, &mut add);
+    pairs(&body.modal_damping, &bar.modal_damping, &mut add);
+    for (a, b) in [
+        (&body.stiffness_matrix, &bar.stiffness_matrix),
+        (&body.damping_matrix, &bar.damping_matrix),
+    ] {
+        if let (Some(a), Some(b)) = (a, b) {
+            pairs(a.as_slice(), b.as_slice(), &mut add);
+        }
+    }
+    out
+}
+
+#[test]
+fn eigenvector_derivatives_contracted_by_the_adjoint_equal_the_dual_bodys() {
+    // with and without correction modes, undamped, proportionally damped and with the
+    // correction modes' damping floored: the body without the eigenvectors' part plus their
+    // adjoint contraction is the full body's contraction, for adjoints of every datum
+    let mesh = strip();
+    let b0 = [0.3, -0.5, 0.9];
+    let rayleigh = fem::RayleighDamping {
+        modes: [0, 2],
+        ratios: [0.01, 0.03],
+    };
+    for correction in [false, true] {
+        for damping in 0..3 {
+            let mut opts = options(4, correction, false);
+            if damping > 0 {
+                opts.damping = Some(rayleigh.into());
+            }
+            if damping == 2 {
+                opts.correction_damping = fem::CorrectionDamping::AtLeast(0.1);
+            }
+            let an = modal_analysis(&mesh, &props(&b0), &opts).unwrap();
+            let (dm, d) =
+                analysis_derivatives::<3, _>(&mesh, &an, &b0, props, ModeUpdate::Updated).unwrap();
+            let update = ModeUpdate::Updated;
+            let full = modal_body_dual::<3>(&mesh, &props(&b0), &an, &dm, &d, 0, update).unwrap();
+            let mut without = d.clone();
+            without.eigenvectors = None;
+            without.eigenvectors_by_adjoint = true;
+            let rest =
+                modal_body_dual::<3>(&mesh, &props(&b0), &an, &dm, &without, 0, update).unwrap();
+            let bar = some_adjoints(&full);
+            let y_bar = fem::eigenvector_adjoints(&an, &without, &bar).unwrap();
+            let by_adjoint =
+                fem::eigenvector_adjoint(&an.k, &an.m, &an.pairs, &dm, &y_bar, None).unwrap();
+            let (want, rest) = (contracted(&full, &bar), contracted(&rest, &bar));
+            for v in 0..3 {
+                // against the eigenvectors' part (the eigenvalues' adjoints, times λ_b, are
+                // larger and the same in both)
+                let part = want[v] - rest[v];
+                let err = (rest[v] + by_adjoint[v] - want[v]).abs();
+                eprintln!(
+                    "correction {correction}, damping {damping}, variable {v}: the eigenvectors' \
+                     part {part:e}, by the adjoint {:e}; error {err:.1e}",
+                    by_adjoint[v]
+                );
+                assert!(part.abs() > 1e-6 * want[v].abs(), "the eigenvectors matter");
+                assert!(err < 1e-8 * part.abs());
+            }
+        }
+    }
+}
