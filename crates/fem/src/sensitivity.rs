@@ -251,15 +251,9 @@ pub fn mode_derivatives_with(
         // per-variable projected derivative and rotation
         let mut per_var = Vec::with_capacity(nvar);
         for (v, dm) in design.iter().enumerate() {
-            let kb = project(&dm.k, &z, &z);
-            let mb = project(&dm.m, &z, &z);
-            let (values, rotation) = cluster_derivative(&kb, &mb, lambda);
-            store_cluster(g, &values, &rotation, &mut lam_b[v], &mut rot[v]);
-            per_var.push(ClusterDerivative {
-                values,
-                rotation,
-                mb,
-            });
+            let d = ClusterDerivative::of(dm, &z, lambda);
+            store_cluster(g, &d.values, &d.rotation, &mut lam_b[v], &mut rot[v]);
+            per_var.push(d);
         }
         let Some(xb) = x_b.as_mut() else { continue };
         let mut nelson = NelsonSystem::new(
@@ -340,14 +334,7 @@ pub fn eigenvector_adjoint(
         if g.len() > 1 {
             let yg = ybar.select_columns(g);
             for (v, dm) in design.iter().enumerate() {
-                let kb = project(&dm.k, &z, &z);
-                let mb = project(&dm.m, &z, &z);
-                let (values, rotation) = cluster_derivative(&kb, &mb, lambda);
-                let d = ClusterDerivative {
-                    values,
-                    rotation,
-                    mb,
-                };
+                let d = ClusterDerivative::of(dm, &z, lambda);
                 let sec = second.and_then(|s| s.get(v)).and_then(|s| s.get(gi));
                 let xv = nelson.derivatives(m, dm, (lambda, &z), &d, sec, &mut tmp)?;
                 out[v] += (xv * d.rotation.transpose()).dot(&yg);
@@ -387,6 +374,21 @@ struct ClusterDerivative {
     rotation: DMatrix<f64>,
     /// `Zᵀ M_b Z` in the unrotated basis.
     mb: DMatrix<f64>,
+}
+
+impl ClusterDerivative {
+    /// The derivative for the design variable `dm` of the cluster with basis `z` and
+    /// eigenvalue `lambda` ([`cluster_derivative`] of the projected `K_b`, `M_b`).
+    fn of(dm: &DesignMatrices, z: &DMatrix<f64>, lambda: f64) -> Self {
+        let kb = project(&dm.k, z, z);
+        let mb = project(&dm.m, z, z);
+        let (values, rotation) = cluster_derivative(&kb, &mb, lambda);
+        Self {
+            values,
+            rotation,
+            mb,
+        }
+    }
 }
 
 /// The Nelson system `(K − λM) v = f` of one cluster, rows and columns of its removed
