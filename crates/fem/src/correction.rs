@@ -278,7 +278,8 @@ fn solve(llt: &SparseCholesky, rhs: &DMatrix<f64>) -> DMatrix<f64> {
     out
 }
 
-fn times(a: &SparseColMat<usize, f64>, x: &DMatrix<f64>) -> DMatrix<f64> {
+/// `A X`, column by column.
+pub(crate) fn times(a: &SparseColMat<usize, f64>, x: &DMatrix<f64>) -> DMatrix<f64> {
     let mut out = DMatrix::zeros(a.nrows(), x.ncols());
     crate::eigen::spmv_columns(a, x.as_slice(), out.as_mut_slice(), x.ncols());
     out

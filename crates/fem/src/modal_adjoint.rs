@@ -17,6 +17,7 @@
 use nalgebra::DMatrix;
 
 use crate::body::{ModalAnalysis, damping_laws, floored_weights, split_clusters};
+use crate::correction::times;
 use crate::error::FemError;
 use crate::modal::ModalBody;
 use crate::sensitivity::ModeDerivatives;
@@ -106,11 +107,6 @@ pub fn eigenvector_adjoints(
         let mut b = DMatrix::zeros(x.nrows(), r);
         b.columns_mut(0, pe).copy_from(&x);
         b.columns_mut(pe, s).copy_from(&correction.shapes);
-        let times = |a: &faer::sparse::SparseColMat<usize, f64>, v: &DMatrix<f64>| {
-            let mut out = DMatrix::zeros(a.nrows(), v.ncols());
-            crate::eigen::spmv_columns(a, v.as_slice(), out.as_mut_slice(), v.ncols());
-            out
-        };
         let b_bar = times(&analysis.k, &b) * (&k_bar + k_bar.transpose())
             + times(&analysis.m, &b) * (&m_bar + m_bar.transpose());
         y_bar += b_bar.columns(0, pe);
