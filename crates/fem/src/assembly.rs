@@ -33,6 +33,14 @@ pub struct Properties<S: Scalar> {
 }
 
 impl<S: Scalar> Properties<S> {
+    /// The same properties converted to another scalar.
+    pub fn map<Q: Scalar>(&self, f: &impl Fn(S) -> Q) -> Properties<Q> {
+        Properties {
+            sections: self.sections.iter().map(|s| s.map(f)).collect(),
+            laminates: self.laminates.iter().map(|l| l.map(f)).collect(),
+        }
+    }
+
     /// Whether element `el`'s property carries a tangent (a missing property does not).
     pub fn moves(&self, el: &Element) -> bool {
         let moving = |x: &S| x.tangents().iter().any(|&t| t != 0.0);

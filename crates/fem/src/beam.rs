@@ -35,6 +35,16 @@ pub struct BeamSection<S: Scalar> {
 }
 
 impl<S: Scalar> BeamSection<S> {
+    /// The same section converted to another scalar.
+    pub fn map<Q: Scalar>(&self, f: &impl Fn(S) -> Q) -> BeamSection<Q> {
+        BeamSection {
+            stiffness: self.stiffness.map(f),
+            mass_per_length: f(self.mass_per_length),
+            mass_centre: self.mass_centre.map(f),
+            inertia: self.inertia.map(f),
+        }
+    }
+
     /// An uncoupled section from its diagonal stiffnesses `[EA, GA₂, GA₃, GJ, EI₂, EI₃]` (shear
     /// correction included) and a mass centre on the reference line.
     pub fn diagonal(stiffness: [S; 6], mass_per_length: S, inertia22: S, inertia33: S) -> Self {

@@ -37,6 +37,14 @@ pub struct ShellPlies<S: Scalar> {
 }
 
 impl<S: Scalar> ShellPlies<S> {
+    /// The same plies converted to another scalar.
+    pub fn map<Q: Scalar>(&self, f: &impl Fn(S) -> Q) -> ShellPlies<Q> {
+        ShellPlies {
+            stack: self.stack.map(f),
+            c_bar: self.c_bar.iter().map(|c| c.map(f)).collect(),
+        }
+    }
+
     /// The stack with its plies' own materials.
     pub fn new(stack: PlyStack<S>) -> Self {
         let c_bar = (stack.plies().iter())
@@ -72,6 +80,22 @@ pub struct PlyStressPoint<S: Scalar> {
 pub struct LaminatePoints<S: Scalar> {
     pub points: Vec<PlyStressPoint<S>>,
     pub materials: Vec<OrthotropicMaterial>,
+}
+
+impl<S: Scalar> LaminatePoints<S> {
+    /// The same points converted to another scalar.
+    pub fn map<Q: Scalar>(&self, f: &impl Fn(S) -> Q) -> LaminatePoints<Q> {
+        LaminatePoints {
+            points: (self.points.iter())
+                .map(|p| PlyStressPoint {
+                    ply: p.ply,
+                    place: p.place,
+                    per_deformation: p.per_deformation.map(f),
+                })
+                .collect(),
+            materials: self.materials.clone(),
+        }
+    }
 }
 
 /// An element's load per modal coordinate (`DEFORMATION × n_modes`) at one of its stations: a

@@ -78,6 +78,20 @@ pub struct LaminateStiffness<S: Scalar> {
 }
 
 impl<S: Scalar> LaminateStiffness<S> {
+    /// The same stiffness and inertia converted to another scalar.
+    pub fn map<Q: Scalar>(&self, f: &impl Fn(S) -> Q) -> LaminateStiffness<Q> {
+        LaminateStiffness {
+            a: self.a.map(f),
+            b: self.b.map(f),
+            d: self.d.map(f),
+            shear: self.shear.map(f),
+            mass_per_area: f(self.mass_per_area),
+            first_moment: f(self.first_moment),
+            rotary_inertia: f(self.rotary_inertia),
+            thickness: f(self.thickness),
+        }
+    }
+
     /// The 6×6 matrix `[A B; B D]`.
     pub fn abd(&self) -> Matrix6<S> {
         let mut m = Matrix6::zeros();
@@ -121,6 +135,21 @@ impl<S: Scalar> LaminateStiffness<S> {
 }
 
 impl<S: Scalar> PlyStack<S> {
+    /// The same stack with its plies' thicknesses and angles converted to another scalar.
+    pub fn map<Q: Scalar>(&self, f: &impl Fn(S) -> Q) -> PlyStack<Q> {
+        PlyStack {
+            plies: (self.plies.iter())
+                .map(|p| Ply {
+                    material: p.material,
+                    thickness: f(p.thickness),
+                    angle: f(p.angle),
+                })
+                .collect(),
+            reference: self.reference,
+            shear_correction: self.shear_correction,
+        }
+    }
+
     /// A validated stack with the default reference surface (mid-plane) and shear correction 5/6.
     pub fn new(plies: Vec<Ply<S>>) -> Result<Self, LaminateError> {
         Self::with_options(plies, ReferenceSurface::MidPlane, DEFAULT_SHEAR_CORRECTION)

@@ -678,6 +678,13 @@ impl AdjointSweep {
         (self.initial.iter()).any(|w| w.iter().any(|&x| x != 0.0))
     }
 
+    /// Per objective, `p̄`: the adjoint of each datum of the swept model, in the order
+    /// [`Model::map`] visits them (the flexible bodies' invariants taken back to the data they
+    /// are made from).
+    pub fn data_adjoints(&self) -> &[Vec<f64>] {
+        &self.data
+    }
+
     /// Per objective, its gradient with respect to a chunk's variables: `chunk` a model of the
     /// swept system's layout whose tangents are the derivatives of its data with respect to
     /// those variables, `s0` their initial sensitivities (`n × k`, `k ≤ N` the chunk's

@@ -305,6 +305,20 @@ pub enum StressParts<S: sens::Scalar> {
     Beam(Vec<fem::LaminatePoints<S>>),
 }
 
+impl<S: sens::Scalar> StressParts<S> {
+    /// The same parts converted to another scalar.
+    pub fn map<Q: sens::Scalar>(&self, f: &impl Fn(S) -> Q) -> StressParts<Q> {
+        match self {
+            StressParts::Shell(plies) => {
+                StressParts::Shell(plies.iter().map(|p| p.map(f)).collect())
+            }
+            StressParts::Beam(points) => {
+                StressParts::Beam(points.iter().map(|p| p.map(f)).collect())
+            }
+        }
+    }
+}
+
 impl Design {
     /// The body's laminates or sections at the design `b` as its ply stresses need them.
     pub fn stress_parts<const N: usize>(
