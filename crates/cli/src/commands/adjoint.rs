@@ -101,6 +101,29 @@ pub(crate) fn analyse<const N: usize>(
                 g.resize(m, 0.0);
             }
         }
+        // the eigenvector derivatives left to the adjoint (`DualChunks::with`): their part of
+        // the gradients, or, where the initial state's sensitivities are read (they take in
+        // the modes' derivatives), the chunks made with them
+        let explicit;
+        let chunks = match chunks.eigenvectors_by_adjoint() {
+            true if sweep.needs_initial_sensitivities() => {
+                first = None;
+                explicit = DualChunks::<N>::new(src, mech)?;
+                &explicit
+            }
+            true => {
+                let swept = first
+                    .as_ref()
+                    .expect("the first chunk, not yet contracted")
+                    .values();
+                let parts = chunks.eigenvector_gradients(&swept, sweep.data_adjoints())?;
+                for (g, part) in gradients.iter_mut().zip(parts) {
+                    g.iter_mut().zip(part).for_each(|(g, p)| *g += p);
+                }
+                chunks
+            }
+            false => chunks,
+        };
         for range in ranges {
             let chunk = match first.take() {
                 Some(chunk) => chunk,
@@ -119,7 +142,9 @@ pub(crate) fn analyse<const N: usize>(
             let chunk_gradients = sweep.gradients(&design.chunks()[0], &s0);
             for (g, chunk_g) in gradients.iter_mut().zip(chunk_gradients) {
                 if !g.is_empty() {
-                    g[range.clone()].copy_from_slice(&chunk_g);
+                    (g[range.clone()].iter_mut())
+                        .zip(chunk_g)
+                        .for_each(|(g, c)| *g += c);
                 }
             }
         }

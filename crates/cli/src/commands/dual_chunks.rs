@@ -40,6 +40,18 @@ pub(crate) struct DualChunks<'a, const N: usize> {
 
 impl<'a, const N: usize> DualChunks<'a, N> {
     pub(crate) fn new(src: &'a Source, mech: &'a Mechanism) -> Result<Self, CliError> {
+        Self::with(src, mech, false)
+    }
+
+    /// [`Self::new`], the updated modes' eigenvector derivatives left to the adjoint method
+    /// where it can contract them (`fem::eigenvector_adjoints`: no variable splits repeated
+    /// eigenvalues) when `by_adjoint`: the chunks' bodies then leave them out of their tangents
+    /// and [`Self::eigenvector_gradients`] adds their part.
+    pub(crate) fn with(
+        src: &'a Source,
+        mech: &'a Mechanism,
+        by_adjoint: bool,
+    ) -> Result<Self, CliError> {
         let update = if mech.design.fixed_modes {
             fem::ModeUpdate::Fixed
         } else {
@@ -47,16 +59,66 @@ impl<'a, const N: usize> DualChunks<'a, N> {
         };
         let derivatives = (mech.flexible.iter())
             .map(|part| {
-                let span = part.span.clone();
-                (part.built).mode_derivatives::<N>(src, &part.name, span, &part.analysis, update)
+                let (name, span) = (part.name.as_str(), part.span.clone());
+                let built = &part.built;
+                let analysis = &part.analysis;
+                if by_adjoint && update == fem::ModeUpdate::Updated && taped_rebuild(part) {
+                    // the eigenvalues' derivatives only, unless a variable splits a cluster
+                    let fixed = fem::ModeUpdate::Fixed;
+                    let (dm, mut d) =
+                        built.mode_derivatives::<N>(src, name, span.clone(), analysis, fixed)?;
+                    if !fem::splits_clusters(&analysis.pairs, &dm).contains(&true) {
+                        d.eigenvectors_by_adjoint = true;
+                        return Ok((dm, d));
+                    }
+                }
+                built.mode_derivatives::<N>(src, name, span, analysis, update)
             })
-            .collect::<Result<_, _>>()?;
+            .collect::<Result<_, CliError>>()?;
         Ok(Self {
             src,
             mech,
             update,
             derivatives,
         })
+    }
+
+    /// Whether some body's eigenvector derivatives are left to the adjoint method
+    /// ([`Self::with`]).
+    pub(crate) fn eigenvectors_by_adjoint(&self) -> bool {
+        (self.derivatives.iter()).any(|(_, d)| d.eigenvectors_by_adjoint)
+    }
+
+    /// Per objective, the part of its gradient that the eigenvector derivatives left to the
+    /// adjoint method make ([`Self::with`]), from the adjoints `data` of the model's data (per
+    /// objective, in `Model::map`'s order: `mbs::AdjointSweep::data_adjoints`) of the swept
+    /// model `swept` (a chunk's values).
+    pub(crate) fn eigenvector_gradients(
+        &self,
+        swept: &Model<f64>,
+        data: &[Vec<f64>],
+    ) -> Result<Vec<Vec<f64>>, CliError> {
+        let m = self.mech.design.variables.len();
+        let mut out = vec![vec![0.0; m]; data.len()];
+        for (part, (matrices, derivatives)) in self.mech.flexible.iter().zip(&self.derivatives) {
+            if !derivatives.eigenvectors_by_adjoint {
+                continue;
+            }
+            let bars =
+                super::eigenvector_adjoint::modal_body_adjoints(self.src, swept, part, data)?;
+            let an = &part.analysis;
+            for (g, bar) in out.iter_mut().zip(&bars) {
+                let fem_error = |e| {
+                    crate::study::flexible::fem_error(self.src, &part.name, part.span.clone(), e)
+                };
+                let y_bar = fem::eigenvector_adjoints(an, derivatives, bar).map_err(fem_error)?;
+                let part_g =
+                    fem::eigenvector_adjoint(&an.k, &an.m, &an.pairs, matrices, &y_bar, None)
+                        .map_err(fem_error)?;
+                g.iter_mut().zip(part_g).for_each(|(g, p)| *g += p);
+            }
+        }
+        Ok(out)
     }
 
     /// The variables' chunks (`sens::chunk_ranges`).
@@ -147,4 +209,13 @@ fn error_scale(v: &DesignVariable) -> f64 {
     } else {
         v.value.abs()
     }
+}
+
+/// Whether the model body of `part` can be rebuilt on the reverse-mode tape from its modal
+/// body ([`super::eigenvector_adjoint::modal_body_adjoints`]): not a shell's second-order
+/// field, whose solve pushes forward tangents only (`fem::shell_geometric_stiffness`); such a
+/// body's chunks carry its eigenvector derivatives by Nelson's method.
+fn taped_rebuild(part: &crate::study::FlexiblePart) -> bool {
+    let shell = (part.built.mesh.elements.iter()).any(|e| matches!(e, fem::Element::Shell { .. }));
+    !(shell && part.stiffening)
 }

@@ -5,6 +5,7 @@ pub mod check;
 pub mod compare;
 mod compute;
 pub(crate) mod dual_chunks;
+mod eigenvector_adjoint;
 pub mod laminate;
 pub mod merge;
 pub mod modes;

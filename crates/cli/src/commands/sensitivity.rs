@@ -77,7 +77,8 @@ fn analyse_chunked<const N: usize>(
     system: &mut MultibodySystem,
     state: &State,
 ) -> Result<Sensitivities, CliError> {
-    let chunks = DualChunks::<N>::new(src, mech)?;
+    let by_adjoint = matches!(mech.design.method, SensitivityScheme::Adjoint);
+    let chunks = DualChunks::<N>::with(src, mech, by_adjoint)?;
     let frequencies = chunks.frequencies();
     let mut options = match mech.design.method {
         SensitivityScheme::Direct => SensitivityOptions::default(),
