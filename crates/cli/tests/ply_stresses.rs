@@ -5,7 +5,8 @@
 //!   stress by hand; its ply-angle derivatives against central differences of the command;
 //! - the plate slider-crank's ply stress, element failure index and body-wide aggregate, and
 //!   the KS-in-time objective of the body's peak index, against replayed central differences
-//!   of whole runs for a ply angle, a ply thickness and a material constant;
+//!   of whole runs for a ply angle, a ply thickness and a material constant, and the
+//!   objective's adjoint gradient against its direct one;
 //! - the deck's refusals.
 
 mod common;
@@ -302,6 +303,37 @@ fn plate_rod_ply_stress_and_failure_sensitivities_equal_replayed_central_differe
     let gradient = o["gradient"].as_array().unwrap();
     assert_eq!(gradient.len(), 3);
     assert!(gradient.iter().all(|x| x.as_f64().unwrap() != 0.0), "{o}");
+    // the adjoint method's gradient of it is the direct method's. The linear rod: a shell's
+    // second-order field has its eigenvector derivatives by Nelson's method in the chunks,
+    // where without it the adjoint of the eigenproblem takes them back through the plies'
+    // stresses (docs/design.md §3, "The adjoint method")
+    let ks_gradient = |method: &str| {
+        let set = format!("sensitivity.method=\"{method}\"");
+        let sets = [
+            "body.rod.elements=[16, 2]",
+            "response.mid_deflection.nodes=[17, 25, 33]",
+            "analysis.t_end=0.01",
+            "body.rod.stiffening=false",
+            "finite_differences.enabled=false",
+            &set,
+        ];
+        let (summary, _) = run_text(dir.path(), &format!("linear_{method}"), &text, &sets);
+        let o = (summary["objectives"].as_array().unwrap().iter())
+            .find(|o| o["name"] == "tsai_wu_ks")
+            .unwrap()
+            .clone();
+        (o["gradient"].as_array().unwrap().iter())
+            .map(|x| x.as_f64().unwrap())
+            .collect::<Vec<_>>()
+    };
+    let (direct, adjoint) = (ks_gradient("direct"), ks_gradient("adjoint"));
+    assert_eq!(direct.len(), 3);
+    for (d, a) in direct.iter().zip(&adjoint) {
+        assert!(
+            *d != 0.0 && (d - a).abs() <= 1e-8 * d.abs(),
+            "adjoint {a:e} vs direct {d:e}"
+        );
+    }
 }
 
 /// The largest value of a response's history in a results file.
