@@ -529,10 +529,19 @@ fn sparse_ldlt_nelson_path_matches_dense_path() {
     }
 }
 
-#[test]
-fn repeated_pair_eigenvector_derivatives_follow_the_split_branches() {
-    // Dailey: along variable 0 the pair splits; the derivative of the rotated basis ZΓ matches
-    // central differences of the analytic eigenvector branches through the crossing
+/// The square plate at `b = [0.3, 0.3]` with its repeated pair: its matrices, lowest four
+/// eigenpairs, design matrices and second-derivative terms along both variables.
+struct SquarePair {
+    mesh: Mesh,
+    asm: Assembly,
+    k: faer::sparse::SparseColMat<usize, f64>,
+    m: faer::sparse::SparseColMat<usize, f64>,
+    pairs: fem::Eigenpairs,
+    dm: Vec<fem::DesignMatrices>,
+    second: Vec<Vec<fem::sensitivity::SecondDerivatives>>,
+}
+
+fn square_pair() -> SquarePair {
     let (mesh, asm) = square_model();
     let b0 = [0.3, 0.3];
     let opts = ElementOptions::default();
@@ -553,6 +562,31 @@ fn repeated_pair_eigenvector_derivatives_follow_the_split_branches() {
         &pairs,
     )
     .unwrap();
+    SquarePair {
+        mesh,
+        asm,
+        k,
+        m,
+        pairs,
+        dm,
+        second,
+    }
+}
+
+#[test]
+fn repeated_pair_eigenvector_derivatives_follow_the_split_branches() {
+    // Dailey: along variable 0 the pair splits; the derivative of the rotated basis ZΓ matches
+    // central differences of the analytic eigenvector branches through the crossing
+    let b0 = [0.3, 0.3];
+    let SquarePair {
+        mesh,
+        asm,
+        k,
+        m,
+        pairs,
+        dm,
+        second,
+    } = square_pair();
     let with = fem::mode_derivatives(&k, &m, &pairs, &dm, true, Some(&second)).unwrap();
     let without = fem::mode_derivatives(&k, &m, &pairs, &dm, true, None).unwrap();
     let v = 0;
@@ -955,26 +989,14 @@ fn eigenvector_adjoint_equals_the_contracted_nelson_derivatives() {
 fn eigenvector_adjoint_of_a_split_pair_equals_the_contracted_dailey_derivatives() {
     // the square plate's repeated pair, split by variable 0 (Dailey's terms) and kept together
     // by variable 1
-    let (mesh, asm) = square_model();
-    let b0 = [0.3, 0.3];
-    let opts = ElementOptions::default();
-    let pairs = square_values(&mesh, &asm, &b0, 4);
-    let (k, m) = asm
-        .values(&mesh, &square_props(&b0), &opts, MassKind::Consistent)
-        .unwrap();
-    let (k, m) = (asm.matrix(k), asm.matrix(m));
-    let dm = design_matrices::<2, _>(&mesh, &asm, &b0, square_props, &opts, MassKind::Consistent)
-        .unwrap();
-    let second = fem::second_derivative_terms::<2, _>(
-        &mesh,
-        &asm,
-        (&b0, &[true, true]),
-        square_props,
-        &opts,
-        MassKind::Consistent,
-        &pairs,
-    )
-    .unwrap();
+    let SquarePair {
+        k,
+        m,
+        pairs,
+        dm,
+        second,
+        ..
+    } = square_pair();
     assert!(
         fem::sensitivity::has_repeated(&pairs),
         "the square has a repeated pair"
