@@ -298,27 +298,6 @@ fn section_points_of<S: sens::Scalar>(
     Ok(fem::section_points(&analysis, &derivatives, b))
 }
 
-/// What a flexible body's ply stresses are made of, in the design's scalar: a shell body's
-/// laminates, or a beam body's sections' stress points (one per element property).
-pub enum StressParts<S: sens::Scalar> {
-    Shell(Vec<fem::ShellPlies<S>>),
-    Beam(Vec<fem::LaminatePoints<S>>),
-}
-
-impl<S: sens::Scalar> StressParts<S> {
-    /// The same parts converted to another scalar.
-    pub fn map<Q: sens::Scalar>(&self, f: &impl Fn(S) -> Q) -> StressParts<Q> {
-        match self {
-            StressParts::Shell(plies) => {
-                StressParts::Shell(plies.iter().map(|p| p.map(f)).collect())
-            }
-            StressParts::Beam(points) => {
-                StressParts::Beam(points.iter().map(|p| p.map(f)).collect())
-            }
-        }
-    }
-}
-
 impl Design {
     /// The body's laminates or sections at the design `b` as its ply stresses need them.
     pub fn stress_parts<const N: usize>(

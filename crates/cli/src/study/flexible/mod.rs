@@ -17,18 +17,35 @@ use crate::deck::design::{
 use crate::deck::sections::SectionDef;
 use crate::error::CliError;
 
-/// Width of the dual-number chunks (results do not depend on it).
 mod design;
 mod properties;
 
 pub(crate) use design::move_own_section;
 pub use design::{
-    Design, DesignRequest, LaminateDesign, SectionDesign, StressParts, section_derivatives,
+    Design, DesignRequest, LaminateDesign, SectionDesign, section_derivatives,
     section_derivatives_of, section_design, shell_design,
 };
 use properties::{beam, laminate_regions, shell};
 
+/// Width of the dual-number chunks (results do not depend on it).
 pub const CHUNK: usize = 8;
+
+/// What a flexible body's ply stresses are made of, in the design's scalar: a shell body's
+/// laminates, or a beam body's sections' stress points (one per element property).
+pub enum StressParts<S: sens::Scalar> {
+    Shell(Vec<fem::ShellPlies<S>>),
+    Beam(Vec<fem::LaminatePoints<S>>),
+}
+
+impl<S: sens::Scalar> StressParts<S> {
+    /// The same parts converted to another scalar.
+    pub fn map<Q: sens::Scalar>(&self, f: &impl Fn(S) -> Q) -> StressParts<Q> {
+        match self {
+            Self::Shell(p) => StressParts::Shell(p.iter().map(|p| p.map(f)).collect()),
+            Self::Beam(p) => StressParts::Beam(p.iter().map(|p| p.map(f)).collect()),
+        }
+    }
+}
 
 impl Built {
     /// The derivatives of the eigenvalues of `analysis` (this body's) with respect to every
