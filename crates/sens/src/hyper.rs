@@ -50,10 +50,6 @@ impl HyperDual {
             dd: df * self.dd + ddf * self.d[0] * self.d[1],
         }
     }
-
-    fn is_constant(&self) -> bool {
-        self.d == [0.0, 0.0] && self.dd == 0.0
-    }
 }
 
 impl fmt::Debug for HyperDual {
@@ -206,6 +202,36 @@ impl Scalar for HyperDual {
     fn from_parts(value: f64, tangents: &[f64]) -> Self {
         let t = |k: usize| tangents.get(k).copied().unwrap_or(0.0);
         Self::new(value, t(0), t(1))
+    }
+    fn is_constant(&self) -> bool {
+        self.d == [0.0, 0.0] && self.dd == 0.0
+    }
+    /// The first-order parts and the mixed part each solved ([`Scalar::symmetric_solution`]
+    /// is linear in the right-hand sides).
+    fn symmetric_solution(
+        g: &[Self],
+        x_values: Vec<f64>,
+        ncols: usize,
+        solver: &std::rc::Rc<dyn crate::LinearSolver>,
+    ) -> Vec<Self> {
+        assert_eq!(
+            g.len(),
+            x_values.len(),
+            "as many solutions as right-hand sides"
+        );
+        let part = |f: &dyn Fn(&Self) -> f64| {
+            let mut r: Vec<f64> = g.iter().map(f).collect();
+            solver.solve_columns(&mut r, ncols);
+            r
+        };
+        let (d1, d2, dd) = (part(&|x| x.d[0]), part(&|x| x.d[1]), part(&|x| x.dd));
+        (x_values.iter().enumerate())
+            .map(|(i, &v)| Self {
+                v,
+                d: [d1[i], d2[i]],
+                dd: dd[i],
+            })
+            .collect()
     }
     fn value(self) -> f64 {
         self.v

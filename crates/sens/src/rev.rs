@@ -30,10 +30,11 @@ use std::cell::RefCell;
 use std::fmt;
 use std::iter::Sum;
 use std::ops::{Add, AddAssign, Div, DivAssign, Mul, MulAssign, Neg, Sub, SubAssign};
+use std::rc::Rc;
 
 use num_traits::{One, Zero};
 
-use crate::Scalar;
+use crate::{LinearSolver, Scalar};
 
 /// Index of no node: a constant, or a node's missing second argument.
 const NONE: u32 = u32::MAX;
@@ -590,6 +591,37 @@ impl Scalar for Rev {
     #[inline]
     fn from_f64(x: f64) -> Self {
         Self::constant(x)
+    }
+    fn is_constant(&self) -> bool {
+        self.index == NONE
+    }
+    /// One operation on the tape whose reverse is `ḡ += A⁻¹ x̄` (`A` symmetric).
+    fn symmetric_solution(
+        g: &[Self],
+        x_values: Vec<f64>,
+        ncols: usize,
+        solver: &Rc<dyn LinearSolver>,
+    ) -> Vec<Self> {
+        assert_eq!(
+            g.len(),
+            x_values.len(),
+            "as many solutions as right-hand sides"
+        );
+        assert_eq!(
+            g.len(),
+            solver.dim() * ncols,
+            "right-hand sides of the matrix's order"
+        );
+        /// The reverse of `x = A⁻¹ g` for a symmetric `A`.
+        struct SymmetricSolve(Rc<dyn LinearSolver>, usize);
+        impl ExternalReverse for SymmetricSolve {
+            fn reverse(&self, y_bar: &[f64], x_bar: &mut [f64]) {
+                let mut r = y_bar.to_vec();
+                self.0.solve_columns(&mut r, self.1);
+                x_bar.iter_mut().zip(r).for_each(|(x, r)| *x += r);
+            }
+        }
+        Self::external(g, &x_values, SymmetricSolve(Rc::clone(solver), ncols))
     }
     /// # Panics
     /// Always: a taped value has no tangents to be built from (its derivatives would be lost);

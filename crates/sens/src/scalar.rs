@@ -3,8 +3,11 @@
 use std::fmt::{Debug, Display};
 use std::iter::Sum;
 use std::ops::{Add, AddAssign, Div, DivAssign, Mul, MulAssign, Neg, Sub, SubAssign};
+use std::rc::Rc;
 
 use num_traits::{One, Zero};
+
+use crate::LinearSolver;
 
 /// Real arithmetic that every numerical routine of flexsens is generic over.
 ///
@@ -133,6 +136,47 @@ pub trait Scalar:
     /// Whether the value and every tangent are finite.
     fn is_finite(self) -> bool {
         self.value().is_finite() && self.tangents().iter().all(|t| t.is_finite())
+    }
+    /// Whether this is a constant: no tangent (and for [`crate::Rev`] no node on the tape).
+    fn is_constant(&self) -> bool {
+        self.tangents().iter().all(|&t| t == 0.0)
+    }
+    /// `x = A⁻¹ g` for the `ncols` right-hand sides `g` (column-major, `A`'s order each) in
+    /// this scalar, `A` a constant symmetric matrix whose solves `solver` makes, `x_values` the
+    /// solutions of the values of `g` (solved already): the tangents solved by `solver` one
+    /// after another ([`crate::Dual`]), or one operation on the reverse-mode tape whose reverse
+    /// is `ḡ = A⁻¹ x̄` ([`crate::Rev`]); `f64` keeps the values. A matrix with tangents of its own
+    /// enters through `g`: `g = f − (A − A₀) x₀` has the tangents `f' − A' x₀`.
+    fn symmetric_solution(
+        g: &[Self],
+        x_values: Vec<f64>,
+        ncols: usize,
+        solver: &Rc<dyn LinearSolver>,
+    ) -> Vec<Self> {
+        assert_eq!(
+            g.len(),
+            x_values.len(),
+            "as many solutions as right-hand sides"
+        );
+        assert_eq!(
+            g.len(),
+            solver.dim() * ncols,
+            "right-hand sides of the matrix's order"
+        );
+        let tangents: Vec<Vec<f64>> = (0..Self::TANGENTS)
+            .map(|t| {
+                let mut r: Vec<f64> = g.iter().map(|x| x.tangent(t)).collect();
+                solver.solve_columns(&mut r, ncols);
+                r
+            })
+            .collect();
+        let mut buf = vec![0.0; Self::TANGENTS];
+        (x_values.iter().enumerate())
+            .map(|(i, &v)| {
+                buf.iter_mut().zip(&tangents).for_each(|(b, t)| *b = t[i]);
+                Self::from_parts(v, &buf)
+            })
+            .collect()
     }
 }
 

@@ -220,3 +220,94 @@ fn tangent_solve_matches_central_differences_sparse_faer() {
     let x = solve_tangents(&lu, &x_hat, &residual(&bd, &x_hat));
     assert_tangents(&x, &x_hat, &central_differences(&b), "faer sparse LU");
 }
+
+/// `J(p) = wᵀ A⁻¹ g(p)` over two columns, `A` a constant symmetric positive-definite matrix
+/// and `g` nonlinear in `p`, in any scalar through [`Scalar::symmetric_solution`].
+fn solved_objective<S: Scalar>(p: &[S], lu: &std::rc::Rc<dyn LinearSolver>) -> S {
+    let (n, ncols) = (3, 2);
+    let g: Vec<S> = (0..n * ncols)
+        .map(|i| {
+            let c = S::from_f64(1.0 + i as f64);
+            p[0].sin() * p[1] * c + p[1] * p[1] / c - p[0]
+        })
+        .collect();
+    let values: Vec<f64> = {
+        let mut v: Vec<f64> = g.iter().map(|x| x.value()).collect();
+        lu.solve_columns(&mut v, ncols);
+        v
+    };
+    let x = S::symmetric_solution(&g, values, ncols, lu);
+    (x.iter().enumerate()).fold(S::zero(), |s, (i, &xi)| s + xi * (0.5 + i as f64))
+}
+
+#[test]
+fn a_symmetric_solution_differentiates_as_central_differences_in_every_scalar() {
+    let a = DMatrix::from_row_slice(3, 3, &[4.0, 1.0, 0.5, 1.0, 3.0, 0.2, 0.5, 0.2, 2.0]);
+    let lu: std::rc::Rc<dyn LinearSolver> = std::rc::Rc::new(sens::DenseLu::new(&a));
+    let p = [0.7, -1.3];
+    let at = |q: [f64; 2]| solved_objective(&q, &lu);
+    let h = 1e-5;
+    let central = |k: usize| {
+        let (mut up, mut down) = (p, p);
+        up[k] += h;
+        down[k] -= h;
+        (at(up) - at(down)) / (2.0 * h)
+    };
+    let fd = [central(0), central(1)];
+    // the mixed second derivative by central differences of central differences
+    let mixed = {
+        let at2 = |s0: f64, s1: f64| at([p[0] + s0 * h, p[1] + s1 * h]);
+        (at2(1.0, 1.0) - at2(1.0, -1.0) - at2(-1.0, 1.0) + at2(-1.0, -1.0)) / (4.0 * h * h)
+    };
+    let close = |a: f64, b: f64, tol: f64| (a - b).abs() <= tol * b.abs().max(1.0);
+
+    // forward: the value and both tangents
+    let d = solved_objective(
+        &[
+            Dual::<2>::new(p[0], [1.0, 0.0]),
+            Dual::new(p[1], [0.0, 1.0]),
+        ],
+        &lu,
+    );
+    assert!(close(d.value(), at(p), 1e-15));
+    for k in 0..2 {
+        assert!(
+            close(d.d[k], fd[k], 1e-8),
+            "Dual tangent {k}: {} vs {}",
+            d.d[k],
+            fd[k]
+        );
+    }
+
+    // reverse: one sweep through the solve's operation
+    let mark = sens::Tape::len();
+    let inputs: Vec<sens::Rev> = p.iter().map(|&v| sens::Rev::input(v)).collect();
+    let y = solved_objective(&inputs, &lu);
+    let mut adj = Vec::new();
+    y.seed(&mut adj, 1.0);
+    sens::Tape::backpropagate(&mut adj, mark);
+    for k in 0..2 {
+        let g = inputs[k].adjoint(&adj);
+        assert!(
+            close(g, d.d[k], 1e-13),
+            "Rev gradient {k}: {g} vs {}",
+            d.d[k]
+        );
+    }
+    sens::Tape::rewind(mark);
+
+    // second order: the hyper-dual's mixed part is solved too
+    let hd = solved_objective(
+        &[
+            sens::HyperDual::new(p[0], 1.0, 0.0),
+            sens::HyperDual::new(p[1], 0.0, 1.0),
+        ],
+        &lu,
+    );
+    assert!(close(hd.d[0], d.d[0], 1e-14) && close(hd.d[1], d.d[1], 1e-14));
+    assert!(
+        close(hd.mixed(), mixed, 1e-5),
+        "mixed {} vs {mixed}",
+        hd.mixed()
+    );
+}
