@@ -386,12 +386,29 @@ pub fn element_matrices<S: Scalar>(
 /// matrix) is linear in the laminate's matrices and inertias: the value and each tangent are
 /// `f` of the laminate's values and of its tangents, evaluated in `f64` (with dual numbers
 /// `f` would multiply 18 × 18 matrices of duals, nine times the work for eight tangents).
+///
+/// # Panics
+/// If the laminate is on the reverse-mode tape ([`sens::Rev`]) other than as constants.
 fn linear_in_laminate<S: Scalar, const R: usize>(
     lam: &LaminateStiffness<S>,
     f: impl Fn(&LaminateStiffness<f64>) -> nalgebra::SMatrix<f64, R, R>,
 ) -> nalgebra::SMatrix<S, R, R> {
     let value = f(&lam.values());
     if S::PLAIN {
+        return value.map(S::from_f64);
+    }
+    if S::TANGENTS == 0 {
+        // the reverse-mode tape, where the set-up's data are rebuilt from the modes with the
+        // element properties held (the chunks' dual bodies carry the properties' tangents)
+        let constant = std::cell::Cell::new(true);
+        let _ = lam.map(&|x: S| {
+            constant.set(constant.get() && x.is_constant());
+            0.0
+        });
+        assert!(
+            constant.get(),
+            "a shell element's matrices of a laminate on the reverse-mode tape are not supported"
+        );
         return value.map(S::from_f64);
     }
     let tangents: Vec<_> = (0..S::TANGENTS).map(|k| f(&lam.tangent(k))).collect();

@@ -22,7 +22,9 @@
 //!
 //! Derivatives: the stiffness is factorised once in `f64`; the tangents of the modes and the
 //! laminate enter the right-hand sides (`K Q_b = −f_b − K_b Q`, one triangular solve per
-//! tangent).
+//! tangent; on the reverse-mode tape the solves are one operation, `sens::Scalar::symmetric_solution`).
+
+use std::rc::Rc;
 
 use nalgebra::{DMatrix, Matrix3, SMatrix, Vector3};
 use sens::{LinearSolver, Scalar};
@@ -75,12 +77,12 @@ pub fn shell_geometric_stiffness<S: Scalar>(
     let assembly = Assembly::new(mesh, &constraints)?;
     let (k, _) = assembly.values(mesh, props, &options.element, MassKind::Lumped)?;
     let k0 = assembly.matrix(k.iter().map(|x| x.value()).collect());
-    let llt = factor_held(&assembly, &k0, || {
+    let llt: Rc<dyn LinearSolver> = Rc::new(factor_held(&assembly, &k0, || {
         FemError::Stiffening(format!(
             "second-order field: the shell held at node {clamp} is not stiff against every \
              motion (is the mesh in one piece?)"
         ))
-    })?;
+    })?);
 
     let nf = field_modes.min(body.n_modes());
     let pairs: Vec<(usize, usize)> = (0..nf).flat_map(|j| (j..nf).map(move |l| (j, l))).collect();
@@ -92,7 +94,8 @@ pub fn shell_geometric_stiffness<S: Scalar>(
     let mut f = vec![S::zero(); n * np];
     for (p, fp) in forces.iter().enumerate() {
         for (g, &fg) in fp.iter().enumerate() {
-            if fg != S::zero() {
+            // a force of zero value may still have tangents (a design that breaks a symmetry)
+            if fg.value() != 0.0 || !fg.is_constant() {
                 for &(i, c) in assembly.terms(g) {
                     f[p * n + i] += fg * c;
                 }
@@ -101,25 +104,23 @@ pub fn shell_geometric_stiffness<S: Scalar>(
     }
     let mut y: Vec<f64> = f.iter().map(|x| x.value()).collect();
     llt.solve_columns(&mut y, np);
-    // tangents: K y_t = f_t − K_t y
-    let mut tangents = Vec::with_capacity(S::TANGENTS);
-    for t in 0..S::TANGENTS {
-        let kt = assembly.tangent_matrix(&k, t);
-        let mut rhs = vec![0.0; n * np];
-        crate::eigen::spmv_columns(&kt, &y, &mut rhs, np);
-        for (r, fi) in rhs.iter_mut().zip(&f) {
-            *r = fi.tangent(t) - *r;
+    // tangents (or the tape's operation): K₀ x = f − (K − K₀) y
+    if !S::PLAIN {
+        let mut ky = vec![S::zero(); n * np];
+        let (cp, ri) = (k0.symbolic().col_ptr(), k0.symbolic().row_idx());
+        for j in 0..n {
+            for p in cp[j]..cp[j + 1] {
+                let dk = k[p] - k[p].value();
+                if !dk.is_constant() {
+                    for c in 0..np {
+                        ky[c * n + ri[p]] += dk * y[c * n + j];
+                    }
+                }
+            }
         }
-        llt.solve_columns(&mut rhs, np);
-        tangents.push(rhs);
+        f.iter_mut().zip(ky).for_each(|(f, ky)| *f -= ky);
     }
-    let mut buf = vec![0.0; S::TANGENTS];
-    let solution = |index: usize, buf: &mut Vec<f64>| {
-        for (b, t) in buf.iter_mut().zip(&tangents) {
-            *b = t[index];
-        }
-        S::from_parts(y[index], buf)
-    };
+    let x = S::symmetric_solution(&f, y, np, &llt);
 
     let mut out = GeometricStiffness {
         n_modes: body.n_modes(),
@@ -134,7 +135,7 @@ pub fn shell_geometric_stiffness<S: Scalar>(
             for i in 0..3 {
                 let mut v = S::zero();
                 for &(dof, c) in assembly.terms(NODE_DOFS * node + i) {
-                    v += solution(p * n + dof, &mut buf) * c;
+                    v += x[p * n + dof] * c;
                 }
                 out.nodal[3 * node + i][(j, l)] = v;
                 out.nodal[3 * node + i][(l, j)] = v;

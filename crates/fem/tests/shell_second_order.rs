@@ -291,3 +291,92 @@ fn field_derivative_check(mesh: &Mesh, options: &ModalOptions) {
     assert!(worst < 1e-6 * scale, "{worst:e} of {scale:e}");
     assert!(value_error < 1e-10 * value_scale, "{value_error:e}");
 }
+
+/// `body` with the modes `modes` in another scalar (the rest constant).
+fn with_modes<S: Scalar>(body: &ModalBody<f64>, modes: DMatrix<S>) -> ModalBody<S> {
+    ModalBody {
+        node_positions: body.node_positions.clone(),
+        node_masses: body.node_masses.iter().map(|&m| S::from_f64(m)).collect(),
+        node_inertias: (body.node_inertias.iter())
+            .map(|v| v.map(S::from_f64))
+            .collect(),
+        modes,
+        eigenvalues: body.eigenvalues.iter().map(|&x| S::from_f64(x)).collect(),
+        modal_damping: body.modal_damping.iter().map(|&x| S::from_f64(x)).collect(),
+        stiffness_matrix: (body.stiffness_matrix.as_ref()).map(|k| Box::new(k.map(S::from_f64))),
+        damping_matrix: (body.damping_matrix.as_ref()).map(|c| Box::new(c.map(S::from_f64))),
+    }
+}
+
+/// A weighted sum of every entry of the field's matrices.
+fn field_sum<S: Scalar>(g: &GeometricStiffness<S>) -> S {
+    let mut sum = S::zero();
+    for (c, m) in g.nodal.iter().enumerate() {
+        for (i, &x) in m.iter().enumerate() {
+            sum += x * (1.0 + ((7 * c + 3 * i) % 11) as f64);
+        }
+    }
+    sum
+}
+
+/// Recorded on the reverse-mode tape with the modes as inputs (the laminate held), the field's
+/// static solves are one operation each way: the gradient of a weighted sum of the field with
+/// respect to the modes, contracted with a direction, equals the forward tangent along it and
+/// the central difference of the `f64` field (exact: the field is quadratic in the modes).
+#[test]
+fn the_field_reversed_on_the_tape_gives_the_forward_and_central_differences() {
+    let (nx, ny) = (8, 2);
+    let mesh = strip(0.304, 0.04, nx, ny);
+    let options = interface_options(&mesh, nx, ny);
+    let p0 = props(paper_material(), &[30f64.to_radians()]);
+    let body = body_of(&mesh, &p0, &options);
+    let x = &body.modes;
+    let scale = x.amax();
+    let direction = DMatrix::from_fn(x.nrows(), x.ncols(), |r, c| {
+        scale * (((5 * r + 3 * c) % 13) as f64 / 13.0 - 0.5)
+    });
+    fn field<S: Scalar>(
+        (mesh, options): (&Mesh, &ModalOptions),
+        props: &Properties<S>,
+        body: &ModalBody<S>,
+    ) -> GeometricStiffness<S> {
+        shell_geometric_stiffness(mesh, props, options, body, 0, usize::MAX).unwrap()
+    }
+    let on = (&mesh, &options);
+    // forward: the tangent along the direction
+    let dual_modes = x.zip_map(&direction, |v, d| sens::Dual::<1>::new(v, [d]));
+    let lift = |v: f64| sens::Dual::<1>::constant(v);
+    let forward = field_sum(&field(on, &p0.map(&lift), &with_modes(&body, dual_modes))).d[0];
+    // central difference of the f64 field
+    let h = 1e-3;
+    let at = |s: f64| field_sum(&field(on, &p0, &with_modes(&body, x + &direction * s)));
+    let central = (at(h) - at(-h)) / (2.0 * h);
+    // reverse: one sweep
+    let mark = sens::Tape::len();
+    let inputs = x.map(sens::Rev::input);
+    let constant = |v: f64| sens::Rev::constant(v);
+    let y = field_sum(&field(
+        on,
+        &p0.map(&constant),
+        &with_modes(&body, inputs.clone()),
+    ));
+    let mut adjoints = Vec::new();
+    y.seed(&mut adjoints, 1.0);
+    sens::Tape::backpropagate(&mut adjoints, mark);
+    let reverse: f64 = (inputs.iter().zip(direction.iter()))
+        .map(|(i, d)| i.adjoint(&adjoints) * d)
+        .sum();
+    sens::Tape::rewind(mark);
+    assert!(forward != 0.0);
+    // the three agree to a few 1e-11: the same stiff solves (the shell's stiffness with its
+    // drilling terms) taken in another order; a missing term or transpose would be O(1)
+    let rel = |a: f64, b: f64| (a - b).abs() / b.abs();
+    assert!(
+        rel(reverse, forward) < 1e-9,
+        "reverse {reverse} vs forward {forward}"
+    );
+    assert!(
+        rel(central, forward) < 1e-8,
+        "central {central} vs forward {forward}"
+    );
+}
