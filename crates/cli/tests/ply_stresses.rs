@@ -6,7 +6,8 @@
 //! - the plate slider-crank's ply stress, element failure index and body-wide aggregate, and
 //!   the KS-in-time objective of the body's peak index, against replayed central differences
 //!   of whole runs for a ply angle, a ply thickness and a material constant, and the
-//!   objective's adjoint gradient against its direct one;
+//!   objective's adjoint gradient against its direct one, with the rod's second-order field
+//!   and without;
 //! - the deck's refusals.
 
 mod common;
@@ -303,21 +304,23 @@ fn plate_rod_ply_stress_and_failure_sensitivities_equal_replayed_central_differe
     let gradient = o["gradient"].as_array().unwrap();
     assert_eq!(gradient.len(), 3);
     assert!(gradient.iter().all(|x| x.as_f64().unwrap() != 0.0), "{o}");
-    // the adjoint method's gradient of it is the direct method's. The linear rod: a shell's
-    // second-order field has its eigenvector derivatives by Nelson's method in the chunks,
-    // where without it the adjoint of the eigenproblem takes them back through the plies'
-    // stresses (docs/design.md §3, "The adjoint method")
-    let ks_gradient = |method: &str| {
+    // the adjoint method's gradient of it is the direct method's, with the rod's second-order
+    // field and without: the adjoint of the eigenproblem takes the eigenvector derivatives
+    // back through the plies' stresses and the field's static solves (docs/design.md §3, "The
+    // adjoint method")
+    let ks_gradient = |method: &str, stiffening: bool| {
         let set = format!("sensitivity.method=\"{method}\"");
+        let stiff = format!("body.rod.stiffening={stiffening}");
         let sets = [
             "body.rod.elements=[16, 2]",
             "response.mid_deflection.nodes=[17, 25, 33]",
             "analysis.t_end=0.01",
-            "body.rod.stiffening=false",
             "finite_differences.enabled=false",
+            &stiff,
             &set,
         ];
-        let (summary, _) = run_text(dir.path(), &format!("linear_{method}"), &text, &sets);
+        let name = format!("{method}_{stiffening}");
+        let (summary, _) = run_text(dir.path(), &name, &text, &sets);
         let o = (summary["objectives"].as_array().unwrap().iter())
             .find(|o| o["name"] == "tsai_wu_ks")
             .unwrap()
@@ -326,13 +329,16 @@ fn plate_rod_ply_stress_and_failure_sensitivities_equal_replayed_central_differe
             .map(|x| x.as_f64().unwrap())
             .collect::<Vec<_>>()
     };
-    let (direct, adjoint) = (ks_gradient("direct"), ks_gradient("adjoint"));
-    assert_eq!(direct.len(), 3);
-    for (d, a) in direct.iter().zip(&adjoint) {
-        assert!(
-            *d != 0.0 && (d - a).abs() <= 1e-8 * d.abs(),
-            "adjoint {a:e} vs direct {d:e}"
-        );
+    for stiffening in [true, false] {
+        let direct = ks_gradient("direct", stiffening);
+        let adjoint = ks_gradient("adjoint", stiffening);
+        assert_eq!(direct.len(), 3);
+        for (d, a) in direct.iter().zip(&adjoint) {
+            assert!(
+                *d != 0.0 && (d - a).abs() <= 1e-8 * d.abs(),
+                "stiffening {stiffening}: adjoint {a:e} vs direct {d:e}"
+            );
+        }
     }
 }
 

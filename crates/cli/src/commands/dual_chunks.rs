@@ -62,7 +62,7 @@ impl<'a, const N: usize> DualChunks<'a, N> {
                 let (name, span) = (part.name.as_str(), part.span.clone());
                 let built = &part.built;
                 let analysis = &part.analysis;
-                if by_adjoint && update == fem::ModeUpdate::Updated && taped_rebuild(part) {
+                if by_adjoint && update == fem::ModeUpdate::Updated {
                     // the eigenvalues' derivatives only, unless a variable splits a cluster
                     let fixed = fem::ModeUpdate::Fixed;
                     let (dm, mut d) =
@@ -209,13 +209,4 @@ fn error_scale(v: &DesignVariable) -> f64 {
     } else {
         v.value.abs()
     }
-}
-
-/// Whether the model body of `part` can be rebuilt on the reverse-mode tape from its modal
-/// body ([`super::eigenvector_adjoint::modal_body_adjoints`]): not a shell's second-order
-/// field, whose solve pushes forward tangents only (`fem::shell_geometric_stiffness`); such a
-/// body's chunks carry its eigenvector derivatives by Nelson's method.
-fn taped_rebuild(part: &crate::study::FlexiblePart) -> bool {
-    let shell = (part.built.mesh.elements.iter()).any(|e| matches!(e, fem::Element::Shell { .. }));
-    !(shell && part.stiffening)
 }
