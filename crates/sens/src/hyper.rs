@@ -214,11 +214,7 @@ impl Scalar for HyperDual {
         ncols: usize,
         solver: &std::rc::Rc<dyn crate::LinearSolver>,
     ) -> Vec<Self> {
-        assert_eq!(
-            g.len(),
-            x_values.len(),
-            "as many solutions as right-hand sides"
-        );
+        crate::scalar::check_solution_sizes(g.len(), x_values.len(), solver.dim(), ncols);
         let part = |f: &dyn Fn(&Self) -> f64| {
             let mut r: Vec<f64> = g.iter().map(f).collect();
             solver.solve_columns(&mut r, ncols);

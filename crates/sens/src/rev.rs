@@ -602,16 +602,7 @@ impl Scalar for Rev {
         ncols: usize,
         solver: &Rc<dyn LinearSolver>,
     ) -> Vec<Self> {
-        assert_eq!(
-            g.len(),
-            x_values.len(),
-            "as many solutions as right-hand sides"
-        );
-        assert_eq!(
-            g.len(),
-            solver.dim() * ncols,
-            "right-hand sides of the matrix's order"
-        );
+        crate::scalar::check_solution_sizes(g.len(), x_values.len(), solver.dim(), ncols);
         /// The reverse of `x = A⁻¹ g` for a symmetric `A`.
         struct SymmetricSolve(Rc<dyn LinearSolver>, usize);
         impl ExternalReverse for SymmetricSolve {

@@ -153,16 +153,7 @@ pub trait Scalar:
         ncols: usize,
         solver: &Rc<dyn LinearSolver>,
     ) -> Vec<Self> {
-        assert_eq!(
-            g.len(),
-            x_values.len(),
-            "as many solutions as right-hand sides"
-        );
-        assert_eq!(
-            g.len(),
-            solver.dim() * ncols,
-            "right-hand sides of the matrix's order"
-        );
+        check_solution_sizes(g.len(), x_values.len(), solver.dim(), ncols);
         let tangents: Vec<Vec<f64>> = (0..Self::TANGENTS)
             .map(|t| {
                 let mut r: Vec<f64> = g.iter().map(|x| x.tangent(t)).collect();
@@ -260,4 +251,12 @@ impl Scalar for f64 {
     fn sin_cos(self) -> (Self, Self) {
         f64::sin_cos(self)
     }
+}
+
+/// # Panics
+/// Unless there are as many solutions as right-hand sides, `ncols` columns of the matrix's
+/// order `dim` ([`Scalar::symmetric_solution`]).
+pub(crate) fn check_solution_sizes(rhs: usize, solutions: usize, dim: usize, ncols: usize) {
+    assert_eq!(rhs, solutions, "as many solutions as right-hand sides");
+    assert_eq!(rhs, dim * ncols, "right-hand sides of the matrix's order");
 }

@@ -85,7 +85,9 @@ fn inputs(
     if elements.iter().any(|e| e.unit.shape() != (nf, nf)) {
         return None;
     }
-    let mut handles = state.to_vec();
+    let len = state.len() + n * (1 + 3 * nm) + elements.len() * nf * nf + 3 * mode_spin.len();
+    let mut handles = Vec::with_capacity(len);
+    handles.extend_from_slice(state);
     handles.extend(&modal.node_masses);
     for k in 0..n {
         for j in 0..nm {
@@ -96,6 +98,7 @@ fn inputs(
         handles.extend(e.unit.iter());
     }
     handles.extend(mode_spin.iter().flat_map(|v| v.iter().copied()));
+    debug_assert_eq!(handles.len(), len, "the operation's inputs");
     let data = BodyData {
         nm,
         nf,
