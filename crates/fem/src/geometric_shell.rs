@@ -22,7 +22,8 @@
 //!
 //! Derivatives: the stiffness is factorised once in `f64`; the tangents of the modes and the
 //! laminate enter the right-hand sides (`K Q_b = −f_b − K_b Q`, one triangular solve per
-//! tangent; on the reverse-mode tape the solves are one operation, `sens::Scalar::symmetric_solution`).
+//! tangent; on the reverse-mode tape the solves are one operation,
+//! `sens::Scalar::symmetric_solution`).
 
 use std::rc::Rc;
 
