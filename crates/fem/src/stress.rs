@@ -132,18 +132,7 @@ impl<S: Scalar> ModalStresses<S> {
     pub fn map<Q: Scalar>(&self, f: &impl Fn(S) -> Q) -> ModalStresses<Q> {
         ModalStresses {
             n_modes: self.n_modes,
-            laminates: (self.laminates.iter())
-                .map(|l| LaminatePoints {
-                    points: (l.points.iter())
-                        .map(|p| PlyStressPoint {
-                            ply: p.ply,
-                            place: p.place,
-                            per_deformation: p.per_deformation.map(f),
-                        })
-                        .collect(),
-                    materials: l.materials.clone(),
-                })
-                .collect(),
+            laminates: self.laminates.iter().map(|l| l.map(f)).collect(),
             elements: (self.elements.iter())
                 .map(|e| ElementDeformation {
                     element: e.element,

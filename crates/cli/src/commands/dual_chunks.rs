@@ -146,13 +146,8 @@ impl<'a, const N: usize> DualChunks<'a, N> {
                 built.design_body_chunk::<N>(src, named, &part.analysis, at, self.update)?;
             // the laminates of the chunk's seeded design, as its properties were made
             let seeded = sens::seed_chunk::<N>(built.design.values(), range.start);
-            let stresses = StressInput::of(&part.def, built, || {
-                built.design.stress_parts(&seeded).map_err(|e| {
-                    CliError::computation(
-                        src,
-                        format!("body `{}`: its plies' stresses: {e}", part.name),
-                    )
-                })
+            let stresses = StressInput::of((src, &part.name), &part.def, built, || {
+                built.design.stress_parts(&seeded)
             })?;
             let body = crate::study::flexible_model_body(
                 &part.name,

@@ -55,15 +55,8 @@ pub(crate) fn modal_body_adjoints(
     };
     let built = &part.built;
     let lift = |x: f64| Rev::constant(x);
-    let stresses = StressInput::of(&part.def, built, || {
-        (built.design.nominal_stress_parts())
-            .map(|parts| parts.map(&lift))
-            .map_err(|e| {
-                CliError::computation(
-                    src,
-                    format!("body `{}`: its plies' stresses: {e}", part.name),
-                )
-            })
+    let stresses = StressInput::of((src, &part.name), &part.def, built, || {
+        (built.design.nominal_stress_parts()).map(|parts| parts.map(&lift))
     })?;
     let rebuilt = crate::study::flexible_model_body(
         &part.name,

@@ -32,14 +32,8 @@ impl Assembly {
             let (built, analysis, modal, basis) =
                 flexible_body(src, name, span.clone(), def, request, true)?;
             let nodes = modal.node_positions.clone();
-            let stresses = StressInput::of(def, &built, || {
-                built
-                    .design
-                    .nominal_stress_parts()
-                    .map_err(|e| CliError::Computation {
-                        file: src.file.clone(),
-                        reason: format!("body `{}`: its plies' stresses: {e}", name),
-                    })
+            let stresses = StressInput::of((src, name), def, &built, || {
+                built.design.nominal_stress_parts()
             })?;
             let body = flexible_model_body(
                 name,

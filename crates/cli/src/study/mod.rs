@@ -625,14 +625,8 @@ impl Mechanism {
                 body.align_to(&reference.modal, CLUSTER_TOL)
                     .map_err(|e| at_design(src, format!("body `{}`", part.name), b, e))?;
             }
-            let stresses = StressInput::of(&def, &built, || {
-                built
-                    .design
-                    .nominal_stress_parts()
-                    .map_err(|e| CliError::Computation {
-                        file: src.file.clone(),
-                        reason: format!("body `{}`: its plies' stresses: {e}", part.name),
-                    })
+            let stresses = StressInput::of((src, &part.name), &def, &built, || {
+                built.design.nominal_stress_parts()
             })?;
             let body = flexible_model_body(
                 &part.name,

@@ -20,18 +20,23 @@ pub(crate) struct StressInput<'a, S: sens::Scalar> {
 }
 
 impl<'a, S: sens::Scalar> StressInput<'a, S> {
-    /// The ply stresses' input of the body `def` built as `built`, when a response reads them
-    /// (`parts`: its laminates or sections in the design's scalar, asked for only then).
-    pub(crate) fn of<E>(
+    /// The ply stresses' input of the body `name` (`def`, built as `built`, from the deck
+    /// `src`), when a response reads them (`parts`: its laminates or sections in the design's
+    /// scalar, asked for only then; its failure is the body's computation error).
+    pub(crate) fn of(
+        (src, name): (&Source, &str),
         def: &'a BodyDef,
         built: &Built,
-        parts: impl FnOnce() -> Result<StressParts<S>, E>,
-    ) -> Result<Option<Self>, E> {
+        parts: impl FnOnce() -> Result<StressParts<S>, section::SectionError>,
+    ) -> Result<Option<Self>, CliError> {
         let Some(strengths) = &def.ply_strengths else {
             return Ok(None);
         };
+        let parts = parts().map_err(|e| {
+            CliError::computation(src, format!("body `{name}`: its plies' stresses: {e}"))
+        })?;
         Ok(Some(StressInput {
-            parts: parts()?,
+            parts,
             membrane: built.options.element.membrane,
             strengths,
         }))
