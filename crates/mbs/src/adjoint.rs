@@ -119,12 +119,23 @@ impl TapedModel {
     }
 
     /// The sweep of the evaluation above the data, seeded in `adjoints`: the adjoints of
-    /// `inputs`, the evaluation's part of `adjoints` cleared.
+    /// `inputs`, the evaluation's part of `adjoints` left zero. Inputs that are the
+    /// evaluation's first nodes (as [`TapedModel::record`] makes them) are left out of the
+    /// sweep and the part above them zeroed by it, without a refill.
     fn sweep_into(&self, adjoints: &mut Adjoints, inputs: &[Rev]) -> Vec<f64> {
-        Tape::backpropagate(&mut adjoints.0, self.top);
-        let out = inputs.iter().map(|x| x.adjoint(&adjoints.0)).collect();
-        adjoints.0.truncate(self.top);
-        out
+        let a = &mut adjoints.0;
+        let (top, n) = (self.top, inputs.len());
+        if (inputs.iter().enumerate()).all(|(k, x)| x.node() == Some(top + k)) {
+            Tape::backpropagate_clearing(a, top + n);
+            let out = a[top..top + n].to_vec();
+            a[top..top + n].fill(0.0);
+            out
+        } else {
+            Tape::backpropagate(a, top);
+            let out = inputs.iter().map(|x| x.adjoint(a)).collect();
+            a.truncate(top);
+            out
+        }
     }
 
     /// `f_yᵀ λ` at `(t, y)` for the state's right-hand side `f = [q̇; v̇]` (`v̇` from Eq. 12

@@ -32,7 +32,7 @@ pub mod sparse;
 pub use dual::Dual;
 pub use hyper::HyperDual;
 pub use lu::DenseLu;
-pub use rev::{ExternalReverse, Rev, Tape};
+pub use rev::{ExternalReverse, InputAdjoints, Rev, Tape};
 pub use scalar::Scalar;
 pub use seed::{Jacobian, chunk_ranges, gradient, jacobian, seed_chunk};
 pub use solve::{LinearSolver, solve_tangents};

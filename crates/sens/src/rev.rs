@@ -55,10 +55,42 @@ struct Node {
 
 /// The reverse of a function recorded as one operation ([`Rev::external`]).
 pub trait ExternalReverse: 'static {
-    /// Add `(∂y/∂x)ᵀ ȳ` to `x_bar` (one entry per input of the operation, zero on entry),
-    /// `y_bar` the adjoints of its outputs. Called during a sweep: it must not record on the
-    /// tape.
-    fn reverse(&self, y_bar: &[f64], x_bar: &mut [f64]);
+    /// Add `(∂y/∂x)ᵀ ȳ` to the inputs' adjoints `x_bar` (input `p`'s by
+    /// [`InputAdjoints::add`]), `y_bar` the adjoints of its outputs. Called during a sweep: it
+    /// must not record on the tape.
+    fn reverse(&self, y_bar: &[f64], x_bar: &mut InputAdjoints<'_>);
+}
+
+/// The adjoints of an external operation's inputs during a sweep: the tape's own, reached
+/// through the inputs' nodes (no buffer of the inputs' adjoints to fill and scatter).
+pub struct InputAdjoints<'a> {
+    /// The tape's adjoints below the operation's outputs (where its inputs' nodes are).
+    adjoints: &'a mut [f64],
+    inputs: &'a [u32],
+}
+
+impl InputAdjoints<'_> {
+    /// The operation's number of inputs.
+    pub fn len(&self) -> usize {
+        self.inputs.len()
+    }
+
+    /// Whether the operation has no inputs.
+    pub fn is_empty(&self) -> bool {
+        self.inputs.is_empty()
+    }
+
+    /// Add `a` to the adjoint of input `p` (nothing for a constant input).
+    ///
+    /// # Panics
+    /// If `p` is not an input of the operation.
+    #[inline]
+    pub fn add(&mut self, p: usize, a: f64) {
+        let i = self.inputs[p];
+        if i != NONE {
+            self.adjoints[i as usize] += a;
+        }
+    }
 }
 
 /// An operation recorded by [`Rev::external`]: its outputs are nodes `first..end`.
@@ -79,21 +111,20 @@ struct DotRows {
 }
 
 impl ExternalReverse for DotRows {
-    fn reverse(&self, y_bar: &[f64], x_bar: &mut [f64]) {
-        let (x_adj, row_adj) = x_bar.split_at_mut(self.x.len());
+    fn reverse(&self, y_bar: &[f64], x_bar: &mut InputAdjoints<'_>) {
+        let nx = self.x.len();
+        let mut x_adj = vec![0.0; nx];
         let mut start = 0;
         for (&len, &y) in self.lens.iter().zip(y_bar) {
-            let (row, row_adj) = (
-                &self.rows[start..start + len],
-                &mut row_adj[start..start + len],
-            );
-            let (x, x_adj) = (&self.x[..len], &mut x_adj[..len]);
-            for p in 0..len {
-                x_adj[p] += y * row[p];
-                row_adj[p] += y * x[p];
+            let row = &self.rows[start..start + len];
+            for (p, (x_adj, (&a, &x))) in x_adj.iter_mut().zip(row.iter().zip(&self.x)).enumerate()
+            {
+                *x_adj += y * a;
+                x_bar.add(nx + start + p, y * x);
             }
             start += len;
         }
+        x_adj.iter().enumerate().for_each(|(p, &a)| x_bar.add(p, a));
     }
 }
 
@@ -213,41 +244,57 @@ impl Tape {
     /// An external operation is reversed when the sweep has passed its outputs; one whose
     /// outputs straddle `down_to` is an error.
     pub fn backpropagate(adjoints: &mut Vec<f64>, down_to: usize) {
+        Self::sweep::<false>(adjoints, down_to);
+    }
+
+    /// [`Tape::backpropagate`] that leaves the adjoints of the nodes `down_to..` zero once it
+    /// has passed them (what is below `down_to` accumulates as there): `adjoints` is ready for
+    /// the next seeding of the part above `down_to` without being refilled.
+    pub fn backpropagate_clearing(adjoints: &mut Vec<f64>, down_to: usize) {
+        Self::sweep::<true>(adjoints, down_to);
+    }
+
+    fn sweep<const CLEAR: bool>(adjoints: &mut Vec<f64>, down_to: usize) {
         TAPE.with(|t| {
             EXTERNAL.with(|e| {
                 let (t, e) = (t.borrow(), e.borrow());
                 WIDE_ARGS.with(|w| {
                     let wide = w.borrow();
                     let t = (&t[..], &wide[..]);
-                    adjoints.resize(t.0.len().max(adjoints.len()), 0.0);
+                    if adjoints.len() < t.0.len() {
+                        adjoints.resize(t.0.len(), 0.0);
+                    }
                     let mut top = t.0.len();
-                    let mut x_bar = Vec::new();
                     for op in e.iter().rev().take_while(|op| op.end > down_to) {
                         assert!(
                             op.first >= down_to,
                             "a sweep that splits an external operation"
                         );
-                        sweep_nodes(t, adjoints, op.end..top);
-                        x_bar.clear();
-                        x_bar.resize(op.inputs.len(), 0.0);
-                        op.op.reverse(&adjoints[op.first..op.end], &mut x_bar);
-                        for (&i, &a) in op.inputs.iter().zip(&x_bar) {
-                            if i != NONE {
-                                adjoints[i as usize] += a;
-                            }
+                        sweep_nodes::<CLEAR>(t, adjoints, op.end..top);
+                        // the inputs' nodes are below the outputs'
+                        let (below, above) = adjoints.split_at_mut(op.first);
+                        let y_bar = &mut above[..op.end - op.first];
+                        let mut x_bar = InputAdjoints {
+                            adjoints: below,
+                            inputs: &op.inputs,
+                        };
+                        op.op.reverse(y_bar, &mut x_bar);
+                        if CLEAR {
+                            y_bar.fill(0.0);
                         }
                         top = op.first;
                     }
-                    sweep_nodes(t, adjoints, down_to..top);
+                    sweep_nodes::<CLEAR>(t, adjoints, down_to..top);
                 })
             })
         });
     }
 }
 
-/// The reverse sweep over the nodes of `range`, from the top down.
+/// The reverse sweep over the nodes of `range`, from the top down, each node's adjoint left
+/// zero after it when `CLEAR`.
 #[inline]
-fn sweep_nodes(
+fn sweep_nodes<const CLEAR: bool>(
     (t, wide): (&[Node], &[(u32, f64)]),
     adjoints: &mut [f64],
     range: std::ops::Range<usize>,
@@ -264,6 +311,10 @@ fn sweep_nodes(
         } else {
             adjoints[node.args[0] as usize] += a * node.partials[0];
             adjoints[node.args[1] as usize] += a * node.partials[1];
+        }
+        if CLEAR {
+            // after the node's own missing arguments have added to it
+            adjoints[i] = 0.0;
         }
     }
 }
@@ -304,6 +355,10 @@ impl Rev {
             return outputs.iter().map(|&y| Self::constant(y)).collect();
         }
         let first = Tape::len();
+        debug_assert!(
+            (inputs.iter()).all(|x| x.index == NONE || (x.index as usize) < first),
+            "an external operation's inputs are on the tape before it"
+        );
         let out: Vec<Rev> = outputs.iter().map(|&y| Self::input(y)).collect();
         EXTERNAL.with(|e| {
             e.borrow_mut().push(External {
@@ -606,10 +661,10 @@ impl Scalar for Rev {
         /// The reverse of `x = A⁻¹ g` for a symmetric `A`.
         struct SymmetricSolve(Rc<dyn LinearSolver>, usize);
         impl ExternalReverse for SymmetricSolve {
-            fn reverse(&self, y_bar: &[f64], x_bar: &mut [f64]) {
+            fn reverse(&self, y_bar: &[f64], x_bar: &mut InputAdjoints<'_>) {
                 let mut r = y_bar.to_vec();
                 self.0.solve_columns(&mut r, self.1);
-                x_bar.iter_mut().zip(r).for_each(|(x, r)| *x += r);
+                r.iter().enumerate().for_each(|(p, &r)| x_bar.add(p, r));
             }
         }
         Self::external(g, &x_values, SymmetricSolve(Rc::clone(solver), ncols))
@@ -758,10 +813,10 @@ mod tests {
     struct ProductAndSquare([f64; 2]);
 
     impl ExternalReverse for ProductAndSquare {
-        fn reverse(&self, y_bar: &[f64], x_bar: &mut [f64]) {
+        fn reverse(&self, y_bar: &[f64], x_bar: &mut InputAdjoints<'_>) {
             let [a, b] = self.0;
-            x_bar[0] += y_bar[0] * b + y_bar[1];
-            x_bar[1] += y_bar[0] * a + y_bar[1] * 2.0 * b;
+            x_bar.add(0, y_bar[0] * b + y_bar[1]);
+            x_bar.add(1, y_bar[0] * a + y_bar[1] * 2.0 * b);
         }
     }
 
@@ -800,6 +855,53 @@ mod tests {
         // constant inputs give constants and record nothing
         let y = Rev::external(&[Rev::constant(1.0)], &[2.0], ProductAndSquare([0.0; 2]));
         assert!(y[0].is_constant() && Tape::len() == before);
+    }
+
+    /// Swept twice with different seeds, clearing as it goes, an evaluation over data gives
+    /// the data the adjoints two plain sweeps give (summed), and leaves zero above them: the
+    /// second sweep reads no adjoint the first left (nodes, an external operation's outputs).
+    #[test]
+    fn a_clearing_sweep_leaves_zeros_above_and_the_same_adjoints_below() {
+        let data: Vec<Rev> = [0.4, 0.2, 0.7].iter().map(|&v| Rev::input(v)).collect();
+        let top = Tape::len();
+        let x = Rev::input(0.3);
+        let args = [data[0] * x + data[2], data[1] * 3.0];
+        let a = args.map(|a| a.value());
+        let y = Rev::external(&args, &product_and_square(&a), ProductAndSquare(a));
+        let z = every_operation(&[y[0] + 0.5, y[1] * x + 0.3, data[2] + 0.5]);
+        let outputs = [y[0] * z, y[1] - z];
+        let seeds = [[1.0, -2.0], [0.5, 3.0]];
+        let sweep = |adj: &mut Vec<f64>, seed: &[f64; 2], clear: bool| {
+            for (o, &w) in outputs.iter().zip(seed) {
+                o.seed(adj, w);
+            }
+            if clear {
+                Tape::backpropagate_clearing(adj, top + 1);
+                let x_bar = std::mem::take(&mut adj[top]);
+                (adj.len(), x_bar)
+            } else {
+                Tape::backpropagate(adj, top);
+                let x_bar = x.adjoint(adj);
+                adj.truncate(top);
+                (adj.len(), x_bar)
+            }
+        };
+        let (mut plain, mut clearing) = (vec![0.0; top], vec![0.0; top]);
+        for seed in &seeds {
+            let (_, x0) = sweep(&mut plain, seed, false);
+            let (len, x1) = sweep(&mut clearing, seed, true);
+            assert!(len > top + 1, "the clearing sweep keeps the length");
+            assert!(clearing[top..].iter().all(|&a| a == 0.0), "zero above");
+            assert!((x0 - x1).abs() <= 1e-14 * x0.abs(), "{x0} vs {x1}");
+        }
+        for (a, b) in plain.iter().zip(&clearing) {
+            assert!(
+                (a - b).abs() <= 1e-14 * a.abs().max(1e-300),
+                "{plain:?} vs {clearing:?}"
+            );
+        }
+        assert!(data.iter().all(|d| d.adjoint(&plain) != 0.0));
+        Tape::rewind(top - 3);
     }
 
     #[test]

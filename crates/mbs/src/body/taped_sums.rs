@@ -32,7 +32,7 @@ use std::any::Any;
 
 use fem::{GeometricStiffness, ModalBody};
 use nalgebra::{Matrix3, Vector3};
-use sens::{ExternalReverse, Rev, Scalar};
+use sens::{ExternalReverse, InputAdjoints, Rev, Scalar};
 
 use super::SecondOrderNode;
 use crate::field_gram::FrameSums;
@@ -322,21 +322,21 @@ impl Evaluation {
 }
 
 impl ExternalReverse for Evaluation {
-    fn reverse(&self, y_bar: &[f64], x_bar: &mut [f64]) {
+    fn reverse(&self, y_bar: &[f64], x_bar: &mut InputAdjoints<'_>) {
         let d = &self.data;
         let (nm, nf, n) = (d.nm, d.nf, d.masses.len());
         let b = frame_sums(y_bar, nm, nf);
         let cc = b.field_cc.as_deref().expect("the field's products");
-        // the inputs' adjoints: w, ẇ, ω, g, masses, modes, units, spin
-        let (state, rest) = x_bar.split_at_mut(2 * nm + 6);
-        let (masses_bar, rest) = rest.split_at_mut(n);
-        let (modes_bar, rest) = rest.split_at_mut(n * nm * 3);
-        let (units_bar, spin_bar) = rest.split_at_mut(d.elements.len() * nf * nf);
+        // the inputs: w, ẇ, ω, g, then from these offsets the masses, modes, units, spin
+        let masses_at = 2 * nm + 6;
+        let modes_at = masses_at + n;
+        let units_at = modes_at + n * nm * 3;
+        let spin_at = units_at + d.elements.len() * nf * nf;
         let (mut w_bar, mut wd_bar) = (vec![0.0; nm], vec![0.0; nm]);
         let (mut om_bar, mut g_bar) = (Vector3::zeros(), Vector3::zeros());
         for j in 0..nm {
             for i in 0..3 {
-                spin_bar[3 * j + i] += b.m_ow[j][i];
+                x_bar.add(spin_at + 3 * j + i, b.m_ow[j][i]);
             }
         }
         let mut columns_bar = vec![Vector3::<f64>::zeros(); n * nf];
@@ -380,7 +380,7 @@ impl ExternalReverse for Evaluation {
                 *sc = (0..nf).map(|l| col[l] * cc_sym[j * nf + l]).sum();
             }
             m_bar += 0.5 * (0..nf).map(|j| col[j].dot(&sc[j])).sum::<f64>();
-            masses_bar[k] += m_bar;
+            x_bar.add(masses_at + k, m_bar);
             g_bar += sw_x * m;
             // c̄, then ū (directly and through c), u̇ through c
             let c_bar = (b.qc + b.s_o.cross(&u) - sw_x) * m;
@@ -396,17 +396,17 @@ impl ExternalReverse for Evaluation {
             half_bar[k] += u_bar;
             // the columns x_j = X_j + C_j, and u = u0 + H + Σ X_j w_j
             for j in 0..nm {
-                let x_bar =
+                let xj_bar =
                     (b.m_rw[j] + b.m_ow[j].cross(&u) + g_c * b.s_w[j]) * m + ud_bar * self.wd[j];
                 wd_bar[j] += x[j].dot(&ud_bar);
                 let xk = d.modes[k * nm + j];
                 w_bar[j] += xk.dot(&u_bar);
-                let modes_bar = &mut modes_bar[(k * nm + j) * 3..(k * nm + j) * 3 + 3];
+                let at = modes_at + (k * nm + j) * 3;
                 for i in 0..3 {
-                    modes_bar[i] += x_bar[i] + u_bar[i] * self.w[j];
+                    x_bar.add(at + i, xj_bar[i] + u_bar[i] * self.w[j]);
                 }
                 if j < nf {
-                    columns_bar[k * nf + j] += x_bar;
+                    columns_bar[k * nf + j] += xj_bar;
                 }
             }
             // Σ_{j ≤ l} c̄c_jl m C_j · C_l
@@ -423,7 +423,6 @@ impl ExternalReverse for Evaluation {
             half_bar[p] += hb;
             let rb = rates_bar[c];
             rates_bar[p] += rb;
-            let unit_bar = &mut units_bar[e * nf * nf..(e + 1) * nf * nf];
             for j in 0..nf {
                 let cb = columns_bar[c * nf + j];
                 columns_bar[p * nf + j] += cb;
@@ -433,23 +432,20 @@ impl ExternalReverse for Evaluation {
                 wd_bar[j] += rate_bar * h[j];
                 let unit = &d.units[e * nf * nf + j * nf..];
                 for l in 0..d.row_len[j] {
-                    unit_bar[j * nf + l] += g_bar * self.w[l] + h_bar * self.wd[l];
+                    let at = units_at + e * nf * nf + j * nf + l;
+                    x_bar.add(at, g_bar * self.w[l] + h_bar * self.wd[l]);
                     w_bar[l] += g_bar * unit[l];
                     wd_bar[l] += h_bar * unit[l];
                 }
             }
         }
-        state[..nm]
-            .iter_mut()
-            .zip(&w_bar)
-            .for_each(|(a, b)| *a += b);
-        state[nm..2 * nm]
-            .iter_mut()
-            .zip(&wd_bar)
-            .for_each(|(a, b)| *a += b);
+        for (j, (&w, &wd)) in w_bar.iter().zip(&wd_bar).enumerate() {
+            x_bar.add(j, w);
+            x_bar.add(nm + j, wd);
+        }
         for i in 0..3 {
-            state[2 * nm + i] += om_bar[i];
-            state[2 * nm + 3 + i] += g_bar[i];
+            x_bar.add(2 * nm + i, om_bar[i]);
+            x_bar.add(2 * nm + 3 + i, g_bar[i]);
         }
     }
 }
@@ -540,10 +536,9 @@ impl NodeField {
 }
 
 impl ExternalReverse for NodeField {
-    fn reverse(&self, y_bar: &[f64], x_bar: &mut [f64]) {
+    fn reverse(&self, y_bar: &[f64], x_bar: &mut InputAdjoints<'_>) {
         let nf = self.nf;
-        let (w_bar, rest) = x_bar.split_at_mut(nf);
-        let (wd_bar, a_bar) = rest.split_at_mut(nf);
+        let (mut w_bar, mut wd_bar) = (vec![0.0; nf], vec![0.0; nf]);
         let half_bar = Vector3::new(y_bar[0], y_bar[1], y_bar[2]);
         let rates_bar = &y_bar[3 + 3 * nf..6 + 3 * nf];
         for j in 0..nf {
@@ -561,11 +556,15 @@ impl ExternalReverse for NodeField {
                 let at = i * nf * nf + j * nf;
                 let col = &self.matrices[at..at + self.row_len[j]];
                 for (l, &a) in col.iter().enumerate() {
-                    a_bar[at + l] += c_bar * self.w[l] + r_bar * self.wd[l];
+                    x_bar.add(2 * nf + at + l, c_bar * self.w[l] + r_bar * self.wd[l]);
                     w_bar[l] += c_bar * a;
                     wd_bar[l] += r_bar * a;
                 }
             }
+        }
+        for (j, (&w, &wd)) in w_bar.iter().zip(&wd_bar).enumerate() {
+            x_bar.add(j, w);
+            x_bar.add(nf + j, wd);
         }
     }
 }
