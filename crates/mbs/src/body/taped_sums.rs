@@ -370,24 +370,28 @@ impl ExternalReverse for Evaluation {
                 + b.qc.dot(&c)
                 + b.s_o.dot(&u.cross(&c));
             let mut sw_x = Vector3::zeros(); // Σ_j s̄_w_j x_j
-            for j in 0..nm {
-                m_bar += b.m_rw[j].dot(&x[j]) + b.m_ow[j].dot(&u.cross(&x[j]));
-                m_bar += b.s_w[j] * x[j].dot(&g_c);
-                sw_x += x[j] * b.s_w[j];
+            let mut x_ow = Vector3::zeros(); // Σ_j x_j × m̄_ow_j
+            for (((xj, rw), ow), &sw) in x.iter().zip(&b.m_rw).zip(&b.m_ow).zip(&b.s_w) {
+                m_bar += rw.dot(xj) + ow.dot(&u.cross(xj));
+                m_bar += sw * xj.dot(&g_c);
+                sw_x += xj * sw;
+                x_ow += xj.cross(ow);
             }
             // (S C)_j, S the symmetric form of c̄c: Σ_{j ≤ l} c̄c_jl C_j · C_l = ½ Σ_j C_j · (S C)_j
-            for (j, sc) in sc.iter_mut().enumerate() {
-                *sc = (0..nf).map(|l| col[l] * cc_sym[j * nf + l]).sum();
+            for (sc, row) in sc.iter_mut().zip(cc_sym.chunks_exact(nf)) {
+                let mut acc = Vector3::zeros();
+                for (c, &s) in col.iter().zip(row) {
+                    acc += c * s;
+                }
+                *sc = acc;
             }
             m_bar += 0.5 * (0..nf).map(|j| col[j].dot(&sc[j])).sum::<f64>();
             x_bar.add(masses_at + k, m_bar);
             g_bar += sw_x * m;
             // c̄, then ū (directly and through c), u̇ through c
             let c_bar = (b.qc + b.s_o.cross(&u) - sw_x) * m;
-            let mut u_bar = (b.first + u * (2.0 * trace) - m_oo_sym * u + c.cross(&b.s_o)) * m;
-            for j in 0..nm {
-                u_bar += x[j].cross(&b.m_ow[j]) * m;
-            }
+            let mut u_bar =
+                (b.first + u * (2.0 * trace) - m_oo_sym * u + c.cross(&b.s_o) + x_ow) * m;
             u_bar += om * om.dot(&c_bar) - c_bar * om.dot(&om);
             om_bar += c_bar * om.dot(&u) + u * om.dot(&c_bar) - om * (2.0 * u.dot(&c_bar));
             om_bar += ud.cross(&c_bar) * 2.0;
@@ -395,15 +399,18 @@ impl ExternalReverse for Evaluation {
             rates_bar[k] += c_bar;
             half_bar[k] += u_bar;
             // the columns x_j = X_j + C_j, and u = u0 + H + Σ X_j w_j
-            for j in 0..nm {
-                let xj_bar =
-                    (b.m_rw[j] + b.m_ow[j].cross(&u) + g_c * b.s_w[j]) * m + ud_bar * self.wd[j];
-                wd_bar[j] += x[j].dot(&ud_bar);
-                let xk = d.modes[k * nm + j];
-                w_bar[j] += xk.dot(&u_bar);
+            let modes = &d.modes[k * nm..(k + 1) * nm];
+            let state = (self.w.iter().zip(&self.wd)).zip(w_bar.iter_mut().zip(&mut wd_bar));
+            let sums = (b.m_rw.iter().zip(&b.m_ow)).zip(&b.s_w);
+            for (j, (((xj, xk), ((&w, &wd), (wb, wdb))), ((rw, ow), &sw))) in
+                (x.iter().zip(modes).zip(state).zip(sums)).enumerate()
+            {
+                let xj_bar = (rw + ow.cross(&u) + g_c * sw) * m + ud_bar * wd;
+                *wdb += xj.dot(&ud_bar);
+                *wb += xk.dot(&u_bar);
                 let at = modes_at + (k * nm + j) * 3;
                 for i in 0..3 {
-                    x_bar.add(at + i, xj_bar[i] + u_bar[i] * self.w[j]);
+                    x_bar.add(at + i, xj_bar[i] + u_bar[i] * w);
                 }
                 if j < nf {
                     columns_bar[k * nf + j] += xj_bar;
@@ -430,12 +437,15 @@ impl ExternalReverse for Evaluation {
                 let h_bar = rate_bar * self.wd[j];
                 w_bar[j] += hw_bar * g[j];
                 wd_bar[j] += rate_bar * h[j];
-                let unit = &d.units[e * nf * nf + j * nf..];
-                for l in 0..d.row_len[j] {
-                    let at = units_at + e * nf * nf + j * nf + l;
-                    x_bar.add(at, g_bar * self.w[l] + h_bar * self.wd[l]);
-                    w_bar[l] += g_bar * unit[l];
-                    wd_bar[l] += h_bar * unit[l];
+                let len = d.row_len[j];
+                let unit = &d.units[e * nf * nf + j * nf..][..len];
+                let at = units_at + e * nf * nf + j * nf;
+                let bars = w_bar[..len].iter_mut().zip(&mut wd_bar[..len]);
+                let values = unit.iter().zip(&self.w[..len]).zip(&self.wd[..len]);
+                for (l, ((w_bar, wd_bar), ((&a, &w), &wd))) in bars.zip(values).enumerate() {
+                    x_bar.add(at + l, g_bar * w + h_bar * wd);
+                    *w_bar += g_bar * a;
+                    *wd_bar += h_bar * a;
                 }
             }
         }
