@@ -240,26 +240,37 @@ impl<'a, F: Scalar> LagrangeFields<'a, F> {
         }
     }
 
-    /// `[ε, α, e₁, β]` of the six columns at `gp` (of an element with nodes `nodes`), with
-    /// `ε = [BN Z] u + SN X₁`, `α = ε/2 − [BN Z] λ`, `e₁ = [BN Z] u₁`, `β = SN λ_X − [BN Z] μ`,
-    /// in the scalar `O` of the fields' products with the geometry's (the fields', or dual
-    /// numbers for plain fields at dual integration points).
+    /// `[ε, α, e₁, β]` of the six columns at `gp` (of an element with nodes `nodes`) written
+    /// into `out`, with `ε = [BN Z] u + SN X₁`, `α = ε/2 − [BN Z] λ`, `e₁ = [BN Z] u₁`,
+    /// `β = SN λ_X − [BN Z] μ`, in the scalar `O` of the fields' products with the geometry's
+    /// (the fields', or dual numbers for plain fields at dual integration points). Written in
+    /// place: returned by value, the arrays (kilobytes each in dual numbers) were copied at
+    /// every integration point.
     #[inline(always)]
-    fn at<G, O>(&self, nodes: &[usize], gp: &GaussPoint<G>) -> [[[O; 6]; 6]; 4]
+    fn at_into<G, O>(&self, nodes: &[usize], gp: &GaussPoint<G>, out: &mut [[[O; 6]; 6]; 4])
     where
         F: Mul<G, Output = O>,
         G: Scalar,
         O: Scalar + From<F>,
     {
-        let eps: [[O; 6]; 6] = strains(nodes, gp, self.eps);
-        let e1 = strains(nodes, gp, self.e1);
-        let l: [[O; 6]; 6] = strains(nodes, gp, self.lambda);
-        let sl: [[O; 6]; 6] = strains(nodes, gp, self.s_lambda);
-        let mu: [[O; 6]; 6] = strains(nodes, gp, self.mu);
+        let [eps, alpha, e1, beta] = out;
+        strains_into(nodes, gp, self.eps, eps);
+        strains_into(nodes, gp, self.e1, e1);
+        strains_into(nodes, gp, self.lambda, alpha);
+        strains_into(nodes, gp, self.s_lambda, beta);
         let half = O::from_f64(0.5);
-        let alpha = std::array::from_fn(|c| std::array::from_fn(|i| half * eps[c][i] - l[c][i]));
-        let beta = std::array::from_fn(|c| std::array::from_fn(|i| sl[c][i] - mu[c][i]));
-        [eps, alpha, e1, beta]
+        for (a, e) in alpha.iter_mut().zip(eps.iter()) {
+            for (a, &e) in a.iter_mut().zip(e) {
+                *a = half * e - *a;
+            }
+        }
+        let mut mu = [[O::zero(); 6]; 6];
+        strains_into(nodes, gp, self.mu, &mut mu);
+        for (b, m) in beta.iter_mut().zip(&mu) {
+            for (b, &m) in b.iter_mut().zip(m) {
+                *b -= m;
+            }
+        }
     }
 }
 
@@ -332,6 +343,23 @@ where
     G: Scalar,
     O: Scalar + From<F>,
 {
+    let mut out = [[O::zero(); 6]; 6];
+    strains_into(nodes, gp, f, &mut out);
+    out
+}
+
+/// [`strains`] written into `out`.
+#[inline(always)]
+fn strains_into<F, G, O>(
+    nodes: &[usize],
+    gp: &GaussPoint<G>,
+    f: Fields<'_, F>,
+    out: &mut [[O; 6]; 6],
+) where
+    F: Copy + Mul<G, Output = O>,
+    G: Scalar,
+    O: Scalar + From<F>,
+{
     let [x2, x3] = gp.x;
     // component-major while accumulating (the six columns of a nodal component are
     // contiguous in the fields), column-major on return
@@ -373,7 +401,11 @@ where
             }
         }
     }
-    std::array::from_fn(|c| std::array::from_fn(|k| e[k][c]))
+    for (c, out) in out.iter_mut().enumerate() {
+        for (k, out) in out.iter_mut().enumerate() {
+            *out = e[k][c];
+        }
+    }
 }
 
 impl SectionAnalysis {
@@ -939,6 +971,7 @@ impl SectionAnalysis {
         let zero = Dual::<N>::constant(0.0);
         let region_moves: Vec<bool> = q_ply.iter().map(|q| q.iter().any(moves)).collect();
         let mut l = [[zero; 6]; 6];
+        let mut strains = [[[zero; 6]; 6]; 4];
         for (e, el) in m.mesh.elements.iter().enumerate() {
             let nodes = &el.nodes[..el.kind.node_count()];
             if !region_moves[el.region] && !nodes.iter().any(|&n| node_moves[n]) {
@@ -946,7 +979,8 @@ impl SectionAnalysis {
             }
             for gp in &gps[m.gp_start[e]..m.gp_start[e + 1]] {
                 let q = m.stiffness_at(el.region, gp, &q_ply[el.region]);
-                let [eps, alpha, e1, beta]: [[[Dual<N>; 6]; 6]; 4] = fields.at(nodes, gp);
+                fields.at_into(nodes, gp, &mut strains);
+                let [eps, alpha, e1, beta] = &strains;
                 // w Q ε_c and w Q e₁_c
                 let weighted = |a: &[Dual<N>; 6]| -> [Dual<N>; 6] {
                     std::array::from_fn(|i| {
@@ -1271,12 +1305,14 @@ impl SectionAnalysis {
         let ComplianceAdjoints { lx, ly, mx, my } = adjoints;
         let fields = LagrangeFields::new((&self.x, &self.x1, &self.y, &self.y1), (lx, ly, mx, my));
         let mut moments = [[[0.0; 36]; 6]; 6];
+        let mut strains = [[[0.0; 6]; 6]; 4];
         for &e in elements {
             let el = &m.mesh.elements[e];
             let nodes = &el.nodes[..el.kind.node_count()];
             for gp in &m.gps[m.gp_start[e]..m.gp_start[e + 1]] {
                 let t = bond_stress_matrix(&m.mesh.regions[r].frame.rotation_at(gp.x, gp.dx_dxi));
-                let [eps, alpha, e1, beta] = fields.at(nodes, gp);
+                fields.at_into(nodes, gp, &mut strains);
+                let [eps, alpha, e1, beta] = &strains;
                 // Tᵀ a, in the ply axes
                 let ply = |a: [f64; 6]| -> [f64; 6] {
                     std::array::from_fn(|j| (0..6).map(|i| t[(i, j)] * a[i]).sum())
