@@ -244,8 +244,7 @@ impl<'a, F: Scalar> LagrangeFields<'a, F> {
     /// into `out`, with `ε = [BN Z] u + SN X₁`, `α = ε/2 − [BN Z] λ`, `e₁ = [BN Z] u₁`,
     /// `β = SN λ_X − [BN Z] μ`, in the scalar `O` of the fields' products with the geometry's
     /// (the fields', or dual numbers for plain fields at dual integration points). Written in
-    /// place: returned by value, the arrays (kilobytes each in dual numbers) were copied at
-    /// every integration point.
+    /// place, so that no array (kilobytes in dual numbers) is copied at each integration point.
     #[inline(always)]
     fn at_into<G, O>(&self, nodes: &[usize], gp: &GaussPoint<G>, out: &mut [[[O; 6]; 6]; 4])
     where

@@ -70,16 +70,6 @@ pub struct InputAdjoints<'a> {
 }
 
 impl InputAdjoints<'_> {
-    /// The operation's number of inputs.
-    pub fn len(&self) -> usize {
-        self.inputs.len()
-    }
-
-    /// Whether the operation has no inputs.
-    pub fn is_empty(&self) -> bool {
-        self.inputs.is_empty()
-    }
-
     /// Add `a` to the adjoint of input `p` (nothing for a constant input).
     ///
     /// # Panics
