@@ -17,6 +17,8 @@ use crate::mesh::{Region, SectionMesh};
 use crate::properties::{MassProperties, Props, SectionProperties, SectionSensitivities};
 use crate::{DesignMap, SectionError};
 
+mod moving;
+
 /// The strain and stress at one integration point of a section ([`SectionAnalysis::stresses`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SectionPoint {
@@ -97,15 +99,17 @@ const NONE: usize = usize::MAX;
 /// - Ply angles and material stiffnesses (only `Q` depends on them): by the adjoints of the
 ///   two systems (`SectionAnalysis::compliance_derivatives`), two six-column solves through
 ///   the same factorisation and one pass over the integration points of the regions the
-///   variables change, whatever their number.
+///   variables change, whatever their number (the moments of each region, contracted with
+///   each variable's `Q'`; a region with one or two such variables, when nodes move too, is
+///   contracted in the pass of the moving variables below instead, from its strains there).
 /// - Node coordinates (a ply thickness: the Gauss points' positions, weights and
 ///   shape-function gradients, and the wall frames, depend on them): by the same adjoints
-///   (`SectionAnalysis::compliance_adjoint_dual`), the Lagrangian of both systems evaluated
-///   with dual coordinates (and dual angles and materials, for the chunk's other variables)
-///   over the elements that move, the fields and adjoints held; no dual right-hand side goes
-///   through the factorisation. A chunk of `N` variables with such a variable takes this path
-///   for all of them. The direct form (the residuals of systems 1 and 2 evaluated with dual
-///   coordinates and their `6 N` tangent columns pushed through the factorisation, the pattern
+///   (`SectionAnalysis::compliance_adjoint_dual`), the Lagrangian of both systems
+///   differentiated through the points' geometry (their velocities and velocity gradients,
+///   the frames' rates of turn) over the elements that move, the fields and adjoints held,
+///   `N` variables a pass; no dual right-hand side goes through the factorisation. The direct
+///   form (the residuals of systems 1 and 2 evaluated with dual coordinates and their `6 N`
+///   tangent columns pushed through the factorisation, the pattern
 ///   of [`sens::solve_tangents`]; `SectionAnalysis::compliance_dual`) is the tests' oracle.
 ///
 /// Conditioning: the Rayleigh quotients of the load cases' solutions bound the smallest
@@ -801,45 +805,53 @@ impl SectionAnalysis {
         } else {
             (Vec::new(), (0..m).collect())
         };
-        let mut d_compliance: Vec<Option<Matrix6<f64>>> = vec![None; m];
-        for (&v, d) in fixed_geometry
-            .iter()
-            .zip(self.compliance_derivatives(design, &fixed_geometry))
-        {
-            d_compliance[v] = Some(d);
-        }
-        let mut derivatives = vec![SectionProperties::default(); m];
-        for vars in fixed_geometry.chunks(N).chain(moving.chunks(N)) {
-            // Dual densities: tangent k of region r is dρ_r/db of variable vars[k].
-            let mut density: Vec<Dual<N>> = self
-                .model
-                .mesh
-                .regions
-                .iter()
-                .map(|r| Dual::constant(r.material.density()))
-                .collect();
-            for (k, &v) in vars.iter().enumerate() {
-                for &(r, drho) in &var(v).densities {
-                    density[r].d[k] += drho;
+        // The ply stiffnesses' tangents of the variables that leave the nodes in place, by
+        // region: a region with a few of them rides along the first moving chunk's pass when
+        // there is one (its strains are there, and a contraction a variable at each point is
+        // then cheaper than the moments); the others take the moments.
+        let mut q_tangents = self.ply_stiffness_tangents(design, &fixed_geometry);
+        let mut carried = vec![Vec::new(); q_tangents.len()];
+        if !moving.is_empty() {
+            for (t, c) in q_tangents.iter_mut().zip(&mut carried) {
+                if t.len() <= CARRIED_AT_MOST {
+                    std::mem::swap(t, c);
                 }
             }
-            let (mass, compliance) = if vars.iter().all(|&v| d_compliance[v].is_some()) {
-                let mut f = self.properties.compliance.map(Dual::<N>::constant);
-                for (k, &v) in vars.iter().enumerate() {
-                    let d = d_compliance[v].as_ref().expect("checked above");
-                    for (x, dx) in f.iter_mut().zip(d.iter()) {
-                        x.d[k] = *dx;
-                    }
-                }
-                (MassProperties::scaled_sum(&integrals, &density), f)
-            } else {
-                self.mass_and_compliance_dual(design, vars, &density, &integrals, adjoint)
-            };
+        }
+        let mut d_fixed = self.compliance_derivatives(&q_tangents, fixed_geometry.len());
+        let mut derivatives = vec![SectionProperties::default(); m];
+        let mut store = |vars: &[usize], mass: MassProperties<Dual<N>>, compliance| {
             let props =
                 Props::from_compliance(compliance).ok_or(SectionError::SingularCompliance)?;
             for (k, &v) in vars.iter().enumerate() {
                 derivatives[v] = SectionProperties::from_props(&props, &mass, |s| s.d[k]);
             }
+            Ok::<(), SectionError>(())
+        };
+        for (i, vars) in moving.chunks(N).enumerate() {
+            let density = self.chunk_densities::<N>(design, vars);
+            let carried = (i == 0).then_some(Carried {
+                tangents: &carried,
+                out: &mut d_fixed,
+            });
+            let (mass, compliance) = self.mass_and_compliance_dual(
+                design,
+                vars,
+                (&density, &integrals),
+                adjoint,
+                carried,
+            );
+            store(vars, mass, compliance)?;
+        }
+        for (vars, d) in fixed_geometry.chunks(N).zip(d_fixed.chunks(N)) {
+            let density = self.chunk_densities::<N>(design, vars);
+            let mut f = self.properties.compliance.map(Dual::<N>::constant);
+            for (k, d) in d.iter().enumerate() {
+                for (x, dx) in f.iter_mut().zip(d.iter()) {
+                    x.d[k] = *dx;
+                }
+            }
+            store(vars, MassProperties::scaled_sum(&integrals, &density), f)?;
         }
         Ok(SectionSensitivities {
             properties: self.properties.clone(),
@@ -848,19 +860,34 @@ impl SectionAnalysis {
         })
     }
 
+    /// The regions' densities as dual numbers whose tangent `k` is `dρ_region/db` of variable
+    /// `vars[k]` of `design`.
+    fn chunk_densities<const N: usize>(&self, design: &DesignMap, vars: &[usize]) -> Vec<Dual<N>> {
+        let mut density: Vec<Dual<N>> = (self.model.mesh.regions.iter())
+            .map(|r| Dual::constant(r.material.density()))
+            .collect();
+        for (k, &v) in vars.iter().enumerate() {
+            for &(r, drho) in &design.variables[v].densities {
+                density[r].d[k] += drho;
+            }
+        }
+        density
+    }
+
     /// The mass properties and the compliance of the variables `vars` as dual numbers, the
     /// geometry dual when a variable moves nodes: the compliance's tangents by the adjoints
     /// with the dual geometry ([`SectionAnalysis::compliance_adjoint_dual`], `adjoint` and a
     /// variable that moves nodes) or through the solves
     /// ([`SectionAnalysis::compliance_dual`]); `density` the regions' dual densities,
-    /// `integrals` their unit-density integrals in the nominal geometry.
+    /// `integrals` their unit-density integrals in the nominal geometry; `carried` other
+    /// variables' tangents the adjoints' pass takes along.
     fn mass_and_compliance_dual<const N: usize>(
         &self,
         design: &DesignMap,
         vars: &[usize],
-        density: &[Dual<N>],
-        integrals: &[MassProperties],
+        (density, integrals): (&[Dual<N>], &[MassProperties]),
         adjoint: bool,
+        carried: Option<Carried<'_>>,
     ) -> (MassProperties<Dual<N>>, Matrix6<Dual<N>>) {
         let (angles, c_bar, nodes) = self.seeded(design, vars);
         if let Some(nodes) = nodes {
@@ -871,7 +898,7 @@ impl SectionAnalysis {
             if adjoint {
                 return (
                     MassProperties::scaled_sum(&integrals, density),
-                    self.compliance_adjoint_dual(&angles, &c_bar, &gps, &nodes),
+                    self.compliance_adjoint_dual((&angles, &c_bar), &gps, &nodes, carried),
                 );
             }
             let lift = |x: &[f64]| x.iter().map(|&v| Dual::constant(v)).collect::<Vec<_>>();
@@ -950,14 +977,19 @@ impl SectionAnalysis {
     /// Lagrangian `Σ ∫ ε_cᵀ Q α_d + e₁_cᵀ Q β_d + (c ↔ d)` (`α = ε/2 − [BN Z] λ`,
     /// `β = SN λ_X − [BN Z] μ`; the right-hand sides `[0; T]` and `[0; I]` do not depend on
     /// the geometry). Moving nodes change the weights, the positions in `Z`, the gradients in
-    /// `B` and the wall frame in `Q`, all dual at the integration points `gps`, so one dual
-    /// pass over them gives every tangent: no dual fields through the solves.
+    /// `B` and the wall frame in `Q` at the integration points `gps` (dual), so one pass over
+    /// them gives every tangent, with the strains' tangents from the points' velocity
+    /// gradients (`moving`): no dual fields through the solves.
+    ///
+    /// `carried`: the tangents `Q'_ply` of variables that leave the nodes in place, contracted
+    /// with the same points' plain strains (`dF += ∫ ε_cᵀ Q' α_d + e₁_cᵀ Q' β_d + (c ↔ d)`,
+    /// [`SectionAnalysis::compliance_derivatives`]) and added to their slots.
     fn compliance_adjoint_dual<const N: usize>(
         &self,
-        angles: &[Dual<N>],
-        c_bar: &[Matrix6<Dual<N>>],
+        (angles, c_bar): (&[Dual<N>], &[Matrix6<Dual<N>>]),
         gps: &[GaussPoint<Dual<N>>],
         nodes: &[[Dual<N>; 2]],
+        carried: Option<Carried<'_>>,
     ) -> Matrix6<Dual<N>> {
         let m = &self.model;
         // an element whose nodes stay and whose material is held adds no tangent
@@ -965,49 +997,81 @@ impl SectionAnalysis {
         let node_moves: Vec<bool> = nodes.iter().map(|p| p.iter().any(moves)).collect();
         let q_ply = ply_stiffnesses(angles, c_bar);
         let ComplianceAdjoints { lx, ly, mx, my } = self.compliance_adjoints();
-        // the fields plain, their products with the dual geometry dual
         let fields = LagrangeFields::new((&self.x, &self.x1, &self.y, &self.y1), (lx, ly, mx, my));
-        let zero = Dual::<N>::constant(0.0);
         let region_moves: Vec<bool> = q_ply.iter().map(|q| q.iter().any(moves)).collect();
+        let generator = moving::frame_generator();
+        let no_tangents = vec![Vec::new(); m.mesh.regions.len()];
+        let (carried_tangents, mut carried_out) = match carried {
+            Some(Carried { tangents, out }) => (tangents, Some(out)),
+            None => (&no_tangents[..], None),
+        };
+        // ∫ ε_cᵀ Q' α_d + e₁_cᵀ Q' β_d of each carried slot
+        let mut raw = vec![Matrix6::<f64>::zeros(); carried_out.as_ref().map_or(0, |o| o.len())];
+        let zero = Dual::<N>::constant(0.0);
+        // the Lagrangian's integral with its tangents
         let mut l = [[zero; 6]; 6];
         let mut strains = [[[zero; 6]; 6]; 4];
         for (e, el) in m.mesh.elements.iter().enumerate() {
             let nodes = &el.nodes[..el.kind.node_count()];
-            if !region_moves[el.region] && !nodes.iter().any(|&n| node_moves[n]) {
+            let carries = &carried_tangents[el.region];
+            if !region_moves[el.region]
+                && carries.is_empty()
+                && !nodes.iter().any(|&n| node_moves[n])
+            {
                 continue;
             }
-            for gp in &gps[m.gp_start[e]..m.gp_start[e + 1]] {
-                let q = m.stiffness_at(el.region, gp, &q_ply[el.region]);
-                fields.at_into(nodes, gp, &mut strains);
-                let [eps, alpha, e1, beta] = &strains;
-                // w Q ε_c and w Q e₁_c
-                let weighted = |a: &[Dual<N>; 6]| -> [Dual<N>; 6] {
-                    std::array::from_fn(|i| {
-                        let mut acc = zero;
-                        for k in 0..6 {
-                            acc += q[(i, k)] * a[k];
+            let frame = &m.mesh.regions[el.region].frame;
+            for p in m.gp_start[e]..m.gp_start[e + 1] {
+                let (gp, moved) = (&m.gps[p], &gps[p]);
+                let tangents = moving::PointTangents::of(moved);
+                fields.moving_at_into(nodes, gp, &tangents, &mut strains);
+                let q = &self.q_points[p];
+                let mut acc = [[zero; 6]; 6];
+                moving::contract_strains(q, &strains, &mut acc);
+                // Q̇_k of the chunk's angles and materials (T Q̇_ply Tᵀ) and of a turning frame
+                // (φ̇_k (Γ Q + Q Γᵀ))
+                let mut add_tangent = |form: &Matrix6<f64>, k: usize, rate: f64| {
+                    for (acc, form) in acc.iter_mut().zip(form.row_iter()) {
+                        for (acc, p) in acc.iter_mut().zip(form.iter()) {
+                            acc.d[k] += rate * p;
                         }
-                        acc * gp.w
-                    })
+                    }
                 };
-                for c in 0..6 {
-                    let (q_eps, q_e1) = (weighted(&eps[c]), weighted(&e1[c]));
-                    for d in 0..6 {
-                        let mut acc = zero;
-                        for i in 0..6 {
-                            acc += q_eps[i] * alpha[d][i] + q_e1[i] * beta[d][i];
-                        }
-                        l[c][d] += acc;
+                if region_moves[el.region] {
+                    let q_moved = m.stiffness_at(el.region, gp, &q_ply[el.region]);
+                    for k in 0..N {
+                        let form = moving::strain_form(&q_moved.map(|x| x.d[k]), &strains);
+                        add_tangent(&form, k, 1.0);
+                    }
+                }
+                if let Some(rates) = moving::frame_rates(frame.tangent_at(moved.x, moved.dx_dxi)) {
+                    let gq = generator * q;
+                    let form = moving::strain_form(&(gq + gq.transpose()), &strains);
+                    for (k, &rate) in rates.iter().enumerate() {
+                        add_tangent(&form, k, rate);
+                    }
+                }
+                if !carries.is_empty() {
+                    let t = bond_stress_matrix(&frame.rotation_at(gp.x, gp.dx_dxi));
+                    for (slot, dq) in carries {
+                        raw[*slot] += moving::strain_form(&congruence(&t, dq), &strains) * gp.w;
+                    }
+                }
+                for (l, acc) in l.iter_mut().zip(&acc) {
+                    for (l, &a) in l.iter_mut().zip(acc) {
+                        *l += moved.w * a;
                     }
                 }
             }
         }
+        if let Some(out) = carried_out.as_mut() {
+            for (out, raw) in out.iter_mut().zip(&raw) {
+                *out += raw + raw.transpose();
+            }
+        }
         let f = &self.properties.compliance;
         Matrix6::from_fn(|c, d| {
-            let mut t = [0.0; N];
-            for (k, tk) in t.iter_mut().enumerate() {
-                *tk = l[c][d].d[k] + l[d][c].d[k];
-            }
+            let t = std::array::from_fn(|k| l[c][d].d[k] + l[d][c].d[k]);
             Dual::new(f[(c, d)], t)
         })
     }
@@ -1169,10 +1233,17 @@ impl SectionAnalysis {
     /// once for all variables. The direct method ([`SectionAnalysis::compliance_dual`]) needs
     /// `12 N` tangent solves and dual fields instead; both are checked against each other in
     /// this module's tests.
-    fn compliance_derivatives(&self, design: &DesignMap, vars: &[usize]) -> Vec<Matrix6<f64>> {
+    ///
+    /// `q_tangents` are the variables' `Q'_ply` by region
+    /// ([`SectionAnalysis::ply_stiffness_tangents`]: `[region] → [(slot, Q'_ply)]`) and
+    /// `slots` their number.
+    fn compliance_derivatives(
+        &self,
+        q_tangents: &[Vec<(usize, Matrix6<f64>)>],
+        slots: usize,
+    ) -> Vec<Matrix6<f64>> {
         let m = &self.model;
-        let q_tangents = self.ply_stiffness_tangents(design, vars);
-        let mut out = vec![Matrix6::zeros(); vars.len()];
+        let mut out = vec![Matrix6::zeros(); slots];
         if q_tangents.iter().all(Vec::is_empty) {
             return out;
         }
@@ -1399,6 +1470,21 @@ impl SectionAnalysis {
         }
         (x, y)
     }
+}
+
+/// The most tangents of variables that leave the nodes in place a region may have to ride
+/// along a pass over a moving section ([`Carried`]): each costs a congruence and a contraction
+/// at each point (about 1 300 products), the moments about 3 500 whatever their number.
+const CARRIED_AT_MOST: usize = 2;
+
+/// The ply stiffnesses' tangents of variables that leave the nodes in place, taken along by
+/// the pass over the points of a section whose nodes move
+/// ([`SectionAnalysis::compliance_adjoint_dual`]).
+struct Carried<'a> {
+    /// `[region] → [(slot, Q'_ply)]`.
+    tangents: &'a [Vec<(usize, Matrix6<f64>)>],
+    /// The compliance derivatives of the slots, added to.
+    out: &'a mut [Matrix6<f64>],
 }
 
 /// The adjoint solutions of [`SectionAnalysis::compliance_derivatives`], node-dof-major per
@@ -2175,6 +2261,33 @@ mod tests {
         assert!(worst < 1e-10, "tube, one variable a chunk: {worst:e}");
         let worst = adjoint_against_direct::<2>(&mesh, &design);
         assert!(worst < 1e-10, "tube, two variables a chunk: {worst:e}");
+
+        // Every node moving its own way (the elements distorted, the points' radial frames
+        // and the frames along the elements' directions turning), with an angle in the chunk.
+        let shake: Vec<[f64; 2]> = (0..mesh.nodes.len())
+            .map(|n| {
+                let n = n as f64;
+                [0.01 * (1.3 * n).sin(), 0.01 * (2.1 * n + 0.4).cos()]
+            })
+            .collect();
+        let mut shaken = DesignMap::new().with_geometry_variable("shake", &shake);
+        shaken.variables[0].links.push((2, 1.0));
+        let shaken = shaken.with_geometry_variable("t1", &velocities);
+        let worst = adjoint_against_direct::<2>(&mesh, &shaken);
+        assert!(worst < 1e-10, "tube, nodes shaken: {worst:e}");
+        let mut along = mesh.clone();
+        for (r, region) in along.regions.iter_mut().enumerate() {
+            region.frame = crate::mesh::WallFrame::AlongElement(if r == 1 {
+                crate::mesh::ElementDirection::Eta
+            } else {
+                crate::mesh::ElementDirection::Xi
+            });
+        }
+        let worst = adjoint_against_direct::<2>(&along, &shaken);
+        assert!(
+            worst < 1e-10,
+            "tube with frames along its elements, shaken: {worst:e}"
+        );
 
         let walls = BoxWalls {
             top: vec![ply("a", 30.0, 0.001), ply("b", -10.0, 0.0005)],
