@@ -127,6 +127,10 @@ pub struct SectionAnalysis {
     /// The material in section axes at every integration point of [`Model::gps`] (rotated
     /// once: for the assembly, the analysis's kernel passes and the adjoint derivatives').
     q_points: Vec<Matrix6<f64>>,
+    /// `∫[BN Z]ᵀ Q ε` of the central solution's strains, node-dof-major and `6 × 6`: the
+    /// right-hand side of the first adjoint of the derivatives
+    /// ([`SectionAnalysis::for_derivatives`]).
+    stress_projection: Option<(Vec<f64>, [f64; 36])>,
     properties: SectionProperties,
     /// The adjoints of the compliance derivatives, solved at the first derivative asked for
     /// and shared by every chunk of variables after it.
@@ -197,7 +201,7 @@ pub fn analyse_with_derivatives<const N: usize>(
     mesh: &SectionMesh,
     design: &DesignMap,
 ) -> Result<SectionSensitivities, SectionError> {
-    SectionAnalysis::new(mesh)?.sensitivities::<N>(design)
+    SectionAnalysis::for_derivatives(mesh)?.sensitivities::<N>(design)
 }
 
 /// The material stiffness the kernel integrates: per region in the ply axes, rotated to the
@@ -415,9 +419,23 @@ impl SectionAnalysis {
     /// Validate the mesh, assemble and factorise the warping system, solve it and compute the
     /// section properties.
     pub fn new(mesh: &SectionMesh) -> Result<Self, SectionError> {
+        Self::analyse(mesh, false)
+    }
+
+    /// [`SectionAnalysis::new`] for a section whose compliance derivatives will be asked for
+    /// ([`SectionAnalysis::sensitivities`]): the last pass over the integration points also
+    /// projects the stresses for the derivatives' first adjoint (a few percent of the
+    /// analysis, where the derivatives would take a pass of their own). The results are the
+    /// same to the last bit.
+    pub fn for_derivatives(mesh: &SectionMesh) -> Result<Self, SectionError> {
+        Self::analyse(mesh, true)
+    }
+
+    /// [`SectionAnalysis::new`], with the stresses' projection when `project`.
+    fn analyse(mesh: &SectionMesh, project: bool) -> Result<Self, SectionError> {
         mesh.validate()?;
         let mesh = mesh.clone();
-        let (gps, gp_start) = geometry(&mesh, &mesh.nodes);
+        let (gps, gp_start) = geometry(&mesh, &mesh.nodes, true);
         let (dof, n_free) = dof_map(&mesh)?;
         let c_bar: Vec<Matrix6<f64>> = mesh
             .regions
@@ -508,8 +526,15 @@ impl SectionAnalysis {
         }
         let (x, y) = m.unpack(&rhs);
 
-        // Compliance: the strain energy of the central solution per unit force.
+        // Compliance: the strain energy of the central solution per unit force; the same
+        // pass may project its stresses for the derivatives' first adjoint (`∫[BN Z]ᵀ Q ε`,
+        // `SectionAnalysis::solve_adjoints`), which would otherwise take a pass of its own.
         let mut f = [0.0; 36];
+        let mut stress_projection = project.then(|| (vec![0.0; nd * 6], [0.0; 36]));
+        let (projection_b, projection_z) = match stress_projection.as_mut() {
+            Some((b, z)) => (Some(&mut b[..]), Some(z)),
+            None => (None, None),
+        };
         m.kernel(
             Materials::PerPoint(&q_points),
             &m.gps,
@@ -519,9 +544,9 @@ impl SectionAnalysis {
                 psi: Some(&y),
             },
             Outputs {
-                b: None,
+                b: projection_b,
                 s: None,
-                z: None,
+                z: projection_z,
                 energy: Some(&mut f),
             },
         );
@@ -537,6 +562,7 @@ impl SectionAnalysis {
             x,
             y,
             q_points,
+            stress_projection,
             properties,
             adjoints: std::sync::OnceLock::new(),
         })
@@ -683,7 +709,7 @@ impl SectionAnalysis {
             let q_ply = ply_stiffnesses(&angles, &c_bar);
             // the central solutions' tangents once (at the moved Gauss points when a thickness
             // moves nodes), then each case's recovery
-            let moved = nodes.map(|nodes| geometry(&self.model.mesh, &nodes).0);
+            let moved = nodes.map(|nodes| geometry(&self.model.mesh, &nodes, true).0);
             let fields = match &moved {
                 Some(gps) => {
                     let lift = |x: &[f64]| x.iter().map(|&v| Dual::constant(v)).collect::<Vec<_>>();
@@ -893,7 +919,7 @@ impl SectionAnalysis {
         if let Some(nodes) = nodes {
             // Node coordinates carry their velocities dX/db: the geometry, the mass
             // integrals and the (lifted) fields are dual.
-            let (gps, _) = geometry(&self.model.mesh, &nodes);
+            let (gps, _) = geometry(&self.model.mesh, &nodes, !adjoint);
             let integrals = self.model.region_mass_integrals(&gps);
             if adjoint {
                 return (
@@ -1317,17 +1343,20 @@ impl SectionAnalysis {
             m.unpack(&rhs)
         };
         // λ = K⁻¹ ∫[BN Z]ᵀ Q ε
-        let (lx, ly) = {
-            let (b, z) = m.b_and_z(
-                q,
-                &m.gps,
-                Fields {
-                    u: Some(&self.x),
-                    u1: Some(&self.x1),
-                    psi: Some(&self.y),
-                },
-            );
-            solve(&b, &z)
+        let (lx, ly) = match &self.stress_projection {
+            Some((b, z)) => solve(b, z),
+            None => {
+                let (b, z) = m.b_and_z(
+                    q,
+                    &m.gps,
+                    Fields {
+                        u: Some(&self.x),
+                        u1: Some(&self.x1),
+                        psi: Some(&self.y),
+                    },
+                );
+                solve(&b, &z)
+            }
         };
         // μ = K⁻¹ (Cᵀ λ + p): Cᵀ λ = ∫[BN Z]ᵀ Q SN λ_X − ∫(SN)ᵀ Q [BN Z] λ (on the X₁ rows),
         // p = ∫(SN)ᵀ Q ε (on the X₁ rows)
@@ -2035,8 +2064,13 @@ fn symmetric<S: Scalar>(a: &[S; 36]) -> Matrix6<S> {
 
 /// Integration-point geometry of every element (the mesh has been validated), with the node
 /// coordinates `nodes` in the scalar `G` (the mesh's own, or dual ones that move with design
-/// variables).
-fn geometry<G: Scalar>(mesh: &SectionMesh, nodes: &[[G; 2]]) -> (Vec<GaussPoint<G>>, Vec<usize>) {
+/// variables); the shape functions' gradients `dx` only when `gradients` (zero otherwise: the
+/// adjoints' pass over a moving section takes the points' velocity gradients from `dx_dxi`).
+fn geometry<G: Scalar>(
+    mesh: &SectionMesh,
+    nodes: &[[G; 2]],
+    gradients: bool,
+) -> (Vec<GaussPoint<G>>, Vec<usize>) {
     let mut gps = Vec::new();
     let mut start = Vec::with_capacity(mesh.elements.len() + 1);
     let mut n = [0.0; MAX_NODES];
@@ -2075,8 +2109,10 @@ fn geometry<G: Scalar>(mesh: &SectionMesh, nodes: &[[G; 2]]) -> (Vec<GaussPoint<
                 gp.n[a] = n[a];
                 gp.x[0] += x[0] * n[a];
                 gp.x[1] += x[1] * n[a];
-                for i in 0..2 {
-                    gp.dx[a][i] = inv[0][i] * dn[a][0] + inv[1][i] * dn[a][1];
+                if gradients {
+                    for i in 0..2 {
+                        gp.dx[a][i] = inv[0][i] * dn[a][0] + inv[1][i] * dn[a][1];
+                    }
                 }
             }
             gps.push(gp);
@@ -2299,6 +2335,15 @@ mod tests {
         let design = DesignMap::each_region(&mesh);
         let worst = adjoint_against_direct::<4>(&mesh, &design);
         assert!(worst < 1e-10, "box: {worst:e}");
+        // the analysis for derivatives gives the same derivatives to the last bit
+        let projected = SectionAnalysis::for_derivatives(&mesh).unwrap();
+        assert_eq!(
+            projected.sensitivities::<4>(&design).unwrap(),
+            SectionAnalysis::new(&mesh)
+                .unwrap()
+                .sensitivities::<4>(&design)
+                .unwrap()
+        );
         let a = SectionAnalysis::new(&mesh).unwrap();
         let s = a.sensitivities::<4>(&design).unwrap();
         let p = a.properties();

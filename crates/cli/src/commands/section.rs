@@ -72,7 +72,12 @@ fn report(
     }
     // one analysis for the properties, their derivatives and the stresses, and the stresses'
     // extremes found once for their values and derivatives
-    let analysis = section::SectionAnalysis::new(mesh).map_err(|e| e.to_string())?;
+    let analysis = if derivatives {
+        section::SectionAnalysis::for_derivatives(mesh)
+    } else {
+        section::SectionAnalysis::new(mesh)
+    }
+    .map_err(|e| e.to_string())?;
     let extremes = load.map(|(forces, model)| {
         (
             *forces,

@@ -13,7 +13,7 @@ pub fn section_derivatives(
     mesh: &section::SectionMesh,
     map: &section::DesignMap,
 ) -> Result<section::SectionSensitivities, section::SectionError> {
-    section_derivatives_of(&section::SectionAnalysis::new(mesh)?, map)
+    section_derivatives_of(&section::SectionAnalysis::for_derivatives(mesh)?, map)
 }
 
 /// [`section_derivatives`] of a section already analysed.
