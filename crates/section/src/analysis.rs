@@ -1026,6 +1026,12 @@ impl SectionAnalysis {
         let fields = LagrangeFields::new((&self.x, &self.x1, &self.y, &self.y1), (lx, ly, mx, my));
         let region_moves: Vec<bool> = q_ply.iter().map(|q| q.iter().any(moves)).collect();
         let generator = moving::frame_generator();
+        let (neg_mx, neg_my): (Vec<f64>, _) = (mx.iter().map(|m| -m).collect(), my.map(|m| -m));
+        let beta_fields = Fields {
+            u: Some(&neg_mx),
+            u1: Some(lx),
+            psi: Some(&neg_my),
+        };
         let no_tangents = vec![Vec::new(); m.mesh.regions.len()];
         let (carried_tangents, mut carried_out) = match carried {
             Some(Carried { tangents, out }) => (tangents, Some(out)),
@@ -1050,7 +1056,7 @@ impl SectionAnalysis {
             for p in m.gp_start[e]..m.gp_start[e + 1] {
                 let (gp, moved) = (&m.gps[p], &gps[p]);
                 let tangents = moving::PointTangents::of(moved);
-                fields.moving_at_into(nodes, gp, &tangents, &mut strains);
+                fields.moving_at_into((nodes, gp, &tangents), beta_fields, &mut strains);
                 let q = &self.q_points[p];
                 let mut acc = [[zero; 6]; 6];
                 moving::contract_strains(q, &strains, &mut acc);
@@ -1080,7 +1086,8 @@ impl SectionAnalysis {
                 if !carries.is_empty() {
                     let t = bond_stress_matrix(&frame.rotation_at(gp.x, gp.dx_dxi));
                     for (slot, dq) in carries {
-                        raw[*slot] += moving::strain_form(&congruence(&t, dq), &strains) * gp.w;
+                        let q_dot = moving::plain_congruence(&t, dq);
+                        raw[*slot] += moving::strain_form(&q_dot, &strains) * gp.w;
                     }
                 }
                 for (l, acc) in l.iter_mut().zip(&acc) {

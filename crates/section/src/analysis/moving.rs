@@ -49,32 +49,35 @@ impl<const N: usize> PointTangents<N> {
 
 impl LagrangeFields<'_, f64> {
     /// [`LagrangeFields::at_into`] at the nominal point `gp` with the tangents of the point's
-    /// geometry `t`: `[ε, α, e₁, β]` with their tangents along the chunk's variables.
+    /// geometry `t`: `[ε, α, e₁, β]` with their tangents along the chunk's variables;
+    /// `β = SN λ_X − [BN Z] μ` the strains of the one field set `beta_fields`,
+    /// `(−μ_X, λ_X` as the warping rate`, −μ_Y)`.
     pub(super) fn moving_at_into<const N: usize>(
         &self,
-        nodes: &[usize],
-        gp: &GaussPoint,
-        t: &PointTangents<N>,
+        (nodes, gp, t): (&[usize], &GaussPoint, &PointTangents<N>),
+        beta_fields: Fields<'_, f64>,
         out: &mut [[[Dual<N>; 6]; 6]; 4],
     ) {
         let [eps, alpha, e1, beta] = out;
         moving_strains_into(nodes, gp, t, self.eps, eps);
         moving_strains_into(nodes, gp, t, self.e1, e1);
         moving_strains_into(nodes, gp, t, self.lambda, alpha);
-        moving_strains_into(nodes, gp, t, self.s_lambda, beta);
+        moving_strains_into(nodes, gp, t, beta_fields, beta);
         for (a, e) in alpha.iter_mut().zip(eps.iter()) {
             for (a, &e) in a.iter_mut().zip(e) {
                 *a = e * 0.5 - *a;
             }
         }
-        let mut mu = [[Dual::constant(0.0); 6]; 6];
-        moving_strains_into(nodes, gp, t, self.mu, &mut mu);
-        for (b, m) in beta.iter_mut().zip(&mu) {
-            for (b, &m) in b.iter_mut().zip(m) {
-                *b -= m;
-            }
-        }
     }
+}
+
+/// `T Q Tᵀ` of plain matrices (the generic [`congruence`] skips structural zeros of dual
+/// Bond matrices, which costs more than it saves in `f64`).
+pub(super) fn plain_congruence(t: &Matrix6<f64>, q: &Matrix6<f64>) -> Matrix6<f64> {
+    let tq: [[f64; 6]; 6] = std::array::from_fn(|i| {
+        std::array::from_fn(|j| (0..6).map(|k| t[(i, k)] * q[(k, j)]).sum())
+    });
+    Matrix6::from_fn(|i, j| (0..6).map(|k| tq[i][k] * t[(j, k)]).sum())
 }
 
 /// [`strains_into`] of plain fields at the nominal point `gp`, with the strains' tangents along
