@@ -1084,9 +1084,9 @@ impl SectionAnalysis {
                     }
                 }
                 if !carries.is_empty() {
-                    let t = bond_stress_matrix(&frame.rotation_at(gp.x, gp.dx_dxi));
+                    let r = frame.rotation_at(gp.x, gp.dx_dxi);
                     for (slot, dq) in carries {
-                        let q_dot = moving::plain_congruence(&t, dq);
+                        let q_dot = rotate_stiffness_of(dq, &r);
                         raw[*slot] += moving::strain_form(&q_dot, &strains) * gp.w;
                     }
                 }
@@ -1245,7 +1245,7 @@ impl SectionAnalysis {
         (x1, y1, x, y)
     }
 
-    /// `dF/db` of the variables `vars` (none of which may move nodes) by the adjoints of the
+    /// `dF/db` of variables that leave the nodes in place by the adjoints of the
     /// two warping systems: two six-column solves and one pass over the integration points,
     /// whatever the number of variables.
     ///

@@ -71,15 +71,6 @@ impl LagrangeFields<'_, f64> {
     }
 }
 
-/// `T Q Tᵀ` of plain matrices (the generic [`congruence`] skips structural zeros of dual
-/// Bond matrices, which costs more than it saves in `f64`).
-pub(super) fn plain_congruence(t: &Matrix6<f64>, q: &Matrix6<f64>) -> Matrix6<f64> {
-    let tq: [[f64; 6]; 6] = std::array::from_fn(|i| {
-        std::array::from_fn(|j| (0..6).map(|k| t[(i, k)] * q[(k, j)]).sum())
-    });
-    Matrix6::from_fn(|i, j| (0..6).map(|k| tq[i][k] * t[(j, k)]).sum())
-}
-
 /// [`strains_into`] of plain fields at the nominal point `gp`, with the strains' tangents along
 /// the variables that move the point (`t`): the generalised strains' positions move by `V`,
 /// the warping's gradient `G` by `−G ∇V`, and the shape functions of the warping rate stay.
