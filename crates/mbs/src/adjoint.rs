@@ -460,7 +460,7 @@ const UNSWEPT_TOL: f64 = 1e-11;
 /// transposed.
 #[derive(Default)]
 struct StepSolver {
-    /// `Jᵀ` and the LU of `c_0 I − Jᵀ` at `c_0`.
+    /// `J` (column-major: `Jᵀ` row by row) and the LU of `c_0 I − Jᵀ` at `c_0`.
     exact: Option<(DMatrix<f64>, f64, DenseLu)>,
 }
 
@@ -477,18 +477,19 @@ impl StepSolver {
         sys.jacobian(t, y, &mut jac)
             .map_err(|e| SensitivityError::Response(e.0))?;
         stats.jacobians += 1;
-        let jt = jac.transpose();
-        let lu = Self::factor(&jt, c0);
-        self.exact = Some((jt, c0, lu));
+        let lu = Self::factor(&jac, c0);
+        self.exact = Some((jac, c0, lu));
         Ok(())
     }
 
-    fn factor(jt: &DMatrix<f64>, c0: f64) -> DenseLu {
-        let mut a = -jt;
-        for d in 0..a.nrows() {
-            a[(d, d)] += c0;
+    /// The LU of `c_0 I − Jᵀ`, its rows those of `−J`'s column-major storage.
+    fn factor(jac: &DMatrix<f64>, c0: f64) -> DenseLu {
+        let n = jac.nrows();
+        let mut a: Vec<f64> = jac.as_slice().iter().map(|x| -x).collect();
+        for d in 0..n {
+            a[d * n + d] += c0;
         }
-        DenseLu::new(&a)
+        DenseLu::from_row_major(n, a)
     }
 
     /// `P⁻¹ x` in place; an error where `P` is singular.
@@ -516,10 +517,10 @@ impl StepSolver {
         if self.exact.is_none() {
             self.refresh(sys, (t, y), c0, stats)?;
         }
-        if let Some((jt, c, lu)) = self.exact.as_mut()
+        if let Some((jac, c, lu)) = self.exact.as_mut()
             && *c != c0
         {
-            *lu = Self::factor(jt, c0);
+            *lu = Self::factor(jac, c0);
             *c = c0;
         }
         let n = r.len();
