@@ -460,7 +460,7 @@ const UNSWEPT_TOL: f64 = 1e-11;
 /// transposed.
 #[derive(Default)]
 struct StepSolver {
-    /// `J` (column-major: `Jᵀ` row by row) and the LU of `c_0 I − Jᵀ` at `c_0`.
+    /// `J` and the LU of `c_0 I − Jᵀ` at `c_0`.
     exact: Option<(DMatrix<f64>, f64, DenseLu)>,
 }
 
@@ -477,19 +477,9 @@ impl StepSolver {
         sys.jacobian(t, y, &mut jac)
             .map_err(|e| SensitivityError::Response(e.0))?;
         stats.jacobians += 1;
-        let lu = Self::factor(&jac, c0);
+        let lu = DenseLu::shifted_transpose(c0, &jac);
         self.exact = Some((jac, c0, lu));
         Ok(())
-    }
-
-    /// The LU of `c_0 I − Jᵀ`, its rows those of `−J`'s column-major storage.
-    fn factor(jac: &DMatrix<f64>, c0: f64) -> DenseLu {
-        let n = jac.nrows();
-        let mut a: Vec<f64> = jac.as_slice().iter().map(|x| -x).collect();
-        for d in 0..n {
-            a[d * n + d] += c0;
-        }
-        DenseLu::from_row_major(n, a)
     }
 
     /// `P⁻¹ x` in place; an error where `P` is singular.
@@ -520,7 +510,7 @@ impl StepSolver {
         if let Some((jac, c, lu)) = self.exact.as_mut()
             && *c != c0
         {
-            *lu = Self::factor(jac, c0);
+            *lu = DenseLu::shifted_transpose(c0, jac);
             *c = c0;
         }
         let n = r.len();

@@ -1003,11 +1003,7 @@ impl Bdf {
     fn factorize(&mut self, c0: f64) -> Result<(), IntegrationError> {
         let lu = match &self.jac {
             Jacobian::Dense(jac) => {
-                let mut m = -jac.clone();
-                for i in 0..self.n {
-                    m[(i, i)] += c0;
-                }
-                let lu = DenseLu::new(&m);
+                let lu = DenseLu::shifted(c0, jac);
                 lu.is_invertible().then_some(NewtonMatrix::Dense(lu))
             }
             Jacobian::Structured(j) => j.factor(c0).map(NewtonMatrix::Structured),

@@ -604,16 +604,6 @@ struct ExactMatrix {
     y: Vec<f64>,
 }
 
-impl ExactMatrix {
-    fn factor(jac: &DMatrix<f64>, c0: f64) -> DenseLu {
-        let mut a = -jac;
-        for i in 0..a.nrows() {
-            a[(i, i)] += c0;
-        }
-        DenseLu::new(&a)
-    }
-}
-
 /// `acc += a x`, in place.
 fn add_scaled(acc: &mut DMatrix<f64>, a: f64, x: &DMatrix<f64>) {
     for (y, x) in acc.as_mut_slice().iter_mut().zip(x.as_slice()) {
@@ -912,7 +902,7 @@ impl<const N: usize> Extension<'_, N> {
         if let Some(e) = self.exact.as_mut()
             && e.c0 != c0
         {
-            e.lu = ExactMatrix::factor(&e.jac, c0);
+            e.lu = DenseLu::shifted(c0, &e.jac);
             e.c0 = c0;
         }
         let mut first = f64::INFINITY;
@@ -993,7 +983,7 @@ impl<const N: usize> Extension<'_, N> {
         let mut jac = DMatrix::zeros(n, n);
         sys.jacobian(t, y, &mut jac)?;
         self.stats.direct_solves += 1;
-        let lu = ExactMatrix::factor(&jac, c0);
+        let lu = DenseLu::shifted(c0, &jac);
         self.exact = Some(ExactMatrix {
             jac,
             c0,
@@ -1016,11 +1006,7 @@ impl<const N: usize> Extension<'_, N> {
         let n = y.len();
         let mut jac = DMatrix::zeros(n, n);
         sys.jacobian(t, y, &mut jac)?;
-        let mut a = -jac;
-        for i in 0..n {
-            a[(i, i)] += c0;
-        }
-        let lu = DenseLu::new(&a);
+        let lu = DenseLu::shifted(c0, &jac);
         let fb = tangent_rhs(sys, self.design, t, y, sol, &DMatrix::zeros(n, psi.ncols()));
         self.stats.dual_evaluations += self.design.chunks.len();
         self.stats.direct_solves += 1;

@@ -26,15 +26,21 @@ pub struct DenseLu {
 impl DenseLu {
     /// Factorise `a` (square).
     pub fn new(a: &DMatrix<f64>) -> Self {
+        Self::from_row_major(a.nrows(), rows_of(a))
+    }
+
+    /// Factorise `c I − A` (`a` square): the Newton matrix of a BDF step, `c` its leading
+    /// coefficient and `A` a Jacobian.
+    pub fn shifted(c: f64, a: &DMatrix<f64>) -> Self {
+        Self::from_row_major(a.nrows(), shift(c, a.nrows(), rows_of(a)))
+    }
+
+    /// Factorise `c I − Aᵀ` (`a` square): `Aᵀ`'s rows are `A`'s columns, contiguous in
+    /// nalgebra's storage, so no transpose is formed.
+    pub fn shifted_transpose(c: f64, a: &DMatrix<f64>) -> Self {
         let n = a.nrows();
         assert_eq!(a.ncols(), n, "DenseLu needs a square matrix");
-        // nalgebra is column-major: row i is every n-th entry of its storage from i
-        let src = a.as_slice();
-        let mut lu = Vec::with_capacity(n * n);
-        for i in 0..n {
-            lu.extend(src[i..].iter().step_by(n.max(1)));
-        }
-        Self::from_row_major(n, lu)
+        Self::from_row_major(n, shift(c, n, a.as_slice().to_vec()))
     }
 
     /// Factorise the `n × n` matrix stored row by row in `a`.
@@ -220,6 +226,28 @@ fn axpy_fixed<const M: usize>(row: &mut [f64], other: &[f64], a: f64) {
 
 /// `Σ a_i b_i` with four independent partial sums: a single running sum waits on its previous
 /// addition at every term, which made the single right-hand-side solves latency-bound.
+/// The rows of the square `a`, one after another (nalgebra stores it column by column).
+fn rows_of(a: &DMatrix<f64>) -> Vec<f64> {
+    let n = a.nrows();
+    assert_eq!(a.ncols(), n, "DenseLu needs a square matrix");
+    let mut rows = vec![0.0; n * n];
+    for (j, column) in a.as_slice().chunks_exact(n.max(1)).enumerate() {
+        for (i, &x) in column.iter().enumerate() {
+            rows[i * n + j] = x;
+        }
+    }
+    rows
+}
+
+/// `c I − A` of the `n × n` `A` stored row by row, in place.
+fn shift(c: f64, n: usize, mut rows: Vec<f64>) -> Vec<f64> {
+    rows.iter_mut().for_each(|x| *x = -*x);
+    for d in 0..n {
+        rows[d * n + d] += c;
+    }
+    rows
+}
+
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     let mut acc = [0.0; 4];
     let (ac, ar) = a.split_at(a.len() - a.len() % 4);

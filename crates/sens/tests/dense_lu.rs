@@ -130,3 +130,26 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn shifted_factorisations_are_those_of_the_shifted_matrices() {
+    let a = needs_pivoting();
+    let n = a.nrows();
+    for c in [0.0, 2.5, -7.0] {
+        let explicit = |m: &DMatrix<f64>| {
+            DMatrix::from_fn(n, n, |i, j| if i == j { c - m[(i, j)] } else { -m[(i, j)] })
+        };
+        // the same matrix, so the same elimination to the last bit
+        assert_eq!(DenseLu::shifted(c, &a), DenseLu::new(&explicit(&a)));
+        assert_eq!(
+            DenseLu::shifted_transpose(c, &a),
+            DenseLu::new(&explicit(&a.transpose()))
+        );
+        // and it solves c I − A
+        let b = [1.0, -2.0, 3.0, 0.5];
+        let mut x = b;
+        assert!(DenseLu::shifted(c, &a).solve_in_place(&mut x));
+        assert!(residual(&explicit(&a), &x, &b) < 1e-14);
+    }
+    assert!(DenseLu::shifted(1.0, &DMatrix::zeros(0, 0)).is_invertible());
+}
